@@ -1,0 +1,45 @@
+//! `petrel`: the Petrel command line. Each verb lives in `cli/<verb>.rs`;
+//! this file only parses arguments and turns outcomes into exit codes.
+//!
+//! Exit status, for every verb: 0 success, 1 a property or check failed,
+//! 2 bad input (unreadable or invalid files, bad arguments).
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod cli;
+
+#[derive(Parser)]
+#[command(name = "petrel", version, about = "Petrel: mission supervision with interpreted Petri nets over MAVLink")]
+struct Petrel {
+    #[command(subcommand)]
+    verb: Verb,
+}
+
+#[derive(Subcommand)]
+enum Verb {
+    /// Play a project on a file of timed events, printing every firing and effect.
+    Play(cli::play::Args),
+}
+
+fn main() -> ExitCode {
+    let petrel = match Petrel::try_parse() {
+        Ok(p) => p,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    let outcome = match petrel.verb {
+        Verb::Play(args) => cli::play::run(args),
+    };
+    match outcome {
+        Ok(code) => code.into(),
+        Err(failure) => {
+            eprintln!("{failure:?}");
+            cli::Outcome::BadInput.into()
+        }
+    }
+}
