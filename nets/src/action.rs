@@ -1,0 +1,176 @@
+//! The action syntax, as written in a transition's `do` list:
+//!
+//! ```text
+//! activate NET
+//! deactivate NET
+//! emit EVENT {key: value, ...}
+//! timer NAME after DURATION
+//! cancel NAME
+//! call PROGRAM.FUNCTION {key: value, ...}
+//! command VERB {key: value, ...}
+//! ```
+//!
+//! This module only parses; the loader resolves names.
+
+use crate::expr::{Context, Expr, Parser, SyntaxError};
+
+/// A name and its byte offset in the action text.
+pub type Name = (String, usize);
+
+/// A parsed, unresolved action.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ActionSyntax {
+    Activate(Name),
+    Deactivate(Name),
+    Emit { event: Name, args: Vec<(String, Expr)> },
+    Timer { name: Name, after: Name },
+    Cancel(Name),
+    Call { program: Name, function: Name, args: Vec<(String, Expr)> },
+    Command { verb: Name, args: Vec<(String, Expr)> },
+}
+
+const STOPS: &[char] = &['{', '}', ',', ':'];
+
+/// Parses one action.
+pub fn parse(text: &str) -> Result<ActionSyntax, SyntaxError> {
+    let mut p = Parser::new(text, Context::Argument);
+    let Some((keyword, at)) = p.name() else {
+        return Err(p.error(
+            "expected an action: activate, deactivate, emit, timer, cancel, call or command",
+        ));
+    };
+    let action = match keyword.as_str() {
+        "activate" => ActionSyntax::Activate(net_name(&mut p)?),
+        "deactivate" => ActionSyntax::Deactivate(net_name(&mut p)?),
+        "emit" => ActionSyntax::Emit {
+            event: p
+                .word(STOPS)
+                .ok_or_else(|| p.error("expected an event name after `emit`"))?,
+            args: args(&mut p)?,
+        },
+        "timer" => {
+            let name = p
+                .name()
+                .ok_or_else(|| p.error("expected a timer name after `timer`"))?;
+            if !p.eat("after") {
+                return Err(p.error("expected `after DURATION`"));
+            }
+            p.skip_ws();
+            let at = p.pos;
+            let rest = p.text[at..].trim_end().to_owned();
+            if rest.is_empty() {
+                return Err(p.error("expected a duration after `after`"));
+            }
+            p.pos = p.text.len();
+            ActionSyntax::Timer {
+                name,
+                after: (rest, at),
+            }
+        }
+        "cancel" => ActionSyntax::Cancel(
+            p.name()
+                .ok_or_else(|| p.error("expected a timer name after `cancel`"))?,
+        ),
+        "call" => {
+            let program = p
+                .name()
+                .ok_or_else(|| p.error("expected PROGRAM.FUNCTION after `call`"))?;
+            if !p.text[p.pos..].starts_with('.') {
+                return Err(p.error("expected `.FUNCTION` after the program name"));
+            }
+            p.pos += 1;
+            let function = match p.name() {
+                Some(f) if f.1 == program.1 + program.0.len() + 1 => f,
+                _ => return Err(p.error("expected a function name after `.`")),
+            };
+            ActionSyntax::Call {
+                program,
+                function,
+                args: args(&mut p)?,
+            }
+        }
+        "command" => ActionSyntax::Command {
+            verb: p
+                .name()
+                .ok_or_else(|| p.error("expected a verb after `command`"))?,
+            args: args(&mut p)?,
+        },
+        other => {
+            return Err(SyntaxError {
+                at,
+                message: format!(
+                    "unknown action `{other}`: expected activate, deactivate, emit, timer, cancel, call or command"
+                ),
+            })
+        }
+    };
+    if !p.at_end() {
+        return Err(p.error("unexpected text after the action"));
+    }
+    Ok(action)
+}
+
+fn net_name(p: &mut Parser) -> Result<Name, SyntaxError> {
+    p.word(STOPS)
+        .ok_or_else(|| p.error("expected a net name"))
+}
+
+fn args(p: &mut Parser) -> Result<Vec<(String, Expr)>, SyntaxError> {
+    if p.at_end() {
+        return Ok(Vec::new());
+    }
+    p.skip_ws();
+    if !p.text[p.pos..].starts_with('{') {
+        return Err(p.error("expected arguments in braces: {key: value, ...}"));
+    }
+    p.map()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::value::Value;
+
+    #[test]
+    fn every_form() {
+        assert_eq!(parse("activate MISSION"), Ok(ActionSyntax::Activate(("MISSION".into(), 9))));
+        assert_eq!(parse("deactivate  EVENTS "), Ok(ActionSyntax::Deactivate(("EVENTS".into(), 12))));
+        assert_eq!(
+            parse("timer climb after 30s"),
+            Ok(ActionSyntax::Timer { name: ("climb".into(), 6), after: ("30s".into(), 18) })
+        );
+        assert_eq!(parse("cancel climb"), Ok(ActionSyntax::Cancel(("climb".into(), 7))));
+        let ActionSyntax::Call { program, function, args } = parse("call DEC.next_waypoint {index: $seq}").unwrap() else {
+            panic!("not a call")
+        };
+        assert_eq!((program.0.as_str(), function.0.as_str()), ("DEC", "next_waypoint"));
+        assert_eq!(args[0].0, "index");
+        let ActionSyntax::Command { verb, args } = parse("command mode {mode: AUTO}").unwrap() else {
+            panic!("not a command")
+        };
+        assert_eq!(verb.0, "mode");
+        assert_eq!(args[0].1, Expr::Lit(Value::Str("AUTO".into())));
+        let ActionSyntax::Emit { event, args } = parse("emit replanned").unwrap() else {
+            panic!("not an emit")
+        };
+        assert_eq!((event.0.as_str(), args.len()), ("replanned", 0));
+    }
+
+    #[test]
+    fn errors() {
+        let cases = [
+            ("", 0, "expected an action: activate, deactivate, emit, timer, cancel, call or command"),
+            ("launch rockets", 0, "unknown action `launch`: expected activate, deactivate, emit, timer, cancel, call or command"),
+            ("timer t 30s", 7, "expected `after DURATION`"),
+            ("call DEC", 8, "expected `.FUNCTION` after the program name"),
+            ("call DEC. f", 9, "expected a function name after `.`"),
+            ("command arm force", 12, "expected arguments in braces: {key: value, ...}"),
+            ("command mode {mode AUTO}", 18, "expected `:` after `mode`"),
+            ("activate A B", 11, "unexpected text after the action"),
+        ];
+        for (text, at, message) in cases {
+            let e = parse(text).expect_err(text);
+            assert_eq!((e.at, e.message.as_str()), (at, message), "{text}");
+        }
+    }
+}

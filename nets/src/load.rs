@@ -1,0 +1,758 @@
+//! The loader: a project folder's TOML files to a checked [`Project`].
+//!
+//! Every problem is collected and reported at once, each with its file,
+//! line and column. No input makes it panic.
+
+use std::collections::{BTreeMap, HashMap};
+use std::ops::Range;
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::action::{self, ActionSyntax};
+use crate::event::Category;
+use crate::expr::{self, Context, Expr};
+use crate::model::{
+    Action, Args, EventDecl, Function, Global, Guard, Limits, Net, NetId, Place, PlaceRef,
+    Program, Project, Transition,
+};
+use crate::source::{LoadError, Problem, SourceFile, Sources};
+use crate::time::parse_duration;
+use crate::verbs;
+
+/// The project file every project folder holds.
+pub const PROJECT_FILE: &str = "project.toml";
+
+/// Events known from outside the project (an elaboration profile), with
+/// their categories and parameters.
+pub type Catalog = BTreeMap<String, EventDecl>;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawProject {
+    name: Option<Spanned<String>>,
+    description: Option<String>,
+    #[serde(default, rename = "net")]
+    nets: Vec<RawNetEntry>,
+    #[serde(default)]
+    globals: BTreeMap<Spanned<String>, Spanned<RawInitial>>,
+    #[serde(default)]
+    programs: BTreeMap<Spanned<String>, RawProgram>,
+    #[serde(default)]
+    events: BTreeMap<Spanned<String>, RawEventDecl>,
+    limits: Option<RawLimits>,
+    /// Settings of the gateway (link, recording…): read by the gateway.
+    #[allow(dead_code)]
+    gateway: Option<toml::Table>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawNetEntry {
+    file: Spanned<String>,
+    #[serde(default)]
+    active: bool,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum RawInitial {
+    Bool(bool),
+    Int(i64),
+}
+
+#[derive(Deserialize)]
+struct RawProgram {
+    #[serde(default)]
+    functions: BTreeMap<Spanned<String>, RawFunction>,
+    /// How the gateway reaches or starts the program: read by the gateway.
+    #[serde(flatten)]
+    settings: BTreeMap<String, toml::Value>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFunction {
+    #[serde(default)]
+    args: Vec<Spanned<String>>,
+    #[serde(default)]
+    returns: Vec<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum RawEventDecl {
+    Category(Spanned<String>),
+    Full(RawEventTable),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEventTable {
+    category: Option<Spanned<String>>,
+    params: Option<Vec<Spanned<String>>>,
+    #[allow(dead_code)]
+    description: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLimits {
+    firings_per_step: Option<usize>,
+    steps_per_input: Option<usize>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawNet {
+    name: Spanned<String>,
+    #[allow(dead_code)]
+    description: Option<String>,
+    #[serde(default)]
+    places: Vec<Spanned<String>>,
+    #[serde(default)]
+    initial: Vec<Spanned<String>>,
+    #[serde(default, rename = "final")]
+    finals: Vec<Spanned<String>>,
+    #[serde(default, rename = "transition")]
+    transitions: Vec<RawTransition>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTransition {
+    name: Spanned<String>,
+    #[allow(dead_code)]
+    description: Option<String>,
+    #[serde(default)]
+    from: Vec<Spanned<String>>,
+    #[serde(default)]
+    to: Vec<Spanned<String>>,
+    on: Option<Spanned<String>>,
+    when: Option<Spanned<String>>,
+    #[serde(default, rename = "do")]
+    actions: Vec<Spanned<String>>,
+}
+
+/// Loads and checks a project.
+pub fn load(sources: &dyn Sources) -> Result<Project, LoadError> {
+    load_with(sources, &Catalog::new())
+}
+
+/// Loads and checks a project, knowing the events an elaboration profile
+/// produces (their parameters and default categories).
+pub fn load_with(sources: &dyn Sources, catalog: &Catalog) -> Result<Project, LoadError> {
+    let mut loader = Loader {
+        problems: Vec::new(),
+    };
+    let project = loader.project(sources, catalog);
+    if loader.problems.is_empty() {
+        if let Some(project) = project {
+            return Ok(project);
+        }
+    }
+    Err(LoadError {
+        problems: loader.problems,
+    })
+}
+
+struct Loader {
+    problems: Vec<Problem>,
+}
+
+fn is_name(s: &str) -> bool {
+    let mut chars = s.chars();
+    chars
+        .next()
+        .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// Event names may also hold dots (`DEC.replan.done`) and dashes.
+fn is_event_name(s: &str) -> bool {
+    !s.is_empty()
+        && s.split('.').all(|part| {
+            let mut chars = part.chars();
+            chars
+                .next()
+                .is_some_and(|c| c.is_ascii_alphanumeric() || c == '_')
+                && chars.all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        })
+}
+
+fn list(names: &[String]) -> String {
+    if names.is_empty() {
+        "none".to_owned()
+    } else {
+        names.join(", ")
+    }
+}
+
+/// Context for checking one net.
+struct NetScope<'a> {
+    file: &'a SourceFile,
+    net_names: &'a HashMap<String, NetId>,
+    global_names: &'a HashMap<String, usize>,
+    programs: &'a [Program],
+    project: &'a Project,
+    catalog: &'a Catalog,
+}
+
+impl Loader {
+    fn problem(&mut self, file: &SourceFile, span: Range<usize>, message: impl Into<String>) {
+        self.problems.push(Problem::new(file, span, message));
+    }
+
+    fn parse<T: for<'de> Deserialize<'de>>(&mut self, file: &SourceFile) -> Option<T> {
+        match toml::from_str::<T>(&file.text) {
+            Ok(t) => Some(t),
+            Err(e) => {
+                let span = e.span().unwrap_or(0..0);
+                let message = e.message().trim().replace('\n', " ");
+                self.problem(file, span, message);
+                None
+            }
+        }
+    }
+
+    fn name_check(&mut self, file: &SourceFile, name: &Spanned<String>, what: &str) {
+        if !is_name(name.get_ref()) {
+            self.problem(
+                file,
+                name.span(),
+                format!(
+                    "invalid {what} name `{}`: use letters, digits and `_`, starting with a letter",
+                    name.get_ref()
+                ),
+            );
+        }
+    }
+
+    fn project(&mut self, sources: &dyn Sources, catalog: &Catalog) -> Option<Project> {
+        let text = match sources.read(PROJECT_FILE) {
+            Ok(t) => t,
+            Err(reason) => {
+                let file = SourceFile::new(PROJECT_FILE, "");
+                self.problem(&file, 0..0, format!("cannot read {PROJECT_FILE}: {reason}"));
+                return None;
+            }
+        };
+        let pfile = SourceFile::new(PROJECT_FILE, &text);
+        let raw: RawProject = self.parse(&pfile)?;
+
+        // Globals.
+        let mut globals = Vec::new();
+        for (name, initial) in &raw.globals {
+            self.name_check(&pfile, name, "global place");
+            let initial = match initial.get_ref() {
+                RawInitial::Bool(b) => *b,
+                RawInitial::Int(0) => false,
+                RawInitial::Int(1) => true,
+                RawInitial::Int(n) => {
+                    self.problem(
+                        &pfile,
+                        initial.span(),
+                        format!("global place `{}` starts with {n} tokens: nets are safe, write 0 or 1 (or false/true)", name.get_ref()),
+                    );
+                    false
+                }
+            };
+            globals.push(Global {
+                name: name.get_ref().clone(),
+                initial,
+            });
+        }
+        let global_names: HashMap<String, usize> = globals
+            .iter()
+            .enumerate()
+            .map(|(i, g)| (g.name.clone(), i))
+            .collect();
+
+        // Programs.
+        let mut programs = Vec::new();
+        for (name, raw_program) in &raw.programs {
+            self.name_check(&pfile, name, "program");
+            if name.get_ref() == "command" {
+                self.problem(&pfile, name.span(), "`command` is reserved for vehicle commands: choose another program name");
+            }
+            let mut functions = Vec::new();
+            for (fname, f) in &raw_program.functions {
+                self.name_check(&pfile, fname, "function");
+                for (what, names) in [("argument", &f.args), ("return", &f.returns)] {
+                    let mut seen: Vec<&str> = Vec::new();
+                    for n in names {
+                        if seen.contains(&n.get_ref().as_str()) {
+                            self.problem(&pfile, n.span(), format!("duplicate {what} `{}` of {}.{}", n.get_ref(), name.get_ref(), fname.get_ref()));
+                        }
+                        seen.push(n.get_ref());
+                        self.name_check(&pfile, n, what);
+                    }
+                }
+                functions.push(Function {
+                    name: fname.get_ref().clone(),
+                    args: f.args.iter().map(|a| a.get_ref().clone()).collect(),
+                    returns: f.returns.iter().map(|a| a.get_ref().clone()).collect(),
+                });
+            }
+            programs.push(Program {
+                name: name.get_ref().clone(),
+                functions,
+                settings: raw_program.settings.clone(),
+            });
+        }
+
+        // Events: the catalog first, then the project's declarations win.
+        let mut events: BTreeMap<String, EventDecl> = catalog.clone();
+        for (name, decl) in &raw.events {
+            if !is_event_name(name.get_ref()) {
+                self.problem(&pfile, name.span(), format!("invalid event name `{}`", name.get_ref()));
+            }
+            let (category, params) = match decl {
+                RawEventDecl::Category(c) => (Some(c), None),
+                RawEventDecl::Full(t) => (t.category.as_ref(), t.params.as_ref()),
+            };
+            let entry = events.entry(name.get_ref().clone()).or_default();
+            if let Some(c) = category {
+                match c.get_ref().parse::<Category>() {
+                    Ok(c) => entry.category = Some(c),
+                    Err(e) => self.problem(&pfile, c.span(), e.to_string()),
+                }
+            }
+            if let Some(params) = params {
+                let mut seen = Vec::new();
+                for p in params {
+                    self.name_check(&pfile, p, "parameter");
+                    if seen.contains(p.get_ref()) {
+                        self.problem(&pfile, p.span(), format!("duplicate parameter `{}` of event `{}`", p.get_ref(), name.get_ref()));
+                    }
+                    seen.push(p.get_ref().clone());
+                }
+                entry.params = Some(seen);
+            }
+        }
+
+        let mut limits = Limits::default();
+        if let Some(l) = &raw.limits {
+            limits.firings_per_step = l.firings_per_step.unwrap_or(limits.firings_per_step).max(1);
+            limits.steps_per_input = l.steps_per_input.unwrap_or(limits.steps_per_input).max(1);
+        }
+
+        // Net files.
+        let mut raw_nets: Vec<(SourceFile, RawNet, bool)> = Vec::new();
+        let mut nets_complete = true;
+        for entry in &raw.nets {
+            let path = entry.file.get_ref();
+            match sources.read(path) {
+                Ok(text) => {
+                    let file = SourceFile::new(path, &text);
+                    match self.parse::<RawNet>(&file) {
+                        Some(net) => raw_nets.push((file, net, entry.active)),
+                        None => nets_complete = false,
+                    }
+                }
+                Err(reason) => {
+                    nets_complete = false;
+                    self.problem(&pfile, entry.file.span(), format!("cannot read net file `{path}`: {reason}"));
+                }
+            }
+        }
+        if raw.nets.is_empty() {
+            self.problem(&pfile, 0..0, "the project has no nets: add [[net]] tables with file = \"NAME.toml\"");
+        }
+
+        let mut net_names: HashMap<String, NetId> = HashMap::new();
+        for (i, (file, net, _)) in raw_nets.iter().enumerate() {
+            self.name_check(file, &net.name, "net");
+            if let Some(&first) = net_names.get(net.name.get_ref()) {
+                let (ffile, fnet, _) = &raw_nets[first];
+                let (l, c) = ffile.line_col(fnet.name.span().start);
+                self.problem(
+                    file,
+                    net.name.span(),
+                    format!("duplicate net `{}` (first declared at {}:{l}:{c})", net.name.get_ref(), ffile.name),
+                );
+            } else {
+                net_names.insert(net.name.get_ref().clone(), i);
+            }
+        }
+
+        // A first pass gives every net its places and timers, so that the
+        // flat numbering exists before transitions are compiled.
+        let mut project = Project {
+            name: raw.name.as_ref().map(|n| n.get_ref().clone()).unwrap_or_default(),
+            description: raw.description.clone().unwrap_or_default(),
+            nets: Vec::new(),
+            globals,
+            programs,
+            events,
+            limits,
+            triggers: HashMap::new(),
+            place_offsets: Vec::new(),
+            place_count: 0,
+        };
+        for (file, raw_net, active) in &raw_nets {
+            let net = self.net_shell(file, raw_net, *active);
+            project.nets.push(net);
+        }
+        let mut offset = project.globals.len();
+        for net in &project.nets {
+            project.place_offsets.push(offset);
+            offset += net.places.len();
+        }
+        project.place_count = offset;
+
+        let mut transitions = Vec::new();
+        for (i, (file, raw_net, _)) in raw_nets.iter().enumerate() {
+            let scope = NetScope {
+                file,
+                net_names: &net_names,
+                global_names: &global_names,
+                programs: &project.programs,
+                project: &project,
+                catalog,
+            };
+            let _ = nets_complete;
+            transitions.push(self.transitions(&scope, i, raw_net));
+        }
+        for (i, ts) in transitions.into_iter().enumerate() {
+            project.nets[i].immediate = ts
+                .iter()
+                .enumerate()
+                .filter(|(_, t)| t.event.is_none())
+                .map(|(j, _)| j)
+                .collect();
+            project.nets[i].transitions = ts;
+        }
+        for (n, net) in project.nets.iter().enumerate() {
+            for (t, tr) in net.transitions.iter().enumerate() {
+                if let Some(e) = &tr.event {
+                    project.triggers.entry(e.clone()).or_default().push((n, t));
+                }
+            }
+        }
+        if !nets_complete {
+            // References to nets that failed to parse would only add noise;
+            // the parse problems are already reported.
+            self.problems.retain(|p| !p.message.starts_with("unknown net "));
+        }
+        Some(project)
+    }
+
+    fn net_shell(&mut self, file: &SourceFile, raw: &RawNet, active: bool) -> Net {
+        let mut places: Vec<Place> = Vec::new();
+        for p in &raw.places {
+            if let Some(stripped) = p.get_ref().strip_prefix('@') {
+                self.problem(file, p.span(), format!("`@{stripped}` is a global place: declare it in project.toml [globals], not in a net's places"));
+                continue;
+            }
+            self.name_check(file, p, "place");
+            if places.iter().any(|q| q.name == *p.get_ref()) {
+                self.problem(file, p.span(), format!("duplicate place `{}`", p.get_ref()));
+                continue;
+            }
+            places.push(Place {
+                name: p.get_ref().clone(),
+                initial: false,
+                is_final: false,
+            });
+        }
+        for (list, what) in [(&raw.initial, "initial"), (&raw.finals, "final")] {
+            for p in list {
+                match places.iter_mut().find(|q| q.name == *p.get_ref()) {
+                    Some(place) => {
+                        let flag = if what == "initial" { &mut place.initial } else { &mut place.is_final };
+                        if *flag {
+                            self.problem(file, p.span(), format!("place `{}` is listed twice in `{what}`", p.get_ref()));
+                        }
+                        *flag = true;
+                    }
+                    None => self.problem(file, p.span(), format!("unknown place `{}` in `{what}`: it is not in `places`", p.get_ref())),
+                }
+            }
+        }
+        let mut timers: Vec<String> = Vec::new();
+        for t in &raw.transitions {
+            for a in &t.actions {
+                if let Ok(ActionSyntax::Timer { name, .. }) = action::parse(a.get_ref()) {
+                    if !timers.contains(&name.0) {
+                        timers.push(name.0);
+                    }
+                }
+            }
+        }
+        Net {
+            name: raw.name.get_ref().clone(),
+            file: file.name.clone(),
+            places,
+            transitions: Vec::new(),
+            active_at_start: active,
+            timers,
+            immediate: Vec::new(),
+        }
+    }
+
+    fn transitions(&mut self, scope: &NetScope, net: NetId, raw: &RawNet) -> Vec<Transition> {
+        let file = scope.file;
+        let mut out: Vec<Transition> = Vec::new();
+        let mut seen: HashMap<String, usize> = HashMap::new();
+        for t in &raw.transitions {
+            self.name_check(file, &t.name, "transition");
+            if let Some(&first) = seen.get(t.name.get_ref()) {
+                let (l, c) = file.line_col(first);
+                self.problem(file, t.name.span(), format!("duplicate transition `{}` (first declared at {}:{l}:{c})", t.name.get_ref(), file.name));
+            } else {
+                seen.insert(t.name.get_ref().clone(), t.name.span().start);
+            }
+            let inputs = self.arcs(scope, net, &t.from, "from");
+            let outputs = self.arcs(scope, net, &t.to, "to");
+            if t.from.is_empty() {
+                self.problem(file, t.name.span(), format!("transition `{}` has no input place: give it `from = [...]`", t.name.get_ref()));
+            }
+            let event = match &t.on {
+                Some(on) if !is_event_name(on.get_ref()) => {
+                    self.problem(file, on.span(), format!("invalid event name `{}`", on.get_ref()));
+                    None
+                }
+                Some(on) => Some(on.get_ref().clone()),
+                None => None,
+            };
+            let known_params: Option<Vec<String>> = event.as_deref().and_then(|e| {
+                if scope.project.nets[net].timers.iter().any(|t| t == e)
+                    && !scope.project.events.contains_key(e)
+                {
+                    Some(Vec::new())
+                } else {
+                    scope
+                        .project
+                        .event_params(e)
+                        .or_else(|| scope.catalog.get(e).and_then(|d| d.params.clone()))
+                }
+            });
+            let ctx = TriggerCtx {
+                transition: t.name.get_ref(),
+                event: event.as_deref(),
+                params: known_params.as_deref(),
+            };
+            let guard = match &t.when {
+                Some(when) if event.is_none() => {
+                    self.problem(file, when.span(), format!("immediate transition `{}` cannot have a guard: there is no event to test (give it `on = \"EVENT\"`)", t.name.get_ref()));
+                    None
+                }
+                Some(when) => match expr::parse(when.get_ref(), Context::Guard) {
+                    Ok(e) => {
+                        self.check_params(file, when, &e, &ctx);
+                        Some(Guard {
+                            text: when.get_ref().clone(),
+                            expr: e,
+                        })
+                    }
+                    Err(err) => {
+                        let at = file.inside_string(&when.span(), when.get_ref(), err.at);
+                        self.problem(file, at..at + 1, format!("in guard: {}", err.message));
+                        None
+                    }
+                },
+                None => None,
+            };
+            let mut actions = Vec::new();
+            for a in &t.actions {
+                if let Some(action) = self.action(scope, net, a, &ctx) {
+                    actions.push(action);
+                }
+            }
+            let flat_inputs = inputs.iter().map(|p| scope.project.flat(net, *p)).collect();
+            let flat_outputs = outputs.iter().map(|p| scope.project.flat(net, *p)).collect();
+            out.push(Transition {
+                name: t.name.get_ref().clone(),
+                inputs,
+                outputs,
+                event,
+                guard,
+                actions,
+                flat_inputs,
+                flat_outputs,
+            });
+        }
+        out
+    }
+
+    fn arcs(&mut self, scope: &NetScope, net: NetId, names: &[Spanned<String>], side: &str) -> Vec<PlaceRef> {
+        let file = scope.file;
+        let mut out: Vec<PlaceRef> = Vec::new();
+        for n in names {
+            let place = if let Some(global) = n.get_ref().strip_prefix('@') {
+                match scope.global_names.get(global) {
+                    Some(&g) => PlaceRef::Global(g),
+                    None => {
+                        self.problem(file, n.span(), format!("undeclared global place `@{global}`: declare it in project.toml [globals]"));
+                        continue;
+                    }
+                }
+            } else {
+                match scope.project.nets[net].places.iter().position(|p| p.name == *n.get_ref()) {
+                    Some(p) => PlaceRef::Local(p),
+                    None => {
+                        let hint = if scope.global_names.contains_key(n.get_ref()) {
+                            format!(" (the global place is written `@{}`)", n.get_ref())
+                        } else {
+                            String::new()
+                        };
+                        self.problem(file, n.span(), format!("unknown place `{}` in `{side}` of net `{}`{hint}", n.get_ref(), scope.project.nets[net].name));
+                        continue;
+                    }
+                }
+            };
+            if out.contains(&place) {
+                self.problem(file, n.span(), format!("place `{}` appears twice in `{side}`: arcs are unary", n.get_ref()));
+                continue;
+            }
+            out.push(place);
+        }
+        out
+    }
+
+    fn check_params(&mut self, file: &SourceFile, text: &Spanned<String>, e: &Expr, ctx: &TriggerCtx) {
+        let mut read = Vec::new();
+        e.params(&mut read);
+        self.check_param_list(file, text, &read, ctx, 0);
+    }
+
+    fn check_param_list(&mut self, file: &SourceFile, text: &Spanned<String>, read: &[(String, usize)], ctx: &TriggerCtx, base: usize) {
+        for (name, at) in read {
+            let at = file.inside_string(&text.span(), text.get_ref(), base + at);
+            let message = match (ctx.event, ctx.params) {
+                (None, _) => format!("`${name}`: immediate transition `{}` has no triggering event, so no parameters", ctx.transition),
+                (Some(event), None) => format!("unknown parameter `{name}`: event `{event}` declares no parameters (declare them in project.toml: [events.\"{event}\"] params = [...])"),
+                (Some(event), Some(params)) if !params.iter().any(|p| p == name) => format!("unknown parameter `{name}` of event `{event}` (it has: {})", list(params)),
+                _ => continue,
+            };
+            self.problem(file, at..at + name.len() + 1, message);
+        }
+    }
+
+    fn action(&mut self, scope: &NetScope, net: NetId, text: &Spanned<String>, ctx: &TriggerCtx) -> Option<Action> {
+        let file = scope.file;
+        let at = |i: usize| {
+            let a = file.inside_string(&text.span(), text.get_ref(), i);
+            a..a + 1
+        };
+        let name_span = |n: &(String, usize)| {
+            let a = file.inside_string(&text.span(), text.get_ref(), n.1);
+            a..a + n.0.len().max(1)
+        };
+        let syntax = match action::parse(text.get_ref()) {
+            Ok(s) => s,
+            Err(err) => {
+                self.problem(file, at(err.at), format!("in action: {}", err.message));
+                return None;
+            }
+        };
+        let check_args = |this: &mut Self, args: &Args| {
+            let mut read = Vec::new();
+            for (_, e) in args {
+                e.params(&mut read);
+            }
+            this.check_param_list(file, text, &read, ctx, 0);
+        };
+        Some(match syntax {
+            ActionSyntax::Activate(n) | ActionSyntax::Deactivate(n) => {
+                let Some(&id) = scope.net_names.get(&n.0) else {
+                    self.problem(file, name_span(&n), format!("unknown net `{}`", n.0));
+                    return None;
+                };
+                if text.get_ref().trim_start().starts_with("activate") {
+                    Action::Activate(id)
+                } else {
+                    Action::Deactivate(id)
+                }
+            }
+            ActionSyntax::Emit { event, args } => {
+                if !is_event_name(&event.0) {
+                    self.problem(file, name_span(&event), format!("invalid event name `{}`", event.0));
+                    return None;
+                }
+                if let Some(params) = scope.project.events.get(&event.0).and_then(|d| d.params.as_ref()) {
+                    for (k, _) in &args {
+                        if !params.contains(k) {
+                            self.problem(file, name_span(&event), format!("event `{}` has no parameter `{k}` (it has: {})", event.0, list(params)));
+                        }
+                    }
+                }
+                check_args(self, &args);
+                Action::Emit { event: event.0, args }
+            }
+            ActionSyntax::Timer { name, after } => {
+                let micros = match parse_duration(&after.0) {
+                    Ok(m) => m,
+                    Err(e) => {
+                        self.problem(file, name_span(&after), e.to_string());
+                        return None;
+                    }
+                };
+                let timer = scope.project.nets[net].timers.iter().position(|t| *t == name.0)?;
+                Action::Timer { timer, after: micros }
+            }
+            ActionSyntax::Cancel(name) => {
+                match scope.project.nets[net].timers.iter().position(|t| *t == name.0) {
+                    Some(timer) => Action::Cancel { timer },
+                    None => {
+                        self.problem(file, name_span(&name), format!("unknown timer `{}`: net `{}` never starts it", name.0, scope.project.nets[net].name));
+                        return None;
+                    }
+                }
+            }
+            ActionSyntax::Call { program, function, args } => {
+                let Some(p) = scope.programs.iter().position(|p| p.name == program.0) else {
+                    self.problem(file, name_span(&program), format!("unknown program `{}`: declare it in project.toml [programs]", program.0));
+                    return None;
+                };
+                let prog = &scope.programs[p];
+                let Some(f) = prog.functions.iter().position(|f| f.name == function.0) else {
+                    let names: Vec<String> = prog.functions.iter().map(|f| f.name.clone()).collect();
+                    self.problem(file, name_span(&function), format!("unknown function `{}` of program `{}` (it has: {})", function.0, program.0, list(&names)));
+                    return None;
+                };
+                let func = &prog.functions[f];
+                for (k, _) in &args {
+                    if !func.args.contains(k) {
+                        self.problem(file, name_span(&function), format!("{}.{} takes no argument `{k}` (it takes: {})", program.0, function.0, list(&func.args)));
+                    }
+                }
+                for k in &func.args {
+                    if !args.iter().any(|(a, _)| a == k) {
+                        self.problem(file, name_span(&function), format!("{}.{} needs argument `{k}`", program.0, function.0));
+                    }
+                }
+                check_args(self, &args);
+                Action::Call { program: p, function: f, args }
+            }
+            ActionSyntax::Command { verb, args } => {
+                let Some(v) = verbs::verb(&verb.0) else {
+                    let names: Vec<String> = verbs::VERBS.iter().map(|v| v.name.to_owned()).collect();
+                    self.problem(file, name_span(&verb), format!("unknown command verb `{}` (known: {})", verb.0, list(&names)));
+                    return None;
+                };
+                for (k, _) in &args {
+                    if !v.required.contains(&k.as_str()) && !v.optional.contains(&k.as_str()) {
+                        let mut known: Vec<String> = v.required.iter().chain(v.optional).map(|s| s.to_string()).collect();
+                        known.sort();
+                        self.problem(file, name_span(&verb), format!("command `{}` takes no argument `{k}` (it takes: {})", verb.0, list(&known)));
+                    }
+                }
+                for k in v.required {
+                    if !args.iter().any(|(a, _)| a == k) {
+                        self.problem(file, name_span(&verb), format!("command `{}` needs argument `{k}`", verb.0));
+                    }
+                }
+                check_args(self, &args);
+                Action::Command { verb: verb.0, args }
+            }
+        })
+    }
+}
+
+struct TriggerCtx<'a> {
+    transition: &'a str,
+    event: Option<&'a str>,
+    params: Option<&'a [String]>,
+}

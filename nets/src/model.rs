@@ -1,0 +1,223 @@
+//! The compiled form of a project: what the loader produces and the player
+//! and verifier read. Names are resolved to indices; nothing here is
+//! mutable at run time.
+
+use std::collections::{BTreeMap, HashMap};
+
+use crate::event::Category;
+use crate::expr::Expr;
+use crate::time::Micros;
+
+/// Index of a net in [`Project::nets`] (project.toml order).
+pub type NetId = usize;
+/// Index of a transition within its net (file order).
+pub type TransitionId = usize;
+
+/// A place an arc touches: one of the net's own, or a global place.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum PlaceRef {
+    Local(usize),
+    Global(usize),
+}
+
+/// A whole project.
+#[derive(Debug, Clone)]
+pub struct Project {
+    pub name: String,
+    pub description: String,
+    pub nets: Vec<Net>,
+    pub globals: Vec<Global>,
+    pub programs: Vec<Program>,
+    /// Declared events: category and parameters.
+    pub events: BTreeMap<String, EventDecl>,
+    /// Limits on one input's run to completion.
+    pub limits: Limits,
+    /// Event name → the transitions it triggers, in priority order (nets in
+    /// project order, transitions in file order).
+    pub triggers: HashMap<String, Vec<(NetId, TransitionId)>>,
+    /// Flat place numbering: globals first, then each net's places.
+    pub place_offsets: Vec<usize>,
+    pub place_count: usize,
+}
+
+/// A global place, declared in project.toml and shared by every net.
+#[derive(Debug, Clone)]
+pub struct Global {
+    pub name: String,
+    pub initial: bool,
+}
+
+/// One net.
+#[derive(Debug, Clone)]
+pub struct Net {
+    pub name: String,
+    /// The file it came from, relative to the project folder.
+    pub file: String,
+    pub places: Vec<Place>,
+    pub transitions: Vec<Transition>,
+    /// Whether the net is active when the project starts.
+    pub active_at_start: bool,
+    /// Timer names this net starts (its timer namespace).
+    pub timers: Vec<String>,
+    /// Indices of its immediate transitions, in file order.
+    pub immediate: Vec<TransitionId>,
+}
+
+/// A place of a net.
+#[derive(Debug, Clone)]
+pub struct Place {
+    pub name: String,
+    /// Marked in the net's initial marking.
+    pub initial: bool,
+    /// Declared final: a marking that holds it is not a deadlock.
+    pub is_final: bool,
+}
+
+/// A transition.
+#[derive(Debug, Clone)]
+pub struct Transition {
+    pub name: String,
+    pub inputs: Vec<PlaceRef>,
+    pub outputs: Vec<PlaceRef>,
+    /// The triggering event; `None` for an immediate transition.
+    pub event: Option<String>,
+    pub guard: Option<Guard>,
+    pub actions: Vec<Action>,
+    /// Flat place indices (see [`Project::place_offsets`]).
+    pub flat_inputs: Vec<usize>,
+    pub flat_outputs: Vec<usize>,
+}
+
+/// A guard and its source text.
+#[derive(Debug, Clone)]
+pub struct Guard {
+    pub text: String,
+    pub expr: Expr,
+}
+
+/// An action of a transition, run in order when it fires.
+#[derive(Debug, Clone)]
+pub enum Action {
+    Activate(NetId),
+    Deactivate(NetId),
+    Emit { event: String, args: Args },
+    Timer { timer: usize, after: Micros },
+    Cancel { timer: usize },
+    Call { program: usize, function: usize, args: Args },
+    Command { verb: String, args: Args },
+}
+
+/// Named arguments: literal values or the triggering event's parameters.
+pub type Args = Vec<(String, Expr)>;
+
+/// A software program and the functions the nets may call.
+#[derive(Debug, Clone)]
+pub struct Program {
+    pub name: String,
+    pub functions: Vec<Function>,
+    /// The program's other settings in project.toml (how the gateway starts
+    /// or reaches it); the nets crate does not read them.
+    pub settings: std::collections::BTreeMap<String, toml::Value>,
+}
+
+/// A function a program serves.
+#[derive(Debug, Clone)]
+pub struct Function {
+    pub name: String,
+    pub args: Vec<String>,
+    /// Parameters of its `PROGRAM.FUNCTION.done` event.
+    pub returns: Vec<String>,
+}
+
+/// What the project says of an event.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EventDecl {
+    pub category: Option<Category>,
+    /// Its parameters, when declared.
+    pub params: Option<Vec<String>>,
+}
+
+/// Bounds that turn a runaway into a reported fault.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// Firings (of immediate transitions) after one handled event.
+    pub firings_per_step: usize,
+    /// Events handled in one run to completion.
+    pub steps_per_input: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            firings_per_step: 1000,
+            steps_per_input: 1000,
+        }
+    }
+}
+
+/// Names of the events the player itself produces.
+pub mod names {
+    /// Emitted when a firing is rejected (double token, bad argument).
+    pub const NET_FAULT: &str = "net_fault";
+    pub const COMMAND_OK: &str = "command.ok";
+    pub const COMMAND_FAILED: &str = "command.failed";
+    pub const DONE: &str = "done";
+    pub const FAILED: &str = "failed";
+}
+
+impl Project {
+    /// The net of that name.
+    pub fn net(&self, name: &str) -> Option<NetId> {
+        self.nets.iter().position(|n| n.name == name)
+    }
+
+    /// The flat index of a place of a net.
+    pub fn flat(&self, net: NetId, place: PlaceRef) -> usize {
+        match place {
+            PlaceRef::Global(g) => g,
+            PlaceRef::Local(p) => self.place_offsets[net] + p,
+        }
+    }
+
+    /// A place's name as written in a net file (`@name` for a global).
+    pub fn place_name(&self, net: NetId, place: PlaceRef) -> String {
+        match place {
+            PlaceRef::Global(g) => format!("@{}", self.globals[g].name),
+            PlaceRef::Local(p) => self.nets[net].places[p].name.clone(),
+        }
+    }
+
+    /// The category the project gives an event, if it declares one.
+    pub fn declared_category(&self, event: &str) -> Option<Category> {
+        self.events.get(event).and_then(|d| d.category)
+    }
+
+    /// The parameters an event is known to carry, if known.
+    pub fn event_params(&self, event: &str) -> Option<Vec<String>> {
+        if let Some(params) = self.events.get(event).and_then(|d| d.params.clone()) {
+            return Some(params);
+        }
+        match event {
+            names::COMMAND_OK => return Some(vec!["verb".into()]),
+            names::COMMAND_FAILED => return Some(vec!["reason".into(), "verb".into()]),
+            names::NET_FAULT => {
+                return Some(vec!["net".into(), "place".into(), "reason".into(), "transition".into()])
+            }
+            _ => {}
+        }
+        let (head, outcome) = event.rsplit_once('.')?;
+        let (program, function) = head.split_once('.')?;
+        let function = self
+            .programs
+            .iter()
+            .find(|p| p.name == program)?
+            .functions
+            .iter()
+            .find(|f| f.name == function)?;
+        match outcome {
+            names::DONE => Some(function.returns.clone()),
+            names::FAILED => Some(vec!["reason".into()]),
+            _ => None,
+        }
+    }
+}
