@@ -13,6 +13,7 @@
 pub mod event;
 pub mod time;
 pub mod value;
+pub mod verify;
 
 pub use event::{Category, Event};
 pub use time::Micros;

@@ -1,0 +1,332 @@
+//! The exploration loop, generic over the marking encoding: level-synchronous
+//! breadth-first search over `n` partitions of the state space (a marking
+//! belongs to the partition its hash picks), one thread per partition.
+//!
+//! Each level: every thread expands its own frontier, storing successors of
+//! its own partition at once and batching the others into an outbox per
+//! destination; after a barrier every thread stores what it was sent; after
+//! a second barrier all agree whether anything new was found. Parents are
+//! recorded when a marking is first stored, always from the previous level,
+//! so parent chains are shortest firing sequences. With one partition there
+//! are no outboxes and no barriers: a plain breadth-first search.
+
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
+use std::sync::{Barrier, Mutex, MutexGuard};
+
+use super::semantics::{mix, Semantics, Stop};
+use super::store::{Inserted, Store, NO_PARENT};
+
+/// Bits of a state id naming its partition (so at most 16 threads).
+pub const PART_BITS: u32 = 4;
+pub const MAX_THREADS: usize = 1 << PART_BITS;
+const LOCAL_BITS: u32 = 32 - PART_BITS;
+/// Most markings one partition holds.
+pub const MAX_PER_PARTITION: u32 = (1 << LOCAL_BITS) - 1;
+
+/// A state id: partition and index in it.
+#[inline]
+pub fn state_id(part: usize, local: u32) -> u32 {
+    ((part as u32) << LOCAL_BITS) | local
+}
+
+#[inline]
+pub fn split_id(id: u32) -> (usize, u32) {
+    ((id >> LOCAL_BITS) as usize, id & MAX_PER_PARTITION)
+}
+
+/// The partition of a marking with hash `h` among `n`.
+#[inline]
+pub fn partition(h: u64, n: usize) -> usize {
+    (((h >> 32) * n as u64) >> 32) as usize
+}
+
+/// What one run of the engine found.
+pub struct Run<S> {
+    pub sem: S,
+    pub stores: Vec<Store>,
+    pub edges: u64,
+    pub dead: u64,
+    pub max_tokens: u32,
+    /// A dead marking at the smallest depth.
+    pub first_dead: Option<u32>,
+    /// A marking with 2 tokens or more in a place, at the smallest depth.
+    pub first_unsafe: Option<u32>,
+    pub stop: Option<Stop>,
+    /// The state limit was reached.
+    pub full: bool,
+}
+
+impl<S: Semantics> Run<S> {
+    pub fn states(&self) -> u64 {
+        self.stores.iter().map(|s| u64::from(s.len())).sum()
+    }
+
+    pub fn marking(&self, id: u32) -> &[u8] {
+        let (p, l) = split_id(id);
+        self.stores[p].get(l)
+    }
+
+    pub fn parent(&self, id: u32) -> Option<u32> {
+        let (p, l) = split_id(id);
+        Some(self.stores[p].parent(l)).filter(|&q| q != NO_PARENT)
+    }
+
+    /// The id of a stored marking.
+    pub fn lookup(&self, m: &[u8], key: u64) -> Option<u32> {
+        let h = mix(key);
+        let p = partition(h, self.stores.len());
+        self.stores[p].lookup(m, h).map(|l| state_id(p, l))
+    }
+}
+
+struct Shared<'a> {
+    n: usize,
+    barrier: Barrier,
+    /// outboxes[from * n + to]: records (marking, hash, parent id).
+    outboxes: Vec<Mutex<Vec<u8>>>,
+    /// The smallest level at which some thread asked to stop.
+    stop_level: AtomicU32,
+    total: AtomicU64,
+    stored: AtomicU64,
+    progress: Option<&'a (dyn Fn(u64) + Sync)>,
+}
+
+fn lock(m: &Mutex<Vec<u8>>) -> MutexGuard<'_, Vec<u8>> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+#[derive(Default)]
+struct Found {
+    edges: u64,
+    dead: u64,
+    max_tokens: u32,
+    first_dead: Option<(u32, u32)>,
+    first_unsafe: Option<(u32, u32)>,
+    stop: Option<Stop>,
+    full: bool,
+    new_since_report: u64,
+}
+
+impl Found {
+    #[inline]
+    fn stored<S: Semantics>(&mut self, sem: &S, m: &[u8], level: u32, index: u32) {
+        let t = sem.max_tokens(m);
+        if t > self.max_tokens {
+            self.max_tokens = t;
+        }
+        if t >= 2 && self.first_unsafe.is_none() {
+            self.first_unsafe = Some((level, index));
+        }
+        self.new_since_report += 1;
+    }
+}
+
+/// Explores from `initial` on `threads` partitions, each holding at most
+/// `limit` markings.
+pub fn run<S: Semantics>(
+    sem: S,
+    initial: &[u8],
+    threads: usize,
+    limit: u32,
+    progress: Option<&(dyn Fn(u64) + Sync)>,
+) -> Run<S> {
+    let n = threads.clamp(1, MAX_THREADS);
+    let limit = limit.clamp(1, MAX_PER_PARTITION);
+    let mut stores: Vec<Store> = (0..n).map(|_| Store::new(sem.width(), limit)).collect();
+    let h0 = mix(sem.key(initial));
+    let p0 = partition(h0, n);
+    stores[p0].insert(initial, h0, NO_PARENT);
+    let shared = Shared {
+        n,
+        barrier: Barrier::new(n),
+        outboxes: (0..n * n).map(|_| Mutex::new(Vec::new())).collect(),
+        stop_level: AtomicU32::new(u32::MAX),
+        total: AtomicU64::new(1),
+        stored: AtomicU64::new(1),
+        progress,
+    };
+    let mut found: Vec<(Store, Found)> = if n == 1 {
+        let store = stores
+            .pop()
+            .unwrap_or_else(|| Store::new(sem.width(), limit));
+        vec![worker(0, &sem, &shared, store)]
+    } else {
+        std::thread::scope(|scope| {
+            let mut it = stores.into_iter().enumerate();
+            let first = it.next();
+            let handles: Vec<_> = it
+                .map(|(i, store)| {
+                    let (sem, shared) = (&sem, &shared);
+                    scope.spawn(move || worker(i, sem, shared, store))
+                })
+                .collect();
+            let mut all = Vec::with_capacity(n);
+            if let Some((i, store)) = first {
+                all.push(worker(i, &sem, &shared, store));
+            }
+            for h in handles {
+                match h.join() {
+                    Ok(r) => all.push(r),
+                    Err(panic) => std::panic::resume_unwind(panic),
+                }
+            }
+            all
+        })
+    };
+    let init_tokens = sem.max_tokens(initial);
+    let mut run = Run {
+        sem,
+        stores: Vec::with_capacity(n),
+        edges: 0,
+        dead: 0,
+        max_tokens: init_tokens,
+        first_dead: None,
+        first_unsafe: if init_tokens >= 2 {
+            Some(state_id(p0, 0))
+        } else {
+            None
+        },
+        stop: None,
+        full: false,
+    };
+    let mut dead_at: Option<(u32, u32)> = None;
+    let mut unsafe_at: Option<(u32, u32)> = None;
+    for (part, (store, f)) in found.drain(..).enumerate() {
+        run.edges += f.edges;
+        run.dead += f.dead;
+        run.max_tokens = run.max_tokens.max(f.max_tokens);
+        run.stop = run.stop.or(f.stop);
+        run.full |= f.full;
+        if let Some((level, i)) = f.first_dead {
+            if dead_at.is_none_or(|(l, _)| level < l) {
+                dead_at = Some((level, state_id(part, i)));
+            }
+        }
+        if let Some((level, i)) = f.first_unsafe {
+            if unsafe_at.is_none_or(|(l, _)| level < l) {
+                unsafe_at = Some((level, state_id(part, i)));
+            }
+        }
+        run.stores.push(store);
+    }
+    run.first_dead = dead_at.map(|(_, id)| id);
+    if run.first_unsafe.is_none() {
+        run.first_unsafe = unsafe_at.map(|(_, id)| id);
+    }
+    run
+}
+
+fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (Store, Found) {
+    let n = sh.n;
+    let width = sem.width();
+    let record = width + 12;
+    let mut f = Found::default();
+    let mut cur = vec![0u8; width];
+    let mut child: Vec<u8> = Vec::with_capacity(width);
+    let mut outs: Vec<Vec<u8>> = vec![Vec::new(); n];
+    let (mut lo, mut level, mut prev_total) = (0u32, 0u32, 1u64);
+    let mut expanded = 0u64;
+    loop {
+        let hi = store.len();
+        let mut index = lo;
+        while index < hi {
+            if index & 1023 == 0 && sh.stop_level.load(Relaxed) != u32::MAX {
+                break;
+            }
+            cur.copy_from_slice(store.get(index));
+            let key = sem.key(&cur);
+            let parent = state_id(me, index);
+            let mut full = false;
+            let result = sem.expand(&cur, key, &mut child, |_, m, k| {
+                let h = mix(k);
+                let part = if n == 1 { 0 } else { partition(h, n) };
+                if part == me {
+                    match store.insert(m, h, parent) {
+                        Inserted::New(i) => f.stored(sem, m, level + 1, i),
+                        Inserted::Old(_) => {}
+                        Inserted::Full => full = true,
+                    }
+                } else {
+                    let o = &mut outs[part];
+                    o.extend_from_slice(m);
+                    o.extend_from_slice(&h.to_le_bytes());
+                    o.extend_from_slice(&parent.to_le_bytes());
+                }
+            });
+            match result {
+                Ok(0) => {
+                    f.dead += 1;
+                    if f.first_dead.is_none() {
+                        f.first_dead = Some((level, index));
+                    }
+                }
+                Ok(k) => f.edges += u64::from(k),
+                Err(s) => {
+                    f.stop = Some(s);
+                    sh.stop_level.fetch_min(level, Relaxed);
+                    break;
+                }
+            }
+            if full {
+                f.full = true;
+                sh.stop_level.fetch_min(level, Relaxed);
+                break;
+            }
+            index += 1;
+            expanded += 1;
+            if f.new_since_report >= 1 << 14 {
+                sh.stored.fetch_add(f.new_since_report, Relaxed);
+                f.new_since_report = 0;
+            }
+            if me == 0 && expanded & 0x7fff == 0 {
+                if let Some(p) = sh.progress {
+                    p(sh.stored.load(Relaxed) + f.new_since_report);
+                }
+            }
+        }
+        if n > 1 {
+            for (to, out) in outs.iter_mut().enumerate() {
+                if to != me {
+                    std::mem::swap(&mut *lock(&sh.outboxes[me * n + to]), out);
+                }
+            }
+            sh.barrier.wait();
+            for from in 0..n {
+                if from == me {
+                    continue;
+                }
+                let mut inbox = std::mem::take(&mut *lock(&sh.outboxes[from * n + me]));
+                for r in inbox.chunks_exact(record) {
+                    let m = &r[..width];
+                    let mut h = [0u8; 8];
+                    h.copy_from_slice(&r[width..width + 8]);
+                    let mut p = [0u8; 4];
+                    p.copy_from_slice(&r[width + 8..]);
+                    match store.insert(m, u64::from_le_bytes(h), u32::from_le_bytes(p)) {
+                        Inserted::New(i) => f.stored(sem, m, level + 1, i),
+                        Inserted::Old(_) => {}
+                        Inserted::Full => {
+                            f.full = true;
+                            sh.stop_level.fetch_min(level, Relaxed);
+                            break;
+                        }
+                    }
+                }
+                inbox.clear();
+                *lock(&sh.outboxes[from * n + me]) = inbox;
+            }
+        }
+        sh.total.fetch_add(u64::from(store.len() - hi), Relaxed);
+        if n > 1 {
+            sh.barrier.wait();
+        }
+        let total = sh.total.load(Relaxed);
+        if sh.stop_level.load(Relaxed) <= level || total == prev_total {
+            break;
+        }
+        prev_total = total;
+        lo = hi;
+        level += 1;
+    }
+    (store, f)
+}

@@ -1,0 +1,444 @@
+//! Explicit-state exploration of a P/T net's token game.
+//!
+//! Two engines share one loop ([`engine`]): markings of 1-safe nets as
+//! bitsets (one bit per place), and markings as counts of 1, 2 or 4 bytes
+//! per place for the others. Exploration starts with bitsets when the
+//! initial marking is safe; the first firing that would put a second token
+//! in a place stops it, and the net is explored again with counts (reported
+//! not safe, with a shortest firing sequence to a marking that is not
+//! 1-safe). Counts that outgrow their width restart with wider counts.
+//!
+//! Markings are stored back to back in one arena with their parent's id
+//! (no allocation per state) and found through a table of 32-bit hash +
+//! index entries, compared in full on a hash match. A transition is looked
+//! at only when its least-often-marked input place (measured on a first
+//! sample of the state space) is marked. With `threads > 1` the state space
+//! is split in partitions by hash, one thread each (see [`engine`]).
+//!
+//! The stored state space is kept ([`Exploration`]) so counterexamples are
+//! rebuilt from parent links and loops found by strongly connected
+//! components over successors regenerated on demand ([`Exploration::graph`]).
+
+mod engine;
+mod semantics;
+mod store;
+
+use std::cell::RefCell;
+
+use super::graph::{self, Successors};
+use super::ptnet::PtNet;
+use engine::{run, split_id, state_id, Run, MAX_PER_PARTITION, MAX_THREADS};
+use semantics::{Bits, Counts, Semantics, Stop};
+
+/// How to explore.
+#[derive(Clone, Copy)]
+pub struct Options<'a> {
+    /// Threads (1 to 16); each owns one partition of the state space.
+    pub threads: usize,
+    /// Stop storing markings past this many (a "state limit reached" result).
+    pub max_states: u64,
+    /// Called now and then with the number of markings stored so far.
+    pub progress: Option<&'a (dyn Fn(u64) + Sync)>,
+}
+
+impl Default for Options<'_> {
+    fn default() -> Self {
+        Options {
+            threads: 1,
+            max_states: 100_000_000,
+            progress: None,
+        }
+    }
+}
+
+/// Whether the whole state space was explored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Completion {
+    Complete,
+    /// `max_states` markings were stored and more were reachable.
+    StateLimit,
+    /// A place would hold more than 2^32 - 1 tokens.
+    TokenLimit,
+}
+
+/// The marking encoding of the run that produced the figures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Engine {
+    Bits,
+    Counts8,
+    Counts16,
+    Counts32,
+}
+
+/// The figures of an exploration.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Summary {
+    /// Reachable markings (stored markings if not complete).
+    pub states: u64,
+    /// (marking, enabled transition) pairs, as the Model Checking Contest
+    /// counts the arcs of a reachability graph.
+    pub edges: u64,
+    pub dead_markings: u64,
+    /// The most tokens in one place of a reachable marking.
+    pub max_tokens: u32,
+    /// No reachable marking puts two tokens in a place.
+    pub safe: bool,
+    pub completion: Completion,
+    pub engine: Engine,
+    pub threads: usize,
+    /// Memory holding the stored markings, parent links and hash tables.
+    pub stored_bytes: u64,
+}
+
+enum Space {
+    Bits(Run<Bits>),
+    C8(Run<Counts<1>>),
+    C16(Run<Counts<2>>),
+    C32(Run<Counts<4>>),
+}
+
+/// A finished exploration: its figures and its stored markings.
+pub struct Exploration<'n> {
+    net: &'n PtNet,
+    pub summary: Summary,
+    space: Space,
+}
+
+/// A cycle of the reachability graph.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Loop {
+    /// Markings in its strongly connected component.
+    pub states: u32,
+    /// A shortest firing sequence from the initial marking to the component.
+    pub prefix: Vec<usize>,
+    /// A shortest firing sequence from there back to the same marking.
+    pub cycle: Vec<usize>,
+}
+
+/// The cycles of the reachability graph.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Loops {
+    /// Strongly connected components holding a cycle.
+    pub cyclic_components: u64,
+    /// Markings in the largest of them.
+    pub largest: u32,
+    /// Some of them (the first reached), with a cycle each.
+    pub listed: Vec<Loop>,
+}
+
+/// Counts of how often each place is marked in the first markings reached,
+/// to pick each transition's trigger place.
+fn sample_frequencies(net: &PtNet, initial: &[u32]) -> Vec<u64> {
+    const SAMPLE: u32 = 4096;
+    let zero = vec![0u64; net.places.len()];
+    let mut freq = zero.clone();
+    let mut add = |counts: Vec<u32>| {
+        for (f, c) in freq.iter_mut().zip(counts) {
+            *f += u64::from(c > 0);
+        }
+    };
+    if initial.iter().all(|&c| c <= 1) {
+        let sem = Bits::new(net, &zero);
+        let m = sem.encode(initial);
+        let r = run(sem, &m, 1, SAMPLE, None);
+        for i in 0..r.stores[0].len() {
+            add(r.sem.counts(r.stores[0].get(i)));
+        }
+    } else {
+        let sem = Counts::<4>::new(net, &zero);
+        if let Some(m) = sem.encode(initial) {
+            let r = run(sem, &m, 1, SAMPLE, None);
+            for i in 0..r.stores[0].len() {
+                add(r.sem.counts(r.stores[0].get(i)));
+            }
+        }
+    }
+    freq
+}
+
+fn counts_run<const W: usize>(
+    net: &PtNet,
+    freq: &[u64],
+    initial: &[u32],
+    threads: usize,
+    limit: u32,
+    progress: Option<&(dyn Fn(u64) + Sync)>,
+) -> Option<Run<Counts<W>>> {
+    let sem = Counts::<W>::new(net, freq);
+    let m = sem.encode(initial)?;
+    Some(run(sem, &m, threads, limit, progress))
+}
+
+/// Explores the reachable markings of `net`.
+pub fn explore<'n>(net: &'n PtNet, options: &Options) -> Exploration<'n> {
+    let threads = options.threads.clamp(1, MAX_THREADS);
+    let per_partition = options
+        .max_states
+        .div_ceil(threads as u64)
+        .clamp(1, u64::from(MAX_PER_PARTITION)) as u32;
+    let initial = net.initial_marking();
+    let freq = sample_frequencies(net, &initial);
+    let progress = options.progress;
+    let mut space = None;
+    if initial.iter().all(|&c| c <= 1) {
+        let sem = Bits::new(net, &freq);
+        let m = sem.encode(&initial);
+        let r = run(sem, &m, threads, per_partition, progress);
+        if r.stop != Some(Stop::Unsafe) {
+            space = Some(Space::Bits(r));
+        }
+    }
+    let space = match space {
+        Some(s) => s,
+        None => match counts_run::<1>(net, &freq, &initial, threads, per_partition, progress) {
+            Some(r) if r.stop != Some(Stop::Overflow) => Space::C8(r),
+            _ => match counts_run::<2>(net, &freq, &initial, threads, per_partition, progress) {
+                Some(r) if r.stop != Some(Stop::Overflow) => Space::C16(r),
+                _ => {
+                    match counts_run::<4>(net, &freq, &initial, threads, per_partition, progress) {
+                        Some(r) => Space::C32(r),
+                        // u32 counts always hold the initial marking
+                        None => unreachable_run(net, &freq, threads),
+                    }
+                }
+            },
+        },
+    };
+    let summary = match &space {
+        Space::Bits(r) => summarize(r, Engine::Bits, threads),
+        Space::C8(r) => summarize(r, Engine::Counts8, threads),
+        Space::C16(r) => summarize(r, Engine::Counts16, threads),
+        Space::C32(r) => summarize(r, Engine::Counts32, threads),
+    };
+    Exploration {
+        net,
+        summary,
+        space,
+    }
+}
+
+/// An empty run, never used in practice (u32 counts hold any initial marking).
+fn unreachable_run(net: &PtNet, freq: &[u64], threads: usize) -> Space {
+    let sem = Counts::<4>::new(net, freq);
+    let m = vec![0u8; sem.width()];
+    let mut r = run(sem, &m, threads, 1, None);
+    r.stop = Some(Stop::Overflow);
+    Space::C32(r)
+}
+
+fn summarize<S: Semantics>(r: &Run<S>, engine: Engine, threads: usize) -> Summary {
+    Summary {
+        states: r.states(),
+        edges: r.edges,
+        dead_markings: r.dead,
+        max_tokens: r.max_tokens,
+        safe: r.max_tokens <= 1,
+        completion: if r.stop == Some(Stop::Overflow) {
+            Completion::TokenLimit
+        } else if r.full {
+            Completion::StateLimit
+        } else {
+            Completion::Complete
+        },
+        engine,
+        threads,
+        stored_bytes: r.stores.iter().map(|s| s.bytes()).sum(),
+    }
+}
+
+/// The transitions along a chain of state ids.
+fn firing_sequence<S: Semantics>(r: &Run<S>, chain: &[u32]) -> Vec<usize> {
+    let mut child = Vec::with_capacity(r.sem.width());
+    chain
+        .windows(2)
+        .filter_map(|w| {
+            let from = r.marking(w[0]);
+            let to = r.marking(w[1]);
+            let mut found = None;
+            let _ = r.sem.expand(from, r.sem.key(from), &mut child, |t, m, _| {
+                if found.is_none() && m == to {
+                    found = Some(t as usize);
+                }
+            });
+            found
+        })
+        .collect()
+}
+
+/// State ids from the initial marking to `id`.
+fn chain_to<S: Semantics>(r: &Run<S>, id: u32) -> Vec<u32> {
+    let mut chain = vec![id];
+    let mut n = id;
+    while let Some(p) = r.parent(n) {
+        chain.push(p);
+        n = p;
+    }
+    chain.reverse();
+    chain
+}
+
+/// The reachability graph over dense node numbers, successors recomputed
+/// from the stored markings.
+pub struct Graph<'r, S> {
+    run: &'r Run<S>,
+    offsets: Vec<u32>,
+    child: RefCell<Vec<u8>>,
+}
+
+impl<'r, S: Semantics> Graph<'r, S> {
+    fn new(run: &'r Run<S>) -> Self {
+        let mut offsets = vec![0u32];
+        for s in &run.stores {
+            let last = offsets.last().copied().unwrap_or(0);
+            offsets.push(last + s.len());
+        }
+        Graph {
+            run,
+            offsets,
+            child: RefCell::new(Vec::new()),
+        }
+    }
+
+    fn dense(&self, id: u32) -> u32 {
+        let (p, l) = split_id(id);
+        self.offsets[p] + l
+    }
+
+    fn id(&self, node: u32) -> u32 {
+        let p = self.offsets.partition_point(|&o| o <= node) - 1;
+        state_id(p, node - self.offsets[p])
+    }
+}
+
+impl<S: Semantics> Successors for Graph<'_, S> {
+    fn node_count(&self) -> usize {
+        self.offsets.last().copied().unwrap_or(0) as usize
+    }
+
+    fn successors(&self, node: u32, out: &mut Vec<u32>) {
+        let m = self.run.marking(self.id(node));
+        let mut child = self.child.borrow_mut();
+        let _ = self
+            .run
+            .sem
+            .expand(m, self.run.sem.key(m), &mut child, |_, c, k| {
+                if let Some(id) = self.run.lookup(c, k) {
+                    out.push(self.dense(id));
+                }
+            });
+    }
+}
+
+fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize) -> Loops {
+    let g = Graph::new(r);
+    let sccs = graph::strongly_connected_components(&g);
+    let cyclic_components = sccs.cyclic.iter().filter(|&&c| c).count() as u64;
+    let largest = sccs
+        .sizes
+        .iter()
+        .zip(&sccs.cyclic)
+        .filter(|(_, &c)| c)
+        .map(|(&s, _)| s)
+        .max()
+        .unwrap_or(0);
+    // The first-reached node of each cyclic component (smallest depth).
+    let n = g.node_count();
+    let mut depth = vec![u32::MAX; n];
+    let mut walk = Vec::new();
+    for v in 0..n as u32 {
+        let mut w = v;
+        while depth[w as usize] == u32::MAX {
+            walk.push(w);
+            match r.parent(g.id(w)) {
+                Some(p) => w = g.dense(p),
+                None => {
+                    let root = walk.pop().unwrap_or(w);
+                    depth[root as usize] = 0;
+                    w = root;
+                }
+            }
+        }
+        let mut d = depth[w as usize];
+        while let Some(x) = walk.pop() {
+            d += 1;
+            depth[x as usize] = d;
+        }
+    }
+    let mut best: Vec<Option<(u32, u32)>> = vec![None; sccs.count()];
+    for v in 0..n as u32 {
+        let c = sccs.component[v as usize] as usize;
+        if sccs.cyclic[c] && best[c].is_none_or(|(d, _)| depth[v as usize] < d) {
+            best[c] = Some((depth[v as usize], v));
+        }
+    }
+    let mut entries: Vec<(u32, u32, usize)> = best
+        .iter()
+        .enumerate()
+        .filter_map(|(c, b)| b.map(|(d, v)| (d, v, c)))
+        .collect();
+    entries.sort_unstable();
+    entries.truncate(max_listed);
+    let entries: Vec<(usize, u32)> = entries.into_iter().map(|(_, v, c)| (c, v)).collect();
+    let listed = entries
+        .into_iter()
+        .map(|(c, v)| {
+            let prefix = firing_sequence(r, &chain_to(r, g.id(v)));
+            let cycle_nodes =
+                graph::shortest_cycle(&g, v, |w| sccs.component[w as usize] as usize == c)
+                    .unwrap_or_default();
+            let mut ids: Vec<u32> = cycle_nodes.iter().map(|&w| g.id(w)).collect();
+            ids.push(g.id(v));
+            Loop {
+                states: sccs.sizes[c],
+                prefix,
+                cycle: firing_sequence(r, &ids),
+            }
+        })
+        .collect();
+    Loops {
+        cyclic_components,
+        largest,
+        listed,
+    }
+}
+
+macro_rules! on_space {
+    ($space:expr, $r:ident => $e:expr) => {
+        match $space {
+            Space::Bits($r) => $e,
+            Space::C8($r) => $e,
+            Space::C16($r) => $e,
+            Space::C32($r) => $e,
+        }
+    };
+}
+
+impl Exploration<'_> {
+    /// A shortest firing sequence (transition indices) to a dead marking.
+    pub fn deadlock_example(&self) -> Option<Vec<usize>> {
+        on_space!(&self.space, r => r.first_dead.map(|id| firing_sequence(r, &chain_to(r, id))))
+    }
+
+    /// A shortest firing sequence to a marking with two tokens or more in a
+    /// place.
+    pub fn unsafe_example(&self) -> Option<Vec<usize>> {
+        on_space!(&self.space, r => r.first_unsafe.map(|id| firing_sequence(r, &chain_to(r, id))))
+    }
+
+    /// Strongly connected components of the reachability graph, listing at
+    /// most `max_listed` cycles. Costs about one more exploration.
+    pub fn loops(&self, max_listed: usize) -> Loops {
+        on_space!(&self.space, r => loops_of(r, max_listed))
+    }
+
+    /// The names of transitions.
+    pub fn names(&self, sequence: &[usize]) -> Vec<String> {
+        sequence
+            .iter()
+            .map(|&t| self.net.transitions[t].name.clone())
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,187 @@
+//! Where an exploration keeps its markings: records (marking bytes, then the
+//! parent's id as 4 bytes) back to back in fixed-size chunks, and an open
+//! addressing hash table of 8-byte entries (32 bits of hash, index + 1)
+//! with full comparison on a hash match. No allocation per state.
+
+/// States per chunk of the arena.
+const CHUNK_BITS: u32 = 16;
+const CHUNK: usize = 1 << CHUNK_BITS;
+/// Smallest table (log2 of entries).
+const MIN_TABLE_BITS: u32 = 10;
+
+/// No parent (the initial marking).
+pub const NO_PARENT: u32 = u32::MAX;
+
+/// Outcome of [`Store::insert`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Inserted {
+    New(u32),
+    Old(u32),
+    /// The store is at its limit; the marking was not stored.
+    Full,
+}
+
+/// One partition's markings.
+pub struct Store {
+    width: usize,
+    record: usize,
+    chunks: Vec<Box<[u8]>>,
+    len: u32,
+    table: Vec<u64>,
+    shift: u32,
+    limit: u32,
+}
+
+impl Store {
+    /// A store for markings of `width` bytes, holding at most `limit`.
+    pub fn new(width: usize, limit: u32) -> Store {
+        Store {
+            width,
+            record: width + 4,
+            chunks: Vec::new(),
+            len: 0,
+            table: vec![0; 1 << MIN_TABLE_BITS],
+            shift: 32 - MIN_TABLE_BITS,
+            limit,
+        }
+    }
+
+    pub fn len(&self) -> u32 {
+        self.len
+    }
+
+    /// Bytes held: arena chunks plus table.
+    pub fn bytes(&self) -> u64 {
+        (self.chunks.len() * CHUNK * self.record + self.table.len() * 8) as u64
+    }
+
+    fn record_at(&self, index: u32) -> &[u8] {
+        let i = index as usize;
+        let at = (i & (CHUNK - 1)) * self.record;
+        &self.chunks[i >> CHUNK_BITS][at..at + self.record]
+    }
+
+    /// The marking stored at `index`.
+    pub fn get(&self, index: u32) -> &[u8] {
+        &self.record_at(index)[..self.width]
+    }
+
+    /// The parent id recorded with `index` ([`NO_PARENT`] for the first).
+    pub fn parent(&self, index: u32) -> u32 {
+        let r = self.record_at(index);
+        u32::from_le_bytes([
+            r[self.width],
+            r[self.width + 1],
+            r[self.width + 2],
+            r[self.width + 3],
+        ])
+    }
+
+    /// The index of `marking` (with hash `hash`) if stored.
+    pub fn lookup(&self, marking: &[u8], hash: u64) -> Option<u32> {
+        let h = hash as u32;
+        let mask = self.table.len() - 1;
+        let mut slot = (h >> self.shift) as usize;
+        loop {
+            let e = self.table[slot];
+            if e == 0 {
+                return None;
+            }
+            if (e >> 32) as u32 == h && self.get(e as u32 - 1) == marking {
+                return Some(e as u32 - 1);
+            }
+            slot = (slot + 1) & mask;
+        }
+    }
+
+    /// Stores `marking` (with hash `hash`, reached from `parent`) unless
+    /// already there.
+    #[inline]
+    pub fn insert(&mut self, marking: &[u8], hash: u64, parent: u32) -> Inserted {
+        let h = hash as u32;
+        let mask = self.table.len() - 1;
+        let mut slot = (h >> self.shift) as usize;
+        loop {
+            let e = self.table[slot];
+            if e == 0 {
+                break;
+            }
+            if (e >> 32) as u32 == h && self.get(e as u32 - 1) == marking {
+                return Inserted::Old(e as u32 - 1);
+            }
+            slot = (slot + 1) & mask;
+        }
+        if self.len >= self.limit {
+            return Inserted::Full;
+        }
+        let index = self.len;
+        let i = index as usize;
+        if i >> CHUNK_BITS == self.chunks.len() {
+            self.chunks
+                .push(vec![0u8; CHUNK * self.record].into_boxed_slice());
+        }
+        let at = (i & (CHUNK - 1)) * self.record;
+        let rec = &mut self.chunks[i >> CHUNK_BITS][at..at + self.record];
+        rec[..self.width].copy_from_slice(marking);
+        rec[self.width..].copy_from_slice(&parent.to_le_bytes());
+        self.table[slot] = (u64::from(h) << 32) | u64::from(index + 1);
+        self.len += 1;
+        if self.len as usize * 4 >= self.table.len() * 3 {
+            self.grow();
+        }
+        Inserted::New(index)
+    }
+
+    fn grow(&mut self) {
+        let bits = 33 - self.shift;
+        let mut table = vec![0u64; 1 << bits];
+        let shift = 32 - bits;
+        let mask = table.len() - 1;
+        for &e in &self.table {
+            if e != 0 {
+                let mut slot = (((e >> 32) as u32) >> shift) as usize;
+                while table[slot] != 0 {
+                    slot = (slot + 1) & mask;
+                }
+                table[slot] = e;
+            }
+        }
+        self.table = table;
+        self.shift = shift;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stores_finds_and_grows() {
+        let mut s = Store::new(3, 1_000_000);
+        for i in 0u32..100_000 {
+            let m = i.to_le_bytes();
+            // a poor hash on purpose: pairs of equal hashes
+            let h = u64::from(i % 50_000).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            assert_eq!(s.insert(&m[..3], h, i.wrapping_sub(1)), Inserted::New(i));
+        }
+        assert_eq!(s.len(), 100_000);
+        for i in (0u32..100_000).step_by(7) {
+            let m = i.to_le_bytes();
+            let h = u64::from(i % 50_000).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            assert_eq!(s.lookup(&m[..3], h), Some(i));
+            assert_eq!(s.insert(&m[..3], h, 5), Inserted::Old(i));
+            assert_eq!(s.get(i), &m[..3]);
+            assert_eq!(s.parent(i), i.wrapping_sub(1));
+        }
+        assert_eq!(s.lookup(&[1, 2, 200], 77), None);
+    }
+
+    #[test]
+    fn the_limit_is_kept() {
+        let mut s = Store::new(1, 2);
+        assert_eq!(s.insert(&[1], 1, NO_PARENT), Inserted::New(0));
+        assert_eq!(s.insert(&[2], 2, 0), Inserted::New(1));
+        assert_eq!(s.insert(&[3], 3, 0), Inserted::Full);
+        assert_eq!(s.insert(&[2], 2, 0), Inserted::Old(1));
+    }
+}

@@ -1,0 +1,112 @@
+use super::*;
+use crate::verify::reference::explore_reference;
+
+fn check_against_reference(net: &PtNet) {
+    let reference = explore_reference(net, 1_000_000).expect("small net");
+    for threads in [1, 2, 3] {
+        let e = explore(
+            net,
+            &Options {
+                threads,
+                ..Options::default()
+            },
+        );
+        let s = &e.summary;
+        assert_eq!(s.completion, Completion::Complete);
+        assert_eq!(
+            (s.states, s.edges, s.dead_markings, s.max_tokens, s.safe),
+            (
+                reference.states,
+                reference.edges,
+                reference.dead_markings,
+                reference.max_tokens,
+                reference.safe
+            ),
+            "threads {threads}"
+        );
+        assert_eq!(
+            e.deadlock_example().map(|p| p.len()),
+            reference.deadlock_depth
+        );
+        assert_eq!(e.unsafe_example().map(|p| p.len()), reference.unsafe_depth);
+    }
+}
+
+/// A cycle of `n` places with one token, plus a sink transition at the end.
+fn ring(n: usize) -> PtNet {
+    let mut net = PtNet::new("ring");
+    let ps: Vec<usize> = (0..n)
+        .map(|i| net.add_place(format!("p{i}"), u32::from(i == 0)))
+        .collect();
+    for i in 0..n {
+        net.add_transition(format!("t{i}"), &[(ps[i], 1)], &[(ps[(i + 1) % n], 1)]);
+    }
+    net
+}
+
+#[test]
+fn a_ring_has_one_loop_and_no_deadlock() {
+    let net = ring(5);
+    check_against_reference(&net);
+    let e = explore(&net, &Options::default());
+    assert_eq!(e.summary.engine, Engine::Bits);
+    let loops = e.loops(10);
+    assert_eq!(loops.cyclic_components, 1);
+    assert_eq!(loops.largest, 5);
+    assert_eq!(loops.listed[0].prefix, Vec::<usize>::new());
+    assert_eq!(
+        e.names(&loops.listed[0].cycle),
+        vec!["t0", "t1", "t2", "t3", "t4"]
+    );
+}
+
+#[test]
+fn an_unsafe_net_is_explored_with_counts() {
+    // a -> t -> b, b twice: t produces into b while b may hold a token.
+    let mut net = PtNet::new("unsafe");
+    let a = net.add_place("a", 1);
+    let b = net.add_place("b", 1);
+    let c = net.add_place("c", 0);
+    net.add_transition("fill", &[(a, 1)], &[(b, 1)]);
+    net.add_transition("drain", &[(b, 2)], &[(c, 3)]);
+    check_against_reference(&net);
+    let e = explore(&net, &Options::default());
+    assert_eq!(e.summary.engine, Engine::Counts8);
+    assert!(!e.summary.safe);
+    assert_eq!(e.summary.max_tokens, 3);
+    assert_eq!(e.names(&e.unsafe_example().unwrap()), vec!["fill"]);
+    assert_eq!(
+        e.names(&e.deadlock_example().unwrap()),
+        vec!["fill", "drain"]
+    );
+}
+
+#[test]
+fn wide_counts_and_the_limits() {
+    // 300 tokens in a place: needs 16-bit counts.
+    let mut net = PtNet::new("wide");
+    let a = net.add_place("a", 0);
+    let b = net.add_place("b", 0);
+    let _ = net.add_place("src", 1);
+    net.add_transition("gen", &[(2, 1)], &[(2, 1), (a, 1)]);
+    net.add_transition("stop", &[(2, 1), (a, 300)], &[(b, 1)]);
+    // unbounded: the state limit stops it
+    let e = explore(
+        &net,
+        &Options {
+            max_states: 1000,
+            ..Options::default()
+        },
+    );
+    assert_eq!(e.summary.completion, Completion::StateLimit);
+    assert_eq!(e.summary.states, 1000);
+    assert_eq!(e.summary.engine, Engine::Counts16);
+    assert!(!e.summary.safe);
+    // a count past u32
+    let mut net = PtNet::new("huge");
+    let a = net.add_place("a", u32::MAX - 1);
+    net.add_transition("grow", &[(a, 1)], &[(a, 3)]);
+    let e = explore(&net, &Options::default());
+    assert_eq!(e.summary.completion, Completion::TokenLimit);
+    assert_eq!(e.summary.engine, Engine::Counts32);
+}
