@@ -10,11 +10,22 @@
 //! events are inputs, effects are outputs, and the same inputs give the same
 //! outputs bit for bit. The ground mirror depends on it.
 
+pub mod action;
 pub mod event;
+pub mod expr;
+pub mod load;
+pub mod model;
+pub mod player;
+pub mod script;
+pub mod source;
 pub mod time;
 pub mod value;
+pub mod verbs;
 pub mod verify;
 
 pub use event::{Category, Event};
+pub use load::{load, load_with};
+pub use model::Project;
+pub use player::{Effect, Outcome, Player};
 pub use time::Micros;
 pub use value::{Params, Value};

@@ -13,8 +13,8 @@ use crate::action::{self, ActionSyntax};
 use crate::event::Category;
 use crate::expr::{self, Context, Expr};
 use crate::model::{
-    Action, Args, EventDecl, Function, Global, Guard, Limits, Net, NetId, Place, PlaceRef,
-    Program, Project, Transition,
+    Action, Args, EventDecl, Function, Global, Guard, Limits, Net, NetId, Place, PlaceRef, Program,
+    Project, Transition,
 };
 use crate::source::{LoadError, Problem, SourceFile, Sources};
 use crate::time::parse_duration;
@@ -35,11 +35,11 @@ struct RawProject {
     #[serde(default, rename = "net")]
     nets: Vec<RawNetEntry>,
     #[serde(default)]
-    globals: BTreeMap<Spanned<String>, Spanned<RawInitial>>,
+    globals: BTreeMap<Spanned<String>, Spanned<toml::Value>>,
     #[serde(default)]
     programs: BTreeMap<Spanned<String>, RawProgram>,
     #[serde(default)]
-    events: BTreeMap<Spanned<String>, RawEventDecl>,
+    events: BTreeMap<Spanned<String>, Spanned<toml::Value>>,
     limits: Option<RawLimits>,
     /// Settings of the gateway (link, recording…): read by the gateway.
     #[allow(dead_code)]
@@ -52,13 +52,6 @@ struct RawNetEntry {
     file: Spanned<String>,
     #[serde(default)]
     active: bool,
-}
-
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum RawInitial {
-    Bool(bool),
-    Int(i64),
 }
 
 #[derive(Deserialize)]
@@ -77,22 +70,6 @@ struct RawFunction {
     args: Vec<Spanned<String>>,
     #[serde(default)]
     returns: Vec<Spanned<String>>,
-}
-
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum RawEventDecl {
-    Category(Spanned<String>),
-    Full(RawEventTable),
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawEventTable {
-    category: Option<Spanned<String>>,
-    params: Option<Vec<Spanned<String>>>,
-    #[allow(dead_code)]
-    description: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -245,14 +222,22 @@ impl Loader {
         for (name, initial) in &raw.globals {
             self.name_check(&pfile, name, "global place");
             let initial = match initial.get_ref() {
-                RawInitial::Bool(b) => *b,
-                RawInitial::Int(0) => false,
-                RawInitial::Int(1) => true,
-                RawInitial::Int(n) => {
+                toml::Value::Boolean(b) => *b,
+                toml::Value::Integer(0) => false,
+                toml::Value::Integer(1) => true,
+                toml::Value::Integer(n) => {
                     self.problem(
                         &pfile,
                         initial.span(),
                         format!("global place `{}` starts with {n} tokens: nets are safe, write 0 or 1 (or false/true)", name.get_ref()),
+                    );
+                    false
+                }
+                other => {
+                    self.problem(
+                        &pfile,
+                        initial.span(),
+                        format!("global place `{}`: expected true or false (its initial marking), found a {}", name.get_ref(), other.type_str()),
                     );
                     false
                 }
@@ -273,7 +258,11 @@ impl Loader {
         for (name, raw_program) in &raw.programs {
             self.name_check(&pfile, name, "program");
             if name.get_ref() == "command" {
-                self.problem(&pfile, name.span(), "`command` is reserved for vehicle commands: choose another program name");
+                self.problem(
+                    &pfile,
+                    name.span(),
+                    "`command` is reserved for vehicle commands: choose another program name",
+                );
             }
             let mut functions = Vec::new();
             for (fname, f) in &raw_program.functions {
@@ -282,7 +271,16 @@ impl Loader {
                     let mut seen: Vec<&str> = Vec::new();
                     for n in names {
                         if seen.contains(&n.get_ref().as_str()) {
-                            self.problem(&pfile, n.span(), format!("duplicate {what} `{}` of {}.{}", n.get_ref(), name.get_ref(), fname.get_ref()));
+                            self.problem(
+                                &pfile,
+                                n.span(),
+                                format!(
+                                    "duplicate {what} `{}` of {}.{}",
+                                    n.get_ref(),
+                                    name.get_ref(),
+                                    fname.get_ref()
+                                ),
+                            );
                         }
                         seen.push(n.get_ref());
                         self.name_check(&pfile, n, what);
@@ -305,27 +303,49 @@ impl Loader {
         let mut events: BTreeMap<String, EventDecl> = catalog.clone();
         for (name, decl) in &raw.events {
             if !is_event_name(name.get_ref()) {
-                self.problem(&pfile, name.span(), format!("invalid event name `{}`", name.get_ref()));
+                self.problem(
+                    &pfile,
+                    name.span(),
+                    format!("invalid event name `{}`", name.get_ref()),
+                );
             }
-            let (category, params) = match decl {
-                RawEventDecl::Category(c) => (Some(c), None),
-                RawEventDecl::Full(t) => (t.category.as_ref(), t.params.as_ref()),
-            };
             let entry = events.entry(name.get_ref().clone()).or_default();
+            let span = decl.span();
+            let (category, params) = match decl.get_ref() {
+                toml::Value::String(c) => (Some(c.as_str()), None),
+                toml::Value::Table(t) => {
+                    let mut category = None;
+                    let mut params = None;
+                    for (key, value) in t {
+                        match (key.as_str(), value) {
+                            ("category", toml::Value::String(c)) => category = Some(c.as_str()),
+                            ("params", toml::Value::Array(a)) => params = Some(a),
+                            ("description", toml::Value::String(_)) => {}
+                            ("category" | "params" | "description", v) => self.problem(&pfile, span.clone(), format!("event `{}`: `{key}` cannot be a {}", name.get_ref(), v.type_str())),
+                            _ => self.problem(&pfile, span.clone(), format!("event `{}`: unknown key `{key}` (expected category, params, description)", name.get_ref())),
+                        }
+                    }
+                    (category, params)
+                }
+                other => {
+                    self.problem(&pfile, span.clone(), format!("event `{}`: expected a category or a table {{ category, params }}, found a {}", name.get_ref(), other.type_str()));
+                    (None, None)
+                }
+            };
             if let Some(c) = category {
-                match c.get_ref().parse::<Category>() {
+                match c.parse::<Category>() {
                     Ok(c) => entry.category = Some(c),
-                    Err(e) => self.problem(&pfile, c.span(), e.to_string()),
+                    Err(e) => self.problem(&pfile, span.clone(), e.to_string()),
                 }
             }
             if let Some(params) = params {
-                let mut seen = Vec::new();
+                let mut seen: Vec<String> = Vec::new();
                 for p in params {
-                    self.name_check(&pfile, p, "parameter");
-                    if seen.contains(p.get_ref()) {
-                        self.problem(&pfile, p.span(), format!("duplicate parameter `{}` of event `{}`", p.get_ref(), name.get_ref()));
+                    match p.as_str() {
+                        Some(p) if is_name(p) && !seen.iter().any(|s| s == p) => seen.push(p.to_owned()),
+                        Some(p) if is_name(p) => self.problem(&pfile, span.clone(), format!("duplicate parameter `{p}` of event `{}`", name.get_ref())),
+                        _ => self.problem(&pfile, span.clone(), format!("event `{}`: parameter names are strings of letters, digits and `_`", name.get_ref())),
                     }
-                    seen.push(p.get_ref().clone());
                 }
                 entry.params = Some(seen);
             }
@@ -352,12 +372,20 @@ impl Loader {
                 }
                 Err(reason) => {
                     nets_complete = false;
-                    self.problem(&pfile, entry.file.span(), format!("cannot read net file `{path}`: {reason}"));
+                    self.problem(
+                        &pfile,
+                        entry.file.span(),
+                        format!("cannot read net file `{path}`: {reason}"),
+                    );
                 }
             }
         }
         if raw.nets.is_empty() {
-            self.problem(&pfile, 0..0, "the project has no nets: add [[net]] tables with file = \"NAME.toml\"");
+            self.problem(
+                &pfile,
+                0..0,
+                "the project has no nets: add [[net]] tables with file = \"NAME.toml\"",
+            );
         }
 
         let mut net_names: HashMap<String, NetId> = HashMap::new();
@@ -369,7 +397,11 @@ impl Loader {
                 self.problem(
                     file,
                     net.name.span(),
-                    format!("duplicate net `{}` (first declared at {}:{l}:{c})", net.name.get_ref(), ffile.name),
+                    format!(
+                        "duplicate net `{}` (first declared at {}:{l}:{c})",
+                        net.name.get_ref(),
+                        ffile.name
+                    ),
                 );
             } else {
                 net_names.insert(net.name.get_ref().clone(), i);
@@ -379,7 +411,11 @@ impl Loader {
         // A first pass gives every net its places and timers, so that the
         // flat numbering exists before transitions are compiled.
         let mut project = Project {
-            name: raw.name.as_ref().map(|n| n.get_ref().clone()).unwrap_or_default(),
+            name: raw
+                .name
+                .as_ref()
+                .map(|n| n.get_ref().clone())
+                .unwrap_or_default(),
             description: raw.description.clone().unwrap_or_default(),
             nets: Vec::new(),
             globals,
@@ -433,7 +469,8 @@ impl Loader {
         if !nets_complete {
             // References to nets that failed to parse would only add noise;
             // the parse problems are already reported.
-            self.problems.retain(|p| !p.message.starts_with("unknown net "));
+            self.problems
+                .retain(|p| !p.message.starts_with("unknown net "));
         }
         Some(project)
     }
@@ -460,13 +497,28 @@ impl Loader {
             for p in list {
                 match places.iter_mut().find(|q| q.name == *p.get_ref()) {
                     Some(place) => {
-                        let flag = if what == "initial" { &mut place.initial } else { &mut place.is_final };
+                        let flag = if what == "initial" {
+                            &mut place.initial
+                        } else {
+                            &mut place.is_final
+                        };
                         if *flag {
-                            self.problem(file, p.span(), format!("place `{}` is listed twice in `{what}`", p.get_ref()));
+                            self.problem(
+                                file,
+                                p.span(),
+                                format!("place `{}` is listed twice in `{what}`", p.get_ref()),
+                            );
                         }
                         *flag = true;
                     }
-                    None => self.problem(file, p.span(), format!("unknown place `{}` in `{what}`: it is not in `places`", p.get_ref())),
+                    None => self.problem(
+                        file,
+                        p.span(),
+                        format!(
+                            "unknown place `{}` in `{what}`: it is not in `places`",
+                            p.get_ref()
+                        ),
+                    ),
                 }
             }
         }
@@ -499,18 +551,37 @@ impl Loader {
             self.name_check(file, &t.name, "transition");
             if let Some(&first) = seen.get(t.name.get_ref()) {
                 let (l, c) = file.line_col(first);
-                self.problem(file, t.name.span(), format!("duplicate transition `{}` (first declared at {}:{l}:{c})", t.name.get_ref(), file.name));
+                self.problem(
+                    file,
+                    t.name.span(),
+                    format!(
+                        "duplicate transition `{}` (first declared at {}:{l}:{c})",
+                        t.name.get_ref(),
+                        file.name
+                    ),
+                );
             } else {
                 seen.insert(t.name.get_ref().clone(), t.name.span().start);
             }
             let inputs = self.arcs(scope, net, &t.from, "from");
             let outputs = self.arcs(scope, net, &t.to, "to");
             if t.from.is_empty() {
-                self.problem(file, t.name.span(), format!("transition `{}` has no input place: give it `from = [...]`", t.name.get_ref()));
+                self.problem(
+                    file,
+                    t.name.span(),
+                    format!(
+                        "transition `{}` has no input place: give it `from = [...]`",
+                        t.name.get_ref()
+                    ),
+                );
             }
             let event = match &t.on {
                 Some(on) if !is_event_name(on.get_ref()) => {
-                    self.problem(file, on.span(), format!("invalid event name `{}`", on.get_ref()));
+                    self.problem(
+                        file,
+                        on.span(),
+                        format!("invalid event name `{}`", on.get_ref()),
+                    );
                     None
                 }
                 Some(on) => Some(on.get_ref().clone()),
@@ -561,7 +632,10 @@ impl Loader {
                 }
             }
             let flat_inputs = inputs.iter().map(|p| scope.project.flat(net, *p)).collect();
-            let flat_outputs = outputs.iter().map(|p| scope.project.flat(net, *p)).collect();
+            let flat_outputs = outputs
+                .iter()
+                .map(|p| scope.project.flat(net, *p))
+                .collect();
             out.push(Transition {
                 name: t.name.get_ref().clone(),
                 inputs,
@@ -576,7 +650,13 @@ impl Loader {
         out
     }
 
-    fn arcs(&mut self, scope: &NetScope, net: NetId, names: &[Spanned<String>], side: &str) -> Vec<PlaceRef> {
+    fn arcs(
+        &mut self,
+        scope: &NetScope,
+        net: NetId,
+        names: &[Spanned<String>],
+        side: &str,
+    ) -> Vec<PlaceRef> {
         let file = scope.file;
         let mut out: Vec<PlaceRef> = Vec::new();
         for n in names {
@@ -589,7 +669,11 @@ impl Loader {
                     }
                 }
             } else {
-                match scope.project.nets[net].places.iter().position(|p| p.name == *n.get_ref()) {
+                match scope.project.nets[net]
+                    .places
+                    .iter()
+                    .position(|p| p.name == *n.get_ref())
+                {
                     Some(p) => PlaceRef::Local(p),
                     None => {
                         let hint = if scope.global_names.contains_key(n.get_ref()) {
@@ -597,13 +681,28 @@ impl Loader {
                         } else {
                             String::new()
                         };
-                        self.problem(file, n.span(), format!("unknown place `{}` in `{side}` of net `{}`{hint}", n.get_ref(), scope.project.nets[net].name));
+                        self.problem(
+                            file,
+                            n.span(),
+                            format!(
+                                "unknown place `{}` in `{side}` of net `{}`{hint}",
+                                n.get_ref(),
+                                scope.project.nets[net].name
+                            ),
+                        );
                         continue;
                     }
                 }
             };
             if out.contains(&place) {
-                self.problem(file, n.span(), format!("place `{}` appears twice in `{side}`: arcs are unary", n.get_ref()));
+                self.problem(
+                    file,
+                    n.span(),
+                    format!(
+                        "place `{}` appears twice in `{side}`: arcs are unary",
+                        n.get_ref()
+                    ),
+                );
                 continue;
             }
             out.push(place);
@@ -611,13 +710,26 @@ impl Loader {
         out
     }
 
-    fn check_params(&mut self, file: &SourceFile, text: &Spanned<String>, e: &Expr, ctx: &TriggerCtx) {
+    fn check_params(
+        &mut self,
+        file: &SourceFile,
+        text: &Spanned<String>,
+        e: &Expr,
+        ctx: &TriggerCtx,
+    ) {
         let mut read = Vec::new();
         e.params(&mut read);
         self.check_param_list(file, text, &read, ctx, 0);
     }
 
-    fn check_param_list(&mut self, file: &SourceFile, text: &Spanned<String>, read: &[(String, usize)], ctx: &TriggerCtx, base: usize) {
+    fn check_param_list(
+        &mut self,
+        file: &SourceFile,
+        text: &Spanned<String>,
+        read: &[(String, usize)],
+        ctx: &TriggerCtx,
+        base: usize,
+    ) {
         for (name, at) in read {
             let at = file.inside_string(&text.span(), text.get_ref(), base + at);
             let message = match (ctx.event, ctx.params) {
@@ -630,7 +742,13 @@ impl Loader {
         }
     }
 
-    fn action(&mut self, scope: &NetScope, net: NetId, text: &Spanned<String>, ctx: &TriggerCtx) -> Option<Action> {
+    fn action(
+        &mut self,
+        scope: &NetScope,
+        net: NetId,
+        text: &Spanned<String>,
+        ctx: &TriggerCtx,
+    ) -> Option<Action> {
         let file = scope.file;
         let at = |i: usize| {
             let a = file.inside_string(&text.span(), text.get_ref(), i);
@@ -668,18 +786,38 @@ impl Loader {
             }
             ActionSyntax::Emit { event, args } => {
                 if !is_event_name(&event.0) {
-                    self.problem(file, name_span(&event), format!("invalid event name `{}`", event.0));
+                    self.problem(
+                        file,
+                        name_span(&event),
+                        format!("invalid event name `{}`", event.0),
+                    );
                     return None;
                 }
-                if let Some(params) = scope.project.events.get(&event.0).and_then(|d| d.params.as_ref()) {
+                if let Some(params) = scope
+                    .project
+                    .events
+                    .get(&event.0)
+                    .and_then(|d| d.params.as_ref())
+                {
                     for (k, _) in &args {
                         if !params.contains(k) {
-                            self.problem(file, name_span(&event), format!("event `{}` has no parameter `{k}` (it has: {})", event.0, list(params)));
+                            self.problem(
+                                file,
+                                name_span(&event),
+                                format!(
+                                    "event `{}` has no parameter `{k}` (it has: {})",
+                                    event.0,
+                                    list(params)
+                                ),
+                            );
                         }
                     }
                 }
                 check_args(self, &args);
-                Action::Emit { event: event.0, args }
+                Action::Emit {
+                    event: event.0,
+                    args,
+                }
             }
             ActionSyntax::Timer { name, after } => {
                 let micros = match parse_duration(&after.0) {
@@ -689,59 +827,140 @@ impl Loader {
                         return None;
                     }
                 };
-                let timer = scope.project.nets[net].timers.iter().position(|t| *t == name.0)?;
-                Action::Timer { timer, after: micros }
+                let timer = scope.project.nets[net]
+                    .timers
+                    .iter()
+                    .position(|t| *t == name.0)?;
+                Action::Timer {
+                    timer,
+                    after: micros,
+                }
             }
             ActionSyntax::Cancel(name) => {
-                match scope.project.nets[net].timers.iter().position(|t| *t == name.0) {
+                match scope.project.nets[net]
+                    .timers
+                    .iter()
+                    .position(|t| *t == name.0)
+                {
                     Some(timer) => Action::Cancel { timer },
                     None => {
-                        self.problem(file, name_span(&name), format!("unknown timer `{}`: net `{}` never starts it", name.0, scope.project.nets[net].name));
+                        self.problem(
+                            file,
+                            name_span(&name),
+                            format!(
+                                "unknown timer `{}`: net `{}` never starts it",
+                                name.0, scope.project.nets[net].name
+                            ),
+                        );
                         return None;
                     }
                 }
             }
-            ActionSyntax::Call { program, function, args } => {
+            ActionSyntax::Call {
+                program,
+                function,
+                args,
+            } => {
                 let Some(p) = scope.programs.iter().position(|p| p.name == program.0) else {
-                    self.problem(file, name_span(&program), format!("unknown program `{}`: declare it in project.toml [programs]", program.0));
+                    self.problem(
+                        file,
+                        name_span(&program),
+                        format!(
+                            "unknown program `{}`: declare it in project.toml [programs]",
+                            program.0
+                        ),
+                    );
                     return None;
                 };
                 let prog = &scope.programs[p];
                 let Some(f) = prog.functions.iter().position(|f| f.name == function.0) else {
-                    let names: Vec<String> = prog.functions.iter().map(|f| f.name.clone()).collect();
-                    self.problem(file, name_span(&function), format!("unknown function `{}` of program `{}` (it has: {})", function.0, program.0, list(&names)));
+                    let names: Vec<String> =
+                        prog.functions.iter().map(|f| f.name.clone()).collect();
+                    self.problem(
+                        file,
+                        name_span(&function),
+                        format!(
+                            "unknown function `{}` of program `{}` (it has: {})",
+                            function.0,
+                            program.0,
+                            list(&names)
+                        ),
+                    );
                     return None;
                 };
                 let func = &prog.functions[f];
                 for (k, _) in &args {
                     if !func.args.contains(k) {
-                        self.problem(file, name_span(&function), format!("{}.{} takes no argument `{k}` (it takes: {})", program.0, function.0, list(&func.args)));
+                        self.problem(
+                            file,
+                            name_span(&function),
+                            format!(
+                                "{}.{} takes no argument `{k}` (it takes: {})",
+                                program.0,
+                                function.0,
+                                list(&func.args)
+                            ),
+                        );
                     }
                 }
                 for k in &func.args {
                     if !args.iter().any(|(a, _)| a == k) {
-                        self.problem(file, name_span(&function), format!("{}.{} needs argument `{k}`", program.0, function.0));
+                        self.problem(
+                            file,
+                            name_span(&function),
+                            format!("{}.{} needs argument `{k}`", program.0, function.0),
+                        );
                     }
                 }
                 check_args(self, &args);
-                Action::Call { program: p, function: f, args }
+                Action::Call {
+                    program: p,
+                    function: f,
+                    args,
+                }
             }
             ActionSyntax::Command { verb, args } => {
                 let Some(v) = verbs::verb(&verb.0) else {
-                    let names: Vec<String> = verbs::VERBS.iter().map(|v| v.name.to_owned()).collect();
-                    self.problem(file, name_span(&verb), format!("unknown command verb `{}` (known: {})", verb.0, list(&names)));
+                    let names: Vec<String> =
+                        verbs::VERBS.iter().map(|v| v.name.to_owned()).collect();
+                    self.problem(
+                        file,
+                        name_span(&verb),
+                        format!(
+                            "unknown command verb `{}` (known: {})",
+                            verb.0,
+                            list(&names)
+                        ),
+                    );
                     return None;
                 };
                 for (k, _) in &args {
                     if !v.required.contains(&k.as_str()) && !v.optional.contains(&k.as_str()) {
-                        let mut known: Vec<String> = v.required.iter().chain(v.optional).map(|s| s.to_string()).collect();
+                        let mut known: Vec<String> = v
+                            .required
+                            .iter()
+                            .chain(v.optional)
+                            .map(|s| s.to_string())
+                            .collect();
                         known.sort();
-                        self.problem(file, name_span(&verb), format!("command `{}` takes no argument `{k}` (it takes: {})", verb.0, list(&known)));
+                        self.problem(
+                            file,
+                            name_span(&verb),
+                            format!(
+                                "command `{}` takes no argument `{k}` (it takes: {})",
+                                verb.0,
+                                list(&known)
+                            ),
+                        );
                     }
                 }
                 for k in v.required {
                     if !args.iter().any(|(a, _)| a == k) {
-                        self.problem(file, name_span(&verb), format!("command `{}` needs argument `{k}`", verb.0));
+                        self.problem(
+                            file,
+                            name_span(&verb),
+                            format!("command `{}` needs argument `{k}`", verb.0),
+                        );
                     }
                 }
                 check_args(self, &args);

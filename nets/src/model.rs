@@ -100,11 +100,26 @@ pub struct Guard {
 pub enum Action {
     Activate(NetId),
     Deactivate(NetId),
-    Emit { event: String, args: Args },
-    Timer { timer: usize, after: Micros },
-    Cancel { timer: usize },
-    Call { program: usize, function: usize, args: Args },
-    Command { verb: String, args: Args },
+    Emit {
+        event: String,
+        args: Args,
+    },
+    Timer {
+        timer: usize,
+        after: Micros,
+    },
+    Cancel {
+        timer: usize,
+    },
+    Call {
+        program: usize,
+        function: usize,
+        args: Args,
+    },
+    Command {
+        verb: String,
+        args: Args,
+    },
 }
 
 /// Named arguments: literal values or the triggering event's parameters.
@@ -201,7 +216,12 @@ impl Project {
             names::COMMAND_OK => return Some(vec!["verb".into()]),
             names::COMMAND_FAILED => return Some(vec!["reason".into(), "verb".into()]),
             names::NET_FAULT => {
-                return Some(vec!["net".into(), "place".into(), "reason".into(), "transition".into()])
+                return Some(vec![
+                    "net".into(),
+                    "place".into(),
+                    "reason".into(),
+                    "transition".into(),
+                ])
             }
             _ => {}
         }

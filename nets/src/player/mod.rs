@@ -1,0 +1,887 @@
+//! The player: a pure, deterministic state machine that fires the
+//! event-triggered transitions of a project's nets and produces effects.
+//!
+//! Feed it [`Player::handle`] (an event), [`Player::advance`] (time passing)
+//! and [`Player::result`] (a call's or command's outcome); drain
+//! [`Player::effects`] after each. It never reads a clock: the same inputs
+//! give the same effects and the same [`Player::digest`], bit for bit.
+//!
+//! The rules it keeps are written in `docs/nets.md` ("How the player
+//! plays"); each has a test in `nets/tests/player.rs`.
+
+mod digest;
+mod effect;
+mod render;
+mod state;
+
+use std::sync::Arc;
+
+pub use digest::{canonical_bytes, Digest, DIGEST_ALGORITHM};
+pub use effect::{DropReason, Effect, Fault, Marked};
+pub use render::{effect_json, effect_text};
+pub use state::{Pending, PendingKind, Queued, State, Timer};
+
+use crate::event::{Category, Event};
+use crate::model::{names, Action, NetId, PlaceRef, Project, TransitionId};
+use crate::time::Micros;
+use crate::value::{Params, Value};
+
+/// The outcome of a call or command, given back to the player.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// Done, with the result's parameters.
+    Done(Params),
+    /// Failed, with a reason.
+    Failed(String),
+}
+
+/// Why a snapshot cannot be restored on a project.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum RestoreError {
+    #[error("the snapshot does not fit this project: {0}")]
+    Mismatch(String),
+}
+
+/// The player of one project.
+#[derive(Debug, Clone)]
+pub struct Player {
+    project: Arc<Project>,
+    state: State,
+    effects: Vec<Effect>,
+    /// Scratch space reused across inputs (never part of the state).
+    candidates: Vec<(NetId, TransitionId)>,
+    consumed: Vec<u64>,
+    /// Something fired or was activated since the last immediate pass.
+    changed: bool,
+}
+
+enum Firing {
+    Fired,
+    Rejected,
+}
+
+impl Player {
+    /// Starts a project at `now`: global places get their initial marking,
+    /// the nets marked `active` are activated, and immediate transitions
+    /// fire.
+    pub fn start(project: Arc<Project>, now: Micros) -> Player {
+        let words = project.place_count.div_ceil(64).max(1);
+        let state = State {
+            now,
+            marking: vec![0; words],
+            active: vec![false; project.nets.len()],
+            timers: Vec::new(),
+            queue: Default::default(),
+            lockout: false,
+            pending: Default::default(),
+            next_id: 1,
+            next_timer_seq: 0,
+        };
+        let mut player = Player::with_state(project, state);
+        let project = Arc::clone(&player.project);
+        for (g, global) in project.globals.iter().enumerate() {
+            player.state.set(g, global.initial);
+        }
+        if !project.globals.is_empty() {
+            player.push_marking(now, None);
+        }
+        for (n, net) in project.nets.iter().enumerate() {
+            if net.active_at_start {
+                player.activate(&project, n, now);
+            }
+        }
+        player.immediates(&project, now, false);
+        player.run_queue(&project, now, 1);
+        player
+    }
+
+    fn with_state(project: Arc<Project>, state: State) -> Player {
+        let words = project.place_count.div_ceil(64).max(1);
+        Player {
+            project,
+            state,
+            effects: Vec::new(),
+            candidates: Vec::new(),
+            consumed: vec![0; words],
+            changed: false,
+        }
+    }
+
+    /// Restores a snapshot taken from a player of the same project.
+    pub fn restore(project: Arc<Project>, state: State) -> Result<Player, RestoreError> {
+        let words = project.place_count.div_ceil(64).max(1);
+        let mismatch = |m: String| Err(RestoreError::Mismatch(m));
+        if state.marking.len() != words {
+            return mismatch(format!(
+                "{} marking words, the project needs {words}",
+                state.marking.len()
+            ));
+        }
+        if state.active.len() != project.nets.len() {
+            return mismatch(format!(
+                "{} nets, the project has {}",
+                state.active.len(),
+                project.nets.len()
+            ));
+        }
+        let spare = project.place_count % 64;
+        if spare != 0 && state.marking[words - 1] >> spare != 0 {
+            return mismatch("tokens beyond the project's places".into());
+        }
+        for t in &state.timers {
+            if t.net >= project.nets.len() || t.timer >= project.nets[t.net].timers.len() {
+                return mismatch(format!("timer {} of net {} does not exist", t.timer, t.net));
+            }
+        }
+        for (id, p) in &state.pending {
+            let ok = p.net < project.nets.len()
+                && match &p.kind {
+                    PendingKind::Call { program, function } => project
+                        .programs
+                        .get(*program)
+                        .is_some_and(|pr| *function < pr.functions.len()),
+                    PendingKind::Command { .. } => true,
+                };
+            if !ok || *id >= state.next_id {
+                return mismatch(format!("pending id {id} does not fit the project"));
+            }
+        }
+        if state
+            .queue
+            .iter()
+            .flatten()
+            .any(|q| q.target.is_some_and(|t| t >= project.nets.len()))
+        {
+            return mismatch("a queued event targets a net that does not exist".into());
+        }
+        Ok(Player::with_state(project, state))
+    }
+
+    /// The project played.
+    pub fn project(&self) -> &Arc<Project> {
+        &self.project
+    }
+
+    /// A copy of the whole state.
+    pub fn snapshot(&self) -> State {
+        self.state.clone()
+    }
+
+    /// The state, borrowed.
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// The digest of the whole state (see [`Digest`]).
+    pub fn digest(&self) -> Digest {
+        digest::digest(&self.state)
+    }
+
+    /// The effects produced since the last drain, in order.
+    #[must_use = "effects are what the player asks the world to do"]
+    pub fn effects(&mut self) -> std::vec::Drain<'_, Effect> {
+        self.effects.drain(..)
+    }
+
+    /// The earliest timer deadline, if a timer runs: call [`Player::advance`]
+    /// then.
+    pub fn next_deadline(&self) -> Option<Micros> {
+        self.state.timers.first().map(|t| t.deadline)
+    }
+
+    /// Whether the catastrophic lockout is on.
+    pub fn locked_out(&self) -> bool {
+        self.state.lockout
+    }
+
+    /// Whether a net is active.
+    pub fn is_active(&self, net: NetId) -> bool {
+        self.state.active[net]
+    }
+
+    /// Whether a place of a net is marked.
+    pub fn is_marked(&self, net: NetId, place: PlaceRef) -> bool {
+        self.state.marked(self.project.flat(net, place))
+    }
+
+    /// Lets time pass to `now`: every timer whose deadline is ≤ now fires, in
+    /// deadline order (ties in start order), each handled at its deadline.
+    pub fn advance(&mut self, now: Micros) {
+        let project = Arc::clone(&self.project);
+        self.expire_timers(&project, now);
+        self.state.now = self.state.now.max(now);
+    }
+
+    /// Handles one occurrence of an event at `now` (after the timers due by
+    /// then), and runs the consequences to completion. The project's declared
+    /// category for the event, if any, replaces the event's own.
+    pub fn handle(&mut self, event: &Event, now: Micros) {
+        let project = Arc::clone(&self.project);
+        self.expire_timers(&project, now);
+        let now = self.state.now.max(now);
+        self.state.now = now;
+        let category = project
+            .declared_category(&event.name)
+            .unwrap_or(event.category);
+        if let Err(reason) = self.occur(&project, &event.name, category, &event.params, None, now) {
+            self.effects.push(Effect::Dropped {
+                time: now,
+                event: Event {
+                    name: event.name.clone(),
+                    category,
+                    params: event.params.clone(),
+                },
+                reason,
+            });
+        }
+        let tainted = category == Category::Catastrophic;
+        self.immediates(&project, now, tainted);
+        self.run_queue(&project, now, 1);
+    }
+
+    /// Gives back the outcome of call or command `id` at `now`. It becomes
+    /// an event for the net that issued it: `PROGRAM.FUNCTION.done {…}` /
+    /// `PROGRAM.FUNCTION.failed {reason}`, `command.ok {verb}` /
+    /// `command.failed {verb, reason}`.
+    pub fn result(&mut self, id: u64, outcome: Outcome, now: Micros) {
+        let project = Arc::clone(&self.project);
+        self.expire_timers(&project, now);
+        let now = self.state.now.max(now);
+        self.state.now = now;
+        let Some(pending) = self.state.pending.remove(&id) else {
+            self.effects.push(Effect::LateResult { time: now, id });
+            return;
+        };
+        let (name, params) = match (&pending.kind, outcome) {
+            (PendingKind::Call { program, function }, outcome) => {
+                let prog = &project.programs[*program];
+                let base = format!("{}.{}", prog.name, prog.functions[*function].name);
+                match outcome {
+                    Outcome::Done(params) => (format!("{base}.{}", names::DONE), params),
+                    Outcome::Failed(reason) => (
+                        format!("{base}.{}", names::FAILED),
+                        Params::from([("reason".to_owned(), Value::Str(reason))]),
+                    ),
+                }
+            }
+            (PendingKind::Command { verb }, Outcome::Done(mut params)) => {
+                params.insert("verb".into(), Value::Str(verb.clone()));
+                (names::COMMAND_OK.to_owned(), params)
+            }
+            (PendingKind::Command { verb }, Outcome::Failed(reason)) => (
+                names::COMMAND_FAILED.to_owned(),
+                Params::from([
+                    ("reason".to_owned(), Value::Str(reason)),
+                    ("verb".to_owned(), Value::Str(verb.clone())),
+                ]),
+            ),
+        };
+        let category = if pending.catastrophic {
+            Category::Catastrophic
+        } else {
+            project
+                .declared_category(&name)
+                .unwrap_or(Category::Nominal)
+        };
+        self.state.push(Queued {
+            event: Event {
+                name,
+                category,
+                params,
+            },
+            target: Some(pending.net),
+        });
+        self.run_queue(&project, now, 0);
+    }
+
+    fn expire_timers(&mut self, project: &Project, now: Micros) {
+        while let Some(first) = self.state.timers.first() {
+            if first.deadline > now {
+                break;
+            }
+            let timer = self.state.timers.remove(0);
+            let time = self.state.now.max(timer.deadline);
+            self.state.now = time;
+            self.effects.push(Effect::TimerExpired {
+                time,
+                net: timer.net,
+                timer: timer.timer,
+            });
+            let name = project.nets[timer.net].timers[timer.timer].clone();
+            let category = if timer.catastrophic {
+                Category::Catastrophic
+            } else {
+                project
+                    .declared_category(&name)
+                    .unwrap_or(Category::Nominal)
+            };
+            self.state.push(Queued {
+                event: Event {
+                    name,
+                    category,
+                    params: Params::new(),
+                },
+                target: Some(timer.net),
+            });
+            self.run_queue(project, time, 0);
+        }
+    }
+
+    /// Handles queued events, highest category first, FIFO within one.
+    fn run_queue(&mut self, project: &Project, now: Micros, mut steps: usize) {
+        while let Some(q) = self.state.pop() {
+            steps += 1;
+            if steps > project.limits.steps_per_input {
+                self.effects.push(Effect::Fault {
+                    time: now,
+                    fault: Fault::Overflow { steps: steps - 1 },
+                });
+                self.effects.push(Effect::Dropped {
+                    time: now,
+                    event: q.event,
+                    reason: DropReason::Overflow,
+                });
+                while let Some(q) = self.state.pop() {
+                    self.effects.push(Effect::Dropped {
+                        time: now,
+                        event: q.event,
+                        reason: DropReason::Overflow,
+                    });
+                }
+                return;
+            }
+            let category = q.event.category;
+            if let Err(reason) = self.occur(
+                project,
+                &q.event.name,
+                category,
+                &q.event.params,
+                q.target,
+                now,
+            ) {
+                self.effects.push(Effect::Dropped {
+                    time: now,
+                    event: q.event,
+                    reason,
+                });
+            }
+            self.immediates(project, now, category == Category::Catastrophic);
+        }
+    }
+
+    fn drop_reason(&self, category: Category, target: Option<NetId>) -> Option<DropReason> {
+        if self.state.lockout && category != Category::Catastrophic {
+            Some(DropReason::Lockout)
+        } else if target.is_some_and(|t| !self.state.active[t]) {
+            Some(DropReason::NetInactive)
+        } else {
+            None
+        }
+    }
+
+    /// One occurrence of an event: fires every waiting transition enabled at
+    /// its arrival, each at most once, first declared first; or says why the
+    /// event is dropped.
+    fn occur(
+        &mut self,
+        project: &Project,
+        name: &str,
+        category: Category,
+        params: &Params,
+        target: Option<NetId>,
+        now: Micros,
+    ) -> Result<(), DropReason> {
+        if let Some(reason) = self.drop_reason(category, target) {
+            return Err(reason);
+        }
+        let Some(waiting) = project.triggers.get(name) else {
+            return Ok(());
+        };
+        let mut candidates = std::mem::take(&mut self.candidates);
+        candidates.clear();
+        for &(n, t) in waiting {
+            if target.is_some_and(|x| x != n) || !self.state.active[n] {
+                continue;
+            }
+            let tr = &project.nets[n].transitions[t];
+            if !tr.flat_inputs.iter().all(|&p| self.state.marked(p)) {
+                continue;
+            }
+            if let Some(guard) = &tr.guard {
+                match guard.expr.holds(params) {
+                    Ok(true) => {}
+                    Ok(false) => continue,
+                    Err(e) => {
+                        self.effects.push(Effect::Fault {
+                            time: now,
+                            fault: Fault::Guard {
+                                net: n,
+                                transition: t,
+                                message: e.to_string(),
+                            },
+                        });
+                        continue;
+                    }
+                }
+            }
+            candidates.push((n, t));
+        }
+        if !candidates.is_empty() {
+            self.consumed.iter_mut().for_each(|w| *w = 0);
+            let tainted = category == Category::Catastrophic;
+            for &(n, t) in &candidates {
+                let tr = &project.nets[n].transitions[t];
+                let still = self.state.active[n]
+                    && tr.flat_inputs.iter().all(|&p| {
+                        self.state.marked(p) && self.consumed[p / 64] & (1 << (p % 64)) == 0
+                    });
+                if still {
+                    if let Firing::Fired = self.fire(project, n, t, params, now, tainted) {
+                        if tainted && !self.state.lockout {
+                            self.state.lockout = true;
+                            self.effects.push(Effect::Lockout {
+                                time: now,
+                                event: name.to_owned(),
+                                net: n,
+                                transition: t,
+                            });
+                        }
+                        self.run_actions(project, n, t, params, now, tainted);
+                    }
+                }
+            }
+        }
+        self.candidates = candidates;
+        Ok(())
+    }
+
+    /// Fires a transition's token game (not its actions), or rejects it
+    /// whole.
+    fn fire(
+        &mut self,
+        project: &Project,
+        n: NetId,
+        t: TransitionId,
+        params: &Params,
+        now: Micros,
+        tainted: bool,
+    ) -> Firing {
+        let tr = &project.nets[n].transitions[t];
+        // Arguments are evaluated before anything changes, so a bad one
+        // rejects the firing whole.
+        for action in &tr.actions {
+            let args = match action {
+                Action::Emit { args, .. }
+                | Action::Call { args, .. }
+                | Action::Command { args, .. } => args,
+                _ => continue,
+            };
+            for (key, e) in args {
+                if let Err(err) = e.eval(params) {
+                    let message = format!("argument `{key}`: {err}");
+                    self.effects.push(Effect::Fault {
+                        time: now,
+                        fault: Fault::BadArgument {
+                            net: n,
+                            transition: t,
+                            message: message.clone(),
+                        },
+                    });
+                    self.net_fault(project, n, t, None, &message, now, tainted);
+                    return Firing::Rejected;
+                }
+            }
+        }
+        if let Some(&p) = tr
+            .flat_outputs
+            .iter()
+            .find(|&&p| self.state.marked(p) && !tr.flat_inputs.contains(&p))
+        {
+            self.effects.push(Effect::Fault {
+                time: now,
+                fault: Fault::DoubleToken {
+                    net: n,
+                    transition: t,
+                    place: p,
+                },
+            });
+            self.net_fault(project, n, t, Some(p), "double token", now, tainted);
+            return Firing::Rejected;
+        }
+        let mut globals = false;
+        for (&p, r) in tr.flat_inputs.iter().zip(&tr.inputs) {
+            self.state.set(p, false);
+            self.consumed[p / 64] |= 1 << (p % 64);
+            globals |= matches!(r, PlaceRef::Global(_));
+        }
+        for (&p, r) in tr.flat_outputs.iter().zip(&tr.outputs) {
+            self.state.set(p, true);
+            globals |= matches!(r, PlaceRef::Global(_));
+        }
+        self.changed = true;
+        self.effects.push(Effect::Fired {
+            time: now,
+            net: n,
+            transition: t,
+        });
+        self.push_marking(now, Some(n));
+        if globals {
+            self.push_marking(now, None);
+        }
+        Firing::Fired
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn net_fault(
+        &mut self,
+        project: &Project,
+        n: NetId,
+        t: TransitionId,
+        place: Option<usize>,
+        reason: &str,
+        _now: Micros,
+        tainted: bool,
+    ) {
+        let net = &project.nets[n];
+        let mut params = Params::from([
+            ("net".to_owned(), Value::Str(net.name.clone())),
+            (
+                "transition".to_owned(),
+                Value::Str(net.transitions[t].name.clone()),
+            ),
+            ("reason".to_owned(), Value::Str(reason.to_owned())),
+        ]);
+        if let Some(p) = place {
+            params.insert("place".into(), Value::Str(flat_place_name(project, p)));
+        }
+        let category = if tainted {
+            Category::Catastrophic
+        } else {
+            project
+                .declared_category(names::NET_FAULT)
+                .unwrap_or(Category::Safety)
+        };
+        self.state.push(Queued {
+            event: Event {
+                name: names::NET_FAULT.to_owned(),
+                category,
+                params,
+            },
+            target: None,
+        });
+    }
+
+    fn run_actions(
+        &mut self,
+        project: &Project,
+        n: NetId,
+        t: TransitionId,
+        params: &Params,
+        now: Micros,
+        tainted: bool,
+    ) {
+        let eval = |args: &[(String, crate::expr::Expr)]| -> Params {
+            // Already checked in `fire`: evaluation cannot fail here.
+            args.iter()
+                .filter_map(|(k, e)| e.eval(params).ok().map(|v| (k.clone(), v)))
+                .collect()
+        };
+        for action in &project.nets[n].transitions[t].actions {
+            match action {
+                Action::Activate(m) => {
+                    if self.state.active[*m] {
+                        self.effects.push(Effect::Ignored {
+                            time: now,
+                            net: *m,
+                            action: "activate",
+                            by: n,
+                        });
+                    } else {
+                        self.activate(project, *m, now);
+                    }
+                }
+                Action::Deactivate(m) => {
+                    if self.state.active[*m] {
+                        self.deactivate(project, *m, now);
+                    } else {
+                        self.effects.push(Effect::Ignored {
+                            time: now,
+                            net: *m,
+                            action: "deactivate",
+                            by: n,
+                        });
+                    }
+                }
+                Action::Emit { event, args } => {
+                    let category = if tainted {
+                        Category::Catastrophic
+                    } else {
+                        project
+                            .declared_category(event)
+                            .unwrap_or(Category::Nominal)
+                    };
+                    let event = Event {
+                        name: event.clone(),
+                        category,
+                        params: eval(args),
+                    };
+                    self.effects.push(Effect::Emitted {
+                        time: now,
+                        net: n,
+                        event: event.clone(),
+                    });
+                    self.state.push(Queued {
+                        event,
+                        target: None,
+                    });
+                }
+                Action::Timer { timer, after } => {
+                    let before = self.state.timers.len();
+                    self.state
+                        .timers
+                        .retain(|x| !(x.net == n && x.timer == *timer));
+                    let restarted = self.state.timers.len() != before;
+                    let deadline = now.saturating_add(*after);
+                    let seq = self.state.next_timer_seq;
+                    self.state.next_timer_seq += 1;
+                    let at = self
+                        .state
+                        .timers
+                        .partition_point(|x| (x.deadline, x.seq) <= (deadline, seq));
+                    self.state.timers.insert(
+                        at,
+                        Timer {
+                            net: n,
+                            timer: *timer,
+                            deadline,
+                            seq,
+                            catastrophic: tainted,
+                        },
+                    );
+                    self.effects.push(Effect::TimerStarted {
+                        time: now,
+                        net: n,
+                        timer: *timer,
+                        deadline,
+                        restarted,
+                    });
+                }
+                Action::Cancel { timer } => {
+                    let before = self.state.timers.len();
+                    self.state
+                        .timers
+                        .retain(|x| !(x.net == n && x.timer == *timer));
+                    if self.state.timers.len() != before {
+                        self.effects.push(Effect::TimerCancelled {
+                            time: now,
+                            net: n,
+                            timer: *timer,
+                        });
+                    }
+                }
+                Action::Call {
+                    program,
+                    function,
+                    args,
+                } => {
+                    let id = self.take_id();
+                    self.state.pending.insert(
+                        id,
+                        Pending {
+                            net: n,
+                            kind: PendingKind::Call {
+                                program: *program,
+                                function: *function,
+                            },
+                            catastrophic: tainted,
+                        },
+                    );
+                    self.effects.push(Effect::Call {
+                        time: now,
+                        id,
+                        net: n,
+                        program: *program,
+                        function: *function,
+                        args: eval(args),
+                    });
+                }
+                Action::Command { verb, args } => {
+                    let id = self.take_id();
+                    self.state.pending.insert(
+                        id,
+                        Pending {
+                            net: n,
+                            kind: PendingKind::Command { verb: verb.clone() },
+                            catastrophic: tainted,
+                        },
+                    );
+                    self.effects.push(Effect::Command {
+                        time: now,
+                        id,
+                        net: n,
+                        verb: verb.clone(),
+                        args: eval(args),
+                    });
+                }
+            }
+        }
+    }
+
+    fn take_id(&mut self) -> u64 {
+        let id = self.state.next_id;
+        self.state.next_id += 1;
+        id
+    }
+
+    fn activate(&mut self, project: &Project, m: NetId, now: Micros) {
+        self.state.active[m] = true;
+        let offset = project.place_offsets[m];
+        for (i, place) in project.nets[m].places.iter().enumerate() {
+            self.state.set(offset + i, place.initial);
+        }
+        self.changed = true;
+        self.effects.push(Effect::Activated { time: now, net: m });
+        self.push_marking(now, Some(m));
+    }
+
+    fn deactivate(&mut self, project: &Project, m: NetId, now: Micros) {
+        self.state.active[m] = false;
+        let offset = project.place_offsets[m];
+        for i in 0..project.nets[m].places.len() {
+            let p = offset + i;
+            self.state.set(p, false);
+            self.consumed[p / 64] |= 1 << (p % 64);
+        }
+        let mut cancelled = Vec::new();
+        self.state.timers.retain(|x| {
+            if x.net == m {
+                cancelled.push(x.timer);
+                false
+            } else {
+                true
+            }
+        });
+        for timer in cancelled {
+            self.effects.push(Effect::TimerCancelled {
+                time: now,
+                net: m,
+                timer,
+            });
+        }
+        let forgotten: Vec<u64> = self
+            .state
+            .pending
+            .iter()
+            .filter(|(_, p)| p.net == m)
+            .map(|(id, _)| *id)
+            .collect();
+        for id in forgotten {
+            self.state.pending.remove(&id);
+            self.effects.push(Effect::Forgotten {
+                time: now,
+                id,
+                net: m,
+            });
+        }
+        // Results and timer expiries already queued for it are dropped now,
+        // so that a later activation does not receive them.
+        for queue in self.state.queue.iter_mut() {
+            let mut kept = std::collections::VecDeque::with_capacity(queue.len());
+            for q in queue.drain(..) {
+                if q.target == Some(m) {
+                    self.effects.push(Effect::Dropped {
+                        time: now,
+                        event: q.event,
+                        reason: DropReason::NetInactive,
+                    });
+                } else {
+                    kept.push_back(q);
+                }
+            }
+            *queue = kept;
+        }
+        self.changed = true;
+        self.effects.push(Effect::Deactivated { time: now, net: m });
+        self.push_marking(now, Some(m));
+    }
+
+    /// Fires immediate transitions, first declared first, until none is
+    /// enabled or the bound on firings per step is reached.
+    fn immediates(&mut self, project: &Project, now: Micros, tainted: bool) {
+        if !std::mem::take(&mut self.changed) {
+            return;
+        }
+        let mut firings = 0usize;
+        let mut rejected: Vec<(NetId, TransitionId)> = Vec::new();
+        'scan: loop {
+            for (n, net) in project.nets.iter().enumerate() {
+                if !self.state.active[n] {
+                    continue;
+                }
+                for &t in &net.immediate {
+                    let tr = &net.transitions[t];
+                    if !tr.flat_inputs.iter().all(|&p| self.state.marked(p))
+                        || rejected.contains(&(n, t))
+                    {
+                        continue;
+                    }
+                    firings += 1;
+                    if firings > project.limits.firings_per_step {
+                        self.effects.push(Effect::Fault {
+                            time: now,
+                            fault: Fault::Livelock {
+                                net: n,
+                                transition: t,
+                                firings: firings - 1,
+                            },
+                        });
+                        self.changed = false;
+                        return;
+                    }
+                    match self.fire(project, n, t, &Params::new(), now, tainted) {
+                        Firing::Fired => {
+                            rejected.clear();
+                            self.run_actions(project, n, t, &Params::new(), now, tainted);
+                            continue 'scan;
+                        }
+                        Firing::Rejected => rejected.push((n, t)),
+                    }
+                }
+            }
+            break;
+        }
+        self.changed = false;
+    }
+
+    fn push_marking(&mut self, now: Micros, net: Option<NetId>) {
+        let (offset, len) = match net {
+            Some(n) => (
+                self.project.place_offsets[n],
+                self.project.nets[n].places.len(),
+            ),
+            None => (0, self.project.globals.len()),
+        };
+        let marked: Marked = (0..len)
+            .filter(|i| self.state.marked(offset + i))
+            .map(|i| i as u16)
+            .collect();
+        self.effects.push(Effect::Marking {
+            time: now,
+            net,
+            marked,
+        });
+    }
+}
+
+/// The name of a flat place index: `@global` or `NET.place`.
+pub fn flat_place_name(project: &Project, p: usize) -> String {
+    if p < project.globals.len() {
+        return format!("@{}", project.globals[p].name);
+    }
+    let n = project.place_offsets.partition_point(|&o| o <= p) - 1;
+    format!(
+        "{}.{}",
+        project.nets[n].name,
+        project.nets[n].places[p - project.place_offsets[n]].name
+    )
+}

@@ -1,0 +1,401 @@
+//! Effects as JSON and as text for people, with names instead of indices.
+//! `petrel play`, `replay` and the recording all use these, so the same
+//! effect always reads the same.
+
+use serde_json::{json, Map, Value as Json};
+
+use super::effect::{Effect, Fault};
+use super::flat_place_name;
+use crate::model::{NetId, Project};
+use crate::time::seconds;
+use crate::value::{fmt_params, Params};
+
+fn params_json(params: &Params) -> Json {
+    Json::Object(
+        params
+            .iter()
+            .map(|(k, v)| (k.clone(), v.to_json()))
+            .collect(),
+    )
+}
+
+fn net_name(project: &Project, n: NetId) -> &str {
+    &project.nets[n].name
+}
+
+fn transition_name(project: &Project, n: NetId, t: usize) -> &str {
+    &project.nets[n].transitions[t].name
+}
+
+fn timer_name(project: &Project, n: NetId, t: usize) -> &str {
+    &project.nets[n].timers[t]
+}
+
+/// The names of the places an effect's marking holds.
+fn marked_names(project: &Project, net: Option<NetId>, marked: &[u16]) -> Vec<String> {
+    marked
+        .iter()
+        .map(|&i| match net {
+            Some(n) => project.nets[n].places[i as usize].name.clone(),
+            None => format!("@{}", project.globals[i as usize].name),
+        })
+        .collect()
+}
+
+/// One effect as a JSON object: `{"t": seconds, "time_us": µs, "effect": kind, …}`.
+pub fn effect_json(project: &Project, effect: &Effect) -> Json {
+    let time = effect.time();
+    let mut obj = Map::new();
+    obj.insert("t".into(), json!(seconds(time)));
+    obj.insert("time_us".into(), json!(time));
+    let (kind, fields) = match effect {
+        Effect::Fired {
+            net, transition, ..
+        } => (
+            "fired",
+            json!({
+                "net": net_name(project, *net),
+                "transition": transition_name(project, *net, *transition),
+                "event": project.nets[*net].transitions[*transition].event,
+            }),
+        ),
+        Effect::Marking { net, marked, .. } => (
+            "marking",
+            json!({
+                "net": net.map(|n| net_name(project, n)),
+                "marked": marked_names(project, *net, marked),
+            }),
+        ),
+        Effect::Activated { net, .. } => ("activated", json!({ "net": net_name(project, *net) })),
+        Effect::Deactivated { net, .. } => {
+            ("deactivated", json!({ "net": net_name(project, *net) }))
+        }
+        Effect::Ignored {
+            net, action, by, ..
+        } => (
+            "ignored",
+            json!({ "net": net_name(project, *net), "action": action, "by": net_name(project, *by) }),
+        ),
+        Effect::Emitted { net, event, .. } => (
+            "emitted",
+            json!({
+                "net": net_name(project, *net),
+                "event": event.name,
+                "category": event.category.as_str(),
+                "params": params_json(&event.params),
+            }),
+        ),
+        Effect::TimerStarted {
+            net,
+            timer,
+            deadline,
+            restarted,
+            ..
+        } => (
+            "timer_started",
+            json!({
+                "net": net_name(project, *net),
+                "timer": timer_name(project, *net, *timer),
+                "deadline_t": seconds(*deadline),
+                "restarted": restarted,
+            }),
+        ),
+        Effect::TimerCancelled { net, timer, .. } => (
+            "timer_cancelled",
+            json!({ "net": net_name(project, *net), "timer": timer_name(project, *net, *timer) }),
+        ),
+        Effect::TimerExpired { net, timer, .. } => (
+            "timer_expired",
+            json!({ "net": net_name(project, *net), "timer": timer_name(project, *net, *timer) }),
+        ),
+        Effect::Call {
+            id,
+            net,
+            program,
+            function,
+            args,
+            ..
+        } => {
+            let p = &project.programs[*program];
+            (
+                "call",
+                json!({
+                    "id": id,
+                    "net": net_name(project, *net),
+                    "program": p.name,
+                    "function": p.functions[*function].name,
+                    "args": params_json(args),
+                }),
+            )
+        }
+        Effect::Command {
+            id,
+            net,
+            verb,
+            args,
+            ..
+        } => (
+            "command",
+            json!({ "id": id, "net": net_name(project, *net), "verb": verb, "args": params_json(args) }),
+        ),
+        Effect::Forgotten { id, net, .. } => (
+            "forgotten",
+            json!({ "id": id, "net": net_name(project, *net) }),
+        ),
+        Effect::Dropped { event, reason, .. } => (
+            "dropped",
+            json!({
+                "event": event.name,
+                "category": event.category.as_str(),
+                "params": params_json(&event.params),
+                "reason": reason.as_str(),
+            }),
+        ),
+        Effect::LateResult { id, .. } => ("late_result", json!({ "id": id })),
+        Effect::Lockout {
+            event,
+            net,
+            transition,
+            ..
+        } => (
+            "lockout",
+            json!({
+                "event": event,
+                "net": net_name(project, *net),
+                "transition": transition_name(project, *net, *transition),
+            }),
+        ),
+        Effect::Fault { fault, .. } => ("fault", fault_json(project, fault)),
+    };
+    obj.insert("effect".into(), json!(kind));
+    if let Json::Object(fields) = fields {
+        obj.extend(fields);
+    }
+    Json::Object(obj)
+}
+
+fn fault_json(project: &Project, fault: &Fault) -> Json {
+    match fault {
+        Fault::DoubleToken {
+            net,
+            transition,
+            place,
+        } => json!({
+            "fault": "double_token",
+            "net": net_name(project, *net),
+            "transition": transition_name(project, *net, *transition),
+            "place": flat_place_name(project, *place),
+        }),
+        Fault::BadArgument {
+            net,
+            transition,
+            message,
+        } => json!({
+            "fault": "bad_argument",
+            "net": net_name(project, *net),
+            "transition": transition_name(project, *net, *transition),
+            "message": message,
+        }),
+        Fault::Guard {
+            net,
+            transition,
+            message,
+        } => json!({
+            "fault": "guard",
+            "net": net_name(project, *net),
+            "transition": transition_name(project, *net, *transition),
+            "message": message,
+        }),
+        Fault::Livelock {
+            net,
+            transition,
+            firings,
+        } => json!({
+            "fault": "livelock",
+            "net": net_name(project, *net),
+            "transition": transition_name(project, *net, *transition),
+            "firings": firings,
+        }),
+        Fault::Overflow { steps } => json!({ "fault": "overflow", "steps": steps }),
+    }
+}
+
+struct P<'a>(&'a Params);
+
+impl std::fmt::Display for P<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0.is_empty() {
+            Ok(())
+        } else {
+            f.write_str(" ")?;
+            fmt_params(f, self.0)
+        }
+    }
+}
+
+/// One effect as a line for people (without the time, which the caller
+/// prints in its own column).
+pub fn effect_text(project: &Project, effect: &Effect) -> String {
+    match effect {
+        Effect::Fired {
+            net, transition, ..
+        } => {
+            let tr = &project.nets[*net].transitions[*transition];
+            match &tr.event {
+                Some(e) => format!("fire   {}.{} on {e}", net_name(project, *net), tr.name),
+                None => format!("fire   {}.{} (immediate)", net_name(project, *net), tr.name),
+            }
+        }
+        Effect::Marking { net, marked, .. } => format!(
+            "mark   {}: {}",
+            net.map_or("@globals", |n| net_name(project, n)),
+            match marked_names(project, *net, marked) {
+                names if names.is_empty() => "(empty)".to_owned(),
+                names => names.join(" "),
+            }
+        ),
+        Effect::Activated { net, .. } => format!("net    {} activated", net_name(project, *net)),
+        Effect::Deactivated { net, .. } => {
+            format!("net    {} deactivated", net_name(project, *net))
+        }
+        Effect::Ignored {
+            net, action, by, ..
+        } => format!(
+            "note   {action} {} by {} ignored: already {}",
+            net_name(project, *net),
+            net_name(project, *by),
+            if *action == "activate" {
+                "active"
+            } else {
+                "inactive"
+            }
+        ),
+        Effect::Emitted { net, event, .. } => format!(
+            "emit   {}{} [{}] by {}",
+            event.name,
+            P(&event.params),
+            event.category,
+            net_name(project, *net)
+        ),
+        Effect::TimerStarted {
+            net,
+            timer,
+            deadline,
+            restarted,
+            ..
+        } => format!(
+            "timer  {}.{} {} until {:.3}",
+            net_name(project, *net),
+            timer_name(project, *net, *timer),
+            if *restarted { "restarted" } else { "started" },
+            seconds(*deadline)
+        ),
+        Effect::TimerCancelled { net, timer, .. } => format!(
+            "timer  {}.{} cancelled",
+            net_name(project, *net),
+            timer_name(project, *net, *timer)
+        ),
+        Effect::TimerExpired { net, timer, .. } => format!(
+            "timer  {}.{} expired",
+            net_name(project, *net),
+            timer_name(project, *net, *timer)
+        ),
+        Effect::Call {
+            id,
+            net,
+            program,
+            function,
+            args,
+            ..
+        } => {
+            let p = &project.programs[*program];
+            format!(
+                "call   #{id} {}.{}{} by {}",
+                p.name,
+                p.functions[*function].name,
+                P(args),
+                net_name(project, *net)
+            )
+        }
+        Effect::Command {
+            id,
+            net,
+            verb,
+            args,
+            ..
+        } => {
+            format!(
+                "cmd    #{id} {verb}{} by {}",
+                P(args),
+                net_name(project, *net)
+            )
+        }
+        Effect::Forgotten { id, net, .. } => {
+            format!("forget #{id} (net {} deactivated)", net_name(project, *net))
+        }
+        Effect::Dropped { event, reason, .. } => format!(
+            "drop   {}{} [{}]: {}",
+            event.name,
+            P(&event.params),
+            event.category,
+            reason.as_str()
+        ),
+        Effect::LateResult { id, .. } => format!("drop   result #{id}: not pending"),
+        Effect::Lockout {
+            event,
+            net,
+            transition,
+            ..
+        } => format!(
+            "LOCKOUT catastrophic {event} fired {}.{}: other events are dropped from now on",
+            net_name(project, *net),
+            transition_name(project, *net, *transition)
+        ),
+        Effect::Fault { fault, .. } => format!("FAULT  {}", fault_text(project, fault)),
+    }
+}
+
+fn fault_text(project: &Project, fault: &Fault) -> String {
+    match fault {
+        Fault::DoubleToken {
+            net,
+            transition,
+            place,
+        } => format!(
+            "{}.{} rejected: a second token in {}",
+            net_name(project, *net),
+            transition_name(project, *net, *transition),
+            flat_place_name(project, *place)
+        ),
+        Fault::BadArgument {
+            net,
+            transition,
+            message,
+        } => format!(
+            "{}.{} rejected: {message}",
+            net_name(project, *net),
+            transition_name(project, *net, *transition)
+        ),
+        Fault::Guard {
+            net,
+            transition,
+            message,
+        } => format!(
+            "guard of {}.{} counts as false: {message}",
+            net_name(project, *net),
+            transition_name(project, *net, *transition)
+        ),
+        Fault::Livelock {
+            net,
+            transition,
+            firings,
+        } => format!(
+            "livelock: {firings} immediate firings in one step, stopped at {}.{}",
+            net_name(project, *net),
+            transition_name(project, *net, *transition)
+        ),
+        Fault::Overflow { steps } => {
+            format!("overflow: {steps} events in one run to completion; the rest were dropped")
+        }
+    }
+}

@@ -1,0 +1,216 @@
+//! Scripts of timed inputs, as JSON lines, to play a project without a
+//! vehicle (`petrel play`). Each line is one input:
+//!
+//! ```text
+//! {"t": 12.5, "event": "ready_for_takeoff", "params": {}, "category": "nominal"}
+//! {"t": 14.0, "reply": "DEC.next_waypoint", "params": {"lat": 43.2}}     a call's result
+//! {"t": 14.0, "reply": "DEC.replan", "failed": "no plan"}                 a call's failure
+//! {"t": 14.5, "reply": "command.arm"}                                     a command's result
+//! {"t": 15.0, "reply": 7, "failed": "timeout"}                            by id
+//! {"t": 60}                                                               time passes
+//! ```
+//!
+//! `t` is in seconds from the start and never goes backwards. A reply by
+//! name goes to the oldest pending call of that function (or command of that
+//! verb). Blank lines and lines starting with `#` or `//` are skipped.
+
+use serde_json::Value as Json;
+
+use crate::event::{Category, Event};
+use crate::player::{Outcome, PendingKind, Player};
+use crate::time::Micros;
+use crate::value::{Params, Value};
+
+/// One input of a script.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Input {
+    Event(Event),
+    Reply { to: ReplyTo, outcome: Outcome },
+    Advance,
+}
+
+/// What a reply answers.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ReplyTo {
+    Id(u64),
+    Call { program: String, function: String },
+    Command { verb: String },
+}
+
+/// A line of a script.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Line {
+    /// 1-based line number in the file.
+    pub number: usize,
+    pub time: Micros,
+    pub input: Input,
+}
+
+/// A problem in a script, at a line (and column, when known).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{line}:{column}: {message}")]
+pub struct ScriptError {
+    pub line: usize,
+    pub column: usize,
+    pub message: String,
+}
+
+fn err(line: usize, message: impl Into<String>) -> ScriptError {
+    ScriptError {
+        line,
+        column: 1,
+        message: message.into(),
+    }
+}
+
+/// Reads a whole script; every line is checked before anything is played.
+pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
+    let mut lines = Vec::new();
+    let mut last: Micros = 0;
+    for (i, raw) in text.lines().enumerate() {
+        let number = i + 1;
+        let trimmed = raw.trim();
+        if trimmed.is_empty() || trimmed.starts_with('#') || trimmed.starts_with("//") {
+            continue;
+        }
+        let json: Json = serde_json::from_str(trimmed).map_err(|e| ScriptError {
+            line: number,
+            column: e.column().max(1) + (raw.len() - raw.trim_start().len()),
+            message: format!("not JSON: {e}"),
+        })?;
+        let Json::Object(obj) = json else {
+            return Err(err(number, "expected a JSON object"));
+        };
+        for key in obj.keys() {
+            if !["t", "event", "params", "category", "reply", "failed"].contains(&key.as_str()) {
+                return Err(err(number, format!("unknown key `{key}` (expected t, event, params, category, reply, failed)")));
+            }
+        }
+        let t = obj
+            .get("t")
+            .and_then(Json::as_f64)
+            .ok_or_else(|| err(number, "missing `t` (seconds, a number)"))?;
+        if !(0.0..=1e9).contains(&t) {
+            return Err(err(number, format!("`t` = {t} is out of range (0 to 1e9 seconds)")));
+        }
+        let time = (t * 1e6).round() as Micros;
+        if time < last {
+            return Err(err(number, format!("`t` goes backwards ({t} after {})", last as f64 / 1e6)));
+        }
+        last = time;
+        let params: Params = match obj.get("params") {
+            None => Params::new(),
+            Some(Json::Object(p)) => p
+                .iter()
+                .map(|(k, v)| {
+                    Value::from_json(v)
+                        .map(|v| (k.clone(), v))
+                        .ok_or_else(|| err(number, format!("parameter `{k}` is null")))
+                })
+                .collect::<Result<_, _>>()?,
+            Some(_) => return Err(err(number, "`params` must be an object")),
+        };
+        let input = match (obj.get("event"), obj.get("reply")) {
+            (Some(_), Some(_)) => return Err(err(number, "a line is an `event` or a `reply`, not both")),
+            (Some(event), None) => {
+                let name = event
+                    .as_str()
+                    .filter(|s| !s.is_empty())
+                    .ok_or_else(|| err(number, "`event` must be a non-empty string"))?;
+                if obj.contains_key("failed") {
+                    return Err(err(number, "`failed` belongs to replies"));
+                }
+                let category = match obj.get("category") {
+                    None => Category::Nominal,
+                    Some(c) => c
+                        .as_str()
+                        .ok_or_else(|| err(number, "`category` must be a string"))?
+                        .parse()
+                        .map_err(|e: crate::event::UnknownCategory| err(number, e.to_string()))?,
+                };
+                Input::Event(Event {
+                    name: name.to_owned(),
+                    category,
+                    params,
+                })
+            }
+            (None, Some(reply)) => {
+                if obj.contains_key("category") {
+                    return Err(err(number, "`category` belongs to events: a reply's category comes from its call"));
+                }
+                let to = match reply {
+                    Json::Number(n) => ReplyTo::Id(n.as_u64().ok_or_else(|| err(number, "a reply id is a positive integer"))?),
+                    Json::String(s) => match s.split_once('.') {
+                        Some(("command", verb)) if !verb.is_empty() => ReplyTo::Command { verb: verb.to_owned() },
+                        Some((program, function)) if !program.is_empty() && !function.is_empty() && !function.contains('.') => {
+                            ReplyTo::Call {
+                                program: program.to_owned(),
+                                function: function.to_owned(),
+                            }
+                        }
+                        _ => return Err(err(number, format!("`reply` must be PROGRAM.FUNCTION, command.VERB or an id, not `{s}`"))),
+                    },
+                    _ => return Err(err(number, "`reply` must be PROGRAM.FUNCTION, command.VERB or an id")),
+                };
+                let outcome = match obj.get("failed") {
+                    None => Outcome::Done(params),
+                    Some(Json::String(reason)) if params.is_empty() => Outcome::Failed(reason.clone()),
+                    Some(Json::String(_)) => return Err(err(number, "a failed reply carries a reason, not `params`")),
+                    Some(_) => return Err(err(number, "`failed` must be a string (the reason)")),
+                };
+                Input::Reply { to, outcome }
+            }
+            (None, None) => {
+                if obj.len() > 1 {
+                    return Err(err(number, "a line with neither `event` nor `reply` only lets time pass: it takes only `t`"));
+                }
+                Input::Advance
+            }
+        };
+        lines.push(Line { number, time, input });
+    }
+    Ok(lines)
+}
+
+/// Finds the pending call or command a reply answers.
+pub fn resolve(player: &Player, line: &Line, to: &ReplyTo) -> Result<u64, ScriptError> {
+    let project = player.project();
+    let pending = &player.state().pending;
+    let found = match to {
+        ReplyTo::Id(id) => return Ok(*id),
+        ReplyTo::Call { program, function } => pending.iter().find(|(_, p)| match &p.kind {
+            PendingKind::Call { program: pr, function: f } => {
+                let prog = &project.programs[*pr];
+                prog.name == *program && prog.functions[*f].name == *function
+            }
+            PendingKind::Command { .. } => false,
+        }),
+        ReplyTo::Command { verb } => pending
+            .iter()
+            .find(|(_, p)| matches!(&p.kind, PendingKind::Command { verb: v } if v == verb)),
+    };
+    found.map(|(id, _)| *id).ok_or_else(|| {
+        let what = match to {
+            ReplyTo::Call { program, function } => format!("call of {program}.{function}"),
+            ReplyTo::Command { verb } => format!("`{verb}` command"),
+            ReplyTo::Id(_) => unreachable!("ids return early"),
+        };
+        err(line.number, format!("no pending {what} to reply to (reply by id to send a late result)"))
+    })
+}
+
+/// Plays one line on a player.
+pub fn play_line(player: &mut Player, line: &Line) -> Result<(), ScriptError> {
+    match &line.input {
+        Input::Event(event) => player.handle(event, line.time),
+        Input::Advance => player.advance(line.time),
+        Input::Reply { to, outcome } => {
+            // Timers due before the reply fire first, and may change what is
+            // pending.
+            player.advance(line.time);
+            let id = resolve(player, line, to)?;
+            player.result(id, outcome.clone(), line.time);
+        }
+    }
+    Ok(())
+}
