@@ -1,0 +1,235 @@
+//! Broken projects: each problem with its exact message and position.
+
+use std::collections::BTreeMap;
+
+const PROJECT: &str = r#"[globals]
+flying = false
+[events.wp]
+params = ["seq"]
+[programs.DEC.functions]
+next = { args = ["index"], returns = ["lat"] }
+[[net]]
+file = "n.toml"
+active = true
+"#;
+
+/// Loads PROJECT with the given net file; returns "file:line:col: message"
+/// for every problem.
+fn problems_with(project: &str, net: &str) -> Vec<String> {
+    let files: BTreeMap<String, String> = [
+        ("project.toml".to_owned(), project.to_owned()),
+        ("n.toml".to_owned(), net.to_owned()),
+    ]
+    .into();
+    match nets::load(&files) {
+        Ok(_) => Vec::new(),
+        Err(e) => e.problems.iter().map(|p| p.to_string()).collect(),
+    }
+}
+
+fn problems(net: &str) -> Vec<String> {
+    problems_with(PROJECT, net)
+}
+
+const HEAD: &str = "name = \"N\"\nplaces = [\"a\", \"b\"]\ninitial = [\"a\"]\n";
+
+fn transition(body: &str) -> String {
+    format!("{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"b\"]\n{body}")
+}
+
+#[test]
+fn a_correct_project_loads() {
+    assert_eq!(problems(&transition("on = \"wp\"\nwhen = \"seq == 3\"\ndo = [\"call DEC.next {index: $seq}\"]\n")), Vec::<String>::new());
+}
+
+#[test]
+fn broken_net_files_report_the_exact_problem_and_position() {
+    // (net file body after the transition header, expected problems)
+    let cases: Vec<(String, Vec<&str>)> = vec![
+        (
+            format!("{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"c\"]\n"),
+            vec!["n.toml:7:7: unknown place `c` in `to` of net `N`"],
+        ),
+        (
+            format!("{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"a\", \"@landed\"]\nto = [\"b\"]\n"),
+            vec!["n.toml:6:14: undeclared global place `@landed`: declare it in project.toml [globals]"],
+        ),
+        (
+            format!("{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"flying\"]\nto = [\"b\"]\n"),
+            vec!["n.toml:6:9: unknown place `flying` in `from` of net `N` (the global place is written `@flying`)"],
+        ),
+        (
+            transition("on = \"wp\"\nwhen = \"altitude > 3\"\n"),
+            vec!["n.toml:9:9: unknown parameter `altitude` of event `wp` (it has: seq)"],
+        ),
+        (
+            transition("on = \"ready\"\nwhen = \"x > 3\"\n"),
+            vec!["n.toml:9:9: unknown parameter `x`: event `ready` declares no parameters (declare them in project.toml: [events.\"ready\"] params = [...])"],
+        ),
+        (
+            transition("on = \"wp\"\nwhen = \"seq = 3\"\n"),
+            vec!["n.toml:9:13: in guard: `=` is not a comparison: write `==`"],
+        ),
+        (
+            transition("when = \"true\"\n"),
+            vec!["n.toml:8:8: immediate transition `t` cannot have a guard: there is no event to test (give it `on = \"EVENT\"`)"],
+        ),
+        (
+            transition("do = [\"emit x {v: $alt}\"]\n"),
+            vec!["n.toml:8:19: `$alt`: immediate transition `t` has no triggering event, so no parameters"],
+        ),
+        (
+            transition("on = \"wp\"\ndo = [\"activate MISSON\"]\n"),
+            vec!["n.toml:9:17: unknown net `MISSON`"],
+        ),
+        (
+            transition("on = \"wp\"\ndo = [\"call PLN.route\"]\n"),
+            vec!["n.toml:9:13: unknown program `PLN`: declare it in project.toml [programs]"],
+        ),
+        (
+            transition("on = \"wp\"\ndo = [\"call DEC.nxt {index: 1}\"]\n"),
+            vec!["n.toml:9:17: unknown function `nxt` of program `DEC` (it has: next)"],
+        ),
+        (
+            transition("on = \"wp\"\ndo = [\"call DEC.next {idx: 1}\"]\n"),
+            vec![
+                "n.toml:9:17: DEC.next takes no argument `idx` (it takes: index)",
+                "n.toml:9:17: DEC.next needs argument `index`",
+            ],
+        ),
+        (
+            transition("on = \"wp\"\ndo = [\"timer t after 30 seconds\"]\n"),
+            vec!["n.toml:9:22: malformed duration `30 seconds`: expected a number and a unit, as in `30s`, `500ms`, `1.5s`, `2min` or `1h`"],
+        ),
+        (
+            transition("on = \"wp\"\ndo = [\"cancel watchdog\"]\n"),
+            vec!["n.toml:9:15: unknown timer `watchdog`: net `N` never starts it"],
+        ),
+        (
+            transition("on = \"wp\"\ndo = [\"command fly {to: 3}\"]\n"),
+            vec!["n.toml:9:16: unknown command verb `fly` (known: arm, disarm, mode, takeoff, land, rtl, goto, set_speed, upload_mission, start_mission, set_current, payload_start, payload_stop)"],
+        ),
+        (
+            transition("on = \"wp\"\ndo = [\"command takeoff {altitude: 30}\"]\n"),
+            vec![
+                "n.toml:9:16: command `takeoff` takes no argument `altitude` (it takes: alt, pitch)",
+                "n.toml:9:16: command `takeoff` needs argument `alt`",
+            ],
+        ),
+        (
+            transition("on = \"wp\"\ndo = [\"lanch\"]\n"),
+            vec!["n.toml:9:8: in action: unknown action `lanch`: expected activate, deactivate, emit, timer, cancel, call or command"],
+        ),
+        (
+            format!("{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"b\"]\n[[transition]]\nname = \"t\"\nfrom = [\"b\"]\nto = [\"a\"]\n"),
+            vec!["n.toml:9:8: duplicate transition `t` (first declared at n.toml:5:8)"],
+        ),
+        (
+            "name = \"N\"\nplaces = [\"a\", \"a\"]\ninitial = [\"z\"]\n".to_owned(),
+            vec![
+                "n.toml:2:16: duplicate place `a`",
+                "n.toml:3:12: unknown place `z` in `initial`: it is not in `places`",
+            ],
+        ),
+        (
+            format!("{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"a\", \"a\"]\nto = []\n"),
+            vec!["n.toml:6:14: place `a` appears twice in `from`: arcs are unary"],
+        ),
+        (
+            format!("{HEAD}[[transition]]\nname = \"t\"\nto = [\"b\"]\n"),
+            vec!["n.toml:5:8: transition `t` has no input place: give it `from = [...]`"],
+        ),
+        (
+            format!("{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nguard = \"x\"\n"),
+            vec!["n.toml:7:1: unknown field `guard`, expected one of `name`, `description`, `from`, `to`, `on`, `when`, `do`"],
+        ),
+        (
+            "name = \"N\"\nplaces = [\"a\"\n".to_owned(),
+            vec!["n.toml:2:14: unclosed array, expected `]`"],
+        ),
+        (
+            // Several problems at once, in file order.
+            transition("on = \"wp\"\nwhen = \"seq > 1 && alt < 3\"\ndo = [\"activate X\", \"timer w after 5 parsecs\", \"command mode\"]\n"),
+            vec![
+                "n.toml:9:20: unknown parameter `alt` of event `wp` (it has: seq)",
+                "n.toml:10:17: unknown net `X`",
+                "n.toml:10:36: malformed duration `5 parsecs`: expected a number and a unit, as in `30s`, `500ms`, `1.5s`, `2min` or `1h`",
+                "n.toml:10:57: command `mode` needs argument `mode`",
+            ],
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (i, (net, expected)) in cases.iter().enumerate() {
+        let got = problems(net);
+        if got != *expected {
+            failures.push(format!("case {i}:\n  expected {expected:#?}\n  got      {got:#?}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn broken_project_files_report_the_exact_problem_and_position() {
+    let net = "name = \"N\"\nplaces = [\"a\"]\ninitial = [\"a\"]\n";
+    let cases: Vec<(&str, Vec<&str>)> = vec![
+        (
+            "[[net]]\nfile = \"missing.toml\"\n",
+            vec!["project.toml:2:8: cannot read net file `missing.toml`: no such file"],
+        ),
+        (
+            "[events]\nboom = \"catastrophe\"\n[[net]]\nfile = \"n.toml\"\n",
+            vec!["project.toml:2:8: unknown category `catastrophe` (expected catastrophic, safety, communication, mission or nominal)"],
+        ),
+        (
+            "[globals]\nready = 2\n[[net]]\nfile = \"n.toml\"\n",
+            vec!["project.toml:2:9: global place `ready` starts with 2 tokens: nets are safe, write 0 or 1 (or false/true)"],
+        ),
+        (
+            "[[net]]\nfile = \"n.toml\"\n[[net]]\nfile = \"n.toml\"\n",
+            vec!["n.toml:1:8: duplicate net `N` (first declared at n.toml:1:8)"],
+        ),
+        (
+            "nets = [\"n.toml\"]\n",
+            vec!["project.toml:1:1: unknown field `nets`, expected one of `name`, `description`, `net`, `globals`, `programs`, `events`, `limits`, `gateway`"],
+        ),
+        ("", vec!["project.toml:1:1: the project has no nets: add [[net]] tables with file = \"NAME.toml\""]),
+        (
+            "[programs.command.functions]\nx = {}\n[[net]]\nfile = \"n.toml\"\n",
+            vec!["project.toml:1:11: `command` is reserved for vehicle commands: choose another program name"],
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (i, (project, expected)) in cases.iter().enumerate() {
+        let got = problems_with(project, net);
+        if got != *expected {
+            failures.push(format!("case {i}:\n  expected {expected:#?}\n  got      {got:#?}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn a_missing_project_file_is_a_problem_not_a_panic() {
+    let files: BTreeMap<String, String> = BTreeMap::new();
+    let e = nets::load(&files).expect_err("no project.toml");
+    assert_eq!(e.problems[0].to_string(), "project.toml:1:1: cannot read project.toml: no such file");
+}
+
+#[test]
+fn the_miette_report_shows_the_line_and_a_caret() {
+    let got = {
+        let files: BTreeMap<String, String> = [
+            ("project.toml".to_owned(), PROJECT.to_owned()),
+            ("n.toml".to_owned(), transition("on = \"wp\"\ndo = [\"activate MISSON\"]\n")),
+        ]
+        .into();
+        nets::load(&files).expect_err("broken")
+    };
+    let mut out = String::new();
+    miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor())
+        .render_report(&mut out, &got)
+        .expect("renders");
+    assert!(out.contains("n.toml:9:17: unknown net `MISSON`"), "{out}");
+    assert!(out.contains("do = [\"activate MISSON\"]"), "{out}");
+    assert!(out.contains("╰── here"), "{out}");
+}
