@@ -21,6 +21,8 @@ struct Petrel {
 enum Verb {
     /// Play a project on a file of timed events, printing every firing and effect.
     Play(cli::play::Args),
+    /// Elaborate a telemetry log (.tlog) into supervision events.
+    Events(cli::events::Args),
 }
 
 fn main() -> ExitCode {
@@ -34,6 +36,7 @@ fn main() -> ExitCode {
     };
     let outcome = match petrel.verb {
         Verb::Play(args) => cli::play::run(args),
+        Verb::Events(args) => cli::events::run(args),
     };
     match outcome {
         Ok(code) => code.into(),

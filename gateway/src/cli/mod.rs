@@ -2,6 +2,7 @@
 
 use std::process::ExitCode;
 
+pub mod events;
 pub mod play;
 
 /// How a verb ended, as an exit status.

@@ -1,0 +1,534 @@
+//! The elaborator: a sans-IO state machine fed frames (or decoded messages)
+//! with their receive times, and `tick`s between them; it queues events.
+//!
+//! Liveness (`age()`, `seen()`, `loss()`) counts CRC-valid frames per
+//! sender, decoded or not; a frame is decoded only when a rule reads its
+//! message's fields, and a decoding failure is counted per message id.
+
+use std::collections::{BTreeMap, VecDeque};
+
+use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::MavHeader;
+use mavlink::Message;
+use nets::{Event, Params};
+
+use crate::constants::{mode_name, Firmware};
+use crate::expr::{self, Context, Func, V};
+use crate::fields::{self, Field};
+use crate::frame::Frame;
+use crate::profile::{Profile, Rule, SourceFilter, HEARTBEAT_SLOT};
+
+/// An event with its time and the sender it is about.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Elaborated {
+    /// Receive time of the frame (or tick) that fired it, microseconds.
+    pub time_us: u64,
+    pub event: Event,
+    pub sysid: u8,
+    pub compid: u8,
+}
+
+/// How the elaborator finds the vehicle and paces its timers.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Config {
+    /// The supervised vehicle's system id; by default the first sender of
+    /// an autopilot HEARTBEAT.
+    pub sysid: Option<u8>,
+    /// Its autopilot's component id; by default that sender's.
+    pub compid: Option<u8>,
+    /// Forces the firmware family used to name modes (a QuadPlane reporting
+    /// a multicopter type, say).
+    pub firmware: Option<Firmware>,
+    /// Timed rules (`age()`, `for`) are evaluated on this grid, in
+    /// microseconds: it bounds how late a timeout fires.
+    pub tick_us: u64,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            sysid: None,
+            compid: None,
+            firmware: None,
+            tick_us: 100_000,
+        }
+    }
+}
+
+/// Counts kept by the elaborator.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Stats {
+    pub frames: u64,
+    pub decoded: u64,
+    /// Frames of a read message that rust-mavlink failed to decode, by id.
+    pub decode_failures: BTreeMap<u32, u64>,
+    /// Frames lost according to per-sender sequence numbers.
+    pub sequence_lost: u64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Unknown,
+    Autopilot,
+    Gcs,
+    Other,
+}
+
+#[derive(Debug, Clone, Default)]
+struct RuleState {
+    initialized: bool,
+    active: bool,
+    /// The active state was announced by an event (not a silent start):
+    /// only then does clearing announce its own event.
+    announced: bool,
+    pending_since: Option<u64>,
+    clearing_since: Option<u64>,
+}
+
+#[derive(Debug)]
+struct Source {
+    sysid: u8,
+    compid: u8,
+    kind: Kind,
+    firmware: Firmware,
+    custom_mode: Option<u32>,
+    first_us: u64,
+    last_seq: Option<u8>,
+    /// Moving average of the lost-frame ratio (0..1).
+    loss: f64,
+    last_by_slot: Vec<Option<u64>>,
+    values: Vec<Option<Vec<Field>>>,
+    rules: Vec<RuleState>,
+    memos: Vec<V<'static>>,
+}
+
+const LOSS_WEIGHT: f64 = 1.0 / 32.0;
+/// At most this many tick steps are replayed for one time jump; beyond it
+/// the timers jump straight to the new time.
+const MAX_STEPS: u64 = 1200;
+
+/// Elaboration of one vehicle's telemetry with one profile.
+#[derive(Debug)]
+pub struct Elaborator {
+    profile: Profile,
+    config: Config,
+    vehicle: Option<(u8, u8)>,
+    sources: Vec<Source>,
+    now: u64,
+    next_tick: Option<u64>,
+    events: VecDeque<Elaborated>,
+    stats: Stats,
+}
+
+impl Elaborator {
+    pub fn new(profile: Profile, config: Config) -> Self {
+        let vehicle = match (config.sysid, config.compid) {
+            (Some(s), Some(c)) => Some((s, c)),
+            _ => None,
+        };
+        Elaborator {
+            profile,
+            config,
+            vehicle,
+            sources: Vec::new(),
+            now: 0,
+            next_tick: None,
+            events: VecDeque::new(),
+            stats: Stats::default(),
+        }
+    }
+
+    pub fn profile(&self) -> &Profile {
+        &self.profile
+    }
+
+    pub fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    /// The supervised vehicle's (system, autopilot component), once known.
+    pub fn vehicle(&self) -> Option<(u8, u8)> {
+        self.vehicle
+    }
+
+    /// The next queued event.
+    pub fn poll_event(&mut self) -> Option<Elaborated> {
+        self.events.pop_front()
+    }
+
+    /// Moves all queued events into `out`.
+    pub fn drain_into(&mut self, out: &mut Vec<Elaborated>) {
+        out.extend(self.events.drain(..));
+    }
+
+    /// Feeds a CRC-checked frame received at `time_us`.
+    pub fn frame(&mut self, time_us: u64, frame: &Frame) {
+        self.ingest(
+            time_us,
+            frame.system_id(),
+            frame.component_id(),
+            frame.sequence(),
+            frame.message_id(),
+            Input::Frame(frame),
+        );
+    }
+
+    /// Feeds a message already decoded by rust-mavlink (a live link).
+    pub fn message(&mut self, time_us: u64, header: &MavHeader, message: &MavMessage) {
+        let sysid = u8::try_from(header.system_id).unwrap_or(u8::MAX);
+        self.ingest(
+            time_us,
+            sysid,
+            header.component_id,
+            header.sequence,
+            message.message_id(),
+            Input::Message(message),
+        );
+    }
+
+    /// Lets time pass: timeouts (`age()`, `for`) fire up to `time_us`.
+    pub fn tick(&mut self, time_us: u64) {
+        let time_us = time_us.max(self.now);
+        let step = self.config.tick_us.max(1);
+        let mut next = match self.next_tick {
+            Some(n) => n,
+            None => {
+                self.now = time_us;
+                self.next_tick = Some(time_us + step);
+                return;
+            }
+        };
+        let mut steps = 0;
+        while next <= time_us {
+            if steps == MAX_STEPS {
+                next = time_us;
+            }
+            self.now = next;
+            self.run_timed();
+            next += step;
+            steps += 1;
+        }
+        self.next_tick = Some(next);
+        self.now = time_us;
+    }
+
+    fn run_timed(&mut self) {
+        for ri in 0..self.profile.timed.len() {
+            let r = self.profile.timed[ri];
+            for si in 0..self.sources.len() {
+                if self.matches(&self.profile.rules[r].source, si) {
+                    self.evaluate(r, si, false);
+                }
+            }
+        }
+    }
+
+    fn source_index(&mut self, sysid: u8, compid: u8, time_us: u64) -> usize {
+        if let Some(i) = self
+            .sources
+            .iter()
+            .position(|s| s.sysid == sysid && s.compid == compid)
+        {
+            return i;
+        }
+        let p = &self.profile;
+        self.sources.push(Source {
+            sysid,
+            compid,
+            kind: Kind::Unknown,
+            firmware: self.config.firmware.unwrap_or(Firmware::Other),
+            custom_mode: None,
+            first_us: time_us,
+            last_seq: None,
+            loss: 0.0,
+            last_by_slot: vec![None; p.slots.len()],
+            values: vec![None; p.slots.len()],
+            rules: vec![RuleState::default(); p.rules.len()],
+            memos: vec![V::Missing; p.memos],
+        });
+        self.sources.len() - 1
+    }
+
+    fn ingest(&mut self, time_us: u64, sysid: u8, compid: u8, seq: u8, msgid: u32, input: Input) {
+        self.tick(time_us);
+        let now = self.now;
+        self.stats.frames += 1;
+        let si = self.source_index(sysid, compid, now);
+        let src = &mut self.sources[si];
+        if let Some(last) = src.last_seq {
+            let lost = seq.wrapping_sub(last).wrapping_sub(1);
+            // Large jumps are a restart or reordering, not losses.
+            let lost = if lost < 128 { lost } else { 0 };
+            self.stats.sequence_lost += lost as u64;
+            for _ in 0..lost {
+                src.loss += LOSS_WEIGHT * (1.0 - src.loss);
+            }
+            src.loss -= LOSS_WEIGHT * src.loss;
+        }
+        src.last_seq = Some(seq);
+        let Some(&slot) = self.profile.slot_of_id.get(&msgid) else {
+            return;
+        };
+        src.last_by_slot[slot] = Some(now);
+        if self.profile.slots[slot].decode && !self.decode_into(si, slot, msgid, input) {
+            return;
+        }
+        for k in 0..self.profile.by_slot[slot].len() {
+            let r = self.profile.by_slot[slot][k];
+            if self.matches(&self.profile.rules[r].source, si) {
+                self.evaluate(r, si, true);
+            }
+        }
+    }
+
+    /// Decodes a frame of a read message into its source's field values;
+    /// false (counted) when rust-mavlink cannot decode it.
+    fn decode_into(&mut self, si: usize, slot: usize, msgid: u32, input: Input) -> bool {
+        let decoded;
+        let msg = match input {
+            Input::Message(m) => m,
+            Input::Frame(f) => match f.decode() {
+                Ok(m) => {
+                    decoded = m;
+                    &decoded
+                }
+                Err(_) => {
+                    *self.stats.decode_failures.entry(msgid).or_default() += 1;
+                    return false;
+                }
+            },
+        };
+        self.stats.decoded += 1;
+        let values = self.sources[si].values[slot].get_or_insert_with(Vec::new);
+        if !fields::extract(msg, values) {
+            *self.stats.decode_failures.entry(msgid).or_default() += 1;
+            return false;
+        }
+        if slot == HEARTBEAT_SLOT {
+            self.classify(si, msg);
+        }
+        true
+    }
+
+    fn classify(&mut self, si: usize, msg: &MavMessage) {
+        let MavMessage::HEARTBEAT(hb) = msg else {
+            return;
+        };
+        let autopilot = hb.autopilot as i64;
+        let mav_type = hb.mavtype as i64;
+        const INVALID: i64 =
+            mavlink::dialects::ardupilotmega::MavAutopilot::MAV_AUTOPILOT_INVALID as i64;
+        const GCS: i64 = mavlink::dialects::ardupilotmega::MavType::MAV_TYPE_GCS as i64;
+        let forced = self.config.firmware;
+        let src = &mut self.sources[si];
+        src.custom_mode = Some(hb.custom_mode);
+        src.firmware = forced.unwrap_or_else(|| Firmware::from_heartbeat(autopilot, mav_type));
+        src.kind = if mav_type == GCS {
+            Kind::Gcs
+        } else if autopilot != INVALID {
+            Kind::Autopilot
+        } else {
+            Kind::Other
+        };
+        if self.vehicle.is_none() && src.kind == Kind::Autopilot {
+            let sys_ok = self.config.sysid.is_none_or(|s| s == src.sysid);
+            let comp_ok = self.config.compid.is_none_or(|c| c == src.compid);
+            if sys_ok && comp_ok {
+                self.vehicle = Some((src.sysid, src.compid));
+            }
+        }
+    }
+
+    fn matches(&self, filter: &SourceFilter, si: usize) -> bool {
+        let s = &self.sources[si];
+        match *filter {
+            SourceFilter::Autopilot => self.vehicle == Some((s.sysid, s.compid)),
+            SourceFilter::Vehicle => self.vehicle.is_some_and(|(sys, _)| sys == s.sysid),
+            SourceFilter::Gcs => s.kind == Kind::Gcs,
+            SourceFilter::Any => true,
+            SourceFilter::Ids { sysid, compid } => {
+                sysid.is_none_or(|x| x == s.sysid) && compid.is_none_or(|x| x == s.compid)
+            }
+        }
+    }
+
+    fn evaluate(&mut self, r: usize, si: usize, by_message: bool) {
+        let profile = &self.profile;
+        let rule = &profile.rules[r];
+        let now = self.now;
+        if rule.each && !by_message {
+            return;
+        }
+        let src = &mut self.sources[si];
+        let mut cx = Cx { src, profile, now };
+        let cond = expr::eval(&rule.when.node, &mut cx).truth();
+        let Some(cond) = cond else { return };
+        let state = &mut cx.src.rules[r];
+        let mut fire = false;
+        let mut clear_fire = false;
+        if rule.each {
+            fire = cond;
+        } else if !state.initialized {
+            state.initialized = true;
+            if cond && !rule.initial {
+                state.active = true;
+                state.announced = false;
+            } else if cond {
+                fire = rule.for_us == 0;
+                state.pending_since = (rule.for_us > 0).then_some(now);
+            }
+        } else if !state.active {
+            if cond {
+                let since = *state.pending_since.get_or_insert(now);
+                fire = now.saturating_sub(since) >= rule.for_us;
+            } else {
+                state.pending_since = None;
+            }
+        } else {
+            let cleared = match &rule.clear {
+                Some(c) => {
+                    let v = expr::eval(&c.node, &mut cx).truth();
+                    match v {
+                        Some(v) => v,
+                        None => return,
+                    }
+                }
+                None => !cond,
+            };
+            let state = &mut cx.src.rules[r];
+            if cleared {
+                let since = *state.clearing_since.get_or_insert(now);
+                if now.saturating_sub(since) >= rule.clear_for_us {
+                    state.active = false;
+                    state.pending_since = None;
+                    state.clearing_since = None;
+                    clear_fire = rule.cleared.is_some() && state.announced;
+                }
+            } else {
+                state.clearing_since = None;
+            }
+        }
+        if fire {
+            if !rule.each {
+                let state = &mut cx.src.rules[r];
+                state.active = true;
+                state.announced = true;
+                state.pending_since = None;
+                state.clearing_since = None;
+            }
+            let params = params(rule, &mut cx);
+            let (sysid, compid) = (cx.src.sysid, cx.src.compid);
+            self.events.push_back(Elaborated {
+                time_us: now,
+                event: Event {
+                    name: rule.event.clone(),
+                    category: rule.category,
+                    params,
+                },
+                sysid,
+                compid,
+            });
+        }
+        if clear_fire {
+            if let Some((name, category)) = &rule.cleared {
+                let (sysid, compid) = (cx.src.sysid, cx.src.compid);
+                let mut params = Params::new();
+                if matches!(
+                    rule.source,
+                    SourceFilter::Vehicle | SourceFilter::Any | SourceFilter::Gcs
+                ) {
+                    params.insert("component".into(), nets::Value::Int(compid as i64));
+                }
+                self.events.push_back(Elaborated {
+                    time_us: now,
+                    event: Event {
+                        name: name.clone(),
+                        category: *category,
+                        params,
+                    },
+                    sysid,
+                    compid,
+                });
+            }
+        }
+    }
+}
+
+fn params(rule: &Rule, cx: &mut Cx) -> Params {
+    let mut out = Params::new();
+    expr::captures(&rule.when.node, cx, &mut out);
+    for (name, c) in &rule.params {
+        if let Some(v) = expr::eval(&c.node, cx).to_value() {
+            out.insert(name.clone(), v);
+        }
+    }
+    out
+}
+
+enum Input<'a, 'b> {
+    Frame(&'a Frame<'b>),
+    Message(&'a MavMessage),
+}
+
+struct Cx<'a> {
+    src: &'a mut Source,
+    profile: &'a Profile,
+    now: u64,
+}
+
+impl Context for Cx<'_> {
+    fn field(&self, slot: usize, field: usize, index: Option<usize>) -> V<'_> {
+        let Some(values) = &self.src.values[slot] else {
+            return V::Missing;
+        };
+        match (values.get(field), index) {
+            (Some(Field::Int(i)), None) => V::Int(*i),
+            (Some(Field::Float(f)), None) => V::Float(*f),
+            (Some(Field::Str(s)), None) => V::Str(s.as_str().into()),
+            (Some(Field::List(l)), Some(i)) => match l.get(i) {
+                Some(x) if x.fract() == 0.0 && x.abs() < 9e15 => V::Int(*x as i64),
+                Some(x) => V::Float(*x),
+                None => V::Missing,
+            },
+            (Some(Field::Str(s)), Some(i)) => s
+                .chars()
+                .nth(i)
+                .map(|c| V::Int(c as i64))
+                .unwrap_or(V::Missing),
+            _ => V::Missing,
+        }
+    }
+
+    fn age(&self, slot: usize) -> f64 {
+        let last = self.src.last_by_slot[slot].unwrap_or(self.src.first_us);
+        self.now.saturating_sub(last) as f64 / 1e6
+    }
+
+    fn seen(&self, slot: usize) -> bool {
+        self.src.last_by_slot[slot].is_some()
+    }
+
+    fn call(&self, func: Func) -> V<'_> {
+        match func {
+            Func::Mode => match self.src.custom_mode {
+                Some(m) => V::Str(mode_name(self.src.firmware, m).into()),
+                None => V::Missing,
+            },
+            Func::Firmware => match self.src.custom_mode {
+                Some(_) => V::Str(self.src.firmware.as_str().into()),
+                None => V::Missing,
+            },
+            Func::Loss => V::Float((self.src.loss * 1000.0).round() / 10.0),
+            Func::SysId => V::Int(self.src.sysid as i64),
+            Func::CompId => V::Int(self.src.compid as i64),
+        }
+    }
+
+    fn regex(&self, regex: usize) -> &regex::Regex {
+        &self.profile.regexes[regex]
+    }
+
+    fn memo(&mut self, memo: usize) -> &mut V<'static> {
+        &mut self.src.memos[memo]
+    }
+}

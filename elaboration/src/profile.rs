@@ -1,0 +1,761 @@
+//! Profiles: TOML files of rules, loaded once into a compiled form. A
+//! profile is read in layers (a built-in one, then a project's file): a
+//! later layer's rule of the same name replaces the keys it gives (so a
+//! project can change only a category), new names add rules, and
+//! `enabled = false` removes one. Every problem of every layer is reported
+//! at once, with file, line and column.
+
+use std::collections::{BTreeMap, HashMap};
+use std::fmt;
+use std::ops::Range;
+
+use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::Message;
+use nets::Category;
+use regex::Regex;
+use toml::de::{DeTable, DeValue};
+use toml::Spanned;
+
+use crate::expr::{self, Compiled, ExprError, Resolver};
+use crate::fields;
+
+/// The built-in ArduPilot profile.
+pub const ARDUPILOT: &str = include_str!("../profiles/ardupilot.toml");
+/// The built-in PX4 profile.
+pub const PX4: &str = include_str!("../profiles/px4.toml");
+
+/// The text of a built-in profile by name (`ardupilot`, `px4`).
+pub fn builtin(name: &str) -> Option<&'static str> {
+    match name {
+        "ardupilot" => Some(ARDUPILOT),
+        "px4" => Some(PX4),
+        _ => None,
+    }
+}
+
+/// One problem in a profile.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Problem {
+    pub file: String,
+    pub line: usize,
+    pub col: usize,
+    /// Byte range in the file.
+    pub span: Range<usize>,
+    pub message: String,
+}
+
+impl fmt::Display for Problem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}:{}:{}: {}",
+            self.file, self.line, self.col, self.message
+        )
+    }
+}
+
+/// Every problem found while loading a profile.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub struct ProfileError {
+    pub problems: Vec<Problem>,
+}
+
+impl fmt::Display for ProfileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} problem(s) in the profile", self.problems.len())?;
+        for p in &self.problems {
+            write!(f, "\n  {p}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Which senders a rule listens to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SourceFilter {
+    /// The supervised vehicle's autopilot (the default).
+    Autopilot,
+    /// Any component of the supervised vehicle's system.
+    Vehicle,
+    /// Ground stations (HEARTBEAT type GCS), from any system.
+    Gcs,
+    /// Anyone.
+    Any,
+    /// Given ids (either may be left out).
+    Ids {
+        sysid: Option<u8>,
+        compid: Option<u8>,
+    },
+}
+
+/// A compiled rule.
+#[derive(Debug, Clone)]
+pub struct Rule {
+    /// The rule's name in the profile (by default, its event's name).
+    pub name: String,
+    pub event: String,
+    pub category: Category,
+    pub(crate) when: Compiled,
+    pub(crate) clear: Option<Compiled>,
+    pub for_us: u64,
+    pub clear_for_us: u64,
+    pub cleared: Option<(String, Category)>,
+    /// Fire when the condition already holds at its first evaluation.
+    pub initial: bool,
+    /// Fire on every triggering message where the condition holds, instead
+    /// of once per false-to-true change.
+    pub each: bool,
+    pub(crate) params: Vec<(String, Compiled)>,
+    pub source: SourceFilter,
+    /// Evaluated on ticks (reads `age()` or has a duration).
+    pub(crate) timed: bool,
+}
+
+/// A message the profile reads or times.
+#[derive(Debug, Clone)]
+pub(crate) struct Slot {
+    pub id: u32,
+    pub fields: Vec<String>,
+    /// Some rule reads its fields, so frames of it are decoded.
+    pub decode: bool,
+}
+
+/// A compiled profile.
+#[derive(Debug, Clone)]
+pub struct Profile {
+    pub(crate) rules: Vec<Rule>,
+    pub(crate) slots: Vec<Slot>,
+    pub(crate) slot_of_id: HashMap<u32, usize>,
+    pub(crate) regexes: Vec<Regex>,
+    pub(crate) memos: usize,
+    /// Rules to evaluate on a message, by slot.
+    pub(crate) by_slot: Vec<Vec<usize>>,
+    pub(crate) timed: Vec<usize>,
+}
+
+/// Slot 0 is always HEARTBEAT: it classifies senders and names modes.
+pub(crate) const HEARTBEAT_SLOT: usize = 0;
+
+impl Profile {
+    /// A built-in profile by name.
+    pub fn builtin(name: &str) -> Result<Profile, ProfileError> {
+        let text = builtin(name).ok_or_else(|| ProfileError {
+            problems: vec![Problem {
+                file: name.to_owned(),
+                line: 0,
+                col: 0,
+                span: 0..0,
+                message: format!("no built-in profile `{name}` (known: ardupilot, px4)"),
+            }],
+        })?;
+        Profile::load(&[(&format!("{name}.toml"), text)])
+    }
+
+    /// Loads layers of profile text, each with the file name used in
+    /// problems; later layers override earlier ones rule by rule.
+    pub fn load(layers: &[(&str, &str)]) -> Result<Profile, ProfileError> {
+        let mut problems = Vec::new();
+        let mut specs: BTreeMap<String, RuleSpec> = BTreeMap::new();
+        let mut order: Vec<String> = Vec::new();
+        for (file_index, (file, text)) in layers.iter().enumerate() {
+            let loc = Locator {
+                file,
+                text,
+                file_index,
+            };
+            read_layer(&loc, &mut specs, &mut order, &mut problems);
+        }
+        let mut b = Builder::default();
+        b.slot_for(
+            MavMessage::message_id_from_name("HEARTBEAT").unwrap_or(0),
+            true,
+        );
+        let locs: Vec<Locator> = layers
+            .iter()
+            .enumerate()
+            .map(|(i, (file, text))| Locator {
+                file,
+                text,
+                file_index: i,
+            })
+            .collect();
+        let mut rules = Vec::new();
+        for key in &order {
+            let Some(spec) = specs.get(key) else { continue };
+            if spec.enabled == Some(false) {
+                continue;
+            }
+            if let Some(rule) = b.rule(key, spec, &locs, &mut problems) {
+                rules.push(rule);
+            }
+        }
+        if !problems.is_empty() {
+            problems.sort_by(|a, b| (&a.file, a.span.start).cmp(&(&b.file, b.span.start)));
+            return Err(ProfileError { problems });
+        }
+        let mut by_slot = vec![Vec::new(); b.slots.len()];
+        let mut timed = Vec::new();
+        for (i, r) in rules.iter().enumerate() {
+            let mut reads: Vec<usize> = r.when.reads.clone();
+            reads.extend(&r.when.ages);
+            if let Some(c) = &r.clear {
+                reads.extend(&c.reads);
+                reads.extend(&c.ages);
+            }
+            reads.sort_unstable();
+            reads.dedup();
+            for s in reads {
+                by_slot[s].push(i);
+            }
+            if r.timed {
+                timed.push(i);
+            }
+        }
+        Ok(Profile {
+            rules,
+            slot_of_id: b.slots.iter().enumerate().map(|(i, s)| (s.id, i)).collect(),
+            slots: b.slots,
+            regexes: b.regexes,
+            memos: b.memos,
+            by_slot,
+            timed,
+        })
+    }
+
+    /// The rules, in the order declared.
+    pub fn rules(&self) -> &[Rule] {
+        &self.rules
+    }
+
+    /// The names of the events this profile can produce.
+    pub fn event_names(&self) -> Vec<&str> {
+        let mut v: Vec<&str> = self
+            .rules
+            .iter()
+            .flat_map(|r| {
+                std::iter::once(r.event.as_str()).chain(r.cleared.as_ref().map(|c| c.0.as_str()))
+            })
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+}
+
+// ------------------------------------------------------------ reading TOML
+
+#[derive(Clone, Copy)]
+struct Locator<'a> {
+    file: &'a str,
+    text: &'a str,
+    file_index: usize,
+}
+
+impl Locator<'_> {
+    fn problem(&self, span: Range<usize>, message: impl Into<String>) -> Problem {
+        let start = span.start.min(self.text.len());
+        let before = &self.text[..start];
+        let line = before.matches('\n').count() + 1;
+        let col = before.rfind('\n').map(|i| start - i).unwrap_or(start + 1);
+        Problem {
+            file: self.file.to_owned(),
+            line,
+            col,
+            span,
+            message: message.into(),
+        }
+    }
+}
+
+/// A string value and where it is.
+#[derive(Debug, Clone)]
+struct Text {
+    value: String,
+    file: usize,
+    span: Range<usize>,
+}
+
+#[derive(Debug, Clone, Default)]
+struct RuleSpec {
+    decl: Option<(usize, Range<usize>)>,
+    event: Option<Text>,
+    category: Option<Text>,
+    when: Option<Text>,
+    clear: Option<Text>,
+    for_: Option<Text>,
+    clear_for: Option<Text>,
+    cleared: Option<Text>,
+    cleared_category: Option<Text>,
+    initial: Option<bool>,
+    each: Option<bool>,
+    enabled: Option<bool>,
+    source: Option<(SourceFilter, usize, Range<usize>)>,
+    params: BTreeMap<String, Text>,
+}
+
+const RULE_KEYS: &str = "event, category, when, clear, for, clear_for, cleared, cleared_category, initial, each, enabled, source, params";
+
+fn read_layer(
+    loc: &Locator,
+    specs: &mut BTreeMap<String, RuleSpec>,
+    order: &mut Vec<String>,
+    problems: &mut Vec<Problem>,
+) {
+    let (root, errors) = DeTable::parse_recoverable(loc.text);
+    for e in errors {
+        problems.push(loc.problem(e.span().unwrap_or(0..0), e.message().to_owned()));
+    }
+    for (key, value) in root.get_ref().iter() {
+        if key.get_ref().as_ref() != "rules" {
+            problems.push(loc.problem(
+                key.span(),
+                format!(
+                    "unknown key `{}` (a profile holds [rules.NAME] tables)",
+                    key.get_ref()
+                ),
+            ));
+            continue;
+        }
+        let Some(rules) = value.get_ref().as_table() else {
+            problems.push(loc.problem(value.span(), "`rules` must be a table of rules"));
+            continue;
+        };
+        for (name, body) in rules.iter() {
+            let name_str = name.get_ref().to_string();
+            let Some(table) = body.get_ref().as_table() else {
+                problems
+                    .push(loc.problem(body.span(), format!("rule `{name_str}` must be a table")));
+                continue;
+            };
+            if !specs.contains_key(&name_str) {
+                order.push(name_str.clone());
+            }
+            let spec = specs.entry(name_str).or_default();
+            spec.decl = Some((loc.file_index, name.span()));
+            read_rule(loc, table, spec, problems);
+        }
+    }
+}
+
+fn text_of(
+    loc: &Locator,
+    v: &Spanned<DeValue>,
+    key: &str,
+    problems: &mut Vec<Problem>,
+) -> Option<Text> {
+    match v.get_ref().as_str() {
+        Some(s) => Some(Text {
+            value: s.to_owned(),
+            file: loc.file_index,
+            span: v.span(),
+        }),
+        None => {
+            problems.push(loc.problem(v.span(), format!("`{key}` must be a string")));
+            None
+        }
+    }
+}
+
+fn bool_of(
+    loc: &Locator,
+    v: &Spanned<DeValue>,
+    key: &str,
+    problems: &mut Vec<Problem>,
+) -> Option<bool> {
+    let b = v.get_ref().as_bool();
+    if b.is_none() {
+        problems.push(loc.problem(v.span(), format!("`{key}` must be true or false")));
+    }
+    b
+}
+
+fn read_rule(loc: &Locator, table: &DeTable, spec: &mut RuleSpec, problems: &mut Vec<Problem>) {
+    for (key, v) in table.iter() {
+        let k = key.get_ref().as_ref();
+        match k {
+            "event" => spec.event = text_of(loc, v, k, problems),
+            "category" => spec.category = text_of(loc, v, k, problems),
+            "when" => spec.when = text_of(loc, v, k, problems),
+            "clear" => spec.clear = text_of(loc, v, k, problems),
+            "for" => spec.for_ = text_of(loc, v, k, problems),
+            "clear_for" => spec.clear_for = text_of(loc, v, k, problems),
+            "cleared" => spec.cleared = text_of(loc, v, k, problems),
+            "cleared_category" => spec.cleared_category = text_of(loc, v, k, problems),
+            "initial" => spec.initial = bool_of(loc, v, k, problems),
+            "each" => spec.each = bool_of(loc, v, k, problems),
+            "enabled" => spec.enabled = bool_of(loc, v, k, problems),
+            "source" => {
+                if let Some(s) = read_source(loc, v, problems) {
+                    spec.source = Some((s, loc.file_index, v.span()));
+                }
+            }
+            "params" => match v.get_ref().as_table() {
+                Some(t) => {
+                    for (pk, pv) in t.iter() {
+                        if let Some(text) = text_of(loc, pv, pk.get_ref(), problems) {
+                            spec.params.insert(pk.get_ref().to_string(), text);
+                        }
+                    }
+                }
+                None => {
+                    problems.push(loc.problem(v.span(), "`params` must be a table of expressions"))
+                }
+            },
+            other => problems.push(loc.problem(
+                key.span(),
+                format!("unknown rule key `{other}` (known: {RULE_KEYS})"),
+            )),
+        }
+    }
+}
+
+fn read_source(
+    loc: &Locator,
+    v: &Spanned<DeValue>,
+    problems: &mut Vec<Problem>,
+) -> Option<SourceFilter> {
+    if let Some(s) = v.get_ref().as_str() {
+        let f = match s {
+            "autopilot" => SourceFilter::Autopilot,
+            "vehicle" => SourceFilter::Vehicle,
+            "gcs" => SourceFilter::Gcs,
+            "any" => SourceFilter::Any,
+            _ => {
+                problems.push(loc.problem(v.span(), format!("unknown source `{s}` (autopilot, vehicle, gcs, any, or {{ sysid = N, compid = M }})")));
+                return None;
+            }
+        };
+        return Some(f);
+    }
+    let Some(t) = v.get_ref().as_table() else {
+        problems.push(loc.problem(
+            v.span(),
+            "`source` must be a name or { sysid = N, compid = M }",
+        ));
+        return None;
+    };
+    let mut ids = (None, None);
+    for (k, val) in t.iter() {
+        let n = val
+            .get_ref()
+            .as_integer()
+            .and_then(|i| i64::from_str_radix(i.as_str(), i.radix()).ok())
+            .and_then(|i| u8::try_from(i).ok());
+        let Some(n) = n else {
+            problems.push(loc.problem(val.span(), "an id must be an integer from 0 to 255"));
+            continue;
+        };
+        match k.get_ref().as_ref() {
+            "sysid" => ids.0 = Some(n),
+            "compid" => ids.1 = Some(n),
+            other => problems.push(loc.problem(
+                k.span(),
+                format!("unknown source key `{other}` (sysid, compid)"),
+            )),
+        }
+    }
+    Some(SourceFilter::Ids {
+        sysid: ids.0,
+        compid: ids.1,
+    })
+}
+
+/// Parses `2s`, `500ms`, `1.5s`, `1min` into microseconds.
+pub fn parse_duration(s: &str) -> Option<u64> {
+    let s = s.trim();
+    let split = s.find(|c: char| !(c.is_ascii_digit() || c == '.'))?;
+    let (num, unit) = s.split_at(split);
+    let n: f64 = num.parse().ok()?;
+    let scale = match unit.trim() {
+        "us" => 1.0,
+        "ms" => 1e3,
+        "s" => 1e6,
+        "min" => 60e6,
+        _ => return None,
+    };
+    let us = n * scale;
+    (0.0..1e15).contains(&us).then_some(us as u64)
+}
+
+// ------------------------------------------------------------ compiling
+
+#[derive(Default)]
+struct Builder {
+    slots: Vec<Slot>,
+    regexes: Vec<Regex>,
+    memos: usize,
+}
+
+impl Builder {
+    fn slot_for(&mut self, id: u32, decode: bool) -> usize {
+        if let Some(i) = self.slots.iter().position(|s| s.id == id) {
+            self.slots[i].decode |= decode;
+            return i;
+        }
+        self.slots.push(Slot {
+            id,
+            fields: fields::schema(id).unwrap_or_default(),
+            decode,
+        });
+        self.slots.len() - 1
+    }
+
+    fn message_id(name: &str) -> Result<u32, String> {
+        MavMessage::message_id_from_name(name)
+            .ok_or_else(|| format!("unknown message `{name}` (not in the ardupilotmega dialect)"))
+    }
+
+    fn compile(
+        &mut self,
+        text: &Text,
+        locs: &[Locator],
+        problems: &mut Vec<Problem>,
+    ) -> Option<Compiled> {
+        match expr::compile(&text.value, self) {
+            Ok(c) => Some(c),
+            Err(ExprError {
+                offset,
+                len,
+                message,
+            }) => {
+                let loc = &locs[text.file];
+                let raw = &loc.text[text.span.start.min(loc.text.len())..];
+                let open = if raw.starts_with("\"\"\"") || raw.starts_with("'''") {
+                    3 + usize::from(raw[3..].starts_with('\n'))
+                } else {
+                    1
+                };
+                let start = text.span.start + open + offset;
+                problems.push(loc.problem(start..start + len, message));
+                None
+            }
+        }
+    }
+
+    fn rule(
+        &mut self,
+        key: &str,
+        spec: &RuleSpec,
+        locs: &[Locator],
+        problems: &mut Vec<Problem>,
+    ) -> Option<Rule> {
+        let (decl_file, decl_span) = spec.decl.clone().unwrap_or((0, 0..0));
+        let decl = locs[decl_file];
+        let before = problems.len();
+        let category = |t: &Option<Text>,
+                        what: &str,
+                        problems: &mut Vec<Problem>|
+         -> Option<Category> {
+            match t {
+                Some(t) => match t.value.parse::<Category>() {
+                    Ok(c) => Some(c),
+                    Err(e) => {
+                        problems.push(locs[t.file].problem(t.span.clone(), e.to_string()));
+                        None
+                    }
+                },
+                None => {
+                    problems.push(
+                        decl.problem(decl_span.clone(), format!("rule `{key}` has no `{what}`")),
+                    );
+                    None
+                }
+            }
+        };
+        let cat = category(&spec.category, "category", problems);
+        let when = match &spec.when {
+            Some(t) => self.compile(t, locs, problems),
+            None => {
+                problems.push(decl.problem(
+                    decl_span.clone(),
+                    format!("rule `{key}` has no `when` condition"),
+                ));
+                None
+            }
+        };
+        let clear = spec
+            .clear
+            .as_ref()
+            .and_then(|t| self.compile(t, locs, problems));
+        let duration = |t: &Option<Text>, problems: &mut Vec<Problem>| -> u64 {
+            match t {
+                Some(t) => parse_duration(&t.value).unwrap_or_else(|| {
+                    problems.push(locs[t.file].problem(
+                        t.span.clone(),
+                        format!(
+                            "bad duration `{}` (as in \"2s\", \"500ms\", \"1min\")",
+                            t.value
+                        ),
+                    ));
+                    0
+                }),
+                None => 0,
+            }
+        };
+        let for_us = duration(&spec.for_, problems);
+        let clear_for_us = duration(&spec.clear_for, problems);
+        let mut params = Vec::new();
+        for (name, t) in &spec.params {
+            if let Some(c) = self.compile(t, locs, problems) {
+                params.push((name.clone(), c));
+            }
+        }
+        let cleared = match &spec.cleared {
+            Some(t) => {
+                let c = match &spec.cleared_category {
+                    Some(_) => category(&spec.cleared_category, "cleared_category", problems),
+                    None => cat,
+                };
+                c.map(|c| (t.value.clone(), c))
+            }
+            None => None,
+        };
+        let event = spec
+            .event
+            .as_ref()
+            .map(|t| t.value.clone())
+            .unwrap_or_else(|| key.to_owned());
+        for (name, t) in std::iter::once((&event, spec.event.as_ref()))
+            .chain(cleared.as_ref().map(|c| (&c.0, spec.cleared.as_ref())))
+        {
+            if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                let (loc, span) = match t {
+                    Some(t) => (locs[t.file], t.span.clone()),
+                    None => (decl, decl_span.clone()),
+                };
+                problems.push(loc.problem(
+                    span,
+                    format!("bad event name `{name}` (letters, digits and _)"),
+                ));
+            }
+        }
+        if problems.len() > before {
+            return None;
+        }
+        let (when, category) = (when?, cat?);
+        let timed =
+            when.timed || clear.as_ref().is_some_and(|c| c.timed) || for_us > 0 || clear_for_us > 0;
+        Some(Rule {
+            name: key.to_owned(),
+            event,
+            category,
+            when,
+            clear,
+            for_us,
+            clear_for_us,
+            cleared,
+            initial: spec.initial.unwrap_or(true),
+            each: spec.each.unwrap_or(false),
+            params,
+            source: spec
+                .source
+                .as_ref()
+                .map(|s| s.0)
+                .unwrap_or(SourceFilter::Autopilot),
+            timed,
+        })
+    }
+}
+
+impl Resolver for Builder {
+    fn field(&mut self, message: &str, field: &str) -> Result<(usize, usize), String> {
+        let id = Builder::message_id(message)?;
+        let slot = self.slot_for(id, true);
+        let fields = &self.slots[slot].fields;
+        fields
+            .iter()
+            .position(|f| f == field)
+            .map(|i| (slot, i))
+            .ok_or_else(|| {
+                format!(
+                    "`{message}` has no field `{field}` (fields: {})",
+                    fields.join(", ")
+                )
+            })
+    }
+
+    fn timed_message(&mut self, message: &str) -> Result<usize, String> {
+        let id = Builder::message_id(message)?;
+        Ok(self.slot_for(id, false))
+    }
+
+    fn constant(&self, name: &str) -> Option<i64> {
+        crate::constants::value(name)
+    }
+
+    fn regex(&mut self, regex: Regex) -> usize {
+        self.regexes.push(regex);
+        self.regexes.len() - 1
+    }
+
+    fn memo(&mut self) -> usize {
+        self.memos += 1;
+        self.memos - 1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn durations() {
+        assert_eq!(parse_duration("2s"), Some(2_000_000));
+        assert_eq!(parse_duration("500ms"), Some(500_000));
+        assert_eq!(parse_duration("1.5s"), Some(1_500_000));
+        assert_eq!(parse_duration("1min"), Some(60_000_000));
+        assert_eq!(parse_duration("2 parsecs"), None);
+        assert_eq!(parse_duration("s"), None);
+    }
+
+    #[test]
+    fn builtin_profiles_compile() {
+        for name in ["ardupilot", "px4"] {
+            let p = Profile::builtin(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(p.rules().len() > 20, "{name} has {} rules", p.rules().len());
+        }
+    }
+
+    #[test]
+    fn all_problems_at_once_with_positions() {
+        let text = "[rules.a]\ncategory = \"safety\"\nwhen = \"SYS_STATUS.battery_remainin < 5\"\n\n[rules.b]\ncategory = \"bogus\"\nwhen = \"NOPE.x > 1\"\nfor = \"2 parsecs\"\ncolour = 3\n";
+        let err = Profile::load(&[("my.toml", text)]).expect_err("invalid");
+        let lines: Vec<(usize, usize)> = err.problems.iter().map(|p| (p.line, p.col)).collect();
+        assert_eq!(err.problems.len(), 5, "{err}");
+        assert!(err.problems.iter().all(|p| p.file == "my.toml"));
+        // `SYS_STATUS.battery_remainin` starts at column 9 of line 3.
+        assert_eq!(lines[0], (3, 9));
+        assert!(
+            err.problems[0].message.contains("battery_remaining"),
+            "{}",
+            err.problems[0].message
+        );
+        assert_eq!(lines[1], (6, 12));
+        assert_eq!(lines[2], (7, 9));
+        assert_eq!(lines[3], (8, 7));
+        assert_eq!(lines[4], (9, 1));
+    }
+
+    #[test]
+    fn syntax_errors_are_located() {
+        let err = Profile::load(&[("x.toml", "[rules.a\ncategory = 1")]).expect_err("invalid");
+        assert!(!err.problems.is_empty());
+        assert_eq!(err.problems[0].line, 1);
+    }
+
+    #[test]
+    fn layers_override_by_rule_name() {
+        let base = "[rules.a]\ncategory = \"safety\"\nwhen = \"SYS_STATUS.battery_remaining < 5\"\n[rules.b]\ncategory = \"nominal\"\nwhen = \"true\"\n";
+        let user = "[rules.a]\ncategory = \"catastrophic\"\n[rules.b]\nenabled = false\n[rules.c]\ncategory = \"mission\"\nwhen = \"GPS_RAW_INT.satellites_visible < 4\"\n";
+        let p = Profile::load(&[("base.toml", base), ("user.toml", user)]).expect("valid");
+        let names: Vec<(&str, Category)> = p
+            .rules()
+            .iter()
+            .map(|r| (r.event.as_str(), r.category))
+            .collect();
+        assert_eq!(
+            names,
+            vec![("a", Category::Catastrophic), ("c", Category::Mission)]
+        );
+    }
+}

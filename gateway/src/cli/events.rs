@@ -1,0 +1,223 @@
+//! `petrel events FILE.tlog [--profile ardupilot|px4|FILE.toml] [--json]`:
+//! elaborates a telemetry log into supervision events.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use elaboration::{Config, Elaborated, Elaborator, Firmware, Profile, ProfileError, TlogReader};
+use miette::{miette, IntoDiagnostic, LabeledSpan, NamedSource, WrapErr};
+
+use super::{Outcome, VerbResult};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The telemetry log (8-byte big-endian microsecond timestamp before each frame).
+    pub file: PathBuf,
+    /// `ardupilot`, `px4`, or a profile file extending the built-in one of
+    /// the log's autopilot. By default, the built-in one of the log's autopilot.
+    #[arg(long)]
+    pub profile: Option<String>,
+    /// One JSON object a line on stdout instead of a timeline for people.
+    #[arg(long)]
+    pub json: bool,
+    /// The supervised vehicle's system id (default: the first autopilot heard).
+    #[arg(long)]
+    pub sysid: Option<u8>,
+    /// Its autopilot's component id.
+    #[arg(long)]
+    pub compid: Option<u8>,
+    /// Firmware family for mode names: copter, plane, rover, sub, px4.
+    #[arg(long)]
+    pub firmware: Option<String>,
+}
+
+/// The built-in profile of the first autopilot HEARTBEAT in the log.
+fn detect(bytes: &[u8]) -> &'static str {
+    use mavlink::dialects::ardupilotmega::{MavAutopilot, MavMessage, MavType};
+    for rec in TlogReader::new(bytes) {
+        if rec.frame.message_id() != 0 {
+            continue;
+        }
+        if let Ok(MavMessage::HEARTBEAT(hb)) = rec.frame.decode() {
+            if hb.mavtype == MavType::MAV_TYPE_GCS
+                || hb.autopilot == MavAutopilot::MAV_AUTOPILOT_INVALID
+            {
+                continue;
+            }
+            return if hb.autopilot == MavAutopilot::MAV_AUTOPILOT_PX4 {
+                "px4"
+            } else {
+                "ardupilot"
+            };
+        }
+    }
+    "ardupilot"
+}
+
+fn report(err: &ProfileError, sources: &[(String, String)]) {
+    for p in &err.problems {
+        let mut r = miette!(
+            labels = vec![LabeledSpan::at(p.span.clone(), p.message.clone())],
+            "{}:{}:{}: {}",
+            p.file,
+            p.line,
+            p.col,
+            p.message
+        );
+        if let Some((name, text)) = sources.iter().find(|(n, _)| *n == p.file) {
+            r = r.with_source_code(NamedSource::new(name, text.clone()));
+        }
+        eprintln!("{r:?}");
+    }
+}
+
+fn load_profile(choice: Option<&str>, bytes: &[u8]) -> Result<Result<Profile, ()>, miette::Report> {
+    let (base, user) = match choice {
+        None => (detect(bytes), None),
+        Some(name @ ("ardupilot" | "px4")) => {
+            (if name == "px4" { "px4" } else { "ardupilot" }, None)
+        }
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .into_diagnostic()
+                .wrap_err_with(|| format!("cannot read the profile {path}"))?;
+            (detect(bytes), Some((path.to_owned(), text)))
+        }
+    };
+    let base_text = elaboration::profile::builtin(base).unwrap_or_default();
+    let mut sources = vec![(format!("{base}.toml"), base_text.to_owned())];
+    sources.extend(user);
+    let layers: Vec<(&str, &str)> = sources
+        .iter()
+        .map(|(n, t)| (n.as_str(), t.as_str()))
+        .collect();
+    match Profile::load(&layers) {
+        Ok(p) => Ok(Ok(p)),
+        Err(e) => {
+            report(&e, &sources);
+            Ok(Err(()))
+        }
+    }
+}
+
+fn json_line(e: &Elaborated, first_us: u64) -> serde_json::Value {
+    let params: serde_json::Map<String, serde_json::Value> = e
+        .event
+        .params
+        .iter()
+        .map(|(k, v)| (k.clone(), v.to_json()))
+        .collect();
+    serde_json::json!({
+        "time_us": e.time_us,
+        "t": seconds(e.time_us, first_us),
+        "event": e.event.name,
+        "category": e.event.category.as_str(),
+        "params": params,
+        "sysid": e.sysid,
+        "compid": e.compid,
+    })
+}
+
+fn seconds(time_us: u64, first_us: u64) -> f64 {
+    let d = time_us as i128 - first_us as i128;
+    (d as f64 / 1e6 * 1e6).round() / 1e6
+}
+
+pub fn run(args: Args) -> VerbResult {
+    let bytes = std::fs::read(&args.file)
+        .into_diagnostic()
+        .wrap_err_with(|| format!("cannot read {}", args.file.display()))?;
+    let firmware = match args.firmware.as_deref() {
+        None => None,
+        Some(f) => match Firmware::parse(f) {
+            Some(f) => Some(f),
+            None => {
+                return Err(miette!(
+                    "unknown firmware `{f}` (copter, plane, rover, sub, px4)"
+                ))
+            }
+        },
+    };
+    let Ok(profile) = load_profile(args.profile.as_deref(), &bytes)? else {
+        return Ok(Outcome::BadInput);
+    };
+    run_on(&args.file, &bytes, profile, firmware, &args)
+}
+
+fn run_on(
+    file: &Path,
+    bytes: &[u8],
+    profile: Profile,
+    firmware: Option<Firmware>,
+    args: &Args,
+) -> VerbResult {
+    let config = Config {
+        sysid: args.sysid,
+        compid: args.compid,
+        firmware,
+        ..Config::default()
+    };
+    let mut elab = Elaborator::new(profile, config);
+    let mut reader = TlogReader::new(bytes);
+    let mut first_us = None;
+    let mut counts: BTreeMap<String, u64> = BTreeMap::new();
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    let mut emit = |e: Elaborated, first: u64, out: &mut dyn Write| -> std::io::Result<()> {
+        *counts.entry(e.event.name.clone()).or_default() += 1;
+        if args.json {
+            writeln!(out, "{}", json_line(&e, first))
+        } else {
+            writeln!(
+                out,
+                "{:>10.3}s  {:<13}  {}  [{}/{}]",
+                seconds(e.time_us, first),
+                e.event.category.as_str(),
+                e.event,
+                e.sysid,
+                e.compid
+            )
+        }
+    };
+    for rec in reader.by_ref() {
+        let first = *first_us.get_or_insert(rec.time_us);
+        elab.frame(rec.time_us, &rec.frame);
+        while let Some(e) = elab.poll_event() {
+            emit(e, first, &mut out).into_diagnostic()?;
+        }
+    }
+    out.flush().into_diagnostic()?;
+    drop(out);
+    let read = reader.stats();
+    let stats = elab.stats();
+    let mut err = std::io::stderr().lock();
+    let _ = writeln!(err, "{}: {} frames", file.display(), read.frames);
+    let _ = writeln!(
+        err,
+        "  skipped: {} bad-CRC records {:?}, {} unknown-id records {:?}, {} bytes of garbage ({} resyncs), {} truncated bytes at the end; {} backwards timestamps",
+        read.bad_crc_total(),
+        read.bad_crc,
+        read.unknown_ids.values().sum::<u64>(),
+        read.unknown_ids,
+        read.skipped_bytes,
+        read.resyncs,
+        read.truncated_tail,
+        read.backwards_timestamps
+    );
+    let _ = writeln!(
+        err,
+        "  decoded {} frames; decode failures by message id: {:?}; {} frames lost by sequence",
+        stats.decoded, stats.decode_failures, stats.sequence_lost
+    );
+    match elab.vehicle() {
+        Some((s, c)) => {
+            let _ = writeln!(err, "  vehicle autopilot: {s}/{c}");
+        }
+        None => {
+            let _ = writeln!(err, "  no autopilot HEARTBEAT found");
+        }
+    }
+    let _ = writeln!(err, "  events: {counts:?}");
+    Ok(Outcome::Success)
+}
