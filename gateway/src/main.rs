@@ -9,9 +9,14 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cli;
+mod project;
 
 #[derive(Parser)]
-#[command(name = "petrel", version, about = "Petrel: mission supervision with interpreted Petri nets over MAVLink")]
+#[command(
+    name = "petrel",
+    version,
+    about = "Petrel: mission supervision with interpreted Petri nets over MAVLink"
+)]
 struct Petrel {
     #[command(subcommand)]
     verb: Verb,

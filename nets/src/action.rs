@@ -22,11 +22,24 @@ pub type Name = (String, usize);
 pub enum ActionSyntax {
     Activate(Name),
     Deactivate(Name),
-    Emit { event: Name, args: Vec<(String, Expr)> },
-    Timer { name: Name, after: Name },
+    Emit {
+        event: Name,
+        args: Vec<(String, Expr)>,
+    },
+    Timer {
+        name: Name,
+        after: Name,
+    },
     Cancel(Name),
-    Call { program: Name, function: Name, args: Vec<(String, Expr)> },
-    Command { verb: Name, args: Vec<(String, Expr)> },
+    Call {
+        program: Name,
+        function: Name,
+        args: Vec<(String, Expr)>,
+    },
+    Command {
+        verb: Name,
+        args: Vec<(String, Expr)>,
+    },
 }
 
 const STOPS: &[char] = &['{', '}', ',', ':'];
@@ -111,8 +124,7 @@ pub fn parse(text: &str) -> Result<ActionSyntax, SyntaxError> {
 }
 
 fn net_name(p: &mut Parser) -> Result<Name, SyntaxError> {
-    p.word(STOPS)
-        .ok_or_else(|| p.error("expected a net name"))
+    p.word(STOPS).ok_or_else(|| p.error("expected a net name"))
 }
 
 fn args(p: &mut Parser) -> Result<Vec<(String, Expr)>, SyntaxError> {
@@ -133,19 +145,40 @@ mod tests {
 
     #[test]
     fn every_form() {
-        assert_eq!(parse("activate MISSION"), Ok(ActionSyntax::Activate(("MISSION".into(), 9))));
-        assert_eq!(parse("deactivate  EVENTS "), Ok(ActionSyntax::Deactivate(("EVENTS".into(), 12))));
+        assert_eq!(
+            parse("activate MISSION"),
+            Ok(ActionSyntax::Activate(("MISSION".into(), 9)))
+        );
+        assert_eq!(
+            parse("deactivate  EVENTS "),
+            Ok(ActionSyntax::Deactivate(("EVENTS".into(), 12)))
+        );
         assert_eq!(
             parse("timer climb after 30s"),
-            Ok(ActionSyntax::Timer { name: ("climb".into(), 6), after: ("30s".into(), 18) })
+            Ok(ActionSyntax::Timer {
+                name: ("climb".into(), 6),
+                after: ("30s".into(), 18)
+            })
         );
-        assert_eq!(parse("cancel climb"), Ok(ActionSyntax::Cancel(("climb".into(), 7))));
-        let ActionSyntax::Call { program, function, args } = parse("call DEC.next_waypoint {index: $seq}").unwrap() else {
+        assert_eq!(
+            parse("cancel climb"),
+            Ok(ActionSyntax::Cancel(("climb".into(), 7)))
+        );
+        let ActionSyntax::Call {
+            program,
+            function,
+            args,
+        } = parse("call DEC.next_waypoint {index: $seq}").unwrap()
+        else {
             panic!("not a call")
         };
-        assert_eq!((program.0.as_str(), function.0.as_str()), ("DEC", "next_waypoint"));
+        assert_eq!(
+            (program.0.as_str(), function.0.as_str()),
+            ("DEC", "next_waypoint")
+        );
         assert_eq!(args[0].0, "index");
-        let ActionSyntax::Command { verb, args } = parse("command mode {mode: AUTO}").unwrap() else {
+        let ActionSyntax::Command { verb, args } = parse("command mode {mode: AUTO}").unwrap()
+        else {
             panic!("not a command")
         };
         assert_eq!(verb.0, "mode");

@@ -56,7 +56,9 @@ impl fmt::Display for Category {
 
 /// Error for a category name that is not one of the five.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown category `{0}` (expected catastrophic, safety, communication, mission or nominal)")]
+#[error(
+    "unknown category `{0}` (expected catastrophic, safety, communication, mission or nominal)"
+)]
 pub struct UnknownCategory(pub String);
 
 impl FromStr for Category {

@@ -182,24 +182,46 @@ fn binary(op: BinOp, a: &Value, b: &Value) -> Result<Value, EvalError> {
     };
     let order: Option<Ordering> = match (a, b) {
         (Value::Int(x), Value::Int(y)) => Some(x.cmp(y)),
-        (Value::Int(_) | Value::Float(_), Value::Int(_) | Value::Float(_)) => {
-            a.as_f64().zip(b.as_f64()).and_then(|(x, y)| x.partial_cmp(&y))
-        }
+        (Value::Int(_) | Value::Float(_), Value::Int(_) | Value::Float(_)) => a
+            .as_f64()
+            .zip(b.as_f64())
+            .and_then(|(x, y)| x.partial_cmp(&y)),
         (Value::Str(x), Value::Str(y)) => Some(x.cmp(y)),
         (Value::Bool(x), Value::Bool(y)) => Some(x.cmp(y)),
         _ => None,
     };
     match op {
-        BinOp::Eq => return Ok(Value::Bool(order == Some(Ordering::Equal) || (order.is_none() && a == b && !matches!(a, Value::Float(_))))),
-        BinOp::Ne => return Ok(Value::Bool(!(order == Some(Ordering::Equal) || (order.is_none() && a == b && !matches!(a, Value::Float(_)))))),
+        BinOp::Eq => {
+            return Ok(Value::Bool(
+                order == Some(Ordering::Equal)
+                    || (order.is_none() && a == b && !matches!(a, Value::Float(_))),
+            ))
+        }
+        BinOp::Ne => {
+            return Ok(Value::Bool(
+                !(order == Some(Ordering::Equal)
+                    || (order.is_none() && a == b && !matches!(a, Value::Float(_)))),
+            ))
+        }
         BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => {
-            if matches!((a, b), (Value::List(_) | Value::Map(_), _) | (_, Value::List(_) | Value::Map(_)))
-                || (order.is_none() && !matches!((a, b), (Value::Int(_) | Value::Float(_), Value::Int(_) | Value::Float(_))))
+            if matches!(
+                (a, b),
+                (Value::List(_) | Value::Map(_), _) | (_, Value::List(_) | Value::Map(_))
+            ) || (order.is_none()
+                && !matches!(
+                    (a, b),
+                    (
+                        Value::Int(_) | Value::Float(_),
+                        Value::Int(_) | Value::Float(_)
+                    )
+                ))
             {
                 return Err(types());
             }
             // NaN compares false with everything.
-            let Some(o) = order else { return Ok(Value::Bool(false)) };
+            let Some(o) = order else {
+                return Ok(Value::Bool(false));
+            };
             return Ok(Value::Bool(match op {
                 BinOp::Lt => o == Ordering::Less,
                 BinOp::Le => o != Ordering::Greater,
@@ -424,7 +446,10 @@ impl<'a> Parser<'a> {
         self.pos += token.len();
         let right = self.sum()?;
         self.skip_ws();
-        if ["==", "!=", "<", ">"].iter().any(|t| self.rest().starts_with(t)) {
+        if ["==", "!=", "<", ">"]
+            .iter()
+            .any(|t| self.rest().starts_with(t))
+        {
             return Err(self.error("comparisons do not chain: use `&&`"));
         }
         Ok(Expr::Binary(op, Box::new(left), Box::new(right)))
@@ -612,7 +637,8 @@ impl<'a> Parser<'a> {
             .find(|c: char| !(c.is_ascii_digit() || c == '_'))
             .unwrap_or(rest.len());
         let mut float = false;
-        if rest[len..].starts_with('.') && rest[len + 1..].starts_with(|c: char| c.is_ascii_digit()) {
+        if rest[len..].starts_with('.') && rest[len + 1..].starts_with(|c: char| c.is_ascii_digit())
+        {
             float = true;
             len += 1;
             len += rest[len..]
@@ -643,9 +669,13 @@ impl<'a> Parser<'a> {
             message: format!("malformed number `{}`", &rest[..len]),
         };
         if float {
-            text.parse().map(|f| Expr::Lit(Value::Float(f))).map_err(|_| bad())
+            text.parse()
+                .map(|f| Expr::Lit(Value::Float(f)))
+                .map_err(|_| bad())
         } else {
-            text.parse().map(|i| Expr::Lit(Value::Int(i))).map_err(|_| bad())
+            text.parse()
+                .map(|i| Expr::Lit(Value::Int(i)))
+                .map_err(|_| bad())
         }
     }
 }
@@ -655,7 +685,10 @@ mod tests {
     use super::*;
 
     fn guard(text: &str, params: &[(&str, Value)]) -> Result<bool, EvalError> {
-        let params: Params = params.iter().map(|(k, v)| (k.to_string(), v.clone())).collect();
+        let params: Params = params
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.clone()))
+            .collect();
         parse(text, Context::Guard).expect("parses").holds(&params)
     }
 
@@ -663,26 +696,56 @@ mod tests {
     fn comparisons_and_logic() {
         assert_eq!(guard("seq == 3", &[("seq", Value::Int(3))]), Ok(true));
         assert_eq!(guard("seq == 3", &[("seq", Value::Int(4))]), Ok(false));
-        assert_eq!(guard("remaining < 20", &[("remaining", Value::Int(19))]), Ok(true));
-        assert_eq!(guard("remaining < 20", &[("remaining", Value::Float(20.0))]), Ok(false));
-        assert_eq!(guard("$remaining <= 20.0", &[("remaining", Value::Int(20))]), Ok(true));
         assert_eq!(
-            guard("a > 1 && (b == \"x\" || !c)", &[("a", 2.into()), ("b", "y".into()), ("c", false.into())]),
+            guard("remaining < 20", &[("remaining", Value::Int(19))]),
             Ok(true)
         );
-        assert_eq!(guard("not a and b", &[("a", false.into()), ("b", true.into())]), Ok(true));
+        assert_eq!(
+            guard("remaining < 20", &[("remaining", Value::Float(20.0))]),
+            Ok(false)
+        );
+        assert_eq!(
+            guard("$remaining <= 20.0", &[("remaining", Value::Int(20))]),
+            Ok(true)
+        );
+        assert_eq!(
+            guard(
+                "a > 1 && (b == \"x\" || !c)",
+                &[("a", 2.into()), ("b", "y".into()), ("c", false.into())]
+            ),
+            Ok(true)
+        );
+        assert_eq!(
+            guard("not a and b", &[("a", false.into()), ("b", true.into())]),
+            Ok(true)
+        );
         assert_eq!(guard("a + 2 * 3 == 7", &[("a", 1.into())]), Ok(true));
         assert_eq!(guard("a % 2 != 0", &[("a", 7.into())]), Ok(true));
         assert_eq!(guard("-a < 0", &[("a", 1.5.into())]), Ok(true));
-        assert_eq!(guard("mode == \"AUTO\"", &[("mode", "AUTO".into())]), Ok(true));
+        assert_eq!(
+            guard("mode == \"AUTO\"", &[("mode", "AUTO".into())]),
+            Ok(true)
+        );
     }
 
     #[test]
     fn evaluation_errors_are_values_not_panics() {
-        assert_eq!(guard("x > 1", &[]), Err(EvalError::MissingParam("x".into())));
-        assert!(matches!(guard("x > 1", &[("x", "a".into())]), Err(EvalError::Types { .. })));
-        assert_eq!(guard("x / 0 == 1", &[("x", 1.into())]), Err(EvalError::DivisionByZero));
-        assert_eq!(guard("x + 1 > 0", &[("x", i64::MAX.into())]), Err(EvalError::Overflow));
+        assert_eq!(
+            guard("x > 1", &[]),
+            Err(EvalError::MissingParam("x".into()))
+        );
+        assert!(matches!(
+            guard("x > 1", &[("x", "a".into())]),
+            Err(EvalError::Types { .. })
+        ));
+        assert_eq!(
+            guard("x / 0 == 1", &[("x", 1.into())]),
+            Err(EvalError::DivisionByZero)
+        );
+        assert_eq!(
+            guard("x + 1 > 0", &[("x", i64::MAX.into())]),
+            Err(EvalError::Overflow)
+        );
         // Equality between different types is false, not an error.
         assert_eq!(guard("x == 1", &[("x", "1".into())]), Ok(false));
         // Short-circuit: the missing parameter is never read.
@@ -691,13 +754,26 @@ mod tests {
 
     #[test]
     fn arguments() {
-        let e = parse("{lat: $lat, alt: $alt + 10, mode: AUTO, items: [1, 2.5, \"w\"]}", Context::Argument).unwrap();
-        let params: Params = [("lat".to_string(), Value::Float(43.5)), ("alt".to_string(), Value::Int(90))].into();
-        let Value::Map(m) = e.eval(&params).unwrap() else { panic!("not a map") };
+        let e = parse(
+            "{lat: $lat, alt: $alt + 10, mode: AUTO, items: [1, 2.5, \"w\"]}",
+            Context::Argument,
+        )
+        .unwrap();
+        let params: Params = [
+            ("lat".to_string(), Value::Float(43.5)),
+            ("alt".to_string(), Value::Int(90)),
+        ]
+        .into();
+        let Value::Map(m) = e.eval(&params).unwrap() else {
+            panic!("not a map")
+        };
         assert_eq!(m["lat"], Value::Float(43.5));
         assert_eq!(m["alt"], Value::Int(100));
         assert_eq!(m["mode"], Value::Str("AUTO".into()));
-        assert_eq!(m["items"], Value::List(vec![1.into(), 2.5.into(), "w".into()]));
+        assert_eq!(
+            m["items"],
+            Value::List(vec![1.into(), 2.5.into(), "w".into()])
+        );
         let mut read = Vec::new();
         e.params(&mut read);
         assert_eq!(read, vec![("lat".to_string(), 6), ("alt".to_string(), 17)]);

@@ -83,7 +83,12 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
         };
         for key in obj.keys() {
             if !["t", "event", "params", "category", "reply", "failed"].contains(&key.as_str()) {
-                return Err(err(number, format!("unknown key `{key}` (expected t, event, params, category, reply, failed)")));
+                return Err(err(
+                    number,
+                    format!(
+                        "unknown key `{key}` (expected t, event, params, category, reply, failed)"
+                    ),
+                ));
             }
         }
         let t = obj
@@ -91,11 +96,17 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
             .and_then(Json::as_f64)
             .ok_or_else(|| err(number, "missing `t` (seconds, a number)"))?;
         if !(0.0..=1e9).contains(&t) {
-            return Err(err(number, format!("`t` = {t} is out of range (0 to 1e9 seconds)")));
+            return Err(err(
+                number,
+                format!("`t` = {t} is out of range (0 to 1e9 seconds)"),
+            ));
         }
         let time = (t * 1e6).round() as Micros;
         if time < last {
-            return Err(err(number, format!("`t` goes backwards ({t} after {})", last as f64 / 1e6)));
+            return Err(err(
+                number,
+                format!("`t` goes backwards ({t} after {})", last as f64 / 1e6),
+            ));
         }
         last = time;
         let params: Params = match obj.get("params") {
@@ -111,7 +122,9 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
             Some(_) => return Err(err(number, "`params` must be an object")),
         };
         let input = match (obj.get("event"), obj.get("reply")) {
-            (Some(_), Some(_)) => return Err(err(number, "a line is an `event` or a `reply`, not both")),
+            (Some(_), Some(_)) => {
+                return Err(err(number, "a line is an `event` or a `reply`, not both"))
+            }
             (Some(event), None) => {
                 let name = event
                     .as_str()
@@ -136,7 +149,10 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
             }
             (None, Some(reply)) => {
                 if obj.contains_key("category") {
-                    return Err(err(number, "`category` belongs to events: a reply's category comes from its call"));
+                    return Err(err(
+                        number,
+                        "`category` belongs to events: a reply's category comes from its call",
+                    ));
                 }
                 let to = match reply {
                     Json::Number(n) => ReplyTo::Id(n.as_u64().ok_or_else(|| err(number, "a reply id is a positive integer"))?),
@@ -154,8 +170,12 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
                 };
                 let outcome = match obj.get("failed") {
                     None => Outcome::Done(params),
-                    Some(Json::String(reason)) if params.is_empty() => Outcome::Failed(reason.clone()),
-                    Some(Json::String(_)) => return Err(err(number, "a failed reply carries a reason, not `params`")),
+                    Some(Json::String(reason)) if params.is_empty() => {
+                        Outcome::Failed(reason.clone())
+                    }
+                    Some(Json::String(_)) => {
+                        return Err(err(number, "a failed reply carries a reason, not `params`"))
+                    }
                     Some(_) => return Err(err(number, "`failed` must be a string (the reason)")),
                 };
                 Input::Reply { to, outcome }
@@ -167,7 +187,11 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
                 Input::Advance
             }
         };
-        lines.push(Line { number, time, input });
+        lines.push(Line {
+            number,
+            time,
+            input,
+        });
     }
     Ok(lines)
 }
@@ -179,7 +203,10 @@ pub fn resolve(player: &Player, line: &Line, to: &ReplyTo) -> Result<u64, Script
     let found = match to {
         ReplyTo::Id(id) => return Ok(*id),
         ReplyTo::Call { program, function } => pending.iter().find(|(_, p)| match &p.kind {
-            PendingKind::Call { program: pr, function: f } => {
+            PendingKind::Call {
+                program: pr,
+                function: f,
+            } => {
                 let prog = &project.programs[*pr];
                 prog.name == *program && prog.functions[*f].name == *function
             }
@@ -195,7 +222,10 @@ pub fn resolve(player: &Player, line: &Line, to: &ReplyTo) -> Result<u64, Script
             ReplyTo::Command { verb } => format!("`{verb}` command"),
             ReplyTo::Id(_) => unreachable!("ids return early"),
         };
-        err(line.number, format!("no pending {what} to reply to (reply by id to send a late result)"))
+        err(
+            line.number,
+            format!("no pending {what} to reply to (reply by id to send a late result)"),
+        )
     })
 }
 

@@ -19,13 +19,17 @@ pub trait Sources {
 
 impl Sources for BTreeMap<String, String> {
     fn read(&self, path: &str) -> Result<String, String> {
-        self.get(path).cloned().ok_or_else(|| "no such file".to_owned())
+        self.get(path)
+            .cloned()
+            .ok_or_else(|| "no such file".to_owned())
     }
 }
 
 impl Sources for HashMap<String, String> {
     fn read(&self, path: &str) -> Result<String, String> {
-        self.get(path).cloned().ok_or_else(|| "no such file".to_owned())
+        self.get(path)
+            .cloned()
+            .ok_or_else(|| "no such file".to_owned())
     }
 }
 
@@ -150,7 +154,11 @@ pub struct LoadError {
 impl fmt::Display for LoadError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let n = self.problems.len();
-        write!(f, "{n} problem{} in the project", if n == 1 { "" } else { "s" })?;
+        write!(
+            f,
+            "{n} problem{} in the project",
+            if n == 1 { "" } else { "s" }
+        )?;
         for p in &self.problems {
             write!(f, "\n  {p}")?;
         }

@@ -34,7 +34,11 @@ pub fn parse_duration(text: &str) -> Result<Micros, DurationError> {
         "h" => 3600e6,
         _ => return Err(DurationError::Malformed(text.to_owned())),
     };
-    if number.is_empty() || number.starts_with('.') || number.ends_with('.') || number.matches('.').count() > 1 {
+    if number.is_empty()
+        || number.starts_with('.')
+        || number.ends_with('.')
+        || number.matches('.').count() > 1
+    {
         return Err(DurationError::Malformed(text.to_owned()));
     }
     let value: f64 = number
@@ -66,9 +70,23 @@ mod tests {
         assert_eq!(parse_duration("1h"), Ok(3_600_000_000));
         assert_eq!(parse_duration("250us"), Ok(250));
         assert_eq!(parse_duration("0s"), Ok(0));
-        for bad in ["", "s", "10", "10 parsecs", "-1s", ".5s", "1.s", "1..2s", "1e3s", "ten s"] {
+        for bad in [
+            "",
+            "s",
+            "10",
+            "10 parsecs",
+            "-1s",
+            ".5s",
+            "1.s",
+            "1..2s",
+            "1e3s",
+            "ten s",
+        ] {
             assert!(parse_duration(bad).is_err(), "{bad:?} should be rejected");
         }
-        assert!(matches!(parse_duration("99999999999h"), Err(DurationError::OutOfRange(_))));
+        assert!(matches!(
+            parse_duration("99999999999h"),
+            Err(DurationError::OutOfRange(_))
+        ));
     }
 }

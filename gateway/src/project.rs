@@ -1,0 +1,34 @@
+//! Reading a project folder from disk for the pure loader in `nets`.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use nets::source::Sources;
+use nets::Project;
+
+/// A project folder on disk.
+pub struct Folder(pub PathBuf);
+
+impl Sources for Folder {
+    fn read(&self, path: &str) -> Result<String, String> {
+        let full = self.0.join(path);
+        std::fs::read_to_string(&full).map_err(|e| format!("{}: {e}", full.display()))
+    }
+}
+
+/// Loads and checks the project in `dir`; problems come back ready for
+/// people (file:line:col, with the line and a caret).
+pub fn load(dir: &Path) -> Result<Arc<Project>, miette::Report> {
+    if !dir.join(nets::load::PROJECT_FILE).is_file() {
+        return Err(miette::miette!(
+            "{} is not a Petrel project: it holds no {}",
+            dir.display(),
+            nets::load::PROJECT_FILE
+        ));
+    }
+    nets::load(&Folder(dir.to_path_buf()))
+        .map(Arc::new)
+        .map_err(|e| {
+            miette::Report::new(e).context(format!("cannot load project {}", dir.display()))
+        })
+}

@@ -1,0 +1,218 @@
+//! Property tests on the player, over random traces on the example project.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use nets::player::{Effect, Outcome, Player};
+use nets::{Category, Event, Params, Project, Value};
+use proptest::prelude::*;
+
+fn example() -> Arc<Project> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-survey");
+    let files: BTreeMap<String, String> = ["project.toml", "mission.toml", "events.toml"]
+        .iter()
+        .map(|n| {
+            (
+                n.to_string(),
+                std::fs::read_to_string(dir.join(n)).expect("example"),
+            )
+        })
+        .collect();
+    Arc::new(nets::load(&files).expect("example loads"))
+}
+
+const EVENTS: &[&str] = &[
+    "ready_for_takeoff",
+    "takeoff",
+    "altitude_reached",
+    "payload_failure",
+    "engine_failure",
+    "landed",
+    "payload_operation",
+    "command.ok",
+    "DEC.next_waypoint.done",
+    "net_fault",
+    "unknown_event",
+];
+
+#[derive(Debug, Clone)]
+enum Step {
+    Event {
+        name: usize,
+        category: usize,
+        params: Vec<(usize, Value)>,
+        dt: u64,
+    },
+    Reply {
+        pick: usize,
+        ok: bool,
+        params: Vec<(usize, Value)>,
+        dt: u64,
+    },
+    Advance {
+        dt: u64,
+    },
+}
+
+const KEYS: &[&str] = &[
+    "alt",
+    "component",
+    "finished",
+    "lat",
+    "lon",
+    "payload",
+    "index",
+    "verb",
+    "x",
+];
+
+fn value() -> impl Strategy<Value = Value> {
+    prop_oneof![
+        any::<bool>().prop_map(Value::Bool),
+        (-200i64..200).prop_map(Value::Int),
+        (-1e3f64..1e3).prop_map(Value::Float),
+        "[a-z]{0,6}".prop_map(Value::Str),
+        Just(Value::List(vec![Value::Int(1)])),
+    ]
+}
+
+fn params() -> impl Strategy<Value = Vec<(usize, Value)>> {
+    prop::collection::vec((0..KEYS.len(), value()), 0..4)
+}
+
+fn step(max_dt: u64) -> impl Strategy<Value = Step> {
+    prop_oneof![
+        4 => (0..EVENTS.len(), 0..5usize, params(), 0..max_dt).prop_map(|(name, category, params, dt)| Step::Event { name, category, params, dt }),
+        3 => (0..8usize, any::<bool>(), params(), 0..max_dt).prop_map(|(pick, ok, params, dt)| Step::Reply { pick, ok, params, dt }),
+        1 => (0..max_dt * 4).prop_map(|dt| Step::Advance { dt }),
+    ]
+}
+
+fn to_params(p: &[(usize, Value)]) -> Params {
+    p.iter()
+        .map(|(k, v)| (KEYS[*k].to_owned(), v.clone()))
+        .collect()
+}
+
+/// Applies one step; returns the effects it produced.
+fn apply(player: &mut Player, now: &mut u64, s: &Step) -> Vec<Effect> {
+    match s {
+        Step::Event {
+            name,
+            category,
+            params,
+            dt,
+        } => {
+            *now += dt;
+            let event = Event {
+                name: EVENTS[*name].to_owned(),
+                category: Category::ALL[*category],
+                params: to_params(params),
+            };
+            player.handle(&event, *now);
+        }
+        Step::Reply {
+            pick,
+            ok,
+            params,
+            dt,
+        } => {
+            *now += dt;
+            let ids: Vec<u64> = player.state().pending.keys().copied().collect();
+            // Sometimes an id that is not pending: a late or bogus result.
+            let id = ids.get(*pick).copied().unwrap_or(1000 + *pick as u64);
+            let outcome = if *ok {
+                Outcome::Done(to_params(params))
+            } else {
+                Outcome::Failed("no".into())
+            };
+            player.result(id, outcome, *now);
+        }
+        Step::Advance { dt } => {
+            *now += dt;
+            player.advance(*now);
+        }
+    }
+    player.effects().collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_traces_never_panic_and_keep_the_nets_safe(steps in prop::collection::vec(step(30_000_000), 0..60)) {
+        let project = example();
+        let mut player = Player::start(project.clone(), 0);
+        let mut now = 0;
+        for s in &steps {
+            apply(&mut player, &mut now, s);
+            // Between inputs the queue is empty (run to completion) and only
+            // active nets hold tokens.
+            prop_assert_eq!(player.state().queued(), 0);
+            for (n, net) in project.nets.iter().enumerate() {
+                if !player.is_active(n) {
+                    for p in 0..net.places.len() {
+                        prop_assert!(!player.is_marked(n, nets::model::PlaceRef::Local(p)));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn restoring_a_snapshot_and_replaying_the_rest_gives_the_same_effects(
+        steps in prop::collection::vec(step(30_000_000), 1..50),
+        cut in 0usize..50,
+    ) {
+        let project = example();
+        let cut = cut % steps.len();
+        let mut whole = Player::start(project.clone(), 0);
+        let mut now = 0;
+        let _ = whole.effects().count();
+        for s in &steps[..cut] {
+            apply(&mut whole, &mut now, s);
+        }
+        let json = serde_json::to_string(&whole.snapshot()).expect("snapshot serialises");
+        let state = serde_json::from_str(&json).expect("snapshot deserialises");
+        let mut restored = Player::restore(project, state).expect("restores");
+        prop_assert_eq!(restored.digest(), whole.digest());
+        let mut now_restored = now;
+        for s in &steps[cut..] {
+            let a = apply(&mut whole, &mut now, s);
+            let b = apply(&mut restored, &mut now_restored, s);
+            prop_assert_eq!(a, b);
+            prop_assert_eq!(whole.digest(), restored.digest());
+        }
+    }
+
+    #[test]
+    fn equal_digests_mean_equal_states(
+        a in prop::collection::vec(step(2), 0..12),
+        b in prop::collection::vec(step(2), 0..12),
+    ) {
+        // Tiny time steps over a small alphabet make equal states common.
+        let project = example();
+        let run = |steps: &[Step]| {
+            let mut player = Player::start(project.clone(), 0);
+            let mut now = 0;
+            let mut states = vec![(player.digest(), player.snapshot())];
+            for s in steps {
+                apply(&mut player, &mut now, s);
+                states.push((player.digest(), player.snapshot()));
+            }
+            states
+        };
+        let sa = run(&a);
+        let sb = run(&b);
+        for (da, xa) in &sa {
+            for (db, xb) in &sb {
+                prop_assert_eq!(da == db, xa == xb);
+                prop_assert_eq!(
+                    da == db,
+                    nets::player::canonical_bytes(xa) == nets::player::canonical_bytes(xb)
+                );
+            }
+        }
+    }
+}
