@@ -112,6 +112,7 @@ fn check_file(dir: &Path, e: &Expected, threads: usize) {
         &net,
         &Options {
             threads,
+            parallel_from: 0,
             ..Options::default()
         },
     );
@@ -230,12 +231,14 @@ proptest! {
 
     #[test]
     fn explorer_agrees_with_the_reference(net in small_net(), threads in 1usize..=2) {
-        const LIMIT: usize = 5000;
+        const LIMIT: usize = 400;
         let reference = explore_reference(&net, LIMIT);
-        let x = explore(&net, &Options { threads, max_states: LIMIT as u64, ..Options::default() });
+        let options = Options { threads, max_states: LIMIT as u64, parallel_from: 0, ..Options::default() };
+        let x = explore(&net, &options);
         let s = &x.summary;
         match reference {
-            None => prop_assert_ne!(s.completion, Completion::Complete),
+            // more than LIMIT markings (several threads stop after the level passing it)
+            None => prop_assert!(s.completion != Completion::Complete || s.states > LIMIT as u64),
             Some(r) => {
                 prop_assert_eq!(s.completion, Completion::Complete);
                 prop_assert_eq!(

@@ -89,6 +89,8 @@ struct Shared<'a> {
     total: AtomicU64,
     stored: AtomicU64,
     progress: Option<&'a (dyn Fn(u64) + Sync)>,
+    /// Stop after a level that ends with more markings than this.
+    limit: u64,
 }
 
 fn lock(m: &Mutex<Vec<u8>>) -> MutexGuard<'_, Vec<u8>> {
@@ -121,8 +123,9 @@ impl Found {
     }
 }
 
-/// Explores from `initial` on `threads` partitions, each holding at most
-/// `limit` markings.
+/// Explores from `initial` on `threads` partitions. Stops at `limit`
+/// markings: exactly on one thread, after the level that passes it on more
+/// (each partition also stops at `limit`).
 pub fn run<S: Semantics>(
     sem: S,
     initial: &[u8],
@@ -144,6 +147,7 @@ pub fn run<S: Semantics>(
         total: AtomicU64::new(1),
         stored: AtomicU64::new(1),
         progress,
+        limit: u64::from(limit),
     };
     let mut found: Vec<(Store, Found)> = if n == 1 {
         let store = stores
@@ -322,6 +326,10 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
         }
         let total = sh.total.load(Relaxed);
         if sh.stop_level.load(Relaxed) <= level || total == prev_total {
+            break;
+        }
+        if total > sh.limit {
+            f.full = true;
             break;
         }
         prev_total = total;

@@ -35,10 +35,16 @@ use semantics::{Bits, Counts, Semantics, Stop};
 pub struct Options<'a> {
     /// Threads (1 to 16); each owns one partition of the state space.
     pub threads: usize,
-    /// Stop storing markings past this many (a "state limit reached" result).
+    /// Stop storing markings past this many (a "state limit reached"
+    /// result): exactly on one thread, after the breadth-first level that
+    /// passes it on more.
     pub max_states: u64,
     /// Called now and then with the number of markings stored so far.
     pub progress: Option<&'a (dyn Fn(u64) + Sync)>,
+    /// Use several threads only when there are more markings than this
+    /// (default 4096: below, one thread is faster). 0 forces the parallel
+    /// engine (tests).
+    pub parallel_from: u64,
 }
 
 impl Default for Options<'_> {
@@ -47,6 +53,7 @@ impl Default for Options<'_> {
             threads: 1,
             max_states: 100_000_000,
             progress: None,
+            parallel_from: u64::from(SAMPLE),
         }
     }
 }
@@ -90,6 +97,17 @@ pub struct Summary {
     pub stored_bytes: u64,
 }
 
+macro_rules! on_space {
+    ($space:expr, $r:ident => $e:expr) => {
+        match $space {
+            Space::Bits($r) => $e,
+            Space::C8($r) => $e,
+            Space::C16($r) => $e,
+            Space::C32($r) => $e,
+        }
+    };
+}
+
 enum Space {
     Bits(Run<Bits>),
     C8(Run<Counts<1>>),
@@ -126,34 +144,42 @@ pub struct Loops {
     pub listed: Vec<Loop>,
 }
 
-/// Counts of how often each place is marked in the first markings reached,
-/// to pick each transition's trigger place.
-fn sample_frequencies(net: &PtNet, initial: &[u32]) -> Vec<u64> {
-    const SAMPLE: u32 = 4096;
+/// Markings explored first, on one thread, to measure how often each place
+/// is marked (which picks each transition's trigger place). When the whole
+/// state space fits, this sample is the answer.
+const SAMPLE: u32 = 4096;
+
+/// The sample: how many sampled markings mark each place, and the sample
+/// itself when it is a complete exploration.
+fn sample(net: &PtNet, initial: &[u32]) -> (Vec<u64>, Option<Space>) {
+    fn frequencies<S: Semantics>(r: &Run<S>, freq: &mut [u64]) {
+        for store in &r.stores {
+            for i in 0..store.len() {
+                for (f, c) in freq.iter_mut().zip(r.sem.counts(store.get(i))) {
+                    *f += u64::from(c > 0);
+                }
+            }
+        }
+    }
     let zero = vec![0u64; net.places.len()];
     let mut freq = zero.clone();
-    let mut add = |counts: Vec<u32>| {
-        for (f, c) in freq.iter_mut().zip(counts) {
-            *f += u64::from(c > 0);
-        }
-    };
     if initial.iter().all(|&c| c <= 1) {
         let sem = Bits::new(net, &zero);
         let m = sem.encode(initial);
         let r = run(sem, &m, 1, SAMPLE, None);
-        for i in 0..r.stores[0].len() {
-            add(r.sem.counts(r.stores[0].get(i)));
-        }
+        frequencies(&r, &mut freq);
+        let complete = !r.full && r.stop.is_none();
+        (freq, complete.then_some(Space::Bits(r)))
     } else {
         let sem = Counts::<4>::new(net, &zero);
-        if let Some(m) = sem.encode(initial) {
-            let r = run(sem, &m, 1, SAMPLE, None);
-            for i in 0..r.stores[0].len() {
-                add(r.sem.counts(r.stores[0].get(i)));
-            }
-        }
+        let Some(m) = sem.encode(initial) else {
+            return (freq, None);
+        };
+        let r = run(sem, &m, 1, SAMPLE, None);
+        frequencies(&r, &mut freq);
+        let complete = !r.full && r.stop.is_none();
+        (freq, complete.then_some(Space::C32(r)))
     }
-    freq
 }
 
 fn counts_run<const W: usize>(
@@ -172,12 +198,15 @@ fn counts_run<const W: usize>(
 /// Explores the reachable markings of `net`.
 pub fn explore<'n>(net: &'n PtNet, options: &Options) -> Exploration<'n> {
     let threads = options.threads.clamp(1, MAX_THREADS);
-    let per_partition = options
-        .max_states
-        .div_ceil(threads as u64)
-        .clamp(1, u64::from(MAX_PER_PARTITION)) as u32;
+    let per_partition = options.max_states.clamp(1, u64::from(MAX_PER_PARTITION)) as u32;
     let initial = net.initial_marking();
-    let freq = sample_frequencies(net, &initial);
+    let (freq, small) = sample(net, &initial);
+    if let Some(space) = small {
+        let states = on_space!(&space, r => r.states());
+        if states <= options.max_states && (threads == 1 || states <= options.parallel_from) {
+            return Exploration::new(net, space, 1);
+        }
+    }
     let progress = options.progress;
     let mut space = None;
     if initial.iter().all(|&c| c <= 1) {
@@ -204,16 +233,22 @@ pub fn explore<'n>(net: &'n PtNet, options: &Options) -> Exploration<'n> {
             },
         },
     };
-    let summary = match &space {
-        Space::Bits(r) => summarize(r, Engine::Bits, threads),
-        Space::C8(r) => summarize(r, Engine::Counts8, threads),
-        Space::C16(r) => summarize(r, Engine::Counts16, threads),
-        Space::C32(r) => summarize(r, Engine::Counts32, threads),
-    };
-    Exploration {
-        net,
-        summary,
-        space,
+    Exploration::new(net, space, threads)
+}
+
+impl<'n> Exploration<'n> {
+    fn new(net: &'n PtNet, space: Space, threads: usize) -> Self {
+        let summary = match &space {
+            Space::Bits(r) => summarize(r, Engine::Bits, threads),
+            Space::C8(r) => summarize(r, Engine::Counts8, threads),
+            Space::C16(r) => summarize(r, Engine::Counts16, threads),
+            Space::C32(r) => summarize(r, Engine::Counts32, threads),
+        };
+        Exploration {
+            net,
+            summary,
+            space,
+        }
     }
 }
 
@@ -400,17 +435,6 @@ fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize) -> Loops {
         largest,
         listed,
     }
-}
-
-macro_rules! on_space {
-    ($space:expr, $r:ident => $e:expr) => {
-        match $space {
-            Space::Bits($r) => $e,
-            Space::C8($r) => $e,
-            Space::C16($r) => $e,
-            Space::C32($r) => $e,
-        }
-    };
 }
 
 impl Exploration<'_> {

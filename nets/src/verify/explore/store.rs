@@ -1,7 +1,9 @@
 //! Where an exploration keeps its markings: records (marking bytes, then the
 //! parent's id as 4 bytes) back to back in fixed-size chunks, and an open
 //! addressing hash table of 8-byte entries (32 bits of hash, index + 1)
-//! with full comparison on a hash match. No allocation per state.
+//! with full comparison on a hash match. No allocation per state: the first
+//! chunk grows by doubling (small nets stay small), later ones are allocated
+//! whole.
 
 /// States per chunk of the arena.
 const CHUNK_BITS: u32 = 16;
@@ -25,7 +27,7 @@ pub enum Inserted {
 pub struct Store {
     width: usize,
     record: usize,
-    chunks: Vec<Box<[u8]>>,
+    chunks: Vec<Vec<u8>>,
     len: u32,
     table: Vec<u64>,
     shift: u32,
@@ -52,7 +54,7 @@ impl Store {
 
     /// Bytes held: arena chunks plus table.
     pub fn bytes(&self) -> u64 {
-        (self.chunks.len() * CHUNK * self.record + self.table.len() * 8) as u64
+        (self.chunks.iter().map(Vec::capacity).sum::<usize>() + self.table.len() * 8) as u64
     }
 
     fn record_at(&self, index: u32) -> &[u8] {
@@ -117,13 +119,22 @@ impl Store {
         let index = self.len;
         let i = index as usize;
         if i >> CHUNK_BITS == self.chunks.len() {
-            self.chunks
-                .push(vec![0u8; CHUNK * self.record].into_boxed_slice());
+            let whole = CHUNK * self.record;
+            let capacity = if i == 0 {
+                (64 * self.record).min(whole)
+            } else {
+                whole
+            };
+            self.chunks.push(Vec::with_capacity(capacity));
         }
-        let at = (i & (CHUNK - 1)) * self.record;
-        let rec = &mut self.chunks[i >> CHUNK_BITS][at..at + self.record];
-        rec[..self.width].copy_from_slice(marking);
-        rec[self.width..].copy_from_slice(&parent.to_le_bytes());
+        let chunk = &mut self.chunks[i >> CHUNK_BITS];
+        if chunk.len() + self.record > chunk.capacity() {
+            // only the first chunk grows: double it, up to a whole chunk
+            let more = chunk.capacity().min(CHUNK * self.record - chunk.capacity());
+            chunk.reserve_exact(more);
+        }
+        chunk.extend_from_slice(marking);
+        chunk.extend_from_slice(&parent.to_le_bytes());
         self.table[slot] = (u64::from(h) << 32) | u64::from(index + 1);
         self.len += 1;
         if self.len as usize * 4 >= self.table.len() * 3 {

@@ -8,6 +8,7 @@ fn check_against_reference(net: &PtNet) {
             net,
             &Options {
                 threads,
+                parallel_from: 0,
                 ..Options::default()
             },
         );
