@@ -28,6 +28,8 @@ enum Verb {
     Play(cli::play::Args),
     /// Elaborate a telemetry log (.tlog) into supervision events.
     Events(cli::events::Args),
+    /// Check a net: reachability graph, 1-safety, dead markings, loops.
+    Check(cli::check::Args),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +44,7 @@ fn main() -> ExitCode {
     let outcome = match petrel.verb {
         Verb::Play(args) => cli::play::run(args),
         Verb::Events(args) => cli::events::run(args),
+        Verb::Check(args) => cli::check::run(args),
     };
     match outcome {
         Ok(code) => code.into(),

@@ -245,6 +245,7 @@ proptest! {
                     (s.states, s.edges, s.dead_markings, s.max_tokens, s.safe),
                     (r.states, r.edges, r.dead_markings, r.max_tokens, r.safe)
                 );
+                prop_assert_eq!(&s.never_fired, &r.never_fired);
                 let dead = x.deadlock_example();
                 prop_assert_eq!(dead.as_ref().map(Vec::len), r.deadlock_depth);
                 if let Some(seq) = dead {

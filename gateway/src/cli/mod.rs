@@ -2,6 +2,7 @@
 
 use std::process::ExitCode;
 
+pub mod check;
 pub mod events;
 pub mod play;
 

@@ -20,6 +20,8 @@ pub struct ReferenceSummary {
     pub deadlock_depth: Option<usize>,
     /// Length of a shortest firing sequence to a marking that is not 1-safe.
     pub unsafe_depth: Option<usize>,
+    /// Transitions enabled in no reachable marking.
+    pub never_fired: Vec<usize>,
 }
 
 /// Explores every reachable marking; `None` when there are more than
@@ -38,7 +40,9 @@ pub fn explore_reference(net: &PtNet, max_states: usize) -> Option<ReferenceSumm
         safe: true,
         deadlock_depth: None,
         unsafe_depth: None,
+        never_fired: Vec::new(),
     };
+    let mut fired = vec![false; net.transitions.len()];
     while let Some(m) = queue.pop_front() {
         let d = depth[&m];
         s.states += 1;
@@ -49,9 +53,10 @@ pub fn explore_reference(net: &PtNet, max_states: usize) -> Option<ReferenceSumm
             s.unsafe_depth = Some(s.unsafe_depth.map_or(d, |u| u.min(d)));
         }
         let mut enabled = 0;
-        for t in 0..net.transitions.len() {
+        for (t, fired) in fired.iter_mut().enumerate() {
             if net.enabled(&m, t) {
                 enabled += 1;
+                *fired = true;
                 let next = net.fire(&m, t)?;
                 if !depth.contains_key(&next) {
                     if depth.len() >= max_states {
@@ -68,5 +73,11 @@ pub fn explore_reference(net: &PtNet, max_states: usize) -> Option<ReferenceSumm
             s.deadlock_depth = Some(s.deadlock_depth.map_or(d, |u| u.min(d)));
         }
     }
+    s.never_fired = fired
+        .iter()
+        .enumerate()
+        .filter(|(_, &f)| !f)
+        .map(|(t, _)| t)
+        .collect();
     Some(s)
 }

@@ -54,6 +54,8 @@ pub struct Run<S> {
     pub stop: Option<Stop>,
     /// The state limit was reached.
     pub full: bool,
+    /// Transitions that fired somewhere (one flag each).
+    pub fired: Vec<bool>,
 }
 
 impl<S: Semantics> Run<S> {
@@ -107,6 +109,7 @@ struct Found {
     stop: Option<Stop>,
     full: bool,
     new_since_report: u64,
+    fired: Vec<bool>,
 }
 
 impl Found {
@@ -192,11 +195,18 @@ pub fn run<S: Semantics>(
         },
         stop: None,
         full: false,
+        fired: Vec::new(),
     };
     let mut dead_at: Option<(u32, u32)> = None;
     let mut unsafe_at: Option<(u32, u32)> = None;
     for (part, (store, f)) in found.drain(..).enumerate() {
         run.edges += f.edges;
+        if run.fired.len() < f.fired.len() {
+            run.fired.resize(f.fired.len(), false);
+        }
+        for (a, b) in run.fired.iter_mut().zip(&f.fired) {
+            *a |= *b;
+        }
         run.dead += f.dead;
         run.max_tokens = run.max_tokens.max(f.max_tokens);
         run.stop = run.stop.or(f.stop);
@@ -230,6 +240,7 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
     let mut outs: Vec<Vec<u8>> = vec![Vec::new(); n];
     let (mut lo, mut level, mut prev_total) = (0u32, 0u32, 1u64);
     let mut expanded = 0u64;
+    let mut fired: Vec<bool> = Vec::new();
     loop {
         let hi = store.len();
         let mut index = lo;
@@ -241,7 +252,12 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
             let key = sem.key(&cur);
             let parent = state_id(me, index);
             let mut full = false;
-            let result = sem.expand(&cur, key, &mut child, |_, m, k| {
+            let result = sem.expand(&cur, key, &mut child, |t, m, k| {
+                let t = t as usize;
+                if t >= fired.len() {
+                    fired.resize(t + 1, false);
+                }
+                fired[t] = true;
                 let h = mix(k);
                 let part = if n == 1 { 0 } else { partition(h, n) };
                 if part == me {
@@ -336,5 +352,6 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
         lo = hi;
         level += 1;
     }
+    f.fired = fired;
     (store, f)
 }

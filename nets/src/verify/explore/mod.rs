@@ -95,6 +95,8 @@ pub struct Summary {
     pub threads: usize,
     /// Memory holding the stored markings, parent links and hash tables.
     pub stored_bytes: u64,
+    /// Transitions that fire in no reachable marking.
+    pub never_fired: Vec<usize>,
 }
 
 macro_rules! on_space {
@@ -239,10 +241,10 @@ pub fn explore<'n>(net: &'n PtNet, options: &Options) -> Exploration<'n> {
 impl<'n> Exploration<'n> {
     fn new(net: &'n PtNet, space: Space, threads: usize) -> Self {
         let summary = match &space {
-            Space::Bits(r) => summarize(r, Engine::Bits, threads),
-            Space::C8(r) => summarize(r, Engine::Counts8, threads),
-            Space::C16(r) => summarize(r, Engine::Counts16, threads),
-            Space::C32(r) => summarize(r, Engine::Counts32, threads),
+            Space::Bits(r) => summarize(r, Engine::Bits, threads, net.transitions.len()),
+            Space::C8(r) => summarize(r, Engine::Counts8, threads, net.transitions.len()),
+            Space::C16(r) => summarize(r, Engine::Counts16, threads, net.transitions.len()),
+            Space::C32(r) => summarize(r, Engine::Counts32, threads, net.transitions.len()),
         };
         Exploration {
             net,
@@ -261,7 +263,12 @@ fn unreachable_run(net: &PtNet, freq: &[u64], threads: usize) -> Space {
     Space::C32(r)
 }
 
-fn summarize<S: Semantics>(r: &Run<S>, engine: Engine, threads: usize) -> Summary {
+fn summarize<S: Semantics>(
+    r: &Run<S>,
+    engine: Engine,
+    threads: usize,
+    transitions: usize,
+) -> Summary {
     Summary {
         states: r.states(),
         edges: r.edges,
@@ -278,6 +285,9 @@ fn summarize<S: Semantics>(r: &Run<S>, engine: Engine, threads: usize) -> Summar
         engine,
         threads,
         stored_bytes: r.stores.iter().map(|s| s.bytes()).sum(),
+        never_fired: (0..transitions)
+            .filter(|&t| !r.fired.get(t).copied().unwrap_or(false))
+            .collect(),
     }
 }
 

@@ -111,3 +111,13 @@ fn wide_counts_and_the_limits() {
     assert_eq!(e.summary.completion, Completion::TokenLimit);
     assert_eq!(e.summary.engine, Engine::Counts32);
 }
+
+#[test]
+fn transitions_that_never_fire_are_listed() {
+    let mut net = ring(3);
+    let p = net.add_place("never", 0);
+    net.add_transition("stuck", &[(p, 1)], &[]);
+    net.add_transition("heavy", &[(0, 2)], &[]);
+    let e = explore(&net, &Options::default());
+    assert_eq!(e.names(&e.summary.never_fired), vec!["stuck", "heavy"]);
+}

@@ -1,0 +1,315 @@
+//! `petrel check --pnml FILE`: explores the reachability graph of a PNML
+//! place/transition net and reports its states, edges, dead markings,
+//! safety, the most tokens in a place, shortest counterexamples and loops.
+//! (`petrel check PROJECT` comes with the project-level verifier.)
+//!
+//! Exit status: 0 when the net is 1-safe and has no dead marking, 1 when it
+//! is not (or the state limit stopped the exploration first), 2 for bad input.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::sync::Mutex;
+use std::time::Instant;
+
+use nets::verify::explore::{explore, Completion, Engine, Exploration, Options};
+use nets::verify::pnml::read_ptnet;
+use serde_json::json;
+
+use super::{Outcome, VerbResult};
+
+#[derive(clap::Args)]
+#[command(group(clap::ArgGroup::new("input").required(true).args(["project", "pnml"])))]
+pub struct Args {
+    /// A Petrel project folder (holding project.toml).
+    pub project: Option<PathBuf>,
+    /// Check a PNML place/transition net (ISO/IEC 15909-2) instead of a project.
+    #[arg(long, value_name = "FILE")]
+    pub pnml: Option<PathBuf>,
+    /// Print one JSON object instead of a report for people.
+    #[arg(long)]
+    pub json: bool,
+    /// Threads exploring the state space [default: the number of cores].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=16))]
+    pub threads: Option<u16>,
+    /// Stop after storing this many markings (guards against unbounded nets).
+    #[arg(long, value_name = "N", default_value_t = 100_000_000)]
+    pub max_states: u64,
+    /// How many loops (cyclic strongly connected components) to list.
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    pub loops: usize,
+    /// Skip the loop analysis (it costs about one more exploration).
+    #[arg(long)]
+    pub no_loops: bool,
+}
+
+pub fn run(args: Args) -> VerbResult {
+    let Some(file) = &args.pnml else {
+        let project = args
+            .project
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default();
+        return Err(miette::miette!(
+            "checking a Petrel project ({project}) is not available yet; `petrel check --pnml FILE` checks a PNML net"
+        ));
+    };
+    if args.project.is_some() {
+        return Err(miette::miette!(
+            "give either a project or --pnml FILE, not both"
+        ));
+    }
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| miette::miette!("cannot read {}: {e}", file.display()))?;
+    let net = read_ptnet(&text).map_err(|e| miette::miette!("{}:{e}", file.display()))?;
+    let threads = match args.threads {
+        Some(n) => usize::from(n),
+        None => std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(16),
+    };
+    let start = Instant::now();
+    let meter = Progress::new(start);
+    let report = |states: u64| meter.report(states);
+    let options = Options {
+        threads,
+        max_states: args.max_states,
+        progress: if std::io::stderr().is_terminal() {
+            Some(&report)
+        } else {
+            None
+        },
+        ..Options::default()
+    };
+    let x = explore(&net, &options);
+    let loops = if args.no_loops || x.summary.completion != Completion::Complete {
+        None
+    } else {
+        Some(x.loops(args.loops))
+    };
+    let seconds = start.elapsed().as_secs_f64();
+    meter.finish();
+    let verdict = Verdict::of(&x);
+    if args.json {
+        print_json(&x, loops.as_ref(), &verdict, seconds);
+    } else {
+        print_report(
+            &x,
+            &net.name,
+            net.places.len(),
+            net.transitions.len(),
+            loops.as_ref(),
+            &verdict,
+            seconds,
+        );
+    }
+    Ok(if verdict.holds() {
+        Outcome::Success
+    } else {
+        Outcome::Failed
+    })
+}
+
+/// What the exploration proved, and the warnings for people.
+struct Verdict {
+    complete: bool,
+    safe: bool,
+    deadlock_free: bool,
+    warnings: Vec<String>,
+}
+
+impl Verdict {
+    fn of(x: &Exploration) -> Verdict {
+        let s = &x.summary;
+        let mut warnings = Vec::new();
+        match s.completion {
+            Completion::Complete => {}
+            Completion::StateLimit => warnings.push(format!(
+                "state limit reached after {} markings: the net may be unbounded; nothing is proven (raise --max-states)",
+                s.states
+            )),
+            Completion::TokenLimit => {
+                warnings.push("a place would hold more than 4294967295 tokens: the net is unbounded".to_string())
+            }
+        }
+        if s.completion == Completion::Complete {
+            const SHOWN: usize = 10;
+            let names = x.names(&s.never_fired);
+            for n in names.iter().take(SHOWN) {
+                warnings.push(format!("transition `{n}` can never fire"));
+            }
+            if names.len() > SHOWN {
+                warnings.push(format!(
+                    "... and {} more transitions that can never fire",
+                    names.len() - SHOWN
+                ));
+            }
+        }
+        Verdict {
+            complete: s.completion == Completion::Complete,
+            safe: s.safe,
+            deadlock_free: s.dead_markings == 0,
+            warnings,
+        }
+    }
+
+    fn holds(&self) -> bool {
+        self.complete && self.safe && self.deadlock_free
+    }
+}
+
+fn engine_name(e: Engine) -> &'static str {
+    match e {
+        Engine::Bits => "bits",
+        Engine::Counts8 => "counts8",
+        Engine::Counts16 => "counts16",
+        Engine::Counts32 => "counts32",
+    }
+}
+
+fn print_json(
+    x: &Exploration,
+    loops: Option<&nets::verify::explore::Loops>,
+    v: &Verdict,
+    seconds: f64,
+) {
+    let s = &x.summary;
+    let listed: Vec<serde_json::Value> = loops
+        .map(|l| {
+            l.listed
+                .iter()
+                .map(|c| json!({"states": c.states, "prefix": x.names(&c.prefix), "cycle": x.names(&c.cycle)}))
+                .collect()
+        })
+        .unwrap_or_default();
+    let out = json!({
+        "states": s.states,
+        "edges": s.edges,
+        "dead_markings": s.dead_markings,
+        "safe": s.safe,
+        "max_tokens": s.max_tokens,
+        "deadlock_example": x.deadlock_example().map(|p| x.names(&p)),
+        "unsafe_example": x.unsafe_example().map(|p| x.names(&p)),
+        "loops": listed,
+        "cyclic_components": loops.map(|l| l.cyclic_components),
+        "warnings": v.warnings,
+        "complete": v.complete,
+        "engine": engine_name(s.engine),
+        "threads": s.threads,
+        "seconds": seconds,
+    });
+    println!("{out}");
+}
+
+fn sequence(names: &[String]) -> String {
+    if names.is_empty() {
+        "(the initial marking)".to_string()
+    } else {
+        names.join(" ")
+    }
+}
+
+fn print_report(
+    x: &Exploration,
+    name: &str,
+    places: usize,
+    transitions: usize,
+    loops: Option<&nets::verify::explore::Loops>,
+    v: &Verdict,
+    seconds: f64,
+) {
+    let s = &x.summary;
+    let ok = |b: bool| if b { "yes" } else { "NO" };
+    println!("net {name}: {places} places, {transitions} transitions");
+    println!("  states          {}", s.states);
+    println!("  edges           {}", s.edges);
+    println!("  dead markings   {}", s.dead_markings);
+    println!("  max tokens      {}", s.max_tokens);
+    println!("  1-safe          {}", ok(s.safe));
+    println!("  deadlock-free   {}", ok(s.dead_markings == 0));
+    if let Some(p) = x.unsafe_example() {
+        println!("  unsafe after    {}", sequence(&x.names(&p)));
+    }
+    if let Some(p) = x.deadlock_example() {
+        println!("  deadlock after  {}", sequence(&x.names(&p)));
+    }
+    if let Some(l) = loops {
+        if l.cyclic_components == 0 {
+            println!("  loops           none");
+        } else {
+            println!(
+                "  loops           {} cyclic component(s), the largest of {} markings",
+                l.cyclic_components, l.largest
+            );
+        }
+        for c in &l.listed {
+            println!(
+                "    after {}: {} (back to the same marking)",
+                sequence(&x.names(&c.prefix)),
+                x.names(&c.cycle).join(" ")
+            );
+        }
+    }
+    for w in &v.warnings {
+        println!("  warning: {w}");
+    }
+    println!(
+        "  time            {seconds:.3} s ({} engine, {} thread(s), {:.1} bytes per marking)",
+        engine_name(s.engine),
+        s.threads,
+        s.stored_bytes as f64 / s.states.max(1) as f64
+    );
+    println!(
+        "{}",
+        if v.holds() {
+            "OK: 1-safe and deadlock-free"
+        } else if !v.complete {
+            "INCONCLUSIVE: the exploration stopped before the end"
+        } else {
+            "FAILED"
+        }
+    );
+}
+
+/// The progress line on stderr: shown after the first second, twice a
+/// second, erased at the end.
+struct Progress {
+    start: Instant,
+    last: Mutex<Option<Instant>>,
+}
+
+impl Progress {
+    fn new(start: Instant) -> Progress {
+        Progress {
+            start,
+            last: Mutex::new(None),
+        }
+    }
+
+    fn report(&self, states: u64) {
+        let now = Instant::now();
+        let elapsed = now.duration_since(self.start).as_secs_f64();
+        if elapsed < 1.0 {
+            return;
+        }
+        let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
+        if last.is_some_and(|l| now.duration_since(l).as_secs_f64() < 0.5) {
+            return;
+        }
+        *last = Some(now);
+        eprint!(
+            "\r{states} states, {:.0} states/s   ",
+            states as f64 / elapsed
+        );
+    }
+
+    fn finish(&self) {
+        if self
+            .last
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .is_some()
+        {
+            eprint!("\r{:60}\r", "");
+        }
+    }
+}

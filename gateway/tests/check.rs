@@ -1,0 +1,230 @@
+//! `petrel check --pnml` end to end: exit codes, the JSON object, errors.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn petrel(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .args(args)
+        .output()
+        .expect("petrel runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// miette's text for people without its frame and line wrapping.
+fn plain(err: &str) -> String {
+    err.split_whitespace()
+        .filter(|w| !matches!(*w, "×" | "│"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn json_of(out: &str) -> serde_json::Value {
+    serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("not one JSON object ({e}): {out}"))
+}
+
+/// Writes `body` (places, transitions, arcs) as a PNML file in a scratch folder.
+fn pnml_file(name: &str, body: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("check-tests");
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    let path = dir.join(name);
+    let text = format!(
+        "<?xml version=\"1.0\"?>\n<pnml xmlns=\"http://www.pnml.org/version-2009/grammar/pnml\">\n\
+         <net id=\"{name}\" type=\"http://www.pnml.org/version-2009/grammar/ptnet\">\n<page id=\"pg\">\n{body}\n</page>\n</net>\n</pnml>\n"
+    );
+    std::fs::write(&path, text).expect("scratch file");
+    path
+}
+
+fn shared_pnml(file: &str) -> Option<String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/pnml")
+        .join(file);
+    if path.is_file() {
+        return Some(path.display().to_string());
+    }
+    if std::env::var("CI").as_deref() == Ok("true") {
+        panic!("{} is missing (CI=true)", path.display());
+    }
+    eprintln!("SKIPPED: {} not found", path.display());
+    None
+}
+
+/// A 1-safe ring of three places: no deadlock, one loop.
+const RING: &str = r#"<place id="a"><initialMarking><text>1</text></initialMarking></place>
+<place id="b"/><place id="c"/>
+<transition id="ab"/><transition id="bc"/><transition id="ca"/>
+<arc id="1" source="a" target="ab"/><arc id="2" source="ab" target="b"/>
+<arc id="3" source="b" target="bc"/><arc id="4" source="bc" target="c"/>
+<arc id="5" source="c" target="ca"/><arc id="6" source="ca" target="a"/>"#;
+
+#[test]
+fn a_safe_live_net_passes_with_exit_0() {
+    let f = pnml_file("ring.pnml", RING);
+    let (code, out, err) = petrel(&["check", "--pnml", f.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let j = json_of(&out);
+    assert_eq!(j["states"], 3);
+    assert_eq!(j["edges"], 3);
+    assert_eq!(j["dead_markings"], 0);
+    assert_eq!(j["safe"], true);
+    assert_eq!(j["max_tokens"], 1);
+    assert_eq!(j["deadlock_example"], serde_json::Value::Null);
+    assert_eq!(j["unsafe_example"], serde_json::Value::Null);
+    assert_eq!(
+        j["loops"],
+        serde_json::json!([{"states": 3, "prefix": [], "cycle": ["ab", "bc", "ca"]}])
+    );
+    assert_eq!(j["warnings"], serde_json::json!([]));
+    assert!(j["seconds"].as_f64().is_some());
+    // and the report for people
+    let (code, out, _) = petrel(&["check", "--pnml", f.to_str().unwrap()]);
+    assert_eq!(code, 0);
+    assert!(out.contains("OK: 1-safe and deadlock-free"), "{out}");
+}
+
+#[test]
+fn an_unsafe_net_with_a_deadlock_fails_with_exit_1() {
+    // `go` puts a second token in `b` after `fill`; `stop` empties `a` for good.
+    let f = pnml_file(
+        "unsafe.pnml",
+        r#"<place id="a"><initialMarking><text>1</text></initialMarking></place>
+<place id="b"><initialMarking><text>1</text></initialMarking></place>
+<transition id="fill"><name><text>fill b</text></name></transition>
+<arc id="1" source="a" target="fill"/><arc id="2" source="fill" target="b"/>"#,
+    );
+    let (code, out, err) = petrel(&[
+        "check",
+        "--pnml",
+        f.to_str().unwrap(),
+        "--json",
+        "--threads",
+        "2",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    let j = json_of(&out);
+    assert_eq!(j["states"], 2);
+    assert_eq!(j["safe"], false);
+    assert_eq!(j["max_tokens"], 2);
+    assert_eq!(j["dead_markings"], 1);
+    assert_eq!(j["unsafe_example"], serde_json::json!(["fill b"]));
+    assert_eq!(j["deadlock_example"], serde_json::json!(["fill b"]));
+}
+
+#[test]
+fn an_unbounded_net_stops_at_the_state_limit() {
+    let f = pnml_file(
+        "unbounded.pnml",
+        r#"<place id="src"><initialMarking><text>1</text></initialMarking></place><place id="sink"/>
+<transition id="gen"/>
+<arc id="1" source="src" target="gen"/><arc id="2" source="gen" target="src"/><arc id="3" source="gen" target="sink"/>"#,
+    );
+    let file = f.to_str().unwrap();
+    // exactly at the limit on one thread; after the level passing it on two
+    for (threads, most) in [("1", 100), ("2", 200)] {
+        let args = [
+            "check",
+            "--pnml",
+            file,
+            "--json",
+            "--max-states",
+            "100",
+            "--threads",
+            threads,
+        ];
+        let (code, out, _) = petrel(&args);
+        assert_eq!(code, 1);
+        let j = json_of(&out);
+        assert_eq!(j["complete"], false);
+        let states = j["states"].as_u64().unwrap();
+        assert!(
+            (100..=most).contains(&states),
+            "{states} states on {threads} thread(s)"
+        );
+        let warning = j["warnings"][0].as_str().unwrap();
+        assert!(warning.contains("state limit reached"), "{j}");
+    }
+    let (_, out, _) = petrel(&[
+        "check",
+        "--pnml",
+        file,
+        "--max-states",
+        "100",
+        "--threads",
+        "1",
+    ]);
+    assert!(out.contains("INCONCLUSIVE"), "{out}");
+}
+
+#[test]
+fn bad_input_exits_2_with_the_position() {
+    let f = pnml_file(
+        "dangling.pnml",
+        "<place id=\"a\"/>\n<arc id=\"x\" source=\"a\" target=\"nowhere\"/>",
+    );
+    let (code, out, err) = petrel(&["check", "--pnml", f.to_str().unwrap()]);
+    assert_eq!(code, 2);
+    assert!(out.is_empty());
+    assert!(
+        plain(&err)
+            .contains("dangling.pnml:6:1: arc `x`: target `nowhere` is not a node of the net"),
+        "{err}"
+    );
+    let (code, _, err) = petrel(&["check", "--pnml", "/no/such/file.pnml"]);
+    assert_eq!(code, 2);
+    assert!(
+        plain(&err).contains("cannot read /no/such/file.pnml"),
+        "{err}"
+    );
+    let (code, _, _) = petrel(&["check"]);
+    assert_eq!(code, 2);
+    let (code, _, err) = petrel(&["check", "some-project"]);
+    assert_eq!(code, 2);
+    assert!(plain(&err).contains("not available yet"), "{err}");
+    let (code, _, _) = petrel(&["check", "--pnml", f.to_str().unwrap(), "--threads", "0"]);
+    assert_eq!(code, 2);
+}
+
+#[test]
+fn mcc_nets_through_the_binary() {
+    let Some(phil) = shared_pnml("Philosophers-PT-000005.pnml") else {
+        return;
+    };
+    let (code, out, err) = petrel(&["check", "--pnml", &phil, "--json"]);
+    assert_eq!(code, 1, "{err}");
+    let j = json_of(&out);
+    assert_eq!(
+        (
+            j["states"].as_u64(),
+            j["edges"].as_u64(),
+            j["dead_markings"].as_u64()
+        ),
+        (Some(243), Some(945), Some(2))
+    );
+    assert_eq!(j["deadlock_example"].as_array().map(Vec::len), Some(5));
+    let Some(db) = shared_pnml("DatabaseWithMutex-PT-02.pnml") else {
+        return;
+    };
+    let (code, out, err) = petrel(&["check", "--pnml", &db, "--json"]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(json_of(&out)["states"], 153);
+    let Some(cs) = shared_pnml("CSRepetitions-PT-02.pnml") else {
+        return;
+    };
+    let (code, out, _) = petrel(&["check", "--pnml", &cs, "--json", "--threads", "2"]);
+    assert_eq!(code, 1);
+    let j = json_of(&out);
+    assert_eq!(
+        (
+            j["states"].as_u64(),
+            j["edges"].as_u64(),
+            j["max_tokens"].as_u64()
+        ),
+        (Some(7424), Some(37088), Some(2))
+    );
+    assert_eq!(j["safe"], false);
+}
