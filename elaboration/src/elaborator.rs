@@ -194,7 +194,7 @@ impl Elaborator {
             Some(n) => n,
             None => {
                 self.now = time_us;
-                self.next_tick = Some(time_us + step);
+                self.next_tick = Some(time_us.saturating_add(step));
                 return;
             }
         };
@@ -205,8 +205,14 @@ impl Elaborator {
             }
             self.now = next;
             self.run_timed();
-            next += step;
             steps += 1;
+            match next.checked_add(step) {
+                Some(n) => next = n,
+                None => {
+                    next = u64::MAX;
+                    break;
+                }
+            }
         }
         self.next_tick = Some(next);
         self.now = time_us;
@@ -215,8 +221,13 @@ impl Elaborator {
     fn run_timed(&mut self) {
         for ri in 0..self.profile.timed.len() {
             let r = self.profile.timed[ri];
+            let (ages, source) = (self.profile.rules[r].ages, self.profile.rules[r].source);
             for si in 0..self.sources.len() {
-                if self.matches(&self.profile.rules[r].source, si) {
+                // A rule without age() only changes with time while one of
+                // its durations runs.
+                let state = &self.sources[si].rules[r];
+                let running = state.pending_since.is_some() || state.clearing_since.is_some();
+                if (ages || running) && self.matches(&source, si) {
                     self.evaluate(r, si, false);
                 }
             }
@@ -266,8 +277,13 @@ impl Elaborator {
             src.loss -= LOSS_WEIGHT * src.loss;
         }
         src.last_seq = Some(seq);
-        let Some(&slot) = self.profile.slot_of_id.get(&msgid) else {
-            return;
+        let slot = match self.profile.slot_of_id.get(msgid as usize) {
+            Some(&0) => return,
+            Some(&s) => s as usize - 1,
+            None => match self.profile.slot_of_big_id.get(&msgid) {
+                Some(&s) => s,
+                None => return,
+            },
         };
         src.last_by_slot[slot] = Some(now);
         if self.profile.slots[slot].decode && !self.decode_into(si, slot, msgid, input) {
@@ -432,13 +448,7 @@ impl Elaborator {
         if clear_fire {
             if let Some((name, category)) = &rule.cleared {
                 let (sysid, compid) = (cx.src.sysid, cx.src.compid);
-                let mut params = Params::new();
-                if matches!(
-                    rule.source,
-                    SourceFilter::Vehicle | SourceFilter::Any | SourceFilter::Gcs
-                ) {
-                    params.insert("component".into(), nets::Value::Int(compid as i64));
-                }
+                let params = Params::new();
                 self.events.push_back(Elaborated {
                     time_us: now,
                     event: Event {

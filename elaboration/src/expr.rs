@@ -314,7 +314,8 @@ pub struct Compiled {
     /// Slots of the messages whose age it reads: their frames trigger an
     /// evaluation too (a link is restored the moment a heartbeat arrives).
     pub ages: Vec<usize>,
-    /// Whether its value can change with time alone (`age()`).
+    /// Whether its value can change without a message it reads (`age()`,
+    /// `loss()`): evaluated on every tick.
     pub timed: bool,
     /// Regexes it matches, in order (their named captures become parameters).
     pub regexes: Vec<usize>,
@@ -611,6 +612,11 @@ impl<R: Resolver> Parser<'_, '_, R> {
         if let Some(func) = func {
             self.expect("(")?;
             self.expect(")")?;
+            if func == Func::Loss {
+                // The loss estimate moves with every frame of the source:
+                // evaluated on every tick.
+                self.timed = true;
+            }
             if matches!(func, Func::Mode | Func::Firmware) {
                 let (slot, _) = self
                     .resolver
@@ -844,5 +850,198 @@ pub fn captures<C: Context>(node: &Node, cx: &mut C, out: &mut nets::Params) {
         }
         Node::Unary(_, a) | Node::Abs(a) => captures(a, cx, out),
         _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One message `M` (slot 0) with fields a, b, s, l; constants ONE, FOUR.
+    #[derive(Default)]
+    struct Mock {
+        regexes: Vec<Regex>,
+        memos: Vec<V<'static>>,
+        values: Vec<V<'static>>,
+        list: Vec<i64>,
+        age: f64,
+    }
+
+    impl Resolver for Mock {
+        fn field(&mut self, message: &str, field: &str) -> Result<(usize, usize), String> {
+            if message != "M" && message != "HEARTBEAT" {
+                return Err(format!("unknown message `{message}`"));
+            }
+            ["a", "b", "s", "l", "custom_mode"]
+                .iter()
+                .position(|f| *f == field)
+                .map(|i| (0, i))
+                .ok_or_else(|| format!("no field `{field}`"))
+        }
+        fn timed_message(&mut self, message: &str) -> Result<usize, String> {
+            self.field(message, "a").map(|(s, _)| s)
+        }
+        fn constant(&self, name: &str) -> Option<i64> {
+            match name {
+                "ONE" => Some(1),
+                "FOUR" => Some(4),
+                _ => None,
+            }
+        }
+        fn regex(&mut self, regex: Regex) -> usize {
+            self.regexes.push(regex);
+            self.regexes.len() - 1
+        }
+        fn memo(&mut self) -> usize {
+            self.memos.push(V::Missing);
+            self.memos.len() - 1
+        }
+    }
+
+    impl Context for Mock {
+        fn field(&self, _slot: usize, field: usize, index: Option<usize>) -> V<'_> {
+            match (field, index) {
+                (3, Some(i)) => self.list.get(i).map(|x| V::Int(*x)).unwrap_or(V::Missing),
+                (f, None) => self.values.get(f).cloned().unwrap_or(V::Missing),
+                _ => V::Missing,
+            }
+        }
+        fn age(&self, _slot: usize) -> f64 {
+            self.age
+        }
+        fn seen(&self, _slot: usize) -> bool {
+            self.age < 1e9
+        }
+        fn call(&self, func: Func) -> V<'_> {
+            match func {
+                Func::Mode => V::Str("LOITER".into()),
+                Func::Firmware => V::Str("copter".into()),
+                Func::Loss => V::Float(12.5),
+                Func::SysId => V::Int(1),
+                Func::CompId => V::Int(1),
+            }
+        }
+        fn regex(&self, regex: usize) -> &Regex {
+            &self.regexes[regex]
+        }
+        fn memo(&mut self, memo: usize) -> &mut V<'static> {
+            &mut self.memos[memo]
+        }
+    }
+
+    fn mock(a: V<'static>, b: V<'static>, s: &str) -> Mock {
+        Mock {
+            values: vec![a, b, V::Str(s.to_owned().into())],
+            list: vec![10, 0, 30],
+            age: 2.0,
+            ..Mock::default()
+        }
+    }
+
+    fn run(src: &str, m: &mut Mock) -> V<'static> {
+        let c = compile(src, m).unwrap_or_else(|e| panic!("{src}: {e:?}"));
+        eval(&c.node, m)
+    }
+
+    #[test]
+    fn arithmetic_and_precedence() {
+        let mut m = mock(V::Int(7), V::Float(2.5), "x");
+        assert_eq!(run("1 + 2 * 3", &mut m), V::Int(7));
+        assert_eq!(run("(1 + 2) * 3", &mut m), V::Int(9));
+        assert_eq!(run("M.a - 10", &mut m), V::Int(-3));
+        assert_eq!(run("M.a / 2", &mut m), V::Float(3.5));
+        assert_eq!(run("M.a % 4", &mut m), V::Int(3));
+        assert_eq!(run("M.b * 2", &mut m), V::Float(5.0));
+        assert_eq!(run("-M.a", &mut m), V::Int(-7));
+        assert_eq!(run("M.a / 0", &mut m), V::Missing);
+        assert_eq!(run("0x10 + 1", &mut m), V::Int(17));
+        assert_eq!(run("abs(-3)", &mut m), V::Int(3));
+    }
+
+    #[test]
+    fn comparisons_and_logic() {
+        let mut m = mock(V::Int(7), V::Float(2.5), "hello");
+        assert_eq!(run("M.a > 5 && M.b < 3", &mut m), V::Bool(true));
+        assert_eq!(run("M.a >= 8 or M.b <= 2.5", &mut m), V::Bool(true));
+        assert_eq!(run("M.a == 7 and not (M.b != 2.5)", &mut m), V::Bool(true));
+        assert_eq!(run("!(M.a == 7)", &mut m), V::Bool(false));
+        assert_eq!(run("M.s == \"hello\"", &mut m), V::Bool(true));
+        assert_eq!(run("M.s == 3", &mut m), V::Bool(false));
+        assert_eq!(run("M.a == 7.0", &mut m), V::Bool(true));
+    }
+
+    #[test]
+    fn bits_with_constant_names() {
+        let mut m = mock(V::Int(0b101), V::Int(0), "");
+        assert_eq!(run("M.a & FOUR", &mut m), V::Int(4));
+        assert_eq!(run("(M.a & FOUR) != 0", &mut m), V::Bool(true));
+        assert_eq!(run("M.a & 2", &mut m), V::Int(0));
+        assert_eq!(run("M.a | 2", &mut m), V::Int(7));
+        assert_eq!(run("M.a ^ ONE", &mut m), V::Int(4));
+        assert_eq!(run("~M.a & 7", &mut m), V::Int(2));
+    }
+
+    #[test]
+    fn missing_values_propagate_but_logic_can_decide() {
+        let mut m = mock(V::Missing, V::Int(1), "");
+        assert_eq!(run("M.a > 3", &mut m), V::Missing);
+        assert_eq!(run("M.a > 3 || M.b == 1", &mut m), V::Bool(true));
+        assert_eq!(run("M.a > 3 && M.b == 0", &mut m), V::Bool(false));
+        assert_eq!(run("M.a > 3 && M.b == 1", &mut m), V::Missing);
+        assert_eq!(run("!(M.a > 3)", &mut m), V::Missing);
+    }
+
+    #[test]
+    fn functions_arrays_and_regex_captures() {
+        let mut m = mock(V::Int(1), V::Int(0), "Potential Thrust Loss (3)");
+        assert_eq!(run("mode() == \"LOITER\"", &mut m), V::Bool(true));
+        assert_eq!(run("firmware()", &mut m), V::Str("copter".into()));
+        assert_eq!(run("age(M) > 1.5", &mut m), V::Bool(true));
+        assert_eq!(run("seen(M)", &mut m), V::Bool(true));
+        assert_eq!(run("loss() > 10", &mut m), V::Bool(true));
+        assert_eq!(run("M.l[2] - M.l[0]", &mut m), V::Int(20));
+        assert_eq!(run("M.l[9]", &mut m), V::Missing);
+        let src = r#"M.s ~ "Thrust Loss \((?P<motor>\d+)\)""#;
+        let c = compile(src, &mut m).expect("compiles");
+        assert_eq!(eval(&c.node, &mut m), V::Bool(true));
+        let mut params = nets::Params::new();
+        captures(&c.node, &mut m, &mut params);
+        assert_eq!(params.get("motor"), Some(&nets::Value::Int(3)));
+    }
+
+    #[test]
+    fn changed_and_prev_remember_the_previous_evaluation() {
+        let mut m = mock(V::Int(1), V::Int(0), "");
+        let changed = compile("changed(M.a)", &mut m).expect("compiles");
+        let prev = compile("prev(M.a)", &mut m).expect("compiles");
+        assert_eq!(eval(&changed.node, &mut m), V::Bool(false));
+        assert_eq!(eval(&prev.node, &mut m), V::Missing);
+        m.values[0] = V::Int(2);
+        assert_eq!(eval(&changed.node, &mut m), V::Bool(true));
+        assert_eq!(eval(&prev.node, &mut m), V::Int(1));
+        assert_eq!(eval(&changed.node, &mut m), V::Bool(false));
+    }
+
+    #[test]
+    fn errors_point_at_the_culprit() {
+        let mut m = Mock::default();
+        let err = |src: &str, m: &mut Mock| compile(src, m).expect_err(src);
+        let e = err("M.a > NOPE", &mut m);
+        assert_eq!((e.offset, e.len), (6, 4));
+        assert!(e.message.contains("unknown name `NOPE`"));
+        let e = err("M.zz == 1", &mut m);
+        assert_eq!(e.offset, 0);
+        assert!(e.message.contains("no field"));
+        let e = err("X.a == 1", &mut m);
+        assert!(e.message.contains("unknown message"));
+        assert_eq!(err("M.a = 1", &mut m).offset, 4);
+        assert_eq!(err("(M.a", &mut m).offset, 4);
+        assert_eq!(err("M.a ~ \"(\"", &mut m).offset, 6);
+        assert_eq!(err("M.a > 1 2", &mut m).offset, 8);
+        assert!(err("bogus(1)", &mut m).message.contains("unknown function"));
+        assert!(err("\"open", &mut m).message.contains("unterminated"));
+        assert!(err("M.a # 1", &mut m)
+            .message
+            .contains("unexpected character"));
     }
 }

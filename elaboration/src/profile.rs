@@ -109,6 +109,8 @@ pub struct Rule {
     pub source: SourceFilter,
     /// Evaluated on ticks (reads `age()` or has a duration).
     pub(crate) timed: bool,
+    /// Reads `age()`: evaluated on every tick, not only while a duration runs.
+    pub(crate) ages: bool,
 }
 
 /// A message the profile reads or times.
@@ -125,7 +127,10 @@ pub(crate) struct Slot {
 pub struct Profile {
     pub(crate) rules: Vec<Rule>,
     pub(crate) slots: Vec<Slot>,
-    pub(crate) slot_of_id: HashMap<u32, usize>,
+    /// Slot + 1 by message id (0: not read), for ids below 2^16; others
+    /// (rare, and not in the dialect today) in `slot_of_big_id`.
+    pub(crate) slot_of_id: Vec<u16>,
+    pub(crate) slot_of_big_id: HashMap<u32, usize>,
     pub(crate) regexes: Vec<Regex>,
     pub(crate) memos: usize,
     /// Rules to evaluate on a message, by slot.
@@ -180,6 +185,9 @@ impl Profile {
             })
             .collect();
         let mut rules = Vec::new();
+        // Rules run in the order they were first declared (layer, then
+        // position in the file).
+        order.sort_by_key(|k| specs.get(k).map(|s| s.first).unwrap_or((usize::MAX, 0)));
         for key in &order {
             let Some(spec) = specs.get(key) else { continue };
             if spec.enabled == Some(false) {
@@ -213,7 +221,22 @@ impl Profile {
         }
         Ok(Profile {
             rules,
-            slot_of_id: b.slots.iter().enumerate().map(|(i, s)| (s.id, i)).collect(),
+            slot_of_id: {
+                let mut t = vec![0u16; 1 << 16];
+                for (i, s) in b.slots.iter().enumerate() {
+                    if let Some(e) = t.get_mut(s.id as usize) {
+                        *e = u16::try_from(i + 1).unwrap_or(0);
+                    }
+                }
+                t
+            },
+            slot_of_big_id: b
+                .slots
+                .iter()
+                .enumerate()
+                .filter(|(_, s)| s.id >= 1 << 16)
+                .map(|(i, s)| (s.id, i))
+                .collect(),
             slots: b.slots,
             regexes: b.regexes,
             memos: b.memos,
@@ -278,6 +301,8 @@ struct Text {
 #[derive(Debug, Clone, Default)]
 struct RuleSpec {
     decl: Option<(usize, Range<usize>)>,
+    /// Where the rule was first declared: (layer, byte offset).
+    first: (usize, usize),
     event: Option<Text>,
     category: Option<Text>,
     when: Option<Text>,
@@ -329,6 +354,13 @@ fn read_layer(
             };
             if !specs.contains_key(&name_str) {
                 order.push(name_str.clone());
+                specs.insert(
+                    name_str.clone(),
+                    RuleSpec {
+                        first: (loc.file_index, name.span().start),
+                        ..RuleSpec::default()
+                    },
+                );
             }
             let spec = specs.entry(name_str).or_default();
             spec.decl = Some((loc.file_index, name.span()));
@@ -633,6 +665,7 @@ impl Builder {
             return None;
         }
         let (when, category) = (when?, cat?);
+        let ages = when.timed || clear.as_ref().is_some_and(|c| c.timed);
         let timed =
             when.timed || clear.as_ref().is_some_and(|c| c.timed) || for_us > 0 || clear_for_us > 0;
         Some(Rule {
@@ -653,6 +686,7 @@ impl Builder {
                 .map(|s| s.0)
                 .unwrap_or(SourceFilter::Autopilot),
             timed,
+            ages,
         })
     }
 }

@@ -1,0 +1,411 @@
+//! Rules on synthetic frames: each rule option and expression form, seen
+//! through the elaborator.
+
+use elaboration::frame::{extra_crc, serialize};
+use elaboration::{Config, Elaborated, Elaborator, Frame, Profile};
+use mavlink::dialects::ardupilotmega::*;
+use mavlink::{MavHeader, MavlinkVersion};
+
+const S: u64 = 1_000_000;
+
+fn profile(text: &str) -> Profile {
+    Profile::load(&[("test.toml", text)]).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn header(sysid: u8, compid: u8, seq: u8) -> MavHeader {
+    MavHeader {
+        system_id: sysid as u32,
+        component_id: compid,
+        sequence: seq,
+    }
+}
+
+fn heartbeat(armed: bool, custom_mode: u32, status: MavState) -> MavMessage {
+    let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+    if armed {
+        base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+    }
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode,
+        mavtype: MavType::MAV_TYPE_QUADROTOR,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode: base,
+        system_status: status,
+        mavlink_version: 3,
+    })
+}
+
+fn gcs_heartbeat() -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        mavtype: MavType::MAV_TYPE_GCS,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        ..HEARTBEAT_DATA::DEFAULT
+    })
+}
+
+fn sys_status(remaining: i8) -> MavMessage {
+    let mut d = SYS_STATUS_DATA::DEFAULT;
+    d.battery_remaining = remaining;
+    MavMessage::SYS_STATUS(d)
+}
+
+fn text(t: &str) -> MavMessage {
+    let mut bytes = [0u8; 50];
+    bytes[..t.len()].copy_from_slice(t.as_bytes());
+    let mut d = STATUSTEXT_DATA::DEFAULT;
+    d.text = mavlink::types::CharArray::new(bytes);
+    MavMessage::STATUSTEXT(d)
+}
+
+/// Feeds messages from the autopilot 1/1 through frames (bytes, CRC,
+/// decoding) and collects the events.
+struct Run {
+    elab: Elaborator,
+    seq: u8,
+    out: Vec<Elaborated>,
+}
+
+impl Run {
+    fn new(text: &str) -> Run {
+        Run {
+            elab: Elaborator::new(profile(text), Config::default()),
+            seq: 0,
+            out: Vec::new(),
+        }
+    }
+
+    fn from(&mut self, t: u64, sysid: u8, compid: u8, msg: &MavMessage) -> &mut Self {
+        let bytes = serialize(header(sysid, compid, self.seq), MavlinkVersion::V2, msg);
+        self.seq = self.seq.wrapping_add(1);
+        let frame = Frame::parse(&bytes).expect("valid frame");
+        self.elab.frame(t, &frame);
+        self.elab.drain_into(&mut self.out);
+        self
+    }
+
+    fn send(&mut self, t: u64, msg: &MavMessage) -> &mut Self {
+        self.from(t, 1, 1, msg)
+    }
+
+    fn tick(&mut self, t: u64) -> &mut Self {
+        self.elab.tick(t);
+        self.elab.drain_into(&mut self.out);
+        self
+    }
+
+    fn names(&self) -> Vec<(u64, String)> {
+        self.out
+            .iter()
+            .map(|e| (e.time_us, crate::summary(e)))
+            .collect()
+    }
+}
+
+#[test]
+fn edges_fire_once_and_initial_decides_the_start() {
+    let rules = r#"
+[rules.armed]
+category = "nominal"
+when = "HEARTBEAT.base_mode & MAV_MODE_FLAG_SAFETY_ARMED"
+initial = false
+[rules.critical]
+category = "safety"
+when = "HEARTBEAT.system_status == MAV_STATE_CRITICAL"
+"#;
+    let mut r = Run::new(rules);
+    // Starts armed and critical: `armed` is silent (initial = false), the
+    // critical state is reported (initial defaults to true).
+    r.send(0, &heartbeat(true, 0, MavState::MAV_STATE_CRITICAL));
+    r.send(S, &heartbeat(true, 0, MavState::MAV_STATE_CRITICAL));
+    r.send(2 * S, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    r.send(3 * S, &heartbeat(true, 0, MavState::MAV_STATE_STANDBY));
+    r.send(4 * S, &heartbeat(true, 0, MavState::MAV_STATE_STANDBY));
+    assert_eq!(
+        r.names(),
+        vec![(0, "critical".into()), (3 * S, "armed".into())]
+    );
+}
+
+#[test]
+fn modes_by_name_and_changed_with_each() {
+    let rules = r#"
+[rules.mode_changed]
+category = "nominal"
+when = "changed(mode())"
+each = true
+params = { mode = "mode()" }
+[rules.in_rtl]
+category = "mission"
+when = "mode() == \"RTL\""
+"#;
+    let mut r = Run::new(rules);
+    r.send(0, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    r.send(S, &heartbeat(false, 5, MavState::MAV_STATE_STANDBY));
+    r.send(2 * S, &heartbeat(false, 6, MavState::MAV_STATE_STANDBY));
+    r.send(3 * S, &heartbeat(false, 6, MavState::MAV_STATE_STANDBY));
+    assert_eq!(
+        r.names(),
+        vec![
+            (S, "mode_changed {mode: \"LOITER\"}".into()),
+            (2 * S, "mode_changed {mode: \"RTL\"}".into()),
+            (2 * S, "in_rtl".into()),
+        ]
+    );
+}
+
+#[test]
+fn for_debounces_and_clear_gives_hysteresis_and_a_cleared_event() {
+    let rules = r#"
+[rules.battery_low]
+category = "safety"
+when = "SYS_STATUS.battery_remaining >= 0 && SYS_STATUS.battery_remaining < 25"
+for = "2s"
+clear = "SYS_STATUS.battery_remaining >= 30"
+cleared = "battery_ok"
+cleared_category = "nominal"
+params = { remaining = "SYS_STATUS.battery_remaining" }
+"#;
+    let mut r = Run::new(rules);
+    r.send(0, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    r.send(S, &sys_status(20));
+    r.send(2 * S, &sys_status(40)); // 1 s below: debounced away
+    r.send(3 * S, &sys_status(20));
+    r.tick(4 * S + S / 2);
+    assert!(r.out.is_empty(), "{:?}", r.names());
+    r.tick(5 * S); // held 2 s: fires on the tick
+    r.send(6 * S, &sys_status(27)); // above 25 but below 30: still low
+    r.send(7 * S, &sys_status(22));
+    r.send(8 * S, &sys_status(31));
+    assert_eq!(
+        r.names(),
+        vec![
+            (5 * S, "battery_low {remaining: 20}".into()),
+            (8 * S, "battery_ok".into())
+        ]
+    );
+    assert_eq!(r.out[1].event.category, nets::Category::Nominal);
+    assert_eq!(r.out[0].event.category, nets::Category::Safety);
+}
+
+#[test]
+fn age_fires_between_frames_and_restores_on_the_frame() {
+    let rules = r#"
+[rules.link_lost]
+category = "communication"
+when = "age(HEARTBEAT) > 3.5"
+cleared = "link_restored"
+"#;
+    let mut r = Run::new(rules);
+    for t in 0..3 {
+        r.send(t * S, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    }
+    // A 3 s gap (2 -> 5) does not fire; then silence from 5 s.
+    r.send(5 * S, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    r.tick(8 * S);
+    assert!(r.out.is_empty());
+    r.tick(9 * S);
+    r.send(
+        12 * S + 7,
+        &heartbeat(false, 0, MavState::MAV_STATE_STANDBY),
+    );
+    let names = r.names();
+    assert_eq!(names.len(), 2, "{names:?}");
+    assert_eq!(names[0].1, "link_lost");
+    assert!(
+        names[0].0 > 8 * S + S / 2 && names[0].0 <= 8 * S + S / 2 + 100_000,
+        "{names:?}"
+    );
+    assert_eq!(names[1], (12 * S + 7, "link_restored".into()));
+}
+
+#[test]
+fn liveness_counts_frames_that_do_not_decode() {
+    let rules = r#"
+[rules.link_lost]
+category = "communication"
+when = "age(HEARTBEAT) > 3.5"
+[rules.armed]
+category = "nominal"
+when = "HEARTBEAT.base_mode & MAV_MODE_FLAG_SAFETY_ARMED"
+"#;
+    let mut elab = Elaborator::new(profile(rules), Config::default());
+    let ok = serialize(
+        header(1, 1, 0),
+        MavlinkVersion::V2,
+        &heartbeat(false, 0, MavState::MAV_STATE_STANDBY),
+    );
+    elab.frame(0, &Frame::parse(&ok).expect("frame"));
+    // A newer firmware's MAV_TYPE (250): valid CRC, but rust-mavlink
+    // rejects the message.
+    for i in 1..10u64 {
+        let mut bytes = serialize(
+            header(1, 1, i as u8),
+            MavlinkVersion::V2,
+            &heartbeat(true, 0, MavState::MAV_STATE_STANDBY),
+        );
+        bytes[10 + 4] = 250;
+        let end = bytes.len() - 2;
+        let crc = mavlink::calculate_crc(&bytes[1..end], extra_crc(0).expect("HEARTBEAT"));
+        bytes[end..].copy_from_slice(&crc.to_le_bytes());
+        let frame = Frame::parse(&bytes).expect("CRC is valid");
+        assert!(frame.decode().is_err());
+        elab.frame(i * S, &frame);
+    }
+    elab.tick(10 * S);
+    assert_eq!(
+        elab.poll_event(),
+        None,
+        "no link loss, no arming from undecodable frames"
+    );
+    assert_eq!(elab.stats().decode_failures.get(&0), Some(&9));
+}
+
+#[test]
+fn statustext_captures_become_parameters() {
+    let rules = r#"
+[rules.thrust_loss]
+category = "catastrophic"
+each = true
+when = 'STATUSTEXT.text ~ "Potential Thrust Loss \((?P<motor>\d+)\)"'
+params = { text = "STATUSTEXT.text" }
+"#;
+    let mut r = Run::new(rules);
+    r.send(0, &heartbeat(true, 0, MavState::MAV_STATE_ACTIVE));
+    r.send(S, &text("Potential Thrust Loss (3)"));
+    r.send(2 * S, &text("All good"));
+    r.send(3 * S, &text("Potential Thrust Loss (1)"));
+    assert_eq!(
+        r.names(),
+        vec![
+            (
+                S,
+                "thrust_loss {motor: 3, text: \"Potential Thrust Loss (3)\"}".into()
+            ),
+            (
+                3 * S,
+                "thrust_loss {motor: 1, text: \"Potential Thrust Loss (1)\"}".into()
+            ),
+        ]
+    );
+}
+
+#[test]
+fn sources_other_systems_gcs_and_components() {
+    let rules = r#"
+[rules.armed]
+category = "nominal"
+when = "HEARTBEAT.base_mode & MAV_MODE_FLAG_SAFETY_ARMED"
+[rules.gcs_lost]
+category = "communication"
+source = "gcs"
+when = "age(HEARTBEAT) > 5"
+cleared = "gcs_restored"
+[rules.camera_lost]
+event = "payload_failure"
+category = "mission"
+source = "vehicle"
+when = "HEARTBEAT.type == MAV_TYPE_CAMERA && age(HEARTBEAT) > 5"
+params = { component = "compid()" }
+[rules.from_seven]
+category = "nominal"
+source = { sysid = 7 }
+when = "SYS_STATUS.battery_remaining < 50"
+"#;
+    let camera = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        mavtype: MavType::MAV_TYPE_CAMERA,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        ..HEARTBEAT_DATA::DEFAULT
+    });
+    let mut r = Run::new(rules);
+    r.send(0, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    // Another vehicle's armed autopilot is not ours.
+    r.from(
+        S / 10,
+        2,
+        1,
+        &heartbeat(true, 0, MavState::MAV_STATE_ACTIVE),
+    );
+    r.from(S / 5, 255, 190, &gcs_heartbeat());
+    r.from(S / 4, 1, 100, &camera);
+    r.from(S / 2, 7, 1, &sys_status(40));
+    for t in 1..10 {
+        r.send(t * S, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    }
+    r.from(10 * S, 255, 190, &gcs_heartbeat());
+    let names = r.names();
+    let just: Vec<&str> = names.iter().map(|(_, n)| n.as_str()).collect();
+    assert_eq!(
+        just,
+        [
+            "from_seven",
+            "gcs_lost",
+            "payload_failure {component: 100}",
+            "gcs_restored"
+        ],
+        "{names:?}"
+    );
+    assert_eq!(r.out[1].sysid, 255);
+    assert_eq!(r.out[2].compid, 100);
+}
+
+#[test]
+fn missing_messages_leave_rules_as_they_are() {
+    let rules = r#"
+[rules.ready]
+category = "nominal"
+when = "GPS_RAW_INT.fix_type >= GPS_FIX_TYPE_3D_FIX && SYS_STATUS.battery_remaining > 50"
+"#;
+    let mut r = Run::new(rules);
+    r.send(0, &sys_status(90));
+    r.send(S, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    assert!(r.out.is_empty());
+    let mut gps = GPS_RAW_INT_DATA::DEFAULT;
+    gps.fix_type = GpsFixType::GPS_FIX_TYPE_3D_FIX;
+    r.send(2 * S, &MavMessage::GPS_RAW_INT(gps));
+    assert_eq!(r.names(), vec![(2 * S, "ready".into())]);
+}
+
+#[test]
+fn decoded_messages_from_a_live_link_work_too() {
+    let mut elab = Elaborator::new(
+        Profile::builtin("ardupilot").expect("profile"),
+        Config::default(),
+    );
+    elab.message(
+        0,
+        &header(1, 1, 0),
+        &heartbeat(false, 3, MavState::MAV_STATE_STANDBY),
+    );
+    elab.message(
+        S,
+        &header(1, 1, 1),
+        &heartbeat(true, 3, MavState::MAV_STATE_STANDBY),
+    );
+    let e = elab.poll_event().expect("armed");
+    assert_eq!(e.event.name, "armed");
+    assert_eq!(
+        e.event.params.get("mode"),
+        Some(&nets::Value::Str("AUTO".into()))
+    );
+    assert_eq!((e.time_us, e.sysid, e.compid), (S, 1, 1));
+}
+
+#[test]
+fn mavlink1_frames_are_read() {
+    let mut elab = Elaborator::new(
+        Profile::builtin("ardupilot").expect("profile"),
+        Config::default(),
+    );
+    for (i, armed) in [false, true].into_iter().enumerate() {
+        let bytes = serialize(
+            header(1, 1, i as u8),
+            MavlinkVersion::V1,
+            &heartbeat(armed, 0, MavState::MAV_STATE_STANDBY),
+        );
+        elab.frame(i as u64 * S, &Frame::parse(&bytes).expect("v1 frame"));
+    }
+    assert_eq!(
+        elab.poll_event().map(|e| e.event.name),
+        Some("armed".into())
+    );
+}
