@@ -23,7 +23,10 @@ pub fn project(files: &[(&str, &str)]) -> Arc<Project> {
 /// A one-net project: `net` is the net file's text (its name is `N`).
 pub fn one_net(net: &str) -> Arc<Project> {
     project(&[
-        ("project.toml", "[[net]]\nfile = \"n.toml\"\nactive = true\n"),
+        (
+            "project.toml",
+            "[[net]]\nfile = \"n.toml\"\nactive = true\n",
+        ),
         ("n.toml", net),
     ])
 }
@@ -31,7 +34,10 @@ pub fn one_net(net: &str) -> Arc<Project> {
 /// Drains the effects, as text lines.
 pub fn drain(player: &mut Player) -> Vec<String> {
     let project = player.project().clone();
-    player.effects().map(|e| effect_text(&project, &e)).collect()
+    player
+        .effects()
+        .map(|e| effect_text(&project, &e))
+        .collect()
 }
 
 /// Drains the effects, keeping them.
@@ -44,10 +50,11 @@ pub fn fired(project: &Project, effects: &[Effect]) -> Vec<String> {
     effects
         .iter()
         .filter_map(|e| match e {
-            Effect::Fired { net, transition, .. } => Some(format!(
+            Effect::Fired {
+                net, transition, ..
+            } => Some(format!(
                 "{}.{}",
-                project.nets[*net].name,
-                project.nets[*net].transitions[*transition].name
+                project.nets[*net].name, project.nets[*net].transitions[*transition].name
             )),
             _ => None,
         })

@@ -104,8 +104,13 @@ fn nominal_flight() {
         })
         .collect();
     assert_eq!(expiries, [110_000_000, 170_000_000]);
-    assert!(player.state().pending.is_empty(), "every call and command answered");
-    assert!(!effects.iter().any(|e| matches!(e, Effect::Dropped { .. } | Effect::Fault { .. })));
+    assert!(
+        player.state().pending.is_empty(),
+        "every call and command answered"
+    );
+    assert!(!effects
+        .iter()
+        .any(|e| matches!(e, Effect::Dropped { .. } | Effect::Fault { .. })));
 }
 
 #[test]
@@ -134,10 +139,16 @@ fn payload_failure_replans_and_resumes() {
     let p = player.project().clone();
     let mission = p.net("MISSION").expect("MISSION");
     // Deactivating MISSION cancelled its payload timer and forgot its call.
-    let cancelled = effects.iter().position(|e| matches!(e, Effect::TimerCancelled { net, .. } if *net == mission));
+    let cancelled = effects
+        .iter()
+        .position(|e| matches!(e, Effect::TimerCancelled { net, .. } if *net == mission));
     assert!(cancelled.is_some());
-    assert!(effects.iter().any(|e| matches!(e, Effect::Forgotten { id: 6, .. })));
-    assert!(effects.iter().any(|e| matches!(e, Effect::LateResult { id: 6, .. })));
+    assert!(effects
+        .iter()
+        .any(|e| matches!(e, Effect::Forgotten { id: 6, .. })));
+    assert!(effects
+        .iter()
+        .any(|e| matches!(e, Effect::LateResult { id: 6, .. })));
     // The timer set at 90 s for 110 s never expired; the next one did, at 150 s.
     let expiries: Vec<u64> = effects
         .iter()
@@ -151,7 +162,10 @@ fn payload_failure_replans_and_resumes() {
     assert!(effects.iter().any(|e| matches!(e, Effect::Call { args, .. } if args.get("failed") == Some(&Value::from("camera")))));
     assert_eq!(common::marking(&player, "MISSION"), ["landed"]);
     assert_eq!(common::marking(&player, "EVENTS"), ["watching"]);
-    assert!(!common::global(&player, "replanned"), "resume consumed @replanned");
+    assert!(
+        !common::global(&player, "replanned"),
+        "resume consumed @replanned"
+    );
 }
 
 #[test]
@@ -179,25 +193,44 @@ fn engine_failure_glides_to_the_emergency_site_under_the_lockout() {
             _ => None,
         })
         .collect();
-    assert_eq!(dropped, [("payload_failure", DropReason::Lockout), ("landed", DropReason::Lockout)]);
-    assert!(effects.iter().any(|e| matches!(e, Effect::LateResult { id: 4, .. })));
+    assert_eq!(
+        dropped,
+        [
+            ("payload_failure", DropReason::Lockout),
+            ("landed", DropReason::Lockout)
+        ]
+    );
+    assert!(effects
+        .iter()
+        .any(|e| matches!(e, Effect::LateResult { id: 4, .. })));
     // The glide goes to DEC's site.
-    assert!(effects.iter().any(|e| matches!(e, Effect::Call { args, .. } if args.get("lat") == Some(&Value::Float(43.558)))));
+    assert!(effects.iter().any(
+        |e| matches!(e, Effect::Call { args, .. } if args.get("lat") == Some(&Value::Float(43.558)))
+    ));
     assert!(common::marking(&player, "MISSION").is_empty());
     assert_eq!(common::marking(&player, "EVENTS"), ["down"]);
     // The lockout effect names the catastrophic event.
-    assert!(effects.iter().any(|e| matches!(e, Effect::Lockout { event, .. } if event == "engine_failure")));
+    assert!(effects
+        .iter()
+        .any(|e| matches!(e, Effect::Lockout { event, .. } if event == "engine_failure")));
     let disarm = effects.iter().find_map(|e| match e {
         Effect::Command { verb, .. } if verb == "disarm" => Some(()),
         _ => None,
     });
     assert!(disarm.is_some());
-    assert_eq!(player.project().declared_category("engine_failure"), Some(Category::Catastrophic));
+    assert_eq!(
+        player.project().declared_category("engine_failure"),
+        Some(Category::Catastrophic)
+    );
 }
 
 #[test]
 fn the_example_scripts_are_deterministic() {
-    for name in ["nominal.jsonl", "payload_failure.jsonl", "engine_failure.jsonl"] {
+    for name in [
+        "nominal.jsonl",
+        "payload_failure.jsonl",
+        "engine_failure.jsonl",
+    ] {
         let (a, pa) = play(name);
         let (b, pb) = play(name);
         assert_eq!(a, b, "{name}");

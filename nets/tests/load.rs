@@ -39,7 +39,12 @@ fn transition(body: &str) -> String {
 
 #[test]
 fn a_correct_project_loads() {
-    assert_eq!(problems(&transition("on = \"wp\"\nwhen = \"seq == 3\"\ndo = [\"call DEC.next {index: $seq}\"]\n")), Vec::<String>::new());
+    assert_eq!(
+        problems(&transition(
+            "on = \"wp\"\nwhen = \"seq == 3\"\ndo = [\"call DEC.next {index: $seq}\"]\n"
+        )),
+        Vec::<String>::new()
+    );
 }
 
 #[test]
@@ -162,7 +167,9 @@ fn broken_net_files_report_the_exact_problem_and_position() {
     for (i, (net, expected)) in cases.iter().enumerate() {
         let got = problems(net);
         if got != *expected {
-            failures.push(format!("case {i}:\n  expected {expected:#?}\n  got      {got:#?}"));
+            failures.push(format!(
+                "case {i}:\n  expected {expected:#?}\n  got      {got:#?}"
+            ));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
@@ -202,7 +209,9 @@ fn broken_project_files_report_the_exact_problem_and_position() {
     for (i, (project, expected)) in cases.iter().enumerate() {
         let got = problems_with(project, net);
         if got != *expected {
-            failures.push(format!("case {i}:\n  expected {expected:#?}\n  got      {got:#?}"));
+            failures.push(format!(
+                "case {i}:\n  expected {expected:#?}\n  got      {got:#?}"
+            ));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
@@ -212,7 +221,10 @@ fn broken_project_files_report_the_exact_problem_and_position() {
 fn a_missing_project_file_is_a_problem_not_a_panic() {
     let files: BTreeMap<String, String> = BTreeMap::new();
     let e = nets::load(&files).expect_err("no project.toml");
-    assert_eq!(e.problems[0].to_string(), "project.toml:1:1: cannot read project.toml: no such file");
+    assert_eq!(
+        e.problems[0].to_string(),
+        "project.toml:1:1: cannot read project.toml: no such file"
+    );
 }
 
 #[test]
@@ -220,7 +232,10 @@ fn the_miette_report_shows_the_line_and_a_caret() {
     let got = {
         let files: BTreeMap<String, String> = [
             ("project.toml".to_owned(), PROJECT.to_owned()),
-            ("n.toml".to_owned(), transition("on = \"wp\"\ndo = [\"activate MISSON\"]\n")),
+            (
+                "n.toml".to_owned(),
+                transition("on = \"wp\"\ndo = [\"activate MISSON\"]\n"),
+            ),
         ]
         .into();
         nets::load(&files).expect_err("broken")

@@ -35,11 +35,21 @@ on = "go"
     );
     let mut player = Player::start(p, 0);
     drain(&mut player);
-    assert!(fire(&mut player, &ev("other"), 1).is_empty(), "unrelated event fires nothing");
+    assert!(
+        fire(&mut player, &ev("other"), 1).is_empty(),
+        "unrelated event fires nothing"
+    );
     assert_eq!(marking(&player, "N"), ["a"]);
-    assert_eq!(fire(&mut player, &ev("go"), 2), ["N.t1"], "only the enabled t1 fires");
+    assert_eq!(
+        fire(&mut player, &ev("go"), 2),
+        ["N.t1"],
+        "only the enabled t1 fires"
+    );
     assert_eq!(marking(&player, "N"), ["b"]);
-    assert!(fire(&mut player, &ev("go"), 3).is_empty(), "nothing enabled waits for go");
+    assert!(
+        fire(&mut player, &ev("go"), 3).is_empty(),
+        "nothing enabled waits for go"
+    );
 }
 
 #[test]
@@ -185,10 +195,15 @@ do = ["emit seen"]
     player.handle(&ev("e"), 5);
     let effects = drain_effects(&mut player);
     assert!(effects.iter().any(|e| matches!(e, Effect::Fault { fault: Fault::DoubleToken { transition: 0, place, .. }, .. } if *place == p.place_offsets[0] + 1)));
-    assert!(!effects.iter().any(|e| matches!(e, Effect::Command { .. })), "the rejected firing's actions do not run");
+    assert!(
+        !effects.iter().any(|e| matches!(e, Effect::Command { .. })),
+        "the rejected firing's actions do not run"
+    );
     assert_eq!(fired(&p, &effects), ["N.good", "N.on_fault"]);
     assert_eq!(marking(&player, "N"), ["b", "c", "faulted"]);
-    assert!(effects.iter().any(|e| matches!(e, Effect::Emitted { event, .. } if event.name == "seen")));
+    assert!(effects
+        .iter()
+        .any(|e| matches!(e, Effect::Emitted { event, .. } if event.name == "seen")));
 }
 
 #[test]
@@ -208,15 +223,26 @@ fn the_project_declares_categories_and_undeclared_events_keep_their_own() {
     // Undeclared and arriving as safety: dropped under the lockout…
     player.handle(&ev("gps_lost").category(Category::Safety), 2);
     let effects = drain_effects(&mut player);
-    assert!(matches!(&effects[..], [Effect::Dropped { event, reason: DropReason::Lockout, .. }] if event.category == Category::Safety));
+    assert!(
+        matches!(&effects[..], [Effect::Dropped { event, reason: DropReason::Lockout, .. }] if event.category == Category::Safety)
+    );
     // …and handled when it arrives as catastrophic.
-    assert_eq!(fire(&mut player, &ev("gps_lost").category(Category::Catastrophic), 3), ["N.u"]);
+    assert_eq!(
+        fire(
+            &mut player,
+            &ev("gps_lost").category(Category::Catastrophic),
+            3
+        ),
+        ["N.u"]
+    );
 }
 
 #[test]
 fn emitted_events_run_to_completion_by_category_priority_fifo_within_one() {
     let p = project(&[
-        ("project.toml", r#"[events]
+        (
+            "project.toml",
+            r#"[events]
 n1 = "nominal"
 n2 = "nominal"
 m = "mission"
@@ -225,8 +251,11 @@ c = "communication"
 [[net]]
 file = "n.toml"
 active = true
-"#),
-        ("n.toml", r#"name = "N"
+"#,
+        ),
+        (
+            "n.toml",
+            r#"name = "N"
 places = ["a", "p1", "p2", "p3", "p4", "p5", "q1", "q2", "q3", "q4", "q5"]
 initial = ["a", "p1", "p2", "p3", "p4", "p5"]
 [[transition]]
@@ -260,7 +289,8 @@ name = "on_c"
 from = ["p5"]
 to = ["q5"]
 on = "c"
-"#),
+"#,
+        ),
     ]);
     let mut player = Player::start(p, 0);
     drain(&mut player);
@@ -344,7 +374,10 @@ fn an_unconsumed_catastrophic_event_changes_nothing() {
     let p = project(&[
         ("project.toml", LOCKOUT),
         ("mission.toml", LOCKOUT_MISSION),
-        ("emergency.toml", &LOCKOUT_EMERGENCY.replace("from = [\"watching\"]", "from = [\"asking\"]")),
+        (
+            "emergency.toml",
+            &LOCKOUT_EMERGENCY.replace("from = [\"watching\"]", "from = [\"asking\"]"),
+        ),
     ]);
     let mut player = Player::start(p, 0);
     drain(&mut player);
@@ -366,12 +399,19 @@ fn the_catastrophic_lockout_drops_everything_but_the_reactions_own_consequences(
     let mut player = Player::start(p.clone(), 0);
     drain(&mut player);
     assert_eq!(fire(&mut player, &ev("start"), S), ["MISSION.plan"]);
-    let plan_call = *player.state().pending.keys().next().expect("DEC.plan pending");
+    let plan_call = *player
+        .state()
+        .pending
+        .keys()
+        .next()
+        .expect("DEC.plan pending");
 
     player.handle(&ev("engine_failure"), 2 * S);
     let effects = drain_effects(&mut player);
     assert!(player.locked_out());
-    assert!(matches!(effects.iter().find(|e| matches!(e, Effect::Lockout { .. })), Some(Effect::Lockout { event, .. }) if event == "engine_failure"));
+    assert!(
+        matches!(effects.iter().find(|e| matches!(e, Effect::Lockout { .. })), Some(Effect::Lockout { event, .. }) if event == "engine_failure")
+    );
     // The emitted event inherits the catastrophic category.
     assert!(effects.iter().any(|e| matches!(e, Effect::Emitted { event, .. } if event.name == "mayday" && event.category == Category::Catastrophic)));
     let site_call = effects
@@ -385,16 +425,24 @@ fn the_catastrophic_lockout_drops_everything_but_the_reactions_own_consequences(
     // Other incoming events are dropped, recorded.
     player.handle(&ev("payload_failure"), 3 * S);
     let effects = drain_effects(&mut player);
-    assert!(matches!(&effects[..], [Effect::Dropped { event, reason: DropReason::Lockout, .. }] if event.name == "payload_failure" && event.category == Category::Mission));
+    assert!(
+        matches!(&effects[..], [Effect::Dropped { event, reason: DropReason::Lockout, .. }] if event.name == "payload_failure" && event.category == Category::Mission)
+    );
     // The result of a call issued before the lockout is dropped too.
     player.result(plan_call, Outcome::Done(Params::new()), 4 * S);
     let effects = drain_effects(&mut player);
-    assert!(matches!(&effects[..], [Effect::Dropped { event, reason: DropReason::Lockout, .. }] if event.name == "DEC.plan.done"));
+    assert!(
+        matches!(&effects[..], [Effect::Dropped { event, reason: DropReason::Lockout, .. }] if event.name == "DEC.plan.done")
+    );
     assert_eq!(marking(&player, "MISSION"), ["planning"]);
 
     // The reaction's own call result is catastrophic and handled; its
     // parameters flow into the command.
-    player.result(site_call, Outcome::Done(Params::from([("lat".into(), Value::Float(43.6))])), 5 * S);
+    player.result(
+        site_call,
+        Outcome::Done(Params::from([("lat".into(), Value::Float(43.6))])),
+        5 * S,
+    );
     let effects = drain_effects(&mut player);
     assert_eq!(fired(&p, &effects), ["EMERGENCY.site"]);
     let (cmd, args) = effects
@@ -404,10 +452,19 @@ fn the_catastrophic_lockout_drops_everything_but_the_reactions_own_consequences(
             _ => None,
         })
         .expect("goto commanded");
-    assert_eq!(args, Params::from([("lat".into(), Value::Float(43.6)), ("lon".into(), Value::Float(1.5))]));
+    assert_eq!(
+        args,
+        Params::from([
+            ("lat".into(), Value::Float(43.6)),
+            ("lon".into(), Value::Float(1.5))
+        ])
+    );
     // So is the command's acknowledgement…
     player.result(cmd, Outcome::Done(Params::new()), 6 * S);
-    assert_eq!(fired(&p, &drain_effects(&mut player)), ["EMERGENCY.goto_ok"]);
+    assert_eq!(
+        fired(&p, &drain_effects(&mut player)),
+        ["EMERGENCY.goto_ok"]
+    );
     // …and its timer, started at 2 s for 10 s.
     player.advance(12 * S);
     let effects = drain_effects(&mut player);
@@ -422,8 +479,13 @@ fn the_catastrophic_lockout_drops_everything_but_the_reactions_own_consequences(
 #[test]
 fn immediate_transitions_fire_at_start_after_activation_and_after_events_in_declaration_order() {
     let p = project(&[
-        ("project.toml", "[[net]]\nfile = \"a.toml\"\nactive = true\n[[net]]\nfile = \"b.toml\"\n"),
-        ("a.toml", r#"name = "A"
+        (
+            "project.toml",
+            "[[net]]\nfile = \"a.toml\"\nactive = true\n[[net]]\nfile = \"b.toml\"\n",
+        ),
+        (
+            "a.toml",
+            r#"name = "A"
 places = ["s", "x", "y", "z"]
 initial = ["s"]
 [[transition]]
@@ -440,15 +502,19 @@ from = ["z"]
 to = ["y"]
 on = "e"
 do = ["activate B"]
-"#),
-        ("b.toml", r#"name = "B"
+"#,
+        ),
+        (
+            "b.toml",
+            r#"name = "B"
 places = ["s", "t"]
 initial = ["s"]
 [[transition]]
 name = "go"
 from = ["s"]
 to = ["t"]
-"#),
+"#,
+        ),
     ]);
     let mut player = Player::start(p.clone(), 0);
     let effects = drain_effects(&mut player);
@@ -467,7 +533,13 @@ fn a_livelock_of_immediate_transitions_is_a_reported_fault_not_a_hang() {
     let mut player = Player::start(p.clone(), 0);
     let effects = drain_effects(&mut player);
     assert_eq!(fired(&p, &effects).len(), 50);
-    assert!(matches!(effects.last(), Some(Effect::Fault { fault: Fault::Livelock { firings: 50, .. }, .. })));
+    assert!(matches!(
+        effects.last(),
+        Some(Effect::Fault {
+            fault: Fault::Livelock { firings: 50, .. },
+            ..
+        })
+    ));
 }
 
 #[test]
@@ -481,8 +553,20 @@ fn an_endless_chain_of_emitted_events_overflows_into_a_fault() {
     player.handle(&ev("ping"), 1);
     let effects = drain_effects(&mut player);
     assert_eq!(fired(&p, &effects).len(), 20);
-    assert!(effects.iter().any(|e| matches!(e, Effect::Fault { fault: Fault::Overflow { steps: 20 }, .. })));
-    assert!(matches!(effects.last(), Some(Effect::Dropped { reason: DropReason::Overflow, .. })));
+    assert!(effects.iter().any(|e| matches!(
+        e,
+        Effect::Fault {
+            fault: Fault::Overflow { steps: 20 },
+            ..
+        }
+    )));
+    assert!(matches!(
+        effects.last(),
+        Some(Effect::Dropped {
+            reason: DropReason::Overflow,
+            ..
+        })
+    ));
     assert_eq!(player.state().queued(), 0);
 }
 
@@ -535,24 +619,46 @@ on = "DEC.f.done"
 
 #[test]
 fn activation_gives_the_initial_marking_and_activating_an_active_net_is_ignored() {
-    let p = project(&[("project.toml", LIFECYCLE), ("boss.toml", BOSS), ("worker.toml", WORKER)]);
+    let p = project(&[
+        ("project.toml", LIFECYCLE),
+        ("boss.toml", BOSS),
+        ("worker.toml", WORKER),
+    ]);
     let mut player = Player::start(p.clone(), 0);
     drain(&mut player);
     assert!(marking(&player, "WORKER").is_empty());
     fire(&mut player, &ev("hire"), 1);
     assert_eq!(marking(&player, "WORKER"), ["start"]);
-    assert_eq!(fire(&mut player, &ev("job").param("size", 3), 2), ["WORKER.work"]);
+    assert_eq!(
+        fire(&mut player, &ev("job").param("size", 3), 2),
+        ["WORKER.work"]
+    );
     let digest = player.digest();
     player.handle(&ev("hire"), 2);
     let effects = drain_effects(&mut player);
-    assert!(effects.iter().any(|e| matches!(e, Effect::Ignored { action: "activate", .. })));
-    assert_eq!(marking(&player, "WORKER"), ["busy"], "the active net keeps its marking");
+    assert!(effects.iter().any(|e| matches!(
+        e,
+        Effect::Ignored {
+            action: "activate",
+            ..
+        }
+    )));
+    assert_eq!(
+        marking(&player, "WORKER"),
+        ["busy"],
+        "the active net keeps its marking"
+    );
     assert_eq!(player.digest(), digest, "nothing else changed either");
 }
 
 #[test]
-fn deactivation_removes_tokens_cancels_timers_forgets_calls_and_drops_late_results_while_globals_keep_theirs() {
-    let p = project(&[("project.toml", LIFECYCLE), ("boss.toml", BOSS), ("worker.toml", WORKER)]);
+fn deactivation_removes_tokens_cancels_timers_forgets_calls_and_drops_late_results_while_globals_keep_theirs(
+) {
+    let p = project(&[
+        ("project.toml", LIFECYCLE),
+        ("boss.toml", BOSS),
+        ("worker.toml", WORKER),
+    ]);
     let mut player = Player::start(p.clone(), 0);
     fire(&mut player, &ev("hire"), 1);
     player.handle(&ev("job").param("size", 3), 2 * S);
@@ -572,9 +678,19 @@ fn deactivation_removes_tokens_cancels_timers_forgets_calls_and_drops_late_resul
 
     player.handle(&ev("fire"), 3 * S);
     let effects = drain_effects(&mut player);
-    assert!(effects.iter().any(|e| matches!(e, Effect::TimerCancelled { .. })));
-    assert_eq!(effects.iter().filter(|e| matches!(e, Effect::Forgotten { .. })).count(), 2);
-    assert!(effects.iter().any(|e| matches!(e, Effect::Deactivated { .. })));
+    assert!(effects
+        .iter()
+        .any(|e| matches!(e, Effect::TimerCancelled { .. })));
+    assert_eq!(
+        effects
+            .iter()
+            .filter(|e| matches!(e, Effect::Forgotten { .. }))
+            .count(),
+        2
+    );
+    assert!(effects
+        .iter()
+        .any(|e| matches!(e, Effect::Deactivated { .. })));
     assert!(marking(&player, "WORKER").is_empty());
     assert_eq!(player.next_deadline(), None);
     assert!(player.state().pending.is_empty());
@@ -582,19 +698,33 @@ fn deactivation_removes_tokens_cancels_timers_forgets_calls_and_drops_late_resul
     // The timer never fires; the late result is recorded and dropped.
     player.advance(10 * S);
     assert!(drain_effects(&mut player).is_empty());
-    player.result(call.0, Outcome::Done(Params::from([("y".into(), Value::Int(1))])), 11 * S);
-    assert_eq!(drain_effects(&mut player), [Effect::LateResult { time: 11 * S, id: call.0 }]);
+    player.result(
+        call.0,
+        Outcome::Done(Params::from([("y".into(), Value::Int(1))])),
+        11 * S,
+    );
+    assert_eq!(
+        drain_effects(&mut player),
+        [Effect::LateResult {
+            time: 11 * S,
+            id: call.0
+        }]
+    );
 
     // The global place keeps its state (empty: `work` took it) across
     // deactivation and a new activation.
     fire(&mut player, &ev("hire"), 12 * S);
     assert!(!global(&player, "g"));
     assert_eq!(marking(&player, "WORKER"), ["start"]);
-    assert!(fire(&mut player, &ev("job").param("size", 1), 13 * S).is_empty(), "@g is empty");
+    assert!(
+        fire(&mut player, &ev("job").param("size", 1), 13 * S).is_empty(),
+        "@g is empty"
+    );
 }
 
 #[test]
-fn timers_are_scoped_to_their_net_restart_and_expire_in_deadline_then_start_order_each_at_its_deadline() {
+fn timers_are_scoped_to_their_net_restart_and_expire_in_deadline_then_start_order_each_at_its_deadline(
+) {
     let net = |name: &str| {
         format!(
             r#"name = "{name}"
@@ -642,19 +772,31 @@ on = "u"
     let expiries: Vec<(String, u64)> = effects
         .iter()
         .filter_map(|e| match e {
-            Effect::TimerExpired { time, net, timer } => Some((format!("{}.{}", p.nets[*net].name, p.nets[*net].timers[*timer]), *time)),
+            Effect::TimerExpired { time, net, timer } => Some((
+                format!("{}.{}", p.nets[*net].name, p.nets[*net].timers[*timer]),
+                *time,
+            )),
             _ => None,
         })
         .collect();
     assert_eq!(
         expiries,
-        [("X.u".into(), 4 * S), ("Y.u".into(), 5 * S), ("X.t".into(), 5 * S), ("Y.t".into(), 11 * S)]
+        [
+            ("X.u".into(), 4 * S),
+            ("Y.u".into(), 5 * S),
+            ("X.t".into(), 5 * S),
+            ("Y.t".into(), 11 * S)
+        ]
     );
     // X left b at 3 s, so its u finds nothing to fire; Y is still in b when
     // its t expires, so it fires u_fired but not t_fired.
     assert_eq!(fired(&p, &effects), ["Y.u_fired", "X.t_fired"]);
     let t_fired_time = effects.iter().find_map(|e| match e {
-        Effect::Fired { time, transition: 2, .. } => Some(*time),
+        Effect::Fired {
+            time,
+            transition: 2,
+            ..
+        } => Some(*time),
         _ => None,
     });
     assert_eq!(t_fired_time, Some(5 * S), "handled at its own deadline");
@@ -682,9 +824,13 @@ on = "t"
     let mut player = Player::start(p.clone(), 0);
     drain(&mut player);
     player.handle(&ev("kick"), 0);
-    assert!(matches!(drain_effects(&mut player)[..], [_, _, Effect::TimerStarted { restarted: false, deadline, .. }] if deadline == 5 * S));
+    assert!(
+        matches!(drain_effects(&mut player)[..], [_, _, Effect::TimerStarted { restarted: false, deadline, .. }] if deadline == 5 * S)
+    );
     player.handle(&ev("kick"), 4 * S);
-    assert!(matches!(drain_effects(&mut player)[..], [_, _, Effect::TimerStarted { restarted: true, deadline, .. }] if deadline == 9 * S));
+    assert!(
+        matches!(drain_effects(&mut player)[..], [_, _, Effect::TimerStarted { restarted: true, deadline, .. }] if deadline == 9 * S)
+    );
     player.advance(8 * S);
     assert!(drain_effects(&mut player).is_empty());
     player.advance(9 * S);
@@ -728,7 +874,11 @@ on = "command.ok"
     assert_eq!(fire(&mut player, &ev("go"), 0), ["X.ask", "Y.ask"]);
     let ids: Vec<u64> = player.state().pending.keys().copied().collect();
     assert_eq!(ids, [1, 2, 3, 4]);
-    player.result(3, Outcome::Done(Params::from([("v".into(), Value::Str("for Y".into()))])), 1);
+    player.result(
+        3,
+        Outcome::Done(Params::from([("v".into(), Value::Str("for Y".into()))])),
+        1,
+    );
     let effects = drain_effects(&mut player);
     assert_eq!(fired(&p, &effects), ["Y.got"]);
     assert!(effects.iter().any(|e| matches!(e, Effect::Emitted { event, .. } if event.params["v"] == Value::Str("for Y".into()))));
@@ -736,7 +886,10 @@ on = "command.ok"
     assert_eq!(fired(&p, &drain_effects(&mut player)), ["Y.armed"]);
     player.result(2, Outcome::Failed("denied".into()), 3);
     let effects = drain_effects(&mut player);
-    assert!(fired(&p, &effects).is_empty(), "command.failed is not command.ok");
+    assert!(
+        fired(&p, &effects).is_empty(),
+        "command.failed is not command.ok"
+    );
 }
 
 #[test]
@@ -749,9 +902,17 @@ fn guards_read_the_event_parameters_and_a_guard_error_counts_as_false_and_is_rep
     drain(&mut player);
     assert!(fire(&mut player, &ev("wp").param("seq", 2), 1).is_empty());
     player.handle(&ev("wp").param("seq", "three"), 2);
-    assert!(matches!(&drain_effects(&mut player)[..], [Effect::Fault { fault: Fault::Guard { .. }, .. }]));
+    assert!(matches!(
+        &drain_effects(&mut player)[..],
+        [Effect::Fault {
+            fault: Fault::Guard { .. },
+            ..
+        }]
+    ));
     player.handle(&ev("wp"), 3);
-    assert!(matches!(&drain_effects(&mut player)[..], [Effect::Fault { fault: Fault::Guard { message, .. }, .. }] if message.contains("no parameter `seq`")));
+    assert!(
+        matches!(&drain_effects(&mut player)[..], [Effect::Fault { fault: Fault::Guard { message, .. }, .. }] if message.contains("no parameter `seq`"))
+    );
     assert_eq!(fire(&mut player, &ev("wp").param("seq", 3), 4), ["N.third"]);
 }
 
@@ -767,14 +928,22 @@ fn time_never_goes_backwards() {
 
 #[test]
 fn snapshot_and_restore_continue_identically() {
-    let p = project(&[("project.toml", LIFECYCLE), ("boss.toml", BOSS), ("worker.toml", WORKER)]);
+    let p = project(&[
+        ("project.toml", LIFECYCLE),
+        ("boss.toml", BOSS),
+        ("worker.toml", WORKER),
+    ]);
     let mut a = Player::start(p.clone(), 0);
     fire(&mut a, &ev("hire"), 1);
     fire(&mut a, &ev("job").param("size", 9), 2);
     let mut b = Player::restore(p.clone(), a.snapshot()).expect("restores");
     assert_eq!(a.digest(), b.digest());
     for player in [&mut a, &mut b] {
-        player.result(1, Outcome::Done(Params::from([("y".into(), Value::Int(2))])), 3 * S);
+        player.result(
+            1,
+            Outcome::Done(Params::from([("y".into(), Value::Int(2))])),
+            3 * S,
+        );
         player.advance(10 * S);
     }
     assert_eq!(drain_effects(&mut a), drain_effects(&mut b));
@@ -784,7 +953,11 @@ fn snapshot_and_restore_continue_identically() {
 
 #[test]
 fn restore_refuses_a_snapshot_of_another_project() {
-    let p = project(&[("project.toml", LIFECYCLE), ("boss.toml", BOSS), ("worker.toml", WORKER)]);
+    let p = project(&[
+        ("project.toml", LIFECYCLE),
+        ("boss.toml", BOSS),
+        ("worker.toml", WORKER),
+    ]);
     let other = one_net("name = \"N\"\nplaces = [\"a\"]\ninitial = [\"a\"]\n");
     let snapshot = Player::start(p, 0).snapshot();
     assert!(Player::restore(other, snapshot).is_err());
@@ -832,14 +1005,21 @@ fn the_digest_hashes_the_documented_byte_layout() {
 
 #[test]
 fn the_same_inputs_give_the_same_effects_and_digests() {
-    let p = project(&[("project.toml", LIFECYCLE), ("boss.toml", BOSS), ("worker.toml", WORKER)]);
+    let p = project(&[
+        ("project.toml", LIFECYCLE),
+        ("boss.toml", BOSS),
+        ("worker.toml", WORKER),
+    ]);
     let run = |p: Arc<nets::Project>| {
         let mut player = Player::start(p, 0);
         let mut log = Vec::new();
         for (i, name) in ["hire", "job", "fire", "hire", "job"].iter().enumerate() {
             player.handle(&ev(name).param("size", i as i64), i as u64 * S);
             log.extend(drain_effects(&mut player));
-            log.push(Effect::LateResult { time: 0, id: u64::from_le_bytes(player.digest().0[..8].try_into().unwrap()) });
+            log.push(Effect::LateResult {
+                time: 0,
+                id: u64::from_le_bytes(player.digest().0[..8].try_into().unwrap()),
+            });
         }
         log
     };

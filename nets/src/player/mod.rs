@@ -18,6 +18,7 @@ use std::sync::Arc;
 
 pub use digest::{canonical_bytes, Digest, DIGEST_ALGORITHM};
 pub use effect::{DropReason, Effect, Fault, Marked};
+
 pub use render::{effect_json, effect_text};
 pub use state::{Pending, PendingKind, Queued, State, Timer};
 
@@ -42,12 +43,35 @@ pub enum RestoreError {
     Mismatch(String),
 }
 
+/// How the verifier answers guards it cannot evaluate. In flight there is
+/// no oracle: every guard is evaluated. With an oracle, a guard that reads a
+/// parameter the event does not carry takes the next answer (false once
+/// they run out), and an action argument that cannot be evaluated is left
+/// out instead of rejecting the firing: the verifier explores both answers
+/// of every such guard.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Oracle {
+    /// Answers to give, in order of asking.
+    pub answers: Vec<bool>,
+    /// How many guards asked.
+    pub asked: usize,
+}
+
+impl Oracle {
+    fn ask(&mut self) -> bool {
+        let answer = self.answers.get(self.asked).copied().unwrap_or(false);
+        self.asked += 1;
+        answer
+    }
+}
+
 /// The player of one project.
 #[derive(Debug, Clone)]
 pub struct Player {
     project: Arc<Project>,
     state: State,
     effects: Vec<Effect>,
+    oracle: Option<Oracle>,
     /// Scratch space reused across inputs (never part of the state).
     candidates: Vec<(NetId, TransitionId)>,
     consumed: Vec<u64>,
@@ -101,6 +125,7 @@ impl Player {
             project,
             state,
             effects: Vec::new(),
+            oracle: None,
             candidates: Vec::new(),
             consumed: vec![0; words],
             changed: false,
@@ -155,6 +180,17 @@ impl Player {
             return mismatch("a queued event targets a net that does not exist".into());
         }
         Ok(Player::with_state(project, state))
+    }
+
+    /// Puts the verifier's oracle in charge of guards that cannot be
+    /// evaluated (see [`Oracle`]); `None` restores evaluation.
+    pub fn set_oracle(&mut self, oracle: Option<Oracle>) {
+        self.oracle = oracle;
+    }
+
+    /// The oracle, with how many guards asked it.
+    pub fn oracle(&self) -> Option<&Oracle> {
+        self.oracle.as_ref()
     }
 
     /// The project played.
@@ -294,6 +330,23 @@ impl Player {
         self.run_queue(&project, now, 0);
     }
 
+    /// Marks or empties global place `global` from outside the nets, then
+    /// runs immediate transitions. The verifier uses it to stand for the
+    /// other nets when it checks one net alone.
+    pub fn set_global(&mut self, global: usize, marked: bool, now: Micros) {
+        let project = Arc::clone(&self.project);
+        self.expire_timers(&project, now);
+        let now = self.state.now.max(now);
+        self.state.now = now;
+        if global < project.globals.len() && self.state.marked(global) != marked {
+            self.state.set(global, marked);
+            self.push_marking(now, None);
+            self.changed = true;
+            self.immediates(&project, now, false);
+            self.run_queue(&project, now, 0);
+        }
+    }
+
     fn expire_timers(&mut self, project: &Project, now: Micros) {
         while let Some(first) = self.state.timers.first() {
             if first.deadline > now {
@@ -411,6 +464,11 @@ impl Player {
                 match guard.expr.holds(params) {
                     Ok(true) => {}
                     Ok(false) => continue,
+                    Err(crate::expr::EvalError::MissingParam(_)) if self.oracle.is_some() => {
+                        if !self.oracle.as_mut().is_some_and(Oracle::ask) {
+                            continue;
+                        }
+                    }
                     Err(e) => {
                         self.effects.push(Effect::Fault {
                             time: now,
@@ -477,6 +535,11 @@ impl Player {
                 _ => continue,
             };
             for (key, e) in args {
+                if self.oracle.is_some() {
+                    // The verifier does not know parameter values: an
+                    // argument it cannot evaluate is left out.
+                    break;
+                }
                 if let Err(err) = e.eval(params) {
                     let message = format!("argument `{key}`: {err}");
                     self.effects.push(Effect::Fault {

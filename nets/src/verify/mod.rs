@@ -16,5 +16,6 @@
 pub mod explore;
 pub mod graph;
 pub mod pnml;
+pub mod project;
 pub mod ptnet;
 pub mod reference;

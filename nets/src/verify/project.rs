@@ -1,0 +1,886 @@
+//! The project-level verifier: explores what the *player* can reach, not a
+//! translation of the nets into a plain token game.
+//!
+//! A state is what the player holds between two inputs (markings, active
+//! nets, running timers, pending calls and commands, the lockout), with time
+//! abstracted away: timers keep their duration and the step that started
+//! them, ids are renumbered. A step is one input run to completion by the
+//! same code that flies ([`crate::Player`]):
+//!
+//! - an external event (any event a net waits for that the nets do not only
+//!   produce themselves), in any state;
+//! - the expiry of a running timer — timers started in the same step expire
+//!   in the order their durations fix, others in any order;
+//! - the result of a pending call or command: done or failed;
+//!
+//! Each net gets its own verdict too, read off the same exploration: the net
+//! *in its project*, under what the other nets really do. Its states are its
+//! own markings (and whether it is active); it is dead in a state where it is
+//! active, holds no final place and can never fire again, even if other nets
+//! still can; it is unsafe if one of its transitions attempts a double token.
+//! (Exploring a net in isolation would have to freeze the global places the
+//! other nets move, or let them move arbitrarily: both report deadlocks that
+//! cannot happen.)
+//!
+//! Guards on parameters the verifier does not know are answered both ways
+//! through the player's [`Oracle`]; guards it can evaluate (a command
+//! result's `verb`) are evaluated.
+
+use std::collections::{BTreeSet, HashMap, HashSet, VecDeque};
+use std::hash::{Hash, Hasher};
+use std::sync::Arc;
+
+use super::graph::{self, Csr, Filtered};
+use crate::event::Event;
+use crate::model::{names, Action, NetId, Project, TransitionId};
+use crate::player::{canonical_bytes, Effect, Fault, Oracle, Outcome, PendingKind, Player, State};
+use crate::time::Micros;
+use crate::value::Params;
+
+/// Limits of a check.
+#[derive(Debug, Clone, Copy)]
+pub struct Options {
+    /// Stop exploring past this many states (the report says so).
+    pub max_states: usize,
+    /// Check each net alone as well as the whole project.
+    pub each_net: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            max_states: 200_000,
+            each_net: true,
+        }
+    }
+}
+
+/// What one exploration found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Report {
+    /// Reachable states.
+    pub states: usize,
+    /// Steps (state, input) that lead somewhere: something fired or the state
+    /// changed.
+    pub edges: usize,
+    /// Reachable states from which nothing can ever fire again and that hold
+    /// no final place.
+    pub dead_markings: usize,
+    /// No reachable step attempts to put a second token in a place.
+    pub safe: bool,
+    /// The most tokens a place ever holds (the player never lets it exceed 1).
+    pub max_tokens: u32,
+    /// A shortest sequence of steps to a dead marking.
+    pub deadlock_example: Option<Vec<String>>,
+    /// A shortest sequence of steps whose last one attempts a double token.
+    pub unsafe_example: Option<Vec<String>>,
+    /// Livelocks: a step in which immediate transitions or internally emitted
+    /// events kept firing past the player's bounds (errors).
+    pub livelocks: Vec<Vec<String>>,
+    /// Other cycles of firing steps (information: a waypoint loop).
+    pub loops: Vec<Vec<String>>,
+    pub warnings: Vec<String>,
+    /// False when the state limit stopped the exploration.
+    pub complete: bool,
+}
+
+impl Report {
+    /// Whether every property holds (warnings and loops aside).
+    pub fn holds(&self) -> bool {
+        self.safe && self.dead_markings == 0 && self.livelocks.is_empty() && self.complete
+    }
+}
+
+/// The whole project's report and each net's alone.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProjectReport {
+    pub project: Report,
+    pub nets: Vec<(String, Report)>,
+}
+
+impl ProjectReport {
+    pub fn holds(&self) -> bool {
+        self.project.holds() && self.nets.iter().all(|(_, r)| r.holds())
+    }
+}
+
+/// Checks a project as a whole and, if asked, each net in it.
+pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
+    let explored = Explorer::new(project.clone()).run(options.max_states);
+    let whole = explored.verdict(None);
+    let nets = if options.each_net {
+        (0..project.nets.len())
+            .map(|n| (project.nets[n].name.clone(), explored.verdict(Some(n))))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    ProjectReport {
+        project: whole,
+        nets,
+    }
+}
+
+/// An abstract state: the player's state with time taken out.
+#[derive(Clone)]
+struct Abs {
+    /// `now` is 0; each timer's `deadline` holds its duration; ids and timer
+    /// sequence numbers are renumbered in order.
+    state: State,
+    /// Per timer (same order as `state.timers`): the step that started it,
+    /// renumbered in order of first appearance.
+    groups: Vec<u32>,
+    key: Vec<u8>,
+}
+
+impl PartialEq for Abs {
+    fn eq(&self, other: &Self) -> bool {
+        self.key == other.key
+    }
+}
+impl Eq for Abs {}
+impl Hash for Abs {
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        self.key.hash(h);
+    }
+}
+
+/// Loops listed in a report, at most (the same loop seen from different
+/// states is listed once).
+const MAX_LOOPS: usize = 20;
+
+/// The instant every step runs at (any fixed value would do).
+const T: Micros = 1_000_000_000;
+
+#[derive(Debug, Clone)]
+enum Input {
+    Event(String),
+    Timer(usize),
+    Result { id: u64, done: bool },
+}
+
+/// What happened in one step.
+#[derive(Debug, Clone)]
+struct Label {
+    text: String,
+    fired: Vec<(NetId, TransitionId)>,
+    /// The net whose transition attempted a double token.
+    unsafe_by: Option<NetId>,
+    /// The livelock's net (the transition the bound stopped at), or `None`
+    /// for an overflow of emitted events.
+    livelock: Option<Option<NetId>>,
+}
+
+impl Label {
+    fn fires(&self, net: Option<NetId>) -> bool {
+        match net {
+            None => !self.fired.is_empty(),
+            Some(n) => self.fired.iter().any(|(m, _)| *m == n),
+        }
+    }
+}
+
+struct Explorer {
+    project: Arc<Project>,
+    externals: Vec<String>,
+    labels: Vec<Label>,
+}
+
+/// An exploration, ready for verdicts.
+struct Explored {
+    project: Arc<Project>,
+    space: graph::StateSpace<Abs, u32>,
+    labels: Vec<Label>,
+    /// Transitions fired at start-up (immediate ones).
+    initial_fired: Vec<(NetId, TransitionId)>,
+}
+
+impl Explorer {
+    fn new(project: Arc<Project>) -> Explorer {
+        let externals = external_events(&project);
+        Explorer {
+            project,
+            externals,
+            labels: Vec::new(),
+        }
+    }
+
+    fn run(mut self, max_states: usize) -> Explored {
+        let mut player = Player::start(self.project.clone(), T);
+        player.set_oracle(Some(Oracle::default()));
+        let effects: Vec<Effect> = player.effects().collect();
+        let initial_fired = fired_of(&effects);
+        let initial = normalize(player.snapshot(), 0, T, None, &|p| self.relevant(p));
+        let space = graph::explore_bfs(
+            initial,
+            max_states,
+            |abs: &Abs, out: &mut Vec<(u32, Abs)>| {
+                self.successors(abs, out);
+            },
+        );
+        Explored {
+            project: self.project,
+            space,
+            labels: self.labels,
+            initial_fired,
+        }
+    }
+
+    /// Whether the result of a pending call or command can ever fire a
+    /// transition of the net that awaits it.
+    fn relevant(&self, pending: &crate::player::Pending) -> bool {
+        let net = &self.project.nets[pending.net];
+        net.transitions.iter().any(|t| {
+            let Some(e) = &t.event else { return false };
+            match &pending.kind {
+                PendingKind::Call { program, function } => {
+                    let p = &self.project.programs[*program];
+                    let base = format!("{}.{}.", p.name, p.functions[*function].name);
+                    e.strip_prefix(&base)
+                        .is_some_and(|o| o == names::DONE || o == names::FAILED)
+                }
+                PendingKind::Command { verb } => {
+                    if e != names::COMMAND_OK && e != names::COMMAND_FAILED {
+                        return false;
+                    }
+                    let params =
+                        Params::from([("verb".to_owned(), crate::value::Value::Str(verb.clone()))]);
+                    t.guard
+                        .as_ref()
+                        .is_none_or(|g| g.expr.holds(&params).unwrap_or(true))
+                }
+            }
+        })
+    }
+
+    fn inputs(&self, abs: &Abs) -> Vec<Input> {
+        let mut inputs: Vec<Input> = self.externals.iter().cloned().map(Input::Event).collect();
+        let timers = &abs.state.timers;
+        for (i, t) in timers.iter().enumerate() {
+            let blocked = timers.iter().enumerate().any(|(j, u)| {
+                j != i
+                    && abs.groups[j] == abs.groups[i]
+                    && (u.deadline, u.seq) < (t.deadline, t.seq)
+            });
+            if !blocked {
+                inputs.push(Input::Timer(i));
+            }
+        }
+        for id in abs.state.pending.keys() {
+            inputs.push(Input::Result {
+                id: *id,
+                done: true,
+            });
+            inputs.push(Input::Result {
+                id: *id,
+                done: false,
+            });
+        }
+        inputs
+    }
+
+    fn successors(&mut self, abs: &Abs, out: &mut Vec<(u32, Abs)>) {
+        for input in self.inputs(abs) {
+            // Every sequence of oracle answers, depth first.
+            let mut todo: Vec<Vec<bool>> = vec![Vec::new()];
+            while let Some(answers) = todo.pop() {
+                let (state, effects, asked, seq_before) = self.step(abs, &input, &answers);
+                for k in answers.len()..asked {
+                    let mut alt = answers.clone();
+                    alt.resize(k, false);
+                    alt.push(true);
+                    todo.push(alt);
+                }
+                let mut used = answers.clone();
+                used.resize(asked, false);
+                let fired = fired_of(&effects);
+                let next = normalize(state, seq_before, T + 1, Some(abs), &|p| self.relevant(p));
+                if fired.is_empty() && next.key == abs.key {
+                    continue; // nothing happened: not an edge
+                }
+                let mut unsafe_by = None;
+                let mut livelock = None;
+                for e in &effects {
+                    match e {
+                        Effect::Fault {
+                            fault: Fault::DoubleToken { net, .. },
+                            ..
+                        } => unsafe_by = unsafe_by.or(Some(*net)),
+                        Effect::Fault {
+                            fault: Fault::Livelock { net, .. },
+                            ..
+                        } => livelock = Some(Some(*net)),
+                        Effect::Fault {
+                            fault: Fault::Overflow { .. },
+                            ..
+                        } => livelock = livelock.or(Some(None)),
+                        _ => {}
+                    }
+                }
+                let label = self.labels.len() as u32;
+                self.labels.push(Label {
+                    text: self.describe(abs, &input, &used, &effects),
+                    fired,
+                    unsafe_by,
+                    livelock,
+                });
+                out.push((label, next));
+            }
+        }
+    }
+
+    /// Runs one input on the concrete state of `abs`.
+    fn step(&self, abs: &Abs, input: &Input, answers: &[bool]) -> (State, Vec<Effect>, usize, u64) {
+        let expire = match input {
+            Input::Timer(i) => Some(*i),
+            _ => None,
+        };
+        let mut concrete = abs.state.clone();
+        concrete.now = T;
+        for (i, t) in concrete.timers.iter_mut().enumerate() {
+            t.deadline = if Some(i) == expire {
+                T + 1
+            } else {
+                T + 2 + t.deadline
+            };
+        }
+        concrete.timers.sort_by_key(|t| (t.deadline, t.seq));
+        let seq_before = concrete.next_timer_seq;
+        let Ok(mut player) = Player::restore(self.project.clone(), concrete) else {
+            // A state the explorer built itself always fits its project.
+            return (abs.state.clone(), Vec::new(), 0, seq_before);
+        };
+        player.set_oracle(Some(Oracle {
+            answers: answers.to_vec(),
+            asked: 0,
+        }));
+        match input {
+            Input::Event(name) => player.handle(&Event::new(name.clone()), T + 1),
+            Input::Timer(_) => player.advance(T + 1),
+            Input::Result { id, done } => {
+                let outcome = if *done {
+                    Outcome::Done(Params::new())
+                } else {
+                    Outcome::Failed("failed".into())
+                };
+                player.result(*id, outcome, T + 1);
+            }
+        }
+        let effects: Vec<Effect> = player.effects().collect();
+        let asked = player.oracle().map_or(0, |o| o.asked);
+        (player.snapshot(), effects, asked, seq_before)
+    }
+
+    fn describe(&self, abs: &Abs, input: &Input, answers: &[bool], effects: &[Effect]) -> String {
+        let p = &self.project;
+        let mut text = match input {
+            Input::Event(name) => name.clone(),
+            Input::Timer(i) => {
+                let t = &abs.state.timers[*i];
+                format!(
+                    "timer {}.{}",
+                    p.nets[t.net].name, p.nets[t.net].timers[t.timer]
+                )
+            }
+            Input::Result { id, done } => {
+                let outcome = if *done { names::DONE } else { names::FAILED };
+                match abs.state.pending.get(id).map(|x| &x.kind) {
+                    Some(PendingKind::Call { program, function }) => {
+                        let prog = &p.programs[*program];
+                        format!("{}.{}.{outcome}", prog.name, prog.functions[*function].name)
+                    }
+                    Some(PendingKind::Command { verb }) => {
+                        format!("command.{} ({verb})", if *done { "ok" } else { "failed" })
+                    }
+                    None => format!("result #{id}"),
+                }
+            }
+        };
+        if !answers.is_empty() {
+            let a: Vec<&str> = answers
+                .iter()
+                .map(|b| if *b { "yes" } else { "no" })
+                .collect();
+            text.push_str(&format!(" [guards: {}]", a.join(", ")));
+        }
+        let fired: Vec<String> = effects
+            .iter()
+            .filter_map(|e| match e {
+                Effect::Fired {
+                    net, transition, ..
+                } => Some(format!(
+                    "{}.{}",
+                    p.nets[*net].name, p.nets[*net].transitions[*transition].name
+                )),
+                _ => None,
+            })
+            .collect();
+        if !fired.is_empty() {
+            text.push_str(&format!(" → {}", fired.join(", ")));
+        }
+        for e in effects {
+            if let Effect::Fault { fault, .. } = e {
+                let what = match fault {
+                    Fault::DoubleToken {
+                        net,
+                        transition,
+                        place,
+                    } => format!(
+                        "{}.{} would put a second token in {}",
+                        p.nets[*net].name,
+                        p.nets[*net].transitions[*transition].name,
+                        crate::player::flat_place_name(p, *place)
+                    ),
+                    Fault::Livelock { firings, .. } => {
+                        format!("livelock: {firings} immediate firings")
+                    }
+                    Fault::Overflow { steps } => format!("livelock: {steps} emitted events"),
+                    _ => continue,
+                };
+                text.push_str(&format!(" ✗ {what}"));
+            }
+        }
+        text
+    }
+}
+
+fn fired_of(effects: &[Effect]) -> Vec<(NetId, TransitionId)> {
+    effects
+        .iter()
+        .filter_map(|e| match e {
+            Effect::Fired {
+                net, transition, ..
+            } => Some((*net, *transition)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Breadth-first searches allowed for listing loops, per report.
+const LOOP_SEARCHES: usize = 500;
+
+impl Explored {
+    /// The verdict for the whole project (`None`) or one net in it.
+    fn verdict(&self, net: Option<NetId>) -> Report {
+        let space = &self.space;
+        let g = &space.graph;
+        let labels = &self.labels;
+        let n = space.states.len();
+        let project = &self.project;
+        let path = |node: u32| -> Vec<String> {
+            space
+                .path_to(node)
+                .iter()
+                .map(|l| labels[*l as usize].text.clone())
+                .collect()
+        };
+        let in_scope = |m: NetId| net.is_none_or(|x| x == m);
+
+        // Live states: those from which a firing step (of the net) is
+        // reachable. Also the first unsafe step and the livelocks, in
+        // breadth-first order, so their examples are shortest.
+        let mut reverse: Vec<Vec<u32>> = vec![Vec::new(); n];
+        let mut live = vec![false; n];
+        let mut queue = VecDeque::new();
+        let mut first_unsafe: Option<(u32, u32)> = None;
+        let mut livelocks: Vec<(u32, u32)> = Vec::new();
+        for s in 0..n as u32 {
+            for (l, t) in g.edges(s) {
+                let label = &labels[*l as usize];
+                reverse[t as usize].push(s);
+                if label.fires(net) && !live[s as usize] {
+                    live[s as usize] = true;
+                    queue.push_back(s);
+                }
+                if first_unsafe.is_none() && label.unsafe_by.is_some_and(in_scope) {
+                    first_unsafe = Some((s, *l));
+                }
+                if let Some(by) = label.livelock {
+                    if by.is_none_or(in_scope) && livelocks.len() < 10 {
+                        livelocks.push((s, *l));
+                    }
+                }
+            }
+        }
+        while let Some(s) = queue.pop_front() {
+            for &p in &reverse[s as usize] {
+                if !live[p as usize] {
+                    live[p as usize] = true;
+                    queue.push_back(p);
+                }
+            }
+        }
+        let finals: Vec<usize> = project
+            .nets
+            .iter()
+            .enumerate()
+            .filter(|(ni, _)| in_scope(*ni))
+            .flat_map(|(ni, nt)| {
+                let offset = project.place_offsets[ni];
+                nt.places
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, p)| p.is_final)
+                    .map(move |(i, _)| offset + i)
+            })
+            .collect();
+        let dead: Vec<u32> = (0..n as u32)
+            .filter(|&s| {
+                let st = &space.states[s as usize].state;
+                !live[s as usize]
+                    && net.is_none_or(|x| st.active[x])
+                    && !finals.iter().any(|&p| st.marked(p))
+            })
+            .collect();
+
+        // A net's own view: whether it is active and its marking.
+        let view = |s: u32| -> Vec<u8> {
+            let st = &space.states[s as usize].state;
+            match net {
+                None => space.states[s as usize].key.clone(),
+                Some(x) => {
+                    let offset = project.place_offsets[x];
+                    let mut key = vec![u8::from(st.active[x])];
+                    key.extend(
+                        (0..project.nets[x].places.len()).map(|i| u8::from(st.marked(offset + i))),
+                    );
+                    key
+                }
+            }
+        };
+        let (states, edges, dead_markings) = match net {
+            None => (n, g.edge_count(), dead.len()),
+            Some(_) => {
+                let views: HashSet<Vec<u8>> = (0..n as u32).map(view).collect();
+                let mut moves: HashSet<(Vec<u8>, Vec<u8>)> = HashSet::new();
+                for s in 0..n as u32 {
+                    for (l, t) in g.edges(s) {
+                        if labels[*l as usize].fires(net) {
+                            moves.insert((view(s), view(t)));
+                        }
+                    }
+                }
+                let dead_views: HashSet<Vec<u8>> = dead.iter().map(|&s| view(s)).collect();
+                (views.len(), moves.len(), dead_views.len())
+            }
+        };
+
+        // Loops of firing steps, each listed once.
+        let firing = Filtered {
+            graph: g,
+            keep: |l: &u32| labels[*l as usize].fires(net),
+        };
+        let sccs = graph::strongly_connected_components(&firing);
+        let mut loops = Vec::new();
+        let mut loop_keys: HashSet<Vec<String>> = HashSet::new();
+        let mut searches = 0;
+        for s in 0..n as u32 {
+            let c = sccs.component[s as usize];
+            if !sccs.cyclic[c as usize] || searches >= LOOP_SEARCHES || loops.len() >= MAX_LOOPS {
+                continue;
+            }
+            searches += 1;
+            if let Some(cycle) =
+                graph::shortest_cycle(&firing, s, |v| sccs.component[v as usize] == c)
+            {
+                let texts = cycle_labels(g, labels, &cycle, net);
+                let mut sorted = texts.clone();
+                sorted.sort();
+                if loop_keys.insert(sorted) {
+                    loops.push(texts);
+                }
+            }
+        }
+
+        let mut fired: HashSet<(NetId, TransitionId)> =
+            self.initial_fired.iter().copied().collect();
+        for l in labels {
+            fired.extend(l.fired.iter().copied());
+        }
+        let mut warnings: Vec<String> = static_warnings(project)
+            .into_iter()
+            .filter(|w| net.is_none_or(|x| w.nets.contains(&x)))
+            .map(|w| w.text)
+            .collect();
+        for (ni, nt) in project
+            .nets
+            .iter()
+            .enumerate()
+            .filter(|(ni, _)| in_scope(*ni))
+        {
+            for (ti, t) in nt.transitions.iter().enumerate() {
+                if !fired.contains(&(ni, ti)) && space.complete {
+                    warnings.push(format!("transition {}.{} can never fire", nt.name, t.name));
+                }
+            }
+        }
+        if !space.complete {
+            warnings.push(format!(
+                "state limit reached after {n} states: the exploration is incomplete"
+            ));
+        }
+        let any_tokens = space
+            .states
+            .iter()
+            .any(|a| a.state.marking.iter().any(|w| *w != 0));
+        let with_step = |(s, l): (u32, u32)| {
+            let mut p = path(s);
+            p.push(labels[l as usize].text.clone());
+            p
+        };
+        Report {
+            states,
+            edges,
+            dead_markings,
+            safe: first_unsafe.is_none(),
+            max_tokens: u32::from(any_tokens),
+            deadlock_example: dead.first().map(|&d| path(d)),
+            unsafe_example: first_unsafe.map(with_step),
+            livelocks: livelocks.into_iter().map(with_step).collect(),
+            loops,
+            warnings,
+            complete: space.complete,
+        }
+    }
+}
+
+fn cycle_labels(g: &Csr<u32>, labels: &[Label], cycle: &[u32], net: Option<NetId>) -> Vec<String> {
+    let mut out = Vec::new();
+    for (i, &s) in cycle.iter().enumerate() {
+        let next = cycle[(i + 1) % cycle.len()];
+        if let Some((l, _)) = g
+            .edges(s)
+            .find(|(l, t)| *t == next && labels[**l as usize].fires(net))
+        {
+            out.push(labels[*l as usize].text.clone());
+        }
+    }
+    out
+}
+
+/// Puts a state in abstract form: no time, renumbered ids and timers.
+/// How many identical pending calls (same net, same function or verb) the
+/// abstract state keeps: more copies add no behaviour a step can tell apart
+/// except how many results may still come, and would make the state space
+/// infinite for nets that never collect a result.
+const MAX_SAME_PENDING: usize = 2;
+
+fn normalize(
+    mut state: State,
+    seq_before: u64,
+    step_time: Micros,
+    prev: Option<&Abs>,
+    relevant: &dyn Fn(&crate::player::Pending) -> bool,
+) -> Abs {
+    // Each timer's group and duration.
+    let mut old: HashMap<u64, (u32, u64)> = HashMap::new();
+    if let Some(prev) = prev {
+        for (t, g) in prev.state.timers.iter().zip(&prev.groups) {
+            old.insert(t.seq, (*g, t.deadline));
+        }
+    }
+    let fresh = u32::MAX;
+    let mut timers: Vec<(crate::player::Timer, u32)> = state
+        .timers
+        .drain(..)
+        .map(|mut t| {
+            let (group, duration) = if t.seq >= seq_before || prev.is_none() {
+                (fresh, t.deadline.saturating_sub(step_time.min(t.deadline)))
+            } else {
+                old.get(&t.seq).copied().unwrap_or((fresh, 0))
+            };
+            t.deadline = duration;
+            (t, group)
+        })
+        .collect();
+    // Canonical order: by net and timer (unique, since restarting replaces).
+    timers.sort_by_key(|(t, _)| (t.net, t.timer));
+    let mut seqs: Vec<u64> = timers.iter().map(|(t, _)| t.seq).collect();
+    seqs.sort_unstable();
+    let mut group_ids: HashMap<u32, u32> = HashMap::new();
+    let mut groups = Vec::with_capacity(timers.len());
+    for (t, g) in &mut timers {
+        t.seq = seqs.binary_search(&t.seq).unwrap_or(0) as u64;
+        let next = group_ids.len() as u32;
+        groups.push(*group_ids.entry(*g).or_insert(next));
+    }
+    state.next_timer_seq = timers.len() as u64;
+    state.timers = timers.into_iter().map(|(t, _)| t).collect();
+    // Pending calls whose result nothing awaits are dropped; identical ones
+    // are kept up to MAX_SAME_PENDING; ids are renumbered from 1, in order.
+    let pending = std::mem::take(&mut state.pending);
+    let mut kept: Vec<crate::player::Pending> = Vec::new();
+    for p in pending.into_values() {
+        if relevant(&p) && kept.iter().filter(|k| **k == p).count() < MAX_SAME_PENDING {
+            kept.push(p);
+        }
+    }
+    state.pending = kept
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| (i as u64 + 1, p))
+        .collect();
+    state.next_id = state.pending.len() as u64 + 1;
+    state.now = 0;
+    let mut key = canonical_bytes(&state);
+    for g in &groups {
+        key.extend_from_slice(&g.to_le_bytes());
+    }
+    Abs { state, groups, key }
+}
+
+/// Events that may come from outside: every event a transition waits for,
+/// except those only the nets and the player produce (emitted events,
+/// timers, results, `net_fault`). An event the project declares in
+/// `[events]` is external even if a net emits it too.
+fn external_events(project: &Project) -> Vec<String> {
+    let emitted = emitted_events(project);
+    let mut out: BTreeSet<String> = BTreeSet::new();
+    for net in &project.nets {
+        for t in &net.transitions {
+            let Some(e) = &t.event else { continue };
+            let internal = e == names::NET_FAULT
+                || e == names::COMMAND_OK
+                || e == names::COMMAND_FAILED
+                || is_result(project, e)
+                || (net.timers.contains(e) && !project.events.contains_key(e))
+                || (emitted.contains(e) && !project.events.contains_key(e));
+            if !internal {
+                out.insert(e.clone());
+            }
+        }
+    }
+    out.into_iter().collect()
+}
+
+fn is_result(project: &Project, event: &str) -> bool {
+    let Some((head, outcome)) = event.rsplit_once('.') else {
+        return false;
+    };
+    (outcome == names::DONE || outcome == names::FAILED)
+        && head.split_once('.').is_some_and(|(p, f)| {
+            project
+                .programs
+                .iter()
+                .any(|pr| pr.name == p && pr.functions.iter().any(|x| x.name == f))
+        })
+}
+
+fn emitted_events(project: &Project) -> BTreeSet<String> {
+    project
+        .nets
+        .iter()
+        .flat_map(|n| &n.transitions)
+        .flat_map(|t| &t.actions)
+        .filter_map(|a| match a {
+            Action::Emit { event, .. } => Some(event.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// A warning found without exploring, and the nets it concerns.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Warning {
+    pub text: String,
+    pub nets: Vec<NetId>,
+}
+
+/// Warnings found without exploring: conflicts, events nothing produces,
+/// events nothing consumes.
+pub fn static_warnings(project: &Project) -> Vec<Warning> {
+    let mut out = Vec::new();
+    // Conflicts: two transitions waiting for one event share an input place.
+    let mut events: Vec<&String> = project.triggers.keys().collect();
+    events.sort();
+    for e in events {
+        let list = &project.triggers[e];
+        for (i, &(n1, t1)) in list.iter().enumerate() {
+            for &(n2, t2) in &list[i + 1..] {
+                let a = &project.nets[n1].transitions[t1];
+                let b = &project.nets[n2].transitions[t2];
+                if let Some(&p) = a.flat_inputs.iter().find(|p| b.flat_inputs.contains(p)) {
+                    let text = format!(
+                        "conflict on `{e}`: {}.{} and {}.{} share input place {}; {}.{} is declared first and wins",
+                        project.nets[n1].name,
+                        a.name,
+                        project.nets[n2].name,
+                        b.name,
+                        crate::player::flat_place_name(project, p),
+                        project.nets[n1].name,
+                        a.name
+                    );
+                    out.push(Warning {
+                        text,
+                        nets: vec![n1, n2],
+                    });
+                }
+            }
+        }
+    }
+    // Events consumed that nothing produces.
+    let emitted = emitted_events(project);
+    for (ni, net) in project.nets.iter().enumerate() {
+        for t in &net.transitions {
+            let Some(e) = &t.event else { continue };
+            let produced = project.events.contains_key(e)
+                || emitted.contains(e)
+                || net.timers.contains(e)
+                || e == names::NET_FAULT
+                || ((e == names::COMMAND_OK || e == names::COMMAND_FAILED)
+                    && issues(project, ni, |a| matches!(a, Action::Command { .. })))
+                || result_called(project, ni, e);
+            if !produced {
+                out.push(Warning {
+                    text: format!(
+                        "event `{e}` (awaited by {}.{}) is produced by nothing: no declaration in [events], no net emits it, and it is no timer or result of {}",
+                        net.name, t.name, net.name
+                    ),
+                    nets: vec![ni],
+                });
+            }
+        }
+    }
+    // Events emitted that nothing consumes.
+    for e in &emitted {
+        if !project.triggers.contains_key(e) {
+            let nets = (0..project.nets.len())
+                .filter(|&n| {
+                    issues(
+                        project,
+                        n,
+                        |a| matches!(a, Action::Emit { event, .. } if event == e),
+                    )
+                })
+                .collect();
+            out.push(Warning {
+                text: format!("event `{e}` is emitted but no transition waits for it"),
+                nets,
+            });
+        }
+    }
+    out
+}
+
+fn issues(project: &Project, net: NetId, pred: impl Fn(&Action) -> bool) -> bool {
+    project.nets[net]
+        .transitions
+        .iter()
+        .flat_map(|t| &t.actions)
+        .any(pred)
+}
+
+/// Whether `event` is the result of a call net `n` makes.
+fn result_called(project: &Project, n: NetId, event: &str) -> bool {
+    issues(project, n, |a| match a {
+        Action::Call {
+            program, function, ..
+        } => {
+            let p = &project.programs[*program];
+            let base = format!("{}.{}", p.name, p.functions[*function].name);
+            event == format!("{base}.{}", names::DONE)
+                || event == format!("{base}.{}", names::FAILED)
+        }
+        _ => false,
+    })
+}
