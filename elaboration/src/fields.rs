@@ -417,6 +417,8 @@ impl ser::SerializeStruct for StructSink<'_, '_> {
 pub struct ListSink<'a, 'o> {
     sink: &'a mut Sink<'o>,
     list: Vec<f64>,
+    /// One element's value, reused for every element.
+    scratch: Vec<Field>,
 }
 
 impl<'a, 'o> ListSink<'a, 'o> {
@@ -429,18 +431,21 @@ impl<'a, 'o> ListSink<'a, 'o> {
             }
             _ => Vec::new(),
         };
-        ListSink { sink, list }
+        ListSink {
+            sink,
+            list,
+            scratch: Vec::with_capacity(1),
+        }
     }
 
     fn push<T: ?Sized + Serialize>(&mut self, v: &T) -> Result<(), Unsupported> {
-        let mut scratch = Vec::with_capacity(1);
         let mut element = Sink {
-            out: &mut scratch,
+            out: &mut self.scratch,
             index: 0,
             depth: 2,
         };
         v.serialize(&mut element)?;
-        self.list.push(match scratch.first() {
+        self.list.push(match self.scratch.first() {
             Some(Field::Int(i)) => *i as f64,
             Some(Field::Float(f)) => *f,
             _ => f64::NAN,
