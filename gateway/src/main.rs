@@ -30,6 +30,8 @@ enum Verb {
     Events(cli::events::Args),
     /// Check a net: reachability graph, 1-safety, dead markings, loops.
     Check(cli::check::Args),
+    /// Draw a project's nets as Graphviz DOT.
+    Draw(cli::draw::Args),
 }
 
 fn main() -> ExitCode {
@@ -45,6 +47,7 @@ fn main() -> ExitCode {
         Verb::Play(args) => cli::play::run(args),
         Verb::Events(args) => cli::events::run(args),
         Verb::Check(args) => cli::check::run(args),
+        Verb::Draw(args) => cli::draw::run(args),
     };
     match outcome {
         Ok(code) => code.into(),

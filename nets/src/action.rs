@@ -92,9 +92,15 @@ pub fn parse(text: &str) -> Result<ActionSyntax, SyntaxError> {
                 return Err(p.error("expected `.FUNCTION` after the program name"));
             }
             p.pos += 1;
+            let after_dot = p.pos;
             let function = match p.name() {
-                Some(f) if f.1 == program.1 + program.0.len() + 1 => f,
-                _ => return Err(p.error("expected a function name after `.`")),
+                Some(f) if f.1 == after_dot => f,
+                _ => {
+                    return Err(SyntaxError {
+                        at: after_dot,
+                        message: "expected a function name after `.`".into(),
+                    })
+                }
             };
             ActionSyntax::Call {
                 program,
@@ -194,11 +200,11 @@ mod tests {
         let cases = [
             ("", 0, "expected an action: activate, deactivate, emit, timer, cancel, call or command"),
             ("launch rockets", 0, "unknown action `launch`: expected activate, deactivate, emit, timer, cancel, call or command"),
-            ("timer t 30s", 7, "expected `after DURATION`"),
+            ("timer t 30s", 8, "expected `after DURATION`"),
             ("call DEC", 8, "expected `.FUNCTION` after the program name"),
             ("call DEC. f", 9, "expected a function name after `.`"),
             ("command arm force", 12, "expected arguments in braces: {key: value, ...}"),
-            ("command mode {mode AUTO}", 18, "expected `:` after `mode`"),
+            ("command mode {mode AUTO}", 19, "expected `:` after `mode`"),
             ("activate A B", 11, "unexpected text after the action"),
         ];
         for (text, at, message) in cases {

@@ -3,6 +3,7 @@
 use std::process::ExitCode;
 
 pub mod check;
+pub mod draw;
 pub mod events;
 pub mod play;
 

@@ -60,8 +60,8 @@ impl Default for Options {
 pub struct Report {
     /// Reachable states.
     pub states: usize,
-    /// Steps (state, input) that lead somewhere: something fired or the state
-    /// changed.
+    /// Steps (state, input) that lead somewhere: something fired, a fault
+    /// was found, or the state changed.
     pub edges: usize,
     /// Reachable states from which nothing can ever fire again and that hold
     /// no final place.
@@ -295,9 +295,6 @@ impl Explorer {
                 used.resize(asked, false);
                 let fired = fired_of(&effects);
                 let next = normalize(state, seq_before, T + 1, Some(abs), &|p| self.relevant(p));
-                if fired.is_empty() && next.key == abs.key {
-                    continue; // nothing happened: not an edge
-                }
                 let mut unsafe_by = None;
                 let mut livelock = None;
                 for e in &effects {
@@ -316,6 +313,13 @@ impl Explorer {
                         } => livelock = livelock.or(Some(None)),
                         _ => {}
                     }
+                }
+                if fired.is_empty()
+                    && unsafe_by.is_none()
+                    && livelock.is_none()
+                    && next.key == abs.key
+                {
+                    continue; // nothing happened: not an edge
                 }
                 let label = self.labels.len() as u32;
                 self.labels.push(Label {
@@ -883,4 +887,32 @@ fn result_called(project: &Project, n: NetId, event: &str) -> bool {
         }
         _ => false,
     })
+}
+
+/// The plain token game of a project: every net's places and transitions in
+/// one P/T net (global places once), events, guards, actions, activation and
+/// priorities forgotten, every net marked initially. The player's semantics
+/// can reach less than this (see the module doc): it is what other Petri net
+/// tools see of a project, and what `petrel export` writes.
+pub fn token_game(project: &Project) -> super::ptnet::PtNet {
+    let mut net = super::ptnet::PtNet::new(project.name.clone());
+    for g in &project.globals {
+        net.add_place(format!("@{}", g.name), u32::from(g.initial));
+    }
+    for n in &project.nets {
+        for p in &n.places {
+            net.add_place(format!("{}.{}", n.name, p.name), u32::from(p.initial));
+        }
+    }
+    for n in &project.nets {
+        for t in &n.transitions {
+            let arcs = |places: &[usize]| places.iter().map(|&p| (p, 1)).collect::<Vec<_>>();
+            net.add_transition(
+                format!("{}.{}", n.name, t.name),
+                &arcs(&t.flat_inputs),
+                &arcs(&t.flat_outputs),
+            );
+        }
+    }
+    net
 }
