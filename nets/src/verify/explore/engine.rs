@@ -13,7 +13,7 @@
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
 use std::sync::{Barrier, Mutex, MutexGuard};
 
-use super::semantics::{mix, Semantics, Stop};
+use super::semantics::{load_words, mix, push_words, to_words, Semantics, Stop};
 use super::store::{Inserted, Store, NO_PARENT};
 
 /// Bits of a state id naming its partition (so at most 16 threads).
@@ -139,7 +139,7 @@ pub fn run<S: Semantics>(
     let n = threads.clamp(1, MAX_THREADS);
     let limit = limit.clamp(1, MAX_PER_PARTITION);
     let mut stores: Vec<Store> = (0..n).map(|_| Store::new(sem.width(), limit)).collect();
-    let h0 = mix(sem.key(initial));
+    let h0 = mix(sem.key(&to_words(initial)));
     let p0 = partition(h0, n);
     stores[p0].insert(initial, h0, NO_PARENT);
     let shared = Shared {
@@ -230,14 +230,75 @@ pub fn run<S: Semantics>(
     run
 }
 
+/// Successors stored per batch: the table slots and records they need are
+/// loaded first, all together (independent loads overlap), then stored.
+const BATCH: usize = 128;
+
+/// Parses a batch record (marking padded to whole words, hash, parent):
+/// the stored marking, its hash, its parent.
+#[inline]
+fn parse_record(r: &[u8], width: usize) -> (&[u8], u64, u32) {
+    let at = r.len() - 12;
+    let mut h = [0u8; 8];
+    h.copy_from_slice(&r[at..at + 8]);
+    let mut p = [0u8; 4];
+    p.copy_from_slice(&r[at + 8..]);
+    (&r[..width], u64::from_le_bytes(h), u32::from_le_bytes(p))
+}
+
+/// Stores the successors in `batch` that belong to partition `me` and moves
+/// the others to their outboxes. False when the store is full.
+#[allow(clippy::too_many_arguments)]
+fn store_batch<S: Semantics>(
+    sem: &S,
+    store: &mut Store,
+    f: &mut Found,
+    batch: &[u8],
+    width: usize,
+    me: usize,
+    outs: &mut [Vec<u8>],
+    level: u32,
+) -> bool {
+    let n = outs.len();
+    let record = sem.words() * 8 + 12;
+    for r in batch.chunks_exact(record) {
+        let (_, h, _) = parse_record(r, width);
+        if n == 1 || partition(h, n) == me {
+            store.prefetch_slot(h);
+        }
+    }
+    for r in batch.chunks_exact(record) {
+        let (_, h, _) = parse_record(r, width);
+        if n == 1 || partition(h, n) == me {
+            store.prefetch_record(h);
+        }
+    }
+    for r in batch.chunks_exact(record) {
+        let (m, h, parent) = parse_record(r, width);
+        let part = if n == 1 { 0 } else { partition(h, n) };
+        if part == me {
+            match store.insert(m, h, parent) {
+                Inserted::New(i) => f.stored(sem, m, level + 1, i),
+                Inserted::Old(_) => {}
+                Inserted::Full => return false,
+            }
+        } else {
+            outs[part].extend_from_slice(r);
+        }
+    }
+    true
+}
+
 fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (Store, Found) {
     let n = sh.n;
     let width = sem.width();
-    let record = width + 12;
+    let words = sem.words();
+    let record = words * 8 + 12;
     let mut f = Found::default();
-    let mut cur = vec![0u8; width];
-    let mut child: Vec<u8> = Vec::with_capacity(width);
+    let mut cur = vec![0u64; words];
+    let mut child: Vec<u64> = Vec::with_capacity(words);
     let mut outs: Vec<Vec<u8>> = vec![Vec::new(); n];
+    let mut batch: Vec<u8> = Vec::with_capacity((BATCH + 64) * record);
     let (mut lo, mut level, mut prev_total) = (0u32, 0u32, 1u64);
     let mut expanded = 0u64;
     let mut fired: Vec<bool> = Vec::new();
@@ -248,30 +309,18 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
             if index & 1023 == 0 && sh.stop_level.load(Relaxed) != u32::MAX {
                 break;
             }
-            cur.copy_from_slice(store.get(index));
+            load_words(store.get(index), &mut cur);
             let key = sem.key(&cur);
             let parent = state_id(me, index);
-            let mut full = false;
             let result = sem.expand(&cur, key, &mut child, |t, m, k| {
                 let t = t as usize;
                 if t >= fired.len() {
                     fired.resize(t + 1, false);
                 }
                 fired[t] = true;
-                let h = mix(k);
-                let part = if n == 1 { 0 } else { partition(h, n) };
-                if part == me {
-                    match store.insert(m, h, parent) {
-                        Inserted::New(i) => f.stored(sem, m, level + 1, i),
-                        Inserted::Old(_) => {}
-                        Inserted::Full => full = true,
-                    }
-                } else {
-                    let o = &mut outs[part];
-                    o.extend_from_slice(m);
-                    o.extend_from_slice(&h.to_le_bytes());
-                    o.extend_from_slice(&parent.to_le_bytes());
-                }
+                push_words(&mut batch, m);
+                batch.extend_from_slice(&mix(k).to_le_bytes());
+                batch.extend_from_slice(&parent.to_le_bytes());
             });
             match result {
                 Ok(0) => {
@@ -287,13 +336,17 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
                     break;
                 }
             }
-            if full {
-                f.full = true;
-                sh.stop_level.fetch_min(level, Relaxed);
-                break;
-            }
             index += 1;
             expanded += 1;
+            if batch.len() >= BATCH * record || index == hi {
+                let ok = store_batch(sem, &mut store, &mut f, &batch, width, me, &mut outs, level);
+                batch.clear();
+                if !ok {
+                    f.full = true;
+                    sh.stop_level.fetch_min(level, Relaxed);
+                    break;
+                }
+            }
             if f.new_since_report >= 1 << 14 {
                 sh.stored.fetch_add(f.new_since_report, Relaxed);
                 f.new_since_report = 0;
@@ -304,6 +357,7 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
                 }
             }
         }
+        batch.clear();
         if n > 1 {
             for (to, out) in outs.iter_mut().enumerate() {
                 if to != me {
@@ -316,20 +370,11 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
                     continue;
                 }
                 let mut inbox = std::mem::take(&mut *lock(&sh.outboxes[from * n + me]));
-                for r in inbox.chunks_exact(record) {
-                    let m = &r[..width];
-                    let mut h = [0u8; 8];
-                    h.copy_from_slice(&r[width..width + 8]);
-                    let mut p = [0u8; 4];
-                    p.copy_from_slice(&r[width + 8..]);
-                    match store.insert(m, u64::from_le_bytes(h), u32::from_le_bytes(p)) {
-                        Inserted::New(i) => f.stored(sem, m, level + 1, i),
-                        Inserted::Old(_) => {}
-                        Inserted::Full => {
-                            f.full = true;
-                            sh.stop_level.fetch_min(level, Relaxed);
-                            break;
-                        }
+                for part in inbox.chunks(BATCH * record) {
+                    if !store_batch(sem, &mut store, &mut f, part, width, me, &mut outs, level) {
+                        f.full = true;
+                        sh.stop_level.fetch_min(level, Relaxed);
+                        break;
                     }
                 }
                 inbox.clear();

@@ -28,7 +28,7 @@ use std::cell::RefCell;
 use super::graph::{self, Successors};
 use super::ptnet::PtNet;
 use engine::{run, split_id, state_id, Run, MAX_PER_PARTITION, MAX_THREADS};
-use semantics::{Bits, Counts, Semantics, Stop};
+use semantics::{to_bytes, to_words, Bits, Counts, Semantics, Stop};
 
 /// How to explore.
 #[derive(Clone, Copy)]
@@ -293,18 +293,21 @@ fn summarize<S: Semantics>(
 
 /// The transitions along a chain of state ids.
 fn firing_sequence<S: Semantics>(r: &Run<S>, chain: &[u32]) -> Vec<usize> {
-    let mut child = Vec::with_capacity(r.sem.width());
+    let mut child = Vec::with_capacity(r.sem.words());
     chain
         .windows(2)
         .filter_map(|w| {
             let from = r.marking(w[0]);
             let to = r.marking(w[1]);
             let mut found = None;
-            let _ = r.sem.expand(from, r.sem.key(from), &mut child, |t, m, _| {
-                if found.is_none() && m == to {
-                    found = Some(t as usize);
-                }
-            });
+            let from = to_words(from);
+            let _ = r
+                .sem
+                .expand(&from, r.sem.key(&from), &mut child, |t, m, _| {
+                    if found.is_none() && to_bytes(m, to.len()) == to {
+                        found = Some(t as usize);
+                    }
+                });
             found
         })
         .collect()
@@ -327,7 +330,7 @@ fn chain_to<S: Semantics>(r: &Run<S>, id: u32) -> Vec<u32> {
 pub struct Graph<'r, S> {
     run: &'r Run<S>,
     offsets: Vec<u32>,
-    child: RefCell<Vec<u8>>,
+    child: RefCell<Vec<u64>>,
 }
 
 impl<'r, S: Semantics> Graph<'r, S> {
@@ -361,13 +364,14 @@ impl<S: Semantics> Successors for Graph<'_, S> {
     }
 
     fn successors(&self, node: u32, out: &mut Vec<u32>) {
-        let m = self.run.marking(self.id(node));
+        let m = to_words(self.run.marking(self.id(node)));
+        let width = self.run.sem.width();
         let mut child = self.child.borrow_mut();
         let _ = self
             .run
             .sem
-            .expand(m, self.run.sem.key(m), &mut child, |_, c, k| {
-                if let Some(id) = self.run.lookup(c, k) {
+            .expand(&m, self.run.sem.key(&m), &mut child, |_, c, k| {
+                if let Some(id) = self.run.lookup(&to_bytes(c, width), k) {
                     out.push(self.dense(id));
                 }
             });

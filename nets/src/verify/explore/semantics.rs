@@ -14,25 +14,73 @@ pub enum Stop {
     Overflow,
 }
 
-/// A marking encoding and its firing rule.
+/// A marking encoding and its firing rule. Markings are stored as `width()`
+/// bytes and worked on as little-endian 64-bit words (the bytes, padded
+/// with zeros): see [`load_words`] and [`push_words`].
 pub trait Semantics: Sync {
-    /// Bytes per marking.
+    /// Bytes per stored marking.
     fn width(&self) -> usize;
+    /// Words per marking being worked on.
+    fn words(&self) -> usize {
+        self.width().div_ceil(8)
+    }
     /// The hash key of a marking (before mixing).
-    fn key(&self, m: &[u8]) -> u64;
+    fn key(&self, m: &[u64]) -> u64;
     /// Calls `visit(transition, successor, successor key)` for each enabled
-    /// transition; returns how many there were.
-    fn expand<V: FnMut(u32, &[u8], u64)>(
+    /// transition; returns how many there were. `child` is scratch space.
+    fn expand<V: FnMut(u32, &[u64], u64)>(
         &self,
-        m: &[u8],
+        m: &[u64],
         key: u64,
-        child: &mut Vec<u8>,
+        child: &mut Vec<u64>,
         visit: V,
     ) -> Result<u32, Stop>;
-    /// The most tokens in one place of `m`.
+    /// The most tokens in one place of stored marking `m`.
     fn max_tokens(&self, m: &[u8]) -> u32;
-    /// Tokens in each place of `m`.
+    /// Tokens in each place of stored marking `m`.
     fn counts(&self, m: &[u8]) -> Vec<u32>;
+}
+
+/// Reads stored bytes into words (the last one padded with zeros).
+#[inline]
+pub fn load_words(bytes: &[u8], out: &mut [u64]) {
+    let mut chunks = bytes.chunks_exact(8);
+    let mut i = 0;
+    for c in &mut chunks {
+        let mut w = [0u8; 8];
+        w.copy_from_slice(c);
+        out[i] = u64::from_le_bytes(w);
+        i += 1;
+    }
+    let rest = chunks.remainder();
+    if !rest.is_empty() {
+        let mut w = [0u8; 8];
+        w[..rest.len()].copy_from_slice(rest);
+        out[i] = u64::from_le_bytes(w);
+    }
+}
+
+/// Stored bytes as words.
+pub fn to_words(bytes: &[u8]) -> Vec<u64> {
+    let mut w = vec![0u64; bytes.len().div_ceil(8)];
+    load_words(bytes, &mut w);
+    w
+}
+
+/// Appends the bytes of `words` (8 each, little-endian) to `out`.
+#[inline]
+pub fn push_words(out: &mut Vec<u8>, words: &[u64]) {
+    for w in words {
+        out.extend_from_slice(&w.to_le_bytes());
+    }
+}
+
+/// The stored form (`width` bytes) of words.
+pub fn to_bytes(words: &[u64], width: usize) -> Vec<u8> {
+    let mut b = Vec::with_capacity(words.len() * 8);
+    push_words(&mut b, words);
+    b.truncate(width);
+    b
 }
 
 /// Mixes a key into a well-spread hash (MurmurHash3's finalizer).
@@ -108,16 +156,50 @@ fn triggers(
 
 // ---------------------------------------------------------------- bits
 
-/// 1-safe markings: bit `p % 8` of byte `p / 8` is place `p`.
+/// (word, mask) lists by index, flattened.
+#[derive(Debug, Clone, Default)]
+struct MaskLists {
+    offsets: Vec<u32>,
+    items: Vec<(u32, u64)>,
+}
+
+impl MaskLists {
+    /// From lists of places: one (word, mask) pair per word touched.
+    fn from(lists: &[Vec<u32>]) -> MaskLists {
+        let mut l = MaskLists {
+            offsets: vec![0],
+            items: Vec::new(),
+        };
+        for v in lists {
+            let mut pairs: Vec<(u32, u64)> = Vec::new();
+            for &p in v {
+                let (w, bit) = (p >> 6, 1u64 << (p & 63));
+                match pairs.iter_mut().find(|e| e.0 == w) {
+                    Some(e) => e.1 |= bit,
+                    None => pairs.push((w, bit)),
+                }
+            }
+            l.items.extend_from_slice(&pairs);
+            l.offsets.push(l.items.len() as u32);
+        }
+        l
+    }
+    #[inline]
+    fn get(&self, i: usize) -> &[(u32, u64)] {
+        &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+    }
+}
+
+/// 1-safe markings: bit `p % 64` of word `p / 64` is place `p`.
 pub struct Bits {
     places: usize,
     width: usize,
-    /// Key sums per byte position and byte value.
+    /// Key sums per byte position (of the padded words) and byte value.
     byte_keys: Vec<[u64; 256]>,
     delta: Vec<u64>,
-    pre: Lists,
-    clear: Lists,
-    set: Lists,
+    pre: MaskLists,
+    clear: MaskLists,
+    set: MaskLists,
     /// A transition whose firing always puts 2 tokens somewhere.
     overfull: Vec<bool>,
     trigger: Lists,
@@ -129,7 +211,7 @@ impl Bits {
         let n = net.places.len();
         let width = n.div_ceil(8);
         let keys = place_keys(n);
-        let mut byte_keys = vec![[0u64; 256]; width];
+        let mut byte_keys = vec![[0u64; 256]; width.div_ceil(8) * 8];
         for (i, table) in byte_keys.iter_mut().enumerate() {
             for (b, slot) in table.iter_mut().enumerate() {
                 *slot = (0..8)
@@ -178,16 +260,16 @@ impl Bits {
             width,
             byte_keys,
             delta,
-            pre: Lists::from(&pre),
-            clear: Lists::from(&clear),
-            set: Lists::from(&set),
+            pre: MaskLists::from(&pre),
+            clear: MaskLists::from(&clear),
+            set: MaskLists::from(&set),
             overfull,
             trigger,
             always,
         }
     }
 
-    /// Encodes a marking whose counts are all 0 or 1.
+    /// Encodes a marking whose counts are all 0 or 1 (stored form).
     pub fn encode(&self, counts: &[u32]) -> Vec<u8> {
         let mut m = vec![0u8; self.width];
         for (p, &c) in counts.iter().enumerate() {
@@ -199,12 +281,12 @@ impl Bits {
     }
 
     #[inline]
-    fn fire<V: FnMut(u32, &[u8], u64)>(
+    fn fire<V: FnMut(u32, &[u64], u64)>(
         &self,
         t: u32,
-        m: &[u8],
+        m: &[u64],
         key: u64,
-        child: &mut Vec<u8>,
+        child: &mut Vec<u64>,
         visit: &mut V,
     ) -> Result<(), Stop> {
         let ti = t as usize;
@@ -213,15 +295,18 @@ impl Bits {
         }
         child.clear();
         child.extend_from_slice(m);
-        for &q in self.clear.get(ti) {
-            child[(q >> 3) as usize] &= !(1u8 << (q & 7));
-        }
-        for &q in self.set.get(ti) {
-            let (i, bit) = ((q >> 3) as usize, 1u8 << (q & 7));
-            if child[i] & bit != 0 {
-                return Err(Stop::Unsafe);
+        for &(w, mask) in self.clear.get(ti) {
+            if let Some(x) = child.get_mut(w as usize) {
+                *x &= !mask;
             }
-            child[i] |= bit;
+        }
+        for &(w, mask) in self.set.get(ti) {
+            if let Some(x) = child.get_mut(w as usize) {
+                if *x & mask != 0 {
+                    return Err(Stop::Unsafe);
+                }
+                *x |= mask;
+            }
         }
         visit(t, child, key.wrapping_add(self.delta[ti]));
         Ok(())
@@ -234,18 +319,23 @@ impl Semantics for Bits {
     }
 
     #[inline]
-    fn key(&self, m: &[u8]) -> u64 {
-        m.iter()
-            .zip(&self.byte_keys)
-            .fold(0u64, |k, (&b, t)| k.wrapping_add(t[b as usize]))
+    fn key(&self, m: &[u64]) -> u64 {
+        let mut k = 0u64;
+        for (i, &w) in m.iter().enumerate() {
+            let tables = &self.byte_keys[i * 8..i * 8 + 8];
+            for (b, t) in tables.iter().enumerate() {
+                k = k.wrapping_add(t[((w >> (8 * b)) & 0xff) as usize]);
+            }
+        }
+        k
     }
 
     #[inline]
-    fn expand<V: FnMut(u32, &[u8], u64)>(
+    fn expand<V: FnMut(u32, &[u64], u64)>(
         &self,
-        m: &[u8],
+        m: &[u64],
         key: u64,
-        child: &mut Vec<u8>,
+        child: &mut Vec<u64>,
         mut visit: V,
     ) -> Result<u32, Stop> {
         let mut enabled = 0u32;
@@ -253,17 +343,17 @@ impl Semantics for Bits {
             enabled += 1;
             self.fire(t, m, key, child, &mut visit)?;
         }
-        for (i, &byte) in m.iter().enumerate() {
-            let mut b = byte;
-            while b != 0 {
-                let p = i * 8 + b.trailing_zeros() as usize;
-                b &= b - 1;
+        for (i, &word) in m.iter().enumerate() {
+            let mut w = word;
+            while w != 0 {
+                let p = i * 64 + w.trailing_zeros() as usize;
+                w &= w - 1;
                 for &t in self.trigger.get(p) {
                     let on = self
                         .pre
                         .get(t as usize)
                         .iter()
-                        .all(|&q| m[(q >> 3) as usize] & (1 << (q & 7)) != 0);
+                        .all(|&(j, mask)| m.get(j as usize).is_some_and(|&x| x & mask == mask));
                     if on {
                         enabled += 1;
                         self.fire(t, m, key, child, &mut visit)?;
@@ -372,12 +462,13 @@ impl<const W: usize> Counts<W> {
     }
 
     #[inline]
-    fn fire<V: FnMut(u32, &[u8], u64)>(
+    fn fire<V: FnMut(u32, &[u64], u64)>(
         &self,
         t: u32,
         m: &[u8],
         key: u64,
         child: &mut Vec<u8>,
+        words: &mut Vec<u64>,
         visit: &mut V,
     ) -> Result<(), Stop> {
         child.clear();
@@ -389,7 +480,10 @@ impl<const W: usize> Counts<W> {
             }
             Self::put(child, p as usize, v as u64);
         }
-        visit(t, child, key.wrapping_add(self.delta[t as usize]));
+        words.clear();
+        words.resize(child.len().div_ceil(8), 0);
+        load_words(child, words);
+        visit(t, words, key.wrapping_add(self.delta[t as usize]));
         Ok(())
     }
 }
@@ -399,35 +493,38 @@ impl<const W: usize> Semantics for Counts<W> {
         self.places * W
     }
 
-    fn key(&self, m: &[u8]) -> u64 {
+    fn key(&self, m: &[u64]) -> u64 {
+        let m = to_bytes(m, self.width());
         (0..self.places).fold(0u64, |k, p| {
-            k.wrapping_add(self.keys[p].wrapping_mul(Self::get(m, p)))
+            k.wrapping_add(self.keys[p].wrapping_mul(Self::get(&m, p)))
         })
     }
 
-    fn expand<V: FnMut(u32, &[u8], u64)>(
+    fn expand<V: FnMut(u32, &[u64], u64)>(
         &self,
-        m: &[u8],
+        m: &[u64],
         key: u64,
-        child: &mut Vec<u8>,
+        child: &mut Vec<u64>,
         mut visit: V,
     ) -> Result<u32, Stop> {
+        let m = to_bytes(m, self.width());
+        let mut scratch = Vec::with_capacity(m.len());
         let mut enabled = 0u32;
         for &t in &self.always {
             enabled += 1;
-            self.fire(t, m, key, child, &mut visit)?;
+            self.fire(t, &m, key, &mut scratch, child, &mut visit)?;
         }
         for p in 0..self.places {
-            if Self::get(m, p) == 0 {
+            if Self::get(&m, p) == 0 {
                 continue;
             }
             for &t in self.trigger.get(p) {
                 if self.pre[t as usize]
                     .iter()
-                    .all(|&(q, w)| Self::get(m, q as usize) >= u64::from(w))
+                    .all(|&(q, w)| Self::get(&m, q as usize) >= u64::from(w))
                 {
                     enabled += 1;
-                    self.fire(t, m, key, child, &mut visit)?;
+                    self.fire(t, &m, key, &mut scratch, child, &mut visit)?;
                 }
             }
         }

@@ -89,8 +89,39 @@ impl Store {
             if e == 0 {
                 return None;
             }
-            if (e >> 32) as u32 == h && self.get(e as u32 - 1) == marking {
+            if (e >> 32) as u32 == h && same(self.get(e as u32 - 1), marking) {
                 return Some(e as u32 - 1);
+            }
+            slot = (slot + 1) & mask;
+        }
+    }
+
+    /// Asks the processor to fetch the table slot of `hash` (first step of
+    /// a batch: the fetches of the whole batch overlap).
+    #[inline]
+    pub fn prefetch_slot(&self, hash: u64) {
+        prefetch(&self.table[((hash as u32) >> self.shift) as usize]);
+    }
+
+    /// Asks the processor to fetch the first stored record with the same
+    /// hash as `hash` (second step of a batch, once the slots are cached).
+    #[inline]
+    pub fn prefetch_record(&self, hash: u64) {
+        let h = hash as u32;
+        let mask = self.table.len() - 1;
+        let mut slot = (h >> self.shift) as usize;
+        for _ in 0..4 {
+            let e = self.table[slot];
+            if e == 0 {
+                return;
+            }
+            if (e >> 32) as u32 == h {
+                let i = (e as u32 - 1) as usize;
+                let at = (i & (CHUNK - 1)) * self.record;
+                if let Some(b) = self.chunks[i >> CHUNK_BITS].get(at) {
+                    prefetch(b);
+                }
+                return;
             }
             slot = (slot + 1) & mask;
         }
@@ -108,7 +139,7 @@ impl Store {
             if e == 0 {
                 break;
             }
-            if (e >> 32) as u32 == h && self.get(e as u32 - 1) == marking {
+            if (e >> 32) as u32 == h && same(self.get(e as u32 - 1), marking) {
                 return Inserted::Old(e as u32 - 1);
             }
             slot = (slot + 1) & mask;
@@ -160,6 +191,44 @@ impl Store {
         self.table = table;
         self.shift = shift;
     }
+}
+
+/// A hint to load the cache line holding `r`.
+#[inline(always)]
+fn prefetch<T>(r: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is only a hint: it never faults, writes nothing and
+    // the address comes from a live reference.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+            (r as *const T).cast(),
+        )
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = r;
+}
+
+/// `a == b` for short slices of equal length, 8 bytes at a time, inlined.
+#[inline(always)]
+fn same(a: &[u8], b: &[u8]) -> bool {
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut ca = a.chunks_exact(8);
+    let mut cb = b.chunks_exact(8);
+    for (x, y) in (&mut ca).zip(&mut cb) {
+        let mut wx = [0u8; 8];
+        let mut wy = [0u8; 8];
+        wx.copy_from_slice(x);
+        wy.copy_from_slice(y);
+        if wx != wy {
+            return false;
+        }
+    }
+    ca.remainder()
+        .iter()
+        .zip(cb.remainder())
+        .all(|(x, y)| x == y)
 }
 
 #[cfg(test)]
