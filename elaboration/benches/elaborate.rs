@@ -92,3 +92,18 @@ fn tlog_and_elaboration(bencher: Bencher) {
             elab
         });
 }
+
+/// Reading the tlog alone (timestamps, framing, CRC), for the share of the
+/// elaborator in the figure above.
+#[divan::bench]
+fn tlog_read_only(bencher: Bencher) {
+    let Some(input) = input() else { return };
+    bencher.counter(ItemsCount::new(input.count)).bench(|| {
+        let mut n = 0usize;
+        for rec in TlogReader::new(&input.tlog) {
+            divan::black_box(&rec);
+            n += 1;
+        }
+        assert_eq!(n, input.count);
+    });
+}

@@ -118,6 +118,7 @@ pub struct Elaborator {
     next_tick: Option<u64>,
     events: VecDeque<Elaborated>,
     stats: Stats,
+    enum_names: fields::EnumNames,
 }
 
 impl Elaborator {
@@ -135,6 +136,7 @@ impl Elaborator {
             next_tick: None,
             events: VecDeque::new(),
             stats: Stats::default(),
+            enum_names: fields::EnumNames::default(),
         }
     }
 
@@ -316,7 +318,7 @@ impl Elaborator {
         };
         self.stats.decoded += 1;
         let values = self.sources[si].values[slot].get_or_insert_with(Vec::new);
-        if !fields::extract(msg, values) {
+        if !fields::extract(msg, values, &mut self.enum_names) {
             *self.stats.decode_failures.entry(msgid).or_default() += 1;
             return false;
         }
@@ -518,7 +520,7 @@ impl Context for Cx<'_> {
         self.src.last_by_slot[slot].is_some()
     }
 
-    fn call(&self, func: Func) -> V<'_> {
+    fn call(&self, func: Func) -> V<'static> {
         match func {
             Func::Mode => match self.src.custom_mode {
                 Some(m) => V::Str(mode_name(self.src.firmware, m).into()),

@@ -173,7 +173,7 @@ pub trait Context {
     fn field(&self, slot: usize, field: usize, index: Option<usize>) -> V<'_>;
     fn age(&self, slot: usize) -> f64;
     fn seen(&self, slot: usize) -> bool;
-    fn call(&self, func: Func) -> V<'_>;
+    fn call(&self, func: Func) -> V<'static>;
     fn regex(&self, regex: usize) -> &Regex;
     fn memo(&mut self, memo: usize) -> &mut V<'static>;
 }
@@ -743,19 +743,20 @@ fn bits(op: BinOp, a: &V, b: &V) -> V<'static> {
 }
 
 /// Evaluates a compiled expression.
-pub fn eval<C: Context>(node: &Node, cx: &mut C) -> V<'static> {
+pub fn eval<'n, C: Context>(node: &'n Node, cx: &mut C) -> V<'n> {
     match node {
+        Node::Const(V::Str(s)) => V::Str(Cow::Borrowed(s.as_ref())),
         Node::Const(v) => v.clone(),
         Node::Field { slot, field, index } => cx.field(*slot, *field, *index).into_owned(),
         Node::Age(slot) => V::Float(cx.age(*slot)),
         Node::Seen(slot) => V::Bool(cx.seen(*slot)),
-        Node::Call(f) => cx.call(*f).into_owned(),
+        Node::Call(f) => cx.call(*f),
         Node::Changed { memo, inner } => {
             let now = eval(inner, cx);
             if now == V::Missing {
                 return V::Missing;
             }
-            let before = std::mem::replace(cx.memo(*memo), now.clone());
+            let before = std::mem::replace(cx.memo(*memo), now.clone().into_owned());
             match before {
                 V::Missing => V::Bool(false),
                 b => V::Bool(b != now),
@@ -766,7 +767,7 @@ pub fn eval<C: Context>(node: &Node, cx: &mut C) -> V<'static> {
             if now == V::Missing {
                 return V::Missing;
             }
-            std::mem::replace(cx.memo(*memo), now)
+            std::mem::replace(cx.memo(*memo), now.into_owned())
         }
         Node::Abs(inner) => match eval(inner, cx) {
             V::Int(i) => V::Int(i.saturating_abs()),
@@ -912,7 +913,7 @@ mod tests {
         fn seen(&self, _slot: usize) -> bool {
             self.age < 1e9
         }
-        fn call(&self, func: Func) -> V<'_> {
+        fn call(&self, func: Func) -> V<'static> {
             match func {
                 Func::Mode => V::Str("LOITER".into()),
                 Func::Firmware => V::Str("copter".into()),
@@ -940,7 +941,7 @@ mod tests {
 
     fn run(src: &str, m: &mut Mock) -> V<'static> {
         let c = compile(src, m).unwrap_or_else(|e| panic!("{src}: {e:?}"));
-        eval(&c.node, m)
+        eval(&c.node, m).into_owned()
     }
 
     #[test]

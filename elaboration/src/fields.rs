@@ -2,7 +2,9 @@
 //! messages through serde (the dialect's own field names and order), so no
 //! field layout is written here.
 
+use std::collections::HashMap;
 use std::fmt;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::Message;
@@ -40,8 +42,9 @@ fn mavlink_name(rust: &str) -> &str {
 
 /// Decodes `msg`'s fields into `out` (one entry per schema field), reusing
 /// its allocations.
-pub fn extract(msg: &MavMessage, out: &mut Vec<Field>) -> bool {
+pub fn extract(msg: &MavMessage, out: &mut Vec<Field>, names: &mut EnumNames) -> bool {
     let mut sink = Sink {
+        names,
         out,
         index: 0,
         depth: 0,
@@ -186,7 +189,53 @@ impl<'a> ser::Serializer for &'a mut Names {
 
 // ------------------------------------------------------------------ values
 
+/// Enum variant names already looked up, by the address of the dialect's
+/// static name (serde hands them out as `&'static str`): numbering an enum
+/// field then costs a pointer hash, not a string hash.
+#[derive(Debug, Default)]
+pub struct EnumNames {
+    seen: HashMap<(usize, usize), (String, Option<i64>), AddressHash>,
+}
+
+impl EnumNames {
+    fn value(&mut self, name: &str) -> Option<i64> {
+        let entry = self
+            .seen
+            .entry((name.as_ptr() as usize, name.len()))
+            .or_insert_with(|| (name.to_owned(), constants::value(name)));
+        // An address is only a hint: the text decides.
+        if entry.0 != name {
+            *entry = (name.to_owned(), constants::value(name));
+        }
+        entry.1
+    }
+}
+
+type AddressHash = BuildHasherDefault<AddressHasher>;
+
+/// A hasher for addresses (Fibonacci hashing).
+#[derive(Debug, Default)]
+pub struct AddressHasher(u64);
+
+impl Hasher for AddressHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
+        }
+    }
+    fn write_usize(&mut self, n: usize) {
+        self.write_u64(n as u64);
+    }
+    fn write_u64(&mut self, n: u64) {
+        self.0 = (self.0.rotate_left(5) ^ n).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+}
+
 struct Sink<'o> {
+    names: &'o mut EnumNames,
     out: &'o mut Vec<Field>,
     index: usize,
     depth: usize,
@@ -212,7 +261,7 @@ impl Sink<'_> {
         // An enum variant name (a tagged struct inside a field) becomes its
         // number when the dialect knows it.
         if self.depth > 1 {
-            if let Some(v) = constants::value(s) {
+            if let Some(v) = self.names.value(s) {
                 return self.put_int(v);
             }
         }
@@ -440,6 +489,7 @@ impl<'a, 'o> ListSink<'a, 'o> {
 
     fn push<T: ?Sized + Serialize>(&mut self, v: &T) -> Result<(), Unsupported> {
         let mut element = Sink {
+            names: &mut *self.sink.names,
             out: &mut self.scratch,
             index: 0,
             depth: 2,
@@ -512,7 +562,7 @@ mod tests {
             mavlink_version: 3,
         });
         let mut out = Vec::new();
-        assert!(extract(&msg, &mut out));
+        assert!(extract(&msg, &mut out, &mut EnumNames::default()));
         assert_eq!(
             out,
             vec![
@@ -536,14 +586,22 @@ mod tests {
             *b"Potential Thrust Loss (3)\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0",
         );
         let mut out = Vec::new();
-        assert!(extract(&MavMessage::STATUSTEXT(data), &mut out));
+        assert!(extract(
+            &MavMessage::STATUSTEXT(data),
+            &mut out,
+            &mut EnumNames::default()
+        ));
         assert_eq!(out[text], Field::Str("Potential Thrust Loss (3)".into()));
 
         let names = schema(ESC_TELEMETRY_1_TO_4_DATA::ID).expect("ESC telemetry");
         let rpm = names.iter().position(|n| n == "rpm").expect("rpm");
         let mut esc = ESC_TELEMETRY_1_TO_4_DATA::DEFAULT;
         esc.rpm = [1000, 0, 1200, 1300];
-        assert!(extract(&MavMessage::ESC_TELEMETRY_1_TO_4(esc), &mut out));
+        assert!(extract(
+            &MavMessage::ESC_TELEMETRY_1_TO_4(esc),
+            &mut out,
+            &mut EnumNames::default()
+        ));
         assert_eq!(out[rpm], Field::List(vec![1000.0, 0.0, 1200.0, 1300.0]));
     }
 }
