@@ -73,11 +73,20 @@ impl<S: Semantics> Run<S> {
         Some(self.stores[p].parent(l)).filter(|&q| q != NO_PARENT)
     }
 
-    /// The id of a stored marking.
-    pub fn lookup(&self, m: &[u8], key: u64) -> Option<u32> {
-        let h = mix(key);
+    /// The id of a stored marking with (mixed) hash `h`.
+    pub fn lookup_hashed(&self, m: &[u8], h: u64) -> Option<u32> {
         let p = partition(h, self.stores.len());
         self.stores[p].lookup(m, h).map(|l| state_id(p, l))
+    }
+
+    /// See [`Store::prefetch_slot`].
+    pub fn prefetch_slot(&self, h: u64) {
+        self.stores[partition(h, self.stores.len())].prefetch_slot(h);
+    }
+
+    /// See [`Store::prefetch_record`].
+    pub fn prefetch_record(&self, h: u64) {
+        self.stores[partition(h, self.stores.len())].prefetch_record(h);
     }
 }
 
@@ -232,7 +241,7 @@ pub fn run<S: Semantics>(
 
 /// Successors stored per batch: the table slots and records they need are
 /// loaded first, all together (independent loads overlap), then stored.
-const BATCH: usize = 128;
+const BATCH: usize = 512;
 
 /// Parses a batch record (marking padded to whole words, hash, parent):
 /// the stored marking, its hash, its parent.
@@ -261,29 +270,37 @@ fn store_batch<S: Semantics>(
 ) -> bool {
     let n = outs.len();
     let record = sem.words() * 8 + 12;
-    for r in batch.chunks_exact(record) {
-        let (_, h, _) = parse_record(r, width);
-        if n == 1 || partition(h, n) == me {
-            store.prefetch_slot(h);
-        }
-    }
-    for r in batch.chunks_exact(record) {
-        let (_, h, _) = parse_record(r, width);
-        if n == 1 || partition(h, n) == me {
-            store.prefetch_record(h);
-        }
-    }
-    for r in batch.chunks_exact(record) {
-        let (m, h, parent) = parse_record(r, width);
-        let part = if n == 1 { 0 } else { partition(h, n) };
-        if part == me {
-            match store.insert(m, h, parent) {
-                Inserted::New(i) => f.stored(sem, m, level + 1, i),
-                Inserted::Old(_) => {}
-                Inserted::Full => return false,
+    let count = batch.len() / record;
+    let at = |i: usize| &batch[i * record..(i + 1) * record];
+    let mine = |h: u64| n == 1 || partition(h, n) == me;
+    // Software pipeline: fetch the table slot of successor i + 2D, the
+    // record of successor i + D (its slot has arrived by then), store i.
+    const D: usize = 8;
+    for i in 0..count + 2 * D {
+        if i < count {
+            let (_, h, _) = parse_record(at(i), width);
+            if mine(h) {
+                store.prefetch_slot(h);
             }
-        } else {
-            outs[part].extend_from_slice(r);
+        }
+        if i >= D && i - D < count {
+            let (_, h, _) = parse_record(at(i - D), width);
+            if mine(h) {
+                store.prefetch_record(h);
+            }
+        }
+        if i >= 2 * D {
+            let r = at(i - 2 * D);
+            let (m, h, parent) = parse_record(r, width);
+            if mine(h) {
+                match store.insert(m, h, parent) {
+                    Inserted::New(index) => f.stored(sem, m, level + 1, index),
+                    Inserted::Old(_) => {}
+                    Inserted::Full => return false,
+                }
+            } else {
+                outs[partition(h, n)].extend_from_slice(r);
+            }
         }
     }
     true

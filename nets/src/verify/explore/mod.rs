@@ -28,7 +28,7 @@ use std::cell::RefCell;
 use super::graph::{self, Successors};
 use super::ptnet::PtNet;
 use engine::{run, split_id, state_id, Run, MAX_PER_PARTITION, MAX_THREADS};
-use semantics::{to_bytes, to_words, Bits, Counts, Semantics, Stop};
+use semantics::{load_words, mix, push_words, to_bytes, to_words, Bits, Counts, Semantics, Stop};
 
 /// How to explore.
 #[derive(Clone, Copy)]
@@ -325,12 +325,17 @@ fn chain_to<S: Semantics>(r: &Run<S>, id: u32) -> Vec<u32> {
     chain
 }
 
+/// Scratch space of [`Graph`]: the marking as words, a successor, the
+/// successors as bytes, their hashes.
+type Scratch = (Vec<u64>, Vec<u64>, Vec<u8>, Vec<u64>);
+
 /// The reachability graph over dense node numbers, successors recomputed
 /// from the stored markings.
 pub struct Graph<'r, S> {
     run: &'r Run<S>,
     offsets: Vec<u32>,
-    child: RefCell<Vec<u64>>,
+    /// Scratch: the marking as words, a successor, a successor as bytes.
+    scratch: RefCell<Scratch>,
 }
 
 impl<'r, S: Semantics> Graph<'r, S> {
@@ -343,7 +348,7 @@ impl<'r, S: Semantics> Graph<'r, S> {
         Graph {
             run,
             offsets,
-            child: RefCell::new(Vec::new()),
+            scratch: RefCell::new(Scratch::default()),
         }
     }
 
@@ -364,17 +369,35 @@ impl<S: Semantics> Successors for Graph<'_, S> {
     }
 
     fn successors(&self, node: u32, out: &mut Vec<u32>) {
-        let m = to_words(self.run.marking(self.id(node)));
-        let width = self.run.sem.width();
-        let mut child = self.child.borrow_mut();
-        let _ = self
-            .run
-            .sem
-            .expand(&m, self.run.sem.key(&m), &mut child, |_, c, k| {
-                if let Some(id) = self.run.lookup(&to_bytes(c, width), k) {
-                    out.push(self.dense(id));
-                }
-            });
+        let sem = &self.run.sem;
+        let width = sem.width();
+        let record = sem.words() * 8;
+        let mut scratch = self.scratch.borrow_mut();
+        let (m, child, bytes, hashes) = &mut *scratch;
+        m.resize(sem.words(), 0);
+        load_words(self.run.marking(self.id(node)), m);
+        bytes.clear();
+        hashes.clear();
+        let _ = sem.expand(m, sem.key(m), child, |_, c, k| {
+            push_words(bytes, c);
+            hashes.push(mix(k));
+        });
+        // fetch all table slots, then all records, then look up (the cache
+        // misses overlap)
+        for &h in hashes.iter() {
+            self.run.prefetch_slot(h);
+        }
+        for &h in hashes.iter() {
+            self.run.prefetch_record(h);
+        }
+        for (i, &h) in hashes.iter().enumerate() {
+            if let Some(id) = self
+                .run
+                .lookup_hashed(&bytes[i * record..i * record + width], h)
+            {
+                out.push(self.dense(id));
+            }
+        }
     }
 }
 
