@@ -64,6 +64,8 @@ pub struct Stats {
     pub decode_failures: BTreeMap<u32, u64>,
     /// Frames lost according to per-sender sequence numbers.
     pub sequence_lost: u64,
+    /// Frames ignored because [`MAX_SOURCES`] senders were already followed.
+    pub ignored_senders: u64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -103,6 +105,10 @@ struct Source {
 }
 
 const LOSS_WEIGHT: f64 = 1.0 / 32.0;
+/// Senders followed at most (a MAVLink network has a handful; a stream of
+/// forged ids must not grow memory without bound). Frames from further
+/// senders are counted and ignored, except the configured vehicle's.
+pub const MAX_SOURCES: usize = 256;
 /// At most this many tick steps are replayed for one time jump; beyond it
 /// the timers jump straight to the new time.
 const MAX_STEPS: u64 = 1200;
@@ -236,13 +242,18 @@ impl Elaborator {
         }
     }
 
-    fn source_index(&mut self, sysid: u8, compid: u8, time_us: u64) -> usize {
+    fn source_index(&mut self, sysid: u8, compid: u8, time_us: u64) -> Option<usize> {
         if let Some(i) = self
             .sources
             .iter()
             .position(|s| s.sysid == sysid && s.compid == compid)
         {
-            return i;
+            return Some(i);
+        }
+        let configured =
+            self.config.sysid == Some(sysid) && self.config.compid.is_none_or(|c| c == compid);
+        if self.sources.len() >= MAX_SOURCES && !configured {
+            return None;
         }
         let p = &self.profile;
         self.sources.push(Source {
@@ -259,14 +270,17 @@ impl Elaborator {
             rules: vec![RuleState::default(); p.rules.len()],
             memos: vec![V::Missing; p.memos],
         });
-        self.sources.len() - 1
+        Some(self.sources.len() - 1)
     }
 
     fn ingest(&mut self, time_us: u64, sysid: u8, compid: u8, seq: u8, msgid: u32, input: Input) {
         self.tick(time_us);
         let now = self.now;
         self.stats.frames += 1;
-        let si = self.source_index(sysid, compid, now);
+        let Some(si) = self.source_index(sysid, compid, now) else {
+            self.stats.ignored_senders += 1;
+            return;
+        };
         let src = &mut self.sources[si];
         if let Some(last) = src.last_seq {
             let lost = seq.wrapping_sub(last).wrapping_sub(1);

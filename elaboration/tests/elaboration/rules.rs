@@ -409,3 +409,28 @@ fn mavlink1_frames_are_read() {
         Some("armed".into())
     );
 }
+
+#[test]
+fn senders_are_bounded() {
+    let mut elab = Elaborator::new(
+        Profile::builtin("ardupilot").expect("profile"),
+        Config::default(),
+    );
+    let mut n = 0u64;
+    for sysid in 0..=255u8 {
+        for compid in [1u8, 2] {
+            let bytes = serialize(
+                header(sysid, compid, 0),
+                MavlinkVersion::V2,
+                &sys_status(50),
+            );
+            elab.frame(n, &Frame::parse(&bytes).expect("frame"));
+            n += 1;
+        }
+    }
+    assert_eq!(elab.stats().frames, 512);
+    assert_eq!(
+        elab.stats().ignored_senders,
+        512 - elaboration::elaborator::MAX_SOURCES as u64
+    );
+}

@@ -207,8 +207,12 @@ fn run_on(
     );
     let _ = writeln!(
         err,
-        "  decoded {} frames; decode failures by message id: {:?}; {} frames lost by sequence",
-        stats.decoded, stats.decode_failures, stats.sequence_lost
+        "  decoded {} frames; decode failures by message id: {:?}; {} frames lost by sequence; {} frames from senders beyond the {} followed",
+        stats.decoded,
+        stats.decode_failures,
+        stats.sequence_lost,
+        stats.ignored_senders,
+        elaboration::elaborator::MAX_SOURCES
     );
     match elab.vehicle() {
         Some((s, c)) => {
@@ -220,4 +224,89 @@ fn run_on(
     }
     let _ = writeln!(err, "  events: {counts:?}");
     Ok(Outcome::Success)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use elaboration::frame::serialize;
+    use elaboration::TlogWriter;
+    use mavlink::dialects::ardupilotmega::{MavAutopilot, MavMessage, MavType, HEARTBEAT_DATA};
+    use mavlink::{MavHeader, MavlinkVersion};
+
+    fn log_of(autopilots: &[(u8, MavType, MavAutopilot)]) -> Vec<u8> {
+        let mut w = TlogWriter::new(Vec::new());
+        for (i, (sysid, mavtype, autopilot)) in autopilots.iter().enumerate() {
+            let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                mavtype: *mavtype,
+                autopilot: *autopilot,
+                ..HEARTBEAT_DATA::DEFAULT
+            });
+            let h = MavHeader {
+                system_id: *sysid as u32,
+                component_id: 1,
+                sequence: i as u8,
+            };
+            w.write_frame(i as u64, &serialize(h, MavlinkVersion::V2, &msg))
+                .expect("vec");
+        }
+        w.into_inner().expect("vec")
+    }
+
+    #[test]
+    fn the_profile_follows_the_first_autopilot_not_the_gcs() {
+        let px4 = log_of(&[
+            (
+                255,
+                MavType::MAV_TYPE_GCS,
+                MavAutopilot::MAV_AUTOPILOT_INVALID,
+            ),
+            (
+                1,
+                MavType::MAV_TYPE_QUADROTOR,
+                MavAutopilot::MAV_AUTOPILOT_PX4,
+            ),
+        ]);
+        assert_eq!(detect(&px4), "px4");
+        let ardupilot = log_of(&[(
+            1,
+            MavType::MAV_TYPE_FIXED_WING,
+            MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        )]);
+        assert_eq!(detect(&ardupilot), "ardupilot");
+        assert_eq!(detect(&[]), "ardupilot");
+    }
+
+    #[test]
+    fn json_lines_carry_time_category_params_and_sender() {
+        let e = Elaborated {
+            time_us: 1_500_000,
+            event: nets::Event::new("mode_changed").param("mode", "RTL"),
+            sysid: 1,
+            compid: 1,
+        };
+        let j = json_line(&e, 1_000_000);
+        assert_eq!(
+            j,
+            serde_json::json!({"time_us": 1_500_000, "t": 0.5, "event": "mode_changed",
+                "category": "nominal", "params": {"mode": "RTL"}, "sysid": 1, "compid": 1})
+        );
+    }
+
+    #[test]
+    fn a_bad_profile_file_is_bad_input() {
+        let dir = std::env::temp_dir().join(format!("petrel-events-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("bad.toml");
+        std::fs::write(
+            &path,
+            "[rules.x]\ncategory = \"sometimes\"\nwhen = \"NOPE.x\"\n",
+        )
+        .expect("write");
+        let loaded = load_profile(path.to_str(), &[]).expect("readable");
+        assert!(loaded.is_err());
+        let missing = load_profile(Some("/nonexistent/profile.toml"), &[]);
+        assert!(missing.is_err());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
