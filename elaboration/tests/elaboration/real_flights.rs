@@ -350,6 +350,10 @@ fn apm_copter_mission_flight() {
         // The autopilot's last HEARTBEAT is at 510.484 (the ground station
         // goes on alone until 570.8).
         (513.984, "link_lost", TIMEOUT),
+        // The ground-side SiK radio (51/68, RADIO) then reports the remote
+        // end silent (remrssi 0) from 514.734: a fade margin under 10 for 5 s.
+        // In flight the margin dips under 10 for at most 2 s: nothing fires.
+        (519.734, "link_degraded {remrssi: 0, rssi: 76}", TIMEOUT),
     ]);
     // APM 2.x has no MISSION_ITEM_REACHED: "Reached Command #n" texts.
     let expected = merge(
@@ -402,6 +406,10 @@ fn apm_log_starting_in_flight_and_radio_gaps() {
                 EXACT,
             ),
             (418.406, "link_lost", TIMEOUT),
+            // SiK RADIO: remote end silent from 419.625; the in-flight dips
+            // under a margin of 10 (81.6, 88.8, 110.7, 131.7, 170.7 s) last
+            // 0.9-2.0 s and do not fire.
+            (424.625, "link_degraded {remrssi: 0, rssi: 203}", TIMEOUT),
         ],
     );
 }
@@ -458,9 +466,16 @@ fn apm_second_mission_flight() {
     let lost = times("link_lost");
     assert_eq!(lost.len(), 1);
     assert!(lost[0] >= 591.125 && lost[0] <= 591.225, "{lost:?}");
+    // The ground-side SiK radio reports the remote end silent from 592.094.
+    let degraded = times("link_degraded");
+    assert_eq!(degraded.len(), 1);
+    assert!(
+        degraded[0] >= 597.094 && degraded[0] <= 597.194,
+        "{degraded:?}"
+    );
     // The log ends inside a frame: the tail is counted, not fatal.
     assert_eq!(read.truncated_tail, 9);
-    assert_eq!(events.len(), 1 + 1 + 5 + 26 + 1 + 1 + 1, "{events:#?}");
+    assert_eq!(events.len(), 1 + 1 + 5 + 26 + 1 + 1 + 1 + 1, "{events:#?}");
 }
 
 #[test]
