@@ -32,6 +32,8 @@ enum Verb {
     Check(cli::check::Args),
     /// Draw a project's nets as Graphviz DOT.
     Draw(cli::draw::Args),
+    /// Write each net of a project as PNML.
+    Export(cli::export::Args),
 }
 
 fn main() -> ExitCode {
@@ -48,6 +50,7 @@ fn main() -> ExitCode {
         Verb::Events(args) => cli::events::run(args),
         Verb::Check(args) => cli::check::run(args),
         Verb::Draw(args) => cli::draw::run(args),
+        Verb::Export(args) => cli::export::run(args),
     };
     match outcome {
         Ok(code) => code.into(),

@@ -134,3 +134,92 @@ fn play_reports_bad_input_with_exit_2() {
     assert_eq!(code, 2, "a missing --events is a usage error");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn check_project_reports_for_people_and_as_json_with_exit_codes() {
+    let (code, out, err) = petrel(&["check", "examples/uav-survey"]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("project uav-survey:"), "{out}");
+    assert!(out.contains("every property holds"), "{out}");
+    let (code, out, _) = petrel(&["check", "examples/uav-survey", "--json"]);
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(out.trim()).expect("one JSON object");
+    for key in [
+        "states",
+        "edges",
+        "dead_markings",
+        "safe",
+        "max_tokens",
+        "deadlock_example",
+        "unsafe_example",
+        "loops",
+        "warnings",
+        "seconds",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}: {v}");
+    }
+    assert_eq!(v["safe"], true);
+    assert!(v["nets"]["MISSION"]["states"]
+        .as_u64()
+        .is_some_and(|n| n > 0));
+
+    // A project with a deadlock fails with exit 1 and shows the sequence.
+    let dir = std::env::temp_dir().join(format!("petrel-check-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    std::fs::write(
+        dir.join("project.toml"),
+        "[programs.DEC.functions]\nplan = {}\n[[net]]\nfile = \"a.toml\"\nactive = true\n",
+    )
+    .expect("write");
+    std::fs::write(
+        dir.join("a.toml"),
+        "name = \"A\"\nplaces = [\"ground\", \"asking\", \"flying\"]\ninitial = [\"ground\"]\nfinal = [\"flying\"]\n[[transition]]\nname = \"ask\"\nfrom = [\"ground\"]\nto = [\"asking\"]\non = \"ready\"\ndo = [\"call DEC.plan\"]\n[[transition]]\nname = \"fly\"\nfrom = [\"asking\"]\nto = [\"flying\"]\non = \"DEC.plan.done\"\n",
+    )
+    .expect("write");
+    let (code, out, _) = petrel(&["check", dir.to_str().expect("utf-8")]);
+    assert_eq!(code, 1, "{out}");
+    assert!(
+        out.contains("deadlocks        FAILED (1 dead markings)"),
+        "{out}"
+    );
+    assert!(
+        out.contains(" 1. ready → A.ask\n       2. DEC.plan.failed"),
+        "{out}"
+    );
+    let (code, _, err) = petrel(&["check", "/nonexistent/project"]);
+    assert_eq!(code, 2, "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn export_writes_pnml_that_check_reads_and_draw_writes_dot() {
+    let dir = std::env::temp_dir().join(format!("petrel-export-{}", std::process::id()));
+    let (code, _, err) = petrel(&[
+        "export",
+        "examples/uav-survey",
+        "--pnml",
+        dir.to_str().expect("utf-8"),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (code, out, _) = petrel(&[
+        "check",
+        "--pnml",
+        dir.join("EVENTS.pnml").to_str().expect("utf-8"),
+        "--json",
+    ]);
+    // The plain token game of EVENTS alone: readable, explored, 1-safe.
+    assert!(code == 0 || code == 1, "{out}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).expect("JSON");
+    assert_eq!(v["safe"], true);
+    let (code, out, _) = petrel(&["draw", "examples/uav-survey", "--net", "MISSION", "--dot"]);
+    assert_eq!(code, 0);
+    assert!(out.starts_with("digraph \"MISSION\" {"), "{out}");
+    assert!(out.contains("\"MISSION:transit\""));
+    let (code, _, err) = petrel(&["draw", "examples/uav-survey", "--net", "NOPE"]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("no net `NOPE` in the project (it has: MISSION, EVENTS)"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -5,7 +5,7 @@
 
 use std::fmt::Write as _;
 
-use crate::model::{Action, NetId, PlaceRef, Project};
+use crate::model::{NetId, PlaceRef, Project};
 
 /// What to draw.
 #[derive(Clone, Copy, Default)]
@@ -30,37 +30,6 @@ fn quote(s: &str) -> String {
     }
     out.push('"');
     out
-}
-
-/// The text of an action, as written in a net file.
-pub fn action_text(project: &Project, action: &Action) -> String {
-    let args = |args: &[(String, crate::expr::Expr)]| {
-        if args.is_empty() {
-            String::new()
-        } else {
-            let inner: Vec<String> = args.iter().map(|(k, e)| format!("{k}: {e}")).collect();
-            format!(" {{{}}}", inner.join(", "))
-        }
-    };
-    match action {
-        Action::Activate(n) => format!("activate {}", project.nets[*n].name),
-        Action::Deactivate(n) => format!("deactivate {}", project.nets[*n].name),
-        Action::Emit { event, args: a } => format!("emit {event}{}", args(a)),
-        Action::Timer { timer, after } => format!(
-            "timer #{timer} after {}",
-            crate::time::format_duration(*after)
-        ),
-        Action::Cancel { timer } => format!("cancel #{timer}"),
-        Action::Call {
-            program,
-            function,
-            args: a,
-        } => {
-            let p = &project.programs[*program];
-            format!("call {}.{}{}", p.name, p.functions[*function].name, args(a))
-        }
-        Action::Command { verb, args: a } => format!("command {verb}{}", args(a)),
-    }
 }
 
 /// Draws nets as one DOT digraph.
@@ -159,17 +128,9 @@ pub fn dot(project: &Project, drawing: &Drawing) -> String {
             if let Some(g) = &t.guard {
                 label.push_str(&format!("\nwhen {}", g.text));
             }
-            for a in &t.actions {
-                let text = match a {
-                    Action::Timer { timer, after } => format!(
-                        "timer {} after {}",
-                        net.timers[*timer],
-                        crate::time::format_duration(*after)
-                    ),
-                    Action::Cancel { timer } => format!("cancel {}", net.timers[*timer]),
-                    other => action_text(project, other),
-                };
-                label.push_str(&format!("\n{text}"));
+            for a in &t.action_source {
+                label.push('\n');
+                label.push_str(a);
             }
             let _ = writeln!(
                 out,

@@ -626,9 +626,11 @@ impl Loader {
                 None => None,
             };
             let mut actions = Vec::new();
+            let mut action_source = Vec::new();
             for a in &t.actions {
                 if let Some(action) = self.action(scope, net, a, &ctx) {
                     actions.push(action);
+                    action_source.push(a.get_ref().trim().to_owned());
                 }
             }
             let flat_inputs = inputs.iter().map(|p| scope.project.flat(net, *p)).collect();
@@ -643,6 +645,7 @@ impl Loader {
                 event,
                 guard,
                 actions,
+                action_source,
                 flat_inputs,
                 flat_outputs,
             });

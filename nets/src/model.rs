@@ -83,6 +83,8 @@ pub struct Transition {
     pub event: Option<String>,
     pub guard: Option<Guard>,
     pub actions: Vec<Action>,
+    /// The actions as written in the net file (same order as `actions`).
+    pub action_source: Vec<String>,
     /// Flat place indices (see [`Project::place_offsets`]).
     pub flat_inputs: Vec<usize>,
     pub flat_outputs: Vec<usize>,

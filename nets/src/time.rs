@@ -51,24 +51,6 @@ pub fn parse_duration(text: &str) -> Result<Micros, DurationError> {
     Ok(micros as Micros)
 }
 
-/// Writes a duration the way nets do (`30s`, `500ms`, `1.5s`, `2min`).
-pub fn format_duration(t: Micros) -> String {
-    if t == 0 {
-        "0s".to_owned()
-    } else if t % 3_600_000_000 == 0 {
-        format!("{}h", t / 3_600_000_000)
-    } else if t % 60_000_000 == 0 {
-        format!("{}min", t / 60_000_000)
-    } else if t % 1_000 != 0 {
-        format!("{t}us")
-    } else if t % 1_000_000 != 0 && t < 1_000_000 {
-        format!("{}ms", t / 1_000)
-    } else {
-        let s = seconds(t);
-        format!("{s}s")
-    }
-}
-
 /// Formats microseconds as seconds with up to six decimals (`12.5`).
 pub fn seconds(t: Micros) -> f64 {
     t as f64 / 1e6

@@ -352,3 +352,94 @@ on = "e"
     );
     assert!(report.holds());
 }
+
+fn example_files() -> Vec<(String, String)> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-survey");
+    ["project.toml", "mission.toml", "events.toml"]
+        .iter()
+        .map(|n| {
+            (
+                n.to_string(),
+                std::fs::read_to_string(dir.join(n)).expect("example"),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn exported_pnml_is_a_plain_pt_net_with_globals_resolved() {
+    use nets::verify::export::export_net;
+    use nets::verify::pnml::read_ptnet;
+    let files = example_files();
+    let refs: Vec<(&str, &str)> = files
+        .iter()
+        .map(|(a, b)| (a.as_str(), b.as_str()))
+        .collect();
+    let project = common::project(&refs);
+    let events = project.net("EVENTS").expect("EVENTS");
+    let pt = read_ptnet(&export_net(&project, events)).expect("other tools can read it");
+    let net = &project.nets[events];
+    assert_eq!(pt.places.len(), project.globals.len() + net.places.len());
+    assert_eq!(pt.transitions.len(), net.transitions.len());
+    let place = |name: &str| pt.places.iter().position(|p| p.name == name).expect(name);
+    let glide = pt
+        .transitions
+        .iter()
+        .find(|t| t.name == "payload_failure")
+        .expect("transition");
+    // from watching and @flying (the reference resolved to the global place)
+    let mut pre: Vec<usize> = glide.pre.iter().map(|(p, _)| *p).collect();
+    pre.sort();
+    let mut expected = vec![place("watching"), place("flying")];
+    expected.sort();
+    assert_eq!(pre, expected);
+    assert_eq!(pt.places[place("watching")].initial, 1);
+    assert_eq!(pt.places[place("flying")].initial, 0);
+}
+
+#[test]
+fn importing_what_we_export_gives_the_same_nets_back() {
+    use nets::verify::export::{export_net, import_net};
+    let files = example_files();
+    let refs: Vec<(&str, &str)> = files
+        .iter()
+        .map(|(a, b)| (a.as_str(), b.as_str()))
+        .collect();
+    let original = common::project(&refs);
+    let mut back: Vec<(String, String)> = vec![files[0].clone()];
+    for (file, text) in &files[1..] {
+        let name = toml::from_str::<toml::Table>(text).expect("toml")["name"]
+            .as_str()
+            .expect("name")
+            .to_owned();
+        let n = original.net(&name).expect("net");
+        let (imported, active) = import_net(&export_net(&original, n)).expect("imports");
+        assert_eq!(active, original.nets[n].active_at_start);
+        back.push((file.clone(), imported));
+    }
+    let refs: Vec<(&str, &str)> = back.iter().map(|(a, b)| (a.as_str(), b.as_str())).collect();
+    let again = common::project(&refs);
+    assert_eq!(again.nets.len(), original.nets.len());
+    for (a, b) in original.nets.iter().zip(&again.nets) {
+        assert_eq!(a.name, b.name);
+        let places = |n: &nets::model::Net| {
+            n.places
+                .iter()
+                .map(|p| (p.name.clone(), p.initial, p.is_final))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(places(a), places(b));
+        assert_eq!(a.transitions.len(), b.transitions.len());
+        for (x, y) in a.transitions.iter().zip(&b.transitions) {
+            assert_eq!(x.name, y.name);
+            assert_eq!(x.inputs, y.inputs, "{}", x.name);
+            assert_eq!(x.outputs, y.outputs, "{}", x.name);
+            assert_eq!(x.event, y.event);
+            assert_eq!(
+                x.guard.as_ref().map(|g| &g.text),
+                y.guard.as_ref().map(|g| &g.text)
+            );
+            assert_eq!(x.action_source, y.action_source);
+        }
+    }
+}

@@ -1,7 +1,8 @@
 //! `petrel check --pnml FILE`: explores the reachability graph of a PNML
 //! place/transition net and reports its states, edges, dead markings,
 //! safety, the most tokens in a place, shortest counterexamples and loops.
-//! (`petrel check PROJECT` comes with the project-level verifier.)
+//! `petrel check PROJECT` runs the project-level verifier
+//! (`check_project.rs`).
 //!
 //! Exit status: 0 when the net is 1-safe and has no dead marking, 1 when it
 //! is not (or the state limit stopped the exploration first), 2 for bad input.
@@ -16,6 +17,10 @@ use nets::verify::pnml::read_ptnet;
 use serde_json::json;
 
 use super::{Outcome, VerbResult};
+
+/// The most states a project check stores (projects are explored with the
+/// player itself, about a kilobyte a state).
+const PROJECT_STATE_LIMIT: usize = 1_000_000;
 
 #[derive(clap::Args)]
 #[command(group(clap::ArgGroup::new("input").required(true).args(["project", "pnml"])))]
@@ -44,14 +49,11 @@ pub struct Args {
 
 pub fn run(args: Args) -> VerbResult {
     let Some(file) = &args.pnml else {
-        let project = args
-            .project
-            .as_ref()
-            .map(|p| p.display().to_string())
-            .unwrap_or_default();
-        return Err(miette::miette!(
-            "checking a Petrel project ({project}) is not available yet; `petrel check --pnml FILE` checks a PNML net"
-        ));
+        let Some(dir) = &args.project else {
+            return Err(miette::miette!("give a project folder or --pnml FILE"));
+        };
+        let max_states = usize::try_from(args.max_states).unwrap_or(usize::MAX);
+        return super::check_project::run(dir, args.json, max_states.min(PROJECT_STATE_LIMIT));
     };
     if args.project.is_some() {
         return Err(miette::miette!(

@@ -3,8 +3,10 @@
 use std::process::ExitCode;
 
 pub mod check;
+pub mod check_project;
 pub mod draw;
 pub mod events;
+pub mod export;
 pub mod play;
 
 /// How a verb ended, as an exit status.

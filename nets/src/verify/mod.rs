@@ -14,6 +14,7 @@
 //! it returns).
 
 pub mod explore;
+pub mod export;
 pub mod graph;
 pub mod pnml;
 pub mod project;

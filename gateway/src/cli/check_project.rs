@@ -1,0 +1,158 @@
+//! `petrel check PROJECT`: the project-level verifier's report, for people
+//! or as JSON (`nets::verify::project`).
+
+use std::path::Path;
+use std::time::Instant;
+
+use nets::verify::project::{check, Options, ProjectReport, Report};
+use serde_json::{json, Value};
+
+use super::{Outcome, VerbResult};
+
+/// Checks a project; exit 0 when every property holds, 1 when one does not.
+pub fn run(dir: &Path, as_json: bool, max_states: usize) -> VerbResult {
+    let project = crate::project::load(dir)?;
+    let start = Instant::now();
+    let report = check(
+        &project,
+        &Options {
+            max_states,
+            each_net: true,
+        },
+    );
+    let seconds = start.elapsed().as_secs_f64();
+    if as_json {
+        let mut obj = report_json(&report.project, seconds);
+        let nets: serde_json::Map<String, Value> = report
+            .nets
+            .iter()
+            .map(|(name, r)| (name.clone(), report_json(r, seconds)))
+            .collect();
+        obj["nets"] = Value::Object(nets);
+        obj["holds"] = json!(report.holds());
+        write_out(&format!("{obj}\n"))?;
+    } else {
+        write_out(&human(&project.name, &report, seconds))?;
+    }
+    Ok(if report.holds() {
+        Outcome::Success
+    } else {
+        Outcome::Failed
+    })
+}
+
+fn write_out(text: &str) -> Result<(), miette::Report> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        // A reader that stopped reading (`| head`) is not an error.
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(miette::miette!("cannot write the report: {e}")),
+        Ok(()) => Ok(()),
+    }
+}
+
+/// One report as the JSON object the issue defines.
+pub fn report_json(r: &Report, seconds: f64) -> Value {
+    json!({
+        "states": r.states,
+        "edges": r.edges,
+        "dead_markings": r.dead_markings,
+        "safe": r.safe,
+        "max_tokens": r.max_tokens,
+        "deadlock_example": r.deadlock_example.clone().unwrap_or_default(),
+        "unsafe_example": r.unsafe_example.clone().unwrap_or_default(),
+        "livelocks": r.livelocks,
+        "loops": r.loops,
+        "warnings": r.warnings,
+        "complete": r.complete,
+        "seconds": seconds,
+    })
+}
+
+fn verdict(ok: bool) -> &'static str {
+    if ok {
+        "ok"
+    } else {
+        "FAILED"
+    }
+}
+
+fn sequence(out: &mut String, steps: &[String]) {
+    if steps.is_empty() {
+        out.push_str("      (at the start)\n");
+    }
+    for (i, s) in steps.iter().enumerate() {
+        out.push_str(&format!("      {:>2}. {s}\n", i + 1));
+    }
+}
+
+fn section(out: &mut String, title: &str, r: &Report, loops: bool) {
+    out.push_str(&format!(
+        "{title}: {} states, {} steps{}\n",
+        r.states,
+        r.edges,
+        if r.complete {
+            ""
+        } else {
+            " (INCOMPLETE: state limit reached)"
+        }
+    ));
+    out.push_str(&format!("  place safety     {}\n", verdict(r.safe)));
+    if let Some(ex) = &r.unsafe_example {
+        out.push_str("    a double token, reached by:\n");
+        sequence(out, ex);
+    }
+    out.push_str(&format!(
+        "  deadlocks        {}{}\n",
+        verdict(r.dead_markings == 0),
+        if r.dead_markings > 0 {
+            format!(" ({} dead markings)", r.dead_markings)
+        } else {
+            String::new()
+        }
+    ));
+    if let Some(ex) = &r.deadlock_example {
+        out.push_str("    the first, reached by:\n");
+        sequence(out, ex);
+    }
+    out.push_str(&format!(
+        "  livelocks        {}\n",
+        verdict(r.livelocks.is_empty())
+    ));
+    for l in &r.livelocks {
+        sequence(out, l);
+    }
+    if loops && !r.loops.is_empty() {
+        out.push_str(&format!("  loops (information): {}\n", r.loops.len()));
+        for l in &r.loops {
+            out.push_str(&format!("    - {}\n", l.join("  ⟶  ")));
+        }
+    }
+    for w in &r.warnings {
+        out.push_str(&format!("  warning: {w}\n"));
+    }
+}
+
+/// The report for people.
+pub fn human(name: &str, report: &ProjectReport, seconds: f64) -> String {
+    let mut out = String::new();
+    section(&mut out, &format!("project {name}"), &report.project, true);
+    for (net, r) in &report.nets {
+        out.push('\n');
+        let mut r = r.clone();
+        // Warnings already printed for the project.
+        r.warnings.retain(|w| !report.project.warnings.contains(w));
+        section(&mut out, &format!("net {net}"), &r, true);
+    }
+    out.push_str(&format!(
+        "\n{} in {:.3} s\n",
+        if report.holds() {
+            "every property holds"
+        } else {
+            "a property is violated"
+        },
+        seconds
+    ));
+    out
+}
