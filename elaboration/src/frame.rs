@@ -44,13 +44,19 @@ pub enum FrameError {
     /// The checksum does not match.
     #[error("bad checksum on message id {id}")]
     BadCrc { id: u32, len: usize },
+    /// A MAVLink 2 frame with incompatibility flags this library does not
+    /// know (only signing is defined): the spec says to drop it.
+    #[error("unknown MAVLink 2 incompatibility flags {flags:#04x} on message id {id}")]
+    IncompatibleFlags { flags: u8, id: u32, len: usize },
 }
 
 impl FrameError {
     /// The length the header announced, when the header could be read.
     pub fn announced_len(&self) -> Option<usize> {
         match *self {
-            FrameError::UnknownMessage { len, .. } | FrameError::BadCrc { len, .. } => Some(len),
+            FrameError::UnknownMessage { len, .. }
+            | FrameError::BadCrc { len, .. }
+            | FrameError::IncompatibleFlags { len, .. } => Some(len),
             FrameError::Truncated { needed, .. } => Some(needed),
             FrameError::NoStartMarker => None,
         }
@@ -121,6 +127,13 @@ impl<'a> Frame<'a> {
             bytes: &bytes[..len],
         };
         let id = frame.message_id();
+        if frame.is_v2() && bytes[2] & !IFLAG_SIGNED != 0 {
+            return Err(FrameError::IncompatibleFlags {
+                flags: bytes[2],
+                id,
+                len,
+            });
+        }
         let Some(extra) = extra_crc(id) else {
             return Err(FrameError::UnknownMessage { id, len });
         };
@@ -267,6 +280,20 @@ mod tests {
         ));
         assert_eq!(Frame::parse(&[0x00, 1, 2]), Err(FrameError::NoStartMarker));
         assert!(Frame::parse(&[]).is_err());
+    }
+
+    #[test]
+    fn unknown_incompatibility_flags_are_refused() {
+        let mut bytes = heartbeat(MavlinkVersion::V2);
+        bytes[2] = 0x02;
+        assert!(matches!(
+            Frame::parse(&bytes),
+            Err(FrameError::IncompatibleFlags {
+                flags: 0x02,
+                id: 0,
+                ..
+            })
+        ));
     }
 
     #[test]

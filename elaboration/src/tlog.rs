@@ -28,6 +28,8 @@ pub struct ReadStats {
     pub bad_crc: BTreeMap<u32, u64>,
     /// Well-framed records with a message id outside the dialect, by id.
     pub unknown_ids: BTreeMap<u32, u64>,
+    /// Well-framed MAVLink 2 records with unknown incompatibility flags.
+    pub incompatible: u64,
     /// Bytes skipped while looking for the next record.
     pub skipped_bytes: u64,
     /// Times the reader lost the record boundaries and found them again.
@@ -130,9 +132,11 @@ impl<'a> Iterator for TlogReader<'a> {
                     self.pos = self.bytes.len();
                     return None;
                 }
-                Err(e @ (FrameError::BadCrc { .. } | FrameError::UnknownMessage { .. }))
-                    if !self.lost =>
-                {
+                Err(
+                    e @ (FrameError::BadCrc { .. }
+                    | FrameError::UnknownMessage { .. }
+                    | FrameError::IncompatibleFlags { .. }),
+                ) if !self.lost => {
                     // Whole records with a bad checksum or an unknown id are
                     // skipped as records when the next one starts where the
                     // header says; otherwise the boundaries are lost.
@@ -145,6 +149,7 @@ impl<'a> Iterator for TlogReader<'a> {
                             FrameError::UnknownMessage { id, .. } => {
                                 *self.stats.unknown_ids.entry(id).or_default() += 1
                             }
+                            FrameError::IncompatibleFlags { .. } => self.stats.incompatible += 1,
                             _ => {}
                         }
                         self.pos = end;

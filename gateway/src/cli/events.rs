@@ -195,11 +195,12 @@ fn run_on(
     let _ = writeln!(err, "{}: {} frames", file.display(), read.frames);
     let _ = writeln!(
         err,
-        "  skipped: {} bad-CRC records {:?}, {} unknown-id records {:?}, {} bytes of garbage ({} resyncs), {} truncated bytes at the end; {} backwards timestamps",
+        "  skipped: {} bad-CRC records {:?}, {} unknown-id records {:?}, {} with unknown MAVLink 2 flags, {} bytes of garbage ({} resyncs), {} truncated bytes at the end; {} backwards timestamps",
         read.bad_crc_total(),
         read.bad_crc,
         read.unknown_ids.values().sum::<u64>(),
         read.unknown_ids,
+        read.incompatible,
         read.skipped_bytes,
         read.resyncs,
         read.truncated_tail,
