@@ -1025,3 +1025,66 @@ fn the_same_inputs_give_the_same_effects_and_digests() {
     };
     assert_eq!(run(p.clone()), run(p));
 }
+
+#[test]
+fn timers_and_results_take_the_declared_category_or_nominal() {
+    let p = project(&[
+        (
+            "project.toml",
+            r#"[events]
+boom = "catastrophic"
+tick = "catastrophic"
+"DEC.f.done" = "safety"
+[programs.DEC.functions]
+f = {}
+[[net]]
+file = "n.toml"
+active = true
+"#,
+        ),
+        (
+            "n.toml",
+            r#"name = "N"
+places = ["a", "b", "c", "x", "y"]
+initial = ["a", "x"]
+[[transition]]
+name = "start"
+from = ["a"]
+to = ["b"]
+on = "go"
+do = ["timer tick after 5s", "timer tock after 5s", "call DEC.f"]
+[[transition]]
+name = "explode"
+from = ["b"]
+to = ["c"]
+on = "boom"
+[[transition]]
+name = "ticked"
+from = ["x"]
+to = ["y"]
+on = "tick"
+[[transition]]
+name = "tocked"
+from = ["y"]
+to = ["x"]
+on = "tock"
+"#,
+        ),
+    ]);
+    let mut player = Player::start(p.clone(), 0);
+    drain(&mut player);
+    fire(&mut player, &ev("go"), 0);
+    assert_eq!(fire(&mut player, &ev("boom"), S), ["N.explode"]);
+    assert!(player.locked_out());
+    player.result(1, Outcome::Done(Params::new()), 2 * S);
+    let effects = drain_effects(&mut player);
+    assert!(
+        matches!(&effects[..], [Effect::Dropped { event, reason: DropReason::Lockout, .. }] if event.name == "DEC.f.done" && event.category == Category::Safety)
+    );
+    player.advance(5 * S);
+    let effects = drain_effects(&mut player);
+    // `tick` is declared catastrophic: handled under the lockout; `tock` is
+    // nominal: dropped.
+    assert_eq!(fired(&p, &effects), ["N.ticked"]);
+    assert!(effects.iter().any(|e| matches!(e, Effect::Dropped { event, .. } if event.name == "tock" && event.category == Category::Nominal)));
+}
