@@ -40,9 +40,63 @@ pub fn partition(h: u64, n: usize) -> usize {
     (((h >> 32) * n as u64) >> 32) as usize
 }
 
+/// Which partition (thread) each marking belongs to: by hash, or (1-safe
+/// nets) by whether a few chosen places are marked. Places that are marked
+/// about half the time and rarely change keep most successors in the
+/// partition of their parent, so few markings cross between threads.
+#[derive(Debug, Clone)]
+pub struct Partitioner {
+    n: usize,
+    /// Place `places[i]` marked sets bit i of an index; the partition is a
+    /// hash of the index.
+    places: Vec<u32>,
+}
+
+impl Partitioner {
+    pub fn by_hash(n: usize) -> Partitioner {
+        Partitioner {
+            n: n.clamp(1, MAX_THREADS),
+            places: Vec::new(),
+        }
+    }
+
+    /// For bit markings (place `p` is bit `p % 8` of byte `p / 8`).
+    pub fn by_places(n: usize, places: Vec<u32>) -> Partitioner {
+        Partitioner {
+            n: n.clamp(1, MAX_THREADS),
+            places,
+        }
+    }
+
+    pub fn threads(&self) -> usize {
+        self.n
+    }
+
+    /// The partition of stored marking `m` with hash `h`.
+    #[inline]
+    pub fn of(&self, m: &[u8], h: u64) -> usize {
+        if self.n == 1 {
+            return 0;
+        }
+        if self.places.is_empty() {
+            return partition(h, self.n);
+        }
+        let mut index = 0usize;
+        for (i, &p) in self.places.iter().enumerate() {
+            if m.get((p >> 3) as usize)
+                .is_some_and(|b| (b >> (p & 7)) & 1 == 1)
+            {
+                index |= 1 << i;
+            }
+        }
+        partition(mix(index as u64 ^ 0x9e37_79b9_7f4a_7c15), self.n)
+    }
+}
+
 /// What one run of the engine found.
 pub struct Run<S> {
     pub sem: S,
+    pub partitioner: Partitioner,
     pub stores: Vec<Store>,
     pub edges: u64,
     pub dead: u64,
@@ -75,23 +129,24 @@ impl<S: Semantics> Run<S> {
 
     /// The id of a stored marking with (mixed) hash `h`.
     pub fn lookup_hashed(&self, m: &[u8], h: u64) -> Option<u32> {
-        let p = partition(h, self.stores.len());
+        let p = self.partitioner.of(m, h);
         self.stores[p].lookup(m, h).map(|l| state_id(p, l))
     }
 
     /// See [`Store::prefetch_slot`].
-    pub fn prefetch_slot(&self, h: u64) {
-        self.stores[partition(h, self.stores.len())].prefetch_slot(h);
+    pub fn prefetch_slot(&self, m: &[u8], h: u64) {
+        self.stores[self.partitioner.of(m, h)].prefetch_slot(h);
     }
 
     /// See [`Store::prefetch_record`].
-    pub fn prefetch_record(&self, h: u64) {
-        self.stores[partition(h, self.stores.len())].prefetch_record(h);
+    pub fn prefetch_record(&self, m: &[u8], h: u64) {
+        self.stores[self.partitioner.of(m, h)].prefetch_record(h);
     }
 }
 
 struct Shared<'a> {
     n: usize,
+    partitioner: &'a Partitioner,
     barrier: Barrier,
     /// outboxes[from * n + to]: records (marking, hash, parent id).
     outboxes: Vec<Mutex<Vec<u8>>>,
@@ -141,18 +196,19 @@ impl Found {
 pub fn run<S: Semantics>(
     sem: S,
     initial: &[u8],
-    threads: usize,
+    partitioner: Partitioner,
     limit: u32,
     progress: Option<&(dyn Fn(u64) + Sync)>,
 ) -> Run<S> {
-    let n = threads.clamp(1, MAX_THREADS);
+    let n = partitioner.threads();
     let limit = limit.clamp(1, MAX_PER_PARTITION);
     let mut stores: Vec<Store> = (0..n).map(|_| Store::new(sem.width(), limit)).collect();
     let h0 = mix(sem.key(&to_words(initial)));
-    let p0 = partition(h0, n);
+    let p0 = partitioner.of(initial, h0);
     stores[p0].insert(initial, h0, NO_PARENT);
     let shared = Shared {
         n,
+        partitioner: &partitioner,
         barrier: Barrier::new(n),
         outboxes: (0..n * n).map(|_| Mutex::new(Vec::new())).collect(),
         stop_level: AtomicU32::new(u32::MAX),
@@ -192,6 +248,7 @@ pub fn run<S: Semantics>(
     let init_tokens = sem.max_tokens(initial);
     let mut run = Run {
         sem,
+        partitioner: partitioner.clone(),
         stores: Vec::with_capacity(n),
         edges: 0,
         dead: 0,
@@ -260,6 +317,7 @@ fn parse_record(r: &[u8], width: usize) -> (&[u8], u64, u32) {
 #[allow(clippy::too_many_arguments)]
 fn store_batch<S: Semantics>(
     sem: &S,
+    partitioner: &Partitioner,
     store: &mut Store,
     f: &mut Found,
     batch: &[u8],
@@ -268,38 +326,38 @@ fn store_batch<S: Semantics>(
     outs: &mut [Vec<u8>],
     level: u32,
 ) -> bool {
-    let n = outs.len();
     let record = sem.words() * 8 + 12;
     let count = batch.len() / record;
     let at = |i: usize| &batch[i * record..(i + 1) * record];
-    let mine = |h: u64| n == 1 || partition(h, n) == me;
+    let part = |r: &[u8], h: u64| partitioner.of(r, h);
     // Software pipeline: fetch the table slot of successor i + 2D, the
     // record of successor i + D (its slot has arrived by then), store i.
     const D: usize = 8;
     for i in 0..count + 2 * D {
         if i < count {
-            let (_, h, _) = parse_record(at(i), width);
-            if mine(h) {
+            let (m, h, _) = parse_record(at(i), width);
+            if part(m, h) == me {
                 store.prefetch_slot(h);
             }
         }
         if i >= D && i - D < count {
-            let (_, h, _) = parse_record(at(i - D), width);
-            if mine(h) {
+            let (m, h, _) = parse_record(at(i - D), width);
+            if part(m, h) == me {
                 store.prefetch_record(h);
             }
         }
         if i >= 2 * D {
             let r = at(i - 2 * D);
             let (m, h, parent) = parse_record(r, width);
-            if mine(h) {
+            let p = part(m, h);
+            if p == me {
                 match store.insert(m, h, parent) {
                     Inserted::New(index) => f.stored(sem, m, level + 1, index),
                     Inserted::Old(_) => {}
                     Inserted::Full => return false,
                 }
             } else {
-                outs[partition(h, n)].extend_from_slice(r);
+                outs[p].extend_from_slice(r);
             }
         }
     }
@@ -356,7 +414,17 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
             index += 1;
             expanded += 1;
             if batch.len() >= BATCH * record || index == hi {
-                let ok = store_batch(sem, &mut store, &mut f, &batch, width, me, &mut outs, level);
+                let ok = store_batch(
+                    sem,
+                    sh.partitioner,
+                    &mut store,
+                    &mut f,
+                    &batch,
+                    width,
+                    me,
+                    &mut outs,
+                    level,
+                );
                 batch.clear();
                 if !ok {
                     f.full = true;
@@ -388,7 +456,17 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
                 }
                 let mut inbox = std::mem::take(&mut *lock(&sh.outboxes[from * n + me]));
                 for part in inbox.chunks(BATCH * record) {
-                    if !store_batch(sem, &mut store, &mut f, part, width, me, &mut outs, level) {
+                    if !store_batch(
+                        sem,
+                        sh.partitioner,
+                        &mut store,
+                        &mut f,
+                        part,
+                        width,
+                        me,
+                        &mut outs,
+                        level,
+                    ) {
                         f.full = true;
                         sh.stop_level.fetch_min(level, Relaxed);
                         break;

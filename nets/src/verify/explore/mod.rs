@@ -27,7 +27,7 @@ use std::cell::RefCell;
 
 use super::graph::{self, Successors};
 use super::ptnet::PtNet;
-use engine::{run, split_id, state_id, Run, MAX_PER_PARTITION, MAX_THREADS};
+use engine::{run, split_id, state_id, Partitioner, Run, MAX_PER_PARTITION, MAX_THREADS};
 use semantics::{load_words, mix, push_words, to_bytes, to_words, Bits, Counts, Semantics, Stop};
 
 /// How to explore.
@@ -45,6 +45,10 @@ pub struct Options<'a> {
     /// (default 4096: below, one thread is faster). 0 forces the parallel
     /// engine (tests).
     pub parallel_from: u64,
+    /// On several threads, split 1-safe state spaces by a few places chosen
+    /// on the sample (fewer markings cross between threads) rather than by
+    /// hash. Default true.
+    pub partition_by_places: bool,
 }
 
 impl Default for Options<'_> {
@@ -54,6 +58,7 @@ impl Default for Options<'_> {
             max_states: 100_000_000,
             progress: None,
             parallel_from: u64::from(SAMPLE),
+            partition_by_places: true,
         }
     }
 }
@@ -151,36 +156,123 @@ pub struct Loops {
 /// state space fits, this sample is the answer.
 const SAMPLE: u32 = 4096;
 
-/// The sample: how many sampled markings mark each place, and the sample
-/// itself when it is a complete exploration.
-fn sample(net: &PtNet, initial: &[u32]) -> (Vec<u64>, Option<Space>) {
-    fn frequencies<S: Semantics>(r: &Run<S>, freq: &mut [u64]) {
-        for store in &r.stores {
-            for i in 0..store.len() {
-                for (f, c) in freq.iter_mut().zip(r.sem.counts(store.get(i))) {
-                    *f += u64::from(c > 0);
-                }
+/// What the sample tells: how many sampled markings mark each place, the
+/// places to partition bit markings by on `threads` threads (see
+/// [`Partitioner`]), and the sample itself when it is a complete exploration.
+struct Sample {
+    frequencies: Vec<u64>,
+    partition_places: Vec<u32>,
+    complete: Option<Space>,
+}
+
+fn frequencies<S: Semantics>(r: &Run<S>, freq: &mut [u64]) {
+    for store in &r.stores {
+        for i in 0..store.len() {
+            for (f, c) in freq.iter_mut().zip(r.sem.counts(store.get(i))) {
+                *f += u64::from(c > 0);
             }
         }
     }
+}
+
+/// Places marked in 25 % to 75 % of the sampled markings and changed by
+/// the fewest sampled firings, enough of them to number `threads`
+/// partitions, if they split the sample evenly enough.
+fn partition_places(r: &Run<Bits>, marked: &[u64], threads: usize) -> Vec<u32> {
+    // a few more places than needed to number the partitions: the
+    // partition of a marking is a hash of their 2^k combinations, which
+    // evens out the shares
+    let k = (usize::BITS - (threads.max(2) - 1).leading_zeros() + 5).min(16);
+    let states = r.states().max(1);
+    let mut flips = vec![0u64; marked.len()];
+    let mut child = Vec::new();
+    let store = &r.stores[0];
+    for i in 0..store.len() {
+        let m = to_words(store.get(i));
+        let _ = r.sem.expand(&m, r.sem.key(&m), &mut child, |_, c, _| {
+            for (w, (a, b)) in m.iter().zip(c).enumerate() {
+                let mut x = a ^ b;
+                while x != 0 {
+                    let p = w * 64 + x.trailing_zeros() as usize;
+                    x &= x - 1;
+                    if let Some(f) = flips.get_mut(p) {
+                        *f += 1;
+                    }
+                }
+            }
+        });
+    }
+    let mut candidates: Vec<usize> = (0..marked.len())
+        .filter(|&p| marked[p] * 4 >= states && marked[p] * 4 <= 3 * states)
+        .collect();
+    candidates.sort_by_key(|&p| (flips[p], p));
+    if candidates.len() < 2 {
+        return Vec::new();
+    }
+    // skip places that always agree (or always disagree) with one taken
+    // already on the sample: they add nothing to the index
+    let bit = |i: u32, p: usize| (store.get(i)[p >> 3] >> (p & 7)) & 1;
+    let mut chosen: Vec<usize> = Vec::new();
+    for &q in &candidates {
+        if chosen.len() == k as usize {
+            break;
+        }
+        let redundant = chosen.iter().any(|&p| {
+            let same = (0..store.len()).filter(|&i| bit(i, p) == bit(i, q)).count() as u32;
+            same == 0 || same == store.len()
+        });
+        if !redundant {
+            chosen.push(q);
+        }
+    }
+    let places: Vec<u32> = chosen.iter().map(|&p| p as u32).collect();
+    let partitioner = Partitioner::by_places(threads, places.clone());
+    let mut share = vec![0u64; threads];
+    for i in 0..store.len() {
+        share[partitioner.of(store.get(i), 0)] += 1;
+    }
+    let fair = states / threads as u64;
+    if share.iter().any(|&s| s * 2 < fair) {
+        return Vec::new();
+    }
+    places
+}
+
+/// Explores up to [`SAMPLE`] markings on one thread.
+fn sample(net: &PtNet, initial: &[u32], threads: usize) -> Sample {
     let zero = vec![0u64; net.places.len()];
     let mut freq = zero.clone();
     if initial.iter().all(|&c| c <= 1) {
         let sem = Bits::new(net, &zero);
         let m = sem.encode(initial);
-        let r = run(sem, &m, 1, SAMPLE, None);
+        let r = run(sem, &m, Partitioner::by_hash(1), SAMPLE, None);
         frequencies(&r, &mut freq);
+        let partition_places = if threads > 1 {
+            partition_places(&r, &freq, threads)
+        } else {
+            Vec::new()
+        };
         let complete = !r.full && r.stop.is_none();
-        (freq, complete.then_some(Space::Bits(r)))
+        Sample {
+            frequencies: freq,
+            partition_places,
+            complete: complete.then_some(Space::Bits(r)),
+        }
     } else {
         let sem = Counts::<4>::new(net, &zero);
-        let Some(m) = sem.encode(initial) else {
-            return (freq, None);
+        let mut s = Sample {
+            frequencies: Vec::new(),
+            partition_places: Vec::new(),
+            complete: None,
         };
-        let r = run(sem, &m, 1, SAMPLE, None);
-        frequencies(&r, &mut freq);
-        let complete = !r.full && r.stop.is_none();
-        (freq, complete.then_some(Space::C32(r)))
+        if let Some(m) = sem.encode(initial) {
+            let r = run(sem, &m, Partitioner::by_hash(1), SAMPLE, None);
+            frequencies(&r, &mut freq);
+            let complete = !r.full && r.stop.is_none();
+            s.complete = complete.then_some(Space::C32(r));
+        }
+        s.frequencies = freq;
+        s
     }
 }
 
@@ -194,7 +286,7 @@ fn counts_run<const W: usize>(
 ) -> Option<Run<Counts<W>>> {
     let sem = Counts::<W>::new(net, freq);
     let m = sem.encode(initial)?;
-    Some(run(sem, &m, threads, limit, progress))
+    Some(run(sem, &m, Partitioner::by_hash(threads), limit, progress))
 }
 
 /// Explores the reachable markings of `net`.
@@ -202,7 +294,11 @@ pub fn explore<'n>(net: &'n PtNet, options: &Options) -> Exploration<'n> {
     let threads = options.threads.clamp(1, MAX_THREADS);
     let per_partition = options.max_states.clamp(1, u64::from(MAX_PER_PARTITION)) as u32;
     let initial = net.initial_marking();
-    let (freq, small) = sample(net, &initial);
+    let Sample {
+        frequencies: freq,
+        partition_places,
+        complete: small,
+    } = sample(net, &initial, threads);
     if let Some(space) = small {
         let states = on_space!(&space, r => r.states());
         if states <= options.max_states && (threads == 1 || states <= options.parallel_from) {
@@ -214,7 +310,12 @@ pub fn explore<'n>(net: &'n PtNet, options: &Options) -> Exploration<'n> {
     if initial.iter().all(|&c| c <= 1) {
         let sem = Bits::new(net, &freq);
         let m = sem.encode(&initial);
-        let r = run(sem, &m, threads, per_partition, progress);
+        let partitioner = if options.partition_by_places {
+            Partitioner::by_places(threads, partition_places)
+        } else {
+            Partitioner::by_hash(threads)
+        };
+        let r = run(sem, &m, partitioner, per_partition, progress);
         if r.stop != Some(Stop::Unsafe) {
             space = Some(Space::Bits(r));
         }
@@ -258,7 +359,7 @@ impl<'n> Exploration<'n> {
 fn unreachable_run(net: &PtNet, freq: &[u64], threads: usize) -> Space {
     let sem = Counts::<4>::new(net, freq);
     let m = vec![0u8; sem.width()];
-    let mut r = run(sem, &m, threads, 1, None);
+    let mut r = run(sem, &m, Partitioner::by_hash(threads), 1, None);
     r.stop = Some(Stop::Overflow);
     Space::C32(r)
 }
@@ -384,11 +485,13 @@ impl<S: Semantics> Successors for Graph<'_, S> {
         });
         // fetch all table slots, then all records, then look up (the cache
         // misses overlap)
-        for &h in hashes.iter() {
-            self.run.prefetch_slot(h);
+        for (i, &h) in hashes.iter().enumerate() {
+            self.run
+                .prefetch_slot(&bytes[i * record..i * record + width], h);
         }
-        for &h in hashes.iter() {
-            self.run.prefetch_record(h);
+        for (i, &h) in hashes.iter().enumerate() {
+            self.run
+                .prefetch_record(&bytes[i * record..i * record + width], h);
         }
         for (i, &h) in hashes.iter().enumerate() {
             if let Some(id) = self
