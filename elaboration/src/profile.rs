@@ -728,6 +728,31 @@ impl Resolver for Builder {
     }
 }
 
+/// What a profile says of the events it produces: category and parameter
+/// names (a cleared event carries none). The project loader checks guards
+/// and `$params` against it (`nets::load_with`).
+impl Profile {
+    pub fn catalog(&self) -> nets::load::Catalog {
+        let mut out = nets::load::Catalog::new();
+        for r in &self.rules {
+            let entry = out.entry(r.event.clone()).or_default();
+            entry.category.get_or_insert(r.category);
+            let params = entry.params.get_or_insert_with(Vec::new);
+            for (name, _) in &r.params {
+                if !params.contains(name) {
+                    params.push(name.clone());
+                }
+            }
+            if let Some((cleared, category)) = &r.cleared {
+                let e = out.entry(cleared.clone()).or_default();
+                e.category.get_or_insert(*category);
+                e.params.get_or_insert_with(Vec::new);
+            }
+        }
+        out
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 
 mod cli;
 mod project;
+mod supervisor;
 
 #[derive(Parser)]
 #[command(
@@ -34,6 +35,8 @@ enum Verb {
     Draw(cli::draw::Args),
     /// Write each net of a project as PNML.
     Export(cli::export::Args),
+    /// Replay recorded telemetry through elaboration and the player.
+    Replay(cli::replay::Args),
 }
 
 fn main() -> ExitCode {
@@ -51,6 +54,7 @@ fn main() -> ExitCode {
         Verb::Check(args) => cli::check::run(args),
         Verb::Draw(args) => cli::draw::run(args),
         Verb::Export(args) => cli::export::run(args),
+        Verb::Replay(args) => cli::replay::run(args),
     };
     match outcome {
         Ok(code) => code.into(),

@@ -19,6 +19,14 @@ impl Sources for Folder {
 /// Loads and checks the project in `dir`; problems come back ready for
 /// people (file:line:col, with the line and a caret).
 pub fn load(dir: &Path) -> Result<Arc<Project>, miette::Report> {
+    load_with(dir, &nets::load::Catalog::new())
+}
+
+/// Loads the project knowing the events an elaboration profile produces.
+pub fn load_with(
+    dir: &Path,
+    catalog: &nets::load::Catalog,
+) -> Result<Arc<Project>, miette::Report> {
     if !dir.join(nets::load::PROJECT_FILE).is_file() {
         return Err(miette::miette!(
             "{} is not a Petrel project: it holds no {}",
@@ -26,7 +34,7 @@ pub fn load(dir: &Path) -> Result<Arc<Project>, miette::Report> {
             nets::load::PROJECT_FILE
         ));
     }
-    nets::load(&Folder(dir.to_path_buf()))
+    nets::load_with(&Folder(dir.to_path_buf()), catalog)
         .map(Arc::new)
         .map_err(|e| {
             miette::Report::new(e).context(format!("cannot load project {}", dir.display()))

@@ -72,7 +72,10 @@ fn report(err: &ProfileError, sources: &[(String, String)]) {
     }
 }
 
-fn load_profile(choice: Option<&str>, bytes: &[u8]) -> Result<Result<Profile, ()>, miette::Report> {
+pub(crate) fn load_profile(
+    choice: Option<&str>,
+    bytes: &[u8],
+) -> Result<Result<Profile, ()>, miette::Report> {
     let (base, user) = match choice {
         None => (detect(bytes), None),
         Some(name @ ("ardupilot" | "px4")) => {

@@ -8,6 +8,8 @@ pub mod draw;
 pub mod events;
 pub mod export;
 pub mod play;
+pub mod replay;
+pub mod timeline;
 
 /// How a verb ended, as an exit status.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

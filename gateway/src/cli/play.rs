@@ -5,12 +5,11 @@
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 
-use nets::player::{effect_json, effect_text};
-use nets::script::{self, Input, Line, ReplyTo};
-use nets::time::seconds;
-use nets::{Player, Project};
+use nets::script::{self, Input, ReplyTo};
+use nets::{Outcome as Result_, Player, Value};
 use serde_json::json;
 
+use super::timeline::Timeline;
 use super::{Outcome, VerbResult};
 
 #[derive(clap::Args)]
@@ -25,135 +24,78 @@ pub struct Args {
     pub json: bool,
 }
 
+fn reply_name(to: &ReplyTo) -> serde_json::Value {
+    match to {
+        ReplyTo::Id(id) => json!(id),
+        ReplyTo::Call { program, function } => json!(format!("{program}.{function}")),
+        ReplyTo::Command { verb } => json!(format!("command.{verb}")),
+    }
+}
+
 pub fn run(args: Args) -> VerbResult {
     let project = crate::project::load(&args.project)?;
     let text = std::fs::read_to_string(&args.events)
         .map_err(|e| miette::miette!("cannot read {}: {e}", args.events.display()))?;
     let lines =
         script::parse(&text).map_err(|e| miette::miette!("{}:{e}", args.events.display()))?;
-    let stdout = std::io::stdout();
-    let mut out = BufWriter::new(stdout.lock());
-    let mut player = Player::start(project.clone(), 0);
     let io = |e: std::io::Error| miette::miette!("cannot write the output: {e}");
-    print_effects(&mut out, &project, &mut player, args.json).map_err(io)?;
+    let mut out = Timeline {
+        out: BufWriter::new(std::io::stdout().lock()),
+        json: args.json,
+        origin: 0,
+    };
+    let mut player = Player::start(project.clone(), 0);
+    let effects: Vec<_> = player.effects().collect();
+    out.effects(&project, &effects).map_err(io)?;
     for line in &lines {
-        print_input(&mut out, &project, line, args.json).map_err(io)?;
-        if let Err(e) = script::play_line(&mut player, line) {
-            print_effects(&mut out, &project, &mut player, args.json).map_err(io)?;
-            out.flush().map_err(io)?;
+        match &line.input {
+            Input::Event(e) => out.event(&project, line.time, e, None),
+            Input::Reply {
+                to,
+                outcome: Result_::Done(p),
+            } => {
+                let text = format!(
+                    "REPLY  {} done {}",
+                    reply_name(to).to_string().trim_matches('"'),
+                    Value::Map(p.clone())
+                );
+                let params: serde_json::Map<_, _> =
+                    p.iter().map(|(k, v)| (k.clone(), v.to_json())).collect();
+                out.input(
+                    line.time,
+                    "reply",
+                    json!({"reply": reply_name(to), "params": params}),
+                    &text,
+                )
+            }
+            Input::Reply {
+                to,
+                outcome: Result_::Failed(r),
+            } => {
+                let text = format!(
+                    "REPLY  {} failed: {r}",
+                    reply_name(to).to_string().trim_matches('"')
+                );
+                out.input(
+                    line.time,
+                    "reply",
+                    json!({"reply": reply_name(to), "failed": r}),
+                    &text,
+                )
+            }
+            Input::Advance => out.input(line.time, "advance", json!({}), "...    time passes"),
+        }
+        .map_err(io)?;
+        let played = script::play_line(&mut player, line);
+        let effects: Vec<_> = player.effects().collect();
+        out.effects(&project, &effects).map_err(io)?;
+        if let Err(e) = played {
+            out.out.flush().map_err(io)?;
             return Err(miette::miette!("{}:{e}", args.events.display()));
         }
-        print_effects(&mut out, &project, &mut player, args.json).map_err(io)?;
     }
-    if args.json {
-        writeln!(
-            out,
-            "{}",
-            json!({
-                "t": seconds(player.state().now),
-                "time_us": player.state().now,
-                "end": true,
-                "digest": player.digest().to_string(),
-                "lockout": player.locked_out(),
-            })
-        )
+    out.end(player.state().now, &player.digest(), player.locked_out())
         .map_err(io)?;
-    } else {
-        writeln!(
-            out,
-            "{:>10.3}  end    digest {}",
-            seconds(player.state().now),
-            player.digest()
-        )
-        .map_err(io)?;
-    }
-    out.flush().map_err(io)?;
+    out.out.flush().map_err(io)?;
     Ok(Outcome::Success)
-}
-
-fn print_input(
-    out: &mut impl Write,
-    project: &Project,
-    line: &Line,
-    as_json: bool,
-) -> std::io::Result<()> {
-    let t = seconds(line.time);
-    // The category the player will use: the project's declaration wins.
-    let category = |e: &nets::Event| project.declared_category(&e.name).unwrap_or(e.category);
-    let params = |p: &nets::Params| {
-        serde_json::Value::Object(p.iter().map(|(k, v)| (k.clone(), v.to_json())).collect())
-    };
-    let reply_name = |to: &ReplyTo| match to {
-        ReplyTo::Id(id) => json!(id),
-        ReplyTo::Call { program, function } => json!(format!("{program}.{function}")),
-        ReplyTo::Command { verb } => json!(format!("command.{verb}")),
-    };
-    if as_json {
-        let value = match &line.input {
-            Input::Event(e) => {
-                json!({"t": t, "time_us": line.time, "input": "event", "event": e.name, "category": category(e).as_str(), "params": params(&e.params)})
-            }
-            Input::Reply {
-                to,
-                outcome: nets::Outcome::Done(p),
-            } => {
-                json!({"t": t, "time_us": line.time, "input": "reply", "reply": reply_name(to), "params": params(p)})
-            }
-            Input::Reply {
-                to,
-                outcome: nets::Outcome::Failed(r),
-            } => {
-                json!({"t": t, "time_us": line.time, "input": "reply", "reply": reply_name(to), "failed": r})
-            }
-            Input::Advance => json!({"t": t, "time_us": line.time, "input": "advance"}),
-        };
-        writeln!(out, "{value}")
-    } else {
-        match &line.input {
-            Input::Event(e) => writeln!(out, "{t:>10.3}  EVENT  {e} [{}]", category(e)),
-            Input::Reply {
-                to,
-                outcome: nets::Outcome::Done(p),
-            } => {
-                let p = nets::Value::Map(p.clone());
-                writeln!(
-                    out,
-                    "{t:>10.3}  REPLY  {} done {p}",
-                    reply_name(to).to_string().trim_matches('"')
-                )
-            }
-            Input::Reply {
-                to,
-                outcome: nets::Outcome::Failed(r),
-            } => {
-                writeln!(
-                    out,
-                    "{t:>10.3}  REPLY  {} failed: {r}",
-                    reply_name(to).to_string().trim_matches('"')
-                )
-            }
-            Input::Advance => writeln!(out, "{t:>10.3}  ...    time passes"),
-        }
-    }
-}
-
-fn print_effects(
-    out: &mut impl Write,
-    project: &Project,
-    player: &mut Player,
-    as_json: bool,
-) -> std::io::Result<()> {
-    for effect in player.effects() {
-        if as_json {
-            writeln!(out, "{}", effect_json(project, &effect))?;
-        } else {
-            writeln!(
-                out,
-                "{:>10.3}         {}",
-                seconds(effect.time()),
-                effect_text(project, &effect)
-            )?;
-        }
-    }
-    Ok(())
 }

@@ -1,0 +1,145 @@
+//! `petrel replay FILE PROJECT`: replays recorded telemetry through
+//! elaboration and the player, as `petrel run` would have on board. Commands
+//! and program calls are printed, never sent.
+
+use std::io::{BufWriter, IsTerminal, Write};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use elaboration::TlogReader;
+use serde_json::json;
+
+use super::timeline::Timeline;
+use super::{Outcome, VerbResult};
+use crate::supervisor::{Input, Supervisor};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The recording: a telemetry log (.tlog).
+    pub file: PathBuf,
+    /// The project folder (holding project.toml).
+    pub project: PathBuf,
+    /// Elaboration profile: ardupilot, px4 or a FILE.toml extending the
+    /// built-in one [default: from the first autopilot HEARTBEAT].
+    #[arg(long)]
+    pub profile: Option<String>,
+    /// Replay at N times the recorded pace [default: as fast as it goes].
+    #[arg(long, value_name = "N")]
+    pub speed: Option<f64>,
+    /// Print JSON lines (as `petrel play --json`) instead of text for people.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Elaboration ticks between frames, at most this far apart (µs), so that
+/// timeouts fire in a gap of the log as they would have live.
+const TICK: u64 = 100_000;
+
+pub fn run(args: Args) -> VerbResult {
+    let ext = args.file.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if ext == "mcap" {
+        return Err(miette::miette!(
+            "replaying an MCAP recording is not supported yet; replay the telemetry log (.tlog) of the flight"
+        ));
+    }
+    if let Some(s) = args.speed {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(miette::miette!(
+                "--speed must be a positive number, not {s}"
+            ));
+        }
+    }
+    let bytes = std::fs::read(&args.file)
+        .map_err(|e| miette::miette!("cannot read {}: {e}", args.file.display()))?;
+    let Ok(profile) = super::events::load_profile(args.profile.as_deref(), &bytes)? else {
+        return Ok(Outcome::BadInput);
+    };
+    let project = crate::project::load_with(&args.project, &profile.catalog())?;
+    let records: Vec<_> = TlogReader::new(&bytes).collect();
+    let Some(first) = records.first() else {
+        return Err(miette::miette!(
+            "{}: no MAVLink frame in the file",
+            args.file.display()
+        ));
+    };
+    let origin = first.time_us;
+    let io = |e: std::io::Error| miette::miette!("cannot write the output: {e}");
+    let mut out = Timeline {
+        out: BufWriter::new(std::io::stdout().lock()),
+        json: args.json,
+        origin,
+    };
+    let (mut sup, start) = Supervisor::start(
+        project.clone(),
+        profile,
+        elaboration::Config::default(),
+        origin,
+    );
+    out.effects(&project, &start.effects).map_err(io)?;
+    let progress = std::io::stderr().is_terminal() && !args.json;
+    let wall = Instant::now();
+    let mut last = origin;
+    let mut events = 0usize;
+    for (i, rec) in records.iter().enumerate() {
+        let time = rec.time_us.max(last);
+        // Ticks across a gap, so timeouts fire at their time.
+        let mut t = last + TICK;
+        while t < time {
+            let step = sup.step(t, Input::Tick);
+            events += step.events.len();
+            print_step(&mut out, &project, &step).map_err(io)?;
+            t += TICK;
+        }
+        if let Some(speed) = args.speed {
+            let due = Duration::from_secs_f64((time - origin) as f64 / 1e6 / speed);
+            if let Some(wait) = due.checked_sub(wall.elapsed()) {
+                out.out.flush().map_err(io)?;
+                std::thread::sleep(wait);
+            }
+        }
+        let step = sup.step(time, Input::Frame(rec.frame.bytes()));
+        events += step.events.len();
+        print_step(&mut out, &project, &step).map_err(io)?;
+        last = time;
+        if progress && i % 20_000 == 0 {
+            eprint!(
+                "\r{:>5.1}% {} frames",
+                100.0 * i as f64 / records.len() as f64,
+                i
+            );
+        }
+    }
+    if progress {
+        eprintln!("\r100.0% {} frames", records.len());
+    }
+    let player = sup.player();
+    out.end(last, &player.digest(), player.locked_out())
+        .map_err(io)?;
+    out.out.flush().map_err(io)?;
+    eprintln!(
+        "replayed {} frames ({} bad) in {:.3} s; {events} events; {} commands and calls left unanswered",
+        records.len(),
+        sup.bad_frames,
+        wall.elapsed().as_secs_f64(),
+        player.state().pending.len()
+    );
+    Ok(Outcome::Success)
+}
+
+fn print_step<W: Write>(
+    out: &mut Timeline<W>,
+    project: &nets::Project,
+    step: &crate::supervisor::Step,
+) -> std::io::Result<()> {
+    out.effects(project, &step.effects)?;
+    for (e, effects) in &step.events {
+        out.event(
+            project,
+            e.time_us,
+            &e.event,
+            Some(json!({"sysid": e.sysid, "compid": e.compid})),
+        )?;
+        out.effects(project, effects)?;
+    }
+    Ok(())
+}
