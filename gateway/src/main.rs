@@ -9,8 +9,10 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cli;
+mod link;
 mod project;
 mod supervisor;
+mod vehicle;
 
 #[derive(Parser)]
 #[command(

@@ -1,0 +1,139 @@
+//! The MAVLink link to the autopilot, on tokio: rust-mavlink's addresses
+//! (`udpin:`, `udpout:`, `tcpout:`, `tcpin:`, `serial:PORT:BAUD`),
+//! MAVLink 1 and 2 both received. Each frame comes with its raw bytes
+//! (exactly as on the wire, for the elaborator and the recorder), its
+//! receive time (microseconds since the gateway's start, monotonic), and
+//! the decoded message where the dialect decodes it. Outgoing messages
+//! carry our header, with sequence numbers counted by rust-mavlink.
+//!
+//! ```text
+//! let (mut reader, writer) = Link::open("udpin:0.0.0.0:14550", origin).await?;
+//! loop { let frame = reader.recv().await?; ... }       // one task
+//! writer.send((1, 191), &message).await?;              // any task (clone the writer)
+//! ```
+
+// Wired into `petrel run` by the lead; until then the binary does not call it.
+#![allow(dead_code)]
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::error::{MessageReadError, MessageWriteError};
+use mavlink::{AsyncMavConnection, MAVLinkMessageRaw, MavHeader, MavlinkVersion};
+
+/// One frame as received.
+#[derive(Debug, Clone)]
+pub struct Received {
+    /// Microseconds since the origin given to [`Link::open`].
+    pub time_us: u64,
+    /// The frame's bytes exactly as on the wire (checksum already checked
+    /// by rust-mavlink).
+    pub bytes: Vec<u8>,
+    pub version: MavlinkVersion,
+    pub header: MavHeader,
+    /// The message, when the dialect decodes it (an unknown enum value, for
+    /// instance, fails the decoding: the bytes are still delivered).
+    pub message: Option<MavMessage>,
+}
+
+/// Why the link failed.
+#[derive(Debug, thiserror::Error)]
+pub enum LinkError {
+    #[error("cannot open MAVLink link {address}: {source}")]
+    Open {
+        address: String,
+        source: std::io::Error,
+    },
+    #[error("MAVLink link read failed: {0}")]
+    Read(#[from] MessageReadError),
+    #[error("MAVLink link write failed: {0}")]
+    Write(#[from] MessageWriteError),
+}
+
+type Connection = mavlink::AsyncConnection<MavMessage>;
+
+/// Opens links.
+pub struct Link;
+
+impl Link {
+    /// Opens a rust-mavlink address. `tcpin:` waits for its one client;
+    /// `udpin:` answers the last sender (nothing is sent before someone
+    /// has spoken). `origin` is the instant receive times count from.
+    pub async fn open(
+        address: &str,
+        origin: Instant,
+    ) -> Result<(LinkReader, LinkWriter), LinkError> {
+        let mut connection = mavlink::connect_async::<MavMessage>(address)
+            .await
+            .map_err(|source| LinkError::Open {
+                address: address.to_owned(),
+                source,
+            })?;
+        connection.set_allow_recv_any_version(true);
+        connection.set_protocol_version(MavlinkVersion::V2);
+        let connection = Arc::new(connection);
+        Ok((
+            LinkReader {
+                connection: connection.clone(),
+                origin,
+            },
+            LinkWriter { connection },
+        ))
+    }
+}
+
+/// The receiving half. One task reads; the writer may be used meanwhile.
+pub struct LinkReader {
+    connection: Arc<Connection>,
+    origin: Instant,
+}
+
+impl LinkReader {
+    /// The next frame. Frames with a bad checksum or an unknown message id
+    /// are skipped by rust-mavlink. UDP and serial errors are retried by
+    /// rust-mavlink; a TCP error (peer gone) comes back here.
+    pub async fn recv(&mut self) -> Result<Received, LinkError> {
+        let raw = self.connection.recv_raw().await?;
+        let time_us = self.origin.elapsed().as_micros() as u64;
+        let (bytes, version) = match &raw {
+            MAVLinkMessageRaw::V1(m) => (m.raw_bytes().to_vec(), MavlinkVersion::V1),
+            MAVLinkMessageRaw::V2(m) => (m.raw_bytes().to_vec(), MavlinkVersion::V2),
+        };
+        let header = MavHeader {
+            system_id: raw.system_id(),
+            component_id: raw.component_id(),
+            sequence: raw.sequence(),
+        };
+        let message = elaboration::Frame::parse(&bytes)
+            .ok()
+            .and_then(|f| f.decode().ok());
+        Ok(Received {
+            time_us,
+            bytes,
+            version,
+            header,
+            message,
+        })
+    }
+}
+
+/// The sending half; cheap to clone.
+#[derive(Clone)]
+pub struct LinkWriter {
+    connection: Arc<Connection>,
+}
+
+impl LinkWriter {
+    /// Sends a message as `from` = (system, component), MAVLink 2. The
+    /// sequence number is the link's own counter. Returns the bytes written
+    /// (0 on `udpin:` before anyone has spoken).
+    pub async fn send(&self, from: (u8, u8), message: &MavMessage) -> Result<usize, LinkError> {
+        let header = MavHeader {
+            system_id: from.0 as u32,
+            component_id: from.1,
+            sequence: 0,
+        };
+        Ok(self.connection.send(&header, message).await?)
+    }
+}

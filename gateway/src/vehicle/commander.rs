@@ -1,0 +1,870 @@
+//! The commander: the sans-IO state machine between the nets' `command`
+//! effects and the autopilot. It learns the vehicle from its HEARTBEAT,
+//! announces us, asks for telemetry, sends commands and mission uploads,
+//! matches the answers, retries, and reports outcomes.
+
+use std::collections::{BTreeSet, VecDeque};
+
+use elaboration::Firmware;
+// MISSION_SET_CURRENT and REQUEST_DATA_STREAM are superseded, and used on
+// purpose: they are the fallbacks for autopilots without the newer commands.
+#[allow(deprecated)]
+use mavlink::dialects::ardupilotmega::{
+    MavAutopilot, MavCmd, MavMessage, MavMissionType, MavModeFlag, MavResult, MavState, MavType,
+    COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HEARTBEAT_DATA,
+    MISSION_SET_CURRENT_DATA, REQUEST_DATA_STREAM_DATA,
+};
+use mavlink::MavHeader;
+use nets::{Micros, Outcome, Params, Value};
+
+use super::config::VehicleConfig;
+use super::mission::{build_items, Step, Upload};
+use super::plan::{plan, CommandSpec, Context, Fallback, Plan};
+use super::request::{parse, Request};
+use super::streams::data_streams;
+
+/// Resends of one SET_MESSAGE_INTERVAL before falling back.
+const STREAM_RETRIES: u8 = 1;
+
+/// Who asked for a command.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Origin {
+    /// A net; the outcome goes back under this id.
+    Net(u64),
+    /// Our own telemetry request (SET_MESSAGE_INTERVAL for a message id).
+    Stream { message: u32 },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+enum State {
+    /// Not sent yet: no vehicle, or another command of the same MAV_CMD is
+    /// in flight.
+    Waiting,
+    /// Sent; waiting for its COMMAND_ACK until `deadline`.
+    Sent { deadline: Micros, in_progress: bool },
+    /// TEMPORARILY_REJECTED: resend at `until`.
+    Pausing { until: Micros },
+    /// DO_SET_MISSION_CURRENT unsupported: MISSION_SET_CURRENT sent,
+    /// waiting for MISSION_CURRENT to show `seq`.
+    SetCurrent { seq: u16, deadline: Micros },
+}
+
+#[derive(Debug, Clone)]
+struct Op {
+    origin: Origin,
+    request: Request,
+    spec: Option<CommandSpec>,
+    issued: Micros,
+    state: State,
+    /// Transmissions so far (the next confirmation is `sends`).
+    sends: u8,
+    /// Resends after a missing ack.
+    timeouts: u8,
+    rejected: u8,
+    /// Switched between COMMAND_LONG and COMMAND_INT once already.
+    switched: bool,
+    /// Forgotten by the nets while in flight: it keeps its MAV_CMD busy
+    /// until answered or timed out, and reports nothing.
+    silent: bool,
+}
+
+impl Op {
+    fn key(&self) -> Option<(MavCmd, u8)> {
+        self.spec.as_ref().map(|s| (s.command, s.component))
+    }
+
+    fn in_flight(&self) -> bool {
+        !matches!(self.state, State::Waiting)
+    }
+}
+
+/// A queued or running mission upload.
+struct MissionJob {
+    id: u64,
+    request: Request,
+    upload: Option<Upload>,
+    issued: Micros,
+}
+
+/// The vehicle side of the gateway, without I/O. See the module docs of
+/// `vehicle` for the calling order.
+pub struct Commander {
+    config: VehicleConfig,
+    /// The autopilot: system and component.
+    target: Option<(u8, u8)>,
+    firmware: Option<Firmware>,
+    ops: Vec<Op>,
+    missions: VecDeque<MissionJob>,
+    transmit: VecDeque<MavMessage>,
+    outcomes: VecDeque<(u64, Outcome)>,
+    now: Micros,
+    next_heartbeat: Option<Micros>,
+    last_heard: Option<Micros>,
+    link_lost: bool,
+    streams: Vec<(u32, f32)>,
+    /// Messages SET_MESSAGE_INTERVAL did not obtain.
+    stream_fallback: BTreeSet<u32>,
+    /// The autopilot does not do SET_MESSAGE_INTERVAL: use REQUEST_DATA_STREAM.
+    interval_unsupported: bool,
+    home: Option<(i32, i32, f32)>,
+    home_amsl: Option<f32>,
+    relative_alt: Option<f32>,
+}
+
+fn result_name(result: MavResult) -> String {
+    let name = format!("{result:?}");
+    name.strip_prefix("MAV_RESULT_")
+        .map(str::to_owned)
+        .unwrap_or(name)
+}
+
+fn done(result: &str) -> Outcome {
+    let mut params = Params::new();
+    params.insert("result".into(), Value::Str(result.into()));
+    Outcome::Done(params)
+}
+
+impl Commander {
+    pub fn new(config: VehicleConfig) -> Commander {
+        let target = match (config.system, config.autopilot_component) {
+            (Some(s), Some(c)) => Some((s, c)),
+            _ => None,
+        };
+        Commander {
+            firmware: config.firmware,
+            config,
+            target,
+            ops: Vec::new(),
+            missions: VecDeque::new(),
+            transmit: VecDeque::new(),
+            outcomes: VecDeque::new(),
+            now: 0,
+            next_heartbeat: None,
+            last_heard: None,
+            link_lost: false,
+            streams: Vec::new(),
+            stream_fallback: BTreeSet::new(),
+            interval_unsupported: false,
+            home: None,
+            home_amsl: None,
+            relative_alt: None,
+        }
+    }
+
+    /// Who we speak as: the vehicle's system id and our component (191).
+    /// `None` until the system id is configured or learned; nothing is
+    /// transmitted before.
+    pub fn identity(&self) -> Option<(u8, u8)> {
+        self.config
+            .system
+            .or(self.target.map(|t| t.0))
+            .map(|s| (s, self.config.own_component()))
+    }
+
+    /// The autopilot we command (system, component), once known.
+    pub fn target(&self) -> Option<(u8, u8)> {
+        self.target
+    }
+
+    /// The firmware family, configured or learned.
+    pub fn firmware(&self) -> Option<Firmware> {
+        self.firmware
+    }
+
+    /// Whether the autopilot has been silent for longer than the link timeout.
+    pub fn link_lost(&self) -> bool {
+        self.link_lost
+    }
+
+    /// Whether a command or mission upload is waiting or in flight (nets'
+    /// commands only; telemetry requests do not count). On shutdown, keep
+    /// feeding messages and ticks until this is false so that no upload is
+    /// left half done, or `forget` them.
+    pub fn busy(&self) -> bool {
+        self.ops
+            .iter()
+            .any(|o| matches!(o.origin, Origin::Net(_)) && !o.silent)
+            || !self.missions.is_empty()
+    }
+
+    fn clock(&mut self, now: Micros) -> Micros {
+        self.now = self.now.max(now);
+        self.now
+    }
+
+    /// A net's `command` effect. The outcome comes back from `poll_outcome`
+    /// with the same id.
+    pub fn command(&mut self, id: u64, verb: &str, args: &Params, now: Micros) {
+        let now = self.clock(now);
+        if self.ops.iter().any(|o| o.origin == Origin::Net(id))
+            || self.missions.iter().any(|m| m.id == id)
+        {
+            tracing::warn!(id, verb, "command id already pending: ignored");
+            return;
+        }
+        let request = match parse(verb, args) {
+            Ok(r) => r,
+            Err(reason) => {
+                self.outcomes.push_back((id, Outcome::Failed(reason)));
+                return;
+            }
+        };
+        if matches!(request, Request::UploadMission { .. }) {
+            self.missions.push_back(MissionJob {
+                id,
+                request,
+                upload: None,
+                issued: now,
+            });
+        } else {
+            self.ops.push(Op {
+                origin: Origin::Net(id),
+                request,
+                spec: None,
+                issued: now,
+                state: State::Waiting,
+                sends: 0,
+                timeouts: 0,
+                rejected: 0,
+                switched: false,
+                silent: false,
+            });
+        }
+        self.pump(now);
+    }
+
+    /// The net that issued `id` was deactivated: stop retrying, report
+    /// nothing. A mission upload in progress is cancelled on the vehicle.
+    pub fn forget(&mut self, id: u64) {
+        self.missions.retain(|m| {
+            if m.id != id {
+                return true;
+            }
+            if let Some(upload) = &m.upload {
+                self.transmit.push_back(upload.cancel());
+            }
+            false
+        });
+        let mut i = 0;
+        while i < self.ops.len() {
+            if self.ops[i].origin == Origin::Net(id) {
+                if self.ops[i].in_flight() {
+                    self.ops[i].silent = true;
+                    i += 1;
+                } else {
+                    self.ops.remove(i);
+                }
+            } else {
+                i += 1;
+            }
+        }
+        self.outcomes.retain(|(o, _)| *o != id);
+        let now = self.now;
+        self.pump(now);
+    }
+
+    /// The telemetry to ask for: (message id, rate in Hz; 0 stops it). Sent
+    /// when the vehicle is known, and again whenever the link comes back.
+    pub fn request_streams(&mut self, messages: &[(u32, f32)], now: Micros) {
+        let now = self.clock(now);
+        self.streams = messages.to_vec();
+        self.restart_streams();
+        self.pump(now);
+    }
+
+    fn restart_streams(&mut self) {
+        if self.target.is_none() || self.streams.is_empty() {
+            return;
+        }
+        self.ops
+            .retain(|o| !matches!(o.origin, Origin::Stream { .. }) || o.in_flight());
+        self.stream_fallback.clear();
+        if self.interval_unsupported {
+            self.stream_fallback
+                .extend(self.streams.iter().map(|(id, _)| *id));
+            self.send_data_streams();
+            return;
+        }
+        let now = self.now;
+        for &(message, rate) in &self.streams {
+            let interval = if rate > 0.0 && rate.is_finite() {
+                1e6 / rate
+            } else {
+                -1.0
+            };
+            self.ops.push(Op {
+                origin: Origin::Stream { message },
+                request: Request::Rtl, // unused: the spec is given
+                spec: Some(CommandSpec {
+                    command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+                    params: [message as f32, interval, 0.0, 0.0, 0.0, 0.0, 0.0],
+                    int: None,
+                    component: self.target.map_or(1, |t| t.1),
+                    fallback: Fallback::None,
+                }),
+                issued: now,
+                state: State::Waiting,
+                sends: 0,
+                timeouts: 0,
+                rejected: 0,
+                switched: false,
+                silent: false,
+            });
+        }
+    }
+
+    #[allow(deprecated)] // REQUEST_DATA_STREAM is the fallback
+    fn send_data_streams(&mut self) {
+        let Some((system, component)) = self.target else {
+            return;
+        };
+        let wanted: Vec<(u32, f32)> = self
+            .streams
+            .iter()
+            .filter(|(id, _)| self.stream_fallback.contains(id))
+            .copied()
+            .collect();
+        for (stream, rate) in data_streams(&wanted) {
+            tracing::info!(?stream, rate, "REQUEST_DATA_STREAM");
+            self.transmit
+                .push_back(MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
+                    req_message_rate: rate,
+                    target_system: system,
+                    target_component: component,
+                    req_stream_id: stream,
+                    start_stop: 1,
+                }));
+        }
+    }
+
+    /// A message received from the link (any sender).
+    #[allow(deprecated)] // MISSION_REQUEST: older autopilots still send it
+    pub fn message(&mut self, now: Micros, header: &MavHeader, message: &MavMessage) {
+        let now = self.clock(now);
+        let sender = (header.system_id as u8, header.component_id);
+        if header.system_id > 255 {
+            return;
+        }
+        if self.target.is_none() {
+            if let MavMessage::HEARTBEAT(hb) = message {
+                self.learn(sender, hb);
+            }
+        }
+        let Some(target) = self.target else {
+            return;
+        };
+        if sender.0 != target.0 {
+            return;
+        }
+        if sender.1 == target.1 {
+            self.last_heard = Some(now);
+            if self.link_lost {
+                tracing::info!("link back: asking for telemetry again");
+                self.link_lost = false;
+                self.restart_streams();
+            }
+        }
+        match message {
+            MavMessage::COMMAND_ACK(ack) => self.on_ack(sender, ack, now),
+            MavMessage::MISSION_REQUEST_INT(r) => {
+                self.on_mission_request(r.seq, r.target_system, r.mission_type, now)
+            }
+            MavMessage::MISSION_REQUEST(r) => {
+                self.on_mission_request(r.seq, r.target_system, r.mission_type, now)
+            }
+            MavMessage::MISSION_ACK(a)
+                if self.for_us(a.target_system, a.target_component)
+                    && a.mission_type == MavMissionType::MAV_MISSION_TYPE_MISSION =>
+            {
+                if let Some(upload) = self.missions.front_mut().and_then(|j| j.upload.as_mut()) {
+                    let step = upload.ack(a.mavtype, now);
+                    self.mission_step(step);
+                }
+            }
+            MavMessage::MISSION_CURRENT(c) => self.on_mission_current(c.seq),
+            MavMessage::GLOBAL_POSITION_INT(p) if sender.1 == target.1 => {
+                self.home_amsl = Some((p.alt as i64 - p.relative_alt as i64) as f32 / 1000.0);
+                self.relative_alt = Some(p.relative_alt as f32 / 1000.0);
+            }
+            MavMessage::HOME_POSITION(h) if sender.1 == target.1 => {
+                self.home = Some((h.latitude, h.longitude, h.altitude as f32 / 1000.0));
+            }
+            _ => {}
+        }
+        self.pump(now);
+    }
+
+    fn learn(&mut self, sender: (u8, u8), hb: &HEARTBEAT_DATA) {
+        if hb.autopilot == MavAutopilot::MAV_AUTOPILOT_INVALID
+            || matches!(
+                hb.mavtype,
+                MavType::MAV_TYPE_GCS | MavType::MAV_TYPE_ONBOARD_CONTROLLER
+            )
+            || self.config.system.is_some_and(|s| s != sender.0)
+            || self
+                .config
+                .autopilot_component
+                .is_some_and(|c| c != sender.1)
+        {
+            return;
+        }
+        self.target = Some(sender);
+        if self.firmware.is_none() {
+            let fw = Firmware::from_heartbeat(hb.autopilot as i64, hb.mavtype as i64);
+            self.firmware = Some(fw);
+        }
+        tracing::info!(system = sender.0, component = sender.1, firmware = ?self.firmware, "autopilot found");
+        self.restart_streams();
+    }
+
+    fn for_us(&self, system: u8, component: u8) -> bool {
+        let Some((own_sys, own_comp)) = self.identity() else {
+            return false;
+        };
+        (system == 0 || system == own_sys) && (component == 0 || component == own_comp)
+    }
+
+    fn on_ack(&mut self, sender: (u8, u8), ack: &COMMAND_ACK_DATA, now: Micros) {
+        // Without the extension fields they read 0: then the command id alone matches.
+        if !self.for_us(ack.target_system, ack.target_component) {
+            return;
+        }
+        let Some(i) = self.ops.iter().position(|o| {
+            o.in_flight()
+                && o.spec.as_ref().is_some_and(|s| {
+                    s.command == ack.command && (s.component == 0 || s.component == sender.1)
+                })
+        }) else {
+            tracing::debug!(command = ?ack.command, result = ?ack.result, "COMMAND_ACK matches no command in flight");
+            return;
+        };
+        let timing = self.config.timing;
+        let op = &mut self.ops[i];
+        if matches!(op.state, State::SetCurrent { .. }) {
+            return;
+        }
+        if op.silent {
+            if ack.result != MavResult::MAV_RESULT_IN_PROGRESS {
+                self.ops.remove(i);
+            }
+            return;
+        }
+        match ack.result {
+            MavResult::MAV_RESULT_ACCEPTED => self.finish(i, Ok("ACCEPTED")),
+            MavResult::MAV_RESULT_IN_PROGRESS => {
+                op.state = State::Sent {
+                    deadline: now + timing.in_progress_timeout,
+                    in_progress: true,
+                };
+            }
+            MavResult::MAV_RESULT_TEMPORARILY_REJECTED if op.rejected < timing.rejected_retries => {
+                op.rejected += 1;
+                op.state = State::Pausing {
+                    until: now + timing.ack_timeout,
+                };
+            }
+            MavResult::MAV_RESULT_UNSUPPORTED
+                if matches!(
+                    op.spec.as_ref().map(|s| s.fallback),
+                    Some(Fallback::MissionSetCurrent(_))
+                ) =>
+            {
+                let Some(Fallback::MissionSetCurrent(seq)) = op.spec.as_ref().map(|s| s.fallback)
+                else {
+                    return;
+                };
+                op.sends = 1;
+                op.timeouts = 0;
+                op.state = State::SetCurrent {
+                    seq,
+                    deadline: now + timing.ack_timeout,
+                };
+                self.send_set_current(seq);
+            }
+            MavResult::MAV_RESULT_COMMAND_INT_ONLY | MavResult::MAV_RESULT_COMMAND_LONG_ONLY
+                if !op.switched =>
+            {
+                op.switched = true;
+                if let Some(spec) = op.spec.as_mut() {
+                    spec.int = match spec.int {
+                        Some(_) => None,
+                        None => Some(super::plan::IntPosition {
+                            frame: mavlink::dialects::ardupilotmega::MavFrame::MAV_FRAME_GLOBAL,
+                            x: (spec.params[4] * 1e7) as i32,
+                            y: (spec.params[5] * 1e7) as i32,
+                        }),
+                    };
+                }
+                self.transmit_op(i, now);
+            }
+            other => self.finish(i, Err(result_name(other))),
+        }
+    }
+
+    #[allow(deprecated)] // MISSION_SET_CURRENT is the fallback
+    fn send_set_current(&mut self, seq: u16) {
+        if let Some((system, component)) = self.target {
+            self.transmit
+                .push_back(MavMessage::MISSION_SET_CURRENT(MISSION_SET_CURRENT_DATA {
+                    seq,
+                    target_system: system,
+                    target_component: component,
+                }));
+        }
+    }
+
+    fn on_mission_current(&mut self, current: u16) {
+        if let Some(i) = self
+            .ops
+            .iter()
+            .position(|o| matches!(o.state, State::SetCurrent { seq, .. } if seq == current))
+        {
+            self.finish(i, Ok("MISSION_CURRENT"));
+        }
+    }
+
+    fn on_mission_request(&mut self, seq: u16, to: u8, kind: MavMissionType, now: Micros) {
+        if kind != MavMissionType::MAV_MISSION_TYPE_MISSION || !self.for_us(to, 0) {
+            return;
+        }
+        if let Some(upload) = self.missions.front_mut().and_then(|j| j.upload.as_mut()) {
+            let step = upload.request(seq, now);
+            self.mission_step(step);
+        }
+    }
+
+    fn mission_step(&mut self, step: Step) {
+        match step {
+            Step::Wait => {}
+            Step::Send(m) => self.transmit.push_back(m),
+            Step::Done { count } => {
+                if let Some(job) = self.missions.pop_front() {
+                    let mut params = Params::new();
+                    params.insert("result".into(), Value::Str("ACCEPTED".into()));
+                    params.insert("count".into(), Value::Int(count as i64));
+                    self.outcomes.push_back((job.id, Outcome::Done(params)));
+                }
+            }
+            Step::Failed { reason, send } => {
+                if let Some(m) = send {
+                    self.transmit.push_back(m);
+                }
+                if let Some(job) = self.missions.pop_front() {
+                    self.outcomes.push_back((job.id, Outcome::Failed(reason)));
+                }
+            }
+        }
+    }
+
+    /// Ends op `i`: reports it (nets) or records it (streams).
+    fn finish(&mut self, i: usize, result: Result<&str, String>) {
+        let op = self.ops.remove(i);
+        match op.origin {
+            Origin::Net(id) => {
+                if !op.silent {
+                    let outcome = match result {
+                        Ok(r) => done(r),
+                        Err(reason) => Outcome::Failed(reason),
+                    };
+                    self.outcomes.push_back((id, outcome));
+                }
+            }
+            Origin::Stream { message } => {
+                if let Err(reason) = result {
+                    tracing::info!(message, %reason, "SET_MESSAGE_INTERVAL refused: falling back to REQUEST_DATA_STREAM");
+                    self.stream_fallback.insert(message);
+                    if reason != "FAILED" {
+                        // UNSUPPORTED, DENIED, or no answer: the autopilot
+                        // does not do it at all.
+                        self.interval_unsupported = true;
+                        let rest: Vec<u32> = self
+                            .ops
+                            .iter()
+                            .filter_map(|o| match o.origin {
+                                Origin::Stream { message } if !o.in_flight() => Some(message),
+                                _ => None,
+                            })
+                            .collect();
+                        self.stream_fallback.extend(rest);
+                        self.ops.retain(|o| {
+                            !matches!(o.origin, Origin::Stream { .. }) || o.in_flight()
+                        });
+                    }
+                }
+                let streams_left = self
+                    .ops
+                    .iter()
+                    .any(|o| matches!(o.origin, Origin::Stream { .. }));
+                if !streams_left && !self.stream_fallback.is_empty() {
+                    self.send_data_streams();
+                }
+            }
+        }
+    }
+
+    fn transmit_op(&mut self, i: usize, now: Micros) {
+        let timing = self.config.timing;
+        let Some((system, _)) = self.target else {
+            return;
+        };
+        let op = &mut self.ops[i];
+        let Some(spec) = op.spec.as_ref() else {
+            return;
+        };
+        let confirmation = op.sends;
+        let p = spec.params;
+        let message = match spec.int {
+            None => MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+                param1: p[0],
+                param2: p[1],
+                param3: p[2],
+                param4: p[3],
+                param5: p[4],
+                param6: p[5],
+                param7: p[6],
+                command: spec.command,
+                target_system: system,
+                target_component: spec.component,
+                confirmation,
+            }),
+            Some(pos) => MavMessage::COMMAND_INT(COMMAND_INT_DATA {
+                param1: p[0],
+                param2: p[1],
+                param3: p[2],
+                param4: p[3],
+                x: pos.x,
+                y: pos.y,
+                z: p[6],
+                command: spec.command,
+                target_system: system,
+                target_component: spec.component,
+                frame: pos.frame,
+                current: 0,
+                autocontinue: 0,
+            }),
+        };
+        op.sends = op.sends.saturating_add(1);
+        op.state = State::Sent {
+            deadline: now + timing.ack_timeout,
+            in_progress: false,
+        };
+        self.transmit.push_back(message);
+    }
+
+    /// Time passes: heartbeats, retries, timeouts, link loss.
+    pub fn tick(&mut self, now: Micros) {
+        let now = self.clock(now);
+        self.pump(now);
+    }
+
+    fn pump(&mut self, now: Micros) {
+        let timing = self.config.timing;
+        // Heartbeat.
+        if self.identity().is_some() {
+            let due = *self.next_heartbeat.get_or_insert(now);
+            if now >= due {
+                self.transmit
+                    .push_back(MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                        custom_mode: 0,
+                        mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+                        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+                        base_mode: MavModeFlag::empty(),
+                        system_status: MavState::MAV_STATE_ACTIVE,
+                        mavlink_version: 3,
+                    }));
+                let next = due + timing.heartbeat_period;
+                self.next_heartbeat = Some(if next <= now {
+                    now + timing.heartbeat_period
+                } else {
+                    next
+                });
+            }
+        }
+        // Link loss.
+        if let Some(heard) = self.last_heard {
+            if !self.link_lost && now >= heard + timing.link_timeout {
+                tracing::warn!("autopilot silent: link lost");
+                self.link_lost = true;
+            }
+        }
+        // Deadlines of commands in flight.
+        let mut i = 0;
+        while i < self.ops.len() {
+            let retries = match self.ops[i].origin {
+                Origin::Net(_) => timing.retries,
+                Origin::Stream { .. } => STREAM_RETRIES,
+            };
+            let op = &mut self.ops[i];
+            match op.state {
+                State::Sent {
+                    deadline,
+                    in_progress,
+                } if now >= deadline => {
+                    if op.silent {
+                        self.ops.remove(i);
+                        continue;
+                    }
+                    if in_progress || op.timeouts >= retries {
+                        self.finish(i, Err("timeout".into()));
+                        continue;
+                    }
+                    op.timeouts += 1;
+                    self.transmit_op(i, now);
+                }
+                State::Pausing { until } if now >= until => {
+                    if op.silent {
+                        self.ops.remove(i);
+                        continue;
+                    }
+                    self.transmit_op(i, now);
+                }
+                State::SetCurrent { seq, deadline } if now >= deadline => {
+                    if op.silent {
+                        self.ops.remove(i);
+                        continue;
+                    }
+                    if op.timeouts >= retries {
+                        self.finish(i, Err("timeout".into()));
+                        continue;
+                    }
+                    op.timeouts += 1;
+                    op.state = State::SetCurrent {
+                        seq,
+                        deadline: now + timing.ack_timeout,
+                    };
+                    self.send_set_current(seq);
+                }
+                _ => {}
+            }
+            i += 1;
+        }
+        // Commands waiting for the vehicle or for their MAV_CMD to be free.
+        let budget = timing.ack_timeout * (timing.retries as u64 + 1);
+        let mut i = 0;
+        while i < self.ops.len() {
+            if self.ops[i].in_flight() {
+                i += 1;
+                continue;
+            }
+            let (Some(target), Some(firmware)) = (self.target, self.firmware) else {
+                if now >= self.ops[i].issued + budget {
+                    self.finish(i, Err("no_vehicle".into()));
+                    continue;
+                }
+                i += 1;
+                continue;
+            };
+            if self.ops[i].spec.is_none() {
+                let ctx = Context {
+                    firmware,
+                    autopilot: target.1,
+                    payloads: &self.config.payloads,
+                    home_amsl: self.home_amsl,
+                    relative_alt: self.relative_alt,
+                };
+                match plan(&self.ops[i].request, &ctx) {
+                    Ok(Plan::Command(spec)) => self.ops[i].spec = Some(spec),
+                    Ok(Plan::Mission) | Err(_) => {
+                        let reason = match plan(&self.ops[i].request, &ctx) {
+                            Err(r) => r,
+                            _ => "upload_mission is not a command".into(),
+                        };
+                        self.finish(i, Err(reason));
+                        continue;
+                    }
+                }
+            }
+            let key = self.ops[i].key();
+            let busy = self.ops.iter().any(|o| o.in_flight() && o.key() == key);
+            if !busy {
+                self.transmit_op(i, now);
+            }
+            i += 1;
+        }
+        // Mission uploads, one at a time.
+        while let Some(job) = self.missions.front_mut() {
+            if let Some(upload) = job.upload.as_mut() {
+                let step = upload.tick(now);
+                let finished = matches!(step, Step::Done { .. } | Step::Failed { .. });
+                self.mission_step(step);
+                if finished {
+                    continue;
+                }
+                break;
+            }
+            let (Some(target), Some(firmware)) = (self.target, self.firmware) else {
+                if now >= job.issued + budget {
+                    let id = job.id;
+                    self.missions.pop_front();
+                    self.outcomes
+                        .push_back((id, Outcome::Failed("no_vehicle".into())));
+                    continue;
+                }
+                break;
+            };
+            let Request::UploadMission { items } = &job.request else {
+                self.missions.pop_front();
+                continue;
+            };
+            match build_items(items, firmware, self.home, target) {
+                Ok(items) => {
+                    let (upload, count) = Upload::start(
+                        items,
+                        target,
+                        now,
+                        timing.ack_timeout,
+                        timing.mission_retries,
+                    );
+                    job.upload = Some(upload);
+                    self.transmit.push_back(count);
+                    break;
+                }
+                Err(reason) => {
+                    let id = job.id;
+                    self.missions.pop_front();
+                    self.outcomes.push_back((id, Outcome::Failed(reason)));
+                }
+            }
+        }
+    }
+
+    /// The next message to send to the vehicle, under `identity()`.
+    pub fn poll_transmit(&mut self) -> Option<MavMessage> {
+        self.transmit.pop_front()
+    }
+
+    /// The next outcome for the nets: `(command id, Done | Failed)`.
+    pub fn poll_outcome(&mut self) -> Option<(u64, Outcome)> {
+        self.outcomes.pop_front()
+    }
+
+    /// When `tick` must be called next at the latest.
+    pub fn next_deadline(&self) -> Option<Micros> {
+        let timing = self.config.timing;
+        let budget = timing.ack_timeout * (timing.retries as u64 + 1);
+        let mut next: Option<Micros> = None;
+        let mut at = |t: Micros| next = Some(next.map_or(t, |n: Micros| n.min(t)));
+        if self.identity().is_some() {
+            at(self.next_heartbeat.unwrap_or(self.now));
+        }
+        if let (Some(heard), false) = (self.last_heard, self.link_lost) {
+            at(heard + timing.link_timeout);
+        }
+        for op in &self.ops {
+            match op.state {
+                State::Sent { deadline, .. } | State::SetCurrent { deadline, .. } => at(deadline),
+                State::Pausing { until } => at(until),
+                State::Waiting if self.target.is_none() => at(op.issued + budget),
+                State::Waiting => {}
+            }
+        }
+        if let Some(job) = self.missions.front() {
+            match &job.upload {
+                Some(u) => at(u.deadline()),
+                None if self.target.is_none() => at(job.issued + budget),
+                None => at(self.now),
+            }
+        }
+        next
+    }
+}

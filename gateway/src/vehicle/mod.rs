@@ -1,0 +1,42 @@
+//! The vehicle side of the gateway: the nets' `command` effects turned
+//! into MAVLink for ArduPilot and PX4, and the autopilot's answers turned
+//! into outcomes. Sans-IO (quinn-proto style): no clock, no sockets; time
+//! is `nets::Micros` given by the caller. The link itself is `crate::link`.
+//! The verb table, retry rules and the `[gateway]` keys: docs/vehicle.md.
+//!
+//! # Using it
+//!
+//! ```text
+//! let config = config::VehicleConfig::from_gateway_table(&project_toml["gateway"])?;
+//! let mut commander = commander::Commander::new(config);
+//! commander.request_streams(&[(33, 4.0), (1, 2.0)], now);   // ids and Hz from the profile
+//! loop {
+//!     // 1. everything received:     commander.message(now, &header, &message);
+//!     // 2. every Effect::Command:   commander.command(id, &verb, &args, now);
+//!     //    every Effect::Forgotten: commander.forget(id);
+//!     // 3. when nothing arrives:    commander.tick(now)  (at next_deadline() at the latest)
+//!     // 4. drain, after each of the above:
+//!     //    while let Some(m) = commander.poll_transmit() { writer.send(commander.identity(), &m) }
+//!     //    while let Some((id, outcome)) = commander.poll_outcome() { player.result(id, outcome, now) }
+//! }
+//! ```
+//!
+//! The commander learns the autopilot (system, component, firmware) from
+//! its first HEARTBEAT unless configured, and speaks as the vehicle's
+//! system id, component 191, with a 1 Hz HEARTBEAT as
+//! MAV_TYPE_ONBOARD_CONTROLLER / MAV_AUTOPILOT_INVALID. Nothing is
+//! transmitted before it knows the system id (`identity()`).
+
+// Wired into `petrel run` by the lead; until then the binary does not call it.
+#![allow(dead_code)]
+
+pub mod commander;
+pub mod config;
+pub mod mission;
+pub mod modes;
+pub mod plan;
+pub mod request;
+pub mod streams;
+
+#[cfg(test)]
+mod tests;
