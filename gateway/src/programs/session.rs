@@ -1,0 +1,414 @@
+//! The sans-IO core of one program connection: fed the bytes the program
+//! sends and the calls the nets make, polled for lines to send, outcomes of
+//! calls and events. Every protocol rule lives here and is tested without a
+//! socket; the time is an input (`now`), never read.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::sync::Arc;
+use std::time::Instant;
+
+use nets::{Category, Event, Outcome, Params, Value};
+
+use super::protocol::{self, Incoming, MAX_LINE};
+use super::roster::Roster;
+
+/// Name of the event a lost program becomes.
+pub const PROGRAM_LOST: &str = "program_lost";
+/// Reasons of failed outcomes the gateway gives itself.
+pub const REASON_LOST: &str = "program lost";
+pub const REASON_TIMEOUT: &str = "timeout";
+pub const REASON_NOT_CONNECTED: &str = "not connected";
+
+/// How many settled call ids (timed out or forgotten) a session remembers,
+/// so that their late replies are ignored rather than answered with an error.
+const SETTLED_MEMORY: usize = 1024;
+
+/// What a session asks of its connection, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Output {
+    /// A line to send to the program (no newline).
+    Send(String),
+    /// A line the program sent (the traffic record; lossy UTF-8).
+    Received(String),
+    /// The program said hello and was accepted as this program.
+    Hello { program: usize },
+    /// The outcome of a call.
+    Outcome { id: u64, outcome: Outcome },
+    /// An event the program sent on its own.
+    Event(Event),
+    /// A reply came for a call that had timed out or was forgotten: ignored.
+    Late { id: u64 },
+    /// Close the connection (after sending what was queued).
+    Close { reason: String },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum State {
+    /// Waiting for the hello.
+    Greeting,
+    /// Identified as this program.
+    Ready(usize),
+    Closed,
+}
+
+#[derive(Debug, Clone)]
+struct Pending {
+    function: usize,
+    deadline: Instant,
+}
+
+/// One connection's protocol state.
+#[derive(Debug)]
+pub struct Session {
+    roster: Arc<Roster>,
+    state: State,
+    /// Lines received so far (the number of the line being read is one more).
+    lines: u64,
+    buffer: Vec<u8>,
+    /// Inside a line longer than [`MAX_LINE`]: dropping bytes up to its end.
+    discarding: bool,
+    pending: BTreeMap<u64, Pending>,
+    settled: VecDeque<u64>,
+    outputs: VecDeque<Output>,
+}
+
+impl Session {
+    pub fn new(roster: Arc<Roster>) -> Session {
+        Session {
+            roster,
+            state: State::Greeting,
+            lines: 0,
+            buffer: Vec::new(),
+            discarding: false,
+            pending: BTreeMap::new(),
+            settled: VecDeque::new(),
+            outputs: VecDeque::new(),
+        }
+    }
+
+    /// The program this connection is, once its hello was accepted.
+    pub fn program(&self) -> Option<usize> {
+        match self.state {
+            State::Ready(p) => Some(p),
+            _ => None,
+        }
+    }
+
+    pub fn is_closed(&self) -> bool {
+        self.state == State::Closed
+    }
+
+    /// Calls waiting for their reply.
+    pub fn pending(&self) -> usize {
+        self.pending.len()
+    }
+
+    /// The next output, in order.
+    pub fn poll(&mut self) -> Option<Output> {
+        self.outputs.pop_front()
+    }
+
+    /// Feeds bytes the program sent. `taken(program)` tells whether another
+    /// connection already is that program (its hello is then refused).
+    pub fn feed(&mut self, mut bytes: &[u8], taken: impl Fn(usize) -> bool) {
+        while !bytes.is_empty() && self.state != State::Closed {
+            let newline = bytes.iter().position(|&b| b == b'\n');
+            let (chunk, rest) = match newline {
+                Some(i) => (&bytes[..i], &bytes[i + 1..]),
+                None => (bytes, &[][..]),
+            };
+            bytes = rest;
+            if !self.discarding {
+                if self.buffer.len() + chunk.len() > MAX_LINE {
+                    self.lines += 1;
+                    self.discarding = true;
+                    self.buffer.clear();
+                    self.outputs.push_back(Output::Received(format!(
+                        "<a line longer than {MAX_LINE} bytes, discarded>"
+                    )));
+                    self.error(&format!(
+                        "line longer than {MAX_LINE} bytes: discarded up to its end"
+                    ));
+                } else {
+                    self.buffer.extend_from_slice(chunk);
+                }
+            }
+            if newline.is_some() {
+                if self.discarding {
+                    self.discarding = false;
+                } else {
+                    let line = std::mem::take(&mut self.buffer);
+                    self.lines += 1;
+                    self.line(&line, &taken);
+                }
+            }
+        }
+    }
+
+    fn error(&mut self, message: &str) {
+        self.outputs
+            .push_back(Output::Send(protocol::error(message, self.lines)));
+    }
+
+    fn line(&mut self, raw: &[u8], taken: &impl Fn(usize) -> bool) {
+        let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
+        self.outputs
+            .push_back(Output::Received(String::from_utf8_lossy(raw).into_owned()));
+        let Ok(text) = std::str::from_utf8(raw) else {
+            return self.error("not UTF-8");
+        };
+        if text.trim().is_empty() {
+            return;
+        }
+        let incoming = match protocol::parse(text) {
+            Ok(i) => i,
+            Err(message) => return self.error(&message),
+        };
+        match (incoming, self.state) {
+            (Incoming::Hello { program, functions }, State::Greeting) => {
+                self.hello(&program, &functions, taken)
+            }
+            (Incoming::Hello { .. }, _) => {
+                self.error("hello again: this connection already said hello")
+            }
+            (_, State::Greeting) => {
+                self.error("say hello first: {\"hello\": NAME, \"functions\": [...]}")
+            }
+            (Incoming::Done { id, params }, State::Ready(p)) => self.done(p, id, params),
+            (Incoming::Failed { id, reason }, State::Ready(_)) => {
+                if self.settle(id) {
+                    self.outputs.push_back(Output::Outcome {
+                        id,
+                        outcome: Outcome::Failed(reason),
+                    });
+                }
+            }
+            (Incoming::Event { name, params }, State::Ready(_)) => self.event(name, params),
+            (_, State::Closed) => {}
+        }
+    }
+
+    fn hello(&mut self, name: &str, functions: &[String], taken: &impl Fn(usize) -> bool) {
+        let roster = Arc::clone(&self.roster);
+        let Some(program) = roster.program(name) else {
+            let known: Vec<&str> = roster
+                .project
+                .programs
+                .iter()
+                .map(|p| p.name.as_str())
+                .collect();
+            return self.refuse(&format!(
+                "unknown program `{name}`: the project declares {}",
+                if known.is_empty() {
+                    "none".to_owned()
+                } else {
+                    known.join(", ")
+                }
+            ));
+        };
+        let missing: Vec<&str> = roster
+            .called_names(program)
+            .into_iter()
+            .filter(|f| !functions.iter().any(|s| s == f))
+            .collect();
+        if !missing.is_empty() {
+            return self.refuse(&format!(
+                "program `{name}` does not serve {}, which the nets call",
+                missing.join(", ")
+            ));
+        }
+        if taken(program) {
+            return self.refuse(&format!("program `{name}` is already connected"));
+        }
+        self.state = State::Ready(program);
+        self.outputs.push_back(Output::Send(protocol::welcome(
+            name,
+            &roster.called_names(program),
+        )));
+        self.outputs.push_back(Output::Hello { program });
+    }
+
+    /// Refuses the connection: an error reply, then close.
+    fn refuse(&mut self, message: &str) {
+        self.error(message);
+        self.state = State::Closed;
+        self.outputs.push_back(Output::Close {
+            reason: message.to_owned(),
+        });
+    }
+
+    /// Removes a pending call answered now; false (with an error reply, or
+    /// a `Late` output for a settled call) if it was not pending.
+    fn settle(&mut self, id: u64) -> bool {
+        if self.pending.remove(&id).is_some() {
+            return true;
+        }
+        if self.settled.contains(&id) {
+            self.outputs.push_back(Output::Late { id });
+        } else {
+            self.error(&format!("reply to call {id}, which is not pending"));
+        }
+        false
+    }
+
+    fn done(&mut self, program: usize, id: u64, params: Params) {
+        if let Some(pending) = self.pending.get(&id) {
+            let roster = Arc::clone(&self.roster);
+            let function = &roster.project.programs[program].functions[pending.function];
+            let missing: Vec<&str> = function
+                .returns
+                .iter()
+                .filter(|r| !params.contains_key(*r))
+                .map(String::as_str)
+                .collect();
+            let unknown: Vec<&str> = params
+                .keys()
+                .filter(|k| !function.returns.contains(k))
+                .map(String::as_str)
+                .collect();
+            if !missing.is_empty() || !unknown.is_empty() {
+                let mut why = Vec::new();
+                if !missing.is_empty() {
+                    why.push(format!("missing {}", missing.join(", ")));
+                }
+                if !unknown.is_empty() {
+                    why.push(format!("unknown {}", unknown.join(", ")));
+                }
+                return self.error(&format!(
+                    "reply to call {id}: {}.{} returns [{}]: {}",
+                    roster.name(program),
+                    function.name,
+                    function.returns.join(", "),
+                    why.join("; ")
+                ));
+            }
+        }
+        if self.settle(id) {
+            self.outputs.push_back(Output::Outcome {
+                id,
+                outcome: Outcome::Done(params),
+            });
+        }
+    }
+
+    fn event(&mut self, name: String, params: Params) {
+        let identifier = name
+            .chars()
+            .next()
+            .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+            && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+        if !identifier {
+            return self.error(&format!(
+                "event name {name:?}: letters, digits and `_` only (names with `.` are results)"
+            ));
+        }
+        if name == PROGRAM_LOST || name == nets::model::names::NET_FAULT {
+            return self.error(&format!("event `{name}` is the gateway's own"));
+        }
+        let decl = self.roster.project.events.get(&name);
+        if let Some(declared) = decl.and_then(|d| d.params.as_ref()) {
+            if let Some(unknown) = params.keys().find(|k| !declared.contains(k)) {
+                return self.error(&format!(
+                    "event `{name}` has no parameter `{unknown}` (declared: {})",
+                    declared.join(", ")
+                ));
+            }
+        }
+        let category = decl.and_then(|d| d.category).unwrap_or(Category::Nominal);
+        self.outputs.push_back(Output::Event(Event {
+            name,
+            category,
+            params,
+        }));
+    }
+
+    /// Sends a call. False if the session is not ready (no hello yet, or
+    /// closed): the caller fails it.
+    pub fn call(&mut self, id: u64, function: usize, args: &Params, now: Instant) -> bool {
+        let State::Ready(program) = self.state else {
+            return false;
+        };
+        let roster = Arc::clone(&self.roster);
+        let timeout = roster.settings[program].timeout;
+        self.outputs.push_back(Output::Send(protocol::call(
+            id,
+            roster.function_name(program, function),
+            args,
+        )));
+        self.pending.insert(
+            id,
+            Pending {
+                function,
+                deadline: now + timeout,
+            },
+        );
+        true
+    }
+
+    /// Forgets a pending call (its net was deactivated): no outcome, and a
+    /// late reply is ignored. False if it was not pending here.
+    pub fn forget(&mut self, id: u64) -> bool {
+        let known = self.pending.remove(&id).is_some();
+        if known {
+            self.remember(id);
+        }
+        known
+    }
+
+    fn remember(&mut self, id: u64) {
+        if self.settled.len() == SETTLED_MEMORY {
+            self.settled.pop_front();
+        }
+        self.settled.push_back(id);
+    }
+
+    /// The earliest instant a pending call times out.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.pending.values().map(|p| p.deadline).min()
+    }
+
+    /// Fails the calls whose deadline is past with reason "timeout".
+    pub fn handle_timeout(&mut self, now: Instant) {
+        let expired: Vec<u64> = self
+            .pending
+            .iter()
+            .filter(|(_, p)| p.deadline <= now)
+            .map(|(&id, _)| id)
+            .collect();
+        for id in expired {
+            self.pending.remove(&id);
+            self.remember(id);
+            self.outputs.push_back(Output::Outcome {
+                id,
+                outcome: Outcome::Failed(REASON_TIMEOUT.into()),
+            });
+        }
+    }
+
+    /// The connection is gone: every pending call fails with "program lost".
+    pub fn lost(&mut self) {
+        self.state = State::Closed;
+        for id in std::mem::take(&mut self.pending).into_keys() {
+            self.outputs.push_back(Output::Outcome {
+                id,
+                outcome: Outcome::Failed(REASON_LOST.into()),
+            });
+        }
+    }
+}
+
+/// The event a lost program becomes: `program_lost {name}`, in the category
+/// the project declares (nominal otherwise).
+pub fn lost_event(project: &nets::Project, program: &str) -> Event {
+    let category = project
+        .events
+        .get(PROGRAM_LOST)
+        .and_then(|d| d.category)
+        .unwrap_or(Category::Nominal);
+    Event::new(PROGRAM_LOST)
+        .category(category)
+        .param("name", Value::Str(program.to_owned()))
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,1 @@
+//! Program skeletons (`petrel stubs`).
