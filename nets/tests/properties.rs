@@ -216,3 +216,55 @@ proptest! {
         }
     }
 }
+
+fn example_texts() -> Vec<(String, String)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-survey");
+    ["project.toml", "mission.toml", "events.toml"]
+        .iter()
+        .map(|n| {
+            (
+                n.to_string(),
+                std::fs::read_to_string(dir.join(n)).expect("example"),
+            )
+        })
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+
+    /// Loading never panics: the example's files with random bytes cut,
+    /// replaced or inserted, and wholly random text.
+    #[test]
+    fn loading_never_panics(
+        file in 0usize..3,
+        edits in prop::collection::vec((any::<prop::sample::Index>(), 0usize..3, "[ -~\n]{0,8}"), 1..6),
+        garbage in "\\PC{0,200}",
+    ) {
+        let mut files = example_texts();
+        let text = &mut files[file].1;
+        for (at, kind, s) in &edits {
+            let mut chars: Vec<char> = text.chars().collect();
+            let i = at.index(chars.len().max(1)).min(chars.len());
+            match kind {
+                0 => { chars.splice(i..(i + s.len()).min(chars.len()), std::iter::empty()); }
+                1 => { chars.splice(i..(i + s.chars().count()).min(chars.len()), s.chars()); }
+                _ => { chars.splice(i..i, s.chars()); }
+            }
+            *text = chars.into_iter().collect();
+        }
+        let map: BTreeMap<String, String> = files.iter().cloned().collect();
+        let _ = nets::load(&map);
+        let mut garbage_files = example_texts();
+        garbage_files[file].1 = garbage.clone();
+        let map: BTreeMap<String, String> = garbage_files.into_iter().collect();
+        let _ = nets::load(&map);
+        // And every problem reported has a position inside its file.
+        if let Err(e) = nets::load(&map) {
+            for p in &e.problems {
+                let (line, col) = p.line_col();
+                prop_assert!(line >= 1 && col >= 1);
+            }
+        }
+    }
+}
