@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 
 mod cli;
 mod link;
+mod programs;
 mod project;
 mod supervisor;
 mod vehicle;
