@@ -63,13 +63,14 @@ fn main() {
     divan::main();
 }
 
-fn bench(bencher: Bencher, name: &str, states: u64, threads: usize) {
+fn bench(bencher: Bencher, name: &str, states: u64, threads: usize, partition_by_places: bool) {
     let Some(net) = load(name) else { return };
     bencher.counter(ItemsCount::new(states)).bench(|| {
         let x = explore(
             &net,
             &Options {
                 threads,
+                partition_by_places,
                 ..Options::default()
             },
         );
@@ -80,12 +81,18 @@ fn bench(bencher: Bencher, name: &str, states: u64, threads: usize) {
 
 #[divan::bench(args = NETS, sample_count = 10, sample_size = 1)]
 fn bits_one_thread(bencher: Bencher, net: (&str, u64)) {
-    bench(bencher, net.0, net.1, 1);
+    bench(bencher, net.0, net.1, 1, true);
 }
 
 #[divan::bench(args = NETS, sample_count = 10, sample_size = 1)]
 fn bits_two_threads(bencher: Bencher, net: (&str, u64)) {
-    bench(bencher, net.0, net.1, 2);
+    bench(bencher, net.0, net.1, 2, true);
+}
+
+/// Two threads, markings split by hash (half the successors cross).
+#[divan::bench(args = NETS, sample_count = 10, sample_size = 1)]
+fn bits_two_threads_by_hash(bencher: Bencher, net: (&str, u64)) {
+    bench(bencher, net.0, net.1, 2, false);
 }
 
 /// The baseline: the plain `HashMap<Vec<u32>, _>` breadth-first search.

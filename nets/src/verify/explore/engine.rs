@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
 use std::sync::{Barrier, Mutex, MutexGuard};
 
 use super::semantics::{load_words, mix, push_words, to_words, Semantics, Stop};
-use super::store::{Inserted, Store, NO_PARENT};
+use super::store::{Inserted, Store};
 
 /// Bits of a state id naming its partition (so at most 16 threads).
 pub const PART_BITS: u32 = 4;
@@ -110,6 +110,9 @@ pub struct Run<S> {
     pub full: bool,
     /// Transitions that fired somewhere (one flag each).
     pub fired: Vec<bool>,
+    /// For each partition, where each breadth-first level starts (markings
+    /// are stored level after level).
+    pub levels: Vec<Vec<u32>>,
 }
 
 impl<S: Semantics> Run<S> {
@@ -122,9 +125,25 @@ impl<S: Semantics> Run<S> {
         self.stores[p].get(l)
     }
 
-    pub fn parent(&self, id: u32) -> Option<u32> {
+    /// The breadth-first level (distance from the initial marking) of `id`.
+    pub fn level(&self, id: u32) -> usize {
         let (p, l) = split_id(id);
-        Some(self.stores[p].parent(l)).filter(|&q| q != NO_PARENT)
+        self.levels[p]
+            .partition_point(|&start| start <= l)
+            .saturating_sub(1)
+    }
+
+    /// The ids of the markings of level `k`, all partitions.
+    pub fn level_ids(&self, k: usize) -> impl Iterator<Item = u32> + '_ {
+        self.levels.iter().enumerate().flat_map(move |(p, starts)| {
+            let lo = starts.get(k).copied().unwrap_or(0);
+            let hi = match (starts.get(k), starts.get(k + 1)) {
+                (Some(_), Some(&next)) => next,
+                (Some(_), None) => self.stores[p].len(),
+                _ => 0,
+            };
+            (lo..hi).map(move |l| state_id(p, l))
+        })
     }
 
     /// The id of a stored marking with (mixed) hash `h`.
@@ -148,7 +167,7 @@ struct Shared<'a> {
     n: usize,
     partitioner: &'a Partitioner,
     barrier: Barrier,
-    /// outboxes[from * n + to]: records (marking, hash, parent id).
+    /// outboxes[from * n + to]: records (marking words, hash).
     outboxes: Vec<Mutex<Vec<u8>>>,
     /// The smallest level at which some thread asked to stop.
     stop_level: AtomicU32,
@@ -174,6 +193,7 @@ struct Found {
     full: bool,
     new_since_report: u64,
     fired: Vec<bool>,
+    levels: Vec<u32>,
 }
 
 impl Found {
@@ -205,7 +225,7 @@ pub fn run<S: Semantics>(
     let mut stores: Vec<Store> = (0..n).map(|_| Store::new(sem.width(), limit)).collect();
     let h0 = mix(sem.key(&to_words(initial)));
     let p0 = partitioner.of(initial, h0);
-    stores[p0].insert(initial, h0, NO_PARENT);
+    stores[p0].insert(initial, h0);
     let shared = Shared {
         n,
         partitioner: &partitioner,
@@ -262,6 +282,7 @@ pub fn run<S: Semantics>(
         stop: None,
         full: false,
         fired: Vec::new(),
+        levels: Vec::with_capacity(n),
     };
     let mut dead_at: Option<(u32, u32)> = None;
     let mut unsafe_at: Option<(u32, u32)> = None;
@@ -288,6 +309,7 @@ pub fn run<S: Semantics>(
             }
         }
         run.stores.push(store);
+        run.levels.push(f.levels);
     }
     run.first_dead = dead_at.map(|(_, id)| id);
     if run.first_unsafe.is_none() {
@@ -300,16 +322,14 @@ pub fn run<S: Semantics>(
 /// loaded first, all together (independent loads overlap), then stored.
 const BATCH: usize = 512;
 
-/// Parses a batch record (marking padded to whole words, hash, parent):
-/// the stored marking, its hash, its parent.
+/// Parses a batch record (marking padded to whole words, hash): the stored
+/// marking and its hash.
 #[inline]
-fn parse_record(r: &[u8], width: usize) -> (&[u8], u64, u32) {
-    let at = r.len() - 12;
+fn parse_record(r: &[u8], width: usize) -> (&[u8], u64) {
+    let at = r.len() - 8;
     let mut h = [0u8; 8];
-    h.copy_from_slice(&r[at..at + 8]);
-    let mut p = [0u8; 4];
-    p.copy_from_slice(&r[at + 8..]);
-    (&r[..width], u64::from_le_bytes(h), u32::from_le_bytes(p))
+    h.copy_from_slice(&r[at..]);
+    (&r[..width], u64::from_le_bytes(h))
 }
 
 /// Stores the successors in `batch` that belong to partition `me` and moves
@@ -326,7 +346,7 @@ fn store_batch<S: Semantics>(
     outs: &mut [Vec<u8>],
     level: u32,
 ) -> bool {
-    let record = sem.words() * 8 + 12;
+    let record = sem.words() * 8 + 8;
     let count = batch.len() / record;
     let at = |i: usize| &batch[i * record..(i + 1) * record];
     let part = |r: &[u8], h: u64| partitioner.of(r, h);
@@ -335,23 +355,23 @@ fn store_batch<S: Semantics>(
     const D: usize = 8;
     for i in 0..count + 2 * D {
         if i < count {
-            let (m, h, _) = parse_record(at(i), width);
+            let (m, h) = parse_record(at(i), width);
             if part(m, h) == me {
                 store.prefetch_slot(h);
             }
         }
         if i >= D && i - D < count {
-            let (m, h, _) = parse_record(at(i - D), width);
+            let (m, h) = parse_record(at(i - D), width);
             if part(m, h) == me {
                 store.prefetch_record(h);
             }
         }
         if i >= 2 * D {
             let r = at(i - 2 * D);
-            let (m, h, parent) = parse_record(r, width);
+            let (m, h) = parse_record(r, width);
             let p = part(m, h);
             if p == me {
-                match store.insert(m, h, parent) {
+                match store.insert(m, h) {
                     Inserted::New(index) => f.stored(sem, m, level + 1, index),
                     Inserted::Old(_) => {}
                     Inserted::Full => return false,
@@ -368,7 +388,7 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
     let n = sh.n;
     let width = sem.width();
     let words = sem.words();
-    let record = words * 8 + 12;
+    let record = words * 8 + 8;
     let mut f = Found::default();
     let mut cur = vec![0u64; words];
     let mut child: Vec<u64> = Vec::with_capacity(words);
@@ -377,8 +397,10 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
     let (mut lo, mut level, mut prev_total) = (0u32, 0u32, 1u64);
     let mut expanded = 0u64;
     let mut fired: Vec<bool> = Vec::new();
+    let mut hi;
     loop {
-        let hi = store.len();
+        hi = store.len();
+        f.levels.push(lo);
         let mut index = lo;
         while index < hi {
             if index & 1023 == 0 && sh.stop_level.load(Relaxed) != u32::MAX {
@@ -386,7 +408,6 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
             }
             load_words(store.get(index), &mut cur);
             let key = sem.key(&cur);
-            let parent = state_id(me, index);
             let result = sem.expand(&cur, key, &mut child, |t, m, k| {
                 let t = t as usize;
                 if t >= fired.len() {
@@ -395,7 +416,6 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
                 fired[t] = true;
                 push_words(&mut batch, m);
                 batch.extend_from_slice(&mix(k).to_le_bytes());
-                batch.extend_from_slice(&parent.to_le_bytes());
             });
             match result {
                 Ok(0) => {
@@ -492,6 +512,8 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
         lo = hi;
         level += 1;
     }
+    // where the markings found by the last level expanded start
+    f.levels.push(hi);
     f.fired = fired;
     (store, f)
 }

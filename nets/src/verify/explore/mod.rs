@@ -98,7 +98,7 @@ pub struct Summary {
     pub completion: Completion,
     pub engine: Engine,
     pub threads: usize,
-    /// Memory holding the stored markings, parent links and hash tables.
+    /// Memory holding the stored markings and hash tables.
     pub stored_bytes: u64,
     /// Transitions that fire in no reachable marking.
     pub never_fired: Vec<usize>,
@@ -414,13 +414,30 @@ fn firing_sequence<S: Semantics>(r: &Run<S>, chain: &[u32]) -> Vec<usize> {
         .collect()
 }
 
-/// State ids from the initial marking to `id`.
+/// State ids from the initial marking to `id`: a shortest path, rebuilt
+/// backwards level by level (no parent links are stored): a predecessor of
+/// a marking of level k is a marking of level k - 1 with it as successor.
 fn chain_to<S: Semantics>(r: &Run<S>, id: u32) -> Vec<u32> {
     let mut chain = vec![id];
-    let mut n = id;
-    while let Some(p) = r.parent(n) {
-        chain.push(p);
-        n = p;
+    let mut cur = id;
+    let mut child = Vec::with_capacity(r.sem.words());
+    for k in (0..r.level(id)).rev() {
+        let target = to_words(r.marking(cur));
+        let pred = r.level_ids(k).find(|&p| {
+            let m = to_words(r.marking(p));
+            let mut hit = false;
+            let _ = r.sem.expand(&m, r.sem.key(&m), &mut child, |_, c, _| {
+                hit = hit || c == target.as_slice();
+            });
+            hit
+        });
+        match pred {
+            Some(p) => {
+                chain.push(p);
+                cur = p;
+            }
+            None => break,
+        }
     }
     chain.reverse();
     chain
@@ -518,27 +535,7 @@ fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize) -> Loops {
         .unwrap_or(0);
     // The first-reached node of each cyclic component (smallest depth).
     let n = g.node_count();
-    let mut depth = vec![u32::MAX; n];
-    let mut walk = Vec::new();
-    for v in 0..n as u32 {
-        let mut w = v;
-        while depth[w as usize] == u32::MAX {
-            walk.push(w);
-            match r.parent(g.id(w)) {
-                Some(p) => w = g.dense(p),
-                None => {
-                    let root = walk.pop().unwrap_or(w);
-                    depth[root as usize] = 0;
-                    w = root;
-                }
-            }
-        }
-        let mut d = depth[w as usize];
-        while let Some(x) = walk.pop() {
-            d += 1;
-            depth[x as usize] = d;
-        }
-    }
+    let depth: Vec<u32> = (0..n as u32).map(|v| r.level(g.id(v)) as u32).collect();
     let mut best: Vec<Option<(u32, u32)>> = vec![None; sccs.count()];
     for v in 0..n as u32 {
         let c = sccs.component[v as usize] as usize;

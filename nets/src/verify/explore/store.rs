@@ -1,5 +1,6 @@
-//! Where an exploration keeps its markings: records (marking bytes, then the
-//! parent's id as 4 bytes) back to back in fixed-size chunks, and an open
+//! Where an exploration keeps its markings: their bytes back to back in
+//! fixed-size chunks (no parent links: counterexamples are rebuilt level by
+//! level, see `explore::chain_to`), and an open
 //! addressing hash table of 8-byte entries (32 bits of hash, index + 1)
 //! with full comparison on a hash match. No allocation per state: the first
 //! chunk grows by doubling (small nets stay small), later ones are allocated
@@ -8,11 +9,8 @@
 /// States per chunk of the arena.
 const CHUNK_BITS: u32 = 16;
 const CHUNK: usize = 1 << CHUNK_BITS;
-/// Smallest table (log2 of entries).
-const MIN_TABLE_BITS: u32 = 10;
-
-/// No parent (the initial marking).
-pub const NO_PARENT: u32 = u32::MAX;
+/// Smallest table (entries).
+const MIN_TABLE: usize = 1024;
 
 /// Outcome of [`Store::insert`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -26,11 +24,11 @@ pub enum Inserted {
 /// One partition's markings.
 pub struct Store {
     width: usize,
+    /// Bytes per stored marking (room for more per state later).
     record: usize,
     chunks: Vec<Vec<u8>>,
     len: u32,
     table: Vec<u64>,
-    shift: u32,
     limit: u32,
 }
 
@@ -39,11 +37,10 @@ impl Store {
     pub fn new(width: usize, limit: u32) -> Store {
         Store {
             width,
-            record: width + 4,
+            record: width,
             chunks: Vec::new(),
             len: 0,
-            table: vec![0; 1 << MIN_TABLE_BITS],
-            shift: 32 - MIN_TABLE_BITS,
+            table: vec![0; MIN_TABLE],
             limit,
         }
     }
@@ -68,22 +65,10 @@ impl Store {
         &self.record_at(index)[..self.width]
     }
 
-    /// The parent id recorded with `index` ([`NO_PARENT`] for the first).
-    pub fn parent(&self, index: u32) -> u32 {
-        let r = self.record_at(index);
-        u32::from_le_bytes([
-            r[self.width],
-            r[self.width + 1],
-            r[self.width + 2],
-            r[self.width + 3],
-        ])
-    }
-
     /// The index of `marking` (with hash `hash`) if stored.
     pub fn lookup(&self, marking: &[u8], hash: u64) -> Option<u32> {
         let h = hash as u32;
-        let mask = self.table.len() - 1;
-        let mut slot = (h >> self.shift) as usize;
+        let mut slot = slot_of(h, self.table.len());
         loop {
             let e = self.table[slot];
             if e == 0 {
@@ -92,7 +77,7 @@ impl Store {
             if (e >> 32) as u32 == h && same(self.get(e as u32 - 1), marking) {
                 return Some(e as u32 - 1);
             }
-            slot = (slot + 1) & mask;
+            slot = next_slot(slot, self.table.len());
         }
     }
 
@@ -100,7 +85,7 @@ impl Store {
     /// a batch: the fetches of the whole batch overlap).
     #[inline]
     pub fn prefetch_slot(&self, hash: u64) {
-        prefetch(&self.table[((hash as u32) >> self.shift) as usize]);
+        prefetch(&self.table[slot_of(hash as u32, self.table.len())]);
     }
 
     /// Asks the processor to fetch the first stored record with the same
@@ -108,8 +93,7 @@ impl Store {
     #[inline]
     pub fn prefetch_record(&self, hash: u64) {
         let h = hash as u32;
-        let mask = self.table.len() - 1;
-        let mut slot = (h >> self.shift) as usize;
+        let mut slot = slot_of(h, self.table.len());
         for _ in 0..4 {
             let e = self.table[slot];
             if e == 0 {
@@ -123,17 +107,15 @@ impl Store {
                 }
                 return;
             }
-            slot = (slot + 1) & mask;
+            slot = next_slot(slot, self.table.len());
         }
     }
 
-    /// Stores `marking` (with hash `hash`, reached from `parent`) unless
-    /// already there.
+    /// Stores `marking` (with hash `hash`) unless already there.
     #[inline]
-    pub fn insert(&mut self, marking: &[u8], hash: u64, parent: u32) -> Inserted {
+    pub fn insert(&mut self, marking: &[u8], hash: u64) -> Inserted {
         let h = hash as u32;
-        let mask = self.table.len() - 1;
-        let mut slot = (h >> self.shift) as usize;
+        let mut slot = slot_of(h, self.table.len());
         loop {
             let e = self.table[slot];
             if e == 0 {
@@ -142,7 +124,7 @@ impl Store {
             if (e >> 32) as u32 == h && same(self.get(e as u32 - 1), marking) {
                 return Inserted::Old(e as u32 - 1);
             }
-            slot = (slot + 1) & mask;
+            slot = next_slot(slot, self.table.len());
         }
         if self.len >= self.limit {
             return Inserted::Full;
@@ -165,7 +147,6 @@ impl Store {
             chunk.reserve_exact(more);
         }
         chunk.extend_from_slice(marking);
-        chunk.extend_from_slice(&parent.to_le_bytes());
         self.table[slot] = (u64::from(h) << 32) | u64::from(index + 1);
         self.len += 1;
         if self.len as usize * 4 >= self.table.len() * 3 {
@@ -174,22 +155,37 @@ impl Store {
         Inserted::New(index)
     }
 
+    /// Makes the table half as large again (not twice: less memory left
+    /// unused) and places every entry again.
     fn grow(&mut self) {
-        let bits = 33 - self.shift;
-        let mut table = vec![0u64; 1 << bits];
-        let shift = 32 - bits;
-        let mask = table.len() - 1;
+        let capacity = self.table.len() + self.table.len() / 2;
+        let mut table = vec![0u64; capacity];
         for &e in &self.table {
             if e != 0 {
-                let mut slot = (((e >> 32) as u32) >> shift) as usize;
+                let mut slot = slot_of((e >> 32) as u32, capacity);
                 while table[slot] != 0 {
-                    slot = (slot + 1) & mask;
+                    slot = next_slot(slot, capacity);
                 }
                 table[slot] = e;
             }
         }
         self.table = table;
-        self.shift = shift;
+    }
+}
+
+/// The home slot of 32-bit hash `h` in a table of `capacity` entries
+/// (multiply-shift: any capacity, order-preserving).
+#[inline(always)]
+fn slot_of(h: u32, capacity: usize) -> usize {
+    ((u64::from(h) * capacity as u64) >> 32) as usize
+}
+
+#[inline(always)]
+fn next_slot(slot: usize, capacity: usize) -> usize {
+    if slot + 1 == capacity {
+        0
+    } else {
+        slot + 1
     }
 }
 
@@ -242,16 +238,15 @@ mod tests {
             let m = i.to_le_bytes();
             // a poor hash on purpose: pairs of equal hashes
             let h = u64::from(i % 50_000).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-            assert_eq!(s.insert(&m[..3], h, i.wrapping_sub(1)), Inserted::New(i));
+            assert_eq!(s.insert(&m[..3], h), Inserted::New(i));
         }
         assert_eq!(s.len(), 100_000);
         for i in (0u32..100_000).step_by(7) {
             let m = i.to_le_bytes();
             let h = u64::from(i % 50_000).wrapping_mul(0x9e37_79b9_7f4a_7c15);
             assert_eq!(s.lookup(&m[..3], h), Some(i));
-            assert_eq!(s.insert(&m[..3], h, 5), Inserted::Old(i));
+            assert_eq!(s.insert(&m[..3], h), Inserted::Old(i));
             assert_eq!(s.get(i), &m[..3]);
-            assert_eq!(s.parent(i), i.wrapping_sub(1));
         }
         assert_eq!(s.lookup(&[1, 2, 200], 77), None);
     }
@@ -259,9 +254,9 @@ mod tests {
     #[test]
     fn the_limit_is_kept() {
         let mut s = Store::new(1, 2);
-        assert_eq!(s.insert(&[1], 1, NO_PARENT), Inserted::New(0));
-        assert_eq!(s.insert(&[2], 2, 0), Inserted::New(1));
-        assert_eq!(s.insert(&[3], 3, 0), Inserted::Full);
-        assert_eq!(s.insert(&[2], 2, 0), Inserted::Old(1));
+        assert_eq!(s.insert(&[1], 1), Inserted::New(0));
+        assert_eq!(s.insert(&[2], 2), Inserted::New(1));
+        assert_eq!(s.insert(&[3], 3), Inserted::Full);
+        assert_eq!(s.insert(&[2], 2), Inserted::Old(1));
     }
 }
