@@ -434,3 +434,147 @@ fn senders_are_bounded() {
         512 - elaboration::elaborator::MAX_SOURCES as u64
     );
 }
+
+/// The built-in ArduPilot rules that no shared recording exercises, on a
+/// synthetic armed copter.
+#[test]
+fn builtin_ardupilot_safety_and_catastrophic_rules() {
+    let sensors = |present: MavSysStatusSensor, health: MavSysStatusSensor, remaining: i8| {
+        let mut d = SYS_STATUS_DATA::DEFAULT;
+        d.onboard_control_sensors_present = present;
+        d.onboard_control_sensors_enabled = present;
+        d.onboard_control_sensors_health = health;
+        d.battery_remaining = remaining;
+        MavMessage::SYS_STATUS(d)
+    };
+    let none = MavSysStatusSensor::empty();
+    let fence = MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE;
+    let mut ekf = EKF_STATUS_REPORT_DATA::DEFAULT;
+    ekf.velocity_variance = 0.9;
+    ekf.pos_horiz_variance = 0.9;
+    ekf.compass_variance = 0.1;
+    ekf.flags = EkfStatusFlags::from_bits_retain(0x33f);
+    let mut esc = ESC_TELEMETRY_1_TO_4_DATA::DEFAULT;
+    esc.rpm = [1000, 0, 1100, 1050];
+    let mut battery = BATTERY_STATUS_DATA::DEFAULT;
+    battery.charge_state = MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_CRITICAL;
+    let schedule: Vec<(u64, MavMessage)> = vec![
+        (S, sensors(none, none, 20)),
+        (5 * S, sensors(none, none, 8)),
+        (9 * S, text("Potential Thrust Loss (2)")),
+        (10 * S, MavMessage::EKF_STATUS_REPORT(ekf)),
+        (12 * S, sensors(fence, none, 8)),
+        (13 * S, text("Radio Failsafe")),
+        (14 * S, MavMessage::ESC_TELEMETRY_1_TO_4(esc)),
+        (16 * S, MavMessage::BATTERY_STATUS(battery)),
+    ];
+    let mut elab = Elaborator::new(
+        Profile::builtin("ardupilot").expect("profile"),
+        Config::default(),
+    );
+    let mut out = Vec::new();
+    let mut seq = 0u8;
+    let mut send = |elab: &mut Elaborator, t: u64, msg: &MavMessage| {
+        let bytes = serialize(header(1, 1, seq), MavlinkVersion::V2, msg);
+        seq = seq.wrapping_add(1);
+        elab.frame(t, &Frame::parse(&bytes).expect("frame"));
+    };
+    for step in 0..=36u64 {
+        let t = step * S / 2;
+        if step % 2 == 0 {
+            let status = if t == 17 * S {
+                MavState::MAV_STATE_EMERGENCY
+            } else {
+                MavState::MAV_STATE_ACTIVE
+            };
+            send(&mut elab, t, &heartbeat(true, 5, status));
+        }
+        for (at, msg) in &schedule {
+            if *at == t {
+                send(&mut elab, t, msg);
+            }
+        }
+        elab.drain_into(&mut out);
+    }
+    let got: Vec<(u64, String)> = out.iter().map(|e| (e.time_us, crate::summary(e))).collect();
+    assert_eq!(
+        got,
+        vec![
+            (4 * S, "battery_low {remaining: 20}".into()),
+            (8 * S, "battery_critical {remaining: 8}".into()),
+            (9 * S, "engine_failure {motor: 2}".into()),
+            (11 * S, "ekf_unhealthy".into()),
+            (12 * S, "geofence_breach".into()),
+            (13 * S, "rc_lost".into()),
+            (
+                13 * S,
+                "autopilot_failsafe {text: \"Radio Failsafe\"}".into()
+            ),
+            (15 * S, "engine_failure".into()),
+            (16 * S, "battery_critical {charge_state: 3}".into()),
+            (17 * S, "vehicle_emergency {system_status: 6}".into()),
+        ]
+    );
+    assert!(out.iter().all(|e| (e.sysid, e.compid) == (1, 1)));
+}
+
+/// The built-in PX4 rules on a synthetic PX4 quad: modes by main/sub mode,
+/// takeoff and landing from EXTENDED_SYS_STATE, arming.
+#[test]
+fn builtin_px4_modes_takeoff_and_landing() {
+    let hb = |armed: bool, main: u32, sub: u32| {
+        let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+        if armed {
+            base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+        }
+        MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+            custom_mode: (main << 16) | (sub << 24),
+            mavtype: MavType::MAV_TYPE_QUADROTOR,
+            autopilot: MavAutopilot::MAV_AUTOPILOT_PX4,
+            base_mode: base,
+            system_status: MavState::MAV_STATE_STANDBY,
+            mavlink_version: 3,
+        })
+    };
+    let landed = |state: MavLandedState| {
+        let mut d = EXTENDED_SYS_STATE_DATA::DEFAULT;
+        d.landed_state = state;
+        MavMessage::EXTENDED_SYS_STATE(d)
+    };
+    let mut r = Run {
+        elab: Elaborator::new(Profile::builtin("px4").expect("profile"), Config::default()),
+        seq: 0,
+        out: Vec::new(),
+    };
+    r.send(0, &hb(false, 3, 0));
+    r.send(S / 2, &landed(MavLandedState::MAV_LANDED_STATE_ON_GROUND));
+    r.send(S, &hb(true, 3, 0));
+    r.send(2 * S, &hb(true, 4, 4));
+    r.send(
+        2 * S + S / 2,
+        &landed(MavLandedState::MAV_LANDED_STATE_IN_AIR),
+    );
+    r.send(3 * S, &hb(true, 4, 5));
+    r.send(
+        3 * S + S / 2,
+        &landed(MavLandedState::MAV_LANDED_STATE_ON_GROUND),
+    );
+    r.send(4 * S, &hb(false, 4, 5));
+    assert_eq!(
+        r.names(),
+        vec![
+            (S, "armed {mode: \"POSCTL\"}".into()),
+            (
+                2 * S,
+                "mode_changed {custom_mode: 67371008, mode: \"AUTO_MISSION\"}".into()
+            ),
+            (2 * S + S / 2, "takeoff".into()),
+            (
+                3 * S,
+                "mode_changed {custom_mode: 84148224, mode: \"AUTO_RTL\"}".into()
+            ),
+            (3 * S + S / 2, "landed".into()),
+            (4 * S, "disarmed {mode: \"AUTO_RTL\"}".into()),
+        ]
+    );
+}
