@@ -742,3 +742,100 @@ async fn arducopter_sitl_guided_takeoff_and_land() {
     )
     .await;
 }
+
+fn free_tcp_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free loopback port")
+}
+
+#[tokio::test]
+async fn tcp_link_raw_frames_both_versions_and_reopen() {
+    use mavlink::{AsyncMavConnection, MavHeader, MavlinkVersion};
+    let port = free_tcp_port();
+    let address = format!("tcpin:127.0.0.1:{port}");
+    let from_autopilot = MavHeader {
+        system_id: 1,
+        component_id: 1,
+        sequence: 7,
+    };
+    // The autopilot listens (as SITL does on 5760); the gateway connects out.
+    let listen = {
+        let address = address.clone();
+        tokio::spawn(async move { mavlink::connect_async::<MavMessage>(&address).await })
+    };
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    let origin = std::time::Instant::now();
+    let (mut reader, writer) = link::Link::open(&format!("tcpout:127.0.0.1:{port}"), origin)
+        .await
+        .expect("gateway connects");
+    let mut autopilot = listen
+        .await
+        .expect("listener task")
+        .expect("autopilot accepts");
+    let hb = copter();
+    for version in [MavlinkVersion::V1, MavlinkVersion::V2] {
+        autopilot.set_protocol_version(version);
+        autopilot
+            .send(&from_autopilot, &hb)
+            .await
+            .expect("autopilot sends");
+        let got = tokio::time::timeout(LIMIT, reader.recv())
+            .await
+            .expect("a frame in time")
+            .expect("frame");
+        assert_eq!(got.version, version);
+        assert_eq!(
+            got.bytes,
+            elaboration::frame::serialize(
+                MavHeader {
+                    sequence: got.header.sequence,
+                    ..from_autopilot
+                },
+                version,
+                &hb
+            ),
+            "raw bytes as on the wire"
+        );
+        assert_eq!((got.header.system_id, got.header.component_id), (1, 1));
+        assert_eq!(got.message, Some(hb.clone()));
+        assert!(got.time_us > 0 && got.time_us < origin.elapsed().as_micros() as u64 + 1);
+    }
+    autopilot.set_protocol_version(MavlinkVersion::V2);
+    writer.send((1, 191), &hb).await.expect("gateway sends");
+    let (h, m) = tokio::time::timeout(LIMIT, autopilot.recv())
+        .await
+        .expect("in time")
+        .expect("frame");
+    assert_eq!((h.system_id, h.component_id), (1, 191));
+    assert_eq!(m, hb);
+    // The autopilot goes away and comes back on the same port.
+    drop(autopilot);
+    let reading = tokio::spawn(async move {
+        let r = reader.recv().await;
+        (reader, r)
+    });
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let back = tokio::time::timeout(LIMIT, mavlink::connect_async::<MavMessage>(&address))
+        .await
+        .expect("the gateway reconnects in time")
+        .expect("autopilot accepts again");
+    back.send(&from_autopilot, &hb)
+        .await
+        .expect("autopilot sends again");
+    let (_reader, r) = tokio::time::timeout(LIMIT, reading)
+        .await
+        .expect("in time")
+        .expect("task");
+    assert_eq!(r.expect("frame after reopening").message, Some(hb.clone()));
+    writer
+        .send((1, 191), &hb)
+        .await
+        .expect("the writer uses the new connection");
+    let (h, _) = tokio::time::timeout(LIMIT, back.recv())
+        .await
+        .expect("in time")
+        .expect("frame");
+    assert_eq!(h.component_id, 191);
+}

@@ -15,8 +15,8 @@
 // Wired into `petrel run` by the lead; until then the binary does not call it.
 #![allow(dead_code)]
 
-use std::sync::Arc;
-use std::time::Instant;
+use std::sync::{Arc, RwLock};
+use std::time::{Duration, Instant};
 
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::error::{MessageReadError, MessageWriteError};
@@ -49,9 +49,43 @@ pub enum LinkError {
     Read(#[from] MessageReadError),
     #[error("MAVLink link write failed: {0}")]
     Write(#[from] MessageWriteError),
+    #[error("MAVLink link down (being reopened)")]
+    Down,
 }
 
 type Connection = mavlink::AsyncConnection<MavMessage>;
+
+/// Wait between attempts to reopen a TCP link.
+const REOPEN_WAIT: Duration = Duration::from_millis(500);
+
+struct Shared {
+    address: String,
+    /// `None` while a TCP link is being reopened.
+    connection: RwLock<Option<Arc<Connection>>>,
+}
+
+impl Shared {
+    fn current(&self) -> Option<Arc<Connection>> {
+        match self.connection.read() {
+            Ok(c) => c.clone(),
+            Err(poisoned) => poisoned.into_inner().clone(),
+        }
+    }
+
+    fn set(&self, connection: Option<Arc<Connection>>) {
+        match self.connection.write() {
+            Ok(mut c) => *c = connection,
+            Err(poisoned) => *poisoned.into_inner() = connection,
+        }
+    }
+}
+
+async fn connect(address: &str) -> std::io::Result<Connection> {
+    let mut connection = mavlink::connect_async::<MavMessage>(address).await?;
+    connection.set_allow_recv_any_version(true);
+    connection.set_protocol_version(MavlinkVersion::V2);
+    Ok(connection)
+}
 
 /// Opens links.
 pub struct Link;
@@ -64,39 +98,74 @@ impl Link {
         address: &str,
         origin: Instant,
     ) -> Result<(LinkReader, LinkWriter), LinkError> {
-        let mut connection = mavlink::connect_async::<MavMessage>(address)
-            .await
-            .map_err(|source| LinkError::Open {
-                address: address.to_owned(),
-                source,
-            })?;
-        connection.set_allow_recv_any_version(true);
-        connection.set_protocol_version(MavlinkVersion::V2);
-        let connection = Arc::new(connection);
+        let connection = connect(address).await.map_err(|source| LinkError::Open {
+            address: address.to_owned(),
+            source,
+        })?;
+        let shared = Arc::new(Shared {
+            address: address.to_owned(),
+            connection: RwLock::new(Some(Arc::new(connection))),
+        });
         Ok((
             LinkReader {
-                connection: connection.clone(),
+                shared: shared.clone(),
                 origin,
             },
-            LinkWriter { connection },
+            LinkWriter { shared },
         ))
     }
 }
 
 /// The receiving half. One task reads; the writer may be used meanwhile.
 pub struct LinkReader {
-    connection: Arc<Connection>,
+    shared: Arc<Shared>,
     origin: Instant,
 }
 
 impl LinkReader {
+    fn is_tcp(&self) -> bool {
+        self.shared.address.starts_with("tcp")
+    }
+
     /// The next frame. Frames with a bad checksum or an unknown message id
-    /// are skipped by rust-mavlink. UDP and serial errors are retried by
-    /// rust-mavlink; a TCP error (peer gone) comes back here.
+    /// are skipped by rust-mavlink; UDP and serial errors are retried by
+    /// rust-mavlink. A TCP link that breaks is reopened here (every 0.5 s
+    /// until it comes back; `tcpin:` listens again), so this waits across
+    /// the outage; meanwhile the writer reports `LinkError::Down`.
     pub async fn recv(&mut self) -> Result<Received, LinkError> {
-        let raw = self.connection.recv_raw().await?;
+        loop {
+            let connection = match self.shared.current() {
+                Some(c) => c,
+                None => {
+                    match connect(&self.shared.address).await {
+                        Ok(c) => {
+                            tracing::info!(address = %self.shared.address, "MAVLink link reopened");
+                            self.shared.set(Some(Arc::new(c)));
+                        }
+                        Err(e) => {
+                            tracing::debug!(address = %self.shared.address, error = %e, "MAVLink link still down");
+                            tokio::time::sleep(REOPEN_WAIT).await;
+                        }
+                    }
+                    continue;
+                }
+            };
+            let raw = match connection.recv_raw().await {
+                Ok(raw) => raw,
+                Err(e) if self.is_tcp() => {
+                    tracing::warn!(address = %self.shared.address, error = %e, "MAVLink link broken: reopening");
+                    self.shared.set(None);
+                    continue;
+                }
+                Err(e) => return Err(e.into()),
+            };
+            return Ok(self.received(&raw));
+        }
+    }
+
+    fn received(&self, raw: &MAVLinkMessageRaw) -> Received {
         let time_us = self.origin.elapsed().as_micros() as u64;
-        let (bytes, version) = match &raw {
+        let (bytes, version) = match raw {
             MAVLinkMessageRaw::V1(m) => (m.raw_bytes().to_vec(), MavlinkVersion::V1),
             MAVLinkMessageRaw::V2(m) => (m.raw_bytes().to_vec(), MavlinkVersion::V2),
         };
@@ -108,20 +177,20 @@ impl LinkReader {
         let message = elaboration::Frame::parse(&bytes)
             .ok()
             .and_then(|f| f.decode().ok());
-        Ok(Received {
+        Received {
             time_us,
             bytes,
             version,
             header,
             message,
-        })
+        }
     }
 }
 
 /// The sending half; cheap to clone.
 #[derive(Clone)]
 pub struct LinkWriter {
-    connection: Arc<Connection>,
+    shared: Arc<Shared>,
 }
 
 impl LinkWriter {
@@ -129,11 +198,12 @@ impl LinkWriter {
     /// sequence number is the link's own counter. Returns the bytes written
     /// (0 on `udpin:` before anyone has spoken).
     pub async fn send(&self, from: (u8, u8), message: &MavMessage) -> Result<usize, LinkError> {
+        let connection = self.shared.current().ok_or(LinkError::Down)?;
         let header = MavHeader {
             system_id: from.0 as u32,
             component_id: from.1,
             sequence: 0,
         };
-        Ok(self.connection.send(&header, message).await?)
+        Ok(connection.send(&header, message).await?)
     }
 }

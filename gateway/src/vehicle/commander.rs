@@ -66,6 +66,8 @@ struct Op {
     /// Forgotten by the nets while in flight: it keeps its MAV_CMD busy
     /// until answered or timed out, and reports nothing.
     silent: bool,
+    /// When it was first transmitted.
+    first_sent: Option<Micros>,
 }
 
 impl Op {
@@ -228,6 +230,7 @@ impl Commander {
                 rejected: 0,
                 switched: false,
                 silent: false,
+                first_sent: None,
             });
         }
         self.pump(now);
@@ -309,6 +312,7 @@ impl Commander {
                 rejected: 0,
                 switched: false,
                 silent: false,
+                first_sent: None,
             });
         }
     }
@@ -644,6 +648,7 @@ impl Commander {
             }),
         };
         op.sends = op.sends.saturating_add(1);
+        op.first_sent.get_or_insert(now);
         op.state = State::Sent {
             deadline: now + timing.ack_timeout,
             in_progress: false,
@@ -702,6 +707,23 @@ impl Commander {
                 } if now >= deadline => {
                     if op.silent {
                         self.ops.remove(i);
+                        continue;
+                    }
+                    let heard_since = match (self.last_heard, op.first_sent) {
+                        (Some(heard), Some(sent)) => heard >= sent,
+                        _ => false,
+                    };
+                    if matches!(op.origin, Origin::Stream { .. })
+                        && op.timeouts >= retries
+                        && !heard_since
+                    {
+                        // The autopilot said nothing at all: the link, not
+                        // SET_MESSAGE_INTERVAL, is the problem. Ask again later.
+                        op.state = State::Waiting;
+                        op.sends = 0;
+                        op.timeouts = 0;
+                        op.first_sent = None;
+                        i += 1;
                         continue;
                     }
                     if in_progress || op.timeouts >= retries {

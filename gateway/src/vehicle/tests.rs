@@ -898,22 +898,42 @@ fn streams_by_interval_then_fallback_and_again_after_link_loss() {
             (MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS, 2)
         ]
     );
-    // No answer at all on a fresh commander: fallback after the retries.
+    // The autopilot keeps talking but never answers: fallback after the retries.
     let mut q = Sim::new(Firmware::Copter);
     q.c.request_streams(&[(30, 10.0)], 0);
     q.one_long();
+    q.now = S / 2;
+    q.recv(
+        1,
+        1,
+        autopilot_heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            MavType::MAV_TYPE_QUADROTOR,
+        ),
+    );
     q.at(S);
     assert_eq!(q.one_long().confirmation, 1);
     q.at(2 * S);
     match q.sent().as_slice() {
-        [MavMessage::REQUEST_DATA_STREAM(r)] => {
-            assert_eq!(
-                (r.req_stream_id, r.req_message_rate, r.start_stop),
-                (MavDataStream::MAV_DATA_STREAM_EXTRA1, 10, 1)
-            )
-        }
+        [MavMessage::REQUEST_DATA_STREAM(r)] => assert_eq!(
+            (r.req_stream_id, r.req_message_rate, r.start_stop),
+            (MavDataStream::MAV_DATA_STREAM_EXTRA1, 10, 1)
+        ),
         other => panic!("{other:?}"),
     }
+    // Total silence is the link, not the command: asked again, no fallback.
+    let mut r = Sim::new(Firmware::Copter);
+    r.at(S / 2);
+    r.c.request_streams(&[(30, 10.0)], S / 2);
+    assert_eq!(r.one_long().confirmation, 0);
+    r.at(S + S / 2);
+    assert_eq!(r.one_long().confirmation, 1);
+    r.at(2 * S + S / 2);
+    let again = r.one_long();
+    assert_eq!(
+        (again.command, again.confirmation),
+        (MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, 0)
+    );
 }
 
 #[test]
