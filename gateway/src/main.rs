@@ -36,6 +36,8 @@ enum Verb {
     Check(cli::check::Args),
     /// Draw a project's nets as Graphviz DOT.
     Draw(cli::draw::Args),
+    /// Write ready-to-fill skeletons of the software programs the nets call.
+    Stubs(cli::stubs::Args),
     /// Write each net of a project as PNML.
     Export(cli::export::Args),
     /// Replay recorded telemetry through elaboration and the player.
@@ -56,6 +58,7 @@ fn main() -> ExitCode {
         Verb::Events(args) => cli::events::run(args),
         Verb::Check(args) => cli::check::run(args),
         Verb::Draw(args) => cli::draw::run(args),
+        Verb::Stubs(args) => cli::stubs::run(args),
         Verb::Export(args) => cli::export::run(args),
         Verb::Replay(args) => cli::replay::run(args),
     };

@@ -9,6 +9,7 @@ pub mod events;
 pub mod export;
 pub mod play;
 pub mod replay;
+pub mod stubs;
 pub mod timeline;
 
 /// How a verb ended, as an exit status.

@@ -1,1 +1,0 @@
-//! Program skeletons (`petrel stubs`).

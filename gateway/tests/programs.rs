@@ -1,0 +1,18 @@
+//! Software programs end to end: the program server with real child
+//! processes (a scripted Python fixture and the skeletons `petrel stubs`
+//! writes), over 127.0.0.1 and Unix sockets. Every wait is bounded.
+//!
+//! The gateway is a binary crate: its programs module is compiled into this
+//! test binary from its source.
+
+#[path = "../src/programs/mod.rs"]
+mod programs;
+
+#[path = "programs/support.rs"]
+mod support;
+
+#[path = "programs/server.rs"]
+mod server;
+
+#[path = "programs/stubs.rs"]
+mod stubs;

@@ -1,0 +1,271 @@
+//! The program server against a real child process (the fixture).
+
+use std::time::Duration;
+
+use nets::{Category, Outcome, Params, Value};
+
+use crate::programs::server::{Direction, ProgramInput};
+use crate::support::*;
+
+fn check_indices(h: &Harness) {
+    let names: Vec<&str> = h.project.programs[0]
+        .functions
+        .iter()
+        .map(|f| f.name.as_str())
+        .collect();
+    assert_eq!(names, ["crash", "echo", "emit", "garbage", "quit", "slow"]);
+}
+
+#[tokio::test]
+async fn a_started_program_answers_calls_made_before_it_connected() {
+    let mut h = Harness::start(&fixture_program("never", "5s", ALL), FUNCTIONS).await;
+    check_indices(&h);
+    // Called at once: the call waits for the started program's hello.
+    let reply = Value::Map(params(&[("value", Value::Int(42))]));
+    h.programs.call(1, 0, ECHO, params(&[("reply", reply)]));
+    assert_eq!(
+        h.outcome(1).await,
+        Outcome::Done(params(&[("value", Value::Int(42))]))
+    );
+    let out = h.lines(Direction::Out);
+    assert!(out[0].starts_with("{\"welcome\":\"P\""), "{out:?}");
+    assert_eq!(
+        out[1],
+        "{\"call\":1,\"function\":\"echo\",\"args\":{\"reply\":{\"value\":42}}}"
+    );
+    assert!(h.lines(Direction::In)[0].contains("\"hello\""));
+    assert!(h
+        .traffic
+        .iter()
+        .skip(1)
+        .all(|t| t.program.as_deref() == Some("P")));
+    h.programs.shutdown().await;
+}
+
+#[tokio::test]
+async fn hello_mismatch_is_refused_naming_the_missing_function() {
+    let served = ["echo", "slow", "emit", "crash", "quit"];
+    let mut h = Harness::start(&fixture_program("never", "5s", &served), FUNCTIONS).await;
+    // Refused: the error reply, then the connection closes, the fixture
+    // exits, and since it never connected it is lost.
+    match h.next().await {
+        ProgramInput::Lost { program, event } => {
+            assert_eq!(program, "P");
+            assert_eq!(event.name, "program_lost");
+            assert_eq!(event.category, Category::Communication);
+            assert_eq!(event.params.get("name"), Some(&Value::Str("P".into())));
+        }
+        other => panic!("expected the loss of P, got {other:?}"),
+    }
+    let out = h.lines(Direction::Out);
+    assert_eq!(out.len(), 1, "{out:?}");
+    let error: serde_json::Value = serde_json::from_str(out[0]).expect("json");
+    assert_eq!(error["line"], 1);
+    let message = error["error"].as_str().expect("an error");
+    assert!(
+        message.contains("garbage") && message.contains("does not serve"),
+        "{message}"
+    );
+    // Never restarted: calls fail at once.
+    h.programs.call(9, 0, ECHO, Params::new());
+    assert_eq!(h.outcome(9).await, failed("not connected"));
+    assert_eq!(h.starts().len(), 1);
+    h.programs.shutdown().await;
+}
+
+#[tokio::test]
+async fn malformed_json_gets_an_error_reply_and_the_connection_stays() {
+    let mut h = Harness::start(&fixture_program("never", "5s", ALL), FUNCTIONS).await;
+    h.programs.call(1, 0, GARBAGE, Params::new());
+    let Outcome::Done(p) = h.outcome(1).await else {
+        panic!("the garbage call fails")
+    };
+    assert!(
+        matches!(p.get("error"), Some(Value::Str(e)) if e.starts_with("not JSON")),
+        "{p:?}"
+    );
+    assert_eq!(p.get("line"), Some(&Value::Int(2)), "the hello was line 1");
+    // Still connected: the next call is answered on the same connection.
+    let reply = Value::Map(params(&[("value", Value::Bool(true))]));
+    h.programs.call(2, 0, ECHO, params(&[("reply", reply)]));
+    assert_eq!(
+        h.outcome(2).await,
+        Outcome::Done(params(&[("value", Value::Bool(true))]))
+    );
+    assert!(h.traffic.iter().all(|t| t.connection == 1));
+    assert!(h.lines(Direction::In).contains(&"this is not json"));
+    h.programs.shutdown().await;
+}
+
+#[tokio::test]
+async fn a_crash_fails_the_pending_call_emits_program_lost_and_restarts_on_failure() {
+    let mut h = Harness::start(&fixture_program("on-failure", "5s", ALL), FUNCTIONS).await;
+    h.connected().await;
+    h.programs
+        .call(1, 0, SLOW, params(&[("delay", Value::Float(0.3))]));
+    h.programs.call(2, 0, CRASH, Params::new());
+    // The slow call is answered, then the crash fails the pending one.
+    assert_eq!(h.outcome(1).await, Outcome::Done(Params::new()));
+    assert_eq!(h.outcome(2).await, failed("program lost"));
+    assert!(matches!(h.next().await, ProgramInput::Lost { program, .. } if program == "P"));
+    // Restarted: a call made now waits for the new hello and is answered.
+    let reply = Value::Map(params(&[("value", Value::Int(2))]));
+    h.programs.call(3, 0, ECHO, params(&[("reply", reply)]));
+    assert_eq!(
+        h.outcome(3).await,
+        Outcome::Done(params(&[("value", Value::Int(2))]))
+    );
+    let starts = h.starts();
+    assert_eq!(starts.len(), 2, "{starts:?}");
+    assert!(!exists(starts[0]), "the crashed process was reaped");
+    // A clean exit is not a failure: no restart, calls fail at once.
+    h.programs.call(4, 0, QUIT, Params::new());
+    assert_eq!(h.outcome(4).await, failed("program lost"));
+    assert!(matches!(h.next().await, ProgramInput::Lost { .. }));
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    h.programs.call(5, 0, ECHO, Params::new());
+    assert_eq!(h.outcome(5).await, failed("not connected"));
+    assert_eq!(h.starts().len(), 2);
+    h.programs.shutdown().await;
+}
+
+#[tokio::test]
+async fn restart_always_restarts_after_a_clean_exit_and_never_does_not() {
+    let mut h = Harness::start(&fixture_program("always", "5s", ALL), FUNCTIONS).await;
+    h.connected().await;
+    h.programs.call(1, 0, QUIT, Params::new());
+    assert_eq!(h.outcome(1).await, failed("program lost"));
+    assert!(matches!(h.next().await, ProgramInput::Lost { .. }));
+    h.programs.call(2, 0, EMIT, Params::new());
+    assert!(matches!(h.next().await, ProgramInput::Event { .. }));
+    assert_eq!(h.outcome(2).await, Outcome::Done(Params::new()));
+    assert_eq!(h.starts().len(), 2);
+    h.programs.shutdown().await;
+
+    let mut h = Harness::start(&fixture_program("never", "5s", ALL), FUNCTIONS).await;
+    h.connected().await;
+    h.programs.call(1, 0, CRASH, Params::new());
+    assert_eq!(h.outcome(1).await, failed("program lost"));
+    assert!(matches!(h.next().await, ProgramInput::Lost { .. }));
+    h.assert_quiet(Duration::from_millis(400)).await;
+    h.programs.call(2, 0, ECHO, Params::new());
+    assert_eq!(h.outcome(2).await, failed("not connected"));
+    assert_eq!(h.starts().len(), 1);
+    h.programs.shutdown().await;
+}
+
+#[tokio::test]
+async fn a_slow_reply_times_out_and_its_late_reply_is_ignored() {
+    let mut h = Harness::start(&fixture_program("never", "600ms", ALL), FUNCTIONS).await;
+    h.connected().await;
+    let sent = std::time::Instant::now();
+    h.programs
+        .call(1, 0, SLOW, params(&[("delay", Value::Float(1.0))]));
+    assert_eq!(h.outcome(1).await, failed("timeout"));
+    assert!(sent.elapsed() >= Duration::from_millis(600));
+    // Asked while the fixture still sleeps on call 1: it answers in order,
+    // the late reply to 1 first (ignored: no outcome, no error reply), then
+    // this one, within its own timeout.
+    let reply = Value::Map(params(&[("value", Value::Int(1))]));
+    h.programs.call(2, 0, ECHO, params(&[("reply", reply)]));
+    assert_eq!(
+        h.outcome(2).await,
+        Outcome::Done(params(&[("value", Value::Int(1))]))
+    );
+    assert!(h
+        .lines(Direction::In)
+        .iter()
+        .any(|l| l.contains("\"reply\": 1")));
+    assert!(!h.lines(Direction::Out).iter().any(|l| l.contains("error")));
+    h.programs.shutdown().await;
+}
+
+#[tokio::test]
+async fn an_event_sent_on_its_own_reaches_the_nets_with_its_category() {
+    let mut h = Harness::start(&fixture_program("never", "5s", ALL), FUNCTIONS).await;
+    h.programs.call(1, 0, EMIT, Params::new());
+    match h.next().await {
+        ProgramInput::Event { program, event } => {
+            assert_eq!(program, "P");
+            assert_eq!(
+                event,
+                nets::Event::new("obstacle")
+                    .category(Category::Safety)
+                    .param("range", 7)
+            );
+        }
+        other => panic!("expected the event, got {other:?}"),
+    }
+    assert_eq!(h.outcome(1).await, Outcome::Done(Params::new()));
+    h.programs.shutdown().await;
+}
+
+#[tokio::test]
+async fn a_forgotten_call_gets_no_outcome() {
+    let mut h = Harness::start(&fixture_program("never", "5s", ALL), FUNCTIONS).await;
+    h.connected().await;
+    h.programs
+        .call(1, 0, SLOW, params(&[("delay", Value::Float(0.2))]));
+    h.programs.forget(1);
+    h.programs.call(2, 0, EMIT, Params::new());
+    assert!(matches!(h.next().await, ProgramInput::Event { .. }));
+    assert_eq!(h.outcome(2).await, Outcome::Done(Params::new()));
+    h.programs.shutdown().await;
+}
+
+#[tokio::test]
+async fn a_program_that_is_not_started_nor_connected_fails_calls_at_once() {
+    let mut h = Harness::start("", FUNCTIONS).await;
+    let asked = std::time::Instant::now();
+    h.programs.call(1, 0, ECHO, Params::new());
+    assert_eq!(h.outcome(1).await, failed("not connected"));
+    assert!(asked.elapsed() < Duration::from_secs(2));
+    h.programs.call(2, 7, 0, Params::new());
+    assert_eq!(h.outcome(2).await, failed("unknown program or function"));
+    h.programs.shutdown().await;
+}
+
+#[tokio::test]
+async fn shutdown_kills_a_program_that_ignores_sigterm_and_leaves_no_zombie() {
+    let mut served = vec!["--stubborn"];
+    served.extend_from_slice(ALL);
+    let mut h = Harness::start(&fixture_program("always", "5s", &served), FUNCTIONS).await;
+    h.connected().await;
+    let starts = h.starts();
+    assert_eq!(starts.len(), 1);
+    assert!(exists(starts[0]));
+    let asked = std::time::Instant::now();
+    h.programs.shutdown().await;
+    let took = asked.elapsed();
+    assert!(
+        took >= Duration::from_millis(500),
+        "the grace period was given: {took:?}"
+    );
+    assert!(took < Duration::from_secs(5), "{took:?}");
+    assert!(!exists(starts[0]), "killed and reaped");
+    let log = std::fs::read_to_string(h.dir.path().join("starts.log")).expect("log");
+    assert_eq!(log.lines().count(), 1, "not restarted on shutdown");
+}
+
+#[tokio::test]
+async fn programs_connect_over_a_unix_socket() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let socket = dir.path().join("programs.sock");
+    let mut config = config();
+    config.address = format!("unix:{}", socket.display())
+        .parse()
+        .expect("address");
+    let mut h = Harness::start_with(&fixture_program("never", "5s", ALL), FUNCTIONS, config).await;
+    assert_eq!(
+        h.programs.address().to_string(),
+        format!("unix:{}", socket.display())
+    );
+    let reply = Value::Map(params(&[("value", Value::Str("unix".into()))]));
+    h.programs.call(1, 0, ECHO, params(&[("reply", reply)]));
+    assert_eq!(
+        h.outcome(1).await,
+        Outcome::Done(params(&[("value", Value::Str("unix".into()))]))
+    );
+    h.programs.shutdown().await;
+    assert!(!socket.exists(), "the socket file is removed");
+}
