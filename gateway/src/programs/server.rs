@@ -355,7 +355,7 @@ impl Switchboard {
         self.connections.insert(
             conn,
             Connection {
-                session: Session::new(Arc::clone(&self.roster)),
+                session: Session::new(Arc::clone(&self.roster), Instant::now()),
                 writer: Some(writer),
                 reader,
             },

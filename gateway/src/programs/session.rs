@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use nets::{Category, Event, Outcome, Params, Value};
 
@@ -22,6 +22,9 @@ pub const REASON_NOT_CONNECTED: &str = "not connected";
 /// How many settled call ids (timed out or forgotten) a session remembers,
 /// so that their late replies are ignored rather than answered with an error.
 const SETTLED_MEMORY: usize = 1024;
+
+/// How long a connection may stay without saying hello before it is closed.
+pub const HELLO_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// What a session asks of its connection, in order.
 #[derive(Debug, Clone, PartialEq)]
@@ -62,6 +65,8 @@ struct Pending {
 pub struct Session {
     roster: Arc<Roster>,
     state: State,
+    /// When a connection that has not said hello is closed.
+    hello_deadline: Instant,
     /// Lines received so far (the number of the line being read is one more).
     lines: u64,
     buffer: Vec<u8>,
@@ -73,10 +78,12 @@ pub struct Session {
 }
 
 impl Session {
-    pub fn new(roster: Arc<Roster>) -> Session {
+    /// A connection accepted at `now`: it has [`HELLO_TIMEOUT`] to say hello.
+    pub fn new(roster: Arc<Roster>, now: Instant) -> Session {
         Session {
             roster,
             state: State::Greeting,
+            hello_deadline: now + HELLO_TIMEOUT,
             lines: 0,
             buffer: Vec::new(),
             discarding: false,
@@ -362,13 +369,22 @@ impl Session {
         self.settled.push_back(id);
     }
 
-    /// The earliest instant a pending call times out.
+    /// The earliest instant a pending call times out (or, before the hello,
+    /// the connection is closed).
     pub fn poll_timeout(&self) -> Option<Instant> {
-        self.pending.values().map(|p| p.deadline).min()
+        match self.state {
+            State::Greeting => Some(self.hello_deadline),
+            State::Ready(_) => self.pending.values().map(|p| p.deadline).min(),
+            State::Closed => None,
+        }
     }
 
-    /// Fails the calls whose deadline is past with reason "timeout".
+    /// Fails the calls whose deadline is past with reason "timeout"; closes
+    /// a connection that did not say hello in time.
     pub fn handle_timeout(&mut self, now: Instant) {
+        if self.state == State::Greeting && now >= self.hello_deadline {
+            return self.refuse(&format!("no hello within {HELLO_TIMEOUT:?}"));
+        }
         let expired: Vec<u64> = self
             .pending
             .iter()

@@ -61,7 +61,7 @@ fn sent_json(o: &Output) -> serde_json::Value {
 }
 
 fn ready() -> Session {
-    let mut s = Session::new(roster());
+    let mut s = Session::new(roster(), Instant::now());
     s.feed(
         b"{\"hello\": \"DEC\", \"functions\": [\"next\", \"replan\", \"extra\"]}\n",
         free,
@@ -84,7 +84,7 @@ fn error_of(o: &[Output]) -> (String, u64) {
 
 #[test]
 fn hello_with_the_called_functions_is_welcomed() {
-    let mut s = Session::new(roster());
+    let mut s = Session::new(roster(), Instant::now());
     s.feed(
         b"{\"hello\": \"DEC\", \"functions\": [\"replan\", \"next\"]}\n",
         free,
@@ -102,7 +102,7 @@ fn hello_with_the_called_functions_is_welcomed() {
 
 #[test]
 fn hello_missing_a_called_function_is_refused_and_closed() {
-    let mut s = Session::new(roster());
+    let mut s = Session::new(roster(), Instant::now());
     s.feed(
         b"{\"hello\": \"DEC\", \"functions\": [\"next\"]}\n{\"event\": \"obstacle\"}\n",
         free,
@@ -122,7 +122,7 @@ fn hello_missing_a_called_function_is_refused_and_closed() {
 
 #[test]
 fn hello_of_an_unknown_program_is_refused_naming_the_known_ones() {
-    let mut s = Session::new(roster());
+    let mut s = Session::new(roster(), Instant::now());
     s.feed(b"{\"hello\": \"PLN\", \"functions\": []}\n", free);
     let out = actions(&mut s);
     let (message, _) = error_of(&out[..1]);
@@ -136,7 +136,7 @@ fn hello_of_an_unknown_program_is_refused_naming_the_known_ones() {
 
 #[test]
 fn second_connection_of_a_program_is_refused() {
-    let mut s = Session::new(roster());
+    let mut s = Session::new(roster(), Instant::now());
     s.feed(b"{\"hello\": \"GUI\", \"functions\": [\"goto\"]}\n", |p| {
         p == 1
     });
@@ -148,7 +148,7 @@ fn second_connection_of_a_program_is_refused() {
 
 #[test]
 fn anything_before_the_hello_gets_an_error_and_the_connection_stays() {
-    let mut s = Session::new(roster());
+    let mut s = Session::new(roster(), Instant::now());
     s.feed(b"{\"event\": \"obstacle\"}\n", free);
     let (message, line) = error_of(&actions(&mut s));
     assert!(message.contains("hello first"), "{message}");
@@ -334,7 +334,7 @@ fn a_lost_connection_fails_every_pending_call() {
 
 #[test]
 fn calls_before_the_hello_are_refused_to_the_caller() {
-    let mut s = Session::new(roster());
+    let mut s = Session::new(roster(), Instant::now());
     assert!(!s.call(1, NEXT, &Params::new(), Instant::now()));
     assert_eq!(drain(&mut s), vec![]);
 }
@@ -381,7 +381,7 @@ fn bad_events_are_errors() {
 
 #[test]
 fn lines_split_across_reads_crlf_and_blank_lines() {
-    let mut s = Session::new(roster());
+    let mut s = Session::new(roster(), Instant::now());
     s.feed(b"\n  \r\n{\"hello\": \"GUI\", ", free);
     assert_eq!(actions(&mut s), vec![]);
     s.feed(b"\"functions\": [\"goto\"]}\r", free);
@@ -444,4 +444,26 @@ fn the_lost_event_names_the_program_in_its_declared_category() {
             .category(Category::Communication)
             .param("name", "DEC")
     );
+}
+
+#[test]
+fn a_connection_without_hello_is_closed_after_the_hello_timeout() {
+    let t0 = Instant::now();
+    let mut s = Session::new(roster(), t0);
+    assert_eq!(s.poll_timeout(), Some(t0 + HELLO_TIMEOUT));
+    s.handle_timeout(t0 + HELLO_TIMEOUT - Duration::from_millis(1));
+    assert!(!s.is_closed());
+    s.handle_timeout(t0 + HELLO_TIMEOUT);
+    let out = actions(&mut s);
+    let (message, line) = error_of(&out[..1]);
+    assert!(message.contains("no hello"), "{message}");
+    assert_eq!(line, 0, "no line was received");
+    assert!(matches!(out[1], Output::Close { .. }));
+    assert!(s.is_closed());
+    assert_eq!(s.poll_timeout(), None);
+    // Once said, the hello deadline no longer counts.
+    let mut s = ready();
+    assert_eq!(s.poll_timeout(), None);
+    s.handle_timeout(t0 + HELLO_TIMEOUT * 2);
+    assert!(!s.is_closed());
 }
