@@ -79,6 +79,33 @@ impl VehicleConfig {
         self.component.unwrap_or(ONBOARD_COMPUTER)
     }
 
+    /// Reads the `[gateway]` table of project.toml's text (`file` names it
+    /// in errors, which come with line and column).
+    pub fn from_project_toml(file: &str, text: &str) -> Result<VehicleConfig, ConfigError> {
+        let doc: toml::Table = toml::from_str(text).map_err(|e| {
+            let at = e.span().map(|s| line_col(text, s.start)).unwrap_or((1, 1));
+            ConfigError {
+                key: String::new(),
+                message: e.message().to_owned(),
+                at: Some((file.to_owned(), at.0, at.1)),
+            }
+        })?;
+        let gateway = match doc.get("gateway") {
+            None => return Ok(VehicleConfig::default()),
+            Some(toml::Value::Table(t)) => t,
+            Some(_) => {
+                return Err(ConfigError {
+                    at: locate(text, "gateway").map(|(l, c)| (file.to_owned(), l, c)),
+                    ..ConfigError::new("gateway", "expected a table")
+                })
+            }
+        };
+        VehicleConfig::from_gateway_table(gateway).map_err(|e| ConfigError {
+            at: locate(text, &e.key).map(|(l, c)| (file.to_owned(), l, c)),
+            ..e
+        })
+    }
+
     /// Reads the keys this module owns in a project's `[gateway]` table:
     /// `system_id`, `autopilot_component`, `component_id`, `firmware`,
     /// `[gateway.payloads]` and `[gateway.commands]`. Other keys are left to
@@ -124,12 +151,15 @@ impl VehicleConfig {
     }
 }
 
-/// A problem in the `[gateway]` table, with the key it is about.
+/// A problem in the `[gateway]` table, with the key it is about and, when
+/// read from a file, where (`file:line:col`).
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{key}: {message}")]
+#[error("{}{key}: {message}", .at.as_ref().map(|(f, l, c)| format!("{f}:{l}:{c}: ")).unwrap_or_default())]
 pub struct ConfigError {
     pub key: String,
     pub message: String,
+    /// File, line and column (from 1), when known.
+    pub at: Option<(String, usize, usize)>,
 }
 
 impl ConfigError {
@@ -137,8 +167,37 @@ impl ConfigError {
         ConfigError {
             key: key.to_owned(),
             message: message.into(),
+            at: None,
         }
     }
+}
+
+/// Line and column (from 1) of a byte offset.
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, col)
+}
+
+/// Where the value of a dotted key (`gateway.payloads.cam.camera`) is in
+/// the text, or its innermost table that exists.
+fn locate(text: &str, key: &str) -> Option<(usize, usize)> {
+    use toml::de::{DeTable, DeValue};
+    let root = DeTable::parse(text).ok()?;
+    let mut table = root.get_ref();
+    let mut found = None;
+    for segment in key.split('.') {
+        let (_, value) = table
+            .iter()
+            .find(|(k, _)| k.get_ref().as_ref() == segment)?;
+        found = Some(value.span().start);
+        match value.get_ref() {
+            DeValue::Table(t) => table = t,
+            _ => break,
+        }
+    }
+    found.map(|offset| line_col(text, offset))
 }
 
 fn int(key: &str, v: &toml::Value) -> Result<i64, ConfigError> {
@@ -304,6 +363,23 @@ mod tests {
         );
         assert_eq!(c.timing.ack_timeout, 500_000);
         assert_eq!(c.timing.retries, 5);
+    }
+
+    #[test]
+    fn errors_in_a_file_say_where() {
+        let text = "name = \"p\"\n\n[gateway]\nmavlink = \"udpin:0.0.0.0:14550\"\n[gateway.payloads]\ncam = { camera = 300 }\n";
+        let e = VehicleConfig::from_project_toml("project.toml", text).expect_err("bad id");
+        assert_eq!(e.at, Some(("project.toml".to_owned(), 6, 18)));
+        assert_eq!(
+            e.to_string(),
+            "project.toml:6:18: gateway.payloads.cam.camera: 300 is not in 1..=255"
+        );
+        let e = VehicleConfig::from_project_toml("project.toml", "[gateway]\nsystem_id = = 1\n")
+            .expect_err("bad TOML");
+        assert_eq!(e.at.as_ref().map(|a| a.1), Some(2));
+        let ok = VehicleConfig::from_project_toml("project.toml", "name = \"p\"\n")
+            .expect("no gateway table");
+        assert_eq!(ok, VehicleConfig::default());
     }
 
     #[test]

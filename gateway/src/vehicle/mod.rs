@@ -7,7 +7,7 @@
 //! # Using it
 //!
 //! ```text
-//! let config = config::VehicleConfig::from_gateway_table(&project_toml["gateway"])?;
+//! let config = config::VehicleConfig::from_project_toml("project.toml", &text)?; // errors: file:line:col
 //! let mut commander = commander::Commander::new(config);
 //! commander.request_streams(&[(33, 4.0), (1, 2.0)], now);   // ids and Hz from the profile
 //! loop {
