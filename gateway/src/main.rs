@@ -12,6 +12,7 @@ mod cli;
 mod link;
 mod programs;
 mod project;
+mod record;
 mod supervisor;
 mod vehicle;
 

@@ -1,6 +1,12 @@
 //! `petrel replay FILE PROJECT`: replays recorded telemetry through
 //! elaboration and the player, as `petrel run` would have on board. Commands
 //! and program calls are printed, never sent.
+//!
+//! From a telemetry log (.tlog) it feeds the frames and ticks across gaps;
+//! from a Petrel recording (.mcap) it feeds exactly the recorded inputs
+//! (frames, ticks, command and program results, program events), so the
+//! flight's decisions are reproduced, and `--check-against` compares every
+//! step's effects and digest with the recorded ones.
 
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::PathBuf;
@@ -10,12 +16,14 @@ use elaboration::TlogReader;
 use serde_json::json;
 
 use super::timeline::Timeline;
+
+mod from_mcap;
 use super::{Outcome, VerbResult};
 use crate::supervisor::{Input, Supervisor};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The recording: a telemetry log (.tlog).
+    /// The recording: a telemetry log (.tlog) or a Petrel recording (.mcap).
     pub file: PathBuf,
     /// The project folder (holding project.toml).
     pub project: PathBuf,
@@ -29,6 +37,10 @@ pub struct Args {
     /// Print JSON lines (as `petrel play --json`) instead of text for people.
     #[arg(long)]
     pub json: bool,
+    /// (.mcap) Compare each replayed step's effects and digest with the
+    /// recorded ones; report the first difference and exit 1.
+    #[arg(long)]
+    pub check_against: bool,
 }
 
 /// Elaboration ticks between frames, at most this far apart (µs), so that
@@ -36,18 +48,21 @@ pub struct Args {
 const TICK: u64 = 100_000;
 
 pub fn run(args: Args) -> VerbResult {
-    let ext = args.file.extension().and_then(|e| e.to_str()).unwrap_or("");
-    if ext == "mcap" {
-        return Err(miette::miette!(
-            "replaying an MCAP recording is not supported yet; replay the telemetry log (.tlog) of the flight"
-        ));
-    }
     if let Some(s) = args.speed {
         if !(s.is_finite() && s > 0.0) {
             return Err(miette::miette!(
                 "--speed must be a positive number, not {s}"
             ));
         }
+    }
+    let ext = args.file.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if ext == "mcap" {
+        return from_mcap::run(args);
+    }
+    if args.check_against {
+        return Err(miette::miette!(
+            "--check-against needs a Petrel recording (.mcap): a telemetry log records no decisions"
+        ));
     }
     let bytes = std::fs::read(&args.file)
         .map_err(|e| miette::miette!("cannot read {}: {e}", args.file.display()))?;

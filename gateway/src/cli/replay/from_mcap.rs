@@ -1,0 +1,192 @@
+//! `petrel replay FILE.mcap PROJECT`: the recorded Supervisor inputs fed
+//! back in order — frames from `/mavlink/raw`, ticks, results and program
+//! events from `/petrel/inputs` — so every decision of the flight is made
+//! again; with `--check-against`, each step's effects and digest are
+//! compared with the recorded ones and the first difference is reported.
+
+use std::io::{BufWriter, IsTerminal, Write};
+use std::time::{Duration, Instant};
+
+use serde_json::json;
+
+use super::{print_step, Args};
+use crate::cli::timeline::Timeline;
+use crate::cli::{Outcome, VerbResult};
+use crate::record::check::{compare, Difference};
+use crate::record::layout::Input as Recorded;
+use crate::record::read;
+use crate::supervisor::{Input, Supervisor};
+
+pub fn run(args: Args) -> VerbResult {
+    let name = args.file.display().to_string();
+    let bytes = std::fs::read(&args.file)
+        .map_err(|e| miette::miette!("cannot read the MCAP recording {name}: {e}"))?;
+    let rec = read::read(&bytes, args.check_against).map_err(|e| miette::miette!("{name}: {e}"))?;
+    drop(bytes);
+    if let Some(cut) = &rec.cut {
+        eprintln!(
+            "warning: {name} ends early ({cut}): it was cut (power loss?) and replays up to its last complete chunk"
+        );
+    }
+    if rec.dropped > 0 {
+        eprintln!(
+            "warning: the recorder dropped {} entries of this flight (it fell behind)",
+            rec.dropped
+        );
+    }
+    let Some(&(0, origin, Recorded::Start)) = rec.inputs.first() else {
+        return Err(miette::miette!(
+            "{name}: the inputs log does not begin with the player's start (step 0)"
+        ));
+    };
+    let Ok(profile) = super::super::events::load_profile(args.profile.as_deref(), &rec.tlog())?
+    else {
+        return Ok(Outcome::BadInput);
+    };
+    let project = crate::project::load_with(&args.project, &profile.catalog())?;
+    let io = |e: std::io::Error| miette::miette!("cannot write the output: {e}");
+    let mut out = Timeline {
+        out: BufWriter::new(std::io::stdout().lock()),
+        json: args.json,
+        origin,
+    };
+    let (mut sup, start) = Supervisor::start(
+        project.clone(),
+        profile,
+        elaboration::Config::default(),
+        origin,
+    );
+    out.effects(&project, &start.effects).map_err(io)?;
+    let mut difference = None;
+    if args.check_against {
+        difference = compare(&project, &start, &sup.player().digest(), rec.steps.get(&0));
+    }
+    let progress = std::io::stderr().is_terminal() && !args.json;
+    let wall = Instant::now();
+    let mut last = origin;
+    let mut events = 0usize;
+    let mut frames = 0usize;
+    let mut steps = 0usize;
+    for (i, (seq, time, input)) in rec.inputs.iter().enumerate().skip(1) {
+        if difference.is_some() {
+            break;
+        }
+        if *seq != sup.seq() + 1 {
+            let what = format!(
+                "the recording jumps from step {} to step {seq} (the recorder dropped steps): replay stops here",
+                sup.seq()
+            );
+            eprintln!("warning: {what}");
+            if args.check_against {
+                difference = Some(Difference {
+                    seq: sup.seq() + 1,
+                    time: *time,
+                    what,
+                });
+            }
+            break;
+        }
+        let time = *time;
+        if let Some(speed) = args.speed {
+            let due = Duration::from_secs_f64(time.saturating_sub(origin) as f64 / 1e6 / speed);
+            if let Some(wait) = due.checked_sub(wall.elapsed()) {
+                out.out.flush().map_err(io)?;
+                std::thread::sleep(wait);
+            }
+        }
+        let input = match input {
+            Recorded::Frame(index) => {
+                let Some((_, bytes)) = rec.frame(*index) else {
+                    return Err(miette::miette!(
+                        "{name}: step {seq} refers to raw frame {index}, which is not in the recording"
+                    ));
+                };
+                frames += 1;
+                Input::Frame(bytes)
+            }
+            Recorded::Tick => Input::Tick,
+            Recorded::Result { id, outcome } => Input::Result {
+                id: *id,
+                outcome: outcome.clone(),
+            },
+            Recorded::Event(e) => Input::Event(e.clone()),
+            Recorded::Start => {
+                return Err(miette::miette!("{name}: a second start at step {seq}"));
+            }
+        };
+        let step = sup.step(time, input);
+        steps += 1;
+        events += step.events.len();
+        print_step(&mut out, &project, &step).map_err(io)?;
+        if args.check_against {
+            difference = compare(&project, &step, &sup.player().digest(), rec.steps.get(seq));
+        }
+        last = time;
+        if progress && i % 20_000 == 0 {
+            eprint!(
+                "\r{:>5.1}% {} steps",
+                100.0 * i as f64 / rec.inputs.len() as f64,
+                i
+            );
+        }
+    }
+    if progress {
+        eprintln!("\r100.0% {} steps", rec.inputs.len());
+    }
+    if difference.is_none() && rec.dropped_steps > 0 && steps + 1 == rec.inputs.len() {
+        // Every recorded step replayed, but steps were dropped after them.
+        let what = format!(
+            "the recorder dropped {} steps after step {} (it fell behind): replay stops here",
+            rec.dropped_steps,
+            sup.seq()
+        );
+        eprintln!("warning: {what}");
+        if args.check_against {
+            difference = Some(Difference {
+                seq: sup.seq() + 1,
+                time: last,
+                what,
+            });
+        }
+    }
+    let player = sup.player();
+    out.end(last, &player.digest(), player.locked_out())
+        .map_err(io)?;
+    if let (Some(d), true) = (&difference, args.json) {
+        writeln!(
+            out.out,
+            "{}",
+            json!({"check": "differ", "seq": d.seq, "time_us": d.time, "t": nets::time::seconds(d.time.saturating_sub(origin)), "what": d.what})
+        )
+        .map_err(io)?;
+    }
+    out.out.flush().map_err(io)?;
+    eprintln!(
+        "replayed {steps} steps ({frames} frames, {} bad) in {:.3} s; {events} events; {} commands and calls left unanswered",
+        sup.bad_frames,
+        wall.elapsed().as_secs_f64(),
+        player.state().pending.len()
+    );
+    if !args.check_against {
+        return Ok(Outcome::Success);
+    }
+    match difference {
+        Some(d) => {
+            eprintln!(
+                "check: first difference at step {} (t = {:.3} s, time_us {}): {}",
+                d.seq,
+                nets::time::seconds(d.time.saturating_sub(origin)),
+                d.time,
+                d.what
+            );
+            Ok(Outcome::Failed)
+        }
+        None => {
+            eprintln!(
+                "check: the {} replayed steps match the recording (effects and digests)",
+                steps + 1
+            );
+            Ok(Outcome::Success)
+        }
+    }
+}

@@ -1,0 +1,232 @@
+//! The layout of a Petrel recording: topics, encodings, schemas, and the
+//! JSON of the inputs log. Written by `writer.rs`, read back by `read.rs`;
+//! documented in docs/recording.md.
+
+use nets::{Category, Event, Micros, Outcome, Params, Value};
+use serde_json::{json, Value as Json};
+
+/// Every frame as received: a tlog record (8-byte big-endian receive time
+/// in µs, then the frame's bytes exactly as on the wire).
+pub const RAW: &str = "/mavlink/raw";
+/// Every frame the gateway sent, same encoding.
+pub const SENT: &str = "/mavlink/sent";
+/// Every Supervisor input, in order: what replay feeds back.
+pub const INPUTS: &str = "/petrel/inputs";
+/// Events elaborated from telemetry.
+pub const EVENTS: &str = "/petrel/events";
+/// Every effect of the player (firings, markings, commands, calls…).
+pub const EFFECTS: &str = "/petrel/effects";
+/// The player's digest after each step.
+pub const DIGESTS: &str = "/petrel/digests";
+/// Vehicle commands and their outcomes.
+pub const COMMANDS: &str = "/petrel/commands";
+/// Program calls, replies, events and protocol lines.
+pub const PROGRAMS: &str = "/petrel/programs";
+/// The recorder's own status (what it dropped).
+pub const RECORDER: &str = "/petrel/recorder";
+/// The vehicle's position (`foxglove.LocationFix`).
+pub const LOCATION: &str = "/vehicle/location";
+/// Markings of one net: `/petrel/marking/<net>`; the global places are
+/// `/petrel/marking/@globals`.
+pub const MARKING_PREFIX: &str = "/petrel/marking/";
+
+/// The message encoding of raw frames (MCAP allows custom encodings).
+pub const FRAME_ENCODING: &str = "petrel.tlog-record";
+/// The schema of raw frames: a name and a description, no machine schema.
+pub const FRAME_SCHEMA: &str = "petrel.mavlink.Frame";
+pub const FRAME_SCHEMA_ENCODING: &str = "petrel.text";
+pub const FRAME_SCHEMA_TEXT: &str = "A MAVLink 1 or 2 frame exactly as received or sent, after an 8-byte big-endian receive time in microseconds (one .tlog record).";
+
+/// The MCAP profile and library of Petrel recordings.
+pub const PROFILE: &str = "petrel";
+/// The layout version, in the file's metadata `petrel`.
+pub const LAYOUT_VERSION: &str = "1";
+
+/// The schema name and loose JSON Schema of each Petrel channel.
+pub fn petrel_schema(topic: &str) -> (&'static str, &'static str) {
+    match topic {
+        INPUTS => (
+            "petrel.Input",
+            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"input":{"type":"string","enum":["start","frame","tick","result","event"]},"frame":{"type":"integer","description":"index of the frame on /mavlink/raw"},"id":{"type":"integer"},"outcome":{"type":"object"},"event":{"type":"object"}}}"#,
+        ),
+        EVENTS => (
+            "petrel.Event",
+            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"event":{"type":"string"},"category":{"type":"string"},"params":{"type":"object"},"sysid":{"type":"integer"},"compid":{"type":"integer"}}}"#,
+        ),
+        EFFECTS => (
+            "petrel.Effect",
+            r#"{"type":"object","properties":{"seq":{"type":"integer"},"t":{"type":"number"},"time_us":{"type":"integer"},"effect":{"type":"string"},"net":{"type":["string","null"]}}}"#,
+        ),
+        DIGESTS => (
+            "petrel.Digest",
+            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"digest":{"type":"string","description":"SHA-256 of the player's state"},"boot_ms":{"type":["integer","null"],"description":"the autopilot's SYSTEM_TIME.time_boot_ms, last seen"},"effects":{"type":"integer"}}}"#,
+        ),
+        COMMANDS => (
+            "petrel.Command",
+            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"id":{"type":"integer"},"verb":{"type":"string"},"args":{"type":"object"},"outcome":{"type":"object"}}}"#,
+        ),
+        PROGRAMS => (
+            "petrel.Program",
+            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"program":{"type":"string"},"kind":{"type":"string"}}}"#,
+        ),
+        RECORDER => (
+            "petrel.RecorderStatus",
+            r#"{"type":"object","properties":{"time_us":{"type":"integer"},"written_steps":{"type":"integer"},"last_seq":{"type":["integer","null"]},"dropped":{"type":"integer","description":"entries dropped because the writer fell behind, since the start"},"dropped_steps":{"type":"integer","description":"of which Supervisor steps"}}}"#,
+        ),
+        _ => (
+            "petrel.Marking",
+            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"marked":{"type":"array","items":{"type":"string"}},"tokens":{"type":"integer"}}}"#,
+        ),
+    }
+}
+
+fn params_json(p: &Params) -> Json {
+    Json::Object(p.iter().map(|(k, v)| (k.clone(), v.to_json())).collect())
+}
+
+fn params_from(json: &Json) -> Option<Params> {
+    match json {
+        Json::Object(o) => o
+            .iter()
+            .map(|(k, v)| Some((k.clone(), Value::from_json(v)?)))
+            .collect(),
+        Json::Null => Some(Params::new()),
+        _ => None,
+    }
+}
+
+/// An outcome as JSON: `{"done": params}` or `{"failed": reason}`.
+pub fn outcome_json(o: &Outcome) -> Json {
+    match o {
+        Outcome::Done(p) => json!({ "done": params_json(p) }),
+        Outcome::Failed(r) => json!({ "failed": r }),
+    }
+}
+
+pub fn outcome_from(json: &Json) -> Option<Outcome> {
+    if let Some(p) = json.get("done") {
+        return params_from(p).map(Outcome::Done);
+    }
+    Some(Outcome::Failed(json.get("failed")?.as_str()?.to_owned()))
+}
+
+pub fn event_json(e: &Event) -> Json {
+    json!({"name": e.name, "category": e.category.as_str(), "params": params_json(&e.params)})
+}
+
+pub fn event_from(json: &Json) -> Option<Event> {
+    Some(Event {
+        name: json.get("name")?.as_str()?.to_owned(),
+        category: json.get("category")?.as_str()?.parse::<Category>().ok()?,
+        params: params_from(json.get("params").unwrap_or(&Json::Null))?,
+    })
+}
+
+/// One Supervisor input as recorded (frames by their index on [`RAW`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Input {
+    /// The player's start (step 0).
+    Start,
+    Frame(u64),
+    Tick,
+    Result {
+        id: u64,
+        outcome: Outcome,
+    },
+    Event(Event),
+}
+
+/// The JSON of an input on [`INPUTS`].
+pub fn input_json(seq: u64, time: Micros, input: &Input) -> Json {
+    let mut v = json!({"seq": seq, "time_us": time});
+    let o = v.as_object_mut().expect("an object");
+    match input {
+        Input::Start => {
+            o.insert("input".into(), json!("start"));
+        }
+        Input::Frame(i) => {
+            o.insert("input".into(), json!("frame"));
+            o.insert("frame".into(), json!(i));
+        }
+        Input::Tick => {
+            o.insert("input".into(), json!("tick"));
+        }
+        Input::Result { id, outcome } => {
+            o.insert("input".into(), json!("result"));
+            o.insert("id".into(), json!(id));
+            o.insert("outcome".into(), outcome_json(outcome));
+        }
+        Input::Event(e) => {
+            o.insert("input".into(), json!("event"));
+            o.insert("event".into(), event_json(e));
+        }
+    }
+    v
+}
+
+/// Reads an input back: `(seq, time, input)`.
+pub fn input_from(json: &Json) -> Option<(u64, Micros, Input)> {
+    let seq = json.get("seq")?.as_u64()?;
+    let time = json.get("time_us")?.as_u64()?;
+    let input = match json.get("input")?.as_str()? {
+        "start" => Input::Start,
+        "frame" => Input::Frame(json.get("frame")?.as_u64()?),
+        "tick" => Input::Tick,
+        "result" => Input::Result {
+            id: json.get("id")?.as_u64()?,
+            outcome: outcome_from(json.get("outcome")?)?,
+        },
+        "event" => Input::Event(event_from(json.get("event")?)?),
+        _ => return None,
+    };
+    Some((seq, time, input))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inputs_round_trip_through_json() {
+        let inputs = [
+            Input::Start,
+            Input::Frame(42),
+            Input::Tick,
+            Input::Result {
+                id: 7,
+                outcome: Outcome::Done(
+                    [
+                        ("lat".to_owned(), Value::Float(43.5)),
+                        ("n".to_owned(), Value::Int(3)),
+                        ("ok".to_owned(), Value::Bool(true)),
+                    ]
+                    .into_iter()
+                    .collect(),
+                ),
+            },
+            Input::Result {
+                id: 8,
+                outcome: Outcome::Failed("timeout".into()),
+            },
+            Input::Event(
+                Event::new("payload_failure")
+                    .category(Category::Mission)
+                    .param("component", "camera"),
+            ),
+        ];
+        for (i, input) in inputs.iter().enumerate() {
+            let text = input_json(i as u64, 1_000 + i as u64, input).to_string();
+            let back: Json = serde_json::from_str(&text).expect("JSON");
+            assert_eq!(
+                input_from(&back),
+                Some((i as u64, 1_000 + i as u64, input.clone())),
+                "{text}"
+            );
+        }
+        assert_eq!(input_from(&json!({"seq": 1, "time_us": 2})), None);
+        assert_eq!(
+            input_from(&json!({"seq": 1, "time_us": 2, "input": "warp"})),
+            None
+        );
+    }
+}

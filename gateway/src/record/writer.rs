@@ -1,0 +1,632 @@
+//! The recorder: a handle the gateway's loop calls without ever waiting, and
+//! a writer thread behind a bounded queue that owns the MCAP file.
+//!
+//! Each call to the handle is one entry on the queue; when the queue is
+//! full the entry is dropped whole and counted, and the writer records the
+//! count on `/petrel/recorder` as soon as it catches up. The writer closes a
+//! chunk (and syncs the file) at least every `flush_every`, so a power loss
+//! costs at most that much of the flight; `finish` writes the summary.
+
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::{self, BufWriter, Seek, SeekFrom, Write};
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use elaboration::Frame;
+use mavlink::dialects::ardupilotmega::MavMessage;
+use mcap::records::MessageHeader;
+use nets::player::{effect_json, Digest};
+use nets::{Effect, Event, Micros, Outcome, Player, Project};
+use serde_json::{json, Value as Json};
+
+use super::decoded::{self, Decoder};
+use super::layout::{self, Input};
+use crate::supervisor::{self, Step};
+
+/// How the recorder behaves.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Entries the queue holds before it drops.
+    pub queue: usize,
+    /// A chunk is closed (and the file synced) at least this often.
+    pub flush_every: Duration,
+    /// Added to Supervisor times (µs × 1000) to make MCAP log and publish
+    /// times: `petrel run`, whose times count from its start, gives the
+    /// UNIX time of its origin in ns; a replayed tlog's times are already
+    /// UNIX µs (0).
+    pub clock_offset_ns: u64,
+    /// The elaboration profile's name, kept in the file's metadata.
+    pub profile: String,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            queue: 4096,
+            flush_every: Duration::from_secs(1),
+            clock_offset_ns: 0,
+            profile: String::new(),
+        }
+    }
+}
+
+/// Why a recording could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error("cannot create the recording {path}: {source}")]
+    Create { path: String, source: io::Error },
+    #[error("cannot write the recording: {0}")]
+    Mcap(#[from] mcap::McapError),
+    #[error("the recorder's thread stopped unexpectedly")]
+    Thread,
+}
+
+/// What a finished recording holds.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Report {
+    /// Steps written.
+    pub steps: u64,
+    /// Entries dropped because the queue was full.
+    pub dropped: u64,
+    /// Of which Supervisor steps (replay stops at the first).
+    pub dropped_steps: u64,
+    /// Messages written, all channels.
+    pub messages: u64,
+}
+
+enum Entry {
+    Step(Box<(Input, Option<Vec<u8>>, Step, Digest)>),
+    Sent {
+        time: Micros,
+        bytes: Vec<u8>,
+    },
+    Program {
+        time: Micros,
+        program: String,
+        kind: &'static str,
+        body: Json,
+    },
+}
+
+/// The handle. Its methods never block and never fail the caller.
+pub struct Recorder {
+    tx: Option<SyncSender<Entry>>,
+    dropped: Arc<Dropped>,
+    thread: Option<JoinHandle<Result<Report, RecordError>>>,
+}
+
+/// What the handle dropped, shared with the writer.
+#[derive(Debug, Default)]
+struct Dropped {
+    entries: AtomicU64,
+    steps: AtomicU64,
+}
+
+/// A file that syncs its data to the disk on every flush (chunk closed).
+pub struct SyncedFile(BufWriter<File>);
+
+impl Write for SyncedFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.0.write(buf)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.0.flush()?;
+        self.0.get_ref().sync_data()
+    }
+}
+
+impl Seek for SyncedFile {
+    fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
+        self.0.seek(pos)
+    }
+}
+
+impl Recorder {
+    /// Creates `path` and starts recording into it.
+    pub fn create(
+        path: &Path,
+        project: Arc<Project>,
+        options: Options,
+    ) -> Result<Recorder, RecordError> {
+        let file = File::create(path).map_err(|source| RecordError::Create {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Recorder::with_sink(SyncedFile(BufWriter::new(file)), project, options)
+    }
+
+    /// Records into any seekable sink (tests inject slow or in-memory ones).
+    pub fn with_sink<W: Write + Seek + Send + 'static>(
+        sink: W,
+        project: Arc<Project>,
+        options: Options,
+    ) -> Result<Recorder, RecordError> {
+        let mcap = mcap::WriteOptions::new()
+            .compression(Some(mcap::Compression::Zstd))
+            .compression_threads(0)
+            .chunk_size(None)
+            .profile(layout::PROFILE)
+            .create(sink)?;
+        let dropped = Arc::new(Dropped::default());
+        let (tx, rx) = sync_channel(options.queue.max(1));
+        let mut writer = Writer::new(mcap, project, options, Arc::clone(&dropped))?;
+        let thread = std::thread::Builder::new()
+            .name("petrel-recorder".into())
+            .spawn(move || writer.run(rx))
+            .map_err(|_| RecordError::Thread)?;
+        Ok(Recorder {
+            tx: Some(tx),
+            dropped,
+            thread: Some(thread),
+        })
+    }
+
+    fn send(&self, entry: Entry) {
+        let Some(tx) = &self.tx else { return };
+        match tx.try_send(entry) {
+            Ok(()) => {}
+            Err(TrySendError::Full(e)) | Err(TrySendError::Disconnected(e)) => {
+                if matches!(e, Entry::Step(_)) {
+                    self.dropped.steps.fetch_add(1, Ordering::Relaxed);
+                }
+                self.dropped.entries.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+
+    /// Step 0: the player's start, as `Supervisor::start` returned it.
+    pub fn start(&self, step: &Step, player: &Player) {
+        self.send(Entry::Step(Box::new((
+            Input::Start,
+            None,
+            step.clone(),
+            player.digest(),
+        ))));
+    }
+
+    /// One Supervisor step: the input it was fed, the step it returned and
+    /// the player after it (for the digest). Call it right after each
+    /// `Supervisor::step`, in order.
+    pub fn step(&self, input: &supervisor::Input, step: &Step, player: &Player) {
+        let (input, frame) = match input {
+            supervisor::Input::Frame(bytes) => (Input::Frame(0), Some(bytes.to_vec())),
+            supervisor::Input::Tick => (Input::Tick, None),
+            supervisor::Input::Result { id, outcome } => (
+                Input::Result {
+                    id: *id,
+                    outcome: outcome.clone(),
+                },
+                None,
+            ),
+            supervisor::Input::Event(e) => (Input::Event(e.clone()), None),
+        };
+        self.send(Entry::Step(Box::new((
+            input,
+            frame,
+            step.clone(),
+            player.digest(),
+        ))));
+    }
+
+    /// A frame the gateway sent to the vehicle, at `time`.
+    pub fn sent(&self, time: Micros, bytes: &[u8]) {
+        self.send(Entry::Sent {
+            time,
+            bytes: bytes.to_vec(),
+        });
+    }
+
+    /// Program traffic not already in the steps (calls are effects, replies
+    /// and events are inputs): connections, protocol lines, errors. `kind`
+    /// names it (`hello`, `line_in`, `line_out`, `lost`…); `body` is any JSON.
+    pub fn program(&self, time: Micros, program: &str, kind: &'static str, body: Json) {
+        self.send(Entry::Program {
+            time,
+            program: program.to_owned(),
+            kind,
+            body,
+        });
+    }
+
+    /// Entries dropped so far because the queue was full.
+    pub fn dropped(&self) -> u64 {
+        self.dropped.entries.load(Ordering::Relaxed)
+    }
+
+    /// Writes what is queued, then the summary, and closes the file.
+    pub fn finish(mut self) -> Result<Report, RecordError> {
+        self.tx = None;
+        match self.thread.take().map(JoinHandle::join) {
+            Some(Ok(result)) => result,
+            _ => Err(RecordError::Thread),
+        }
+    }
+}
+
+impl Drop for Recorder {
+    fn drop(&mut self) {
+        self.tx = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Fixed channels, by topic.
+struct Channels {
+    raw: u16,
+    sent: u16,
+    inputs: u16,
+    events: u16,
+    effects: u16,
+    digests: u16,
+    commands: u16,
+    programs: u16,
+    recorder: u16,
+    location: u16,
+}
+
+/// What a pending id is, to route its result.
+#[derive(Clone, Copy)]
+enum Pending {
+    Command,
+    Call,
+}
+
+struct Writer<W: Write + Seek> {
+    mcap: mcap::Writer<W>,
+    project: Arc<Project>,
+    options: Options,
+    dropped: Arc<Dropped>,
+    channels: Channels,
+    json_schemas: HashMap<&'static str, u16>,
+    decoded: HashMap<(u8, u8, u32), Option<u16>>,
+    markings: HashMap<Option<usize>, u16>,
+    decoder: Decoder,
+    pending: HashMap<u64, Pending>,
+    raw_index: u64,
+    boot_ms: Option<u32>,
+    steps: u64,
+    messages: u64,
+    dirty: bool,
+    reported_dropped: u64,
+    last_time: Micros,
+    last_seq: Option<u64>,
+}
+
+fn add_json_channel<W: Write + Seek>(
+    mcap: &mut mcap::Writer<W>,
+    topic: &str,
+    schema: (&str, &str),
+) -> Result<u16, mcap::McapError> {
+    let id = mcap.add_schema(schema.0, "jsonschema", schema.1.as_bytes())?;
+    mcap.add_channel(id, topic, "json", &BTreeMap::new())
+}
+
+impl<W: Write + Seek> Writer<W> {
+    fn new(
+        mut mcap: mcap::Writer<W>,
+        project: Arc<Project>,
+        options: Options,
+        dropped: Arc<Dropped>,
+    ) -> Result<Self, mcap::McapError> {
+        let frame_schema = mcap.add_schema(
+            layout::FRAME_SCHEMA,
+            layout::FRAME_SCHEMA_ENCODING,
+            layout::FRAME_SCHEMA_TEXT.as_bytes(),
+        )?;
+        let none = BTreeMap::new();
+        let json =
+            |mcap: &mut mcap::Writer<W>, t| add_json_channel(mcap, t, layout::petrel_schema(t));
+        let channels = Channels {
+            inputs: json(&mut mcap, layout::INPUTS)?,
+            events: json(&mut mcap, layout::EVENTS)?,
+            effects: json(&mut mcap, layout::EFFECTS)?,
+            digests: json(&mut mcap, layout::DIGESTS)?,
+            commands: json(&mut mcap, layout::COMMANDS)?,
+            programs: json(&mut mcap, layout::PROGRAMS)?,
+            recorder: json(&mut mcap, layout::RECORDER)?,
+            location: add_json_channel(
+                &mut mcap,
+                layout::LOCATION,
+                ("foxglove.LocationFix", decoded::LOCATION_FIX_SCHEMA),
+            )?,
+            raw: mcap.add_channel(frame_schema, layout::RAW, layout::FRAME_ENCODING, &none)?,
+            sent: mcap.add_channel(frame_schema, layout::SENT, layout::FRAME_ENCODING, &none)?,
+        };
+        let metadata = [
+            ("layout".to_owned(), layout::LAYOUT_VERSION.to_owned()),
+            ("project".to_owned(), project.name.clone()),
+            ("profile".to_owned(), options.profile.clone()),
+            ("petrel".to_owned(), env!("CARGO_PKG_VERSION").to_owned()),
+            (
+                "clock_offset_ns".to_owned(),
+                options.clock_offset_ns.to_string(),
+            ),
+        ];
+        mcap.write_metadata(&mcap::records::Metadata {
+            name: "petrel".into(),
+            metadata: metadata.into_iter().collect(),
+        })?;
+        Ok(Writer {
+            mcap,
+            project,
+            options,
+            dropped,
+            channels,
+            json_schemas: HashMap::new(),
+            decoded: HashMap::new(),
+            markings: HashMap::new(),
+            decoder: Decoder::default(),
+            pending: HashMap::new(),
+            raw_index: 0,
+            boot_ms: None,
+            steps: 0,
+            messages: 0,
+            dirty: true,
+            reported_dropped: 0,
+            last_time: 0,
+            last_seq: None,
+        })
+    }
+
+    fn run(&mut self, rx: Receiver<Entry>) -> Result<Report, RecordError> {
+        let mut deadline = Instant::now() + self.options.flush_every;
+        loop {
+            let wait = deadline.saturating_duration_since(Instant::now());
+            match rx.recv_timeout(wait) {
+                Ok(entry) => self.entry(entry)?,
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => break,
+            }
+            if Instant::now() >= deadline {
+                self.status(false)?;
+                if self.dirty {
+                    self.mcap.flush()?;
+                    self.dirty = false;
+                }
+                deadline = Instant::now() + self.options.flush_every;
+            }
+        }
+        self.status(true)?;
+        self.mcap.finish()?;
+        Ok(Report {
+            steps: self.steps,
+            dropped: self.dropped.entries.load(Ordering::Relaxed),
+            dropped_steps: self.dropped.steps.load(Ordering::Relaxed),
+            messages: self.messages,
+        })
+    }
+
+    fn write(&mut self, channel: u16, seq: u64, time: Micros, data: &[u8]) -> mcap::McapResult<()> {
+        let t = time
+            .saturating_mul(1000)
+            .saturating_add(self.options.clock_offset_ns);
+        self.messages += 1;
+        self.dirty = true;
+        self.mcap.write_to_known_channel(
+            &MessageHeader {
+                channel_id: channel,
+                sequence: seq as u32,
+                log_time: t,
+                publish_time: t,
+            },
+            data,
+        )
+    }
+
+    fn write_json(
+        &mut self,
+        channel: u16,
+        seq: u64,
+        time: Micros,
+        v: &Json,
+    ) -> mcap::McapResult<()> {
+        let bytes = serde_json::to_vec(v).unwrap_or_default();
+        self.write(channel, seq, time, &bytes)
+    }
+
+    /// Records the drop count when it changed (and at the end).
+    fn status(&mut self, always: bool) -> mcap::McapResult<()> {
+        let dropped = self.dropped.entries.load(Ordering::Relaxed);
+        if !always && dropped == self.reported_dropped {
+            return Ok(());
+        }
+        self.reported_dropped = dropped;
+        let steps = self.dropped.steps.load(Ordering::Relaxed);
+        let v = json!({"time_us": self.last_time, "written_steps": self.steps, "last_seq": self.last_seq, "dropped": dropped, "dropped_steps": steps});
+        self.write_json(self.channels.recorder, self.steps, self.last_time, &v)
+    }
+
+    fn entry(&mut self, entry: Entry) -> mcap::McapResult<()> {
+        match entry {
+            Entry::Step(b) => {
+                let (input, frame, step, digest) = *b;
+                self.step(input, frame, &step, digest)
+            }
+            Entry::Sent { time, bytes } => {
+                let rec = tlog_record(time, &bytes);
+                self.write(self.channels.sent, 0, time, &rec)
+            }
+            Entry::Program {
+                time,
+                program,
+                kind,
+                body,
+            } => {
+                let v = json!({"time_us": time, "program": program, "kind": kind, "body": body});
+                self.write_json(self.channels.programs, 0, time, &v)
+            }
+        }
+    }
+
+    fn step(
+        &mut self,
+        mut input: Input,
+        frame: Option<Vec<u8>>,
+        step: &Step,
+        digest: Digest,
+    ) -> mcap::McapResult<()> {
+        let (seq, time) = (step.seq, step.time);
+        self.last_time = time;
+        self.last_seq = Some(seq);
+        if let Some(bytes) = frame {
+            input = Input::Frame(self.raw_index);
+            self.frame(time, &bytes)?;
+        }
+        let v = layout::input_json(seq, time, &input);
+        self.write_json(self.channels.inputs, seq, time, &v)?;
+        match &input {
+            Input::Result { id, outcome } => self.result(seq, time, *id, outcome)?,
+            Input::Event(e) => self.program_event(seq, time, e)?,
+            _ => {}
+        }
+        let mut count = 0;
+        for effect in &step.effects {
+            self.effect(seq, effect)?;
+            count += 1;
+        }
+        for (e, effects) in &step.events {
+            let v = json!({
+                "seq": seq, "time_us": e.time_us, "event": e.event.name,
+                "category": self.project.declared_category(&e.event.name).unwrap_or(e.event.category).as_str(),
+                "params": layout::event_json(&e.event)["params"],
+                "sysid": e.sysid, "compid": e.compid,
+            });
+            self.write_json(self.channels.events, seq, e.time_us, &v)?;
+            for effect in effects {
+                self.effect(seq, effect)?;
+                count += 1;
+            }
+        }
+        let v = json!({"seq": seq, "time_us": time, "digest": digest.to_string(), "boot_ms": self.boot_ms, "effects": count});
+        self.write_json(self.channels.digests, seq, time, &v)?;
+        self.steps += 1;
+        Ok(())
+    }
+
+    fn frame(&mut self, time: Micros, bytes: &[u8]) -> mcap::McapResult<()> {
+        let index = self.raw_index;
+        self.raw_index += 1;
+        self.write(self.channels.raw, index, time, &tlog_record(time, bytes))?;
+        let Ok(frame) = Frame::parse(bytes) else {
+            return Ok(());
+        };
+        let Ok(msg) = frame.decode() else {
+            return Ok(());
+        };
+        if let MavMessage::SYSTEM_TIME(t) = &msg {
+            self.boot_ms = Some(t.time_boot_ms);
+        }
+        let t_ns = time
+            .saturating_mul(1000)
+            .saturating_add(self.options.clock_offset_ns);
+        if let Some(fix) = decoded::location_fix(&msg, t_ns) {
+            self.write_json(self.channels.location, index, time, &fix)?;
+        }
+        let key = (frame.system_id(), frame.component_id(), frame.message_id());
+        let Some((kind, v)) = self.decoder.decode(&msg) else {
+            return Ok(());
+        };
+        let channel = match self.decoded.get(&key) {
+            Some(c) => *c,
+            None => {
+                let schema = match self.json_schemas.get(kind.name) {
+                    Some(s) => Some(*s),
+                    None => {
+                        let name = format!("mavlink.{}", kind.name);
+                        let s =
+                            self.mcap
+                                .add_schema(&name, "jsonschema", kind.schema.as_bytes())?;
+                        self.json_schemas.insert(kind.name, s);
+                        Some(s)
+                    }
+                };
+                let topic = format!("/mavlink/{}/{}/{}", key.0, key.1, kind.name);
+                let c = match schema {
+                    Some(s) => Some(self.mcap.add_channel(s, &topic, "json", &BTreeMap::new())?),
+                    None => None,
+                };
+                self.decoded.insert(key, c);
+                c
+            }
+        };
+        if let Some(c) = channel {
+            self.write_json(c, index, time, &v)?;
+        }
+        Ok(())
+    }
+
+    fn effect(&mut self, seq: u64, effect: &Effect) -> mcap::McapResult<()> {
+        let time = effect.time();
+        let mut v = effect_json(&self.project, effect);
+        v["seq"] = json!(seq);
+        self.write_json(self.channels.effects, seq, time, &v)?;
+        match effect {
+            Effect::Marking { net, marked, .. } => {
+                let channel = match self.markings.get(net) {
+                    Some(c) => *c,
+                    None => {
+                        let name = match net {
+                            Some(n) => self.project.nets[*n].name.clone(),
+                            None => "@globals".to_owned(),
+                        };
+                        let topic = format!("{}{name}", layout::MARKING_PREFIX);
+                        let c = add_json_channel(
+                            &mut self.mcap,
+                            &topic,
+                            layout::petrel_schema(&topic),
+                        )?;
+                        self.markings.insert(*net, c);
+                        c
+                    }
+                };
+                let m = json!({"seq": seq, "time_us": time, "marked": v["marked"], "tokens": marked.len()});
+                self.write_json(channel, seq, time, &m)?;
+            }
+            Effect::Command { id, .. } => {
+                self.pending.insert(*id, Pending::Command);
+                self.write_json(self.channels.commands, seq, time, &v)?;
+            }
+            Effect::Call { id, .. } => {
+                self.pending.insert(*id, Pending::Call);
+                self.write_json(self.channels.programs, seq, time, &v)?;
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn result(
+        &mut self,
+        seq: u64,
+        time: Micros,
+        id: u64,
+        outcome: &Outcome,
+    ) -> mcap::McapResult<()> {
+        let v = json!({"seq": seq, "time_us": time, "kind": "result", "id": id, "outcome": layout::outcome_json(outcome)});
+        match self.pending.remove(&id) {
+            Some(Pending::Command) => self.write_json(self.channels.commands, seq, time, &v),
+            _ => self.write_json(self.channels.programs, seq, time, &v),
+        }
+    }
+
+    fn program_event(&mut self, seq: u64, time: Micros, e: &Event) -> mcap::McapResult<()> {
+        let v =
+            json!({"seq": seq, "time_us": time, "kind": "event", "event": layout::event_json(e)});
+        self.write_json(self.channels.programs, seq, time, &v)
+    }
+}
+
+/// A tlog record: the time (µs, big-endian) then the frame.
+fn tlog_record(time: Micros, bytes: &[u8]) -> Vec<u8> {
+    let mut rec = Vec::with_capacity(8 + bytes.len());
+    rec.extend_from_slice(&time.to_be_bytes());
+    rec.extend_from_slice(bytes);
+    rec
+}

@@ -1,0 +1,33 @@
+//! Recording (MCAP) end to end: the recorder in-process on a scripted
+//! flight (the SITL plane's telemetry, the uav-survey project, answers to
+//! its commands and calls), then `petrel replay FILE.mcap --check-against`,
+//! tampered and cut recordings, a recorder killed with SIGKILL, a writer too
+//! slow for its queue, and the Python `mcap` package as an independent
+//! reader.
+//!
+//! The gateway is a binary crate: the recorder and the Supervisor are
+//! compiled into this test from their sources.
+
+#[allow(dead_code)]
+#[path = "../src/supervisor.rs"]
+mod supervisor;
+
+#[allow(dead_code)]
+#[path = "../src/project.rs"]
+mod project;
+
+#[path = "../src/record/mod.rs"]
+mod record;
+
+#[path = "record/files.rs"]
+mod files;
+#[path = "record/flight.rs"]
+mod flight;
+#[path = "record/power.rs"]
+mod power;
+#[path = "record/python.rs"]
+mod python;
+#[path = "record/queue.rs"]
+mod queue;
+#[path = "record/replay.rs"]
+mod replay;

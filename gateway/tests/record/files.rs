@@ -1,0 +1,126 @@
+//! Scratch files, the `petrel` binary, recorded flights shared by the
+//! tests, and rewriting a recording (tampering).
+
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+use std::time::Duration;
+
+use crate::flight::{self, Fed};
+use crate::record::writer::{Options, Recorder, Report};
+
+/// A scratch directory of this process, removed at exit by no one: it lives
+/// under the target directory's tmp (cargo cleans it), one per process.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("record-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("scratch directory");
+    dir.join(name)
+}
+
+/// Runs `petrel` from the workspace root: (exit code, stdout, stderr).
+pub fn petrel(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .args(args)
+        .current_dir(flight::root())
+        .output()
+        .expect("petrel runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// `petrel replay FILE examples/uav-survey --check-against [more]`.
+pub fn check(file: &Path, more: &[&str]) -> (i32, String, String) {
+    let mut args = vec![
+        "replay",
+        file.to_str().expect("utf-8 path"),
+        "examples/uav-survey",
+        "--check-against",
+    ];
+    args.extend_from_slice(more);
+    petrel(&args)
+}
+
+/// A recorded flight.
+pub struct Flown {
+    pub path: PathBuf,
+    pub fed: Fed,
+    pub report: Report,
+}
+
+/// Records the first `limit` frames of the SITL flight into `name`.
+pub fn record(name: &str, limit: usize, options: Options) -> Option<Flown> {
+    let tlog = flight::tlog()?;
+    let path = scratch(name);
+    let recorder = Recorder::create(&path, flight::project(), options).expect("recorder");
+    let fed = flight::fly(&tlog, &recorder, limit, None);
+    let report = recorder.finish().expect("finished");
+    Some(Flown { path, fed, report })
+}
+
+/// The whole SITL flight, recorded once for every test that reads it.
+pub fn whole_flight() -> Option<&'static Flown> {
+    static FLOWN: OnceLock<Option<Flown>> = OnceLock::new();
+    FLOWN
+        .get_or_init(|| {
+            record(
+                "whole.mcap",
+                usize::MAX,
+                Options {
+                    // Enough room for the whole flight: nothing dropped.
+                    queue: 1 << 20,
+                    ..Options::default()
+                },
+            )
+        })
+        .as_ref()
+}
+
+/// The start of the flight with a chunk closed after every step (many
+/// chunks, for cutting).
+pub fn chunky_flight() -> Option<&'static Flown> {
+    static FLOWN: OnceLock<Option<Flown>> = OnceLock::new();
+    FLOWN
+        .get_or_init(|| {
+            record(
+                "chunky.mcap",
+                3_000,
+                Options {
+                    queue: 1 << 20,
+                    flush_every: Duration::ZERO,
+                    ..Options::default()
+                },
+            )
+        })
+        .as_ref()
+}
+
+/// Copies a recording into `out`, letting `edit` change any JSON message
+/// (it returns whether it did); the summary is written anew.
+pub fn rewrite(
+    input: &Path,
+    out: &Path,
+    mut edit: impl FnMut(&str, &mut serde_json::Value) -> bool,
+) -> usize {
+    let bytes = std::fs::read(input).expect("recording");
+    let file = std::fs::File::create(out).expect("output");
+    let mut writer = mcap::Writer::new(BufWriter::new(file)).expect("writer");
+    let mut edits = 0;
+    for message in mcap::MessageStream::new(&bytes).expect("MCAP") {
+        let mut message = message.expect("message");
+        if message.channel.message_encoding == "json" {
+            let mut v: serde_json::Value =
+                serde_json::from_slice(&message.data).expect("JSON message");
+            if edit(&message.channel.topic, &mut v) {
+                edits += 1;
+                message.data = serde_json::to_vec(&v).expect("JSON").into();
+            }
+        }
+        writer.write(&message).expect("written");
+    }
+    writer.finish().expect("finished");
+    edits
+}

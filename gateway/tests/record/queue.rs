@@ -1,0 +1,68 @@
+//! A writer too slow for its queue: the caller never waits, what is dropped
+//! is counted and the count is recorded; replay stops at the gap.
+
+use std::io::{Cursor, Seek, SeekFrom, Write};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use crate::files::{check, scratch};
+use crate::flight;
+use crate::record::read;
+use crate::record::writer::{Options, Recorder};
+
+/// An in-memory sink that takes 2 ms per write, shared with the test.
+#[derive(Clone, Default)]
+struct SlowSink(Arc<Mutex<Cursor<Vec<u8>>>>);
+
+impl Write for SlowSink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        std::thread::sleep(Duration::from_millis(2));
+        self.0.lock().expect("sink").write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Seek for SlowSink {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.0.lock().expect("sink").seek(pos)
+    }
+}
+
+#[test]
+fn a_slow_writer_drops_counts_and_records_the_count() {
+    let Some(tlog) = flight::tlog() else { return };
+    let sink = SlowSink::default();
+    let recorder = Recorder::with_sink(
+        sink.clone(),
+        flight::project(),
+        Options {
+            queue: 16,
+            flush_every: Duration::from_millis(1),
+            ..Options::default()
+        },
+    )
+    .expect("recorder");
+    let fed = flight::fly(&tlog, &recorder, 2_000, None);
+    let dropped = recorder.dropped();
+    assert!(dropped > 0, "nothing dropped");
+    let report = recorder.finish().expect("finished");
+    assert_eq!(report.dropped, dropped);
+    // The flight only records steps.
+    assert_eq!(report.dropped_steps, dropped);
+    assert_eq!(report.steps + dropped, fed.steps + 1);
+    let bytes = sink.0.lock().expect("sink").get_ref().clone();
+    let rec = read::read(&bytes, true).expect("readable");
+    assert!(rec.finished);
+    assert_eq!(rec.dropped, dropped, "the count is recorded");
+    assert_eq!(rec.dropped_steps, dropped);
+    assert_eq!(rec.inputs.len() as u64, report.steps);
+    // Replay cannot be exact past the first gap, and says so.
+    let path = scratch("dropped.mcap");
+    std::fs::write(&path, &bytes).expect("written");
+    let (code, _, err) = check(&path, &[]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("dropped"), "{err}");
+    assert!(err.contains("first difference at step"), "{err}");
+}

@@ -1,0 +1,250 @@
+//! `petrel replay FILE.mcap --check-against` on faithful, tampered and cut
+//! recordings.
+
+use std::collections::BTreeMap;
+
+use serde_json::{json, Value};
+
+use crate::files::{check, chunky_flight, rewrite, scratch, whole_flight};
+use crate::record::{layout, read};
+
+#[test]
+fn a_recording_replays_exactly_and_checks_out() {
+    let Some(flown) = whole_flight() else { return };
+    let fed = &flown.fed;
+    // The script answered commands and calls and injected a program event.
+    assert!(fed.results >= 4, "{fed:?}");
+    assert!(!fed.command_results.is_empty(), "{fed:?}");
+    assert_eq!(fed.events, 1);
+    assert!(fed.ticks > 0 && fed.frames == 21_698, "{fed:?}");
+    assert_eq!(flown.report.steps, fed.steps + 1);
+    assert_eq!(flown.report.dropped, 0);
+
+    let (code, out, err) = check(&flown.path, &["--json"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("match the recording"), "{err}");
+    assert!(
+        err.contains(&format!("replayed {} steps", fed.steps)),
+        "{err}"
+    );
+    let lines: Vec<Value> = out
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect();
+    let end = lines.last().expect("an end line");
+    assert_eq!(end["end"], true);
+    assert_eq!(end["digest"], fed.final_digest.as_str());
+    // Decisions taken on recorded answers are taken again: the takeoff
+    // command follows the recorded acknowledgement of the arming.
+    let verbs: Vec<&str> = lines
+        .iter()
+        .filter(|l| l["effect"] == "command")
+        .filter_map(|l| l["verb"].as_str())
+        .collect();
+    assert_eq!(&verbs[..2], ["arm", "takeoff"], "{verbs:?}");
+    assert!(lines
+        .iter()
+        .any(|l| l["effect"] == "call" && l["function"] == "replan"));
+
+    // The recording itself: every input, every raw frame, a summary.
+    let bytes = std::fs::read(&flown.path).expect("recording");
+    let rec = read::read(&bytes, true).expect("readable");
+    assert!(rec.finished && rec.cut.is_none());
+    assert_eq!(rec.inputs.len() as u64, fed.steps + 1);
+    assert_eq!(rec.frames.len() as u64, fed.frames);
+    assert_eq!(rec.steps.len() as u64, fed.steps + 1);
+    // Raw frames are tlog records: together they are the flight's tlog.
+    let tlog = crate::flight::tlog().expect("tlog");
+    assert_eq!(rec.tlog(), tlog);
+    let summary = mcap::Summary::read(&bytes)
+        .expect("summary")
+        .expect("a summary");
+    let counts: BTreeMap<String, u64> = summary
+        .stats
+        .as_ref()
+        .expect("statistics")
+        .channel_message_counts
+        .iter()
+        .map(|(id, n)| (summary.channels[id].topic.clone(), *n))
+        .collect();
+    assert_eq!(counts[layout::INPUTS], fed.steps + 1);
+    assert_eq!(counts[layout::DIGESTS], fed.steps + 1);
+    assert_eq!(counts[layout::RAW], fed.frames);
+    for topic in [
+        "/mavlink/1/1/HEARTBEAT",
+        "/mavlink/1/1/GLOBAL_POSITION_INT",
+        "/mavlink/1/1/SYSTEM_TIME",
+        layout::LOCATION,
+        layout::EVENTS,
+        layout::EFFECTS,
+        layout::COMMANDS,
+        layout::PROGRAMS,
+        layout::RECORDER,
+        "/petrel/marking/MISSION",
+        "/petrel/marking/EVENTS",
+        "/petrel/marking/@globals",
+    ] {
+        assert!(
+            counts.get(topic).is_some_and(|n| *n > 0),
+            "{topic}: {counts:?}"
+        );
+    }
+    assert_eq!(
+        counts[layout::LOCATION],
+        counts["/mavlink/1/1/GLOBAL_POSITION_INT"]
+    );
+    let location = summary
+        .channels
+        .values()
+        .find(|c| c.topic == layout::LOCATION)
+        .expect("location channel");
+    let schema = location.schema.as_ref().expect("a schema");
+    assert_eq!(schema.name, "foxglove.LocationFix");
+    assert_eq!(schema.encoding, "jsonschema");
+    // Both times are set; the autopilot's boot time rides with the digests
+    // once SYSTEM_TIME was seen; a decoded HEARTBEAT is flat with names.
+    let mut boot = Vec::new();
+    let mut heartbeat = None;
+    for m in mcap::MessageStream::new(&bytes).expect("MCAP") {
+        let m = m.expect("message");
+        assert_eq!(m.log_time, m.publish_time, "{}", m.channel.topic);
+        if m.channel.topic == layout::DIGESTS {
+            let v: Value = serde_json::from_slice(&m.data).expect("JSON");
+            boot.push(v["boot_ms"].as_u64());
+        }
+        if m.channel.topic == "/mavlink/1/1/HEARTBEAT" && heartbeat.is_none() {
+            heartbeat = Some(serde_json::from_slice::<Value>(&m.data).expect("JSON"));
+        }
+    }
+    assert_eq!(boot[0], None);
+    let known: Vec<u64> = boot.iter().flatten().copied().collect();
+    assert!(known.len() > boot.len() / 2);
+    assert!(known.windows(2).all(|w| w[0] <= w[1]));
+    let hb = heartbeat.expect("a heartbeat");
+    assert_eq!(hb["type"], 1, "{hb}");
+    assert_eq!(hb["type_name"], "MAV_TYPE_FIXED_WING", "{hb}");
+    assert_eq!(hb["autopilot"], 3, "{hb}");
+    assert!(hb["base_mode"].is_u64(), "{hb}");
+}
+
+#[test]
+fn a_digest_tampered_with_is_reported_at_its_step() {
+    let Some(flown) = whole_flight() else { return };
+    let k = flown.fed.steps / 2;
+    let out = scratch("tampered-digest.mcap");
+    let edits = rewrite(&flown.path, &out, |topic, v| {
+        if topic == layout::DIGESTS && v["seq"] == k {
+            v["digest"] = json!("0".repeat(64));
+            return true;
+        }
+        false
+    });
+    assert_eq!(edits, 1);
+    let (code, _, err) = check(&out, &[]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains(&format!("first difference at step {k} ")),
+        "{err}"
+    );
+    assert!(
+        err.contains(&format!("digest: recorded {}", "0".repeat(64))),
+        "{err}"
+    );
+    // With --json the difference is also the last line.
+    let (code, out, _) = check(&out, &["--json"]);
+    assert_eq!(code, 1);
+    let last: Value = serde_json::from_str(out.lines().last().expect("a line")).expect("JSON");
+    assert_eq!(last["check"], "differ");
+    assert_eq!(last["seq"], k);
+}
+
+#[test]
+fn an_input_tampered_with_is_reported_at_its_step() {
+    let Some(flown) = whole_flight() else { return };
+    // The autopilot's acknowledgement of the arming turned into a refusal.
+    let k = flown.fed.command_results[0];
+    let out = scratch("tampered-input.mcap");
+    let edits = rewrite(&flown.path, &out, |topic, v| {
+        if topic == layout::INPUTS && v["seq"] == k {
+            assert_eq!(v["input"], "result", "{v}");
+            v["outcome"] = json!({"failed": "tampered"});
+            return true;
+        }
+        false
+    });
+    assert_eq!(edits, 1);
+    let (code, _, err) = check(&out, &[]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains(&format!("first difference at step {k} ")),
+        "{err}"
+    );
+    assert!(err.contains("effect 1: recorded"), "{err}");
+    assert!(err.contains("arm_refused"), "{err}");
+}
+
+#[test]
+fn a_recording_cut_short_replays_up_to_its_last_complete_chunk() {
+    let Some(flown) = chunky_flight() else { return };
+    let bytes = std::fs::read(&flown.path).expect("recording");
+    let full = read::read(&bytes, true).expect("readable");
+    assert_eq!(full.inputs.len() as u64, flown.fed.steps + 1);
+    let mut before = 0;
+    for percent in [20, 50, 80, 99] {
+        let cut = &bytes[..bytes.len() * percent / 100];
+        let rec = read::read(cut, true).expect("a cut recording stays readable");
+        assert!(rec.cut.is_some() && !rec.finished, "{percent}%");
+        let n = rec.inputs.len();
+        assert!(n > before, "{percent}%: {n} inputs after {before}");
+        assert_eq!(rec.inputs[..], full.inputs[..n], "{percent}%");
+        // Everything a complete chunk holds of a step is there: its
+        // digest, and its frame.
+        for (seq, _, input) in &rec.inputs {
+            assert!(rec.steps[seq].digest.is_some(), "{percent}% step {seq}");
+            if let layout::Input::Frame(i) = input {
+                assert!(rec.frame(*i).is_some());
+            }
+        }
+        before = n;
+    }
+    // 1 % short of the end loses at most a few steps of 3,000.
+    assert!(before as u64 + 100 > flown.fed.steps, "{before}");
+    let cut_path = scratch("cut.mcap");
+    std::fs::write(&cut_path, &bytes[..bytes.len() / 2]).expect("written");
+    let (code, _, err) = check(&cut_path, &[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("ends early"), "{err}");
+    assert!(err.contains("match the recording"), "{err}");
+}
+
+#[test]
+fn files_that_are_not_petrel_recordings_are_refused() {
+    let not_mcap = scratch("not.mcap");
+    std::fs::write(&not_mcap, b"hello, world").expect("written");
+    let (code, _, err) = check(&not_mcap, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("not an MCAP file"), "{err}");
+    // An MCAP without Petrel's inputs.
+    let other = scratch("other.mcap");
+    {
+        let file = std::fs::File::create(&other).expect("file");
+        let mut w = mcap::Writer::new(std::io::BufWriter::new(file)).expect("writer");
+        let c = w
+            .add_channel(0, "/chatter", "json", &Default::default())
+            .expect("channel");
+        w.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id: c,
+                sequence: 0,
+                log_time: 1,
+                publish_time: 1,
+            },
+            b"{}",
+        )
+        .expect("written");
+        w.finish().expect("finished");
+    }
+    let (code, _, err) = check(&other, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("not a Petrel recording"), "{err}");
+}
