@@ -361,6 +361,13 @@ impl Commander {
             return;
         }
         if sender.1 == target.1 {
+            if let (None, MavMessage::HEARTBEAT(hb)) = (self.firmware, message) {
+                // Target configured, firmware not: learn it here.
+                self.firmware = Some(Firmware::from_heartbeat(
+                    hb.autopilot as i64,
+                    hb.mavtype as i64,
+                ));
+            }
             self.last_heard = Some(now);
             if self.link_lost {
                 tracing::info!("link back: asking for telemetry again");

@@ -1151,3 +1151,38 @@ fn random_traffic_never_panics_and_every_command_is_answered() {
         "the traffic reaches both ends: {done} done, {failed_count} failed"
     );
 }
+
+#[test]
+fn configured_target_still_learns_the_firmware() {
+    let config = VehicleConfig {
+        system: Some(4),
+        autopilot_component: Some(1),
+        ..VehicleConfig::default()
+    };
+    let mut c = Commander::new(config);
+    c.tick(0);
+    assert_eq!(c.identity(), Some((4, 191)));
+    assert!(
+        matches!(c.poll_transmit(), Some(MavMessage::HEARTBEAT(_))),
+        "heartbeat before hearing the vehicle"
+    );
+    c.command(
+        1,
+        "mode",
+        &params(&[("mode", Value::Str("POSCTL".into()))]),
+        0,
+    );
+    assert!(c.poll_transmit().is_none(), "waits for the firmware");
+    c.message(
+        10,
+        &from(4, 1),
+        &autopilot_heartbeat(MavAutopilot::MAV_AUTOPILOT_PX4, MavType::MAV_TYPE_QUADROTOR),
+    );
+    assert_eq!(c.firmware(), Some(Firmware::Px4));
+    match c.poll_transmit() {
+        Some(MavMessage::COMMAND_LONG(l)) => {
+            assert_eq!((l.target_system, l.param2), (4, 3.0));
+        }
+        other => panic!("{other:?}"),
+    }
+}
