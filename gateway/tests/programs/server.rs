@@ -156,13 +156,13 @@ async fn restart_always_restarts_after_a_clean_exit_and_never_does_not() {
 
 #[tokio::test]
 async fn a_slow_reply_times_out_and_its_late_reply_is_ignored() {
-    let mut h = Harness::start(&fixture_program("never", "600ms", ALL), FUNCTIONS).await;
+    let mut h = Harness::start(&fixture_program("never", "1s", ALL), FUNCTIONS).await;
     h.connected().await;
     let sent = std::time::Instant::now();
     h.programs
-        .call(1, 0, SLOW, params(&[("delay", Value::Float(1.0))]));
+        .call(1, 0, SLOW, params(&[("delay", Value::Float(1.5))]));
     assert_eq!(h.outcome(1).await, failed("timeout"));
-    assert!(sent.elapsed() >= Duration::from_millis(600));
+    assert!(sent.elapsed() >= Duration::from_secs(1));
     // Asked while the fixture still sleeps on call 1: it answers in order,
     // the late reply to 1 first (ignored: no outcome, no error reply), then
     // this one, within its own timeout.

@@ -200,3 +200,60 @@ async fn a_rust_skeleton_builds_offline_and_filled_in_serves_calls() {
     let project = project(dir.path(), &run);
     serve_three_calls(dir.path(), project).await;
 }
+
+#[tokio::test]
+async fn a_python_skeleton_connecting_by_itself_is_served_refused_and_lost() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().to_str().expect("utf-8 path");
+    let project = project(dir.path(), "");
+    let (code, _, stderr) = petrel(&["stubs", p, "--lang", "python", p]);
+    assert_eq!(code, 0, "{stderr}");
+    let (programs, inputs) = Programs::start(project.clone(), dir.path(), config())
+        .await
+        .expect("the server starts");
+    let address = programs.address().to_string();
+    let mut h = Harness {
+        programs,
+        inputs,
+        traffic: Vec::new(),
+        dir: tempfile::tempdir().expect("tempdir"),
+        project,
+    };
+    let start = |name: &str| {
+        tokio::process::Command::new("python3")
+            .arg("DEC.py")
+            .current_dir(dir.path())
+            .env("PETREL_PROGRAMS", &address)
+            .env("PETREL_PROGRAM", name)
+            .stderr(std::process::Stdio::piped())
+            .kill_on_drop(true)
+            .spawn()
+            .expect("python3 starts")
+    };
+    // A wrong name: refused, and the skeleton exits with status 1.
+    let refused = tokio::time::timeout(crate::support::WAIT, start("NOPE").wait_with_output())
+        .await
+        .expect("the refused skeleton exits")
+        .expect("status");
+    assert_eq!(refused.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(stderr.contains("unknown program `NOPE`"), "{stderr}");
+    // Its own name: served (the TODO body fails as generated), then lost
+    // when it dies.
+    let mut child = start("DEC");
+    h.connected().await;
+    h.programs.call(1, 0, NEXT, Params::new());
+    assert_eq!(
+        h.outcome(1).await,
+        failed("DEC.next is not implemented yet")
+    );
+    child.start_kill().expect("kill");
+    match h.next().await {
+        crate::programs::server::ProgramInput::Lost { program, .. } => assert_eq!(program, "DEC"),
+        other => panic!("expected DEC lost, got {other:?}"),
+    }
+    let _ = child.wait().await;
+    h.programs.call(2, 0, NEXT, Params::new());
+    assert_eq!(h.outcome(2).await, failed("not connected"));
+    h.programs.shutdown().await;
+}

@@ -202,6 +202,9 @@ def answer(message):
 
 
 def serve():
+    """Serves calls until the gateway closes the connection; False if it
+    never welcomed this program (the hello was refused)."""
+    welcomed = False
     connection.send({"hello": PROGRAM, "functions": sorted(FUNCTIONS)})
     for line in connection.lines:
         try:
@@ -212,12 +215,14 @@ def serve():
         if "call" in message:
             answer(message)
         elif "welcome" in message:
+            welcomed = True
             log("connected to", ADDRESS)
         elif "error" in message:
             log("the gateway says: %s (line %s)" % (message.get("error"), message.get("line")))
         else:
             log("unexpected from the gateway:", line.strip())
     log("the gateway closed the connection")
+    return welcomed
 
 
 def main():
@@ -227,8 +232,7 @@ def main():
     except (OSError, ValueError) as error:
         log("cannot connect to %s: %s" % (ADDRESS, error))
         return 1
-    serve()
-    return 0
+    return 0 if serve() else 1
 
 
 if __name__ == "__main__":

@@ -242,6 +242,7 @@ fn main() -> ExitCode {
         log(&program, &format!("cannot say hello: {e}"));
         return ExitCode::FAILURE;
     }
+    let mut welcomed = false;
     for line in reader.lines() {
         let Ok(line) = line else { break };
         let message: Value = match serde_json::from_str(&line) {
@@ -257,6 +258,7 @@ fn main() -> ExitCode {
                 break;
             }
         } else if message.get("welcome").is_some() {
+            welcomed = true;
             log(&program, &format!("connected to {address}"));
         } else if let Some(error) = message.get("error") {
             log(&program, &format!("the gateway says: {error} (line {})", message["line"]));
@@ -265,6 +267,11 @@ fn main() -> ExitCode {
         }
     }
     log(&program, "the gateway closed the connection");
-    ExitCode::SUCCESS
+    // Refused (never welcomed): a failure, for the gateway's restart policy.
+    if welcomed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
 }
 "#;
