@@ -1186,3 +1186,27 @@ fn configured_target_still_learns_the_firmware() {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn forgotten_in_flight_stops_retrying_and_reports_nothing() {
+    let mut s = Sim::new(Firmware::Copter);
+    s.command(1, "rtl", &[]);
+    assert_eq!(s.one_long().confirmation, 0);
+    s.c.forget(1);
+    for t in 1..10 {
+        s.at(t * S);
+        assert!(s.sent().is_empty(), "no resend after forget");
+    }
+    assert!(s.outcomes().is_empty());
+    assert!(!s.c.busy());
+    // The MAV_CMD is free again for the next command.
+    s.command(2, "rtl", &[]);
+    assert_eq!(s.one_long().confirmation, 0);
+    // A result already waiting to be polled is withdrawn too.
+    s.ack(
+        MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
+        MavResult::MAV_RESULT_DENIED,
+    );
+    s.c.forget(2);
+    assert!(s.outcomes().is_empty());
+}
