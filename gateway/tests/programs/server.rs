@@ -269,3 +269,54 @@ async fn programs_connect_over_a_unix_socket() {
     h.programs.shutdown().await;
     assert!(!socket.exists(), "the socket file is removed");
 }
+
+#[tokio::test]
+async fn a_runaway_line_is_discarded_with_an_error_and_the_connection_stays() {
+    use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
+
+    let mut h = Harness::start("", FUNCTIONS).await;
+    let crate::programs::address::Address::Tcp(address) = h.programs.address().clone() else {
+        panic!("a TCP address")
+    };
+    let stream = tokio::net::TcpStream::connect(address)
+        .await
+        .expect("connects");
+    let (read, mut write) = stream.into_split();
+    let mut lines = BufReader::new(read).lines();
+    let hello = format!("{{\"hello\": \"P\", \"functions\": {ALL:?}}}\n");
+    write.write_all(hello.as_bytes()).await.expect("hello");
+    let line = |l: Option<String>| -> serde_json::Value {
+        serde_json::from_str(&l.expect("a line")).expect("JSON from the gateway")
+    };
+    let next = async |lines: &mut tokio::io::Lines<BufReader<tokio::net::tcp::OwnedReadHalf>>| {
+        tokio::time::timeout(WAIT, lines.next_line())
+            .await
+            .expect("a line within the wait")
+            .expect("readable")
+    };
+    assert_eq!(line(next(&mut lines).await)["welcome"], "P");
+    // 3 MiB without a newline, in pieces, then its end and a good line.
+    let chunk = vec![b'x'; 256 * 1024];
+    for _ in 0..12 {
+        write.write_all(&chunk).await.expect("write");
+    }
+    write
+        .write_all(b"xxx\n{\"event\": \"obstacle\", \"params\": {\"range\": 1}}\n")
+        .await
+        .expect("write");
+    let error = line(next(&mut lines).await);
+    assert_eq!(error["line"], 2);
+    assert!(error["error"]
+        .as_str()
+        .expect("error")
+        .contains("longer than"));
+    match h.next().await {
+        ProgramInput::Event { event, .. } => assert_eq!(event.name, "obstacle"),
+        other => panic!("expected the event, got {other:?}"),
+    }
+    let longest = h.traffic.iter().map(|t| t.line.len()).max().unwrap_or(0);
+    assert!(longest < 1024, "the runaway line is not recorded whole");
+    drop(write);
+    assert!(matches!(h.next().await, ProgramInput::Lost { .. }));
+    h.programs.shutdown().await;
+}
