@@ -184,7 +184,7 @@ fn bad_input_exits_2_with_the_position() {
     assert_eq!(code, 2);
     let (code, _, err) = petrel(&["check", "some-project"]);
     assert_eq!(code, 2);
-    assert!(plain(&err).contains("not available yet"), "{err}");
+    assert!(plain(&err).contains("some-project"), "{err}");
     let (code, _, _) = petrel(&["check", "--pnml", f.to_str().unwrap(), "--threads", "0"]);
     assert_eq!(code, 2);
 }
