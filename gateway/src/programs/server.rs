@@ -201,6 +201,29 @@ impl Programs {
         let _ = self.commands.send(Command::Forget(id));
     }
 
+    /// Carries out a player effect if it concerns programs: `Call` (sent)
+    /// and `Forgotten` (forgotten; harmless for a command's id). True if it
+    /// was one of them.
+    pub fn effect(&self, effect: &nets::Effect) -> bool {
+        match effect {
+            nets::Effect::Call {
+                id,
+                program,
+                function,
+                args,
+                ..
+            } => {
+                self.call(*id, *program, *function, args.clone());
+                true
+            }
+            nets::Effect::Forgotten { id, .. } => {
+                self.forget(*id);
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// Stops: started programs get SIGTERM, then SIGKILL after the grace
     /// period, and are waited for; connections are closed; a Unix socket
     /// file is removed. Calls still pending get no outcome.

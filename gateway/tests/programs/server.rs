@@ -320,3 +320,61 @@ async fn a_runaway_line_is_discarded_with_an_error_and_the_connection_stays() {
     assert!(matches!(h.next().await, ProgramInput::Lost { .. }));
     h.programs.shutdown().await;
 }
+
+/// The wiring `petrel run` does: the player's effects to the programs,
+/// their outcomes and events back to the player.
+#[tokio::test]
+async fn the_player_and_a_started_program_play_together() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let project = format!(
+        "name = \"duo\"\n[[net]]\nfile = \"n.toml\"\nactive = true\n\
+         [events]\nobstacle = {{ category = \"safety\", params = [\"range\"] }}\n\
+         {}\n{FUNCTIONS}",
+        fixture_program("never", "5s", ALL)
+    );
+    let net = "name = \"N\"\nplaces = [\"a\", \"b\", \"c\", \"d\"]\ninitial = [\"a\"]\n\
+        [[transition]]\nname = \"ask\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"go\"\ndo = [\"call P.emit\"]\n\
+        [[transition]]\nname = \"seen\"\nfrom = [\"b\"]\nto = [\"c\"]\non = \"obstacle\"\nwhen = \"range == 7\"\n\
+        [[transition]]\nname = \"done\"\nfrom = [\"c\"]\nto = [\"d\"]\non = \"P.emit.done\"\n\
+        do = [\"call P.crash\"]\n\
+        [[transition]]\nname = \"lost\"\nfrom = [\"d\"]\nto = [\"a\"]\non = \"P.crash.failed\"\n\
+        when = \"reason == \\\"program lost\\\"\"\n";
+    std::fs::write(dir.path().join("project.toml"), &project).expect("write");
+    std::fs::write(dir.path().join("n.toml"), net).expect("write");
+    let files = [("project.toml", project.as_str()), ("n.toml", net)];
+    let project = std::sync::Arc::new(nets::load(&files).expect("loads"));
+    let (programs, mut inputs) =
+        crate::programs::server::Programs::start(project.clone(), dir.path(), config())
+            .await
+            .expect("starts");
+    let mut player = nets::Player::start(project.clone(), 0);
+    let mut now: nets::Micros = 0;
+    let mut fired = Vec::new();
+    let carry_out = |player: &mut nets::Player, fired: &mut Vec<String>| {
+        for effect in player.effects() {
+            programs.effect(&effect);
+            if let nets::Effect::Fired { transition, .. } = effect {
+                fired.push(project.nets[0].transitions[transition].name.clone());
+            }
+        }
+    };
+    player.handle(&nets::Event::new("go"), now);
+    carry_out(&mut player, &mut fired);
+    while fired.len() < 4 {
+        let input = tokio::time::timeout(WAIT, inputs.recv())
+            .await
+            .expect("an input within the wait")
+            .expect("running");
+        now += 1000;
+        match input {
+            ProgramInput::Outcome { id, outcome } => player.result(id, outcome, now),
+            ProgramInput::Event { event, .. } | ProgramInput::Lost { event, .. } => {
+                player.handle(&event, now)
+            }
+            ProgramInput::Traffic(_) => continue,
+        }
+        carry_out(&mut player, &mut fired);
+    }
+    assert_eq!(fired, ["ask", "seen", "done", "lost"]);
+    programs.shutdown().await;
+}
