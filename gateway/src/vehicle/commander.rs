@@ -790,6 +790,7 @@ impl Commander {
                     payloads: &self.config.payloads,
                     home_amsl: self.home_amsl,
                     relative_alt: self.relative_alt,
+                    quadplane: self.config.quadplane,
                 };
                 match plan(&self.ops[i].request, &ctx) {
                     Ok(Plan::Command(spec)) => self.ops[i].spec = Some(spec),

@@ -69,6 +69,8 @@ pub struct VehicleConfig {
     pub component: Option<u8>,
     /// The firmware family; from the autopilot's HEARTBEAT when `None`.
     pub firmware: Option<Firmware>,
+    /// An ArduPlane QuadPlane: `takeoff` is a VTOL NAV_TAKEOFF, `land` is QLAND.
+    pub quadplane: bool,
     pub payloads: BTreeMap<String, Payload>,
     pub timing: Timing,
 }
@@ -107,7 +109,7 @@ impl VehicleConfig {
     }
 
     /// Reads the keys this module owns in a project's `[gateway]` table:
-    /// `system_id`, `autopilot_component`, `component_id`, `firmware`,
+    /// `system_id`, `autopilot_component`, `component_id`, `firmware`, `quadplane`,
     /// `[gateway.payloads]` and `[gateway.commands]`. Other keys are left to
     /// their owners.
     pub fn from_gateway_table(gateway: &toml::Table) -> Result<VehicleConfig, ConfigError> {
@@ -131,6 +133,11 @@ impl VehicleConfig {
                     format!("unknown firmware {name:?} (copter, plane, rover, sub, px4)"),
                 )
             })?);
+        }
+        if let Some(v) = gateway.get("quadplane") {
+            config.quadplane = v
+                .as_bool()
+                .ok_or_else(|| ConfigError::new("gateway.quadplane", "expected true or false"))?;
         }
         if let Some(v) = gateway.get("payloads") {
             let table = v
@@ -388,6 +395,7 @@ mod tests {
             ("[gateway]\nsystem_id = 0", "gateway.system_id"),
             ("[gateway]\nsystem_id = \"one\"", "gateway.system_id"),
             ("[gateway]\nfirmware = \"heli\"", "gateway.firmware"),
+            ("[gateway]\nquadplane = 1", "gateway.quadplane"),
             ("[gateway.payloads]\ncam = 100", "gateway.payloads.cam"),
             (
                 "[gateway.payloads]\ncam = { camera = 300 }",

@@ -78,6 +78,8 @@ pub struct Context<'a> {
     pub home_amsl: Option<f32>,
     /// Current altitude above home (m), from GLOBAL_POSITION_INT.
     pub relative_alt: Option<f32>,
+    /// An ArduPlane QuadPlane.
+    pub quadplane: bool,
 }
 
 /// Degrees to the 1e7 integers of COMMAND_INT and MISSION_ITEM_INT.
@@ -115,7 +117,14 @@ pub fn plan(request: &Request, ctx: &Context) -> Result<Plan, String> {
                 [*pitch, 0.0, 0.0, 0.0, 0.0, 0.0, *alt],
                 ap,
             ),
-            // ArduPlane takes off in TAKEOFF mode, climbing to TKOFF_ALT.
+            // A QuadPlane takes off vertically to `alt` on NAV_TAKEOFF.
+            Firmware::Plane if ctx.quadplane => CommandSpec::long(
+                MavCmd::MAV_CMD_NAV_TAKEOFF,
+                [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, *alt],
+                ap,
+            ),
+            // ArduPlane answers NAV_TAKEOFF on QuadPlanes only: a fixed wing
+            // takes off in TAKEOFF mode, climbing to its TKOFF_ALT.
             Firmware::Plane => set_mode(fw, "TAKEOFF", ap)?,
             Firmware::Px4 => {
                 let home = ctx
@@ -140,6 +149,7 @@ pub fn plan(request: &Request, ctx: &Context) -> Result<Plan, String> {
                 }
                 CommandSpec::long(MavCmd::MAV_CMD_NAV_LAND, [0.0; 7], ap)
             }
+            Firmware::Plane if ctx.quadplane && at.is_none() => set_mode(fw, "QLAND", ap)?,
             Firmware::Plane => {
                 let (lat, lon) = at.unwrap_or((0.0, 0.0));
                 CommandSpec::long(

@@ -1210,3 +1210,36 @@ fn forgotten_in_flight_stops_retrying_and_reports_nothing() {
     s.c.forget(2);
     assert!(s.outcomes().is_empty());
 }
+
+#[test]
+fn quadplane_takes_off_vertically_and_lands_in_qland() {
+    let config = VehicleConfig {
+        quadplane: true,
+        ..VehicleConfig::default()
+    };
+    let mut c = Commander::new(config);
+    c.message(
+        0,
+        &from(1, 1),
+        &autopilot_heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            MavType::MAV_TYPE_VTOL_TILTROTOR,
+        ),
+    );
+    assert_eq!(c.firmware(), Some(Firmware::Plane));
+    c.command(1, "takeoff", &params(&[("alt", Value::Int(25))]), 0);
+    c.command(2, "land", &Params::new(), 0);
+    let sent: Vec<(MavCmd, f32, f32)> = std::iter::from_fn(|| c.poll_transmit())
+        .filter_map(|m| match m {
+            MavMessage::COMMAND_LONG(l) => Some((l.command, l.param2, l.param7)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        sent,
+        vec![
+            (MavCmd::MAV_CMD_NAV_TAKEOFF, 0.0, 25.0),
+            (MavCmd::MAV_CMD_DO_SET_MODE, 20.0, 0.0),
+        ]
+    );
+}
