@@ -123,9 +123,15 @@ pub async fn supervise(
 }
 
 fn spawn(launch: &Launch) -> std::io::Result<Child> {
-    let mut command = Command::new(program_path(&launch.dir, &launch.run[0]));
+    let Some((program, args)) = launch.run.split_first() else {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "an empty command line",
+        ));
+    };
+    let mut command = Command::new(program_path(&launch.dir, program));
     command
-        .args(&launch.run[1..])
+        .args(args)
         .current_dir(&launch.dir)
         .env(ENV_ADDRESS, &launch.address)
         .env(ENV_NAME, &launch.name)

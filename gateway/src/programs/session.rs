@@ -259,9 +259,15 @@ impl Session {
     }
 
     fn done(&mut self, program: usize, id: u64, params: Params) {
-        if let Some(pending) = self.pending.get(&id) {
-            let roster = Arc::clone(&self.roster);
-            let function = &roster.project.programs[program].functions[pending.function];
+        let roster = Arc::clone(&self.roster);
+        let function = self.pending.get(&id).and_then(|pending| {
+            roster
+                .project
+                .programs
+                .get(program)
+                .and_then(|p| p.functions.get(pending.function))
+        });
+        if let Some(function) = function {
             let missing: Vec<&str> = function
                 .returns
                 .iter()
