@@ -192,6 +192,8 @@ async fn stream_fallback_when_unsupported_or_unanswered() {
 #[tokio::test]
 async fn every_verb_ardupilot_and_px4() {
     let position = MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+        lat: -353_632_610,
+        lon: 1_491_652_300,
         alt: 500_000,
         relative_alt: 10_000,
         ..GLOBAL_POSITION_INT_DATA::DEFAULT

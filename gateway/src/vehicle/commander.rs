@@ -393,7 +393,10 @@ impl Commander {
                 }
             }
             MavMessage::MISSION_CURRENT(c) => self.on_mission_current(c.seq),
-            MavMessage::GLOBAL_POSITION_INT(p) if sender.1 == target.1 => {
+            // 0, 0 is what autopilots report before they have a position.
+            MavMessage::GLOBAL_POSITION_INT(p)
+                if sender.1 == target.1 && (p.lat, p.lon) != (0, 0) =>
+            {
                 self.home_amsl = Some((p.alt as i64 - p.relative_alt as i64) as f32 / 1000.0);
                 self.relative_alt = Some(p.relative_alt as f32 / 1000.0);
             }
@@ -788,17 +791,21 @@ impl Commander {
                     firmware,
                     autopilot: target.1,
                     payloads: &self.config.payloads,
-                    home_amsl: self.home_amsl,
+                    // HOME_POSITION is the true home; GLOBAL_POSITION_INT's
+                    // alt − relative_alt stands in until it comes.
+                    home_amsl: self.home.map(|h| h.2).or(self.home_amsl),
                     relative_alt: self.relative_alt,
                     quadplane: self.config.quadplane,
                 };
-                match plan(&self.ops[i].request, &ctx) {
-                    Ok(Plan::Command(spec)) => self.ops[i].spec = Some(spec),
-                    Ok(Plan::Mission) | Err(_) => {
-                        let reason = match plan(&self.ops[i].request, &ctx) {
-                            Err(r) => r,
-                            _ => "upload_mission is not a command".into(),
-                        };
+                let planned = match plan(&self.ops[i].request, &ctx) {
+                    Ok(Plan::Command(spec)) => Ok(spec),
+                    // Uploads go to `missions` in `command`; never here.
+                    Ok(Plan::Mission) => Err("upload_mission is not a command".to_owned()),
+                    Err(reason) => Err(reason),
+                };
+                match planned {
+                    Ok(spec) => self.ops[i].spec = Some(spec),
+                    Err(reason) => {
                         self.finish(i, Err(reason));
                         continue;
                     }

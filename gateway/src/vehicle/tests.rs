@@ -197,6 +197,8 @@ fn every_verb_ardupilot_copter() {
         1,
         1,
         MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+            lat: -353_632_610,
+            lon: 1_491_652_300,
             alt: 600_000,
             relative_alt: 15_000,
             ..GLOBAL_POSITION_INT_DATA::DEFAULT
@@ -427,6 +429,26 @@ fn plane_and_px4_specifics() {
         1,
         1,
         MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+            alt: 999_000,
+            relative_alt: 0,
+            ..GLOBAL_POSITION_INT_DATA::DEFAULT
+        }),
+    );
+    p.command(9, "takeoff", &[("alt", Value::Int(10))]);
+    assert_eq!(
+        p.outcomes(),
+        vec![(
+            9,
+            failed("takeoff: home altitude unknown (no GLOBAL_POSITION_INT yet)")
+        )],
+        "a position of 0, 0 is no position"
+    );
+    p.recv(
+        1,
+        1,
+        MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+            lat: 473_977_420,
+            lon: 85_455_940,
             alt: 488_000,
             relative_alt: 0,
             ..GLOBAL_POSITION_INT_DATA::DEFAULT
@@ -454,6 +476,18 @@ fn plane_and_px4_specifics() {
     let c = p.one_long();
     assert_eq!(c.command, MavCmd::MAV_CMD_NAV_LAND);
     assert!(c.param5.is_nan() && c.param7.is_nan());
+    // HOME_POSITION, when it comes, is the home altitude.
+    p.ack(MavCmd::MAV_CMD_NAV_TAKEOFF, MavResult::MAV_RESULT_ACCEPTED);
+    p.recv(
+        1,
+        1,
+        MavMessage::HOME_POSITION(HOME_POSITION_DATA {
+            altitude: 490_000,
+            ..HOME_POSITION_DATA::DEFAULT
+        }),
+    );
+    p.command(6, "takeoff", &[("alt", Value::Int(10))]);
+    assert_eq!(p.one_long().param7, 500.0);
 }
 
 #[test]
