@@ -7,18 +7,24 @@
 //! # Using it
 //!
 //! ```text
+//! let origin = Instant::now();                                  // one clock origin for the gateway
+//! let (mut reader, writer) = link::Link::open(&address, origin).await?;
+//! // a task: loop { tx.send(reader.recv().await?) }             (frames: bytes, time_us, header, message)
 //! let config = config::VehicleConfig::from_project_toml("project.toml", &text)?; // errors: file:line:col
 //! let mut commander = commander::Commander::new(config);
-//! commander.request_streams(&[(33, 4.0), (1, 2.0)], now);   // ids and Hz from the profile
+//! commander.request_streams(&[(33, 4.0), (1, 2.0)], now);     // message ids and Hz, from the profile
 //! loop {
-//!     // 1. everything received:     commander.message(now, &header, &message);
-//!     // 2. every Effect::Command:   commander.command(id, &verb, &args, now);
-//!     //    every Effect::Forgotten: commander.forget(id);
-//!     // 3. when nothing arrives:    commander.tick(now)  (at next_deadline() at the latest)
-//!     // 4. drain, after each of the above:
-//!     //    while let Some(m) = commander.poll_transmit() { writer.send(commander.identity(), &m) }
+//!     // 1. every frame received:    commander.message(frame.time_us, &frame.header, &message)
+//!     //                             (frames that decode; the raw bytes go to elaboration and the recorder)
+//!     // 2. every Effect::Command:   commander.command(id, &verb, &args, now)
+//!     //    every Effect::Forgotten: commander.forget(id)
+//!     // 3. when nothing arrives:    commander.tick(now), at commander.next_deadline() at the latest
+//!     // 4. after each of the above, drain:
+//!     //    while let Some(m) = commander.poll_transmit() { writer.send(commander.identity()?, &m).await }
 //!     //    while let Some((id, outcome)) = commander.poll_outcome() { player.result(id, outcome, now) }
 //! }
+//! // shutdown: keep steps 1, 3, 4 going while commander.busy() (bounded by the retry rules),
+//! // so that no mission upload is left half done
 //! ```
 //!
 //! The commander learns the autopilot (system, component, firmware) from
