@@ -24,8 +24,11 @@ pub struct Recorded {
 pub struct Recording {
     /// Every input, in the recorded order: `(seq, time, input)`.
     pub inputs: Vec<(u64, Micros, Input)>,
-    /// Raw frames by index on `/mavlink/raw`: tlog records (time, frame).
-    pub frames: Vec<Vec<u8>>,
+    /// Raw frames on `/mavlink/raw`, tlog records (time, frame) one after
+    /// the other: the flight's tlog.
+    tlog: Vec<u8>,
+    /// Where each raw frame's record starts in `tlog`, by index.
+    frames: Vec<usize>,
     /// What each step recorded, by seq (read only when asked).
     pub steps: HashMap<u64, Recorded>,
     /// Entries the recorder dropped, as last recorded.
@@ -37,6 +40,15 @@ pub struct Recording {
     pub cut: Option<String>,
     /// Whether the file has its summary (a clean finish).
     pub finished: bool,
+}
+
+/// A digest line as read.
+#[derive(serde::Deserialize)]
+struct DigestLine<'a> {
+    seq: u64,
+    #[serde(borrow)]
+    digest: std::borrow::Cow<'a, str>,
+    boot_ms: Option<u64>,
 }
 
 /// Why a file is not a readable Petrel recording.
@@ -56,14 +68,21 @@ pub enum ReadError {
 
 impl Recording {
     /// The frames as one tlog (to detect the autopilot, or to export).
-    pub fn tlog(&self) -> Vec<u8> {
-        self.frames.concat()
+    pub fn tlog(&self) -> &[u8] {
+        &self.tlog
+    }
+
+    /// How many raw frames were read.
+    pub fn frame_count(&self) -> usize {
+        self.frames.len()
     }
 
     /// The frame bytes and receive time of raw frame `index`.
     pub fn frame(&self, index: u64) -> Option<(Micros, &[u8])> {
-        let rec = self.frames.get(usize::try_from(index).ok()?)?;
-        let (stamp, bytes) = rec.split_at_checked(8)?;
+        let i = usize::try_from(index).ok()?;
+        let start = *self.frames.get(i)?;
+        let end = self.frames.get(i + 1).copied().unwrap_or(self.tlog.len());
+        let (stamp, bytes) = self.tlog.get(start..end)?.split_at_checked(8)?;
         let time = u64::from_be_bytes(stamp.try_into().ok()?);
         Some((time, bytes))
     }
@@ -98,14 +117,16 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
             })
         };
         match topic {
-            layout::RAW => rec.frames.push(message.data.into_owned()),
+            layout::RAW => {
+                rec.frames.push(rec.tlog.len());
+                rec.tlog.extend_from_slice(&message.data);
+            }
             layout::INPUTS => {
                 saw_inputs = true;
-                let v = json(layout::INPUTS, count_inputs)?;
-                let input = layout::input_from(&v).ok_or_else(|| ReadError::Bad {
+                let input = layout::input_from(&message.data).ok_or_else(|| ReadError::Bad {
                     topic: layout::INPUTS,
                     index: count_inputs,
-                    what: format!("not an input: {v}"),
+                    what: format!("not an input: {}", String::from_utf8_lossy(&message.data)),
                 })?;
                 rec.inputs.push(input);
                 count_inputs += 1;
@@ -125,21 +146,16 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
                 rec.steps.entry(seq).or_default().effects.push(v);
             }
             layout::DIGESTS if expectations => {
-                let v = json(layout::DIGESTS, count_digests)?;
-                count_digests += 1;
-                let (Some(seq), Some(digest)) = (
-                    v.get("seq").and_then(Json::as_u64),
-                    v.get("digest").and_then(Json::as_str),
-                ) else {
-                    return Err(ReadError::Bad {
+                let line: DigestLine =
+                    serde_json::from_slice(&message.data).map_err(|e| ReadError::Bad {
                         topic: layout::DIGESTS,
-                        index: count_digests - 1,
-                        what: format!("not a digest: {v}"),
-                    });
-                };
-                let step = rec.steps.entry(seq).or_default();
-                step.digest = Some(digest.to_owned());
-                step.boot_ms = v.get("boot_ms").and_then(Json::as_u64);
+                        index: count_digests,
+                        what: e.to_string(),
+                    })?;
+                count_digests += 1;
+                let step = rec.steps.entry(line.seq).or_default();
+                step.digest = Some(line.digest.into_owned());
+                step.boot_ms = line.boot_ms;
             }
             layout::RECORDER => {
                 if let Ok(v) = serde_json::from_slice::<Json>(&message.data) {

@@ -51,7 +51,7 @@ fn a_recording_replays_exactly_and_checks_out() {
     let rec = read::read(&bytes, true).expect("readable");
     assert!(rec.finished && rec.cut.is_none());
     assert_eq!(rec.inputs.len() as u64, fed.steps + 1);
-    assert_eq!(rec.frames.len() as u64, fed.frames);
+    assert_eq!(rec.frame_count() as u64, fed.frames);
     assert_eq!(rec.steps.len() as u64, fed.steps + 1);
     // Raw frames are tlog records: together they are the flight's tlog.
     let tlog = crate::flight::tlog().expect("tlog");

@@ -21,7 +21,9 @@ pub fn run(args: Args) -> VerbResult {
     let name = args.file.display().to_string();
     let bytes = std::fs::read(&args.file)
         .map_err(|e| miette::miette!("cannot read the MCAP recording {name}: {e}"))?;
+    let reading = Instant::now();
     let rec = read::read(&bytes, args.check_against).map_err(|e| miette::miette!("{name}: {e}"))?;
+    let reading = reading.elapsed();
     drop(bytes);
     if let Some(cut) = &rec.cut {
         eprintln!(
@@ -39,7 +41,7 @@ pub fn run(args: Args) -> VerbResult {
             "{name}: the inputs log does not begin with the player's start (step 0)"
         ));
     };
-    let Ok(profile) = super::super::events::load_profile(args.profile.as_deref(), &rec.tlog())?
+    let Ok(profile) = super::super::events::load_profile(args.profile.as_deref(), rec.tlog())?
     else {
         return Ok(Outcome::BadInput);
     };
@@ -162,9 +164,10 @@ pub fn run(args: Args) -> VerbResult {
     }
     out.out.flush().map_err(io)?;
     eprintln!(
-        "replayed {steps} steps ({frames} frames, {} bad) in {:.3} s; {events} events; {} commands and calls left unanswered",
+        "replayed {steps} steps ({frames} frames, {} bad) in {:.3} s after reading the recording in {:.3} s; {events} events; {} commands and calls left unanswered",
         sup.bad_frames,
         wall.elapsed().as_secs_f64(),
+        reading.as_secs_f64(),
         player.state().pending.len()
     );
     if !args.check_against {
