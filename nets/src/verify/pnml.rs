@@ -190,7 +190,10 @@ pub fn read_document(text: &str) -> Result<Document, PnmlError> {
             PnmlErrorKind::Xml(xml_message(&e)),
         )
     })?;
-    let reader = Reader { xml: &xml, text };
+    let line_starts = std::iter::once(0)
+        .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+        .collect();
+    let reader = Reader { text, line_starts };
     let root = xml.root_element();
     if root.tag_name().name() != "pnml" {
         return Err(err(
@@ -222,17 +225,25 @@ fn elements<'a, 'i>(
         .filter(move |c| c.is_element() && c.tag_name().name() == name)
 }
 
-struct Reader<'a, 'i> {
-    xml: &'a roxmltree::Document<'i>,
+struct Reader<'i> {
     text: &'i str,
+    /// Byte offset where each line starts.
+    line_starts: Vec<usize>,
 }
 
-impl<'a, 'i> Reader<'a, 'i> {
+impl<'a, 'i> Reader<'i> {
+    /// The line and column (in characters) of `node`'s start.
     fn pos(&self, node: roxmltree::Node) -> Pos {
-        let p = self.xml.text_pos_at(node.range().start);
+        let at = node.range().start;
+        let line = self
+            .line_starts
+            .partition_point(|&start| start <= at)
+            .max(1);
+        let start = self.line_starts[line - 1];
+        let col = self.text.get(start..at).map_or(0, |s| s.chars().count()) + 1;
         Pos {
-            line: p.row,
-            col: p.col,
+            line: line as u32,
+            col: col as u32,
         }
     }
 

@@ -155,10 +155,16 @@ impl Store {
         Inserted::New(index)
     }
 
-    /// Makes the table half as large again (not twice: less memory left
-    /// unused) and places every entry again.
+    /// Makes the table twice as large while small, then half as large again
+    /// (less memory left unused), and places every entry again (in order:
+    /// slots follow hash order, so the writes are sequential).
     fn grow(&mut self) {
-        let capacity = self.table.len() + self.table.len() / 2;
+        let len = self.table.len();
+        let capacity = if len < 1 << 20 {
+            2 * len
+        } else {
+            len + len / 2
+        };
         let mut table = vec![0u64; capacity];
         for &e in &self.table {
             if e != 0 {
