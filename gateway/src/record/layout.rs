@@ -122,6 +122,38 @@ pub fn event_from(json: &Json) -> Option<Event> {
     })
 }
 
+/// The elaboration config and profile name of a flight, recorded with its
+/// start so that replay elaborates the same way.
+pub fn setup_json(config: &elaboration::Config, profile: &str) -> Json {
+    json!({
+        "sysid": config.sysid,
+        "compid": config.compid,
+        "firmware": config.firmware.map(|f| f.as_str()),
+        "tick_us": config.tick_us,
+        "profile": profile,
+    })
+}
+
+/// Reads [`setup_json`] back (the profile name may be empty: unknown).
+pub fn setup_from(json: &Json) -> Option<(elaboration::Config, String)> {
+    let id = |key: &str| match json.get(key) {
+        None | Some(Json::Null) => Some(None),
+        Some(v) => v.as_u64().and_then(|n| u8::try_from(n).ok()).map(Some),
+    };
+    let firmware = match json.get("firmware") {
+        None | Some(Json::Null) => None,
+        Some(v) => Some(elaboration::Firmware::parse(v.as_str()?)?),
+    };
+    let config = elaboration::Config {
+        sysid: id("sysid")?,
+        compid: id("compid")?,
+        firmware,
+        tick_us: json.get("tick_us")?.as_u64()?,
+    };
+    let profile = json.get("profile").and_then(Json::as_str).unwrap_or("");
+    Some((config, profile.to_owned()))
+}
+
 /// One Supervisor input as recorded (frames by their index on [`RAW`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Input {
@@ -175,10 +207,16 @@ struct InputLine<'a> {
     id: Option<u64>,
     outcome: Option<Json>,
     event: Option<Json>,
+    setup: Option<Json>,
 }
 
 /// Reads an input back from its JSON bytes: `(seq, time, input)`.
 pub fn input_from(bytes: &[u8]) -> Option<(u64, Micros, Input)> {
+    input_with_setup(bytes).map(|(i, _)| i)
+}
+
+/// Reads an input back, with the setup a start carries.
+pub fn input_with_setup(bytes: &[u8]) -> Option<((u64, Micros, Input), Option<Json>)> {
     let line: InputLine = serde_json::from_slice(bytes).ok()?;
     let input = match &*line.input {
         "start" => Input::Start,
@@ -191,7 +229,7 @@ pub fn input_from(bytes: &[u8]) -> Option<(u64, Micros, Input)> {
         "event" => Input::Event(event_from(line.event.as_ref()?)?),
         _ => return None,
     };
-    Some((line.seq, line.time_us, input))
+    Some(((line.seq, line.time_us, input), line.setup))
 }
 
 #[cfg(test)]
@@ -244,5 +282,24 @@ mod tests {
             None
         );
         assert_eq!(input_from(b"{\"seq\": 1, "), None);
+    }
+
+    #[test]
+    fn the_setup_round_trips_through_json() {
+        let config = elaboration::Config {
+            sysid: Some(3),
+            compid: None,
+            firmware: Some(elaboration::Firmware::Plane),
+            tick_us: 50_000,
+        };
+        let v = setup_json(&config, "ardupilot");
+        assert_eq!(setup_from(&v), Some((config, "ardupilot".to_owned())));
+        let d = elaboration::Config::default();
+        assert_eq!(setup_from(&setup_json(&d, "")), Some((d, String::new())));
+        assert_eq!(setup_from(&json!({"sysid": 300, "tick_us": 1})), None);
+        assert_eq!(
+            setup_from(&json!({"firmware": "glider", "tick_us": 1})),
+            None
+        );
     }
 }

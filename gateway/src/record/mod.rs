@@ -3,9 +3,9 @@
 //! The layout (channels, encodings, times, the inputs log) is in
 //! docs/recording.md.
 //!
-//! - [`writer`]: the [`writer::Recorder`] handle and its writer thread behind a
-//!   bounded queue: the caller never waits and never fails; what is
-//!   dropped is counted and recorded.
+//! - [`recorder`]: the [`recorder::Recorder`] handle, over a bounded queue
+//!   to the writer thread (`writer.rs`, which owns the file): the caller
+//!   never waits and never fails; what is dropped is counted and recorded.
 //! - [`layout`]: topics, encodings, schemas, the JSON of inputs.
 //! - [`decoded`]: MAVLink messages as flat JSON with a schema per type.
 //! - [`read`]: a recording read back, tolerant of a cut file.
@@ -14,9 +14,10 @@
 //! # Using it from `petrel run`
 //!
 //! ```text
-//! use record::writer::{Options, Recorder};
-//! let recorder = Recorder::create(path, project.clone(), Options { clock_offset_ns, profile, ..Default::default() })?;
-//! let (mut sup, start) = Supervisor::start(...);
+//! use record::recorder::{Options, Recorder};
+//! let recorder = Recorder::create(path, project.clone(),
+//!     Options { clock_offset_ns, profile: "ardupilot".into(), config: config.clone(), ..Default::default() })?;
+//! let (mut sup, start) = Supervisor::start(project, profile, config, now);
 //! recorder.start(&start, sup.player());
 //! loop {
 //!     let input = Input::Frame(&received.bytes);      // or Tick, Result, Event
@@ -35,4 +36,5 @@ pub mod check;
 pub mod decoded;
 pub mod layout;
 pub mod read;
-pub mod writer;
+pub mod recorder;
+mod writer;

@@ -40,6 +40,8 @@ pub struct Recording {
     pub cut: Option<String>,
     /// Whether the file has its summary (a clean finish).
     pub finished: bool,
+    /// The elaboration config and profile name recorded with the start.
+    pub setup: Option<(elaboration::Config, String)>,
 }
 
 /// A digest line as read.
@@ -123,11 +125,23 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
             }
             layout::INPUTS => {
                 saw_inputs = true;
-                let input = layout::input_from(&message.data).ok_or_else(|| ReadError::Bad {
+                let bad = |what: String| ReadError::Bad {
                     topic: layout::INPUTS,
                     index: count_inputs,
-                    what: format!("not an input: {}", String::from_utf8_lossy(&message.data)),
+                    what,
+                };
+                let (input, setup) = layout::input_with_setup(&message.data).ok_or_else(|| {
+                    bad(format!(
+                        "not an input: {}",
+                        String::from_utf8_lossy(&message.data)
+                    ))
                 })?;
+                if let Some(setup) = setup {
+                    rec.setup = Some(
+                        layout::setup_from(&setup)
+                            .ok_or_else(|| bad(format!("not an elaboration setup: {setup}")))?,
+                    );
+                }
                 rec.inputs.push(input);
                 count_inputs += 1;
             }

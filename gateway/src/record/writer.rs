@@ -1,261 +1,26 @@
-//! The recorder: a handle the gateway's loop calls without ever waiting, and
-//! a writer thread behind a bounded queue that owns the MCAP file.
-//!
-//! Each call to the handle is one entry on the queue; when the queue is
-//! full the entry is dropped whole and counted, and the writer records the
-//! count on `/petrel/recorder` as soon as it catches up. The writer closes a
-//! chunk (and syncs the file) at least every `flush_every`, so a power loss
-//! costs at most that much of the flight; `finish` writes the summary.
+//! The writer thread: owns the MCAP file, turns entries into messages on
+//! the channels of docs/recording.md, and closes a chunk (syncing the file)
+//! at least every `flush_every`, so that a power loss costs at most that
+//! much of the flight; when the handle goes, it writes the summary.
 
 use std::collections::{BTreeMap, HashMap};
-use std::fs::File;
-use std::io::{self, BufWriter, Seek, SeekFrom, Write};
-use std::path::Path;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::io::{Seek, Write};
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::Arc;
-use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use elaboration::Frame;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mcap::records::MessageHeader;
 use nets::player::{effect_json, Digest};
-use nets::{Effect, Event, Micros, Outcome, Player, Project};
+use nets::{Effect, Event, Micros, Outcome, Project};
 use serde_json::{json, Value as Json};
 
 use super::decoded::{self, Decoder};
 use super::layout::{self, Input};
-use crate::supervisor::{self, Step};
-
-/// How the recorder behaves.
-#[derive(Debug, Clone)]
-pub struct Options {
-    /// Entries the queue holds before it drops.
-    pub queue: usize,
-    /// A chunk is closed (and the file synced) at least this often.
-    pub flush_every: Duration,
-    /// Added to Supervisor times (µs × 1000) to make MCAP log and publish
-    /// times: `petrel run`, whose times count from its start, gives the
-    /// UNIX time of its origin in ns; a replayed tlog's times are already
-    /// UNIX µs (0).
-    pub clock_offset_ns: u64,
-    /// The elaboration profile's name, kept in the file's metadata.
-    pub profile: String,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            queue: 4096,
-            flush_every: Duration::from_secs(1),
-            clock_offset_ns: 0,
-            profile: String::new(),
-        }
-    }
-}
-
-/// Why a recording could not be made.
-#[derive(Debug, thiserror::Error)]
-pub enum RecordError {
-    #[error("cannot create the recording {path}: {source}")]
-    Create { path: String, source: io::Error },
-    #[error("cannot write the recording: {0}")]
-    Mcap(#[from] mcap::McapError),
-    #[error("the recorder's thread stopped unexpectedly")]
-    Thread,
-}
-
-/// What a finished recording holds.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct Report {
-    /// Steps written.
-    pub steps: u64,
-    /// Entries dropped because the queue was full.
-    pub dropped: u64,
-    /// Of which Supervisor steps (replay stops at the first).
-    pub dropped_steps: u64,
-    /// Messages written, all channels.
-    pub messages: u64,
-}
-
-enum Entry {
-    Step(Box<(Input, Option<Vec<u8>>, Step, Digest)>),
-    Sent {
-        time: Micros,
-        bytes: Vec<u8>,
-    },
-    Program {
-        time: Micros,
-        program: String,
-        kind: &'static str,
-        body: Json,
-    },
-}
-
-/// The handle. Its methods never block and never fail the caller.
-pub struct Recorder {
-    tx: Option<SyncSender<Entry>>,
-    dropped: Arc<Dropped>,
-    thread: Option<JoinHandle<Result<Report, RecordError>>>,
-}
-
-/// What the handle dropped, shared with the writer.
-#[derive(Debug, Default)]
-struct Dropped {
-    entries: AtomicU64,
-    steps: AtomicU64,
-}
-
-/// A file that syncs its data to the disk on every flush (chunk closed).
-pub struct SyncedFile(BufWriter<File>);
-
-impl Write for SyncedFile {
-    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.0.write(buf)
-    }
-    fn flush(&mut self) -> io::Result<()> {
-        self.0.flush()?;
-        self.0.get_ref().sync_data()
-    }
-}
-
-impl Seek for SyncedFile {
-    fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
-        self.0.seek(pos)
-    }
-}
-
-impl Recorder {
-    /// Creates `path` and starts recording into it.
-    pub fn create(
-        path: &Path,
-        project: Arc<Project>,
-        options: Options,
-    ) -> Result<Recorder, RecordError> {
-        let file = File::create(path).map_err(|source| RecordError::Create {
-            path: path.display().to_string(),
-            source,
-        })?;
-        Recorder::with_sink(SyncedFile(BufWriter::new(file)), project, options)
-    }
-
-    /// Records into any seekable sink (tests inject slow or in-memory ones).
-    pub fn with_sink<W: Write + Seek + Send + 'static>(
-        sink: W,
-        project: Arc<Project>,
-        options: Options,
-    ) -> Result<Recorder, RecordError> {
-        let mcap = mcap::WriteOptions::new()
-            .compression(Some(mcap::Compression::Zstd))
-            .compression_threads(0)
-            .chunk_size(None)
-            .profile(layout::PROFILE)
-            .create(sink)?;
-        let dropped = Arc::new(Dropped::default());
-        let (tx, rx) = sync_channel(options.queue.max(1));
-        let mut writer = Writer::new(mcap, project, options, Arc::clone(&dropped))?;
-        let thread = std::thread::Builder::new()
-            .name("petrel-recorder".into())
-            .spawn(move || writer.run(rx))
-            .map_err(|_| RecordError::Thread)?;
-        Ok(Recorder {
-            tx: Some(tx),
-            dropped,
-            thread: Some(thread),
-        })
-    }
-
-    fn send(&self, entry: Entry) {
-        let Some(tx) = &self.tx else { return };
-        match tx.try_send(entry) {
-            Ok(()) => {}
-            Err(TrySendError::Full(e)) | Err(TrySendError::Disconnected(e)) => {
-                if matches!(e, Entry::Step(_)) {
-                    self.dropped.steps.fetch_add(1, Ordering::Relaxed);
-                }
-                self.dropped.entries.fetch_add(1, Ordering::Relaxed);
-            }
-        }
-    }
-
-    /// Step 0: the player's start, as `Supervisor::start` returned it.
-    pub fn start(&self, step: &Step, player: &Player) {
-        self.send(Entry::Step(Box::new((
-            Input::Start,
-            None,
-            step.clone(),
-            player.digest(),
-        ))));
-    }
-
-    /// One Supervisor step: the input it was fed, the step it returned and
-    /// the player after it (for the digest). Call it right after each
-    /// `Supervisor::step`, in order.
-    pub fn step(&self, input: &supervisor::Input, step: &Step, player: &Player) {
-        let (input, frame) = match input {
-            supervisor::Input::Frame(bytes) => (Input::Frame(0), Some(bytes.to_vec())),
-            supervisor::Input::Tick => (Input::Tick, None),
-            supervisor::Input::Result { id, outcome } => (
-                Input::Result {
-                    id: *id,
-                    outcome: outcome.clone(),
-                },
-                None,
-            ),
-            supervisor::Input::Event(e) => (Input::Event(e.clone()), None),
-        };
-        self.send(Entry::Step(Box::new((
-            input,
-            frame,
-            step.clone(),
-            player.digest(),
-        ))));
-    }
-
-    /// A frame the gateway sent to the vehicle, at `time`.
-    pub fn sent(&self, time: Micros, bytes: &[u8]) {
-        self.send(Entry::Sent {
-            time,
-            bytes: bytes.to_vec(),
-        });
-    }
-
-    /// Program traffic not already in the steps (calls are effects, replies
-    /// and events are inputs): connections, protocol lines, errors. `kind`
-    /// names it (`hello`, `line_in`, `line_out`, `lost`…); `body` is any JSON.
-    pub fn program(&self, time: Micros, program: &str, kind: &'static str, body: Json) {
-        self.send(Entry::Program {
-            time,
-            program: program.to_owned(),
-            kind,
-            body,
-        });
-    }
-
-    /// Entries dropped so far because the queue was full.
-    pub fn dropped(&self) -> u64 {
-        self.dropped.entries.load(Ordering::Relaxed)
-    }
-
-    /// Writes what is queued, then the summary, and closes the file.
-    pub fn finish(mut self) -> Result<Report, RecordError> {
-        self.tx = None;
-        match self.thread.take().map(JoinHandle::join) {
-            Some(Ok(result)) => result,
-            _ => Err(RecordError::Thread),
-        }
-    }
-}
-
-impl Drop for Recorder {
-    fn drop(&mut self) {
-        self.tx = None;
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
+use super::recorder::{Dropped, Entry, Options, RecordError, Report};
+use crate::supervisor::Step;
 
 /// Fixed channels, by topic.
 struct Channels {
@@ -278,18 +43,20 @@ enum Pending {
     Call,
 }
 
-struct Writer<W: Write + Seek> {
+pub(super) struct Writer<W: Write + Seek> {
     mcap: mcap::Writer<W>,
     project: Arc<Project>,
     options: Options,
     dropped: Arc<Dropped>,
     channels: Channels,
     json_schemas: HashMap<&'static str, u16>,
-    decoded: HashMap<(u8, u8, u32), Option<u16>>,
+    /// Decoded channels by (sent, system, component, message id).
+    decoded: HashMap<(bool, u8, u8, u32), Option<u16>>,
     markings: HashMap<Option<usize>, u16>,
     decoder: Decoder,
     pending: HashMap<u64, Pending>,
     raw_index: u64,
+    sent_index: u64,
     boot_ms: Option<u32>,
     steps: u64,
     messages: u64,
@@ -309,7 +76,7 @@ fn add_json_channel<W: Write + Seek>(
 }
 
 impl<W: Write + Seek> Writer<W> {
-    fn new(
+    pub(super) fn new(
         mut mcap: mcap::Writer<W>,
         project: Arc<Project>,
         options: Options,
@@ -365,6 +132,7 @@ impl<W: Write + Seek> Writer<W> {
             decoder: Decoder::default(),
             pending: HashMap::new(),
             raw_index: 0,
+            sent_index: 0,
             boot_ms: None,
             steps: 0,
             messages: 0,
@@ -375,7 +143,7 @@ impl<W: Write + Seek> Writer<W> {
         })
     }
 
-    fn run(&mut self, rx: Receiver<Entry>) -> Result<Report, RecordError> {
+    pub(super) fn run(&mut self, rx: Receiver<Entry>) -> Result<Report, RecordError> {
         let mut deadline = Instant::now() + self.options.flush_every;
         loop {
             let wait = deadline.saturating_duration_since(Instant::now());
@@ -449,10 +217,7 @@ impl<W: Write + Seek> Writer<W> {
                 let (input, frame, step, digest) = *b;
                 self.step(input, frame, &step, digest)
             }
-            Entry::Sent { time, bytes } => {
-                let rec = tlog_record(time, &bytes);
-                self.write(self.channels.sent, 0, time, &rec)
-            }
+            Entry::Sent { time, bytes } => self.frame(time, &bytes, true),
             Entry::Program {
                 time,
                 program,
@@ -477,9 +242,12 @@ impl<W: Write + Seek> Writer<W> {
         self.last_seq = Some(seq);
         if let Some(bytes) = frame {
             input = Input::Frame(self.raw_index);
-            self.frame(time, &bytes)?;
+            self.frame(time, &bytes, false)?;
         }
-        let v = layout::input_json(seq, time, &input);
+        let mut v = layout::input_json(seq, time, &input);
+        if input == Input::Start {
+            v["setup"] = layout::setup_json(&self.options.config, &self.options.profile);
+        }
         self.write_json(self.channels.inputs, seq, time, &v)?;
         match &input {
             Input::Result { id, outcome } => self.result(seq, time, *id, outcome)?,
@@ -510,26 +278,45 @@ impl<W: Write + Seek> Writer<W> {
         Ok(())
     }
 
-    fn frame(&mut self, time: Micros, bytes: &[u8]) -> mcap::McapResult<()> {
-        let index = self.raw_index;
-        self.raw_index += 1;
-        self.write(self.channels.raw, index, time, &tlog_record(time, bytes))?;
+    /// A frame received (`sent` false: a Supervisor input, the next index
+    /// on `/mavlink/raw`) or sent, raw then decoded.
+    fn frame(&mut self, time: Micros, bytes: &[u8], sent: bool) -> mcap::McapResult<()> {
+        let index = if sent {
+            self.sent_index += 1;
+            self.sent_index - 1
+        } else {
+            self.raw_index += 1;
+            self.raw_index - 1
+        };
+        let raw = if sent {
+            self.channels.sent
+        } else {
+            self.channels.raw
+        };
+        self.write(raw, index, time, &tlog_record(time, bytes))?;
         let Ok(frame) = Frame::parse(bytes) else {
             return Ok(());
         };
         let Ok(msg) = frame.decode() else {
             return Ok(());
         };
-        if let MavMessage::SYSTEM_TIME(t) = &msg {
-            self.boot_ms = Some(t.time_boot_ms);
+        if !sent {
+            if let MavMessage::SYSTEM_TIME(t) = &msg {
+                self.boot_ms = Some(t.time_boot_ms);
+            }
+            let t_ns = time
+                .saturating_mul(1000)
+                .saturating_add(self.options.clock_offset_ns);
+            if let Some(fix) = decoded::location_fix(&msg, t_ns) {
+                self.write_json(self.channels.location, index, time, &fix)?;
+            }
         }
-        let t_ns = time
-            .saturating_mul(1000)
-            .saturating_add(self.options.clock_offset_ns);
-        if let Some(fix) = decoded::location_fix(&msg, t_ns) {
-            self.write_json(self.channels.location, index, time, &fix)?;
-        }
-        let key = (frame.system_id(), frame.component_id(), frame.message_id());
+        let key = (
+            sent,
+            frame.system_id(),
+            frame.component_id(),
+            frame.message_id(),
+        );
         let Some((kind, v)) = self.decoder.decode(&msg) else {
             return Ok(());
         };
@@ -547,7 +334,8 @@ impl<W: Write + Seek> Writer<W> {
                         Some(s)
                     }
                 };
-                let topic = format!("/mavlink/{}/{}/{}", key.0, key.1, kind.name);
+                let prefix = if sent { "/mavlink/sent" } else { "/mavlink" };
+                let topic = format!("{prefix}/{}/{}/{}", key.1, key.2, kind.name);
                 let c = match schema {
                     Some(s) => Some(self.mcap.add_channel(s, &topic, "json", &BTreeMap::new())?),
                     None => None,

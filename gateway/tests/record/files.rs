@@ -8,7 +8,7 @@ use std::sync::OnceLock;
 use std::time::Duration;
 
 use crate::flight::{self, Fed};
-use crate::record::writer::{Options, Recorder, Report};
+use crate::record::recorder::{Options, Recorder, Report};
 
 /// A scratch directory of this process, removed at exit by no one: it lives
 /// under the target directory's tmp (cargo cleans it), one per process.
@@ -55,6 +55,10 @@ pub struct Flown {
 pub fn record(name: &str, limit: usize, options: Options) -> Option<Flown> {
     let tlog = flight::tlog()?;
     let path = scratch(name);
+    let options = Options {
+        profile: "ardupilot".into(),
+        ..options
+    };
     let recorder = Recorder::create(&path, flight::project(), options).expect("recorder");
     let fed = flight::fly(&tlog, &recorder, limit, None);
     let report = recorder.finish().expect("finished");

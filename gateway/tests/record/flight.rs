@@ -7,9 +7,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use elaboration::{Config, Profile, TlogReader};
+use mavlink::dialects::ardupilotmega::{MavMessage, COMMAND_LONG_DATA};
+use mavlink::MavlinkVersion;
 use nets::{Category, Effect, Event, Micros, Outcome, Params, Project, Value};
 
-use crate::record::writer::Recorder;
+use crate::record::recorder::Recorder;
 use crate::supervisor::{Input, Step, Supervisor};
 
 pub fn root() -> PathBuf {
@@ -52,6 +54,8 @@ pub struct Fed {
     pub ticks: u64,
     pub results: u64,
     pub events: u64,
+    /// Frames sent (a COMMAND_LONG per command).
+    pub sent: u64,
     /// Seqs of steps fed a command's result.
     pub command_results: Vec<u64>,
     pub final_digest: String,
@@ -134,6 +138,25 @@ pub fn fly(tlog: &[u8], recorder: &Recorder, limit: usize, pace: Option<f64>) ->
             .iter()
             .chain(step.events.iter().flat_map(|(_, e)| e.iter()))
         {
+            // What `run` would send and say: a COMMAND_LONG per command, a
+            // protocol line per call.
+            match effect {
+                Effect::Command { id, .. } => {
+                    let header = mavlink::MavHeader {
+                        system_id: 1,
+                        component_id: 191,
+                        sequence: *id as u8,
+                    };
+                    let msg = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA::DEFAULT);
+                    let bytes = elaboration::frame::serialize(header, MavlinkVersion::V2, &msg);
+                    recorder.sent(time, &bytes);
+                    fed.sent += 1;
+                }
+                Effect::Call { id, .. } => {
+                    recorder.program(time, "DEC", "line_out", serde_json::json!({ "call": id }));
+                }
+                _ => {}
+            }
             if let Some((id, outcome)) = answer(&project, effect, &mut waypoints) {
                 answers.push_back((time + DELAY, id, outcome));
             }

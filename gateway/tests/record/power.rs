@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use crate::files::{check, scratch};
 use crate::flight;
 use crate::record::read;
-use crate::record::writer::{Options, Recorder};
+use crate::record::recorder::{Options, Recorder};
 
 const CHILD: &str = "PETREL_RECORD_UNTIL_KILLED";
 

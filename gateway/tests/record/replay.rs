@@ -50,6 +50,10 @@ fn a_recording_replays_exactly_and_checks_out() {
     let bytes = std::fs::read(&flown.path).expect("recording");
     let rec = read::read(&bytes, true).expect("readable");
     assert!(rec.finished && rec.cut.is_none());
+    assert_eq!(
+        rec.setup,
+        Some((elaboration::Config::default(), "ardupilot".to_owned()))
+    );
     assert_eq!(rec.inputs.len() as u64, fed.steps + 1);
     assert_eq!(rec.frame_count() as u64, fed.frames);
     assert_eq!(rec.steps.len() as u64, fed.steps + 1);
@@ -70,6 +74,9 @@ fn a_recording_replays_exactly_and_checks_out() {
     assert_eq!(counts[layout::INPUTS], fed.steps + 1);
     assert_eq!(counts[layout::DIGESTS], fed.steps + 1);
     assert_eq!(counts[layout::RAW], fed.frames);
+    assert!(fed.sent > 0);
+    assert_eq!(counts[layout::SENT], fed.sent);
+    assert_eq!(counts["/mavlink/sent/1/191/COMMAND_LONG"], fed.sent);
     for topic in [
         "/mavlink/1/1/HEARTBEAT",
         "/mavlink/1/1/GLOBAL_POSITION_INT",

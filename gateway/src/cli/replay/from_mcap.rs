@@ -41,8 +41,14 @@ pub fn run(args: Args) -> VerbResult {
             "{name}: the inputs log does not begin with the player's start (step 0)"
         ));
     };
-    let Ok(profile) = super::super::events::load_profile(args.profile.as_deref(), rec.tlog())?
-    else {
+    let (config, recorded_profile) = rec.setup.clone().unwrap_or_default();
+    // The recorded built-in profile, unless told otherwise; a profile file
+    // must be given again (its text is not in the recording).
+    let choice = args.profile.as_deref().or(match recorded_profile.as_str() {
+        p @ ("ardupilot" | "px4") => Some(p),
+        _ => None,
+    });
+    let Ok(profile) = super::super::events::load_profile(choice, rec.tlog())? else {
         return Ok(Outcome::BadInput);
     };
     let project = crate::project::load_with(&args.project, &profile.catalog())?;
@@ -52,12 +58,7 @@ pub fn run(args: Args) -> VerbResult {
         json: args.json,
         origin,
     };
-    let (mut sup, start) = Supervisor::start(
-        project.clone(),
-        profile,
-        elaboration::Config::default(),
-        origin,
-    );
+    let (mut sup, start) = Supervisor::start(project.clone(), profile, config, origin);
     out.effects(&project, &start.effects).map_err(io)?;
     let mut difference = None;
     if args.check_against {

@@ -1,0 +1,262 @@
+//! The recorder's handle: what the gateway's loop calls, without ever
+//! waiting, to hand entries to the writer thread (`writer.rs`) over a
+//! bounded queue.
+//!
+//! Each call is one entry on the queue; when the queue is full the entry is
+//! dropped whole and counted, and the writer records the count on
+//! `/petrel/recorder` as soon as it catches up. `finish` waits for the
+//! writer to write what is queued and the summary.
+
+use std::fs::File;
+use std::io::{self, BufWriter, Seek, SeekFrom, Write};
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{sync_channel, SyncSender, TrySendError};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use nets::player::Digest;
+use nets::{Micros, Player, Project};
+use serde_json::Value as Json;
+
+use super::layout::{self, Input};
+use super::writer::Writer;
+use crate::supervisor::{self, Step};
+
+/// How the recorder behaves.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Entries the queue holds before it drops.
+    pub queue: usize,
+    /// A chunk is closed (and the file synced) at least this often.
+    pub flush_every: Duration,
+    /// Added to Supervisor times (µs × 1000) to make MCAP log and publish
+    /// times: `petrel run`, whose times count from its start, gives the
+    /// UNIX time of its origin in ns; a replayed tlog's times are already
+    /// UNIX µs (0).
+    pub clock_offset_ns: u64,
+    /// The elaboration profile's name (`ardupilot`, `px4` or the file
+    /// given), recorded with the start; replay uses it unless told.
+    pub profile: String,
+    /// The elaboration config the Supervisor was started with, recorded
+    /// with the start: replay elaborates with it.
+    pub config: elaboration::Config,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            queue: 4096,
+            flush_every: Duration::from_secs(1),
+            clock_offset_ns: 0,
+            profile: String::new(),
+            config: elaboration::Config::default(),
+        }
+    }
+}
+
+/// Why a recording could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error("cannot create the recording {path}: {source}")]
+    Create { path: String, source: io::Error },
+    #[error("cannot write the recording: {0}")]
+    Mcap(#[from] mcap::McapError),
+    #[error("the recorder's thread stopped unexpectedly")]
+    Thread,
+}
+
+/// What a finished recording holds.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Report {
+    /// Steps written.
+    pub steps: u64,
+    /// Entries dropped because the queue was full.
+    pub dropped: u64,
+    /// Of which Supervisor steps (replay stops at the first).
+    pub dropped_steps: u64,
+    /// Messages written, all channels.
+    pub messages: u64,
+}
+
+/// One entry on the queue.
+pub(super) enum Entry {
+    /// A step: its input (a frame's index is given by the writer), the
+    /// frame's bytes, the step, the digest after it.
+    Step(Box<(Input, Option<Vec<u8>>, Step, Digest)>),
+    Sent {
+        time: Micros,
+        bytes: Vec<u8>,
+    },
+    Program {
+        time: Micros,
+        program: String,
+        kind: &'static str,
+        body: Json,
+    },
+}
+
+/// The handle. Its methods never block and never fail the caller.
+pub struct Recorder {
+    tx: Option<SyncSender<Entry>>,
+    dropped: Arc<Dropped>,
+    thread: Option<JoinHandle<Result<Report, RecordError>>>,
+}
+
+/// What the handle dropped, shared with the writer.
+#[derive(Debug, Default)]
+pub(super) struct Dropped {
+    pub(super) entries: AtomicU64,
+    pub(super) steps: AtomicU64,
+}
+
+/// A file that syncs its data to the disk on every flush (chunk closed).
+pub struct SyncedFile(BufWriter<File>);
+
+impl Write for SyncedFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.0.write(buf)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.0.flush()?;
+        self.0.get_ref().sync_data()
+    }
+}
+
+impl Seek for SyncedFile {
+    fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
+        self.0.seek(pos)
+    }
+}
+
+impl Recorder {
+    /// Creates `path` and starts recording into it.
+    pub fn create(
+        path: &Path,
+        project: Arc<Project>,
+        options: Options,
+    ) -> Result<Recorder, RecordError> {
+        let file = File::create(path).map_err(|source| RecordError::Create {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Recorder::with_sink(SyncedFile(BufWriter::new(file)), project, options)
+    }
+
+    /// Records into any seekable sink (tests inject slow or in-memory ones).
+    pub fn with_sink<W: Write + Seek + Send + 'static>(
+        sink: W,
+        project: Arc<Project>,
+        options: Options,
+    ) -> Result<Recorder, RecordError> {
+        let mcap = mcap::WriteOptions::new()
+            .compression(Some(mcap::Compression::Zstd))
+            .compression_threads(0)
+            .chunk_size(None)
+            .profile(layout::PROFILE)
+            .create(sink)?;
+        let dropped = Arc::new(Dropped::default());
+        let (tx, rx) = sync_channel(options.queue.max(1));
+        let mut writer = Writer::new(mcap, project, options, Arc::clone(&dropped))?;
+        let thread = std::thread::Builder::new()
+            .name("petrel-recorder".into())
+            .spawn(move || writer.run(rx))
+            .map_err(|_| RecordError::Thread)?;
+        Ok(Recorder {
+            tx: Some(tx),
+            dropped,
+            thread: Some(thread),
+        })
+    }
+
+    fn send(&self, entry: Entry) {
+        let Some(tx) = &self.tx else { return };
+        match tx.try_send(entry) {
+            Ok(()) => {}
+            Err(TrySendError::Full(e)) | Err(TrySendError::Disconnected(e)) => {
+                if matches!(e, Entry::Step(_)) {
+                    self.dropped.steps.fetch_add(1, Ordering::Relaxed);
+                }
+                self.dropped.entries.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+
+    /// Step 0: the player's start, as `Supervisor::start` returned it.
+    pub fn start(&self, step: &Step, player: &Player) {
+        self.send(Entry::Step(Box::new((
+            Input::Start,
+            None,
+            step.clone(),
+            player.digest(),
+        ))));
+    }
+
+    /// One Supervisor step: the input it was fed, the step it returned and
+    /// the player after it (for the digest). Call it right after each
+    /// `Supervisor::step`, in order.
+    pub fn step(&self, input: &supervisor::Input, step: &Step, player: &Player) {
+        let (input, frame) = match input {
+            supervisor::Input::Frame(bytes) => (Input::Frame(0), Some(bytes.to_vec())),
+            supervisor::Input::Tick => (Input::Tick, None),
+            supervisor::Input::Result { id, outcome } => (
+                Input::Result {
+                    id: *id,
+                    outcome: outcome.clone(),
+                },
+                None,
+            ),
+            supervisor::Input::Event(e) => (Input::Event(e.clone()), None),
+        };
+        self.send(Entry::Step(Box::new((
+            input,
+            frame,
+            step.clone(),
+            player.digest(),
+        ))));
+    }
+
+    /// A frame the gateway sent to the vehicle, at `time`.
+    pub fn sent(&self, time: Micros, bytes: &[u8]) {
+        self.send(Entry::Sent {
+            time,
+            bytes: bytes.to_vec(),
+        });
+    }
+
+    /// Program traffic not already in the steps (calls are effects, replies
+    /// and events are inputs): connections, protocol lines, errors. `kind`
+    /// names it (`hello`, `line_in`, `line_out`, `lost`…); `body` is any JSON.
+    pub fn program(&self, time: Micros, program: &str, kind: &'static str, body: Json) {
+        self.send(Entry::Program {
+            time,
+            program: program.to_owned(),
+            kind,
+            body,
+        });
+    }
+
+    /// Entries dropped so far because the queue was full.
+    pub fn dropped(&self) -> u64 {
+        self.dropped.entries.load(Ordering::Relaxed)
+    }
+
+    /// Writes what is queued, then the summary, and closes the file.
+    pub fn finish(mut self) -> Result<Report, RecordError> {
+        self.tx = None;
+        match self.thread.take().map(JoinHandle::join) {
+            Some(Ok(result)) => result,
+            _ => Err(RecordError::Thread),
+        }
+    }
+}
+
+impl Drop for Recorder {
+    fn drop(&mut self) {
+        self.tx = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
