@@ -250,6 +250,12 @@ impl Profile {
         &self.rules
     }
 
+    /// The ids of the messages the profile reads or times, in order: the
+    /// telemetry the gateway asks the autopilot for.
+    pub fn messages(&self) -> Vec<u32> {
+        self.slots.iter().map(|s| s.id).collect()
+    }
+
     /// The names of the events this profile can produce.
     pub fn event_names(&self) -> Vec<&str> {
         let mut v: Vec<&str> = self

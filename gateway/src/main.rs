@@ -29,6 +29,8 @@ struct Petrel {
 
 #[derive(Subcommand)]
 enum Verb {
+    /// Run the gateway beside the autopilot: telemetry to events to the nets, and their commands back.
+    Run(cli::run::Args),
     /// Play a project on a file of timed events, printing every firing and effect.
     Play(cli::play::Args),
     /// Elaborate a telemetry log (.tlog) into supervision events.
@@ -55,6 +57,7 @@ fn main() -> ExitCode {
         }
     };
     let outcome = match petrel.verb {
+        Verb::Run(args) => cli::run::run(args),
         Verb::Play(args) => cli::play::run(args),
         Verb::Events(args) => cli::events::run(args),
         Verb::Check(args) => cli::check::run(args),

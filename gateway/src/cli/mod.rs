@@ -9,6 +9,7 @@ pub mod events;
 pub mod export;
 pub mod play;
 pub mod replay;
+pub mod run;
 pub mod stubs;
 pub mod timeline;
 

@@ -1,0 +1,445 @@
+//! `petrel run PROJECT`: the gateway on board. Frames from the MAVLink link
+//! go through elaboration to the player; the player's commands go to the
+//! vehicle, its calls to the software programs, and their results come back
+//! to it. Prints the timeline as it happens (`--json`: JSON lines).
+//!
+//! It refuses a project that fails `petrel check` unless `--unchecked`.
+//! SIGINT and SIGTERM stop it cleanly: programs are stopped, and a mission
+//! upload under way is given a bounded time to finish.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use elaboration::Profile;
+use nets::{Effect, Micros, Project};
+use serde_json::json;
+use tokio::sync::mpsc;
+
+use super::timeline::Timeline;
+use super::{Outcome, VerbResult};
+use crate::link::{Link, LinkWriter};
+use crate::programs::server::{ProgramInput, Programs};
+use crate::supervisor::{Input, Step, Supervisor};
+use crate::vehicle::commander::Commander;
+use crate::vehicle::config::VehicleConfig;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The project folder (holding project.toml).
+    pub project: PathBuf,
+    /// The MAVLink link (rust-mavlink address: udpin:, udpout:, tcpout:,
+    /// tcpin:, serial:PORT:BAUD) [default: `[gateway] mavlink` in project.toml].
+    #[arg(long, value_name = "ADDRESS")]
+    pub mavlink: Option<String>,
+    /// Elaboration profile: ardupilot, px4 or a FILE.toml extending the
+    /// ArduPilot one [default: `[gateway] profile`, else ardupilot].
+    #[arg(long)]
+    pub profile: Option<String>,
+    /// Run a project that fails `petrel check`.
+    #[arg(long)]
+    pub unchecked: bool,
+    /// Stop after this many seconds (tests, demonstrations).
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+    /// Print the timeline as JSON lines.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Elaboration timeouts and link loss are evaluated at least this often when
+/// no frame arrives.
+const TICK: Micros = 100_000;
+/// Telemetry rate asked for every message the profile reads.
+const TELEMETRY_HZ: f32 = 4.0;
+/// On shutdown, how long a mission upload under way may take to finish.
+const UPLOAD_GRACE: Duration = Duration::from_secs(3);
+
+/// The `[gateway]` table of project.toml.
+fn gateway_table(dir: &Path) -> Result<toml::Table, miette::Report> {
+    let path = dir.join(nets::load::PROJECT_FILE);
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| miette::miette!("cannot read {}: {e}", path.display()))?;
+    let table: toml::Table = toml::from_str(&text)
+        .map_err(|e| miette::miette!("{}: {}", path.display(), e.message()))?;
+    Ok(match table.get("gateway") {
+        Some(toml::Value::Table(t)) => t.clone(),
+        Some(_) => {
+            return Err(miette::miette!(
+                "{}: [gateway] must be a table",
+                path.display()
+            ))
+        }
+        None => toml::Table::new(),
+    })
+}
+
+fn load_profile(choice: &str) -> Result<Profile, miette::Report> {
+    let (base, user) = match choice {
+        "ardupilot" | "px4" => (choice, None),
+        path => {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| miette::miette!("cannot read the profile {path}: {e}"))?;
+            ("ardupilot", Some((path.to_owned(), text)))
+        }
+    };
+    let base_text = elaboration::profile::builtin(base).unwrap_or_default();
+    let mut layers = vec![(format!("{base}.toml"), base_text.to_owned())];
+    layers.extend(user);
+    let refs: Vec<(&str, &str)> = layers
+        .iter()
+        .map(|(n, t)| (n.as_str(), t.as_str()))
+        .collect();
+    Profile::load(&refs).map_err(|e| {
+        let lines: Vec<String> = e
+            .problems
+            .iter()
+            .map(|p| format!("{}:{}:{}: {}", p.file, p.line, p.col, p.message))
+            .collect();
+        miette::miette!(
+            "the elaboration profile has problems:\n  {}",
+            lines.join("\n  ")
+        )
+    })
+}
+
+pub fn run(args: Args) -> VerbResult {
+    let gateway = gateway_table(&args.project)?;
+    let get = |key: &str| gateway.get(key).and_then(|v| v.as_str()).map(str::to_owned);
+    let profile_choice = args
+        .profile
+        .clone()
+        .or_else(|| get("profile"))
+        .unwrap_or_else(|| "ardupilot".into());
+    let profile = load_profile(&profile_choice)?;
+    let project = crate::project::load_with(&args.project, &profile.catalog())?;
+    if !args.unchecked {
+        let report =
+            nets::verify::project::check(&project, &nets::verify::project::Options::default());
+        if !report.holds() {
+            eprint!(
+                "{}",
+                super::check_project::human(&project.name, &report, 0.0)
+            );
+            eprintln!(
+                "refusing to run {}: it fails `petrel check` (run it anyway with --unchecked)",
+                args.project.display()
+            );
+            return Ok(Outcome::Failed);
+        }
+    }
+    let Some(address) = args.mavlink.clone().or_else(|| get("mavlink")) else {
+        return Err(miette::miette!(
+            "no MAVLink link: give --mavlink ADDRESS or `mavlink = \"udpin:0.0.0.0:14550\"` in [gateway]"
+        ));
+    };
+    if let Some(d) = args.duration {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(miette::miette!(
+                "--duration must be a positive number of seconds, not {d}"
+            ));
+        }
+    }
+    let vehicle = VehicleConfig::from_gateway_table(&gateway)
+        .map_err(|e| miette::miette!("[gateway]: {e}"))?;
+    let programs = crate::programs::roster::Config::from_gateway(Some(&gateway))
+        .map_err(|e| miette::miette!("[gateway] programs: {e}"))?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(|e| miette::miette!("cannot start the runtime: {e}"))?;
+    runtime.block_on(Gateway::run(Setup {
+        project,
+        dir: args.project.clone(),
+        profile,
+        address,
+        vehicle,
+        programs,
+        json: args.json,
+        duration: args.duration.map(Duration::from_secs_f64),
+    }))
+}
+
+struct Setup {
+    project: Arc<Project>,
+    dir: PathBuf,
+    profile: Profile,
+    address: String,
+    vehicle: VehicleConfig,
+    programs: crate::programs::roster::Config,
+    json: bool,
+    duration: Option<Duration>,
+}
+
+struct Gateway {
+    origin: Instant,
+    project: Arc<Project>,
+    supervisor: Supervisor,
+    commander: Commander,
+    programs: Option<Programs>,
+    writer: LinkWriter,
+    frames: u64,
+    events: u64,
+    out: Timeline<std::io::Stdout>,
+}
+
+impl Gateway {
+    fn now(&self) -> Micros {
+        self.origin.elapsed().as_micros() as Micros
+    }
+
+    async fn run(setup: Setup) -> VerbResult {
+        let origin = Instant::now();
+        let (mut reader, writer) = Link::open(&setup.address, origin)
+            .await
+            .map_err(|e| miette::miette!("{e}"))?;
+        // The program server listens only for a project that has programs.
+        let (programs, mut inputs) = if setup.project.programs.is_empty() {
+            (None, mpsc::channel(1).1)
+        } else {
+            let (p, i) = Programs::start(setup.project.clone(), &setup.dir, setup.programs)
+                .await
+                .map_err(|e| miette::miette!("{e}"))?;
+            (Some(p), i)
+        };
+        let messages: Vec<(u32, f32)> = setup
+            .profile
+            .messages()
+            .into_iter()
+            .filter(|&id| id != 0) // HEARTBEAT always comes
+            .map(|id| (id, TELEMETRY_HZ))
+            .collect();
+        let mut commander = Commander::new(setup.vehicle);
+        commander.request_streams(&messages, 0);
+        let (supervisor, start) = Supervisor::start(
+            setup.project.clone(),
+            setup.profile,
+            elaboration::Config::default(),
+            0,
+        );
+        let mut gw = Gateway {
+            origin,
+            project: setup.project,
+            supervisor,
+            commander,
+            programs,
+            writer,
+            frames: 0,
+            events: 0,
+            out: Timeline {
+                out: std::io::stdout(),
+                json: setup.json,
+                origin: 0,
+            },
+        };
+        gw.carry_out(&start).await;
+        let stop_at = setup.duration.map(|d| origin + d);
+        let mut signals = Signals::new()?;
+        let (frames_tx, mut frames) = mpsc::channel(1024);
+        // The reader runs on its own task so that a frame is never lost to
+        // a select! that picked another branch.
+        let reader_task = tokio::spawn(async move {
+            loop {
+                match reader.recv().await {
+                    Ok(rx) => {
+                        if frames_tx.send(rx).await.is_err() {
+                            break;
+                        }
+                    }
+                    Err(e) => tracing::warn!("{e}"),
+                }
+            }
+        });
+        let mut next_tick = TICK;
+        loop {
+            let now = gw.now();
+            let deadline = [
+                Some(next_tick),
+                gw.supervisor.next_deadline(),
+                gw.commander.next_deadline(),
+            ]
+            .into_iter()
+            .flatten()
+            .min()
+            .unwrap_or(next_tick);
+            let sleep = tokio::time::sleep(Duration::from_micros(deadline.saturating_sub(now)));
+            let until_stop = async {
+                match stop_at {
+                    Some(t) => tokio::time::sleep_until(t.into()).await,
+                    None => std::future::pending().await,
+                }
+            };
+            tokio::select! {
+                Some(rx) = frames.recv() => {
+                    gw.frames += 1;
+                    if let Some(message) = &rx.message {
+                        gw.commander.message(rx.time_us, &rx.header, message);
+                    }
+                    let step = gw.supervisor.step(rx.time_us, Input::Frame(&rx.bytes));
+                    gw.carry_out(&step).await;
+                }
+                Some(input) = inputs.recv() => gw.program_input(input).await,
+                _ = sleep => {
+                    let now = gw.now();
+                    gw.commander.tick(now);
+                    if now >= next_tick {
+                        next_tick = now - now % TICK + TICK;
+                    }
+                    let step = gw.supervisor.step(now, Input::Tick);
+                    gw.carry_out(&step).await;
+                }
+                _ = signals.recv() => break,
+                _ = until_stop => break,
+            }
+            gw.pump().await;
+        }
+        // A mission upload under way gets a bounded time to finish.
+        let grace = Instant::now() + UPLOAD_GRACE;
+        while gw.commander.busy() && Instant::now() < grace {
+            tokio::select! {
+                Some(rx) = frames.recv() => {
+                    if let Some(message) = &rx.message {
+                        gw.commander.message(rx.time_us, &rx.header, message);
+                    }
+                }
+                _ = tokio::time::sleep(Duration::from_millis(20)) => gw.commander.tick(gw.now()),
+            }
+            gw.pump().await;
+        }
+        reader_task.abort();
+        let Gateway {
+            programs,
+            supervisor,
+            mut out,
+            frames,
+            events,
+            ..
+        } = gw;
+        if let Some(programs) = programs {
+            programs.shutdown().await;
+        }
+        let player = supervisor.player();
+        eprintln!(
+            "stopped after {:.1} s: {frames} frames, {events} events, {} bad frames, {} calls and commands unanswered",
+            origin.elapsed().as_secs_f64(),
+            supervisor.bad_frames,
+            player.state().pending.len()
+        );
+        let _ = out.end(player.state().now, &player.digest(), player.locked_out());
+        let _ = out.out.flush();
+        Ok(Outcome::Success)
+    }
+
+    /// Prints a step and carries out its effects.
+    async fn carry_out(&mut self, step: &Step) {
+        let _ = self.out.effects(&self.project, &step.effects);
+        for e in &step.effects {
+            self.effect(e);
+        }
+        for (event, effects) in &step.events {
+            self.events += 1;
+            let _ = self.out.event(
+                &self.project,
+                event.time_us,
+                &event.event,
+                Some(json!({"sysid": event.sysid, "compid": event.compid})),
+            );
+            let _ = self.out.effects(&self.project, effects);
+            for e in effects {
+                self.effect(e);
+            }
+        }
+        self.pump().await;
+    }
+
+    fn effect(&mut self, effect: &Effect) {
+        let now = self.now();
+        match effect {
+            Effect::Command { id, verb, args, .. } => self.commander.command(*id, verb, args, now),
+            Effect::Forgotten { id, .. } => {
+                self.commander.forget(*id);
+                if let Some(p) = &self.programs {
+                    p.effect(effect);
+                }
+            }
+            Effect::Call { .. } => {
+                if let Some(p) = &self.programs {
+                    p.effect(effect);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// Sends what the commander has to send and hands its outcomes to the
+    /// player, until it has nothing more.
+    async fn pump(&mut self) {
+        loop {
+            let mut busy = false;
+            while let Some(message) = self.commander.poll_transmit() {
+                busy = true;
+                if let Some(from) = self.commander.identity() {
+                    if let Err(e) = self.writer.send(from, &message).await {
+                        tracing::warn!("{e}");
+                    }
+                }
+            }
+            if let Some((id, outcome)) = self.commander.poll_outcome() {
+                busy = true;
+                let now = self.now();
+                let step = self.supervisor.step(now, Input::Result { id, outcome });
+                let _ = self.out.effects(&self.project, &step.effects);
+                for e in &step.effects {
+                    self.effect(e);
+                }
+            }
+            if !busy {
+                break;
+            }
+        }
+    }
+
+    async fn program_input(&mut self, input: ProgramInput) {
+        let now = self.now();
+        let step = match input {
+            ProgramInput::Outcome { id, outcome } => {
+                self.supervisor.step(now, Input::Result { id, outcome })
+            }
+            ProgramInput::Event { event, .. } | ProgramInput::Lost { event, .. } => {
+                let _ = self.out.event(&self.project, now, &event, None);
+                self.supervisor.step(now, Input::Event(event))
+            }
+            ProgramInput::Traffic(t) => {
+                tracing::debug!(?t, "program traffic");
+                return;
+            }
+        };
+        self.carry_out(&step).await;
+    }
+}
+
+/// SIGINT and SIGTERM.
+struct Signals {
+    term: tokio::signal::unix::Signal,
+    int: tokio::signal::unix::Signal,
+}
+
+impl Signals {
+    fn new() -> Result<Signals, miette::Report> {
+        use tokio::signal::unix::{signal, SignalKind};
+        let err = |e: std::io::Error| miette::miette!("cannot watch for signals: {e}");
+        Ok(Signals {
+            term: signal(SignalKind::terminate()).map_err(err)?,
+            int: signal(SignalKind::interrupt()).map_err(err)?,
+        })
+    }
+
+    async fn recv(&mut self) {
+        tokio::select! {
+            _ = self.term.recv() => {}
+            _ = self.int.recv() => {}
+        }
+    }
+}

@@ -1,0 +1,192 @@
+//! `petrel run` end to end over loopback: a scripted autopilot (rust-mavlink)
+//! on UDP, the real binary, a project whose nets command the vehicle.
+
+#[path = "vehicle/peer.rs"]
+#[allow(dead_code)]
+mod peer;
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use mavlink::dialects::ardupilotmega::*;
+
+fn petrel() -> tokio::process::Command {
+    let mut c = tokio::process::Command::new(env!("CARGO_BIN_EXE_petrel"));
+    c.current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join(".."));
+    c.kill_on_drop(true);
+    c
+}
+
+fn project(name: &str, net: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("petrel-run-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    std::fs::write(
+        dir.join("project.toml"),
+        "[[net]]\nfile = \"n.toml\"\nactive = true\n",
+    )
+    .expect("write");
+    std::fs::write(dir.join("n.toml"), net).expect("write");
+    dir
+}
+
+/// A free UDP port on 127.0.0.1 (bound then released).
+fn free_port() -> u16 {
+    let s = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
+    s.local_addr().expect("addr").port()
+}
+
+const TAKEOFF_NET: &str = r#"name = "N"
+places = ["wait", "taking_off", "up"]
+initial = ["wait"]
+final = ["up"]
+[[transition]]
+name = "go"
+from = ["wait"]
+to = ["taking_off"]
+on = "mode_changed"
+when = 'mode == "GUIDED"'
+do = ["command takeoff {alt: 20}"]
+[[transition]]
+name = "ok"
+from = ["taking_off"]
+to = ["up"]
+on = "command.ok"
+when = 'verb == "takeoff"'
+[[transition]]
+name = "refused"
+from = ["taking_off"]
+to = ["wait"]
+on = "command.failed"
+"#;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn run_commands_the_vehicle_from_the_nets_and_hears_the_ack() {
+    let dir = project("takeoff", TAKEOFF_NET);
+    let port = free_port();
+    // The copter flips from STABILIZE to GUIDED every 100 ms: mode_changed
+    // fires on a change, not on the first mode heard.
+    let hb = peer::heartbeat(
+        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        MavType::MAV_TYPE_QUADROTOR,
+    );
+    let mut guided = hb.clone();
+    if let MavMessage::HEARTBEAT(h) = &mut guided {
+        h.custom_mode = 4; // GUIDED
+    }
+    let script: peer::Script = Box::new(|_, m| match peer::command_of(m) {
+        Some(c @ MavCmd::MAV_CMD_NAV_TAKEOFF) => {
+            vec![peer::now(peer::ack(c, MavResult::MAV_RESULT_ACCEPTED))]
+        }
+        Some(c) => vec![peer::now(peer::ack(c, MavResult::MAV_RESULT_ACCEPTED))],
+        None => Vec::new(),
+    });
+    let vehicle = peer::Peer::start(
+        &format!("udpout:127.0.0.1:{port}"),
+        hb,
+        vec![guided],
+        script,
+    )
+    .await;
+    let out = tokio::time::timeout(
+        Duration::from_secs(30),
+        petrel()
+            .args([
+                "run",
+                dir.to_str().expect("utf-8"),
+                "--mavlink",
+                &format!("udpin:127.0.0.1:{port}"),
+                "--duration",
+                "3",
+                "--json",
+            ])
+            .output(),
+    )
+    .await
+    .expect("petrel stops by itself")
+    .expect("petrel runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<serde_json::Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect();
+    let fired: Vec<&str> = lines
+        .iter()
+        .filter(|l| l["effect"] == "fired")
+        .filter_map(|l| l["transition"].as_str())
+        .collect();
+    assert_eq!(fired, ["go", "ok"], "{stdout}");
+    assert!(lines
+        .iter()
+        .any(|l| l["effect"] == "command" && l["verb"] == "takeoff"));
+    assert_eq!(lines.last().expect("end")["end"], true);
+
+    let seen = vehicle.seen.lock().expect("peer log").clone();
+    // The gateway speaks as the vehicle's companion computer, never as a GCS.
+    let hb = seen.iter().find_map(|s| match &s.message {
+        MavMessage::HEARTBEAT(h) => Some((s.header, h.clone())),
+        _ => None,
+    });
+    let (header, hb) = hb.expect("the gateway's heartbeat");
+    assert_eq!((header.system_id, header.component_id), (1, 191));
+    assert_eq!(hb.mavtype, MavType::MAV_TYPE_ONBOARD_CONTROLLER);
+    assert_eq!(hb.autopilot, MavAutopilot::MAV_AUTOPILOT_INVALID);
+    // It asked for telemetry.
+    assert!(seen.iter().any(|s| matches!(&s.message, MavMessage::COMMAND_LONG(c) if c.command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL)));
+    // And commanded the takeoff the net asked for.
+    let takeoff = seen.iter().find_map(|s| match &s.message {
+        MavMessage::COMMAND_LONG(c) if c.command == MavCmd::MAV_CMD_NAV_TAKEOFF => Some(c.clone()),
+        _ => None,
+    });
+    assert_eq!(takeoff.expect("takeoff commanded").param7, 20.0);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[tokio::test]
+async fn run_refuses_a_project_that_fails_check_unless_unchecked() {
+    let dir = project(
+        "deadlock",
+        "name = \"N\"\nplaces = [\"a\", \"b\"]\ninitial = [\"a\"]\n[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"armed\"\n",
+    );
+    let out = petrel()
+        .args([
+            "run",
+            dir.to_str().expect("utf-8"),
+            "--mavlink",
+            "udpin:127.0.0.1:0",
+            "--duration",
+            "0.3",
+        ])
+        .output()
+        .await
+        .expect("petrel runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("refusing to run"), "{err}");
+    assert!(err.contains("deadlocks        FAILED"), "{err}");
+    let out = petrel()
+        .args([
+            "run",
+            dir.to_str().expect("utf-8"),
+            "--mavlink",
+            "udpin:127.0.0.1:0",
+            "--duration",
+            "0.3",
+            "--unchecked",
+        ])
+        .output()
+        .await
+        .expect("petrel runs");
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
