@@ -197,12 +197,15 @@ pub struct Bits {
     /// Key sums per byte position (of the padded words) and byte value.
     byte_keys: Vec<[u64; 256]>,
     delta: Vec<u64>,
-    pre: MaskLists,
     clear: MaskLists,
     set: MaskLists,
     /// A transition whose firing always puts 2 tokens somewhere.
     overfull: Vec<bool>,
-    trigger: Lists,
+    /// For each place, the transitions it triggers, as (transition, range
+    /// in `checks`): the (word, mask) pairs of their other input places.
+    trigger_offsets: Vec<u32>,
+    triggered: Vec<(u32, u32, u32)>,
+    checks: Vec<(u32, u64)>,
     always: Vec<u32>,
 }
 
@@ -219,7 +222,7 @@ impl Bits {
                     .fold(0u64, |acc, bit| acc.wrapping_add(keys[i * 8 + bit]));
             }
         }
-        let mut pre = Vec::new();
+        let mut pre: Vec<Vec<u32>> = Vec::new();
         let mut clear = Vec::new();
         let mut set = Vec::new();
         let mut overfull = Vec::new();
@@ -255,16 +258,33 @@ impl Bits {
             delta.push(d);
         }
         let (trigger, always) = triggers(net, marked_frequency, |t| usable[t]);
+        let mut trigger_offsets = vec![0u32];
+        let mut triggered = Vec::new();
+        let mut checks: Vec<(u32, u64)> = Vec::new();
+        for p in 0..n {
+            for &t in trigger.get(p) {
+                let lo = checks.len() as u32;
+                let others: Vec<u32> = pre[t as usize]
+                    .iter()
+                    .copied()
+                    .filter(|&q| q as usize != p)
+                    .collect();
+                checks.extend_from_slice(&MaskLists::from(&[others]).items);
+                triggered.push((t, lo, checks.len() as u32));
+            }
+            trigger_offsets.push(triggered.len() as u32);
+        }
         Bits {
             places: n,
             width,
             byte_keys,
             delta,
-            pre: MaskLists::from(&pre),
             clear: MaskLists::from(&clear),
             set: MaskLists::from(&set),
             overfull,
-            trigger,
+            trigger_offsets,
+            triggered,
+            checks,
             always,
         }
     }
@@ -348,10 +368,12 @@ impl Semantics for Bits {
             while w != 0 {
                 let p = i * 64 + w.trailing_zeros() as usize;
                 w &= w - 1;
-                for &t in self.trigger.get(p) {
-                    let on = self
-                        .pre
-                        .get(t as usize)
+                let (lo, hi) = (
+                    self.trigger_offsets[p] as usize,
+                    self.trigger_offsets[p + 1] as usize,
+                );
+                for &(t, a, b) in &self.triggered[lo..hi] {
+                    let on = self.checks[a as usize..b as usize]
                         .iter()
                         .all(|&(j, mask)| m.get(j as usize).is_some_and(|&x| x & mask == mask));
                     if on {
