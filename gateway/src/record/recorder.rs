@@ -62,9 +62,20 @@ pub enum RecordError {
     #[error("cannot create the recording {path}: {source}")]
     Create { path: String, source: io::Error },
     #[error("cannot write the recording: {0}")]
-    Mcap(#[from] mcap::McapError),
+    Write(String),
     #[error("the recorder's thread stopped unexpectedly")]
     Thread,
+}
+
+impl From<mcap::McapError> for RecordError {
+    fn from(e: mcap::McapError) -> Self {
+        // The MCAP error's own text does not say which I/O error it was.
+        let mut text = e.to_string();
+        if let Some(source) = std::error::Error::source(&e) {
+            text = format!("{text}: {source}");
+        }
+        RecordError::Write(text)
+    }
 }
 
 /// What a finished recording holds.
@@ -161,7 +172,15 @@ impl Recorder {
         let mut writer = Writer::new(mcap, project, options, Arc::clone(&dropped))?;
         let thread = std::thread::Builder::new()
             .name("petrel-recorder".into())
-            .spawn(move || writer.run(rx))
+            .spawn(move || {
+                let result = writer.run(rx);
+                if let Err(e) = &result {
+                    // The queue's receiver goes with this thread: from now
+                    // on every entry is counted as dropped.
+                    tracing::error!("the recording stopped: {e}");
+                }
+                result
+            })
             .map_err(|_| RecordError::Thread)?;
         Ok(Recorder {
             tx: Some(tx),

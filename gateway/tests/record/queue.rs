@@ -66,3 +66,56 @@ fn a_slow_writer_drops_counts_and_records_the_count() {
     assert!(err.contains("dropped"), "{err}");
     assert!(err.contains("first difference at step"), "{err}");
 }
+
+/// A sink whose disk is full after `room` bytes.
+struct FullDisk {
+    written: Cursor<Vec<u8>>,
+    room: usize,
+}
+
+impl Write for FullDisk {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.written.get_ref().len() + buf.len() > self.room {
+            return Err(std::io::Error::other("no space left on device"));
+        }
+        self.written.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Seek for FullDisk {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.written.seek(pos)
+    }
+}
+
+#[test]
+fn a_full_disk_stops_the_recording_not_the_flight() {
+    let Some(tlog) = flight::tlog() else { return };
+    let recorder = Recorder::with_sink(
+        FullDisk {
+            written: Cursor::default(),
+            room: 4096,
+        },
+        flight::project(),
+        Options {
+            flush_every: Duration::from_millis(1),
+            ..Options::default()
+        },
+    )
+    .expect("recorder");
+    let fed = flight::fly(&tlog, &recorder, 3_000, None);
+    // Entries after the failure are counted as dropped (the flight goes on).
+    let player = nets::Player::start(flight::project(), 0);
+    let give_up = std::time::Instant::now() + Duration::from_secs(10);
+    while recorder.dropped() == 0 && std::time::Instant::now() < give_up {
+        std::thread::sleep(Duration::from_millis(10));
+        let step = crate::supervisor::Step::default();
+        recorder.step(&crate::supervisor::Input::Tick, &step, &player);
+    }
+    assert!(recorder.dropped() > 0, "{fed:?}");
+    let err = recorder.finish().expect_err("the recording failed");
+    assert!(err.to_string().contains("no space left"), "{err}");
+}
