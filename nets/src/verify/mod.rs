@@ -8,6 +8,8 @@
 //! - [`explore`]: explicit-state exploration of a P/T net's token game (a
 //!   bitset engine for 1-safe nets, a counting engine for the others, both
 //!   parallel); [`reference`]: a plain explorer the tests compare it with.
+//! - [`project`]: the project-level verifier (the player's own semantics,
+//!   on [`graph::explore_bfs`]); [`export`]: Petrel nets as PNML.
 //!
 //! Pure computation: no file I/O, no clock (the caller times runs).
 //! [`explore`] may use several threads when asked to (scoped, joined before
