@@ -21,8 +21,7 @@
 //! recorder.start(&start, sup.player());
 //! loop {
 //!     let input = Input::Frame(&received.bytes);      // or Tick, Result, Event
-//!     let step = sup.step(now, input.clone());
-//!     recorder.step(&input, &step, sup.player());     // never blocks
+//!     let step = recorder.feed(&mut sup, now, input);  // sup.step + recorder.step; never blocks
 //!     // carry out the effects; every frame sent: recorder.sent(now, &bytes)
 //!     // program traffic beyond calls/replies/events: recorder.program(now, name, kind, json)
 //! }

@@ -22,7 +22,7 @@ use serde_json::Value as Json;
 
 use super::layout::{self, Input};
 use super::writer::Writer;
-use crate::supervisor::{self, Step};
+use crate::supervisor::{self, Step, Supervisor};
 
 /// How the recorder behaves.
 #[derive(Debug, Clone)]
@@ -234,6 +234,14 @@ impl Recorder {
             step.clone(),
             player.digest(),
         ))));
+    }
+
+    /// Feeds `sup` one input and records the step: `Supervisor::step` and
+    /// [`Recorder::step`] in one call, so that no step goes unrecorded.
+    pub fn feed(&self, sup: &mut Supervisor, time: Micros, input: supervisor::Input) -> Step {
+        let step = sup.step(time, input.clone());
+        self.step(&input, &step, sup.player());
+        step
     }
 
     /// A frame the gateway sent to the vehicle, at `time`.

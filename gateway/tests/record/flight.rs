@@ -124,8 +124,7 @@ pub fn fly(tlog: &[u8], recorder: &Recorder, limit: usize, pace: Option<f64>) ->
                     answers: &mut VecDeque<(Micros, u64, Outcome)>,
                     time: Micros,
                     input: Input| {
-        let step: Step = sup.step(time, input.clone());
-        recorder.step(&input, &step, sup.player());
+        let step: Step = recorder.feed(sup, time, input.clone());
         fed.steps += 1;
         match &input {
             Input::Frame(_) => fed.frames += 1,
