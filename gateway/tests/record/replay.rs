@@ -45,6 +45,12 @@ fn a_recording_replays_exactly_and_checks_out() {
     assert!(lines
         .iter()
         .any(|l| l["effect"] == "call" && l["function"] == "replan"));
+    // The recorded answers and the program's event are printed as inputs.
+    let replies = lines.iter().filter(|l| l["input"] == "reply").count();
+    assert_eq!(replies as u64, fed.results);
+    assert!(lines
+        .iter()
+        .any(|l| l["input"] == "event" && l["event"] == "payload_failure" && l["program"] == true));
 
     // The recording itself: every input, every raw frame, a summary.
     let bytes = std::fs::read(&flown.path).expect("recording");

@@ -117,6 +117,27 @@ pub fn run(args: Args) -> VerbResult {
                 return Err(miette::miette!("{name}: a second start at step {seq}"));
             }
         };
+        // Recorded answers and program events are inputs: print them as
+        // `petrel play` prints its script's.
+        match &input {
+            Input::Result { id, outcome } => {
+                let (fields, text) = match outcome {
+                    nets::Outcome::Done(p) => (
+                        json!({"reply": id, "params": crate::record::layout::outcome_json(outcome)["done"]}),
+                        format!("REPLY  {id} done {}", nets::Value::Map(p.clone())),
+                    ),
+                    nets::Outcome::Failed(r) => (
+                        json!({"reply": id, "failed": r}),
+                        format!("REPLY  {id} failed {r:?}"),
+                    ),
+                };
+                out.input(time, "reply", fields, &text).map_err(io)?;
+            }
+            Input::Event(e) => out
+                .event(&project, time, e, Some(json!({"program": true})))
+                .map_err(io)?,
+            Input::Frame(_) | Input::Tick => {}
+        }
         let step = sup.step(time, input);
         steps += 1;
         events += step.events.len();
