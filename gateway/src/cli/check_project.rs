@@ -60,8 +60,9 @@ pub fn report_json(r: &Report, seconds: f64) -> Value {
         "dead_markings": r.dead_markings,
         "safe": r.safe,
         "max_tokens": r.max_tokens,
-        "deadlock_example": r.deadlock_example.clone().unwrap_or_default(),
-        "unsafe_example": r.unsafe_example.clone().unwrap_or_default(),
+        // `null` when there is none; `[]` is the initial state itself.
+        "deadlock_example": r.deadlock_example,
+        "unsafe_example": r.unsafe_example,
         "livelocks": r.livelocks,
         "loops": r.loops,
         "warnings": r.warnings,
