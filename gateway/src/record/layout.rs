@@ -26,6 +26,10 @@ pub const PROGRAMS: &str = "/petrel/programs";
 pub const RECORDER: &str = "/petrel/recorder";
 /// The vehicle's position (`foxglove.LocationFix`).
 pub const LOCATION: &str = "/vehicle/location";
+/// Lines for people (`foxglove.Log`).
+pub const LOG: &str = "/log";
+/// The JSON Schema of `foxglove.Log` (Foxglove's well-known name).
+pub const LOG_SCHEMA: &str = r#"{"title":"foxglove.Log","description":"A log message","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"level":{"type":"integer","description":"1 debug, 2 info, 3 warning, 4 error, 5 fatal"},"message":{"type":"string"},"name":{"type":"string"},"file":{"type":"string"},"line":{"type":"integer","minimum":0}}}"#;
 /// Markings of one net: `/petrel/marking/<net>`; the global places are
 /// `/petrel/marking/@globals`.
 pub const MARKING_PREFIX: &str = "/petrel/marking/";

@@ -24,6 +24,7 @@
 //!     let step = recorder.feed(&mut sup, now, input);  // sup.step + recorder.step; never blocks
 //!     // carry out the effects; every frame sent: recorder.sent(now, &bytes)
 //!     // program traffic beyond calls/replies/events: recorder.program(now, name, kind, json)
+//!     // lines for people (/log): recorder.log(now, Level::Warning, "link", text)
 //! }
 //! let report = recorder.finish()?;                    // on SIGINT/SIGTERM: the summary
 //! ```

@@ -106,6 +106,22 @@ pub(super) enum Entry {
         kind: &'static str,
         body: Json,
     },
+    Log {
+        time: Micros,
+        level: Level,
+        name: &'static str,
+        message: String,
+    },
+}
+
+/// The level of a log line (`foxglove.Log`'s numbering).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Level {
+    Debug = 1,
+    Info = 2,
+    Warning = 3,
+    Error = 4,
+    Fatal = 5,
 }
 
 /// The handle. Its methods never block and never fail the caller.
@@ -148,10 +164,14 @@ impl Recorder {
         project: Arc<Project>,
         options: Options,
     ) -> Result<Recorder, RecordError> {
-        let file = File::create(path).map_err(|source| RecordError::Create {
+        let create = |source| RecordError::Create {
             path: path.display().to_string(),
             source,
-        })?;
+        };
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(create)?;
+        }
+        let file = File::create(path).map_err(create)?;
         Recorder::with_sink(SyncedFile(BufWriter::new(file)), project, options)
     }
 
@@ -261,6 +281,17 @@ impl Recorder {
             program: program.to_owned(),
             kind,
             body,
+        });
+    }
+
+    /// A line for people (`/log`, `foxglove.Log`): what the gateway warns
+    /// about in flight, `name` saying which part of it (`link`, `vehicle`…).
+    pub fn log(&self, time: Micros, level: Level, name: &'static str, message: String) {
+        self.send(Entry::Log {
+            time,
+            level,
+            name,
+            message,
         });
     }
 

@@ -34,6 +34,7 @@ struct Channels {
     programs: u16,
     recorder: u16,
     location: u16,
+    log: u16,
 }
 
 /// What a pending id is, to route its result.
@@ -103,6 +104,7 @@ impl<W: Write + Seek> Writer<W> {
                 layout::LOCATION,
                 ("foxglove.LocationFix", decoded::LOCATION_FIX_SCHEMA),
             )?,
+            log: add_json_channel(&mut mcap, layout::LOG, ("foxglove.Log", layout::LOG_SCHEMA))?,
             raw: mcap.add_channel(frame_schema, layout::RAW, layout::FRAME_ENCODING, &none)?,
             sent: mcap.add_channel(frame_schema, layout::SENT, layout::FRAME_ENCODING, &none)?,
         };
@@ -171,10 +173,14 @@ impl<W: Write + Seek> Writer<W> {
         })
     }
 
+    /// The log time of a Supervisor time.
+    fn time_ns(&self, time: Micros) -> u64 {
+        time.saturating_mul(1000)
+            .saturating_add(self.options.clock_offset_ns)
+    }
+
     fn write(&mut self, channel: u16, seq: u64, time: Micros, data: &[u8]) -> mcap::McapResult<()> {
-        let t = time
-            .saturating_mul(1000)
-            .saturating_add(self.options.clock_offset_ns);
+        let t = self.time_ns(time);
         self.messages += 1;
         self.dirty = true;
         self.mcap.write_to_known_channel(
@@ -226,6 +232,23 @@ impl<W: Write + Seek> Writer<W> {
             } => {
                 let v = json!({"time_us": time, "program": program, "kind": kind, "body": body});
                 self.write_json(self.channels.programs, 0, time, &v)
+            }
+            Entry::Log {
+                time,
+                level,
+                name,
+                message,
+            } => {
+                let ns = self.time_ns(time);
+                let v = json!({
+                    "timestamp": {"sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000},
+                    "level": level as u8,
+                    "message": message,
+                    "name": name,
+                    "file": "",
+                    "line": 0,
+                });
+                self.write_json(self.channels.log, 0, time, &v)
             }
         }
     }
@@ -304,9 +327,7 @@ impl<W: Write + Seek> Writer<W> {
             if let MavMessage::SYSTEM_TIME(t) = &msg {
                 self.boot_ms = Some(t.time_boot_ms);
             }
-            let t_ns = time
-                .saturating_mul(1000)
-                .saturating_add(self.options.clock_offset_ns);
+            let t_ns = self.time_ns(time);
             if let Some(fix) = decoded::location_fix(&msg, t_ns) {
                 self.write_json(self.channels.location, index, time, &fix)?;
             }

@@ -11,7 +11,7 @@ use mavlink::dialects::ardupilotmega::{MavMessage, COMMAND_LONG_DATA};
 use mavlink::MavlinkVersion;
 use nets::{Category, Effect, Event, Micros, Outcome, Params, Project, Value};
 
-use crate::record::recorder::Recorder;
+use crate::record::recorder::{Level, Recorder};
 use crate::supervisor::{Input, Step, Supervisor};
 
 pub fn root() -> PathBuf {
@@ -201,6 +201,12 @@ pub fn fly(tlog: &[u8], recorder: &Recorder, limit: usize, pace: Option<f64>) ->
                 .category(Category::Mission)
                 .param("component", "camera");
             feed(&mut sup, &mut fed, &mut answers, time, Input::Event(e));
+            recorder.log(
+                time,
+                Level::Warning,
+                "programs",
+                "PAY reports a camera failure".into(),
+            );
         }
         feed(
             &mut sup,

@@ -93,6 +93,7 @@ fn a_recording_replays_exactly_and_checks_out() {
         layout::COMMANDS,
         layout::PROGRAMS,
         layout::RECORDER,
+        layout::LOG,
         "/petrel/marking/MISSION",
         "/petrel/marking/EVENTS",
         "/petrel/marking/@globals",
@@ -114,6 +115,13 @@ fn a_recording_replays_exactly_and_checks_out() {
     let schema = location.schema.as_ref().expect("a schema");
     assert_eq!(schema.name, "foxglove.LocationFix");
     assert_eq!(schema.encoding, "jsonschema");
+    let log = summary
+        .channels
+        .values()
+        .find(|c| c.topic == layout::LOG)
+        .expect("log channel");
+    assert_eq!(log.schema.as_ref().expect("a schema").name, "foxglove.Log");
+    assert_eq!(counts[layout::LOG], 1);
     // Both times are set; the autopilot's boot time rides with the digests
     // once SYSTEM_TIME was seen; a decoded HEARTBEAT is flat with names.
     let mut boot = Vec::new();
