@@ -5,6 +5,7 @@
 
 use std::collections::HashMap;
 
+use mcap::records::Record;
 use nets::Micros;
 use serde_json::Value as Json;
 
@@ -96,45 +97,244 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
     if bytes.len() < mcap::MAGIC.len() || &bytes[..mcap::MAGIC.len()] != mcap::MAGIC {
         return Err(ReadError::NotMcap("no MCAP magic at the start".into()));
     }
-    let stream = mcap::MessageStream::new(bytes).map_err(|e| ReadError::NotMcap(e.to_string()))?;
-    let mut rec = Recording::default();
-    let mut saw_inputs = false;
-    let mut count_inputs = 0u64;
-    let mut count_effects = 0u64;
-    let mut count_digests = 0u64;
-    for message in stream {
-        let message = match message {
-            Ok(m) => m,
+    let mut reader = Reader {
+        rec: Recording::default(),
+        expectations,
+        kinds: HashMap::new(),
+        saw_inputs: false,
+        counts: [0; 3],
+    };
+    // The records outside chunks in order; a file cut short ends with an
+    // error after its last complete record. Chunks are read in order until
+    // the replay channels are known (the writer declares them first), then
+    // decompressed in batches on every core.
+    let linear =
+        mcap::read::LinearReader::new(bytes).map_err(|e| ReadError::NotMcap(e.to_string()))?;
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .clamp(1, 4);
+    let mut batch = Vec::new();
+    let mut ended = None;
+    // The summary (after the data end) repeats channels: it is only read
+    // through, so that a cut there is noticed too.
+    let mut in_summary = false;
+    for record in linear {
+        match record {
+            Ok(Record::DataEnd(_)) => in_summary = true,
+            Ok(r @ (Record::Chunk { .. } | Record::Channel(_) | Record::Message { .. }))
+                if !in_summary =>
+            {
+                if reader.knows_channels() {
+                    batch.push(r);
+                    if batch.len() == workers * 16 {
+                        reader.parallel(&batch, workers)?;
+                        batch.clear();
+                    }
+                } else {
+                    reader.sequential(&r)?;
+                }
+                if reader.rec.cut.is_some() {
+                    break;
+                }
+            }
+            Ok(_) => {}
             Err(e) => {
-                rec.cut = Some(e.to_string());
+                ended = Some(e.to_string());
                 break;
             }
-        };
-        let topic = message.channel.topic.as_str();
-        let json = |topic: &'static str, index: u64| {
-            serde_json::from_slice::<Json>(&message.data).map_err(|e| ReadError::Bad {
-                topic,
-                index,
-                what: e.to_string(),
-            })
-        };
-        match topic {
-            layout::RAW => {
-                rec.frames.push(rec.tlog.len());
-                rec.tlog.extend_from_slice(&message.data);
+        }
+    }
+    if reader.rec.cut.is_none() && !batch.is_empty() {
+        reader.parallel(&batch, workers)?;
+    }
+    if reader.rec.cut.is_none() {
+        reader.rec.cut = ended;
+    }
+    let mut rec = reader.finish()?;
+    rec.finished = rec.cut.is_none() && matches!(mcap::Summary::read(bytes), Ok(Some(_)));
+    Ok(rec)
+}
+
+/// What a channel carries, for replay.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Raw,
+    Inputs,
+    Effects,
+    Digests,
+    Recorder,
+}
+
+fn kind_of(topic: &str) -> Option<Kind> {
+    Some(match topic {
+        layout::RAW => Kind::Raw,
+        layout::INPUTS => Kind::Inputs,
+        layout::EFFECTS => Kind::Effects,
+        layout::DIGESTS => Kind::Digests,
+        layout::RECORDER => Kind::Recorder,
+        _ => return None,
+    })
+}
+
+/// A message of a chunk kept for replay.
+type Kept = (Kind, Vec<u8>);
+
+struct Reader {
+    rec: Recording,
+    expectations: bool,
+    /// Channels that matter, by id.
+    kinds: HashMap<u16, Kind>,
+    saw_inputs: bool,
+    /// Messages read on inputs, effects, digests (for errors).
+    counts: [u64; 3],
+}
+
+impl Reader {
+    fn knows_channels(&self) -> bool {
+        [
+            Kind::Raw,
+            Kind::Inputs,
+            Kind::Effects,
+            Kind::Digests,
+            Kind::Recorder,
+        ]
+        .iter()
+        .all(|k| self.kinds.values().any(|v| v == k))
+    }
+
+    fn wanted(&self, kind: Kind) -> bool {
+        self.expectations || !matches!(kind, Kind::Effects | Kind::Digests)
+    }
+
+    fn record(&mut self, record: &Record) -> Result<(), ReadError> {
+        match record {
+            Record::Channel(c) => {
+                if let Some(kind) = kind_of(&c.topic) {
+                    self.kinds.insert(c.id, kind);
+                }
+                Ok(())
             }
-            layout::INPUTS => {
-                saw_inputs = true;
+            Record::Message { header, data } => match self.kinds.get(&header.channel_id) {
+                Some(&kind) if self.wanted(kind) => self.message(kind, data),
+                _ => Ok(()),
+            },
+            _ => Ok(()),
+        }
+    }
+
+    /// A record read in order: a chunk is decompressed here.
+    fn sequential(&mut self, top: &Record) -> Result<(), ReadError> {
+        let Record::Chunk { header, data } = top else {
+            return self.record(top);
+        };
+        let records = mcap::read::ChunkReader::new(header.clone(), data)
+            .and_then(|r| r.collect::<Result<Vec<_>, _>>());
+        match records {
+            Ok(records) => {
+                for r in &records {
+                    self.record(r)?;
+                }
+            }
+            Err(e) => self.rec.cut = Some(e.to_string()),
+        }
+        Ok(())
+    }
+
+    /// Decompresses the chunks of `tops` on `workers` threads, keeping only
+    /// what replay reads, then takes the messages in file order.
+    fn parallel(&mut self, tops: &[Record], workers: usize) -> Result<(), ReadError> {
+        let results = self.extract(tops, workers);
+        for result in results {
+            match result {
+                Some(Ok(kept)) => {
+                    for (kind, data) in kept {
+                        self.message(kind, &data)?;
+                    }
+                }
+                Some(Err(e)) => {
+                    self.rec.cut = Some(e);
+                    break;
+                }
+                None => {
+                    self.rec.cut = Some("a chunk could not be read".into());
+                    break;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The messages replay reads from each of `tops`, decompressed by
+    /// `workers` threads; `None` where a thread failed.
+    fn extract(&self, tops: &[Record], workers: usize) -> Vec<Option<Result<Vec<Kept>, String>>> {
+        let one = |top: &Record| -> Result<Vec<Kept>, String> {
+            let mut kept = Vec::new();
+            let mut keep = |channel: u16, data: std::borrow::Cow<[u8]>| {
+                if let Some(&kind) = self.kinds.get(&channel) {
+                    if self.wanted(kind) {
+                        kept.push((kind, data.into_owned()));
+                    }
+                }
+            };
+            match top {
+                Record::Chunk { header, data } => {
+                    let chunk = mcap::read::ChunkReader::new(header.clone(), data)
+                        .map_err(|e| e.to_string())?;
+                    for r in chunk {
+                        if let Record::Message { header, data } = r.map_err(|e| e.to_string())? {
+                            keep(header.channel_id, data);
+                        }
+                    }
+                }
+                Record::Message { header, data } => {
+                    keep(header.channel_id, std::borrow::Cow::Borrowed(data))
+                }
+                _ => {}
+            }
+            Ok(kept)
+        };
+        let mut results: Vec<Option<Result<Vec<Kept>, String>>> = vec![None; tops.len()];
+        let done: Vec<(usize, Result<Vec<Kept>, String>)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..workers)
+                .map(|w| {
+                    let one = &one;
+                    scope.spawn(move || {
+                        (w..tops.len())
+                            .step_by(workers)
+                            .map(|i| (i, one(&tops[i])))
+                            .collect::<Vec<_>>()
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .flat_map(|h| h.join().unwrap_or_default())
+                .collect()
+        });
+        for (i, r) in done {
+            results[i] = Some(r);
+        }
+        results
+    }
+
+    fn message(&mut self, kind: Kind, data: &[u8]) -> Result<(), ReadError> {
+        let rec = &mut self.rec;
+        match kind {
+            Kind::Raw => {
+                rec.frames.push(rec.tlog.len());
+                rec.tlog.extend_from_slice(data);
+            }
+            Kind::Inputs => {
+                self.saw_inputs = true;
+                let index = self.counts[0];
+                self.counts[0] += 1;
                 let bad = |what: String| ReadError::Bad {
                     topic: layout::INPUTS,
-                    index: count_inputs,
+                    index,
                     what,
                 };
-                let (input, setup) = layout::input_with_setup(&message.data).ok_or_else(|| {
-                    bad(format!(
-                        "not an input: {}",
-                        String::from_utf8_lossy(&message.data)
-                    ))
+                let (input, setup) = layout::input_with_setup(data).ok_or_else(|| {
+                    bad(format!("not an input: {}", String::from_utf8_lossy(data)))
                 })?;
                 if let Some(setup) = setup {
                     rec.setup = Some(
@@ -143,36 +343,38 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
                     );
                 }
                 rec.inputs.push(input);
-                count_inputs += 1;
             }
-            layout::EFFECTS if expectations => {
-                let mut v = json(layout::EFFECTS, count_effects)?;
-                count_effects += 1;
+            Kind::Effects => {
+                let index = self.counts[1];
+                self.counts[1] += 1;
+                let bad = |what: String| ReadError::Bad {
+                    topic: layout::EFFECTS,
+                    index,
+                    what,
+                };
+                let mut v: Json = serde_json::from_slice(data).map_err(|e| bad(e.to_string()))?;
                 let seq = v
                     .as_object_mut()
                     .and_then(|o| o.remove("seq"))
                     .and_then(|s| s.as_u64())
-                    .ok_or_else(|| ReadError::Bad {
-                        topic: layout::EFFECTS,
-                        index: count_effects - 1,
-                        what: "no seq".into(),
-                    })?;
+                    .ok_or_else(|| bad("no seq".into()))?;
                 rec.steps.entry(seq).or_default().effects.push(v);
             }
-            layout::DIGESTS if expectations => {
+            Kind::Digests => {
+                let index = self.counts[2];
+                self.counts[2] += 1;
                 let line: DigestLine =
-                    serde_json::from_slice(&message.data).map_err(|e| ReadError::Bad {
+                    serde_json::from_slice(data).map_err(|e| ReadError::Bad {
                         topic: layout::DIGESTS,
-                        index: count_digests,
+                        index,
                         what: e.to_string(),
                     })?;
-                count_digests += 1;
                 let step = rec.steps.entry(line.seq).or_default();
                 step.digest = Some(line.digest.into_owned());
                 step.boot_ms = line.boot_ms;
             }
-            layout::RECORDER => {
-                if let Ok(v) = serde_json::from_slice::<Json>(&message.data) {
+            Kind::Recorder => {
+                if let Ok(v) = serde_json::from_slice::<Json>(data) {
                     if let Some(d) = v.get("dropped").and_then(Json::as_u64) {
                         rec.dropped = rec.dropped.max(d);
                     }
@@ -181,15 +383,17 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
                     }
                 }
             }
-            _ => {}
         }
+        Ok(())
     }
-    if !saw_inputs {
-        if let Some(cut) = &rec.cut {
-            return Err(ReadError::NotMcap(cut.clone()));
+
+    fn finish(self) -> Result<Recording, ReadError> {
+        if !self.saw_inputs {
+            if let Some(cut) = &self.rec.cut {
+                return Err(ReadError::NotMcap(cut.clone()));
+            }
+            return Err(ReadError::NotPetrel);
         }
-        return Err(ReadError::NotPetrel);
+        Ok(self.rec)
     }
-    rec.finished = rec.cut.is_none() && matches!(mcap::Summary::read(bytes), Ok(Some(_)));
-    Ok(rec)
 }
