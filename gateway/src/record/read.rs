@@ -5,7 +5,8 @@
 
 use std::collections::HashMap;
 
-use mcap::records::Record;
+use mcap::records::{op, Record};
+use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use nets::Micros;
 use serde_json::Value as Json;
 
@@ -104,44 +105,86 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
         saw_inputs: false,
         counts: [0; 3],
     };
-    // The records outside chunks in order; a file cut short ends with an
-    // error after its last complete record. Chunks are read in order until
-    // the replay channels are known (the writer declares them first), then
-    // decompressed in batches on every core.
-    let linear =
-        mcap::read::LinearReader::new(bytes).map_err(|e| ReadError::NotMcap(e.to_string()))?;
+    // The records outside chunks in order (mcap's sans-IO reader, chunks
+    // whole); a file cut short ends with an error after its last complete
+    // record. Chunks are read in order until the replay channels are known
+    // (the writer declares them first), then decompressed in batches on
+    // every core.
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .clamp(1, 4);
-    let mut batch = Vec::new();
+    let mut top = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_emit_chunks(true)
+            .with_record_length_limit(bytes.len()),
+    );
+    let mut fed = false;
+    let mut batch: Vec<Vec<u8>> = Vec::new();
     let mut ended = None;
     // The summary (after the data end) repeats channels: it is only read
     // through, so that a cut there is noticed too.
     let mut in_summary = false;
-    for record in linear {
-        match record {
-            Ok(Record::DataEnd(_)) => in_summary = true,
-            Ok(r @ (Record::Chunk { .. } | Record::Channel(_) | Record::Message { .. }))
-                if !in_summary =>
-            {
+    while let Some(event) = top.next_event() {
+        let (opcode, data) = match event {
+            Ok(LinearReadEvent::ReadRequest(_)) => {
+                if fed {
+                    top.notify_read(0);
+                } else {
+                    top.insert(bytes.len()).copy_from_slice(bytes);
+                    top.notify_read(bytes.len());
+                    fed = true;
+                }
+                continue;
+            }
+            Ok(LinearReadEvent::Record { opcode, data }) => (opcode, data),
+            Err(e) => {
+                ended = Some(e.to_string());
+                break;
+            }
+        };
+        match opcode {
+            op::DATA_END => in_summary = true,
+            op::CHUNK if !in_summary => {
+                let mut raw = Vec::with_capacity(9 + data.len());
+                raw.push(op::CHUNK);
+                raw.extend_from_slice(&(data.len() as u64).to_le_bytes());
+                raw.extend_from_slice(data);
                 if reader.knows_channels() {
-                    batch.push(r);
+                    batch.push(raw);
                     if batch.len() == workers * 16 {
                         reader.parallel(&batch, workers)?;
                         batch.clear();
                     }
                 } else {
-                    reader.sequential(&r)?;
-                }
-                if reader.rec.cut.is_some() {
-                    break;
+                    let mut records = Vec::new();
+                    match chunk_records(&raw, |op, data| {
+                        records.push((op, data.to_vec()));
+                        Ok(())
+                    }) {
+                        Ok(()) => {
+                            for (op, data) in &records {
+                                reader.raw_record(*op, data)?;
+                            }
+                        }
+                        Err(e) => reader.rec.cut = Some(e),
+                    }
                 }
             }
-            Ok(_) => {}
-            Err(e) => {
-                ended = Some(e.to_string());
-                break;
+            op::CHANNEL | op::MESSAGE if !in_summary => {
+                // Outside chunks (not written by Petrel): in order.
+                if !batch.is_empty() {
+                    reader.parallel(&batch, workers)?;
+                    batch.clear();
+                }
+                if reader.rec.cut.is_none() {
+                    let data = data.to_vec();
+                    reader.raw_record(opcode, &data)?;
+                }
             }
+            _ => {}
+        }
+        if reader.rec.cut.is_some() {
+            break;
         }
     }
     if reader.rec.cut.is_none() && !batch.is_empty() {
@@ -153,6 +196,42 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
     let mut rec = reader.finish()?;
     rec.finished = rec.cut.is_none() && matches!(mcap::Summary::read(bytes), Ok(Some(_)));
     Ok(rec)
+}
+
+/// The largest record believed inside a chunk, and the largest chunk
+/// (uncompressed): Petrel closes a chunk every second; anything larger is
+/// damage, which must not be allocated.
+const RECORD_LIMIT: usize = 256 << 20;
+
+/// Hands each record of a chunk (given as its whole record: opcode, length,
+/// body) to `f`, after checking the chunk's CRC.
+fn chunk_records(
+    raw: &[u8],
+    mut f: impl FnMut(u8, &[u8]) -> Result<(), String>,
+) -> Result<(), String> {
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_skip_start_magic(true)
+            .with_skip_end_magic(true)
+            .with_prevalidate_chunk_crcs(true)
+            .with_record_length_limit(RECORD_LIMIT),
+    );
+    let mut fed = false;
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| e.to_string())? {
+            LinearReadEvent::ReadRequest(_) => {
+                if fed {
+                    reader.notify_read(0);
+                } else {
+                    reader.insert(raw.len()).copy_from_slice(raw);
+                    reader.notify_read(raw.len());
+                    fed = true;
+                }
+            }
+            LinearReadEvent::Record { opcode, data } => f(opcode, data)?,
+        }
+    }
+    Ok(())
 }
 
 /// What a channel carries, for replay.
@@ -206,35 +285,19 @@ impl Reader {
         self.expectations || !matches!(kind, Kind::Effects | Kind::Digests)
     }
 
-    fn record(&mut self, record: &Record) -> Result<(), ReadError> {
-        match record {
-            Record::Channel(c) => {
+    /// A channel or message record (opcode and body), in file order.
+    fn raw_record(&mut self, opcode: u8, data: &[u8]) -> Result<(), ReadError> {
+        match mcap::parse_record(opcode, data) {
+            Ok(Record::Channel(c)) => {
                 if let Some(kind) = kind_of(&c.topic) {
                     self.kinds.insert(c.id, kind);
                 }
-                Ok(())
             }
-            Record::Message { header, data } => match self.kinds.get(&header.channel_id) {
-                Some(&kind) if self.wanted(kind) => self.message(kind, data),
-                _ => Ok(()),
+            Ok(Record::Message { header, data }) => match self.kinds.get(&header.channel_id) {
+                Some(&kind) if self.wanted(kind) => self.message(kind, &data)?,
+                _ => {}
             },
-            _ => Ok(()),
-        }
-    }
-
-    /// A record read in order: a chunk is decompressed here.
-    fn sequential(&mut self, top: &Record) -> Result<(), ReadError> {
-        let Record::Chunk { header, data } = top else {
-            return self.record(top);
-        };
-        let records = mcap::read::ChunkReader::new(header.clone(), data)
-            .and_then(|r| r.collect::<Result<Vec<_>, _>>());
-        match records {
-            Ok(records) => {
-                for r in &records {
-                    self.record(r)?;
-                }
-            }
+            Ok(_) => {}
             Err(e) => self.rec.cut = Some(e.to_string()),
         }
         Ok(())
@@ -242,7 +305,7 @@ impl Reader {
 
     /// Decompresses the chunks of `tops` on `workers` threads, keeping only
     /// what replay reads, then takes the messages in file order.
-    fn parallel(&mut self, tops: &[Record], workers: usize) -> Result<(), ReadError> {
+    fn parallel(&mut self, tops: &[Vec<u8>], workers: usize) -> Result<(), ReadError> {
         let results = self.extract(tops, workers);
         for result in results {
             match result {
@@ -264,33 +327,26 @@ impl Reader {
         Ok(())
     }
 
-    /// The messages replay reads from each of `tops`, decompressed by
-    /// `workers` threads; `None` where a thread failed.
-    fn extract(&self, tops: &[Record], workers: usize) -> Vec<Option<Result<Vec<Kept>, String>>> {
-        let one = |top: &Record| -> Result<Vec<Kept>, String> {
+    /// The messages replay reads from each chunk of `tops` (whole chunk
+    /// records), decompressed by `workers` threads; `None` where a thread
+    /// failed.
+    fn extract(&self, tops: &[Vec<u8>], workers: usize) -> Vec<Option<Result<Vec<Kept>, String>>> {
+        let one = |raw: &Vec<u8>| -> Result<Vec<Kept>, String> {
             let mut kept = Vec::new();
-            let mut keep = |channel: u16, data: std::borrow::Cow<[u8]>| {
-                if let Some(&kind) = self.kinds.get(&channel) {
-                    if self.wanted(kind) {
-                        kept.push((kind, data.into_owned()));
-                    }
-                }
-            };
-            match top {
-                Record::Chunk { header, data } => {
-                    let chunk = mcap::read::ChunkReader::new(header.clone(), data)
-                        .map_err(|e| e.to_string())?;
-                    for r in chunk {
-                        if let Record::Message { header, data } = r.map_err(|e| e.to_string())? {
-                            keep(header.channel_id, data);
+            chunk_records(raw, |opcode, data| {
+                if opcode == op::MESSAGE {
+                    if let Record::Message { header, data } =
+                        mcap::parse_record(opcode, data).map_err(|e| e.to_string())?
+                    {
+                        if let Some(&kind) = self.kinds.get(&header.channel_id) {
+                            if self.wanted(kind) {
+                                kept.push((kind, data.into_owned()));
+                            }
                         }
                     }
                 }
-                Record::Message { header, data } => {
-                    keep(header.channel_id, std::borrow::Cow::Borrowed(data))
-                }
-                _ => {}
-            }
+                Ok(())
+            })?;
             Ok(kept)
         };
         let mut results: Vec<Option<Result<Vec<Kept>, String>>> = vec![None; tops.len()];

@@ -269,3 +269,40 @@ fn files_that_are_not_petrel_recordings_are_refused() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("not a Petrel recording"), "{err}");
 }
+
+#[test]
+fn a_recording_damaged_mid_file_is_read_up_to_the_damage_or_refused() {
+    let Some(flown) = chunky_flight() else { return };
+    let bytes = std::fs::read(&flown.path).expect("recording");
+    let full = read::read(&bytes, true).expect("readable");
+    for percent in [30, 60] {
+        let mut damaged = bytes.clone();
+        let at = bytes.len() * percent / 100;
+        for b in &mut damaged[at..at + 64] {
+            *b ^= 0x5a;
+        }
+        match read::read(&damaged, true) {
+            Ok(rec) => {
+                let n = rec.inputs.len();
+                assert!(rec.cut.is_some() || n == full.inputs.len(), "{percent}%");
+                // What was read before the damage is what was recorded.
+                let same = rec
+                    .inputs
+                    .iter()
+                    .zip(&full.inputs)
+                    .take_while(|(a, b)| a == b)
+                    .count();
+                assert!(
+                    same * 100 >= full.inputs.len() * (percent - 5),
+                    "{percent}%: {same}"
+                );
+            }
+            Err(e) => assert!(!e.to_string().is_empty()),
+        }
+        let path = scratch(&format!("damaged-{percent}.mcap"));
+        std::fs::write(&path, &damaged).expect("written");
+        let (code, _, err) = check(&path, &[]);
+        assert!(matches!(code, 0..=2), "{code}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
