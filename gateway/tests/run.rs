@@ -62,6 +62,7 @@ on = "command.failed"
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn run_commands_the_vehicle_from_the_nets_and_hears_the_ack() {
     let dir = project("takeoff", TAKEOFF_NET);
+    let recording = dir.join("flight.mcap");
     let port = free_port();
     // The copter flips from STABILIZE to GUIDED every 100 ms: mode_changed
     // fires on a change, not on the first mode heard.
@@ -98,6 +99,8 @@ async fn run_commands_the_vehicle_from_the_nets_and_hears_the_ack() {
                 "--duration",
                 "3",
                 "--json",
+                "--record",
+                recording.to_str().expect("utf-8"),
             ])
             .output(),
     )
@@ -144,6 +147,33 @@ async fn run_commands_the_vehicle_from_the_nets_and_hears_the_ack() {
         _ => None,
     });
     assert_eq!(takeoff.expect("takeoff commanded").param7, 20.0);
+
+    // The recording replays the flight's decisions exactly.
+    let replay = petrel()
+        .args([
+            "replay",
+            recording.to_str().expect("utf-8"),
+            dir.to_str().expect("utf-8"),
+            "--check-against",
+            "--json",
+        ])
+        .output()
+        .await
+        .expect("petrel replay runs");
+    let replayed = String::from_utf8_lossy(&replay.stdout);
+    assert_eq!(
+        replay.status.code(),
+        Some(0),
+        "{replayed}{}",
+        String::from_utf8_lossy(&replay.stderr)
+    );
+    let fired_again: Vec<String> = replayed
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|l| l["effect"] == "fired")
+        .filter_map(|l| l["transition"].as_str().map(str::to_owned))
+        .collect();
+    assert_eq!(fired_again, ["go", "ok"]);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -161,6 +191,7 @@ async fn run_refuses_a_project_that_fails_check_unless_unchecked() {
             "udpin:127.0.0.1:0",
             "--duration",
             "0.3",
+            "--no-record",
         ])
         .output()
         .await
@@ -178,6 +209,7 @@ async fn run_refuses_a_project_that_fails_check_unless_unchecked() {
             "--duration",
             "0.3",
             "--unchecked",
+            "--no-record",
         ])
         .output()
         .await

@@ -20,7 +20,8 @@ use tokio::sync::mpsc;
 use super::timeline::Timeline;
 use super::{Outcome, VerbResult};
 use crate::link::{Link, LinkWriter};
-use crate::programs::server::{ProgramInput, Programs};
+use crate::programs::server::{Direction, ProgramInput, Programs};
+use crate::record::recorder::{Options as RecordOptions, Recorder};
 use crate::supervisor::{Input, Step, Supervisor};
 use crate::vehicle::commander::Commander;
 use crate::vehicle::config::VehicleConfig;
@@ -46,6 +47,37 @@ pub struct Args {
     /// Print the timeline as JSON lines.
     #[arg(long)]
     pub json: bool,
+    /// Record the flight to this MCAP file [default: recordings/petrel-<UTC
+    /// date and time>.mcap].
+    #[arg(long, value_name = "FILE", conflicts_with = "no_record")]
+    pub record: Option<PathBuf>,
+    /// Do not record.
+    #[arg(long)]
+    pub no_record: bool,
+}
+
+/// `recordings/petrel-YYYYMMDD-HHMMSS.mcap` for the current UTC time.
+fn dated_recording() -> PathBuf {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let (days, rem) = (secs / 86_400, secs % 86_400);
+    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
+    let z = days as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    PathBuf::from("recordings").join(format!(
+        "petrel-{year:04}{month:02}{day:02}-{:02}{:02}{:02}.mcap",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    ))
 }
 
 /// Elaboration timeouts and link loss are evaluated at least this often when
@@ -150,10 +182,17 @@ pub fn run(args: Args) -> VerbResult {
         .enable_all()
         .build()
         .map_err(|e| miette::miette!("cannot start the runtime: {e}"))?;
+    let record = if args.no_record {
+        None
+    } else {
+        Some(args.record.clone().unwrap_or_else(dated_recording))
+    };
     runtime.block_on(Gateway::run(Setup {
         project,
         dir: args.project.clone(),
         profile,
+        profile_name: profile_choice,
+        record,
         address,
         vehicle,
         programs,
@@ -166,6 +205,8 @@ struct Setup {
     project: Arc<Project>,
     dir: PathBuf,
     profile: Profile,
+    profile_name: String,
+    record: Option<PathBuf>,
     address: String,
     vehicle: VehicleConfig,
     programs: crate::programs::roster::Config,
@@ -180,6 +221,7 @@ struct Gateway {
     commander: Commander,
     programs: Option<Programs>,
     writer: LinkWriter,
+    recorder: Option<Recorder>,
     frames: u64,
     events: u64,
     out: Timeline<std::io::Stdout>,
@@ -190,8 +232,34 @@ impl Gateway {
         self.origin.elapsed().as_micros() as Micros
     }
 
+    /// Steps the supervisor, recording the input and the step.
+    fn feed(&mut self, time: Micros, input: Input) -> Step {
+        match &self.recorder {
+            Some(rec) => rec.feed(&mut self.supervisor, time, input),
+            None => self.supervisor.step(time, input),
+        }
+    }
+
     async fn run(setup: Setup) -> VerbResult {
         let origin = Instant::now();
+        let recorder = match &setup.record {
+            None => None,
+            Some(path) => {
+                let unix_ns = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_nanos() as u64);
+                let options = RecordOptions {
+                    clock_offset_ns: unix_ns,
+                    profile: setup.profile_name.clone(),
+                    config: elaboration::Config::default(),
+                    ..RecordOptions::default()
+                };
+                let rec = Recorder::create(path, setup.project.clone(), options)
+                    .map_err(|e| miette::miette!("cannot record to {}: {e}", path.display()))?;
+                eprintln!("recording to {}", path.display());
+                Some(rec)
+            }
+        };
         let (mut reader, writer) = Link::open(&setup.address, origin)
             .await
             .map_err(|e| miette::miette!("{e}"))?;
@@ -226,6 +294,7 @@ impl Gateway {
             commander,
             programs,
             writer,
+            recorder,
             frames: 0,
             events: 0,
             out: Timeline {
@@ -234,6 +303,9 @@ impl Gateway {
                 origin: 0,
             },
         };
+        if let Some(rec) = &gw.recorder {
+            rec.start(&start, gw.supervisor.player());
+        }
         gw.carry_out(&start).await;
         let stop_at = setup.duration.map(|d| origin + d);
         let mut signals = Signals::new()?;
@@ -277,7 +349,7 @@ impl Gateway {
                     if let Some(message) = &rx.message {
                         gw.commander.message(rx.time_us, &rx.header, message);
                     }
-                    let step = gw.supervisor.step(rx.time_us, Input::Frame(&rx.bytes));
+                    let step = gw.feed(rx.time_us, Input::Frame(&rx.bytes));
                     gw.carry_out(&step).await;
                 }
                 Some(input) = inputs.recv() => gw.program_input(input).await,
@@ -287,7 +359,7 @@ impl Gateway {
                     if now >= next_tick {
                         next_tick = now - now % TICK + TICK;
                     }
-                    let step = gw.supervisor.step(now, Input::Tick);
+                    let step = gw.feed(now, Input::Tick);
                     gw.carry_out(&step).await;
                 }
                 _ = signals.recv() => break,
@@ -389,7 +461,7 @@ impl Gateway {
             if let Some((id, outcome)) = self.commander.poll_outcome() {
                 busy = true;
                 let now = self.now();
-                let step = self.supervisor.step(now, Input::Result { id, outcome });
+                let step = self.feed(now, Input::Result { id, outcome });
                 let _ = self.out.effects(&self.project, &step.effects);
                 for e in &step.effects {
                     self.effect(e);
@@ -404,15 +476,21 @@ impl Gateway {
     async fn program_input(&mut self, input: ProgramInput) {
         let now = self.now();
         let step = match input {
-            ProgramInput::Outcome { id, outcome } => {
-                self.supervisor.step(now, Input::Result { id, outcome })
-            }
+            ProgramInput::Outcome { id, outcome } => self.feed(now, Input::Result { id, outcome }),
             ProgramInput::Event { event, .. } | ProgramInput::Lost { event, .. } => {
                 let _ = self.out.event(&self.project, now, &event, None);
-                self.supervisor.step(now, Input::Event(event))
+                self.feed(now, Input::Event(event))
             }
             ProgramInput::Traffic(t) => {
-                tracing::debug!(?t, "program traffic");
+                if let Some(rec) = &self.recorder {
+                    let kind = match t.direction {
+                        Direction::In => "in",
+                        Direction::Out => "out",
+                    };
+                    let body = serde_json::from_str(&t.line)
+                        .unwrap_or_else(|_| serde_json::Value::String(t.line.clone()));
+                    rec.program(now, t.program.as_deref().unwrap_or("?"), kind, body);
+                }
                 return;
             }
         };
