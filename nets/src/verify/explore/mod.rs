@@ -47,7 +47,8 @@ pub struct Options<'a> {
     pub parallel_from: u64,
     /// On several threads, split 1-safe state spaces by a few places chosen
     /// on the sample (fewer markings cross between threads) rather than by
-    /// hash. Default true.
+    /// hash. Default false: on an idle machine hashing balances the threads
+    /// better and wins (BENCHMARKS.md).
     pub partition_by_places: bool,
 }
 
@@ -58,7 +59,7 @@ impl Default for Options<'_> {
             max_states: 100_000_000,
             progress: None,
             parallel_from: u64::from(SAMPLE),
-            partition_by_places: true,
+            partition_by_places: false,
         }
     }
 }
