@@ -177,8 +177,10 @@ pub fn run(args: Args) -> VerbResult {
         .map_err(|e| miette::miette!("[gateway]: {e}"))?;
     let programs = crate::programs::roster::Config::from_gateway(Some(&gateway))
         .map_err(|e| miette::miette!("[gateway] programs: {e}"))?;
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
+    // One thread for the link reader, the programs and the loop (two worker
+    // threads measured no better: BENCHMARKS.md); the recorder writes on its
+    // own thread.
+    let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .map_err(|e| miette::miette!("cannot start the runtime: {e}"))?;
