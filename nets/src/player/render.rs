@@ -190,18 +190,13 @@ fn fault_json(project: &Project, fault: &Fault) -> Json {
             net,
             transition,
             message,
-        } => json!({
-            "fault": "bad_argument",
-            "net": net_name(project, *net),
-            "transition": transition_name(project, *net, *transition),
-            "message": message,
-        }),
-        Fault::Guard {
+        }
+        | Fault::Guard {
             net,
             transition,
             message,
         } => json!({
-            "fault": "guard",
+            "fault": if matches!(fault, Fault::Guard { .. }) { "guard" } else { "bad_argument" },
             "net": net_name(project, *net),
             "transition": transition_name(project, *net, *transition),
             "message": message,
