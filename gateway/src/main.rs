@@ -48,6 +48,12 @@ enum Verb {
 }
 
 fn main() -> ExitCode {
+    // Errors are wrapped to the width of a terminal, and never wrapped when
+    // stderr goes to a file or a pipe (logs stay greppable, one line a message).
+    let wrap = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let _ = miette::set_hook(Box::new(move |_| {
+        Box::new(miette::MietteHandlerOpts::new().wrap_lines(wrap).build())
+    }));
     let petrel = match Petrel::try_parse() {
         Ok(p) => p,
         Err(e) => {
