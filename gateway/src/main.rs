@@ -9,7 +9,9 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cli;
+mod clock;
 mod link;
+mod profile;
 mod programs;
 mod project;
 mod record;

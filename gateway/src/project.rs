@@ -40,3 +40,35 @@ pub fn load_with(
             miette::Report::new(e).context(format!("cannot load project {}", dir.display()))
         })
 }
+
+/// The `[gateway]` table of the project.toml in `dir` (empty when absent).
+pub fn gateway_table(dir: &Path) -> Result<toml::Table, miette::Report> {
+    let path = dir.join(nets::load::PROJECT_FILE);
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| miette::miette!("cannot read {}: {e}", path.display()))?;
+    let table: toml::Table = toml::from_str(&text)
+        .map_err(|e| miette::miette!("{}: {}", path.display(), e.message()))?;
+    Ok(match table.get("gateway") {
+        Some(toml::Value::Table(t)) => t.clone(),
+        Some(_) => {
+            return Err(miette::miette!(
+                "{}: [gateway] must be a table",
+                path.display()
+            ))
+        }
+        None => toml::Table::new(),
+    })
+}
+
+/// A string setting of the `[gateway]` table, if set.
+pub fn gateway_setting(dir: &Path, key: &str) -> Result<Option<String>, miette::Report> {
+    let table = gateway_table(dir)?;
+    match table.get(key) {
+        None => Ok(None),
+        Some(toml::Value::String(s)) => Ok(Some(s.clone())),
+        Some(_) => Err(miette::miette!(
+            "{}: [gateway] {key} must be a string",
+            dir.join(nets::load::PROJECT_FILE).display()
+        )),
+    }
+}

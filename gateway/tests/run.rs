@@ -222,3 +222,160 @@ async fn run_refuses_a_project_that_fails_check_unless_unchecked() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A profile layer named in `[gateway]`, beside project.toml, and a clock
+/// running faster than the wall: the layer's event starts a net timer whose
+/// command comes exactly its duration later on the gateway's clock; the
+/// recording carries the layer, so the replay needs neither `--profile` nor
+/// the file.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn run_takes_the_project_profile_and_a_faster_clock() {
+    let dir = project(
+        "layer",
+        r#"name = "N"
+places = ["wait", "waiting", "taking_off", "up"]
+initial = ["wait"]
+final = ["up"]
+[[transition]]
+name = "seen"
+from = ["wait"]
+to = ["waiting"]
+on = "guided"
+when = "custom == 4"
+do = ["timer settle after 2s"]
+[[transition]]
+name = "settled"
+from = ["waiting"]
+to = ["taking_off"]
+on = "settle"
+do = ["command takeoff {alt: 30}"]
+[[transition]]
+name = "ok"
+from = ["taking_off"]
+to = ["up"]
+on = "command.ok"
+[[transition]]
+name = "refused"
+from = ["taking_off"]
+to = ["wait"]
+on = "command.failed"
+"#,
+    );
+    std::fs::write(
+        dir.join("project.toml"),
+        "[[net]]\nfile = \"n.toml\"\nactive = true\n[gateway]\nprofile = \"extra.toml\"\n",
+    )
+    .expect("write");
+    std::fs::write(
+        dir.join("extra.toml"),
+        "[rules.guided]\ncategory = \"nominal\"\nwhen = 'mode() == \"GUIDED\"'\nparams = { custom = \"HEARTBEAT.custom_mode\" }\n",
+    )
+    .expect("write");
+    let recording = dir.join("fast.mcap");
+    let port = free_port();
+    let hb = peer::heartbeat(
+        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        MavType::MAV_TYPE_QUADROTOR,
+    );
+    let mut guided = hb.clone();
+    if let MavMessage::HEARTBEAT(h) = &mut guided {
+        h.custom_mode = 4;
+    }
+    let script: peer::Script = Box::new(|_, m| match peer::command_of(m) {
+        Some(c) => vec![peer::now(peer::ack(c, MavResult::MAV_RESULT_ACCEPTED))],
+        None => Vec::new(),
+    });
+    let _vehicle = peer::Peer::start(
+        &format!("udpout:127.0.0.1:{port}"),
+        hb,
+        vec![guided],
+        script,
+    )
+    .await;
+    let wall = std::time::Instant::now();
+    let out = tokio::time::timeout(
+        Duration::from_secs(30),
+        petrel()
+            .args([
+                "run",
+                dir.to_str().expect("utf-8"),
+                "--mavlink",
+                &format!("udpin:127.0.0.1:{port}"),
+                "--time-scale",
+                "4",
+                "--duration",
+                "2",
+                "--json",
+                "--record",
+                recording.to_str().expect("utf-8"),
+            ])
+            .output(),
+    )
+    .await
+    .expect("petrel stops by itself")
+    .expect("petrel runs");
+    let wall = wall.elapsed();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<serde_json::Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect();
+    let time_of = |pred: &dyn Fn(&serde_json::Value) -> bool| {
+        lines
+            .iter()
+            .find(|l| pred(l))
+            .and_then(|l| l["time_us"].as_u64())
+            .unwrap_or_else(|| panic!("not in the timeline:\n{stdout}"))
+    };
+    let guided_at = time_of(&|l| l["input"] == "event" && l["event"] == "guided");
+    let takeoff_at = time_of(&|l| l["effect"] == "command" && l["verb"] == "takeoff");
+    // The timer runs on the gateway's clock: exactly 2 s of it (the
+    // deadline is slept to, never early; a wake-up is late by a few ms of
+    // wall time at most, 4 times that on this clock).
+    let waited = takeoff_at - guided_at;
+    assert!(
+        (2_000_000..2_400_000).contains(&waited),
+        "{waited} µs\n{stdout}"
+    );
+    // The gateway's clock ran about 4 times the wall: its last time is well
+    // past the 2 s of wall-clock time the run lasted.
+    let end = lines.last().expect("end")["time_us"]
+        .as_u64()
+        .expect("time");
+    assert!(
+        end >= 6_000_000 && (end as f64) <= wall.as_secs_f64() * 4.0e6,
+        "{end} µs in {wall:?}"
+    );
+    let fired: Vec<&str> = lines
+        .iter()
+        .filter(|l| l["effect"] == "fired")
+        .filter_map(|l| l["transition"].as_str())
+        .collect();
+    assert_eq!(fired, ["seen", "settled", "ok"], "{stdout}");
+
+    // The layer travels in the recording: remove the file, replay as is.
+    std::fs::remove_file(dir.join("extra.toml")).expect("removed");
+    let replay = petrel()
+        .args([
+            "replay",
+            recording.to_str().expect("utf-8"),
+            dir.to_str().expect("utf-8"),
+            "--check-against",
+        ])
+        .output()
+        .await
+        .expect("petrel replay runs");
+    assert_eq!(
+        replay.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&replay.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

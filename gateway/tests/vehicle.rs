@@ -4,6 +4,9 @@
 
 #![allow(deprecated)] // REQUEST_DATA_STREAM, MISSION_REQUEST: the fallbacks under test
 
+#[path = "../src/clock.rs"]
+#[allow(dead_code)]
+mod clock;
 #[path = "../src/link/mod.rs"]
 mod link;
 #[path = "../src/vehicle/mod.rs"]

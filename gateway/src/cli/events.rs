@@ -5,8 +5,8 @@ use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use elaboration::{Config, Elaborated, Elaborator, Firmware, Profile, ProfileError, TlogReader};
-use miette::{miette, IntoDiagnostic, LabeledSpan, NamedSource, WrapErr};
+use elaboration::{Config, Elaborated, Elaborator, Firmware, Profile, TlogReader};
+use miette::{miette, IntoDiagnostic, WrapErr};
 
 use super::{Outcome, VerbResult};
 
@@ -55,53 +55,17 @@ fn detect(bytes: &[u8]) -> &'static str {
     "ardupilot"
 }
 
-fn report(err: &ProfileError, sources: &[(String, String)]) {
-    for p in &err.problems {
-        let mut r = miette!(
-            labels = vec![LabeledSpan::at(p.span.clone(), p.message.clone())],
-            "{}:{}:{}: {}",
-            p.file,
-            p.line,
-            p.col,
-            p.message
-        );
-        if let Some((name, text)) = sources.iter().find(|(n, _)| *n == p.file) {
-            r = r.with_source_code(NamedSource::new(name, text.clone()));
-        }
-        eprintln!("{r:?}");
-    }
-}
-
+/// The profile for a log: `choice` (`ardupilot`, `px4` or a file extending
+/// the log's built-in one), else the project's `[gateway] profile`, else the
+/// built-in profile of the log's autopilot. Problems are printed; `Err(())`
+/// then.
 pub(crate) fn load_profile(
     choice: Option<&str>,
+    project: Option<&Path>,
     bytes: &[u8],
-) -> Result<Result<Profile, ()>, miette::Report> {
-    let (base, user) = match choice {
-        None => (detect(bytes), None),
-        Some(name @ ("ardupilot" | "px4")) => {
-            (if name == "px4" { "px4" } else { "ardupilot" }, None)
-        }
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .into_diagnostic()
-                .wrap_err_with(|| format!("cannot read the profile {path}"))?;
-            (detect(bytes), Some((path.to_owned(), text)))
-        }
-    };
-    let base_text = elaboration::profile::builtin(base).unwrap_or_default();
-    let mut sources = vec![(format!("{base}.toml"), base_text.to_owned())];
-    sources.extend(user);
-    let layers: Vec<(&str, &str)> = sources
-        .iter()
-        .map(|(n, t)| (n.as_str(), t.as_str()))
-        .collect();
-    match Profile::load(&layers) {
-        Ok(p) => Ok(Ok(p)),
-        Err(e) => {
-            report(&e, &sources);
-            Ok(Err(()))
-        }
-    }
+) -> Result<Result<(Profile, crate::profile::Layers), ()>, miette::Report> {
+    let layers = crate::profile::Layers::pick(choice, project, detect(bytes))?;
+    Ok(layers.load().map(|p| (p, layers)).ok_or(()))
 }
 
 fn json_line(e: &Elaborated, first_us: u64) -> serde_json::Value {
@@ -142,7 +106,7 @@ pub fn run(args: Args) -> VerbResult {
             }
         },
     };
-    let Ok(profile) = load_profile(args.profile.as_deref(), &bytes)? else {
+    let Ok((profile, _)) = load_profile(args.profile.as_deref(), None, &bytes)? else {
         return Ok(Outcome::BadInput);
     };
     run_on(&args.file, &bytes, profile, firmware, &args)
@@ -307,9 +271,9 @@ mod tests {
             "[rules.x]\ncategory = \"sometimes\"\nwhen = \"NOPE.x\"\n",
         )
         .expect("write");
-        let loaded = load_profile(path.to_str(), &[]).expect("readable");
+        let loaded = load_profile(path.to_str(), None, &[]).expect("readable");
         assert!(loaded.is_err());
-        let missing = load_profile(Some("/nonexistent/profile.toml"), &[]);
+        let missing = load_profile(Some("/nonexistent/profile.toml"), None, &[]);
         assert!(missing.is_err());
         let _ = std::fs::remove_dir_all(&dir);
     }

@@ -66,7 +66,9 @@ pub fn run(args: Args) -> VerbResult {
     }
     let bytes = std::fs::read(&args.file)
         .map_err(|e| miette::miette!("cannot read {}: {e}", args.file.display()))?;
-    let Ok(profile) = super::events::load_profile(args.profile.as_deref(), &bytes)? else {
+    let Ok((profile, _)) =
+        super::events::load_profile(args.profile.as_deref(), Some(&args.project), &bytes)?
+    else {
         return Ok(Outcome::BadInput);
     };
     let project = crate::project::load_with(&args.project, &profile.catalog())?;

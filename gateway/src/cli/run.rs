@@ -8,7 +8,7 @@
 //! upload under way is given a bounded time to finish.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -19,6 +19,7 @@ use tokio::sync::mpsc;
 
 use super::timeline::Timeline;
 use super::{Outcome, VerbResult};
+use crate::clock::Clock;
 use crate::link::{Link, LinkWriter};
 use crate::programs::server::{Direction, ProgramInput, Programs};
 use crate::record::recorder::{Options as RecordOptions, Recorder};
@@ -41,7 +42,13 @@ pub struct Args {
     /// Run a project that fails `petrel check`.
     #[arg(long)]
     pub unchecked: bool,
-    /// Stop after this many seconds (tests, demonstrations).
+    /// Run the gateway's clock this many times faster than the wall, for a
+    /// simulated vehicle running faster than real time: frame times, the
+    /// nets' timers, elaboration timeouts and command timeouts all follow
+    /// it (program call timeouts stay in wall-clock time). Never in flight.
+    #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
+    pub time_scale: f64,
+    /// Stop after this many seconds of wall-clock time (tests, demonstrations).
     #[arg(long, value_name = "SECONDS")]
     pub duration: Option<f64>,
     /// Print the timeline as JSON lines.
@@ -88,63 +95,16 @@ const TELEMETRY_HZ: f32 = 4.0;
 /// On shutdown, how long a mission upload under way may take to finish.
 const UPLOAD_GRACE: Duration = Duration::from_secs(3);
 
-/// The `[gateway]` table of project.toml.
-fn gateway_table(dir: &Path) -> Result<toml::Table, miette::Report> {
-    let path = dir.join(nets::load::PROJECT_FILE);
-    let text = std::fs::read_to_string(&path)
-        .map_err(|e| miette::miette!("cannot read {}: {e}", path.display()))?;
-    let table: toml::Table = toml::from_str(&text)
-        .map_err(|e| miette::miette!("{}: {}", path.display(), e.message()))?;
-    Ok(match table.get("gateway") {
-        Some(toml::Value::Table(t)) => t.clone(),
-        Some(_) => {
-            return Err(miette::miette!(
-                "{}: [gateway] must be a table",
-                path.display()
-            ))
-        }
-        None => toml::Table::new(),
-    })
-}
-
-fn load_profile(choice: &str) -> Result<Profile, miette::Report> {
-    let (base, user) = match choice {
-        "ardupilot" | "px4" => (choice, None),
-        path => {
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| miette::miette!("cannot read the profile {path}: {e}"))?;
-            ("ardupilot", Some((path.to_owned(), text)))
-        }
-    };
-    let base_text = elaboration::profile::builtin(base).unwrap_or_default();
-    let mut layers = vec![(format!("{base}.toml"), base_text.to_owned())];
-    layers.extend(user);
-    let refs: Vec<(&str, &str)> = layers
-        .iter()
-        .map(|(n, t)| (n.as_str(), t.as_str()))
-        .collect();
-    Profile::load(&refs).map_err(|e| {
-        let lines: Vec<String> = e
-            .problems
-            .iter()
-            .map(|p| format!("{}:{}:{}: {}", p.file, p.line, p.col, p.message))
-            .collect();
-        miette::miette!(
-            "the elaboration profile has problems:\n  {}",
-            lines.join("\n  ")
-        )
-    })
-}
-
 pub fn run(args: Args) -> VerbResult {
-    let gateway = gateway_table(&args.project)?;
+    let gateway = crate::project::gateway_table(&args.project)?;
     let get = |key: &str| gateway.get(key).and_then(|v| v.as_str()).map(str::to_owned);
-    let profile_choice = args
-        .profile
-        .clone()
-        .or_else(|| get("profile"))
-        .unwrap_or_else(|| "ardupilot".into());
-    let profile = load_profile(&profile_choice)?;
+    // --profile (beside the working directory), else `[gateway] profile`
+    // (beside project.toml), else ArduPilot's.
+    let layers =
+        crate::profile::Layers::pick(args.profile.as_deref(), Some(&args.project), "ardupilot")?;
+    let Some(profile) = layers.load() else {
+        return Ok(Outcome::BadInput);
+    };
     let project = crate::project::load_with(&args.project, &profile.catalog())?;
     if !args.unchecked {
         let report =
@@ -173,6 +133,12 @@ pub fn run(args: Args) -> VerbResult {
             ));
         }
     }
+    if !(args.time_scale.is_finite() && args.time_scale > 0.0) {
+        return Err(miette::miette!(
+            "--time-scale must be a positive number, not {}",
+            args.time_scale
+        ));
+    }
     let vehicle = VehicleConfig::from_gateway_table(&gateway)
         .map_err(|e| miette::miette!("[gateway]: {e}"))?;
     let programs = crate::programs::roster::Config::from_gateway(Some(&gateway))
@@ -193,13 +159,14 @@ pub fn run(args: Args) -> VerbResult {
         project,
         dir: args.project.clone(),
         profile,
-        profile_name: profile_choice,
+        layers,
         record,
         address,
         vehicle,
         programs,
         json: args.json,
         duration: args.duration.map(Duration::from_secs_f64),
+        time_scale: args.time_scale,
     }))
 }
 
@@ -207,17 +174,18 @@ struct Setup {
     project: Arc<Project>,
     dir: PathBuf,
     profile: Profile,
-    profile_name: String,
+    layers: crate::profile::Layers,
     record: Option<PathBuf>,
     address: String,
     vehicle: VehicleConfig,
     programs: crate::programs::roster::Config,
     json: bool,
     duration: Option<Duration>,
+    time_scale: f64,
 }
 
 struct Gateway {
-    origin: Instant,
+    clock: Clock,
     project: Arc<Project>,
     supervisor: Supervisor,
     commander: Commander,
@@ -231,7 +199,7 @@ struct Gateway {
 
 impl Gateway {
     fn now(&self) -> Micros {
-        self.origin.elapsed().as_micros() as Micros
+        self.clock.now()
     }
 
     /// Steps the supervisor, recording the input and the step.
@@ -244,6 +212,13 @@ impl Gateway {
 
     async fn run(setup: Setup) -> VerbResult {
         let origin = Instant::now();
+        let clock = Clock::new(origin, setup.time_scale);
+        if clock.scale() != 1.0 {
+            eprintln!(
+                "the gateway's clock runs {}× faster than the wall (--time-scale)",
+                clock.scale()
+            );
+        }
         let recorder = match &setup.record {
             None => None,
             Some(path) => {
@@ -252,7 +227,8 @@ impl Gateway {
                     .map_or(0, |d| d.as_nanos() as u64);
                 let options = RecordOptions {
                     clock_offset_ns: unix_ns,
-                    profile: setup.profile_name.clone(),
+                    profile: setup.layers.name.clone(),
+                    profile_layers: setup.layers.layers.clone(),
                     config: elaboration::Config::default(),
                     ..RecordOptions::default()
                 };
@@ -262,7 +238,7 @@ impl Gateway {
                 Some(rec)
             }
         };
-        let (mut reader, writer) = Link::open(&setup.address, origin)
+        let (mut reader, writer) = Link::open(&setup.address, clock)
             .await
             .map_err(|e| miette::miette!("{e}"))?;
         // The program server listens only for a project that has programs.
@@ -290,7 +266,7 @@ impl Gateway {
             0,
         );
         let mut gw = Gateway {
-            origin,
+            clock,
             project: setup.project,
             supervisor,
             commander,
@@ -338,7 +314,7 @@ impl Gateway {
             .flatten()
             .min()
             .unwrap_or(next_tick);
-            let sleep = tokio::time::sleep(Duration::from_micros(deadline.saturating_sub(now)));
+            let sleep = tokio::time::sleep(gw.clock.wall(deadline.saturating_sub(now)));
             let until_stop = async {
                 match stop_at {
                     Some(t) => tokio::time::sleep_until(t.into()).await,

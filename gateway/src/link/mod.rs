@@ -16,8 +16,9 @@
 #![allow(dead_code)]
 
 use std::sync::{Arc, RwLock};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
+use crate::clock::Clock;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::error::{MessageReadError, MessageWriteError};
 use mavlink::{AsyncMavConnection, MAVLinkMessageRaw, MavHeader, MavlinkVersion};
@@ -25,7 +26,7 @@ use mavlink::{AsyncMavConnection, MAVLinkMessageRaw, MavHeader, MavlinkVersion};
 /// One frame as received.
 #[derive(Debug, Clone)]
 pub struct Received {
-    /// Microseconds since the origin given to [`Link::open`].
+    /// Microseconds on the clock given to [`Link::open`].
     pub time_us: u64,
     /// The frame's bytes exactly as on the wire (checksum already checked
     /// by rust-mavlink).
@@ -93,11 +94,13 @@ pub struct Link;
 impl Link {
     /// Opens a rust-mavlink address. `tcpin:` waits for its one client;
     /// `udpin:` answers the last sender (nothing is sent before someone
-    /// has spoken). `origin` is the instant receive times count from.
+    /// has spoken). Receive times are read on `clock` (an `Instant` is a
+    /// clock counting from it).
     pub async fn open(
         address: &str,
-        origin: Instant,
+        clock: impl Into<Clock>,
     ) -> Result<(LinkReader, LinkWriter), LinkError> {
+        let clock = clock.into();
         let connection = connect(address).await.map_err(|source| LinkError::Open {
             address: address.to_owned(),
             source,
@@ -109,7 +112,7 @@ impl Link {
         Ok((
             LinkReader {
                 shared: shared.clone(),
-                origin,
+                clock,
             },
             LinkWriter { shared },
         ))
@@ -119,7 +122,7 @@ impl Link {
 /// The receiving half. One task reads; the writer may be used meanwhile.
 pub struct LinkReader {
     shared: Arc<Shared>,
-    origin: Instant,
+    clock: Clock,
 }
 
 impl LinkReader {
@@ -164,7 +167,7 @@ impl LinkReader {
     }
 
     fn received(&self, raw: &MAVLinkMessageRaw) -> Received {
-        let time_us = self.origin.elapsed().as_micros() as u64;
+        let time_us = self.clock.now();
         let (bytes, version) = match raw {
             MAVLinkMessageRaw::V1(m) => (m.raw_bytes().to_vec(), MavlinkVersion::V1),
             MAVLinkMessageRaw::V2(m) => (m.raw_bytes().to_vec(), MavlinkVersion::V2),

@@ -126,20 +126,39 @@ pub fn event_from(json: &Json) -> Option<Event> {
     })
 }
 
-/// The elaboration config and profile name of a flight, recorded with its
-/// start so that replay elaborates the same way.
-pub fn setup_json(config: &elaboration::Config, profile: &str) -> Json {
+/// How a flight was elaborated, recorded with its start so that replay
+/// elaborates the same way: the config, the profile's name, and the text of
+/// each of its layers (so that a replay needs neither the profile file nor
+/// the same built-in profile text).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Setup {
+    pub config: elaboration::Config,
+    /// `ardupilot`, `px4`, a file's path, or empty (unknown).
+    pub profile: String,
+    /// `(file name, TOML text)`, base first; empty in recordings made
+    /// before layers were recorded.
+    pub layers: Vec<(String, String)>,
+}
+
+pub fn setup_json(setup: &Setup) -> Json {
+    let config = &setup.config;
+    let layers: Vec<Json> = setup
+        .layers
+        .iter()
+        .map(|(name, text)| json!({"name": name, "text": text}))
+        .collect();
     json!({
         "sysid": config.sysid,
         "compid": config.compid,
         "firmware": config.firmware.map(|f| f.as_str()),
         "tick_us": config.tick_us,
-        "profile": profile,
+        "profile": setup.profile,
+        "layers": layers,
     })
 }
 
-/// Reads [`setup_json`] back (the profile name may be empty: unknown).
-pub fn setup_from(json: &Json) -> Option<(elaboration::Config, String)> {
+/// Reads [`setup_json`] back.
+pub fn setup_from(json: &Json) -> Option<Setup> {
     let id = |key: &str| match json.get(key) {
         None | Some(Json::Null) => Some(None),
         Some(v) => v.as_u64().and_then(|n| u8::try_from(n).ok()).map(Some),
@@ -155,7 +174,23 @@ pub fn setup_from(json: &Json) -> Option<(elaboration::Config, String)> {
         tick_us: json.get("tick_us")?.as_u64()?,
     };
     let profile = json.get("profile").and_then(Json::as_str).unwrap_or("");
-    Some((config, profile.to_owned()))
+    let mut layers = Vec::new();
+    match json.get("layers") {
+        None | Some(Json::Null) => {}
+        Some(Json::Array(list)) => {
+            for layer in list {
+                let name = layer.get("name")?.as_str()?;
+                let text = layer.get("text")?.as_str()?;
+                layers.push((name.to_owned(), text.to_owned()));
+            }
+        }
+        Some(_) => return None,
+    }
+    Some(Setup {
+        config,
+        profile: profile.to_owned(),
+        layers,
+    })
 }
 
 /// One Supervisor input as recorded (frames by their index on [`RAW`]).
@@ -296,10 +331,26 @@ mod tests {
             firmware: Some(elaboration::Firmware::Plane),
             tick_us: 50_000,
         };
-        let v = setup_json(&config, "ardupilot");
-        assert_eq!(setup_from(&v), Some((config, "ardupilot".to_owned())));
-        let d = elaboration::Config::default();
-        assert_eq!(setup_from(&setup_json(&d, "")), Some((d, String::new())));
+        let setup = Setup {
+            config,
+            profile: "extra.toml".into(),
+            layers: vec![
+                ("ardupilot.toml".into(), "[rules]\n".into()),
+                ("extra.toml".into(), "# mine\n".into()),
+            ],
+        };
+        assert_eq!(setup_from(&setup_json(&setup)), Some(setup));
+        let d = Setup::default();
+        assert_eq!(setup_from(&setup_json(&d)), Some(d));
+        // Recordings from before layers were recorded.
+        assert_eq!(
+            setup_from(&json!({"tick_us": 1, "profile": "px4"})).map(|s| s.layers.len()),
+            Some(0)
+        );
+        assert_eq!(
+            setup_from(&json!({"tick_us": 1, "layers": [{"name": 1}]})),
+            None
+        );
         assert_eq!(setup_from(&json!({"sysid": 300, "tick_us": 1})), None);
         assert_eq!(
             setup_from(&json!({"firmware": "glider", "tick_us": 1})),

@@ -42,8 +42,8 @@ pub struct Recording {
     pub cut: Option<String>,
     /// Whether the file has its summary (a clean finish).
     pub finished: bool,
-    /// The elaboration config and profile name recorded with the start.
-    pub setup: Option<(elaboration::Config, String)>,
+    /// How the flight was elaborated, recorded with the start.
+    pub setup: Option<layout::Setup>,
 }
 
 /// A digest line as read.

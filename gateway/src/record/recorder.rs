@@ -39,6 +39,9 @@ pub struct Options {
     /// The elaboration profile's name (`ardupilot`, `px4` or the file
     /// given), recorded with the start; replay uses it unless told.
     pub profile: String,
+    /// The profile's layers, `(file name, TOML text)`, base first, recorded
+    /// with the start so that replay needs no profile file.
+    pub profile_layers: Vec<(String, String)>,
     /// The elaboration config the Supervisor was started with, recorded
     /// with the start: replay elaborates with it.
     pub config: elaboration::Config,
@@ -51,6 +54,7 @@ impl Default for Options {
             flush_every: Duration::from_secs(1),
             clock_offset_ns: 0,
             profile: String::new(),
+            profile_layers: Vec::new(),
             config: elaboration::Config::default(),
         }
     }

@@ -269,7 +269,11 @@ impl<W: Write + Seek> Writer<W> {
         }
         let mut v = layout::input_json(seq, time, &input);
         if input == Input::Start {
-            v["setup"] = layout::setup_json(&self.options.config, &self.options.profile);
+            v["setup"] = layout::setup_json(&layout::Setup {
+                config: self.options.config.clone(),
+                profile: self.options.profile.clone(),
+                layers: self.options.profile_layers.clone(),
+            });
         }
         self.write_json(self.channels.inputs, seq, time, &v)?;
         match &input {

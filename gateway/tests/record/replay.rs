@@ -56,9 +56,10 @@ fn a_recording_replays_exactly_and_checks_out() {
     let bytes = std::fs::read(&flown.path).expect("recording");
     let rec = read::read(&bytes, true).expect("readable");
     assert!(rec.finished && rec.cut.is_none());
+    let setup = rec.setup.clone().expect("a setup");
     assert_eq!(
-        rec.setup,
-        Some((elaboration::Config::default(), "ardupilot".to_owned()))
+        (setup.config, setup.profile.as_str()),
+        (elaboration::Config::default(), "ardupilot")
     );
     assert_eq!(rec.inputs.len() as u64, fed.steps + 1);
     assert_eq!(rec.frame_count() as u64, fed.frames);

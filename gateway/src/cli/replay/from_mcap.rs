@@ -41,14 +41,27 @@ pub fn run(args: Args) -> VerbResult {
             "{name}: the inputs log does not begin with the player's start (step 0)"
         ));
     };
-    let (config, recorded_profile) = rec.setup.clone().unwrap_or_default();
-    // The recorded built-in profile, unless told otherwise; a profile file
-    // must be given again (its text is not in the recording).
-    let choice = args.profile.as_deref().or(match recorded_profile.as_str() {
-        p @ ("ardupilot" | "px4") => Some(p),
-        _ => None,
-    });
-    let Ok(profile) = super::super::events::load_profile(choice, rec.tlog())? else {
+    let setup = rec.setup.clone().unwrap_or_default();
+    let config = setup.config.clone();
+    // The profile the flight ran with, as recorded, unless told otherwise;
+    // recordings from before the layers were recorded name a built-in one.
+    let profile = if args.profile.is_none() && !setup.layers.is_empty() {
+        crate::profile::Layers {
+            name: setup.profile.clone(),
+            layers: setup.layers.clone(),
+        }
+        .load()
+    } else {
+        let builtin = match setup.profile.as_str() {
+            p @ ("ardupilot" | "px4") => Some(p),
+            _ => None,
+        };
+        let choice = args.profile.as_deref().or(builtin);
+        super::super::events::load_profile(choice, Some(&args.project), rec.tlog())?
+            .ok()
+            .map(|(p, _)| p)
+    };
+    let Some(profile) = profile else {
         return Ok(Outcome::BadInput);
     };
     let project = crate::project::load_with(&args.project, &profile.catalog())?;
