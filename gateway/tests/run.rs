@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use mavlink::dialects::ardupilotmega::*;
+use mavlink::MavHeader;
 
 fn petrel() -> tokio::process::Command {
     let mut c = tokio::process::Command::new(env!("CARGO_BIN_EXE_petrel"));
@@ -147,6 +148,32 @@ async fn run_commands_the_vehicle_from_the_nets_and_hears_the_ack() {
         _ => None,
     });
     assert_eq!(takeoff.expect("takeoff commanded").param7, 20.0);
+
+    // Every frame the gateway sent is in the recording, byte for byte as
+    // the vehicle received it: the takeoff command among them.
+    let bytes = std::fs::read(&recording).expect("recording");
+    let sent: Vec<Vec<u8>> = mcap::MessageStream::new(&bytes)
+        .expect("MCAP")
+        .filter_map(Result::ok)
+        .filter(|m| m.channel.topic == "/mavlink/sent")
+        .map(|m| m.data[8..].to_vec())
+        .collect();
+    let takeoffs: Vec<(MavHeader, MavMessage)> = sent
+        .iter()
+        .filter_map(|bytes| {
+            let frame = elaboration::Frame::parse(bytes).ok()?;
+            let message = frame.decode().ok()?;
+            matches!(&message, MavMessage::COMMAND_LONG(c) if c.command == MavCmd::MAV_CMD_NAV_TAKEOFF)
+                .then(|| (frame.header(), message))
+        })
+        .collect();
+    assert_eq!(takeoffs.len(), 1, "{} frames sent", sent.len());
+    let (header, message) = &takeoffs[0];
+    assert!(
+        seen.iter()
+            .any(|s| s.header == *header && s.message == *message),
+        "the recorded frame is not the one the vehicle received"
+    );
 
     // The recording replays the flight's decisions exactly.
     let replay = petrel()

@@ -192,9 +192,41 @@ struct Gateway {
     programs: Option<Programs>,
     writer: LinkWriter,
     recorder: Option<Recorder>,
+    /// Steps carried out but not yet printed and recorded (see `feed`).
+    done: Vec<Done>,
     frames: u64,
     events: u64,
-    out: Timeline<std::io::Stdout>,
+    out: Timeline<std::io::BufWriter<std::io::Stdout>>,
+}
+
+/// A step carried out, waiting to be printed and recorded.
+struct Done {
+    input: Owned,
+    step: Step,
+    /// The player's digest right after the step (when recording).
+    digest: Option<nets::player::Digest>,
+}
+
+/// A Supervisor input, owned.
+enum Owned {
+    Frame(Vec<u8>),
+    Tick,
+    Result { id: u64, outcome: nets::Outcome },
+    Event(nets::Event),
+}
+
+impl Owned {
+    fn input(&self) -> Input<'_> {
+        match self {
+            Owned::Frame(bytes) => Input::Frame(bytes),
+            Owned::Tick => Input::Tick,
+            Owned::Result { id, outcome } => Input::Result {
+                id: *id,
+                outcome: outcome.clone(),
+            },
+            Owned::Event(e) => Input::Event(e.clone()),
+        }
+    }
 }
 
 impl Gateway {
@@ -202,12 +234,59 @@ impl Gateway {
         self.clock.now()
     }
 
-    /// Steps the supervisor, recording the input and the step.
-    fn feed(&mut self, time: Micros, input: Input) -> Step {
-        match &self.recorder {
-            Some(rec) => rec.feed(&mut self.supervisor, time, input),
-            None => self.supervisor.step(time, input),
+    /// Steps the supervisor and carries out the step's effects: commands go
+    /// to the commander (sent by the next `pump`), calls to the programs.
+    /// Printing and recording wait for `settle`, off the path from a frame
+    /// to the command it causes; the digest is taken now, as it must be.
+    fn feed(&mut self, time: Micros, input: Owned) {
+        let step = self.supervisor.step(time, input.input());
+        for e in &step.effects {
+            self.effect(e);
         }
+        for (_, effects) in &step.events {
+            for e in effects {
+                self.effect(e);
+            }
+        }
+        let digest = self
+            .recorder
+            .as_ref()
+            .map(|_| self.supervisor.player().digest());
+        self.done.push(Done {
+            input,
+            step,
+            digest,
+        });
+    }
+
+    /// Prints and records the steps carried out since the last call, in
+    /// order, and flushes the timeline.
+    fn settle(&mut self) {
+        for Done {
+            input,
+            step,
+            digest,
+        } in std::mem::take(&mut self.done)
+        {
+            if let Owned::Event(event) = &input {
+                let _ = self.out.event(&self.project, step.time, event, None);
+            }
+            let _ = self.out.effects(&self.project, &step.effects);
+            for (event, effects) in &step.events {
+                self.events += 1;
+                let _ = self.out.event(
+                    &self.project,
+                    event.time_us,
+                    &event.event,
+                    Some(json!({"sysid": event.sysid, "compid": event.compid})),
+                );
+                let _ = self.out.effects(&self.project, effects);
+            }
+            if let (Some(rec), Some(digest)) = (&self.recorder, digest) {
+                rec.record(&input.input(), step, digest);
+            }
+        }
+        let _ = self.out.out.flush();
     }
 
     async fn run(setup: Setup) -> VerbResult {
@@ -273,10 +352,11 @@ impl Gateway {
             programs,
             writer,
             recorder,
+            done: Vec::new(),
             frames: 0,
             events: 0,
             out: Timeline {
-                out: std::io::stdout(),
+                out: std::io::BufWriter::new(std::io::stdout()),
                 json: setup.json,
                 origin: 0,
             },
@@ -284,7 +364,12 @@ impl Gateway {
         if let Some(rec) = &gw.recorder {
             rec.start(&start, gw.supervisor.player());
         }
-        gw.carry_out(&start).await;
+        for e in &start.effects {
+            gw.effect(e);
+        }
+        let _ = gw.out.effects(&gw.project, &start.effects);
+        gw.pump().await;
+        gw.settle();
         let stop_at = setup.duration.map(|d| origin + d);
         let mut signals = Signals::new()?;
         let (frames_tx, mut frames) = mpsc::channel(1024);
@@ -327,23 +412,22 @@ impl Gateway {
                     if let Some(message) = &rx.message {
                         gw.commander.message(rx.time_us, &rx.header, message);
                     }
-                    let step = gw.feed(rx.time_us, Input::Frame(&rx.bytes));
-                    gw.carry_out(&step).await;
+                    gw.feed(rx.time_us, Owned::Frame(rx.bytes));
                 }
-                Some(input) = inputs.recv() => gw.program_input(input).await,
+                Some(input) = inputs.recv() => gw.program_input(input),
                 _ = sleep => {
                     let now = gw.now();
                     gw.commander.tick(now);
                     if now >= next_tick {
                         next_tick = now - now % TICK + TICK;
                     }
-                    let step = gw.feed(now, Input::Tick);
-                    gw.carry_out(&step).await;
+                    gw.feed(now, Owned::Tick);
                 }
                 _ = signals.recv() => break,
                 _ = until_stop => break,
             }
             gw.pump().await;
+            gw.settle();
         }
         // A mission upload under way gets a bounded time to finish.
         let grace = Instant::now() + UPLOAD_GRACE;
@@ -357,6 +441,7 @@ impl Gateway {
                 _ = tokio::time::sleep(Duration::from_millis(20)) => gw.commander.tick(gw.now()),
             }
             gw.pump().await;
+            gw.settle();
         }
         reader_task.abort();
         let Gateway {
@@ -382,28 +467,6 @@ impl Gateway {
         Ok(Outcome::Success)
     }
 
-    /// Prints a step and carries out its effects.
-    async fn carry_out(&mut self, step: &Step) {
-        let _ = self.out.effects(&self.project, &step.effects);
-        for e in &step.effects {
-            self.effect(e);
-        }
-        for (event, effects) in &step.events {
-            self.events += 1;
-            let _ = self.out.event(
-                &self.project,
-                event.time_us,
-                &event.event,
-                Some(json!({"sysid": event.sysid, "compid": event.compid})),
-            );
-            let _ = self.out.effects(&self.project, effects);
-            for e in effects {
-                self.effect(e);
-            }
-        }
-        self.pump().await;
-    }
-
     fn effect(&mut self, effect: &Effect) {
         let now = self.now();
         match effect {
@@ -423,27 +486,28 @@ impl Gateway {
         }
     }
 
-    /// Sends what the commander has to send and hands its outcomes to the
-    /// player, until it has nothing more.
+    /// Sends what the commander has to send (each frame recorded as sent)
+    /// and hands its outcomes to the player, until it has nothing more.
     async fn pump(&mut self) {
         loop {
             let mut busy = false;
             while let Some(message) = self.commander.poll_transmit() {
                 busy = true;
                 if let Some(from) = self.commander.identity() {
-                    if let Err(e) = self.writer.send(from, &message).await {
-                        tracing::warn!("{e}");
+                    match self.writer.send(from, &message).await {
+                        Ok(bytes) => {
+                            if let (Some(rec), false) = (&self.recorder, bytes.is_empty()) {
+                                rec.sent(self.clock.now(), &bytes);
+                            }
+                        }
+                        Err(e) => tracing::warn!("{e}"),
                     }
                 }
             }
             if let Some((id, outcome)) = self.commander.poll_outcome() {
                 busy = true;
                 let now = self.now();
-                let step = self.feed(now, Input::Result { id, outcome });
-                let _ = self.out.effects(&self.project, &step.effects);
-                for e in &step.effects {
-                    self.effect(e);
-                }
+                self.feed(now, Owned::Result { id, outcome });
             }
             if !busy {
                 break;
@@ -451,13 +515,12 @@ impl Gateway {
         }
     }
 
-    async fn program_input(&mut self, input: ProgramInput) {
+    fn program_input(&mut self, input: ProgramInput) {
         let now = self.now();
-        let step = match input {
-            ProgramInput::Outcome { id, outcome } => self.feed(now, Input::Result { id, outcome }),
+        match input {
+            ProgramInput::Outcome { id, outcome } => self.feed(now, Owned::Result { id, outcome }),
             ProgramInput::Event { event, .. } | ProgramInput::Lost { event, .. } => {
-                let _ = self.out.event(&self.project, now, &event, None);
-                self.feed(now, Input::Event(event))
+                self.feed(now, Owned::Event(event))
             }
             ProgramInput::Traffic(t) => {
                 if let Some(rec) = &self.recorder {
@@ -469,10 +532,8 @@ impl Gateway {
                         .unwrap_or_else(|_| serde_json::Value::String(t.line.clone()));
                     rec.program(now, t.program.as_deref().unwrap_or("?"), kind, body);
                 }
-                return;
             }
-        };
-        self.carry_out(&step).await;
+        }
     }
 }
 

@@ -15,13 +15,16 @@
 // Wired into `petrel run` by the lead; until then the binary does not call it.
 #![allow(dead_code)]
 
+use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::{Arc, RwLock};
 use std::time::Duration;
 
 use crate::clock::Clock;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::error::{MessageReadError, MessageWriteError};
-use mavlink::{AsyncMavConnection, MAVLinkMessageRaw, MavHeader, MavlinkVersion};
+use mavlink::{
+    AsyncMavConnection, MAVLinkMessageRaw, MAVLinkV2MessageRaw, MavHeader, MavlinkVersion,
+};
 
 /// One frame as received.
 #[derive(Debug, Clone)]
@@ -63,6 +66,9 @@ struct Shared {
     address: String,
     /// `None` while a TCP link is being reopened.
     connection: RwLock<Option<Arc<Connection>>>,
+    /// The sequence number of the next frame sent (one counter per link,
+    /// as rust-mavlink keeps).
+    sequence: AtomicU8,
 }
 
 impl Shared {
@@ -108,6 +114,7 @@ impl Link {
         let shared = Arc::new(Shared {
             address: address.to_owned(),
             connection: RwLock::new(Some(Arc::new(connection))),
+            sequence: AtomicU8::new(0),
         });
         Ok((
             LinkReader {
@@ -198,15 +205,24 @@ pub struct LinkWriter {
 
 impl LinkWriter {
     /// Sends a message as `from` = (system, component), MAVLink 2. The
-    /// sequence number is the link's own counter. Returns the bytes written
-    /// (0 on `udpin:` before anyone has spoken).
-    pub async fn send(&self, from: (u8, u8), message: &MavMessage) -> Result<usize, LinkError> {
+    /// sequence number is the link's own counter. Returns the frame's bytes
+    /// as written on the wire (empty on `udpin:` before anyone has spoken),
+    /// so that they can be recorded.
+    pub async fn send(&self, from: (u8, u8), message: &MavMessage) -> Result<Vec<u8>, LinkError> {
         let connection = self.shared.current().ok_or(LinkError::Down)?;
         let header = MavHeader {
             system_id: from.0 as u32,
             component_id: from.1,
-            sequence: 0,
+            sequence: self.shared.sequence.fetch_add(1, Ordering::Relaxed),
         };
-        Ok(connection.send(&header, message).await?)
+        let mut raw = MAVLinkV2MessageRaw::new();
+        raw.serialize_message(header, message);
+        let frame = MAVLinkMessageRaw::V2(raw);
+        let written = connection.send_raw(&frame).await?;
+        Ok(match (&frame, written) {
+            (_, 0) => Vec::new(),
+            (MAVLinkMessageRaw::V2(raw), _) => raw.raw_bytes().to_vec(),
+            (MAVLinkMessageRaw::V1(raw), _) => raw.raw_bytes().to_vec(),
+        })
     }
 }

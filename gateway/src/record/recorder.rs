@@ -240,7 +240,25 @@ impl Recorder {
     /// the player after it (for the digest). Call it right after each
     /// `Supervisor::step`, in order.
     pub fn step(&self, input: &supervisor::Input, step: &Step, player: &Player) {
-        let (input, frame) = match input {
+        let (input, frame) = Self::split(input);
+        self.send(Entry::Step(Box::new((
+            input,
+            frame,
+            step.clone(),
+            player.digest(),
+        ))));
+    }
+
+    /// One Supervisor step, taken by value, with the digest of the player
+    /// right after it: for a caller that carries a step out before it
+    /// records it (`petrel run`). Call it for each step, in order.
+    pub fn record(&self, input: &supervisor::Input, step: Step, digest: Digest) {
+        let (input, frame) = Self::split(input);
+        self.send(Entry::Step(Box::new((input, frame, step, digest))));
+    }
+
+    fn split(input: &supervisor::Input) -> (Input, Option<Vec<u8>>) {
+        match input {
             supervisor::Input::Frame(bytes) => (Input::Frame(0), Some(bytes.to_vec())),
             supervisor::Input::Tick => (Input::Tick, None),
             supervisor::Input::Result { id, outcome } => (
@@ -251,13 +269,7 @@ impl Recorder {
                 None,
             ),
             supervisor::Input::Event(e) => (Input::Event(e.clone()), None),
-        };
-        self.send(Entry::Step(Box::new((
-            input,
-            frame,
-            step.clone(),
-            player.digest(),
-        ))));
+        }
     }
 
     /// Feeds `sup` one input and records the step: `Supervisor::step` and

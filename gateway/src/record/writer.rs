@@ -6,9 +6,12 @@
 use std::collections::{BTreeMap, HashMap};
 use std::io::{Seek, Write};
 use std::sync::atomic::Ordering;
-use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::mpsc::{Receiver, TryRecvError};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
+
+/// How long the writer sleeps between two batches of entries.
+const BATCH: Duration = Duration::from_millis(10);
 
 use elaboration::Frame;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -146,22 +149,30 @@ impl<W: Write + Seek> Writer<W> {
     }
 
     pub(super) fn run(&mut self, rx: Receiver<Entry>) -> Result<Report, RecordError> {
+        // The writer takes what is queued in batches, sleeping in between,
+        // rather than waiting on the queue: a waiting receiver would make
+        // every entry the gateway's loop queues a wake-up (a system call on
+        // the loop's path, and a thread scheduled against it).
         let mut deadline = Instant::now() + self.options.flush_every;
-        loop {
-            let wait = deadline.saturating_duration_since(Instant::now());
-            match rx.recv_timeout(wait) {
-                Ok(entry) => self.entry(entry)?,
-                Err(RecvTimeoutError::Timeout) => {}
-                Err(RecvTimeoutError::Disconnected) => break,
+        'run: loop {
+            loop {
+                match rx.try_recv() {
+                    Ok(entry) => self.entry(entry)?,
+                    Err(TryRecvError::Empty) => break,
+                    Err(TryRecvError::Disconnected) => break 'run,
+                }
+                // A chunk is closed on time even when the queue never empties.
+                if Instant::now() >= deadline {
+                    self.close_chunk()?;
+                    deadline = Instant::now() + self.options.flush_every;
+                }
             }
             if Instant::now() >= deadline {
-                self.status(false)?;
-                if self.dirty {
-                    self.mcap.flush()?;
-                    self.dirty = false;
-                }
+                self.close_chunk()?;
                 deadline = Instant::now() + self.options.flush_every;
             }
+            let wait = deadline.saturating_duration_since(Instant::now());
+            std::thread::sleep(wait.min(BATCH));
         }
         self.status(true)?;
         self.mcap.finish()?;
@@ -171,6 +182,17 @@ impl<W: Write + Seek> Writer<W> {
             dropped_steps: self.dropped.steps.load(Ordering::Relaxed),
             messages: self.messages,
         })
+    }
+
+    /// Writes the recorder's status and closes the chunk (the file is
+    /// synced), if anything was written since the last one.
+    fn close_chunk(&mut self) -> Result<(), RecordError> {
+        self.status(false)?;
+        if self.dirty {
+            self.mcap.flush()?;
+            self.dirty = false;
+        }
+        Ok(())
     }
 
     /// The log time of a Supervisor time.
