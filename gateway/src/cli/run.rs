@@ -450,10 +450,24 @@ impl Gateway {
             mut out,
             frames,
             events,
+            recorder,
             ..
         } = gw;
         if let Some(programs) = programs {
             programs.shutdown().await;
+        }
+        if let Some(rec) = recorder {
+            match rec.finish() {
+                Ok(report) if report.dropped > 0 => eprintln!(
+                    "recorded {} steps; the recorder fell behind and dropped {} entries ({} steps): replay stops at the first",
+                    report.steps, report.dropped, report.dropped_steps
+                ),
+                Ok(report) => eprintln!(
+                    "recorded {} steps, {} messages",
+                    report.steps, report.messages
+                ),
+                Err(e) => eprintln!("the recording is incomplete: {e}"),
+            }
         }
         let player = supervisor.player();
         eprintln!(
