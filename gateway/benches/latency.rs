@@ -176,6 +176,32 @@ fn trials(name: &'static str, port: u16, n: usize) -> Option<Stats> {
     (!micros.is_empty()).then_some(Stats { name, micros, lost })
 }
 
+/// `(battery_low events, rtl commands)` in a recording that replays with
+/// no difference.
+fn recorded(project: &Path, recording: &Path) -> Option<(usize, usize)> {
+    let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("replay")
+        .arg(recording)
+        .arg(project)
+        .args(["--check-against", "--json"])
+        .output()
+        .ok()?;
+    if !out.status.success() {
+        eprintln!("{}", String::from_utf8_lossy(&out.stderr));
+        return None;
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let events = text
+        .lines()
+        .filter(|l| l.contains(r#""input":"event""#) && l.contains(r#""event":"battery_low""#))
+        .count();
+    let commands = text
+        .lines()
+        .filter(|l| l.contains(r#""effect":"command""#) && l.contains(r#""verb":"rtl""#))
+        .count();
+    Some((events, commands))
+}
+
 fn free_port() -> u16 {
     UdpSocket::bind("127.0.0.1:0")
         .and_then(|s| s.local_addr())
@@ -214,11 +240,18 @@ fn main() {
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn();
+    let mut in_recording = None;
     match petrel {
         Ok(child) => {
-            let _guard = Killed(child);
+            let mut guard = Killed(child);
             std::thread::sleep(Duration::from_millis(500));
             results.extend(trials("petrel run (recording on)", port, n));
+            // Stop it cleanly, then find the rule's events and the net's
+            // commands in its recording (replayed and checked against it).
+            let pid = guard.0.id().to_string();
+            let _ = Command::new("kill").args(["-TERM", &pid]).status();
+            let _ = guard.0.wait();
+            in_recording = recorded(&here, &scratch.join("latency.mcap"));
         }
         Err(e) => eprintln!("cannot start petrel: {e}"),
     }
@@ -261,6 +294,12 @@ fn main() {
             s.pct(1.0),
             s.lost
         );
+    }
+    match in_recording {
+        Some((events, commands)) => println!(
+            "in the recording (replayed with --check-against: no difference): {events} battery_low events, {commands} rtl commands"
+        ),
+        None => println!("the recording could not be replayed and checked"),
     }
     if let [a, b] = results.as_slice() {
         println!(

@@ -25,7 +25,7 @@ pub fn second(s: u64, seq: &mut u8) -> Vec<(u64, Vec<u8>)> {
     };
     let t = s as f32;
     let boot_ms = (s * 1000) as u32;
-    let mode = if (s / 600) % 2 == 0 { 3 } else { 5 }; // AUTO, LOITER
+    let mode = if (s / 600).is_multiple_of(2) { 3 } else { 5 }; // AUTO, LOITER
     let remaining = (100.0 - 40.0 * t / 3600.0) as i8;
     let angle = t / 60.0;
     let (lat, lon) = (
