@@ -61,6 +61,10 @@ pub struct Args {
     /// Do not record.
     #[arg(long)]
     pub no_record: bool,
+    /// Where programs connect: tcp:HOST:PORT or unix:PATH [default:
+    /// `[gateway] programs`, else tcp:127.0.0.1:5790].
+    #[arg(long, value_name = "ADDRESS")]
+    pub programs: Option<String>,
 }
 
 /// `recordings/petrel-YYYYMMDD-HHMMSS.mcap` for the current UTC time.
@@ -96,6 +100,16 @@ const TELEMETRY_HZ: f32 = 4.0;
 const UPLOAD_GRACE: Duration = Duration::from_secs(3);
 
 pub fn run(args: Args) -> VerbResult {
+    match prepare(&args)? {
+        Ok(setup) => fly(setup),
+        Err(outcome) => Ok(outcome),
+    }
+}
+
+/// Everything `run` checks and loads before it opens the link: the setup,
+/// or the outcome of a refusal (a project failing `petrel check`, a bad
+/// profile: already reported).
+pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Report> {
     let gateway = crate::project::gateway_table(&args.project)?;
     let get = |key: &str| gateway.get(key).and_then(|v| v.as_str()).map(str::to_owned);
     // --profile (beside the working directory), else `[gateway] profile`
@@ -103,7 +117,7 @@ pub fn run(args: Args) -> VerbResult {
     let layers =
         crate::profile::Layers::pick(args.profile.as_deref(), Some(&args.project), "ardupilot")?;
     let Some(profile) = layers.load() else {
-        return Ok(Outcome::BadInput);
+        return Ok(Err(Outcome::BadInput));
     };
     let project = crate::project::load_with(&args.project, &profile.catalog())?;
     if !args.unchecked {
@@ -118,7 +132,7 @@ pub fn run(args: Args) -> VerbResult {
                 "refusing to run {}: it fails `petrel check` (run it anyway with --unchecked)",
                 args.project.display()
             );
-            return Ok(Outcome::Failed);
+            return Ok(Err(Outcome::Failed));
         }
     }
     let Some(address) = args.mavlink.clone().or_else(|| get("mavlink")) else {
@@ -141,21 +155,19 @@ pub fn run(args: Args) -> VerbResult {
     }
     let vehicle = VehicleConfig::from_gateway_table(&gateway)
         .map_err(|e| miette::miette!("[gateway]: {e}"))?;
-    let programs = crate::programs::roster::Config::from_gateway(Some(&gateway))
+    let mut programs = crate::programs::roster::Config::from_gateway(Some(&gateway))
         .map_err(|e| miette::miette!("[gateway] programs: {e}"))?;
-    // One thread for the link reader, the programs and the loop (two worker
-    // threads measured no better: BENCHMARKS.md); the recorder writes on its
-    // own thread.
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .map_err(|e| miette::miette!("cannot start the runtime: {e}"))?;
+    if let Some(address) = &args.programs {
+        programs.address = address
+            .parse()
+            .map_err(|e| miette::miette!("--programs {address}: {e}"))?;
+    }
     let record = if args.no_record {
         None
     } else {
         Some(args.record.clone().unwrap_or_else(dated_recording))
     };
-    runtime.block_on(Gateway::run(Setup {
+    Ok(Ok(Setup {
         project,
         dir: args.project.clone(),
         profile,
@@ -167,21 +179,40 @@ pub fn run(args: Args) -> VerbResult {
         json: args.json,
         duration: args.duration.map(Duration::from_secs_f64),
         time_scale: args.time_scale,
+        out: Box::new(std::io::stdout()),
+        stop: None,
     }))
 }
 
-struct Setup {
-    project: Arc<Project>,
-    dir: PathBuf,
-    profile: Profile,
-    layers: crate::profile::Layers,
-    record: Option<PathBuf>,
-    address: String,
-    vehicle: VehicleConfig,
-    programs: crate::programs::roster::Config,
-    json: bool,
-    duration: Option<Duration>,
-    time_scale: f64,
+/// Runs the gateway until its duration, a signal or `stop`.
+pub(crate) fn fly(setup: Setup) -> VerbResult {
+    // One thread for the link reader, the programs and the loop (two worker
+    // threads measured no better: BENCHMARKS.md); the recorder writes on its
+    // own thread.
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| miette::miette!("cannot start the runtime: {e}"))?;
+    runtime.block_on(Gateway::run(setup))
+}
+
+/// What the gateway runs with.
+pub(crate) struct Setup {
+    pub project: Arc<Project>,
+    pub dir: PathBuf,
+    pub profile: Profile,
+    pub layers: crate::profile::Layers,
+    pub record: Option<PathBuf>,
+    pub address: String,
+    pub vehicle: VehicleConfig,
+    pub programs: crate::programs::roster::Config,
+    pub json: bool,
+    pub duration: Option<Duration>,
+    pub time_scale: f64,
+    /// Where the timeline goes (stdout for `run`).
+    pub out: Box<dyn Write + Send>,
+    /// Stops the gateway when notified (`petrel demo`).
+    pub stop: Option<Arc<tokio::sync::Notify>>,
 }
 
 struct Gateway {
@@ -196,7 +227,7 @@ struct Gateway {
     done: Vec<Done>,
     frames: u64,
     events: u64,
-    out: Timeline<std::io::BufWriter<std::io::Stdout>>,
+    out: Timeline<std::io::BufWriter<Box<dyn Write + Send>>>,
 }
 
 /// A step carried out, waiting to be printed and recorded.
@@ -356,7 +387,7 @@ impl Gateway {
             frames: 0,
             events: 0,
             out: Timeline {
-                out: std::io::BufWriter::new(std::io::stdout()),
+                out: std::io::BufWriter::new(setup.out),
                 json: setup.json,
                 origin: 0,
             },
@@ -371,6 +402,7 @@ impl Gateway {
         gw.pump().await;
         gw.settle();
         let stop_at = setup.duration.map(|d| origin + d);
+        let stop = setup.stop.clone();
         let mut signals = Signals::new()?;
         let (frames_tx, mut frames) = mpsc::channel(1024);
         // The reader runs on its own task so that a frame is never lost to
@@ -406,6 +438,12 @@ impl Gateway {
                     None => std::future::pending().await,
                 }
             };
+            let told_to_stop = async {
+                match &stop {
+                    Some(n) => n.notified().await,
+                    None => std::future::pending().await,
+                }
+            };
             tokio::select! {
                 Some(rx) = frames.recv() => {
                     gw.frames += 1;
@@ -425,6 +463,7 @@ impl Gateway {
                 }
                 _ = signals.recv() => break,
                 _ = until_stop => break,
+                _ = told_to_stop => break,
             }
             gw.pump().await;
             gw.settle();
