@@ -1,0 +1,282 @@
+//! Faults the simulation can inject, and their schedule: from the test API
+//! (`Sim::inject`) or from `--fault` flags.
+//!
+//! Schedule syntax, one fault per flag:
+//!
+//! ```text
+//! KIND[=VALUE]@WHEN[:DURATION]
+//!   KIND      engine_failure | payload_failure | gps_loss | battery_drain
+//!             | battery | link_loss | emergency
+//!   VALUE     payload_failure=silent|critical (default silent)
+//!             battery_drain=FACTOR             (default 10: ten times faster)
+//!             battery=PERCENT                  (sets the remaining charge; required)
+//!             emergency=TEXT                   (the STATUSTEXT; default "Emergency")
+//!   WHEN      90s | 90 | 1.5s   sim seconds since boot
+//!             wp3               when MISSION_ITEM_REACHED 3 is sent
+//!   DURATION  10s | 10          the fault clears after that long (sim seconds);
+//!                               without it the fault stays
+//! ```
+//!
+//! Examples: `engine_failure@90s`, `link_loss@60s:10s`,
+//! `payload_failure=critical@wp3`, `battery=20@120s`, `gps_loss@wp2:15s`.
+
+use std::fmt;
+use std::str::FromStr;
+
+/// How a payload fails.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PayloadFailure {
+    /// The camera stops: no heartbeat, no answer.
+    Silent,
+    /// The camera keeps its heartbeat but reports MAV_STATE_CRITICAL.
+    Critical,
+}
+
+/// A fault.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Fault {
+    /// The engine stops: rpm winds down to 0, no thrust, the aircraft
+    /// glides while the autopilot keeps asking for throttle.
+    EngineFailure,
+    /// The camera (component 100) fails.
+    PayloadFailure(PayloadFailure),
+    /// The GPS loses its fix: fix_type NO_FIX, 0 satellites; the EKF loses
+    /// its horizontal position and velocity aiding.
+    GpsLoss,
+    /// The battery drains `factor` times faster.
+    BatteryDrain { factor: f64 },
+    /// The battery's remaining charge becomes `percent` (at once).
+    BatteryRemaining { percent: f64 },
+    /// The radio link is lost: nothing goes out, nothing coming in is read.
+    LinkLoss,
+    /// An emergency: HEARTBEAT.system_status EMERGENCY and this STATUSTEXT
+    /// (severity EMERGENCY).
+    Emergency { text: String },
+}
+
+/// The kind of a fault, to clear it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum FaultKind {
+    EngineFailure,
+    PayloadFailure,
+    GpsLoss,
+    BatteryDrain,
+    BatteryRemaining,
+    LinkLoss,
+    Emergency,
+}
+
+impl Fault {
+    pub fn kind(&self) -> FaultKind {
+        match self {
+            Fault::EngineFailure => FaultKind::EngineFailure,
+            Fault::PayloadFailure(_) => FaultKind::PayloadFailure,
+            Fault::GpsLoss => FaultKind::GpsLoss,
+            Fault::BatteryDrain { .. } => FaultKind::BatteryDrain,
+            Fault::BatteryRemaining { .. } => FaultKind::BatteryRemaining,
+            Fault::LinkLoss => FaultKind::LinkLoss,
+            Fault::Emergency { .. } => FaultKind::Emergency,
+        }
+    }
+}
+
+impl fmt::Display for Fault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Fault::EngineFailure => write!(f, "engine_failure"),
+            Fault::PayloadFailure(PayloadFailure::Silent) => write!(f, "payload_failure=silent"),
+            Fault::PayloadFailure(PayloadFailure::Critical) => {
+                write!(f, "payload_failure=critical")
+            }
+            Fault::GpsLoss => write!(f, "gps_loss"),
+            Fault::BatteryDrain { factor } => write!(f, "battery_drain={factor}"),
+            Fault::BatteryRemaining { percent } => write!(f, "battery={percent}"),
+            Fault::LinkLoss => write!(f, "link_loss"),
+            Fault::Emergency { text } => write!(f, "emergency={text}"),
+        }
+    }
+}
+
+/// When a scheduled fault happens.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Trigger {
+    /// Sim seconds since boot.
+    At(f64),
+    /// When the vehicle sends MISSION_ITEM_REACHED for this sequence number.
+    Reached(u16),
+}
+
+/// One entry of a schedule.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScheduledFault {
+    pub fault: Fault,
+    pub when: Trigger,
+    /// Sim seconds after which the fault clears; `None`: it stays.
+    pub duration: Option<f64>,
+}
+
+/// Faults to inject during a run.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Schedule {
+    pub entries: Vec<ScheduledFault>,
+}
+
+/// A `--fault` flag that does not parse.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("bad fault `{spec}`: {reason} (expected KIND[=VALUE]@WHEN[:DURATION], e.g. engine_failure@90s, link_loss@60s:10s, payload_failure@wp3)")]
+pub struct ScheduleError {
+    pub spec: String,
+    pub reason: String,
+}
+
+impl Schedule {
+    /// Parses `--fault` flags.
+    pub fn parse<S: AsRef<str>>(specs: &[S]) -> Result<Schedule, ScheduleError> {
+        let entries = specs
+            .iter()
+            .map(|s| s.as_ref().parse())
+            .collect::<Result<Vec<ScheduledFault>, _>>()?;
+        Ok(Schedule { entries })
+    }
+
+    /// Adds one entry.
+    pub fn with(mut self, fault: Fault, when: Trigger, duration: Option<f64>) -> Schedule {
+        self.entries.push(ScheduledFault {
+            fault,
+            when,
+            duration,
+        });
+        self
+    }
+}
+
+fn seconds(text: &str) -> Option<f64> {
+    let t = text.trim();
+    let t = t.strip_suffix('s').unwrap_or(t);
+    let v: f64 = t.parse().ok()?;
+    (v.is_finite() && v >= 0.0).then_some(v)
+}
+
+impl FromStr for ScheduledFault {
+    type Err = ScheduleError;
+
+    fn from_str(spec: &str) -> Result<Self, Self::Err> {
+        let err = |reason: &str| ScheduleError {
+            spec: spec.to_owned(),
+            reason: reason.to_owned(),
+        };
+        let (what, when) = spec.rsplit_once('@').ok_or_else(|| err("no `@WHEN`"))?;
+        let (kind, value) = match what.split_once('=') {
+            Some((k, v)) => (k.trim(), Some(v)),
+            None => (what.trim(), None),
+        };
+        let fault = match (kind, value) {
+            ("engine_failure", None) => Fault::EngineFailure,
+            ("payload_failure", None | Some("silent")) => {
+                Fault::PayloadFailure(PayloadFailure::Silent)
+            }
+            ("payload_failure", Some("critical")) => {
+                Fault::PayloadFailure(PayloadFailure::Critical)
+            }
+            ("payload_failure", Some(_)) => {
+                return Err(err("payload_failure takes `silent` or `critical`"))
+            }
+            ("gps_loss", None) => Fault::GpsLoss,
+            ("battery_drain", None) => Fault::BatteryDrain { factor: 10.0 },
+            ("battery_drain", Some(v)) => match v.trim().parse::<f64>() {
+                Ok(f) if f.is_finite() && f > 0.0 => Fault::BatteryDrain { factor: f },
+                _ => return Err(err("battery_drain takes a positive factor")),
+            },
+            ("battery", Some(v)) => match v.trim().trim_end_matches('%').parse::<f64>() {
+                Ok(p) if (0.0..=100.0).contains(&p) => Fault::BatteryRemaining { percent: p },
+                _ => return Err(err("battery takes a percentage in 0..=100")),
+            },
+            ("battery", None) => return Err(err("battery needs `=PERCENT`")),
+            ("link_loss", None) => Fault::LinkLoss,
+            ("emergency", None) => Fault::Emergency {
+                text: "Emergency".to_owned(),
+            },
+            ("emergency", Some(text)) => Fault::Emergency {
+                text: text.to_owned(),
+            },
+            ("engine_failure" | "gps_loss" | "link_loss", Some(_)) => {
+                return Err(err("this fault takes no value"))
+            }
+            _ => return Err(err("unknown fault kind")),
+        };
+        let (at, duration) = match when.split_once(':') {
+            Some((at, d)) => (at, Some(seconds(d).ok_or_else(|| err("bad duration"))?)),
+            None => (when, None),
+        };
+        let at = at.trim();
+        let when = if let Some(n) = at.strip_prefix("wp") {
+            Trigger::Reached(n.parse().map_err(|_| err("bad waypoint number"))?)
+        } else {
+            Trigger::At(seconds(at).ok_or_else(|| err("bad time"))?)
+        };
+        Ok(ScheduledFault {
+            fault,
+            when,
+            duration,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_the_documented_forms() {
+        let s = Schedule::parse(&[
+            "engine_failure@90s",
+            "link_loss@60s:10s",
+            "payload_failure@wp3",
+            "payload_failure=critical@12",
+            "battery=20@120s",
+            "battery_drain=5@1.5s:30",
+            "emergency=Fire on board@100s",
+            "gps_loss@wp2:15s",
+        ])
+        .unwrap();
+        let e = &s.entries;
+        assert_eq!(e[0].fault, Fault::EngineFailure);
+        assert_eq!(e[0].when, Trigger::At(90.0));
+        assert_eq!(e[0].duration, None);
+        assert_eq!(e[1].fault, Fault::LinkLoss);
+        assert_eq!(e[1].duration, Some(10.0));
+        assert_eq!(e[2].fault, Fault::PayloadFailure(PayloadFailure::Silent));
+        assert_eq!(e[2].when, Trigger::Reached(3));
+        assert_eq!(e[3].fault, Fault::PayloadFailure(PayloadFailure::Critical));
+        assert_eq!(e[4].fault, Fault::BatteryRemaining { percent: 20.0 });
+        assert_eq!(e[5].fault, Fault::BatteryDrain { factor: 5.0 });
+        assert_eq!(e[5].when, Trigger::At(1.5));
+        assert_eq!(e[5].duration, Some(30.0));
+        assert_eq!(
+            e[6].fault,
+            Fault::Emergency {
+                text: "Fire on board".into()
+            }
+        );
+        assert_eq!(e[7].when, Trigger::Reached(2));
+    }
+
+    #[test]
+    fn rejects_bad_specs_with_the_reason() {
+        for (spec, why) in [
+            ("engine_failure", "no `@WHEN`"),
+            ("engine_fail@3s", "unknown fault kind"),
+            ("engine_failure=3@3s", "takes no value"),
+            ("link_loss@soon", "bad time"),
+            ("link_loss@3s:-1", "bad duration"),
+            ("battery@3s", "needs `=PERCENT`"),
+            ("battery=150@3s", "percentage"),
+            ("payload_failure=smoke@wp1", "silent"),
+            ("gps_loss@wpX", "bad waypoint"),
+        ] {
+            let e = spec.parse::<ScheduledFault>().unwrap_err();
+            assert!(e.reason.contains(why), "{spec}: {}", e.reason);
+            assert!(e.to_string().contains(spec));
+        }
+    }
+}

@@ -1,0 +1,342 @@
+//! Telemetry streams as ArduPlane schedules them: nothing until asked
+//! (HEARTBEAT excepted, 1 Hz), then per message at the interval set by
+//! MAV_CMD_SET_MESSAGE_INTERVAL, or at the rate of its REQUEST_DATA_STREAM
+//! group (ArduPlane 4.7's groups, GCS_Mavlink.cpp). Times are sim
+//! microseconds.
+
+use std::collections::BTreeMap;
+
+/// A REQUEST_DATA_STREAM group (its MAV_DATA_STREAM number).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Group {
+    RawSensors = 1,
+    ExtendedStatus = 2,
+    RcChannels = 3,
+    RawController = 4,
+    Position = 6,
+    Extra1 = 10,
+    Extra2 = 11,
+    Extra3 = 12,
+    Adsb = 13,
+}
+
+impl Group {
+    /// Every group MAV_DATA_STREAM_ALL sets (ArduPilot leaves PARAMS out).
+    pub const ALL: [Group; 9] = [
+        Group::RawSensors,
+        Group::ExtendedStatus,
+        Group::RcChannels,
+        Group::RawController,
+        Group::Position,
+        Group::Extra1,
+        Group::Extra2,
+        Group::Extra3,
+        Group::Adsb,
+    ];
+
+    pub fn from_stream_id(id: u8) -> Option<Group> {
+        Group::ALL.into_iter().find(|g| *g as u8 == id)
+    }
+
+    /// The parameter ArduPilot 4.7 stores the group's rate in (it sends the
+    /// PARAM_VALUE when a REQUEST_DATA_STREAM changes it).
+    pub fn param(self) -> &'static str {
+        match self {
+            Group::RawSensors => "MAV1_RAW_SENS",
+            Group::ExtendedStatus => "MAV1_EXT_STAT",
+            Group::RcChannels => "MAV1_RC_CHAN",
+            Group::RawController => "MAV1_RAW_CTRL",
+            Group::Position => "MAV1_POSITION",
+            Group::Extra1 => "MAV1_EXTRA1",
+            Group::Extra2 => "MAV1_EXTRA2",
+            Group::Extra3 => "MAV1_EXTRA3",
+            Group::Adsb => "MAV1_ADSB",
+        }
+    }
+}
+
+/// Message ids.
+pub mod id {
+    pub const HEARTBEAT: u32 = 0;
+    pub const SYS_STATUS: u32 = 1;
+    pub const SYSTEM_TIME: u32 = 2;
+    pub const GPS_RAW_INT: u32 = 24;
+    pub const RAW_IMU: u32 = 27;
+    pub const SCALED_PRESSURE: u32 = 29;
+    pub const ATTITUDE: u32 = 30;
+    pub const LOCAL_POSITION_NED: u32 = 32;
+    pub const GLOBAL_POSITION_INT: u32 = 33;
+    pub const SERVO_OUTPUT_RAW: u32 = 36;
+    pub const MISSION_CURRENT: u32 = 42;
+    pub const GPS_GLOBAL_ORIGIN: u32 = 49;
+    pub const NAV_CONTROLLER_OUTPUT: u32 = 62;
+    pub const RC_CHANNELS: u32 = 65;
+    pub const VFR_HUD: u32 = 74;
+    pub const POSITION_TARGET_GLOBAL_INT: u32 = 87;
+    pub const SCALED_IMU2: u32 = 116;
+    pub const POWER_STATUS: u32 = 125;
+    pub const SCALED_IMU3: u32 = 129;
+    pub const TERRAIN_REQUEST: u32 = 133;
+    pub const TERRAIN_REPORT: u32 = 136;
+    pub const SCALED_PRESSURE2: u32 = 137;
+    pub const BATTERY_STATUS: u32 = 147;
+    pub const AUTOPILOT_VERSION: u32 = 148;
+    pub const MEMINFO: u32 = 152;
+    pub const AHRS: u32 = 163;
+    pub const SIMSTATE: u32 = 164;
+    pub const WIND: u32 = 168;
+    pub const AHRS2: u32 = 178;
+    pub const EKF_STATUS_REPORT: u32 = 193;
+    pub const EFI_STATUS: u32 = 225;
+    pub const VIBRATION: u32 = 241;
+    pub const HOME_POSITION: u32 = 242;
+    pub const EXTENDED_SYS_STATE: u32 = 245;
+    pub const AIRSPEED: u32 = 295;
+    pub const AOA_SSA: u32 = 11020;
+    pub const ESC_TELEMETRY_1_TO_4: u32 = 11030;
+}
+
+/// Every message the vehicle streams, in the order ArduPlane sends them in
+/// a burst, with its group (`None`: only by SET_MESSAGE_INTERVAL).
+/// TERRAIN_REPORT stands for ArduPilot's MSG_TERRAIN (TERRAIN_REQUEST goes
+/// with it).
+pub const CATALOG: &[(u32, Option<Group>)] = &[
+    (id::HEARTBEAT, None),
+    (id::RAW_IMU, Some(Group::RawSensors)),
+    (id::SCALED_IMU2, Some(Group::RawSensors)),
+    (id::SCALED_IMU3, Some(Group::RawSensors)),
+    (id::SCALED_PRESSURE, Some(Group::RawSensors)),
+    (id::SCALED_PRESSURE2, Some(Group::RawSensors)),
+    (id::AIRSPEED, Some(Group::RawSensors)),
+    (id::SYS_STATUS, Some(Group::ExtendedStatus)),
+    (id::POWER_STATUS, Some(Group::ExtendedStatus)),
+    (id::MEMINFO, Some(Group::ExtendedStatus)),
+    (id::MISSION_CURRENT, Some(Group::ExtendedStatus)),
+    (id::GPS_RAW_INT, Some(Group::ExtendedStatus)),
+    (id::NAV_CONTROLLER_OUTPUT, Some(Group::ExtendedStatus)),
+    (id::POSITION_TARGET_GLOBAL_INT, Some(Group::ExtendedStatus)),
+    (id::GLOBAL_POSITION_INT, Some(Group::Position)),
+    (id::LOCAL_POSITION_NED, Some(Group::Position)),
+    (id::SERVO_OUTPUT_RAW, Some(Group::RcChannels)),
+    (id::RC_CHANNELS, Some(Group::RcChannels)),
+    (id::ATTITUDE, Some(Group::Extra1)),
+    (id::SIMSTATE, Some(Group::Extra1)),
+    (id::AHRS2, Some(Group::Extra1)),
+    (id::AOA_SSA, Some(Group::Extra1)),
+    (id::ESC_TELEMETRY_1_TO_4, Some(Group::Extra1)),
+    (id::EFI_STATUS, Some(Group::Extra1)),
+    (id::VFR_HUD, Some(Group::Extra2)),
+    (id::AHRS, Some(Group::Extra3)),
+    (id::WIND, Some(Group::Extra3)),
+    (id::SYSTEM_TIME, Some(Group::Extra3)),
+    (id::TERRAIN_REPORT, Some(Group::Extra3)),
+    (id::BATTERY_STATUS, Some(Group::Extra3)),
+    (id::EKF_STATUS_REPORT, Some(Group::Extra3)),
+    (id::VIBRATION, Some(Group::Extra3)),
+    (id::HOME_POSITION, None),
+    (id::GPS_GLOBAL_ORIGIN, None),
+    (id::EXTENDED_SYS_STATE, None),
+];
+
+/// The group of a message, when it is in one.
+pub fn group_of(message: u32) -> Option<Group> {
+    CATALOG
+        .iter()
+        .find(|(m, _)| *m == message)
+        .and_then(|(_, g)| *g)
+}
+
+/// Whether the vehicle can stream this message.
+pub fn streamable(message: u32) -> bool {
+    CATALOG.iter().any(|(m, _)| *m == message)
+}
+
+/// The fastest ArduPilot streams (the loop rate of the SITL plane: 50 Hz).
+const MIN_INTERVAL_US: u64 = 20_000;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Override {
+    /// Not sent (interval −1).
+    Off,
+    Every(u64),
+}
+
+/// The stream scheduler.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Streams {
+    /// Group rates (Hz) by group.
+    rates: BTreeMap<Group, u16>,
+    /// Per-message intervals set by SET_MESSAGE_INTERVAL.
+    overrides: BTreeMap<u32, Override>,
+    /// Next time each active message is due.
+    due: BTreeMap<u32, u64>,
+}
+
+impl Default for Streams {
+    fn default() -> Self {
+        let mut due = BTreeMap::new();
+        // The first HEARTBEAT goes out one second after boot.
+        due.insert(id::HEARTBEAT, 1_000_000);
+        Streams {
+            rates: BTreeMap::new(),
+            overrides: BTreeMap::new(),
+            due,
+        }
+    }
+}
+
+impl Streams {
+    /// The interval of a message now (µs), `None` when it is not streamed.
+    pub fn interval(&self, message: u32) -> Option<u64> {
+        match self.overrides.get(&message) {
+            Some(Override::Off) => None,
+            Some(Override::Every(us)) => Some(*us),
+            None if message == id::HEARTBEAT => Some(1_000_000),
+            None => {
+                let rate = *self.rates.get(&group_of(message)?)?;
+                (rate > 0).then(|| (1_000_000 / rate as u64).max(MIN_INTERVAL_US))
+            }
+        }
+    }
+
+    fn reschedule(&mut self, now: u64, message: u32) {
+        match self.interval(message) {
+            Some(_) if self.due.contains_key(&message) => {}
+            // Newly streamed: in the next burst.
+            Some(_) => {
+                self.due.insert(message, now);
+            }
+            None => {
+                self.due.remove(&message);
+            }
+        }
+    }
+
+    /// REQUEST_DATA_STREAM: `stream` 0 for all groups. Returns the groups
+    /// changed (their MAV1_ parameters change). Per-message intervals of
+    /// those groups are dropped, as ArduPilot does.
+    pub fn request_stream(&mut self, now: u64, stream: u8, rate: u16, start: bool) -> Vec<Group> {
+        let groups: Vec<Group> = if stream == 0 {
+            Group::ALL.to_vec()
+        } else {
+            Group::from_stream_id(stream).into_iter().collect()
+        };
+        let rate = if start { rate.min(50) } else { 0 };
+        for &g in &groups {
+            self.rates.insert(g, rate);
+            let members: Vec<u32> = CATALOG
+                .iter()
+                .filter(|(_, gg)| *gg == Some(g))
+                .map(|(m, _)| *m)
+                .collect();
+            for m in members {
+                self.overrides.remove(&m);
+                // A new rate restarts the message's cadence.
+                self.due.remove(&m);
+                self.reschedule(now, m);
+            }
+        }
+        groups
+    }
+
+    /// MAV_CMD_SET_MESSAGE_INTERVAL: `interval_us` −1 stops, 0 restores the
+    /// default (the group rate), otherwise the interval. False when the
+    /// message is not one the vehicle can send.
+    pub fn set_interval(&mut self, now: u64, message: u32, interval_us: i64) -> bool {
+        if !streamable(message) {
+            return false;
+        }
+        match interval_us {
+            i64::MIN..=-1 => {
+                self.overrides.insert(message, Override::Off);
+            }
+            0 => {
+                self.overrides.remove(&message);
+            }
+            us => {
+                self.overrides
+                    .insert(message, Override::Every((us as u64).max(MIN_INTERVAL_US)));
+            }
+        }
+        self.due.remove(&message);
+        self.reschedule(now, message);
+        true
+    }
+
+    /// The earliest time a message is due.
+    pub fn next_due(&self) -> Option<u64> {
+        self.due.values().copied().min()
+    }
+
+    /// The messages due at `now`, in burst order; each is rescheduled one
+    /// interval later (or at `now` + interval when it fell far behind).
+    pub fn take_due(&mut self, now: u64) -> Vec<u32> {
+        let mut out = Vec::new();
+        for &(m, _) in CATALOG {
+            let Some(&due) = self.due.get(&m) else {
+                continue;
+            };
+            if due > now {
+                continue;
+            }
+            out.push(m);
+            if let Some(interval) = self.interval(m) {
+                let mut next = due + interval;
+                if next <= now {
+                    next = now + interval;
+                }
+                self.due.insert(m, next);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nothing_but_heartbeat_until_asked() {
+        let mut s = Streams::default();
+        let mut seen = Vec::new();
+        let mut t = 0;
+        while t <= 5_000_000 {
+            seen.extend(s.take_due(t));
+            t += 10_000;
+        }
+        assert_eq!(seen, vec![id::HEARTBEAT; 5]);
+    }
+
+    #[test]
+    fn data_stream_all_at_4_hz_and_interval_override() {
+        let mut s = Streams::default();
+        let groups = s.request_stream(0, 0, 4, true);
+        assert_eq!(groups.len(), 9);
+        assert_eq!(s.interval(id::ATTITUDE), Some(250_000));
+        assert_eq!(s.interval(id::EFI_STATUS), Some(250_000));
+        assert_eq!(s.interval(id::HOME_POSITION), None);
+        assert!(s.set_interval(0, id::ATTITUDE, 100_000));
+        assert!(s.set_interval(0, id::VFR_HUD, -1));
+        assert!(!s.set_interval(0, 12345, 100_000));
+        let mut count = BTreeMap::new();
+        let mut t = 0;
+        while t < 10_000_000 {
+            for m in s.take_due(t) {
+                *count.entry(m).or_insert(0) += 1;
+            }
+            t += 10_000;
+        }
+        assert_eq!(count[&id::ATTITUDE], 100);
+        assert_eq!(count[&id::SYS_STATUS], 40);
+        assert!(!count.contains_key(&id::VFR_HUD));
+        // Restoring the default goes back to the group's 4 Hz.
+        assert!(s.set_interval(t, id::ATTITUDE, 0));
+        assert_eq!(s.interval(id::ATTITUDE), Some(250_000));
+        // Stopping a group.
+        s.request_stream(t, 10, 0, false);
+        assert_eq!(s.interval(id::ATTITUDE), None);
+        assert_eq!(s.interval(id::SYS_STATUS), Some(250_000));
+        assert_eq!(s.interval(id::VFR_HUD), None);
+    }
+}

@@ -1,0 +1,731 @@
+//! The sans-IO simulated vehicle: ArduPlane and its camera as one state
+//! machine. Fed `(now, header, message)` with [`Vehicle::handle`] and time
+//! with [`Vehicle::advance`], polled with [`Vehicle::poll_transmit`] for
+//! the `(header, message)` pairs to send. No sockets, no clock: `now` is
+//! sim microseconds since boot, and the physics steps at a fixed sim `dt`.
+
+use std::collections::VecDeque;
+
+use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity, STATUSTEXT_DATA};
+use mavlink::MavHeader;
+
+use crate::boot::{BootState, Phase};
+use crate::camera::{self, Camera};
+use crate::config::SimConfig;
+use crate::faults::{Fault, FaultKind, Trigger};
+use crate::flight::Flight;
+use crate::geo::{self, Home, V2};
+use crate::mission::{MissionItem, Uploads};
+use crate::model::{Aircraft, Airframe};
+use crate::params::Params;
+use crate::state::{Fix, SimState, Text};
+use crate::streams::{id, Streams};
+
+/// The autopilot's component id (MAV_COMP_ID_AUTOPILOT1).
+pub const AUTOPILOT: u8 = 1;
+
+/// A fault waiting for its time, or active until a time.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Pending {
+    pub fault: Fault,
+    pub when: Trigger,
+    pub duration: Option<f64>,
+}
+
+/// The simulated vehicle.
+#[derive(Debug, Clone)]
+pub struct Vehicle {
+    pub(crate) cfg: SimConfig,
+    pub(crate) params: Params,
+    pub(crate) af: Airframe,
+    /// Sim time reached (µs since boot).
+    pub(crate) now: u64,
+    next_step: u64,
+    pub(crate) ac: Aircraft,
+    pub(crate) boot: BootState,
+    pub(crate) fl: Flight,
+    /// Home now (moves at arming and disarming, as on ArduPlane).
+    pub(crate) home_pos: V2,
+    pub(crate) home_set: bool,
+    pub(crate) mission: Vec<MissionItem>,
+    pub(crate) auto: crate::auto::AutoState,
+    pub(crate) uploads: Uploads,
+    pub(crate) streams: Streams,
+    pub(crate) camera: Camera,
+    /// Faults scheduled, not yet started.
+    pub(crate) scheduled: Vec<Pending>,
+    /// Faults active, with the time they clear.
+    pub(crate) active: Vec<(Fault, Option<u64>)>,
+    out: VecDeque<(MavHeader, MavMessage)>,
+    seq_autopilot: u8,
+    seq_camera: u8,
+    pub(crate) truth: SimState,
+    /// Texts to send later: (time, severity, text).
+    pub(crate) later: Vec<(u64, MavSeverity, String)>,
+    /// Servo outputs 1..16 set by DO_SET_SERVO (0 = not driven).
+    pub(crate) servos: [u16; 16],
+    pub(crate) relays: [bool; 6],
+    pub(crate) next_timesync: u64,
+    pub(crate) next_stats: u64,
+    pub(crate) next_prearm_report: u64,
+    /// MSG_TERRAIN sends so far (every sixth carries a TERRAIN_REQUEST).
+    pub(crate) next_terrain_request: u64,
+    pub(crate) esc_count: u16,
+    pub(crate) statustext_id: u16,
+    /// HOME_POSITION to send at this time.
+    pub(crate) home_due: Option<u64>,
+    /// Messages held while a command is handled (they follow its ack).
+    held: Option<Vec<(u8, MavMessage)>>,
+    /// Frames dropped by a link loss.
+    pub(crate) dropped: u64,
+}
+
+impl Vehicle {
+    /// A vehicle just powered on (sim time 0), parked at `cfg.home`.
+    pub fn new(cfg: SimConfig) -> Vehicle {
+        let mut params = Params::default();
+        for (name, value) in &cfg.params {
+            if !params.set(name, *value) {
+                tracing::warn!(%name, "unknown parameter in SimConfig::params, ignored");
+            }
+        }
+        params.set("SYSID_THISMAV", cfg.system_id as f32);
+        params.set("BATT_CAPACITY", cfg.airframe.battery_capacity_mah as f32);
+        let af = cfg.airframe.clone();
+        let wind = V2::new(cfg.wind.0, cfg.wind.1);
+        let ac = Aircraft::parked(cfg.home.heading.to_radians(), wind, &af);
+        let scheduled = cfg
+            .faults
+            .entries
+            .iter()
+            .map(|e| Pending {
+                fault: e.fault.clone(),
+                when: e.when,
+                duration: e.duration,
+            })
+            .collect();
+        let step = cfg.step_us.max(1_000);
+        let mut v = Vehicle {
+            params,
+            af,
+            now: 0,
+            next_step: step,
+            ac,
+            boot: BootState::default(),
+            fl: Flight::new(),
+            home_pos: V2::ZERO,
+            home_set: false,
+            mission: Vec::new(),
+            auto: Default::default(),
+            uploads: Uploads::default(),
+            streams: Streams::default(),
+            camera: Camera::default(),
+            scheduled,
+            active: Vec::new(),
+            out: VecDeque::new(),
+            seq_autopilot: 0,
+            seq_camera: 0,
+            truth: SimState::default(),
+            later: Vec::new(),
+            servos: [0; 16],
+            relays: [false; 6],
+            next_timesync: 10_000_000,
+            next_stats: 30_700_000,
+            next_prearm_report: 30_000_000,
+            next_terrain_request: 0,
+            esc_count: 0,
+            statustext_id: 0,
+            home_due: None,
+            held: None,
+            dropped: 0,
+            cfg,
+        };
+        v.cfg.step_us = step;
+        v.truth.link_up = true;
+        v
+    }
+
+    /// Sim time reached (µs since boot).
+    pub fn now_us(&self) -> u64 {
+        self.now
+    }
+
+    /// The vehicle's system id.
+    pub fn system_id(&self) -> u8 {
+        self.cfg.system_id
+    }
+
+    /// A message received at `now` (sim µs). Time advances to `now` first.
+    pub fn handle(&mut self, now: u64, header: &MavHeader, msg: &MavMessage) {
+        self.advance(now);
+        if self.link_lost() {
+            return;
+        }
+        let Ok(sys) = u8::try_from(header.system_id) else {
+            return;
+        };
+        let from = (sys, header.component_id);
+        if sys == self.cfg.system_id
+            && (header.component_id == AUTOPILOT || header.component_id == camera::COMPONENT)
+        {
+            return; // our own frames, echoed
+        }
+        self.on_message(from, msg);
+    }
+
+    /// Runs the simulation up to `now` (sim µs): physics steps, streams,
+    /// heartbeats, timers. Time never goes back.
+    pub fn advance(&mut self, now: u64) {
+        loop {
+            let step = self.next_step;
+            let tele = self.next_telemetry();
+            let t = step.min(tele);
+            if t > now {
+                break;
+            }
+            self.now = self.now.max(t);
+            if t == step {
+                self.step();
+                self.next_step += self.cfg.step_us;
+            } else {
+                self.emit_telemetry(t);
+            }
+        }
+        self.now = self.now.max(now);
+    }
+
+    /// The next frame to send, with its header (sequence numbers per
+    /// component, counted also for frames a link loss swallows).
+    pub fn poll_transmit(&mut self) -> Option<(MavHeader, MavMessage)> {
+        self.out.pop_front()
+    }
+
+    /// The next time (sim µs) something happens even if nothing arrives:
+    /// the runner sleeps until then.
+    pub fn next_deadline(&self) -> u64 {
+        self.next_step.min(self.next_telemetry())
+    }
+
+    /// Injects a fault now; it stays until [`Vehicle::clear`].
+    pub fn inject(&mut self, fault: Fault) {
+        self.start_fault(fault, None);
+    }
+
+    /// Injects a fault now for `duration_s` sim seconds.
+    pub fn inject_for(&mut self, fault: Fault, duration_s: f64) {
+        let until = self.now + (duration_s.max(0.0) * 1e6) as u64;
+        self.start_fault(fault, Some(until));
+    }
+
+    /// Ends the active faults of a kind.
+    pub fn clear(&mut self, kind: FaultKind) {
+        let ended: Vec<Fault> = self
+            .active
+            .iter()
+            .filter(|(f, _)| f.kind() == kind)
+            .map(|(f, _)| f.clone())
+            .collect();
+        self.active.retain(|(f, _)| f.kind() != kind);
+        for f in ended {
+            self.end_fault(f);
+        }
+    }
+
+    /// A snapshot of the simulated truth.
+    pub fn state(&self) -> SimState {
+        let mut s = self.truth.clone();
+        let (lat, lon) = geo::location(&self.cfg.home, self.ac.pos);
+        s.time_s = self.t_s();
+        s.armed = self.fl.armed;
+        s.custom_mode = self.fl.mode;
+        s.mode = crate::modes::name(self.fl.mode);
+        s.system_status = self.system_status() as u8;
+        s.lat = lat;
+        s.lon = lon;
+        s.alt = self.ac.alt;
+        s.north = self.ac.pos.n;
+        s.east = self.ac.pos.e;
+        s.airspeed = self.ac.indicated_airspeed();
+        s.groundspeed = self.ac.groundspeed();
+        s.climb = self.ac.climb;
+        s.heading = self.ac.heading.to_degrees();
+        s.bank = self.ac.bank.to_degrees();
+        s.pitch = self.ac.pitch.to_degrees();
+        s.max_bank = self.fl.max_bank.to_degrees();
+        s.throttle = self.ac.throttle * 100.0;
+        s.on_ground = self.ac.on_ground;
+        s.flying = self.is_flying();
+        s.landed = self.fl.landed;
+        s.crashed = self.fl.crashed;
+        s.engine_running = self.ac.engine.working && self.ac.engine.rpm > 0.0;
+        s.engine_rpm = self.ac.engine.rpm;
+        s.battery_remaining = self.battery_remaining();
+        s.battery_voltage = self.ac.battery.voltage;
+        s.gps_fix = self.gps_fix();
+        s.satellites = if s.gps_fix >= 3 { 10 } else { 0 };
+        s.link_up = !self.link_lost();
+        s.mission = self.mission.clone();
+        s.mission_current = self.auto.current;
+        s
+    }
+
+    // ----- helpers shared by the other modules -----
+
+    pub(crate) fn t_s(&self) -> f64 {
+        self.now as f64 / 1e6
+    }
+
+    pub(crate) fn fix(&self) -> Fix {
+        let (lat, lon) = geo::location(&self.cfg.home, self.ac.pos);
+        Fix {
+            time_s: self.t_s(),
+            lat,
+            lon,
+            alt: self.ac.alt,
+        }
+    }
+
+    /// The boot home (the EKF origin and the frame of `Aircraft::pos`).
+    pub(crate) fn origin(&self) -> &Home {
+        &self.cfg.home
+    }
+
+    pub(crate) fn ready(&self) -> bool {
+        self.boot.has(Phase::Ready)
+    }
+
+    pub(crate) fn has_fault(&self, kind: FaultKind) -> bool {
+        self.active.iter().any(|(f, _)| f.kind() == kind)
+    }
+
+    pub(crate) fn link_lost(&self) -> bool {
+        self.has_fault(FaultKind::LinkLoss)
+    }
+
+    pub(crate) fn battery_remaining(&self) -> f64 {
+        self.ac.battery.remaining(self.af.battery_capacity_mah)
+    }
+
+    /// Holds what is sent from now on until [`Vehicle::release`].
+    pub(crate) fn hold(&mut self) {
+        self.held = Some(Vec::new());
+    }
+
+    /// Ends holding; returns what was held.
+    pub(crate) fn release(&mut self) -> Vec<(u8, MavMessage)> {
+        self.held.take().unwrap_or_default()
+    }
+
+    /// Queues a message from a component.
+    pub(crate) fn send_from(&mut self, component: u8, msg: MavMessage) {
+        if let Some(held) = self.held.as_mut() {
+            held.push((component, msg));
+            return;
+        }
+        let seq = if component == camera::COMPONENT {
+            &mut self.seq_camera
+        } else {
+            &mut self.seq_autopilot
+        };
+        let header = MavHeader {
+            system_id: self.cfg.system_id as u32,
+            component_id: component,
+            sequence: *seq,
+        };
+        *seq = seq.wrapping_add(1);
+        if self.link_lost() {
+            self.dropped += 1;
+            return;
+        }
+        self.out.push_back((header, msg));
+    }
+
+    /// Queues a message from the autopilot.
+    pub(crate) fn send(&mut self, msg: MavMessage) {
+        self.send_from(AUTOPILOT, msg);
+    }
+
+    /// Sends a STATUSTEXT (in 50-character chunks when longer, as ArduPilot).
+    pub(crate) fn text(&mut self, severity: MavSeverity, text: impl Into<String>) {
+        let text: String = text.into();
+        tracing::debug!(t = self.t_s(), %text, "STATUSTEXT");
+        self.truth.statustexts.push(Text {
+            time_s: self.t_s(),
+            severity: severity as u8,
+            text: text.clone(),
+        });
+        let bytes = text.as_bytes();
+        if bytes.len() <= 50 {
+            self.send(MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+                severity,
+                text: text.as_str().into(),
+                id: 0,
+                chunk_seq: 0,
+            }));
+            return;
+        }
+        self.statustext_id = self.statustext_id.wrapping_add(1).max(1);
+        let id = self.statustext_id;
+        for (i, chunk) in bytes.chunks(50).enumerate() {
+            let mut data = [0u8; 50];
+            data[..chunk.len()].copy_from_slice(chunk);
+            self.send(MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+                severity,
+                text: data.into(),
+                id,
+                chunk_seq: i as u8,
+            }));
+        }
+    }
+
+    pub(crate) fn info(&mut self, text: impl Into<String>) {
+        self.text(MavSeverity::MAV_SEVERITY_INFO, text);
+    }
+
+    /// Sends a text `delay_s` later.
+    pub(crate) fn info_later(&mut self, delay_s: f64, text: impl Into<String>) {
+        let at = self.now + (delay_s * 1e6) as u64;
+        self.later
+            .push((at, MavSeverity::MAV_SEVERITY_INFO, text.into()));
+    }
+
+    // ----- time -----
+
+    fn next_telemetry(&self) -> u64 {
+        let mut t = self.streams.next_due().unwrap_or(u64::MAX);
+        if self.cfg.camera {
+            t = t.min(self.camera.next_deadline());
+        }
+        t
+    }
+
+    /// One physics step at `self.now`.
+    fn step(&mut self) {
+        self.boot_tick();
+        self.fault_tick();
+        self.timers_tick();
+        let ctrl = self.control();
+        let dt = self.cfg.step_us as f64 / 1e6;
+        let limit = self.roll_limit();
+        let armed = self.fl.armed;
+        let contact = self.ac.step(dt, &ctrl, armed, &self.af, limit);
+        self.after_step(contact);
+        for r in self.uploads.tick(self.now) {
+            self.mission_reply(r);
+        }
+    }
+
+    /// Delayed texts, TIMESYNC, statistics, the periodic PreArm report.
+    fn timers_tick(&mut self) {
+        let now = self.now;
+        let due: Vec<(u64, MavSeverity, String)> = {
+            let (due, keep): (Vec<_>, Vec<_>) =
+                self.later.drain(..).partition(|(t, _, _)| *t <= now);
+            self.later = keep;
+            due
+        };
+        for (_, sev, text) in due {
+            self.text(sev, text);
+        }
+        if self.home_due.is_some_and(|t| t <= now) {
+            self.home_due = None;
+            self.send_home();
+        }
+        if now >= self.next_timesync {
+            self.next_timesync += 10_000_000;
+            self.send_timesync();
+        }
+        if now >= self.next_stats {
+            self.next_stats += 30_000_000;
+            self.send_stats();
+        }
+        if now >= self.next_prearm_report {
+            self.next_prearm_report += 30_000_000;
+            self.prearm_report();
+        }
+    }
+
+    /// Emits the streams and camera outputs due at `t`.
+    fn emit_telemetry(&mut self, t: u64) {
+        if self.cfg.camera && self.camera.next_deadline() <= t {
+            for o in self.camera.tick(t) {
+                self.camera_output(o);
+            }
+        }
+        if self.streams.next_due().is_some_and(|d| d <= t) {
+            for m in self.streams.take_due(t) {
+                if m == id::HEARTBEAT {
+                    self.send_heartbeat();
+                } else if self.ready() {
+                    self.send_stream(m);
+                }
+            }
+        }
+    }
+
+    // ----- faults -----
+
+    fn fault_tick(&mut self) {
+        let t = self.t_s();
+        let due: Vec<Pending> = {
+            let (due, keep): (Vec<_>, Vec<_>) = self
+                .scheduled
+                .drain(..)
+                .partition(|p| matches!(p.when, Trigger::At(at) if at <= t));
+            self.scheduled = keep;
+            due
+        };
+        for p in due {
+            let until = p.duration.map(|d| self.now + (d * 1e6) as u64);
+            self.start_fault(p.fault, until);
+        }
+        let now = self.now;
+        let ended: Vec<Fault> = self
+            .active
+            .iter()
+            .filter(|(_, until)| until.is_some_and(|u| u <= now))
+            .map(|(f, _)| f.clone())
+            .collect();
+        self.active
+            .retain(|(_, until)| !until.is_some_and(|u| u <= now));
+        for f in ended {
+            self.end_fault(f);
+        }
+    }
+
+    /// Faults scheduled on a mission item being reached.
+    pub(crate) fn faults_on_reached(&mut self, seq: u16) {
+        let due: Vec<Pending> = {
+            let (due, keep): (Vec<_>, Vec<_>) = self
+                .scheduled
+                .drain(..)
+                .partition(|p| p.when == Trigger::Reached(seq));
+            self.scheduled = keep;
+            due
+        };
+        for p in due {
+            let until = p.duration.map(|d| self.now + (d * 1e6) as u64);
+            self.start_fault(p.fault, until);
+        }
+    }
+
+    fn start_fault(&mut self, fault: Fault, until: Option<u64>) {
+        tracing::info!(t = self.t_s(), %fault, "fault injected");
+        self.truth.faults.push(crate::state::FaultEvent {
+            time_s: self.t_s(),
+            fault: fault.clone(),
+            cleared: false,
+        });
+        match &fault {
+            Fault::EngineFailure => self.ac.engine.working = false,
+            Fault::PayloadFailure(kind) => self.camera.set_failure(Some(*kind)),
+            Fault::GpsLoss => {}
+            Fault::BatteryDrain { factor } => self.ac.battery.drain_factor = *factor,
+            Fault::BatteryRemaining { percent } => {
+                let cap = self.af.battery_capacity_mah;
+                self.ac.battery.consumed_mah = cap * (1.0 - percent / 100.0);
+                // Instantaneous: nothing stays active.
+                return;
+            }
+            Fault::LinkLoss => {}
+            Fault::Emergency { text } => {
+                let text = text.clone();
+                self.text(MavSeverity::MAV_SEVERITY_EMERGENCY, text);
+            }
+        }
+        self.active.retain(|(f, _)| f.kind() != fault.kind());
+        self.active.push((fault, until));
+    }
+
+    fn end_fault(&mut self, fault: Fault) {
+        tracing::info!(t = self.t_s(), %fault, "fault cleared");
+        self.truth.faults.push(crate::state::FaultEvent {
+            time_s: self.t_s(),
+            fault: fault.clone(),
+            cleared: true,
+        });
+        match fault {
+            Fault::EngineFailure => self.ac.engine.working = true,
+            Fault::PayloadFailure(_) => self.camera.set_failure(None),
+            Fault::BatteryDrain { .. } => self.ac.battery.drain_factor = 1.0,
+            Fault::GpsLoss
+            | Fault::BatteryRemaining { .. }
+            | Fault::LinkLoss
+            | Fault::Emergency { .. } => {}
+        }
+    }
+}
+
+#[cfg(test)]
+#[allow(deprecated, dead_code)]
+pub(crate) mod testing {
+    //! Helpers for the unit tests: a vehicle driven on simulated time.
+
+    use super::*;
+    use mavlink::dialects::ardupilotmega::*;
+
+    pub const GCS: (u8, u8) = (255, 190);
+
+    pub fn quick() -> SimConfig {
+        SimConfig {
+            boot: crate::boot::BootTimeline::quick(),
+            first_arm_refused: false,
+            ..SimConfig::default()
+        }
+    }
+
+    /// A vehicle with its frames collected.
+    pub struct Bench {
+        pub v: Vehicle,
+        pub got: Vec<(u64, MavHeader, MavMessage)>,
+    }
+
+    impl Bench {
+        pub fn new(cfg: SimConfig) -> Bench {
+            Bench {
+                v: Vehicle::new(cfg),
+                got: Vec::new(),
+            }
+        }
+
+        fn drain(&mut self) {
+            while let Some((h, m)) = self.v.poll_transmit() {
+                self.got.push((self.v.now_us(), h, m));
+            }
+        }
+
+        /// Runs until `t` seconds.
+        pub fn run_to(&mut self, t: f64) {
+            let end = (t * 1e6) as u64;
+            while self.v.now_us() < end {
+                let next = (self.v.now_us() + 100_000).min(end);
+                self.v.advance(next);
+                self.drain();
+            }
+        }
+
+        /// Runs until `cond` holds or `limit` seconds; returns whether it held.
+        pub fn run_until(&mut self, limit: f64, cond: impl Fn(&Vehicle) -> bool) -> bool {
+            let end = (limit * 1e6) as u64;
+            while self.v.now_us() < end {
+                if cond(&self.v) {
+                    return true;
+                }
+                let next = self.v.now_us() + 100_000;
+                self.v.advance(next);
+                self.drain();
+            }
+            cond(&self.v)
+        }
+
+        pub fn send(&mut self, msg: MavMessage) {
+            let header = MavHeader {
+                system_id: GCS.0 as u32,
+                component_id: GCS.1,
+                sequence: 0,
+            };
+            let now = self.v.now_us();
+            self.v.handle(now, &header, &msg);
+            self.drain();
+        }
+
+        pub fn command(&mut self, command: MavCmd, p: [f32; 7]) -> Option<MavResult> {
+            self.command_to(AUTOPILOT, command, p)
+        }
+
+        pub fn command_to(&mut self, comp: u8, command: MavCmd, p: [f32; 7]) -> Option<MavResult> {
+            let before = self.got.len();
+            self.send(MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+                param1: p[0],
+                param2: p[1],
+                param3: p[2],
+                param4: p[3],
+                param5: p[4],
+                param6: p[5],
+                param7: p[6],
+                command,
+                target_system: 1,
+                target_component: comp,
+                confirmation: 0,
+            }));
+            self.got[before..].iter().find_map(|(_, _, m)| match m {
+                MavMessage::COMMAND_ACK(a) if a.command == command => Some(a.result),
+                _ => None,
+            })
+        }
+
+        pub fn set_mode(&mut self, mode: u32) -> Option<MavResult> {
+            self.command(
+                MavCmd::MAV_CMD_DO_SET_MODE,
+                [1.0, mode as f32, 0.0, 0.0, 0.0, 0.0, 0.0],
+            )
+        }
+
+        pub fn arm(&mut self) -> Option<MavResult> {
+            self.command(
+                MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+                [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            )
+        }
+
+        /// Uploads items 1.. (item 0 home added) answering every request.
+        pub fn upload(&mut self, items: &[MissionItem]) -> MavMissionResult {
+            let mut all = vec![MissionItem::home(0.0, 0.0, 0.0)];
+            all.extend(items.iter().cloned());
+            for (i, it) in all.iter_mut().enumerate() {
+                it.seq = i as u16;
+            }
+            self.send(MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+                count: all.len() as u16,
+                target_system: 1,
+                target_component: 1,
+                mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+                opaque_id: 0,
+            }));
+            for _ in 0..(all.len() * 3) {
+                let last = self.got.iter().rev().find_map(|(_, _, m)| match m {
+                    MavMessage::MISSION_REQUEST(r) => Some(Err(r.seq)),
+                    MavMessage::MISSION_ACK(a) => Some(Ok(a.mavtype)),
+                    _ => None,
+                });
+                match last {
+                    Some(Ok(r)) => return r,
+                    Some(Err(seq)) => {
+                        let it = all[seq as usize].to_int((1, 1), false);
+                        self.send(MavMessage::MISSION_ITEM_INT(it));
+                    }
+                    None => self.run_to(self.v.t_s() + 0.1),
+                }
+            }
+            MavMissionResult::MAV_MISSION_ERROR
+        }
+
+        /// The messages of a type received so far.
+        pub fn of(&self, name: &str) -> Vec<&MavMessage> {
+            use mavlink::Message;
+            self.got
+                .iter()
+                .filter(|(_, _, m)| m.message_name() == name)
+                .map(|(_, _, m)| m)
+                .collect()
+        }
+
+        pub fn texts(&self) -> Vec<String> {
+            self.v
+                .truth
+                .statustexts
+                .iter()
+                .map(|t| t.text.clone())
+                .collect()
+        }
+    }
+
+    /// A mission item at `(north, east)` metres from home, `alt` m above home.
+    pub fn item(v: &Vehicle, command: u32, north: f64, east: f64, alt: f32) -> MissionItem {
+        let (lat, lon) = crate::geo::location(&v.cfg.home, V2::new(north, east));
+        let mut it = MissionItem::home(lat, lon, alt as f64);
+        it.command = command;
+        it.frame = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
+        it
+    }
+}
