@@ -45,6 +45,8 @@ impl Vehicle {
                     }
                     self.send_home();
                 }
+                // Home refined once the EKF uses the GPS (with its origin).
+                Phase::EkfGps => self.send_home(),
                 _ => {}
             }
             let elevation = self.origin().alt_amsl;

@@ -563,6 +563,12 @@ impl Vehicle {
             target: Some((ahead, to.alt)),
         };
         let mut c = self.controls_for(d, Priority::Speed);
+        if self.ac.indicated_airspeed() > self.af.rotate_speed + 1.0 {
+            // Full throttle at the take-off pitch: a climb path of about 24°
+            // (10 m/s at 25 m/s), the rest of the power into speed.
+            c.priority = Priority::Height;
+            c.climb = 0.4 * self.ac.airspeed;
+        }
         if remaining <= band {
             if !to.level_off_said {
                 to.level_off_said = true;
@@ -572,7 +578,7 @@ impl Vehicle {
                 ));
             }
             // Level off: the climb rate tapers with the height still to go.
-            let climb = (remaining * 0.5).max(5.0);
+            let climb = (remaining * 0.5).max(5.0).min(c.climb);
             c.throttle = guidance::throttle_for(&self.ac, &self.af, climb, cruise);
             c.climb = climb;
         }

@@ -191,10 +191,10 @@ pub fn energy(
     (throttle_for(ac, af, climb, airspeed), climb)
 }
 
-/// The throttle that gives `climb` at `airspeed`.
+/// The throttle that gives `climb` at `airspeed` (equivalent airspeed).
 pub fn throttle_for(ac: &Aircraft, af: &Airframe, climb: f64, airspeed: f64) -> f64 {
     let v = ac.airspeed.max(1.0);
-    let v_dot = speed_response(airspeed, v);
+    let v_dot = speed_response(airspeed * ac.eas2tas(), v);
     let need = climb + v * v_dot / G + af.glide_sink(v, ac.bank);
     af.throttle_for(need)
 }
@@ -206,7 +206,7 @@ mod tests {
 
     fn flying() -> (Aircraft, Airframe) {
         let af = Airframe::default();
-        let mut ac = Aircraft::parked(0.0, V2::ZERO, &af);
+        let mut ac = Aircraft::parked(0.0, V2::ZERO, 0.0, &af);
         ac.on_ground = false;
         ac.alt = 100.0;
         ac.airspeed = 22.0;
@@ -241,7 +241,7 @@ mod tests {
         assert!(n.xtrack.abs() < 5.0, "cross track {}", n.xtrack);
         assert!((ac.ground_vel.heading() - PI / 2.0).abs() < 0.1);
         assert!((ac.alt - 100.0).abs() < 3.0, "alt {}", ac.alt);
-        assert!((ac.airspeed - 22.0).abs() < 0.5);
+        assert!((ac.indicated_airspeed() - 22.0).abs() < 0.5);
     }
 
     #[test]

@@ -8,6 +8,20 @@ use crate::geo::{wrap_2pi, V2};
 /// Standard gravity, m/s².
 pub const G: f64 = 9.80665;
 
+/// Air density (kg/m³) at `alt_amsl` metres on ArduPilot SITL's warm day
+/// (ISA + 15.5 K: its barometer reads 27 °C at 584 m).
+pub fn density(alt_amsl: f64) -> f64 {
+    let p = 101_325.0 * (1.0 - 2.255_77e-5 * alt_amsl).powf(5.255_88);
+    let t = 288.15 - 0.0065 * alt_amsl + 15.5;
+    p / (287.053 * t)
+}
+
+/// True airspeed over equivalent airspeed at `alt_amsl` (1.06 at the
+/// recording's 650 m: 22 m/s indicated is 23.4 m/s true, as recorded).
+pub fn eas2tas(alt_amsl: f64) -> f64 {
+    (1.225 / density(alt_amsl)).sqrt()
+}
+
 /// The airframe's fixed properties (the autopilot's tunables are parameters,
 /// see [`crate::Params`]).
 #[derive(Debug, Clone, PartialEq)]
@@ -23,7 +37,7 @@ pub struct Airframe {
     pub stall_speed: f64,
     /// Longitudinal acceleration on the runway at full throttle (m/s²).
     pub ground_accel: f64,
-    /// Airspeed at which the take-off run rotates (m/s).
+    /// Airspeed at which the take-off run rotates (m/s, equivalent).
     pub rotate_speed: f64,
     /// Battery capacity (mAh).
     pub battery_capacity_mah: f64,
@@ -41,18 +55,19 @@ pub struct Airframe {
 
 impl Default for Airframe {
     /// A small plane flying like the SITL one of the recording: 22 m/s
-    /// cruise at about 45 % throttle, 10 m/s climb at full throttle, a 3.3 Ah
-    /// 3-cell battery drawing about 10 A in cruise.
+    /// cruise at about 47 % throttle, 12 m/s climb at full throttle (10 m/s
+    /// while gaining speed after take-off, as recorded), a 3.3 Ah
+    /// 3-cell battery drawing about 10 A in cruise (as recorded).
     fn default() -> Self {
         Airframe {
             glide_ratio: 11.0,
-            full_throttle_climb: 10.0,
+            full_throttle_climb: 12.0,
             reference_airspeed: 22.0,
             stall_speed: 10.0,
             ground_accel: 5.5,
             rotate_speed: 18.0,
             battery_capacity_mah: 3300.0,
-            full_throttle_current: 22.0,
+            full_throttle_current: 25.0,
             battery_full_volts: 12.6,
             battery_empty_volts: 11.1,
             battery_resistance: 0.032,
@@ -77,14 +92,16 @@ impl Airframe {
         airspeed / self.glide_ratio * load
     }
 
-    /// Energy height rate the engine gives at `throttle` (0..1).
+    /// Energy height rate the engine gives at `throttle` (0..1): a
+    /// propeller's power rises steeply with throttle (the recording cruises
+    /// at 47 % and climbs hard at 100 %).
     pub fn engine_power(&self, throttle: f64) -> f64 {
-        self.full_power() * throttle.clamp(0.0, 1.0).powi(2)
+        self.full_power() * throttle.clamp(0.0, 1.0).powf(2.5)
     }
 
     /// The throttle that gives `power` (inverse of [`engine_power`]).
     pub fn throttle_for(&self, power: f64) -> f64 {
-        (power / self.full_power()).clamp(0.0, 1.0).sqrt()
+        (power / self.full_power()).clamp(0.0, 1.0).powf(0.4)
     }
 }
 
@@ -108,7 +125,8 @@ pub struct Controls {
     pub bank: f64,
     /// Climb rate (m/s).
     pub climb: f64,
-    /// Airspeed (m/s).
+    /// Airspeed (m/s, equivalent airspeed: what the autopilot reads and
+    /// targets).
     pub airspeed: f64,
     pub priority: Priority,
     /// On the ground: steer to this heading (radians), if any.
@@ -170,6 +188,8 @@ pub struct Aircraft {
     pub battery: Battery,
     /// Wind (m/s toward north and east).
     pub wind: V2,
+    /// The ground's altitude (m AMSL), for the air density.
+    pub ground_amsl: f64,
 }
 
 /// The aircraft met the ground.
@@ -183,7 +203,7 @@ pub struct Contact {
 
 impl Aircraft {
     /// On the ground at home, pointing `heading` (radians).
-    pub fn parked(heading: f64, wind: V2, airframe: &Airframe) -> Aircraft {
+    pub fn parked(heading: f64, wind: V2, ground_amsl: f64, airframe: &Airframe) -> Aircraft {
         Aircraft {
             pos: V2::ZERO,
             alt: 0.0,
@@ -208,7 +228,13 @@ impl Aircraft {
                 drain_factor: 1.0,
             },
             wind,
+            ground_amsl,
         }
+    }
+
+    /// True over equivalent airspeed where the aircraft is.
+    pub fn eas2tas(&self) -> f64 {
+        eas2tas(self.ground_amsl + self.alt)
     }
 
     /// Air velocity (m/s).
@@ -220,13 +246,15 @@ impl Aircraft {
         V2::from_heading(self.heading) * horiz
     }
 
-    /// The airspeed an airspeed sensor reads (on the ground: the wind).
+    /// The (equivalent) airspeed an airspeed sensor reads (on the ground:
+    /// the wind and the roll).
     pub fn indicated_airspeed(&self) -> f64 {
-        if self.on_ground {
+        let tas = if self.on_ground {
             self.air_vel().len()
         } else {
             self.airspeed
-        }
+        };
+        tas / self.eas2tas()
     }
 
     pub fn groundspeed(&self) -> f64 {
@@ -297,8 +325,9 @@ impl Aircraft {
             af.ground_accel * thr * thr - 0.3 - 0.004 * v * v
         } else {
             // Rolling friction and brakes, fitted on the recording's landing
-            // roll (3.5 m/s² at 12 m/s, 0.8 at 3 m/s, 0.2 at 0.7 m/s).
-            -(0.1 + 0.3 * v)
+            // roll (3.5 m/s² at 12 m/s, 0.8 at 3 m/s, 0.2 at 0.7 m/s: 9 s
+            // from touchdown to a stop).
+            -(0.2 + 0.32 * v)
         };
         let v_new = (v + accel * dt).max(0.0);
         self.accel = (v_new - v) / dt;
@@ -317,7 +346,7 @@ impl Aircraft {
         self.pos += self.ground_vel * dt;
         // Rotate: leave the runway at the rotation airspeed when asked to climb.
         let air = (self.ground_vel - self.wind).len();
-        if ctrl.climb > 0.0 && thr > 0.0 && air >= af.rotate_speed {
+        if ctrl.climb > 0.0 && thr > 0.0 && air / self.eas2tas() >= af.rotate_speed {
             self.on_ground = false;
             self.airspeed = air;
             self.heading = (self.ground_vel - self.wind).heading();
@@ -349,7 +378,7 @@ impl Aircraft {
         } else {
             match ctrl.priority {
                 Priority::Speed => {
-                    let v_dot = speed_response(ctrl.airspeed, v);
+                    let v_dot = speed_response(ctrl.airspeed * self.eas2tas(), v);
                     (v_dot, edot - v * v_dot / G)
                 }
                 Priority::Height => {
@@ -403,7 +432,7 @@ mod tests {
     use super::*;
 
     fn flying(af: &Airframe) -> Aircraft {
-        let mut ac = Aircraft::parked(0.0, V2::ZERO, af);
+        let mut ac = Aircraft::parked(0.0, V2::ZERO, 0.0, af);
         ac.on_ground = false;
         ac.alt = 500.0;
         ac.airspeed = 22.0;
@@ -418,7 +447,7 @@ mod tests {
         ac.engine.working = false;
         let ctrl = Controls {
             throttle: 1.0,
-            airspeed: 20.0,
+            airspeed: 20.0 / ac.eas2tas(),
             ..Controls::default()
         };
         let start = (ac.pos, ac.alt);
@@ -438,13 +467,13 @@ mod tests {
         let mut ac = flying(&af);
         let ctrl = Controls {
             throttle: 1.0,
-            airspeed: 22.0,
+            airspeed: ac.indicated_airspeed(),
             ..Controls::default()
         };
         ac.step(0.02, &ctrl, true, &af, 1.0);
-        assert!((ac.climb - 10.0).abs() < 0.2, "climb {}", ac.climb);
+        assert!((ac.climb - 12.0).abs() < 0.2, "climb {}", ac.climb);
         let cruise = af.throttle_for(af.glide_sink(22.0, 0.0));
-        assert!((0.35..0.55).contains(&cruise), "cruise throttle {cruise}");
+        assert!((0.4..0.55).contains(&cruise), "cruise throttle {cruise}");
     }
 
     #[test]
@@ -474,7 +503,7 @@ mod tests {
     #[test]
     fn takeoff_run_rotates_at_the_rotation_speed() {
         let af = Airframe::default();
-        let mut ac = Aircraft::parked(0.0, V2::ZERO, &af);
+        let mut ac = Aircraft::parked(0.0, V2::ZERO, 0.0, &af);
         let ctrl = Controls {
             throttle: 1.0,
             climb: 5.0,
@@ -489,7 +518,7 @@ mod tests {
         }
         assert!(!ac.on_ground);
         assert!((3.0..6.0).contains(&t), "rotation after {t} s");
-        assert!(ac.airspeed >= af.rotate_speed);
+        assert!(ac.indicated_airspeed() >= af.rotate_speed);
     }
 
     #[test]
@@ -504,9 +533,9 @@ mod tests {
         for _ in 0..(60 * 50) {
             ac.step(0.02, &ctrl, true, &af, 1.0);
         }
-        // 22 A for a minute is 367 mAh, 11 % of 3300 mAh.
+        // 25 A for a minute is 417 mAh, 12.6 % of 3300 mAh.
         let rem = ac.battery.remaining(af.battery_capacity_mah);
-        assert!((rem - 88.9).abs() < 0.5, "{rem}");
+        assert!((rem - 87.4).abs() < 0.5, "{rem}");
         assert!(ac.battery.voltage < 12.0);
     }
 }

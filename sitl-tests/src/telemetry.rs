@@ -38,11 +38,6 @@ fn pressure_hpa(alt: f64) -> f64 {
     1013.25 * (1.0 - 2.255_77e-5 * alt).powf(5.255_88)
 }
 
-/// Air density (kg/m³) at `alt` metres AMSL.
-fn density(alt: f64) -> f64 {
-    1.225 * (1.0 - 2.255_77e-5 * alt).powf(4.255_88)
-}
-
 impl Vehicle {
     fn boot_ms(&self) -> u32 {
         (self.now / 1000) as u32
@@ -363,9 +358,10 @@ impl Vehicle {
             return true;
         }
         if m == id::TERRAIN_REPORT && self.gps_ok() {
-            // MSG_TERRAIN: a TERRAIN_REQUEST every sixth time, then the report.
+            // MSG_TERRAIN: a TERRAIN_REQUEST every seventh time (0.57 Hz at
+            // 4 Hz, as recorded), then the report.
             self.next_terrain_request += 1;
-            if self.next_terrain_request % 6 == 1 {
+            if self.next_terrain_request % 7 == 1 {
                 let (lat, lon) = self.latlon(V2::new(-1281.0, -947.0));
                 self.send(MavMessage::TERRAIN_REQUEST(TERRAIN_REQUEST_DATA {
                     mask: 0x00ff_ffff_ffff_ffff,
@@ -403,7 +399,7 @@ impl Vehicle {
         let yaw_pi = crate::geo::wrap_pi(ac.heading);
         let hdg_deg = ac.heading.to_degrees().rem_euclid(360.0);
         let aspd = ac.indicated_airspeed();
-        let q = 0.5 * density(alt_amsl) * aspd * aspd; // Pa
+        let q = 0.5 * 1.225 * aspd * aspd; // Pa (from the equivalent airspeed)
         let vel = ac.ground_vel;
         let imu_acc = (
             (ac.accel / G * 1000.0) as i16,

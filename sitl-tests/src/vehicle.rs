@@ -93,7 +93,7 @@ impl Vehicle {
         params.set("BATT_CAPACITY", cfg.airframe.battery_capacity_mah as f32);
         let af = cfg.airframe.clone();
         let wind = V2::new(cfg.wind.0, cfg.wind.1);
-        let ac = Aircraft::parked(cfg.home.heading.to_radians(), wind, &af);
+        let ac = Aircraft::parked(cfg.home.heading.to_radians(), wind, cfg.home.alt_amsl, &af);
         let scheduled = cfg
             .faults
             .entries

@@ -1,0 +1,12 @@
+//! End-to-end tests of the simulated ArduPlane (one test binary):
+//! - `recording`: the simulation driven exactly as the client of ArduPilot's
+//!   own SITL recording drove ArduPlane, compared with that recording;
+//! - `kinematics`: glide ratio, climb, cruise, bank limit, landing;
+//! - `loopback`: the runner over TCP and UDP on 127.0.0.1.
+
+mod sitl {
+    pub mod common;
+    mod kinematics;
+    mod loopback;
+    mod recording;
+}

@@ -1,0 +1,1 @@
+//! Kinematic checks on the core driven in simulated time.

@@ -1,0 +1,1 @@
+//! The runner over 127.0.0.1.
