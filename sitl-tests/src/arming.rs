@@ -186,3 +186,108 @@ impl Vehicle {
         self.home_due = Some(self.now + (delay_s * 1e6) as u64);
     }
 }
+
+#[cfg(test)]
+#[allow(deprecated)] // REQUEST_DATA_STREAM, as ArduPilot's clients still send it
+mod tests {
+    use super::*;
+    use crate::vehicle::testing::*;
+    use mavlink::dialects::ardupilotmega::*;
+
+    #[test]
+    fn the_first_arming_is_refused_until_the_gyros_settle() {
+        let mut b = Bench::new(crate::SimConfig {
+            first_arm_refused: true,
+            ..quick()
+        });
+        b.run_to(2.5); // EKF uses the GPS at 2.2 s, gyros settle at 3.0 s
+        let before = b.got.len();
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_FAILED));
+        // The COMMAND_ACK first, then the reason (as the recording).
+        let order: Vec<&'static str> = b.got[before..]
+            .iter()
+            .map(|(_, _, m)| mavlink::Message::message_name(m))
+            .collect();
+        assert_eq!(order, vec!["COMMAND_ACK", "STATUSTEXT"]);
+        let text = b.v.truth.statustexts.last().cloned().unwrap();
+        assert_eq!(text.text, "Arm: Gyros inconsistent");
+        assert_eq!(text.severity, MavSeverity::MAV_SEVERITY_CRITICAL as u8);
+        assert!(!b.v.state().armed);
+        b.run_to(3.2);
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_ACCEPTED));
+        assert!(b.v.state().armed);
+        assert!(b.texts().contains(&"Throttle armed".to_owned()));
+        // Arming again is accepted and changes nothing.
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_ACCEPTED));
+        assert_eq!(b.v.state().results_of(400), vec![Some(4), Some(0), Some(0)]);
+    }
+
+    #[test]
+    fn arming_waits_for_the_ekf_and_the_gps_with_prearm_reports() {
+        let mut b = Bench::new(crate::SimConfig {
+            first_arm_refused: false,
+            ..crate::SimConfig::default()
+        });
+        b.run_to(5.0);
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_FAILED));
+        assert_eq!(
+            b.texts().last().unwrap(),
+            "Arm: AHRS: EKF3 still initialising"
+        );
+        // The pre-arm bit of SYS_STATUS is present, enabled and unhealthy.
+        b.send(MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
+            req_message_rate: 2,
+            target_system: 1,
+            target_component: 1,
+            req_stream_id: MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS,
+            start_stop: 1,
+        }));
+        b.run_to(6.0);
+        let prearm = |b: &Bench| {
+            b.of("SYS_STATUS")
+                .last()
+                .map(|m| match m {
+                    MavMessage::SYS_STATUS(s) => (
+                        s.onboard_control_sensors_enabled.bits() & 0x1000_0000 != 0,
+                        s.onboard_control_sensors_health.bits() & 0x1000_0000 != 0,
+                    ),
+                    _ => unreachable!(),
+                })
+                .unwrap()
+        };
+        assert_eq!(prearm(&b), (true, false));
+        b.run_to(21.0);
+        assert_eq!(prearm(&b), (true, true));
+        // The GPS lost: "Bad GPS Position", and every 30 s while disarmed.
+        b.v.inject(crate::Fault::GpsLoss);
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_FAILED));
+        assert_eq!(b.texts().last().unwrap(), "Arm: Bad GPS Position");
+        b.run_to(61.0);
+        let reports: Vec<f64> =
+            b.v.truth
+                .statustexts
+                .iter()
+                .filter(|t| t.text == "PreArm: Bad GPS Position")
+                .map(|t| t.time_s)
+                .collect();
+        assert_eq!(reports.len(), 2, "{reports:?}"); // at 30 s and 60 s
+        b.v.clear(crate::FaultKind::GpsLoss);
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_ACCEPTED));
+    }
+
+    #[test]
+    fn disarming_in_flight_is_refused_unless_forced() {
+        let mut b = Bench::airborne(quick());
+        let disarm = |b: &mut Bench, force: f32| {
+            b.command(
+                MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+                [0.0, force, 0.0, 0.0, 0.0, 0.0, 0.0],
+            )
+        };
+        assert_eq!(disarm(&mut b, 0.0), Some(MavResult::MAV_RESULT_FAILED));
+        assert!(b.v.state().armed);
+        assert_eq!(disarm(&mut b, FORCE), Some(MavResult::MAV_RESULT_ACCEPTED));
+        assert!(!b.v.state().armed);
+        assert_eq!(b.texts().last().unwrap(), "Throttle disarmed");
+    }
+}

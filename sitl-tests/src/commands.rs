@@ -331,3 +331,258 @@ impl Vehicle {
         MAV_RESULT_ACCEPTED
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::mission::cmd;
+    use crate::modes;
+    use crate::state::{CameraAction, PayloadKind};
+    use crate::vehicle::testing::*;
+    use mavlink::dialects::ardupilotmega::*;
+
+    /// The acks of a command since `from`: (sender component, result).
+    fn acks(b: &Bench, from: usize, command: MavCmd) -> Vec<(u8, MavResult)> {
+        b.since(from, "COMMAND_ACK")
+            .into_iter()
+            .filter_map(|(_, h, m)| match m {
+                MavMessage::COMMAND_ACK(a) if a.command == command => {
+                    Some((h.component_id, a.result))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_camera_answers_from_component_100_and_takes_pictures() {
+        let mut b = Bench::airborne(quick());
+        let from = b.got.len();
+        b.command_to(
+            100,
+            MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+            [0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(
+            acks(&b, from, MavCmd::MAV_CMD_IMAGE_START_CAPTURE),
+            vec![(100, MavResult::MAV_RESULT_ACCEPTED)]
+        );
+        // Addressed to the autopilot: it has no camera of its own.
+        b.command(
+            MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+            [0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(
+            acks(&b, from, MavCmd::MAV_CMD_IMAGE_START_CAPTURE)[1],
+            (1, MavResult::MAV_RESULT_UNSUPPORTED)
+        );
+        b.run_to(b.v.state().time_s + 9.0);
+        b.command_to(100, MavCmd::MAV_CMD_IMAGE_STOP_CAPTURE, [0.0; 7]);
+        assert_eq!(
+            acks(&b, from, MavCmd::MAV_CMD_IMAGE_STOP_CAPTURE),
+            vec![(100, MavResult::MAV_RESULT_ACCEPTED)]
+        );
+        let images = b.since(from, "CAMERA_IMAGE_CAPTURED");
+        assert_eq!(images.len(), 5, "one at once, then every 2 s for 9 s");
+        assert!(images.iter().all(|(_, h, _)| h.component_id == 100));
+        let s = b.v.state();
+        let kinds: Vec<&CameraAction> = s.camera.iter().map(|c| &c.action).collect();
+        assert!(
+            matches!(kinds[0], CameraAction::Start { interval_s, total: 0 } if *interval_s == 2.0)
+        );
+        assert!(matches!(kinds.last().unwrap(), CameraAction::Stop));
+        assert_eq!(
+            kinds
+                .iter()
+                .filter(|k| matches!(k, CameraAction::Image { .. }))
+                .count(),
+            5
+        );
+        // Each image where the aircraft was: in the air, over different places.
+        let shots: Vec<_> = s
+            .camera
+            .iter()
+            .filter(|c| matches!(c.action, CameraAction::Image { .. }))
+            .collect();
+        assert!(shots.iter().all(|c| c.at.alt > 30.0));
+        assert!(shots[0].at.lat != shots[4].at.lat || shots[0].at.lon != shots[4].at.lon);
+        // The camera's commands are in the record, with the answer.
+        assert!(s
+            .commands
+            .iter()
+            .any(|c| c.command == 2000 && c.target_component == 100 && c.result == Some(0)));
+
+        // A silent camera: no heartbeat, no answer.
+        b.v.inject(crate::Fault::PayloadFailure(crate::PayloadFailure::Silent));
+        let from = b.got.len();
+        b.command_to(
+            100,
+            MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+            [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        b.run_to(b.v.state().time_s + 3.0);
+        assert!(acks(&b, from, MavCmd::MAV_CMD_IMAGE_START_CAPTURE).is_empty());
+        assert!(!b
+            .since(from, "HEARTBEAT")
+            .iter()
+            .any(|(_, h, _)| h.component_id == 100));
+        assert_eq!(b.v.state().commands.last().unwrap().result, None);
+    }
+
+    #[test]
+    fn relays_and_servos_are_set_and_recorded() {
+        let mut b = Bench::new(quick());
+        b.run_to(3.0);
+        let relay = b.command(
+            MavCmd::MAV_CMD_DO_SET_RELAY,
+            [1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(relay, Some(MavResult::MAV_RESULT_ACCEPTED));
+        let servo = b.command(
+            MavCmd::MAV_CMD_DO_SET_SERVO,
+            [9.0, 1900.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(servo, Some(MavResult::MAV_RESULT_ACCEPTED));
+        // Output 3 is the throttle: refused. Relay 9 does not exist.
+        let thr = b.command(
+            MavCmd::MAV_CMD_DO_SET_SERVO,
+            [3.0, 1900.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(thr, Some(MavResult::MAV_RESULT_FAILED));
+        let bad = b.command(
+            MavCmd::MAV_CMD_DO_SET_RELAY,
+            [9.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(bad, Some(MavResult::MAV_RESULT_FAILED));
+        let kinds: Vec<PayloadKind> =
+            b.v.state()
+                .payload_actions
+                .into_iter()
+                .map(|a| a.kind)
+                .collect();
+        assert_eq!(
+            kinds,
+            vec![
+                PayloadKind::Relay {
+                    instance: 1,
+                    on: true
+                },
+                PayloadKind::Servo {
+                    channel: 9,
+                    pwm: 1900
+                }
+            ]
+        );
+        assert_eq!(
+            b.command(
+                MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+                [36.0, 500_000.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+            ),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        b.run_to(4.0);
+        assert!(matches!(b.of("SERVO_OUTPUT_RAW").last(),
+            Some(MavMessage::SERVO_OUTPUT_RAW(s)) if s.servo9_raw == 1900 && s.servo3_raw == 1000));
+    }
+
+    #[test]
+    fn reposition_speed_and_landing_sequence_as_arduplane_answers() {
+        let mut b = Bench::airborne(quick());
+        let (lat, lon) = (b.v.cfg.home.lat + 0.005, b.v.cfg.home.lon);
+        let e7 = crate::geo::e7;
+        let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
+        // Outside GUIDED without the CHANGE_MODE flag: FAILED; a bad point: DENIED.
+        let r = b.command_int(
+            MavCmd::MAV_CMD_DO_REPOSITION,
+            rel,
+            [-1.0, 0.0, 0.0, 0.0],
+            e7(lat),
+            e7(lon),
+            70.0,
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_FAILED));
+        let r = b.command_int(
+            MavCmd::MAV_CMD_DO_REPOSITION,
+            rel,
+            [-1.0, 1.0, 0.0, 0.0],
+            0,
+            0,
+            70.0,
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_DENIED));
+        let r = b.command_int(
+            MavCmd::MAV_CMD_DO_REPOSITION,
+            rel,
+            [-1.0, 1.0, 80.0, 0.0],
+            e7(lat),
+            e7(lon),
+            70.0,
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_ACCEPTED));
+        assert_eq!(b.v.state().mode, "GUIDED");
+        // DO_CHANGE_SPEED in GUIDED: the airspeed follows.
+        let r = b.command(
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED,
+            [0.0, 27.0, -1.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_ACCEPTED));
+        b.run_to(b.v.state().time_s + 40.0);
+        let s = b.v.state();
+        assert!((s.airspeed - 27.0).abs() < 1.0, "airspeed {}", s.airspeed);
+        assert!((s.alt - 70.0).abs() < 5.0, "alt {}", s.alt);
+        let centre = crate::geo::offset(&b.v.cfg.home, lat, lon);
+        let r = (crate::geo::V2::new(s.north, s.east) - centre).len();
+        assert!((r - 80.0).abs() < 25.0, "loiter radius {r}");
+        // Out of range: FAILED. In a manual mode: FAILED.
+        let r = b.command(
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED,
+            [0.0, 45.0, -1.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_FAILED));
+        assert_eq!(
+            b.set_mode(modes::FBWA),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        let r = b.command(
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED,
+            [0.0, 20.0, -1.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_FAILED));
+        // DO_LAND_START without a landing sequence: FAILED.
+        let r = b.command(MavCmd::MAV_CMD_DO_LAND_START, [0.0; 7]);
+        assert_eq!(r, Some(MavResult::MAV_RESULT_FAILED));
+        assert_eq!(
+            b.texts().last().unwrap(),
+            "Unable to start landing sequence"
+        );
+        // With one: AUTO at the item after DO_LAND_START.
+        let v = &b.v;
+        let mut marker = item(v, cmd::DO_LAND_START, 0.0, 0.0, 0.0);
+        marker.frame = MavFrame::MAV_FRAME_MISSION;
+        marker.x = 0;
+        marker.y = 0;
+        let mission = vec![
+            item(v, cmd::NAV_WAYPOINT, 1500.0, 1500.0, 60.0),
+            item(v, cmd::NAV_LOITER_UNLIM, 1500.0, 1500.0, 60.0),
+            marker,
+            item(v, cmd::NAV_WAYPOINT, -300.0, 0.0, 25.0),
+            item(v, cmd::NAV_LAND, 100.0, 0.0, 0.0),
+        ];
+        assert_eq!(b.upload(&mission), MavMissionResult::MAV_MISSION_ACCEPTED);
+        let r = b.command(MavCmd::MAV_CMD_DO_LAND_START, [0.0; 7]);
+        assert_eq!(r, Some(MavResult::MAV_RESULT_ACCEPTED));
+        let s = b.v.state();
+        assert_eq!(s.mode, "AUTO");
+        assert_eq!(s.mission_current, 4);
+        assert_eq!(
+            s.reached.last().unwrap().seq,
+            3,
+            "the DO_LAND_START item ran"
+        );
+        assert!(b.texts().contains(&"Landing sequence start".to_owned()));
+        assert!(b.run_until(b.v.state().time_s + 200.0, |v| v.fl.landed));
+        assert!(!b.v.state().crashed);
+        // MISSION_START restarts the mission from its first item.
+        let r = b.command(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]);
+        assert_eq!(r, Some(MavResult::MAV_RESULT_ACCEPTED));
+    }
+}

@@ -542,7 +542,7 @@ impl Vehicle {
             return Controls::default();
         };
         let remaining = to.alt - self.ac.alt;
-        if self.ac.alt >= to.alt {
+        if remaining <= 0.0 {
             self.takeoff_complete(to);
             return self.control();
         }
@@ -578,7 +578,7 @@ impl Vehicle {
                 ));
             }
             // Level off: the climb rate tapers with the height still to go.
-            let climb = (remaining * 0.5).max(5.0).min(c.climb);
+            let climb = (remaining * 0.5).max(5.0).min(0.4 * self.ac.airspeed);
             c.throttle = guidance::throttle_for(&self.ac, &self.af, climb, cruise);
             c.climb = climb;
         }
@@ -799,6 +799,7 @@ impl Vehicle {
 }
 
 #[cfg(test)]
+#[allow(deprecated)] // REQUEST_DATA_STREAM, as ArduPilot's clients still send it
 mod tests {
     use super::*;
     use crate::mission::cmd;
@@ -864,5 +865,175 @@ mod tests {
         // (ArduPlane SITL stopped 15 m short of it; this model ~50 m past).
         assert!(s.east.abs() < 15.0, "east {}", s.east);
         assert!((40.0..180.0).contains(&s.north), "north {}", s.north);
+    }
+
+    #[test]
+    fn rtl_returns_and_loiters_over_home() {
+        let mut b = Bench::airborne(quick());
+        // Away to a point 1.5 km east, in GUIDED.
+        let (lat, lon) = crate::geo::location(&b.v.cfg.home, crate::geo::V2::new(0.0, 1500.0));
+        let r = b.command_int(
+            MavCmd::MAV_CMD_DO_REPOSITION,
+            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            [-1.0, 1.0, 0.0, 0.0],
+            crate::geo::e7(lat),
+            crate::geo::e7(lon),
+            60.0,
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_ACCEPTED));
+        assert_eq!(b.v.state().mode, "GUIDED");
+        assert!(b.run_until(200.0, |v| v.ac.pos.e > 1300.0));
+        let r = b.command(MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH, [0.0; 7]);
+        assert_eq!(r, Some(MavResult::MAV_RESULT_ACCEPTED));
+        assert_eq!(b.v.state().mode, "RTL");
+        let t = b.v.state().time_s;
+        b.run_to(t + 150.0);
+        // Circling home at WP_LOITER_RAD (60 m) and RTL_ALTITUDE (100 m).
+        let mut worst: f64 = 0.0;
+        for _ in 0..20 {
+            b.run_to(b.v.state().time_s + 1.0);
+            let s = b.v.state();
+            worst = worst.max((s.north.hypot(s.east) - 60.0).abs());
+            assert!((s.alt - 100.0).abs() < 5.0, "alt {}", s.alt);
+            assert!(s.bank.abs() <= 45.0 + 1e-9);
+        }
+        assert!(worst < 20.0, "off the RTL circle by {worst} m");
+        assert!(b.v.state().flying && b.v.state().armed);
+    }
+
+    #[test]
+    fn engine_failure_glides_then_crashes_outside_a_landing() {
+        let mut b = Bench::airborne(quick());
+        b.send(MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
+            req_message_rate: 4,
+            target_system: 1,
+            target_component: 1,
+            req_stream_id: MavDataStream::MAV_DATA_STREAM_ALL,
+            start_stop: 1,
+        }));
+        // Loiter, wings nearly level on a large circle.
+        let r = b.command_int(
+            MavCmd::MAV_CMD_DO_REPOSITION,
+            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            [-1.0, 1.0, 600.0, 0.0],
+            crate::geo::e7(b.v.cfg.home.lat + 0.01),
+            crate::geo::e7(b.v.cfg.home.lon),
+            50.0,
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_ACCEPTED));
+        b.run_to(b.v.state().time_s + 20.0);
+        let s0 = b.v.state();
+        b.v.inject(crate::Fault::EngineFailure);
+        let from = b.got.len();
+        assert!(b.run_until(400.0, |v| v.fl.crashed), "never crashed");
+        let s = b.v.state();
+        // EFI_STATUS: the rpm falls to 0 while the autopilot asks for throttle.
+        let efi: Vec<(f32, f32)> = b
+            .since(from, "EFI_STATUS")
+            .into_iter()
+            .map(|(_, _, m)| match m {
+                MavMessage::EFI_STATUS(e) => (e.rpm, e.throttle_out),
+                _ => unreachable!(),
+            })
+            .collect();
+        // (from 2 s after the failure until the touchdown, as the elaboration's
+        // engine_failure rule reads it)
+        let gliding: Vec<&(f32, f32)> = efi
+            .iter()
+            .skip(8)
+            .take_while(|(_, thr)| *thr > 0.0)
+            .collect();
+        assert!(gliding.len() > 20, "{efi:?}");
+        assert!(
+            gliding.iter().all(|(rpm, thr)| *rpm < 500.0 && *thr > 20.0),
+            "{efi:?}"
+        );
+        // The glide: distance over height lost near the glide ratio (11).
+        let td = s.touchdowns.last().unwrap();
+        assert!(!td.landing);
+        let dist: f64 = {
+            // Integrated along the track: the ground speed in sim time.
+            let hud: Vec<f64> = b
+                .since(from, "VFR_HUD")
+                .into_iter()
+                .filter_map(|(_, _, m)| match m {
+                    MavMessage::VFR_HUD(h) if h.alt > b.v.cfg.home.alt_amsl as f32 + 0.5 => {
+                        Some(h.groundspeed as f64)
+                    }
+                    _ => None,
+                })
+                .collect();
+            hud.iter().sum::<f64>() * 0.25
+        };
+        let ratio = dist / s0.alt;
+        assert!((9.0..12.5).contains(&ratio), "glide ratio {ratio}");
+        let texts = b.texts();
+        assert!(texts.iter().any(|t| t.starts_with("SIM Hit ground")));
+        assert_eq!(texts.last().unwrap(), "Crash detected. No action taken");
+        assert_eq!(s.system_status, MavState::MAV_STATE_EMERGENCY as u8);
+        assert!(s.crashed && !s.flying && s.on_ground);
+    }
+
+    #[test]
+    fn an_engine_out_touchdown_in_auto_land_is_a_landing() {
+        let mut b = Bench::new(crate::SimConfig {
+            faults: crate::Schedule::parse(&["engine_failure@wp3"]).unwrap(),
+            ..quick()
+        });
+        b.run_to(4.0);
+        let v = &b.v;
+        let mut to = item(v, cmd::NAV_TAKEOFF, 0.0, 0.0, 40.0);
+        to.param1 = 15.0;
+        let mission = vec![
+            to,
+            item(v, cmd::NAV_WAYPOINT, 500.0, 0.0, 40.0),
+            item(v, cmd::NAV_WAYPOINT, 500.0, 300.0, 30.0),
+            item(v, cmd::NAV_LAND, 200.0, 300.0, 0.0),
+        ];
+        assert_eq!(b.upload(&mission), MavMissionResult::MAV_MISSION_ACCEPTED);
+        assert_eq!(
+            b.set_mode(modes::AUTO),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_ACCEPTED));
+        assert!(b.run_until(300.0, |v| !v.fl.armed), "{:?}", b.texts());
+        let s = b.v.state();
+        assert_eq!(s.faults.len(), 1);
+        assert!(!s.engine_running);
+        assert!(
+            s.touchdowns.len() == 1 && s.touchdowns[0].landing,
+            "{:?}",
+            s.touchdowns
+        );
+        assert!(s.landed && !s.crashed);
+        assert!(b.texts().contains(&"Auto disarmed".to_owned()));
+    }
+
+    #[test]
+    fn nav_takeoff_is_refused_as_arduplane_without_quadplane() {
+        let mut b = Bench::new(quick());
+        b.run_to(4.0);
+        let r = b.command(
+            MavCmd::MAV_CMD_NAV_TAKEOFF,
+            [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 30.0],
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_FAILED));
+        let r = b.command_int(
+            MavCmd::MAV_CMD_NAV_TAKEOFF,
+            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            0,
+            0,
+            30.0,
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_DENIED));
+        // Q modes need a QuadPlane; unknown modes fail.
+        assert_eq!(b.set_mode(20), Some(MavResult::MAV_RESULT_FAILED));
+        assert_eq!(b.set_mode(99), Some(MavResult::MAV_RESULT_FAILED));
+        assert_eq!(
+            b.set_mode(modes::FBWA),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        assert_eq!(b.v.state().mode, "FLY_BY_WIRE_A");
     }
 }

@@ -277,3 +277,149 @@ impl Vehicle {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::mission::cmd;
+    use crate::vehicle::testing::*;
+    use mavlink::dialects::ardupilotmega::*;
+
+    fn requests(b: &Bench, from: usize) -> Vec<(u64, u16)> {
+        b.since(from, "MISSION_REQUEST")
+            .into_iter()
+            .map(|(t, _, m)| match m {
+                MavMessage::MISSION_REQUEST(r) => (t, r.seq),
+                _ => unreachable!(),
+            })
+            .collect()
+    }
+
+    fn acks(b: &Bench, from: usize) -> Vec<MavMissionResult> {
+        b.since(from, "MISSION_ACK")
+            .into_iter()
+            .map(|(_, _, m)| match m {
+                MavMessage::MISSION_ACK(a) => a.mavtype,
+                _ => unreachable!(),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn upload_survives_a_lost_item_and_a_duplicate() {
+        let mut b = Bench::new(quick());
+        b.run_to(3.0);
+        let items: Vec<_> = [(0.0, 0.0), (300.0, 0.0), (300.0, 300.0)]
+            .iter()
+            .enumerate()
+            .map(|(i, (n, e))| {
+                let mut it = item(&b.v, cmd::NAV_WAYPOINT, *n, *e, 60.0);
+                it.seq = i as u16;
+                it.to_int((1, 1), false)
+            })
+            .collect();
+        let start = b.got.len();
+        b.send(MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+            count: 3,
+            target_system: 1,
+            target_component: 1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+            opaque_id: 0,
+        }));
+        b.send(MavMessage::MISSION_ITEM_INT(items[0].clone()));
+        // Item 1 is lost: the vehicle asks for it again a second later.
+        b.run_to(5.1);
+        let asked: Vec<u16> = requests(&b, start).iter().map(|x| x.1).collect();
+        assert_eq!(asked, vec![0, 1, 1, 1]);
+        let times: Vec<u64> = requests(&b, start).iter().map(|x| x.0).collect();
+        assert!(
+            (990_000..=1_030_000).contains(&(times[2] - times[1])),
+            "{times:?}"
+        );
+        // Item 0 sent again (a duplicate): INVALID_SEQUENCE, the upload goes on.
+        b.send(MavMessage::MISSION_ITEM_INT(items[0].clone()));
+        assert_eq!(
+            acks(&b, start),
+            vec![MavMissionResult::MAV_MISSION_INVALID_SEQUENCE]
+        );
+        b.send(MavMessage::MISSION_ITEM_INT(items[1].clone()));
+        b.send(MavMessage::MISSION_ITEM_INT(items[2].clone()));
+        assert_eq!(
+            acks(&b, start),
+            vec![
+                MavMissionResult::MAV_MISSION_INVALID_SEQUENCE,
+                MavMissionResult::MAV_MISSION_ACCEPTED
+            ]
+        );
+        assert_eq!(b.texts().last().unwrap(), "Flight plan received");
+        let m = b.v.state().mission;
+        assert_eq!(m.len(), 3);
+        // Item 0 is home whatever was sent; the others as sent.
+        assert_eq!(m[0].frame, MavFrame::MAV_FRAME_GLOBAL);
+        assert_eq!((m[2].x, m[2].y), (items[2].x, items[2].y));
+
+        // Download: MISSION_COUNT, then each item asked for.
+        let from = b.got.len();
+        b.send(MavMessage::MISSION_REQUEST_LIST(
+            MISSION_REQUEST_LIST_DATA {
+                target_system: 1,
+                target_component: 1,
+                mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+            },
+        ));
+        b.send(MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
+            seq: 2,
+            target_system: 1,
+            target_component: 1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+        }));
+        b.send(MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
+            seq: 9,
+            target_system: 1,
+            target_component: 1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+        }));
+        let count = b.since(from, "MISSION_COUNT");
+        assert!(matches!(&count[0].2, MavMessage::MISSION_COUNT(c) if c.count == 3));
+        let item2 = b.since(from, "MISSION_ITEM_INT");
+        assert!(matches!(&item2[0].2, MavMessage::MISSION_ITEM_INT(i)
+            if i.seq == 2 && i.x == items[2].x && i.target_system == 255));
+        assert_eq!(
+            acks(&b, from),
+            vec![MavMissionResult::MAV_MISSION_INVALID_SEQUENCE]
+        );
+
+        // MISSION_SET_CURRENT answers MISSION_CURRENT.
+        let from = b.got.len();
+        b.send(MavMessage::MISSION_SET_CURRENT(MISSION_SET_CURRENT_DATA {
+            seq: 2,
+            target_system: 1,
+            target_component: 1,
+        }));
+        let mc = b.since(from, "MISSION_CURRENT");
+        assert!(matches!(&mc[0].2, MavMessage::MISSION_CURRENT(c)
+            if c.seq == 2 && c.total == 2 && c.mission_state == MissionState::MISSION_STATE_PAUSED));
+        assert_eq!(
+            b.command(
+                MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT,
+                [7.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+            ),
+            Some(MavResult::MAV_RESULT_DENIED)
+        );
+        // An upload abandoned: cancelled after 8 s of silence.
+        let from = b.got.len();
+        b.send(MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+            count: 5,
+            target_system: 1,
+            target_component: 1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+            opaque_id: 0,
+        }));
+        b.run_to(b.v.state().time_s + 9.0);
+        assert_eq!(
+            acks(&b, from),
+            vec![MavMissionResult::MAV_MISSION_OPERATION_CANCELLED]
+        );
+        assert_eq!(requests(&b, from).len(), 8); // at once, then every second
+        assert_eq!(b.v.state().mission.len(), 3, "the stored mission is kept");
+    }
+}

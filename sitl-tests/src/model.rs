@@ -302,8 +302,15 @@ impl Aircraft {
         } else {
             0.0
         };
-        // A propeller spins up in about half a second and winds down in one.
-        let tau = if target > self.engine.rpm { 0.5 } else { 1.0 };
+        // A propeller spins up in about half a second and winds down in one;
+        // a seized engine stops in under a second.
+        let tau = if target > self.engine.rpm {
+            0.5
+        } else if self.engine.working {
+            1.0
+        } else {
+            0.4
+        };
         self.engine.rpm += (target - self.engine.rpm) * (dt / tau).min(1.0);
         if self.engine.rpm < 1.0 {
             self.engine.rpm = 0.0;

@@ -828,3 +828,132 @@ impl Vehicle {
         })
     }
 }
+
+#[cfg(test)]
+#[allow(deprecated)] // REQUEST_DATA_STREAM, as ArduPilot's clients still send it
+mod tests {
+    use crate::vehicle::testing::*;
+    use mavlink::dialects::ardupilotmega::*;
+    use std::collections::BTreeSet;
+
+    fn names(b: &Bench, from: usize) -> BTreeSet<(&'static str, u8)> {
+        b.got[from..]
+            .iter()
+            .map(|(_, h, m)| (mavlink::Message::message_name(m), h.component_id))
+            .collect()
+    }
+
+    #[test]
+    fn nothing_is_streamed_until_asked() {
+        let mut b = Bench::new(crate::SimConfig {
+            boot_servo_burst: false,
+            ..quick()
+        });
+        b.run_to(12.0);
+        let unasked: BTreeSet<(&str, u8)> = [
+            ("HEARTBEAT", 1),
+            ("HEARTBEAT", 100),
+            ("STATUSTEXT", 1),
+            ("HOME_POSITION", 1),
+            ("GPS_GLOBAL_ORIGIN", 1),
+            ("PARAM_VALUE", 1),
+            ("TIMESYNC", 1),
+        ]
+        .into_iter()
+        .collect();
+        assert_eq!(names(&b, 0), unasked);
+        // One message at 10 Hz: that one, and nothing else.
+        let r = b.command(
+            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+            [30.0, 100_000.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_ACCEPTED));
+        let from = b.got.len();
+        b.run_to(17.0);
+        let att = b.since(from, "ATTITUDE");
+        assert!(
+            (49..=51).contains(&att.len()),
+            "{} ATTITUDE in 5 s",
+            att.len()
+        );
+        let streamed: BTreeSet<&str> = names(&b, from)
+            .into_iter()
+            .map(|(n, _)| n)
+            .filter(|n| !["HEARTBEAT", "STATUSTEXT", "PARAM_VALUE", "TIMESYNC"].contains(n))
+            .collect();
+        assert_eq!(streamed, ["ATTITUDE"].into_iter().collect());
+        // A message the vehicle cannot send: DENIED, with ArduPilot's text.
+        let r = b.command(
+            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+            [12_345.0, 100_000.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(r, Some(MavResult::MAV_RESULT_DENIED));
+        assert_eq!(
+            b.texts().last().unwrap(),
+            "No ap_message for mavlink id (12345)"
+        );
+        // A stream group at 2 Hz, in sim time.
+        b.send(MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
+            req_message_rate: 2,
+            target_system: 1,
+            target_component: 1,
+            req_stream_id: MavDataStream::MAV_DATA_STREAM_EXTRA2,
+            start_stop: 1,
+        }));
+        let from = b.got.len();
+        b.run_to(27.0);
+        let hud = b.since(from, "VFR_HUD");
+        assert!(
+            (19..=21).contains(&hud.len()),
+            "{} VFR_HUD in 10 s",
+            hud.len()
+        );
+        let mav1 = b.since(from - 1, "PARAM_VALUE");
+        assert!(mav1.iter().any(|(_, _, m)| matches!(m,
+            MavMessage::PARAM_VALUE(p) if p.param_id.to_str() == Ok("MAV1_EXTRA2") && p.param_value == 2.0)));
+        // Stopped again.
+        assert_eq!(
+            b.command(
+                MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+                [30.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+            ),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        let from = b.got.len();
+        b.run_to(30.0);
+        assert!(b.since(from, "ATTITUDE").is_empty());
+    }
+
+    #[test]
+    fn heartbeat_as_arduplane_and_the_boot_burst() {
+        let mut b = Bench::new(crate::SimConfig::default());
+        b.run_to(3.0);
+        // While INITIALISING: SERVO_OUTPUT_RAW at 50 Hz, all zero, unasked.
+        let servo = b.of("SERVO_OUTPUT_RAW");
+        assert!((80..=90).contains(&servo.len()), "{}", servo.len());
+        assert!(servo
+            .iter()
+            .all(|m| matches!(m, MavMessage::SERVO_OUTPUT_RAW(s) if s.servo3_raw == 0)));
+        let hb: Vec<(u64, HEARTBEAT_DATA)> = b
+            .got
+            .iter()
+            .filter_map(|(t, h, m)| match m {
+                MavMessage::HEARTBEAT(x) if h.component_id == 1 => Some((*t, x.clone())),
+                _ => None,
+            })
+            .collect();
+        // 1 s: INITIALISING; 1.74 s: MANUAL (sent at once); 2 s: the cadence.
+        assert_eq!(hb[0].1.custom_mode, crate::modes::INITIALISING);
+        assert_eq!(hb[0].1.system_status, MavState::MAV_STATE_CALIBRATING);
+        assert_eq!(hb[0].1.base_mode.bits(), 17);
+        assert_eq!(hb[1].1.custom_mode, crate::modes::MANUAL);
+        assert_eq!(hb[1].1.base_mode.bits(), 81);
+        assert_eq!(hb[1].1.system_status, MavState::MAV_STATE_STANDBY);
+        assert_eq!(hb[1].1.mavtype, MavType::MAV_TYPE_FIXED_WING);
+        assert_eq!(hb[1].1.autopilot, MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA);
+        assert_eq!(
+            hb.iter().map(|x| x.0 / 10_000).collect::<Vec<_>>(),
+            vec![100, 174, 200, 300]
+        );
+    }
+}

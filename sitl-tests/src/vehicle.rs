@@ -598,7 +598,7 @@ pub(crate) mod testing {
         pub fn run_to(&mut self, t: f64) {
             let end = (t * 1e6) as u64;
             while self.v.now_us() < end {
-                let next = (self.v.now_us() + 100_000).min(end);
+                let next = (self.v.now_us() + 20_000).min(end);
                 self.v.advance(next);
                 self.drain();
             }
@@ -611,7 +611,7 @@ pub(crate) mod testing {
                 if cond(&self.v) {
                     return true;
                 }
-                let next = self.v.now_us() + 100_000;
+                let next = self.v.now_us() + 20_000;
                 self.v.advance(next);
                 self.drain();
             }
@@ -652,6 +652,67 @@ pub(crate) mod testing {
                 MavMessage::COMMAND_ACK(a) if a.command == command => Some(a.result),
                 _ => None,
             })
+        }
+
+        /// A COMMAND_INT to the autopilot; the result of its ack.
+        pub fn command_int(
+            &mut self,
+            command: MavCmd,
+            frame: MavFrame,
+            p: [f32; 4],
+            x: i32,
+            y: i32,
+            z: f32,
+        ) -> Option<MavResult> {
+            let before = self.got.len();
+            self.send(MavMessage::COMMAND_INT(COMMAND_INT_DATA {
+                param1: p[0],
+                param2: p[1],
+                param3: p[2],
+                param4: p[3],
+                x,
+                y,
+                z,
+                command,
+                target_system: 1,
+                target_component: AUTOPILOT,
+                frame,
+                current: 0,
+                autocontinue: 0,
+            }));
+            self.got[before..].iter().find_map(|(_, _, m)| match m {
+                MavMessage::COMMAND_ACK(a) if a.command == command => Some(a.result),
+                _ => None,
+            })
+        }
+
+        /// Quick boot, TAKEOFF mode, armed, climbed to TKOFF_ALT and loitering.
+        pub fn airborne(cfg: SimConfig) -> Bench {
+            let mut b = Bench::new(cfg);
+            b.run_to(4.0);
+            assert_eq!(
+                b.set_mode(crate::modes::TAKEOFF),
+                Some(MavResult::MAV_RESULT_ACCEPTED)
+            );
+            assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_ACCEPTED));
+            let done = b.run_until(60.0, |v| {
+                v.truth
+                    .statustexts
+                    .iter()
+                    .any(|t| t.text.starts_with("Takeoff complete"))
+            });
+            assert!(done, "no take-off: {:?}", b.texts());
+            b
+        }
+
+        /// Messages of a type sent after index `from` of `got`.
+        pub fn since(&self, from: usize, name: &str) -> Vec<(u64, MavHeader, MavMessage)> {
+            use mavlink::Message;
+            self.got[from..]
+                .iter()
+                .filter(|(_, _, m)| m.message_name() == name)
+                .cloned()
+                .collect()
         }
 
         pub fn set_mode(&mut self, mode: u32) -> Option<MavResult> {
@@ -727,5 +788,177 @@ pub(crate) mod testing {
         it.command = command;
         it.frame = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
         it
+    }
+}
+
+#[cfg(test)]
+#[allow(deprecated)] // REQUEST_DATA_STREAM, as ArduPilot's clients still send it
+mod tests {
+    use super::testing::*;
+    use crate::faults::{Fault, FaultKind, PayloadFailure, Schedule};
+    use mavlink::dialects::ardupilotmega::*;
+
+    fn all_streams(b: &mut Bench) {
+        b.send(MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
+            req_message_rate: 4,
+            target_system: 1,
+            target_component: 1,
+            req_stream_id: MavDataStream::MAV_DATA_STREAM_ALL,
+            start_stop: 1,
+        }));
+    }
+
+    #[test]
+    fn a_link_loss_is_silent_both_ways() {
+        let mut b = Bench::new(quick());
+        b.run_to(4.0);
+        all_streams(&mut b);
+        b.run_to(5.0);
+        let last_seq = b
+            .got
+            .iter()
+            .rev()
+            .find(|(_, h, _)| h.component_id == 1)
+            .map(|x| x.1.sequence)
+            .unwrap();
+        b.v.inject_for(Fault::LinkLoss, 10.0);
+        let from = b.got.len();
+        // Nothing heard: the mode change is not received.
+        assert_eq!(b.set_mode(crate::modes::FBWA), None);
+        b.run_to(14.9);
+        assert_eq!(b.got.len(), from, "frames sent during the link loss");
+        assert!(!b.v.state().link_up);
+        b.run_to(16.0);
+        let s = b.v.state();
+        assert!(s.link_up);
+        assert_eq!(s.mode, "MANUAL");
+        assert!(
+            s.commands.is_empty(),
+            "a command heard during the loss: {:?}",
+            s.commands
+        );
+        // Frames flow again, their sequence numbers showing the loss.
+        let (_, h, _) = b.got[from..]
+            .iter()
+            .find(|(_, h, _)| h.component_id == 1)
+            .unwrap();
+        assert!(
+            h.sequence.wrapping_sub(last_seq) > 100,
+            "{} after {}",
+            h.sequence,
+            last_seq
+        );
+        assert_eq!(
+            b.set_mode(crate::modes::FBWA),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        let f = &s.faults;
+        assert_eq!((f.len(), f[0].cleared, f[1].cleared), (2, false, true));
+        assert!((f[1].time_s - f[0].time_s - 10.0).abs() < 0.05);
+    }
+
+    #[test]
+    fn scheduled_faults_start_and_end_on_time() {
+        let mut b = Bench::new(crate::SimConfig {
+            faults: Schedule::parse(&[
+                "gps_loss@5s:3s",
+                "battery=20@6s",
+                "emergency=Fire on board@7s:2s",
+                "payload_failure=critical@9s:3s",
+                "battery_drain=50@10s",
+            ])
+            .unwrap(),
+            ..quick()
+        });
+        b.run_to(3.0);
+        all_streams(&mut b);
+        let fix = |b: &Bench| match b.of("GPS_RAW_INT").last() {
+            Some(MavMessage::GPS_RAW_INT(g)) => (g.fix_type as u8, g.satellites_visible),
+            _ => unreachable!(),
+        };
+        let ekf = |b: &Bench| match b.of("EKF_STATUS_REPORT").last() {
+            Some(MavMessage::EKF_STATUS_REPORT(e)) => e.flags.bits(),
+            _ => unreachable!(),
+        };
+        let status = |b: &Bench| match b
+            .got
+            .iter()
+            .rev()
+            .find(|(_, h, m)| h.component_id == 1 && matches!(m, MavMessage::HEARTBEAT(_)))
+        {
+            Some((_, _, MavMessage::HEARTBEAT(h))) => h.system_status,
+            _ => unreachable!(),
+        };
+        b.run_to(4.9);
+        assert_eq!((fix(&b), ekf(&b)), ((6, 10), 0x33f));
+        b.run_to(6.5);
+        assert_eq!((fix(&b), ekf(&b)), ((1, 0), 0x25));
+        assert!((b.v.state().battery_remaining - 20.0).abs() < 0.1);
+        b.run_to(8.5);
+        assert_eq!(fix(&b), (6, 10));
+        assert_eq!(status(&b), MavState::MAV_STATE_EMERGENCY);
+        assert!(b.texts().contains(&"Fire on board".to_owned()));
+        b.run_to(11.6);
+        assert_eq!(status(&b), MavState::MAV_STATE_STANDBY);
+        let cam = |b: &Bench| {
+            b.got.iter().rev().find_map(|(_, h, m)| match m {
+                MavMessage::HEARTBEAT(x) if h.component_id == 100 => Some(x.system_status),
+                _ => None,
+            })
+        };
+        assert_eq!(cam(&b), Some(MavState::MAV_STATE_CRITICAL));
+        b.run_to(13.0);
+        assert_eq!(cam(&b), Some(MavState::MAV_STATE_ACTIVE));
+        let kinds: Vec<(FaultKind, bool)> =
+            b.v.state()
+                .faults
+                .iter()
+                .map(|f| (f.fault.kind(), f.cleared))
+                .collect();
+        assert_eq!(
+            kinds,
+            vec![
+                (FaultKind::GpsLoss, false),
+                (FaultKind::BatteryRemaining, false),
+                (FaultKind::Emergency, false),
+                (FaultKind::GpsLoss, true),
+                (FaultKind::PayloadFailure, false),
+                (FaultKind::Emergency, true),
+                (FaultKind::BatteryDrain, false),
+                (FaultKind::PayloadFailure, true),
+            ]
+        );
+        // Injected from the API, cleared by kind.
+        b.v.inject(Fault::PayloadFailure(PayloadFailure::Silent));
+        b.run_to(16.0);
+        assert_eq!(
+            cam(&b),
+            Some(MavState::MAV_STATE_ACTIVE),
+            "the last heartbeat was before"
+        );
+        let from = b.got.len();
+        b.run_to(18.0);
+        assert!(!b.got[from..].iter().any(|(_, h, _)| h.component_id == 100));
+        b.v.clear(FaultKind::PayloadFailure);
+        b.run_to(19.0);
+        assert!(b.got[from..].iter().any(|(_, h, _)| h.component_id == 100));
+    }
+
+    #[test]
+    fn battery_failsafe_when_configured() {
+        let mut b = Bench::airborne(crate::SimConfig {
+            params: vec![
+                ("BATT_LOW_MAH".into(), 1000.0),
+                ("BATT_FS_LOW_ACT".into(), 1.0),
+            ],
+            ..quick()
+        });
+        b.v.inject(Fault::BatteryRemaining { percent: 31.0 });
+        b.v.inject(Fault::BatteryDrain { factor: 20.0 });
+        assert!(b.run_until(b.v.state().time_s + 60.0, |v| v.fl.battery_failsafe > 0));
+        let s = b.v.state();
+        assert_eq!(s.mode, "RTL");
+        assert_eq!(s.system_status, MavState::MAV_STATE_CRITICAL as u8);
+        assert!(b.texts().iter().any(|t| t.starts_with("Battery 1 is low")));
     }
 }
