@@ -565,7 +565,8 @@ impl Vehicle {
         let mut c = self.controls_for(d, Priority::Speed);
         if self.ac.indicated_airspeed() > self.af.rotate_speed + 1.0 {
             // Full throttle at the take-off pitch: a climb path of about 24°
-            // (10 m/s at 25 m/s), the rest of the power into speed.
+            // (10 m/s at 25 m/s), the rest of the power into speed (the
+            // recording: 25 then 27 m/s while climbing at 10 m/s).
             c.priority = Priority::Height;
             c.climb = 0.4 * self.ac.airspeed;
         }
@@ -578,7 +579,7 @@ impl Vehicle {
                 ));
             }
             // Level off: the climb rate tapers with the height still to go.
-            let climb = (remaining * 0.5).max(5.0).min(0.4 * self.ac.airspeed);
+            let climb = (remaining * 0.6).max(6.0).min(0.4 * self.ac.airspeed);
             c.throttle = guidance::throttle_for(&self.ac, &self.af, climb, cruise);
             c.climb = climb;
         }

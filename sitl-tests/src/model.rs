@@ -55,16 +55,16 @@ pub struct Airframe {
 
 impl Default for Airframe {
     /// A small plane flying like the SITL one of the recording: 22 m/s
-    /// cruise at about 47 % throttle, 12 m/s climb at full throttle (10 m/s
+    /// cruise at about 45 % throttle, 13 m/s climb at full throttle (10 m/s
     /// while gaining speed after take-off, as recorded), a 3.3 Ah
     /// 3-cell battery drawing about 10 A in cruise (as recorded).
     fn default() -> Self {
         Airframe {
             glide_ratio: 11.0,
-            full_throttle_climb: 12.0,
+            full_throttle_climb: 13.0,
             reference_airspeed: 22.0,
             stall_speed: 10.0,
-            ground_accel: 5.5,
+            ground_accel: 6.5,
             rotate_speed: 18.0,
             battery_capacity_mah: 3300.0,
             full_throttle_current: 25.0,
@@ -386,7 +386,14 @@ impl Aircraft {
             match ctrl.priority {
                 Priority::Speed => {
                     let v_dot = speed_response(ctrl.airspeed * self.eas2tas(), v);
-                    (v_dot, edot - v * v_dot / G)
+                    let h_dot = edot - v * v_dot / G;
+                    // No balloon: energy beyond the climb asked stays in speed.
+                    let ceiling = ctrl.climb.max(0.0);
+                    if h_dot > ceiling {
+                        ((edot - ceiling) * G / v, ceiling)
+                    } else {
+                        (v_dot, h_dot)
+                    }
                 }
                 Priority::Height => {
                     let h_dot = ctrl.climb;
@@ -475,10 +482,11 @@ mod tests {
         let ctrl = Controls {
             throttle: 1.0,
             airspeed: ac.indicated_airspeed(),
+            climb: 20.0,
             ..Controls::default()
         };
         ac.step(0.02, &ctrl, true, &af, 1.0);
-        assert!((ac.climb - 12.0).abs() < 0.2, "climb {}", ac.climb);
+        assert!((ac.climb - 13.0).abs() < 0.2, "climb {}", ac.climb);
         let cruise = af.throttle_for(af.glide_sink(22.0, 0.0));
         assert!((0.4..0.55).contains(&cruise), "cruise throttle {cruise}");
     }
