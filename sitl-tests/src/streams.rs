@@ -241,10 +241,14 @@ impl Streams {
 
     /// MAV_CMD_SET_MESSAGE_INTERVAL: `interval_us` −1 stops, 0 restores the
     /// default (the group rate), otherwise the interval. False when the
-    /// message is not one the vehicle can send.
+    /// message is not one the vehicle can send. HEARTBEAT stays at 1 Hz.
     pub fn set_interval(&mut self, now: u64, message: u32, interval_us: i64) -> bool {
         if !streamable(message) {
             return false;
+        }
+        if message == id::HEARTBEAT {
+            // Accepted, but the heartbeat stays at 1 Hz: the link's liveness.
+            return true;
         }
         match interval_us {
             i64::MIN..=-1 => {
@@ -319,6 +323,8 @@ mod tests {
         assert!(s.set_interval(0, id::ATTITUDE, 100_000));
         assert!(s.set_interval(0, id::VFR_HUD, -1));
         assert!(!s.set_interval(0, 12345, 100_000));
+        assert!(s.set_interval(0, id::HEARTBEAT, -1));
+        assert_eq!(s.interval(id::HEARTBEAT), Some(1_000_000));
         let mut count = BTreeMap::new();
         let mut t = 0;
         while t < 10_000_000 {

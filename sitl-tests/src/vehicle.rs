@@ -961,4 +961,180 @@ mod tests {
         assert_eq!(s.system_status, MavState::MAV_STATE_CRITICAL as u8);
         assert!(b.texts().iter().any(|t| t.starts_with("Battery 1 is low")));
     }
+
+    use proptest::prelude::*;
+
+    fn float() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            Just(f32::NAN),
+            Just(f32::INFINITY),
+            Just(-1.0f32),
+            Just(0.0f32),
+            Just(1.0f32),
+            Just(21196.0f32),
+            any::<f32>(),
+            -100.0f32..3000.0,
+        ]
+    }
+
+    fn command() -> impl Strategy<Value = u32> {
+        prop_oneof![
+            prop::sample::select(vec![
+                16u32, 17, 20, 21, 22, 176, 177, 178, 179, 181, 183, 189, 191, 192, 224, 300, 400,
+                410, 510, 511, 512, 520, 2000, 2001,
+            ]),
+            any::<u32>(),
+        ]
+    }
+
+    /// Any message the vehicle reads, with hostile fields.
+    fn message() -> impl Strategy<Value = (MavMessage, u8)> {
+        let p7 = || proptest::collection::vec(float(), 7);
+        prop_oneof![
+            (command(), p7(), prop::sample::select(vec![0u8, 1, 100, 7])).prop_map(
+                |(c, p, comp)| {
+                    (
+                        MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+                            param1: p[0],
+                            param2: p[1],
+                            param3: p[2],
+                            param4: p[3],
+                            param5: p[4],
+                            param6: p[5],
+                            param7: p[6],
+                            command: num_traits::FromPrimitive::from_u32(c).unwrap_or_default(),
+                            target_system: 1,
+                            target_component: comp,
+                            confirmation: 0,
+                        }),
+                        comp,
+                    )
+                }
+            ),
+            (command(), p7(), any::<i32>(), any::<i32>(), 0u8..12).prop_map(|(c, p, x, y, f)| {
+                (
+                    MavMessage::COMMAND_INT(COMMAND_INT_DATA {
+                        param1: p[0],
+                        param2: p[1],
+                        param3: p[2],
+                        param4: p[3],
+                        x,
+                        y,
+                        z: p[6],
+                        command: num_traits::FromPrimitive::from_u32(c).unwrap_or_default(),
+                        target_system: 1,
+                        target_component: 1,
+                        frame: num_traits::FromPrimitive::from_u8(f).unwrap_or_default(),
+                        current: 0,
+                        autocontinue: 0,
+                    }),
+                    1,
+                )
+            }),
+            (0u16..1200).prop_map(|count| {
+                (
+                    MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+                        count,
+                        target_system: 1,
+                        target_component: 1,
+                        mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+                        opaque_id: 0,
+                    }),
+                    1,
+                )
+            }),
+            (
+                0u16..8,
+                command(),
+                p7(),
+                any::<i32>(),
+                any::<i32>(),
+                0u8..12
+            )
+                .prop_map(|(seq, c, p, x, y, f)| {
+                    (
+                        MavMessage::MISSION_ITEM_INT(MISSION_ITEM_INT_DATA {
+                            param1: p[0],
+                            param2: p[1],
+                            param3: p[2],
+                            param4: p[3],
+                            x,
+                            y,
+                            z: p[6],
+                            seq,
+                            command: num_traits::FromPrimitive::from_u32(c).unwrap_or_default(),
+                            target_system: 1,
+                            target_component: 1,
+                            frame: num_traits::FromPrimitive::from_u8(f).unwrap_or_default(),
+                            current: 0,
+                            autocontinue: 1,
+                            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+                        }),
+                        1,
+                    )
+                }),
+            (any::<u16>(), any::<u16>()).prop_map(|(seq, rate)| {
+                (
+                    MavMessage::MISSION_SET_CURRENT(MISSION_SET_CURRENT_DATA {
+                        seq,
+                        target_system: 1,
+                        target_component: 1,
+                    }),
+                    (rate % 2) as u8,
+                )
+            }),
+            (any::<u8>(), any::<u16>(), any::<bool>()).prop_map(|(s, rate, on)| {
+                (
+                    MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
+                        req_message_rate: rate,
+                        target_system: 1,
+                        target_component: 1,
+                        req_stream_id: num_traits::FromPrimitive::from_u8(s % 13)
+                            .unwrap_or_default(),
+                        start_stop: on as u8,
+                    }),
+                    1,
+                )
+            }),
+            (any::<i16>(), float()).prop_map(|(i, v)| {
+                (
+                    MavMessage::PARAM_SET(PARAM_SET_DATA {
+                        param_value: v,
+                        target_system: 1,
+                        target_component: 1,
+                        param_id: if i % 2 == 0 {
+                            "TKOFF_ALT"
+                        } else {
+                            "ROLL_LIMIT_DEG"
+                        }
+                        .into(),
+                        param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+                    }),
+                    1,
+                )
+            }),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+        /// Whatever arrives, the vehicle neither panics nor stops talking.
+        #[test]
+        fn hostile_input_never_stops_the_vehicle(
+            msgs in proptest::collection::vec((message(), 0u64..3_000_000), 1..40)
+        ) {
+            let mut b = Bench::new(quick());
+            b.run_to(2.5);
+            for ((m, _), dt) in msgs {
+                let t = b.v.now_us() + dt;
+                b.v.advance(t);
+                b.send(m);
+            }
+            let from = b.got.len();
+            let t = b.v.state().time_s + 3.0;
+            b.run_to(t);
+            prop_assert!(b.since(from, "HEARTBEAT").len() >= 2);
+        }
+    }
 }
