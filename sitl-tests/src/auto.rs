@@ -561,3 +561,78 @@ impl Vehicle {
         ok
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::mission::cmd;
+    use crate::modes;
+    use crate::state::PayloadKind;
+    use crate::vehicle::testing::*;
+    use mavlink::dialects::ardupilotmega::*;
+
+    #[test]
+    fn loiter_time_do_commands_and_return_to_launch_items() {
+        let mut b = Bench::airborne(quick());
+        let v = &b.v;
+        let mut loiter = item(v, cmd::NAV_LOITER_TIME, 600.0, 0.0, 60.0);
+        loiter.param1 = 30.0; // seconds
+        let mut speed = item(v, cmd::DO_CHANGE_SPEED, 0.0, 0.0, 0.0);
+        speed.frame = MavFrame::MAV_FRAME_MISSION;
+        (speed.x, speed.y, speed.param1, speed.param2) = (0, 0, 0.0, 26.0);
+        let mut relay = item(v, cmd::DO_SET_RELAY, 0.0, 0.0, 0.0);
+        relay.frame = MavFrame::MAV_FRAME_MISSION;
+        (relay.x, relay.y, relay.param1, relay.param2) = (0, 0, 2.0, 1.0);
+        let mut rtl = item(v, cmd::NAV_RETURN_TO_LAUNCH, 0.0, 0.0, 0.0);
+        (rtl.x, rtl.y) = (0, 0);
+        let mission = vec![
+            item(v, cmd::NAV_WAYPOINT, 400.0, 400.0, 60.0),
+            speed,
+            relay,
+            loiter,
+            rtl,
+        ];
+        assert_eq!(b.upload(&mission), MavMissionResult::MAV_MISSION_ACCEPTED);
+        assert_eq!(
+            b.command(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        let start = b.v.state().time_s;
+        assert!(
+            b.run_until(start + 400.0, |v| v.fl.mode == modes::RTL),
+            "{:?}",
+            b.texts()
+        );
+        let s = b.v.state();
+        let reached: Vec<(u16, f64)> = s.reached.iter().map(|r| (r.seq, r.time_s)).collect();
+        assert_eq!(
+            reached.iter().map(|r| r.0).collect::<Vec<_>>(),
+            vec![2, 3, 1, 4, 5]
+        );
+        // The DO commands ran while flying to waypoint 1.
+        assert!(reached[0].1 < reached[2].1 && reached[1].1 < reached[2].1);
+        assert_eq!(
+            s.payload_actions[0].kind,
+            PayloadKind::Relay {
+                instance: 2,
+                on: true
+            }
+        );
+        assert_eq!(s.payload_actions[0].mission_seq, Some(3));
+        // The speed change is ArduPlane's, announced.
+        assert!(b.texts().contains(&"Set airspeed 26 m/s".to_owned()));
+        // At least 30 s on the loiter circle.
+        let loiter_done = reached[3].1;
+        assert!(loiter_done - reached[2].1 >= 30.0);
+        let texts = b.texts();
+        let at = |t: &str| texts.iter().position(|x| x == t);
+        let (reached_rtl, complete) = (
+            at("Reached RTL location"),
+            at("Mission complete, changing mode to RTL"),
+        );
+        assert!(reached_rtl.is_some() && reached_rtl < complete, "{texts:?}");
+        let mc = b.v.mission_current();
+        assert!(
+            matches!(mc, MavMessage::MISSION_CURRENT(c) if c.mission_state == MissionState::MISSION_STATE_COMPLETE)
+        );
+    }
+}
