@@ -99,7 +99,7 @@ impl Airframe {
         self.full_power() * throttle.clamp(0.0, 1.0).powf(2.5)
     }
 
-    /// The throttle that gives `power` (inverse of [`engine_power`]).
+    /// The throttle that gives `power` (inverse of [`Airframe::engine_power`]).
     pub fn throttle_for(&self, power: f64) -> f64 {
         (power / self.full_power()).clamp(0.0, 1.0).powf(0.4)
     }

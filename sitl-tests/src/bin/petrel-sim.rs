@@ -28,7 +28,7 @@ struct Args {
     /// Sim time runs this many times faster than the wall clock.
     #[arg(long, default_value_t = 1.0)]
     speedup: f64,
-    /// A fault to inject: KIND[=VALUE]@WHEN[:DURATION], e.g. engine_failure@90s,
+    /// A fault to inject: `KIND[=VALUE]@WHEN[:DURATION]`, e.g. engine_failure@90s,
     /// link_loss@60s:10s, payload_failure=critical@wp3, battery=20@120s (repeatable).
     #[arg(long = "fault", value_name = "SPEC")]
     faults: Vec<String>,
