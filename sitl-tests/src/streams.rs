@@ -138,6 +138,17 @@ pub const CATALOG: &[(u32, Option<Group>)] = &[
     (id::EXTENDED_SYS_STATE, None),
 ];
 
+/// Messages ArduPlane knows (SET_MESSAGE_INTERVAL is ACCEPTED) but that
+/// this simulation has no data for (no such sensor), as ArduPlane sends
+/// nothing for an absent sensor: RC_CHANNELS_RAW, ATTITUDE_QUATERNION,
+/// ATTITUDE_TARGET, OPTICAL_FLOW, GPS2_RAW, GPS_RTK, GPS2_RTK,
+/// DISTANCE_SENSOR, SCALED_PRESSURE3, SENSOR_OFFSETS, FENCE_STATUS,
+/// HWSTATUS, RANGEFINDER, BATTERY2, PID_TUNING, RPM, ADSB_VEHICLE,
+/// GIMBAL_DEVICE_ATTITUDE_STATUS.
+pub const KNOWN_NOT_SENT: &[u32] = &[
+    35, 31, 83, 100, 124, 127, 128, 132, 143, 150, 162, 165, 173, 181, 194, 226, 246, 285,
+];
+
 /// The group of a message, when it is in one.
 pub fn group_of(message: u32) -> Option<Group> {
     CATALOG
@@ -241,8 +252,12 @@ impl Streams {
 
     /// MAV_CMD_SET_MESSAGE_INTERVAL: `interval_us` −1 stops, 0 restores the
     /// default (the group rate), otherwise the interval. False when the
-    /// message is not one the vehicle can send. HEARTBEAT stays at 1 Hz.
+    /// message is not one ArduPlane knows ([`KNOWN_NOT_SENT`] are accepted
+    /// and never sent). HEARTBEAT stays at 1 Hz.
     pub fn set_interval(&mut self, now: u64, message: u32, interval_us: i64) -> bool {
+        if KNOWN_NOT_SENT.contains(&message) {
+            return true;
+        }
         if !streamable(message) {
             return false;
         }
@@ -323,6 +338,9 @@ mod tests {
         assert!(s.set_interval(0, id::ATTITUDE, 100_000));
         assert!(s.set_interval(0, id::VFR_HUD, -1));
         assert!(!s.set_interval(0, 12345, 100_000));
+        assert!(!s.set_interval(0, 109, 100_000)); // RADIO_STATUS: a radio's, not ArduPilot's
+        assert!(s.set_interval(0, 173, 100_000)); // RANGEFINDER: known, no sensor
+        assert_eq!(s.interval(173), None);
         assert!(s.set_interval(0, id::HEARTBEAT, -1));
         assert_eq!(s.interval(id::HEARTBEAT), Some(1_000_000));
         let mut count = BTreeMap::new();
