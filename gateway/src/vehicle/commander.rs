@@ -587,9 +587,12 @@ impl Commander {
                 if let Err(reason) = result {
                     tracing::info!(message, %reason, "SET_MESSAGE_INTERVAL refused: falling back to REQUEST_DATA_STREAM");
                     self.stream_fallback.insert(message);
-                    if reason != "FAILED" {
-                        // UNSUPPORTED, DENIED, or no answer: the autopilot
-                        // does not do it at all.
+                    if reason != "FAILED" && reason != "DENIED" {
+                        // UNSUPPORTED, or no answer: the autopilot does not
+                        // do it at all. (ArduPilot answers DENIED for a
+                        // message it cannot stream, e.g. RADIO_STATUS, and
+                        // FAILED when it cannot set the rate: that message
+                        // only.)
                         self.interval_unsupported = true;
                         let rest: Vec<u32> = self
                             .ops

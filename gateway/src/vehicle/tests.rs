@@ -880,6 +880,37 @@ fn mission_errors_retries_and_timeouts() {
 }
 
 #[test]
+fn a_message_the_autopilot_cannot_stream_falls_back_alone() {
+    // ArduPlane answers SET_MESSAGE_INTERVAL for RADIO_STATUS (109) with
+    // DENIED ("No ap_message for mavlink id (109)"): the other messages are
+    // still asked for by interval.
+    let mut s = Sim::new(Firmware::Plane);
+    s.c.request_streams(&[(109, 4.0), (33, 4.0)], 0);
+    assert_eq!(s.one_long().param1, 109.0);
+    s.ack(
+        MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+        MavResult::MAV_RESULT_DENIED,
+    );
+    let c = s.one_long();
+    assert_eq!(
+        (c.command, c.param1),
+        (MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, 33.0)
+    );
+    s.ack(
+        MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+        MavResult::MAV_RESULT_ACCEPTED,
+    );
+    // RADIO_STATUS alone goes by REQUEST_DATA_STREAM (in no group: ALL).
+    let rest: Vec<MavMessage> = s.sent();
+    assert!(
+        rest.iter()
+            .all(|m| matches!(m, MavMessage::REQUEST_DATA_STREAM(_))),
+        "{rest:?}"
+    );
+    assert!(!rest.is_empty());
+}
+
+#[test]
 fn streams_by_interval_then_fallback_and_again_after_link_loss() {
     let mut s = Sim::new(Firmware::Copter);
     s.c.request_streams(&[(33, 4.0), (1, 2.0)], 0);
