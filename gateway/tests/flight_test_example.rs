@@ -201,7 +201,7 @@ fn petrel_check_proves_the_project() {
         let w = w.as_str().unwrap_or("");
         let explained = w.starts_with("conflict on ")
             || (w.ends_with("can never fire")
-                && ["_no_position", "blind", "timeout", "again", "stop_failed"]
+                && ["_no_position", "blind", "timeout", "again", "given_up", "stop_failed"]
                     .iter()
                     .any(|k| w.contains(k)));
         assert!(explained, "unexplained warning: {w}");
@@ -444,7 +444,8 @@ fn link_loss_changes_nothing_and_the_mission_completes() {
         p.commands(),
         with_preflight(&[
             "payload_start(camera)",
-            // O1's loiter end was lost with the link: stopped when O2's sensor is due.
+            // Sent as the link went: timed out, sent again, timed out, given up.
+            "payload_stop(camera)",
             "payload_stop(camera)",
             "payload_start(sensor)",
             "payload_stop(sensor)",
@@ -453,14 +454,25 @@ fn link_loss_changes_nothing_and_the_mission_completes() {
             "disarm",
         ])
     );
-    for t in ["link_lost", "link_restored", "gcs_lost", "gcs_restored"] {
-        assert!(p.fired().contains(&format!("COMMUNICATION.{t}")), "{t}");
+    let fired = p.fired();
+    for t in [
+        "COMMUNICATION.link_lost",
+        "COMMUNICATION.link_restored",
+        "COMMUNICATION.gcs_lost",
+        "COMMUNICATION.gcs_restored",
+        "OPERATIONS.camera_stop_timeout",
+        "OPERATIONS.camera_stop_given_up",
+    ] {
+        assert!(fired.contains(&t.to_owned()), "{t}");
     }
-    assert!(p
-        .fired()
-        .contains(&"OPERATIONS.camera_then_sensor".to_owned()));
+    // A link loss is no payload failure: nothing replanned.
+    let mut calls = strings(&["plan", "plan"]);
+    calls.extend(std::iter::repeat_n("item".to_owned(), 10));
+    assert_eq!(p.calls(), calls);
+    assert!(!fired.iter().any(|f| f.starts_with("PAYLOAD.")));
     assert_eq!(p.marking("MISSION"), ["complete_non_nominal"]);
     assert_eq!(p.marking("FLIGHT"), ["complete"]);
+    assert_eq!(p.marking("OPERATIONS"), ["idle"]);
 }
 
 #[test]
