@@ -201,9 +201,16 @@ fn petrel_check_proves_the_project() {
         let w = w.as_str().unwrap_or("");
         let explained = w.starts_with("conflict on ")
             || (w.ends_with("can never fire")
-                && ["_no_position", "blind", "timeout", "again", "given_up", "stop_failed"]
-                    .iter()
-                    .any(|k| w.contains(k)));
+                && [
+                    "_no_position",
+                    "blind",
+                    "timeout",
+                    "again",
+                    "given_up",
+                    "stop_failed",
+                ]
+                .iter()
+                .any(|k| w.contains(k)));
         assert!(explained, "unexplained warning: {w}");
     }
 }
