@@ -1,0 +1,221 @@
+//! One end-to-end flight: the simulated ArduPlane (in this process), DEC
+//! (a thread of this process, over the program protocol on TCP) and the
+//! real `petrel run` process on examples/uav-flight-test, all over
+//! loopback, with the gateway's clock running as fast as the simulator's.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use sitl_tests::{Fault, Schedule, Sim, SimConfig, SimState};
+
+/// A fault injected from the test when a condition first holds.
+pub type Injection = (Box<dyn Fn(&SimState) -> bool>, Fault);
+
+/// Simulated seconds per wall second.
+pub const SPEED: f64 = 10.0;
+
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+pub fn project() -> PathBuf {
+    root().join("examples/uav-flight-test")
+}
+
+/// What a flight left behind.
+pub struct Flown {
+    pub state: SimState,
+    /// The gateway's timeline, JSON lines.
+    pub timeline: Vec<serde_json::Value>,
+    pub stderr: String,
+    pub recording: PathBuf,
+    pub wall: Duration,
+}
+
+impl Flown {
+    /// The timeline's effects of one kind.
+    pub fn effects(&self, kind: &str) -> Vec<&serde_json::Value> {
+        self.timeline
+            .iter()
+            .filter(|l| l["effect"] == kind)
+            .collect()
+    }
+
+    /// The verbs commanded, in order.
+    pub fn verbs(&self) -> Vec<String> {
+        self.effects("command")
+            .iter()
+            .filter_map(|l| l["verb"].as_str().map(str::to_owned))
+            .collect()
+    }
+
+    /// The functions called on programs, in order.
+    pub fn calls(&self) -> Vec<String> {
+        self.effects("call")
+            .iter()
+            .filter_map(|l| l["function"].as_str().map(str::to_owned))
+            .collect()
+    }
+
+    /// Events heard (elaborated or from programs), in order.
+    pub fn events(&self) -> Vec<String> {
+        self.timeline
+            .iter()
+            .filter(|l| l["input"] == "event")
+            .filter_map(|l| l["event"].as_str().map(str::to_owned))
+            .collect()
+    }
+
+    /// Replays the recording with --check-against: (exit code, stderr).
+    pub fn replay_check(&self) -> (Option<i32>, String) {
+        let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
+            .arg("replay")
+            .arg(&self.recording)
+            .arg(project())
+            .arg("--check-against")
+            .stdout(Stdio::null())
+            .output();
+        match out {
+            Ok(o) => (
+                o.status.code(),
+                String::from_utf8_lossy(&o.stderr).into_owned(),
+            ),
+            Err(e) => (None, e.to_string()),
+        }
+    }
+}
+
+struct Killed(Option<Child>);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.0.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// Flies `faults` (sitl-tests `--fault` syntax) until `done` holds of the
+/// simulated vehicle (then 3 more simulated seconds for the nets to
+/// finish), at most `max_sim_s` simulated seconds.
+pub fn fly(
+    name: &str,
+    faults: &[&str],
+    mut injections: Vec<Injection>,
+    max_sim_s: f64,
+    done: impl Fn(&SimState) -> bool,
+) -> Flown {
+    let scratch =
+        std::env::temp_dir().join(format!("petrel-scenario-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&scratch);
+    std::fs::create_dir_all(&scratch).expect("scratch folder");
+    let recording = scratch.join("flight.mcap");
+    let sim = Sim::start(SimConfig {
+        listen: "tcpin:127.0.0.1:0".into(),
+        // GPS and EKF ready in 3 s instead of ArduPlane's 20.
+        boot: sitl_tests::BootTimeline::quick(),
+        speedup: SPEED,
+        faults: Schedule::parse(faults).expect("a valid schedule"),
+        ..SimConfig::default()
+    })
+    .expect("the simulator starts");
+    let programs = format!("tcp:127.0.0.1:{}", free_port());
+    let max_wall = Duration::from_secs_f64(max_sim_s / SPEED + 10.0);
+    let petrel = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .current_dir(root())
+        .arg("run")
+        .arg(project())
+        .args(["--mavlink", &sim.client_address()])
+        .args(["--programs", &programs])
+        .args(["--time-scale", &SPEED.to_string()])
+        .arg("--record")
+        .arg(&recording)
+        .args([
+            "--duration",
+            &format!("{:.0}", max_wall.as_secs_f64() + 5.0),
+        ])
+        .arg("--json")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("petrel runs");
+    let mut petrel = Killed(Some(petrel));
+    let dec_stop = Arc::new(AtomicBool::new(false));
+    let dec = {
+        let stop = dec_stop.clone();
+        let mission = project().join(super::MISSION_FILE);
+        let address = programs.clone();
+        std::thread::spawn(move || petrel_dec::serve_until(&address, &mission, stop))
+    };
+    let started = Instant::now();
+    let mut finished_at: Option<f64> = None;
+    loop {
+        std::thread::sleep(Duration::from_millis(100));
+        let state = sim.state();
+        injections.retain(|(when, fault)| {
+            let now = when(&state);
+            if now {
+                sim.inject(fault.clone());
+            }
+            !now
+        });
+        if finished_at.is_none() && done(&state) {
+            finished_at = Some(state.time_s);
+        }
+        if finished_at.is_some_and(|t| state.time_s > t + 3.0) {
+            break;
+        }
+        if state.time_s > max_sim_s || started.elapsed() > max_wall {
+            break;
+        }
+        if petrel
+            .0
+            .as_mut()
+            .is_some_and(|c| matches!(c.try_wait(), Ok(Some(_))))
+        {
+            break;
+        }
+    }
+    let wall = started.elapsed();
+    // Stop the gateway cleanly: the recording is finished.
+    let mut child = petrel.0.take().expect("petrel");
+    let _ = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status();
+    let mut stdout = String::new();
+    let mut stderr = String::new();
+    if let Some(mut o) = child.stdout.take() {
+        let _ = o.read_to_string(&mut stdout);
+    }
+    if let Some(mut e) = child.stderr.take() {
+        let _ = e.read_to_string(&mut stderr);
+    }
+    let _ = child.wait();
+    dec_stop.store(true, Ordering::Relaxed);
+    let _ = dec.join();
+    let state = sim.state();
+    sim.stop();
+    let timeline = stdout
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    Flown {
+        state,
+        timeline,
+        stderr,
+        recording,
+        wall,
+    }
+}
