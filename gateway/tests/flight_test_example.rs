@@ -491,10 +491,11 @@ fn battery_low_returns_and_lands() {
             "payload_start(camera)",
             "payload_stop(camera)",
             "payload_start(sensor)",
-            "land",
-            "rtl",
+            // The return: the sensor stops as it is ordered.
             "land",
             "payload_stop(sensor)",
+            "rtl",
+            "land",
             "disarm",
         ])
     );

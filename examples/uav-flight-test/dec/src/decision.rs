@@ -123,6 +123,11 @@ impl Dec {
     /// `item {seq}` → `{seq, phase, payload, waypoint}`: what reaching item
     /// `seq` of the active plan means — the phase the aircraft is now in,
     /// the payload that must operate now ("" none), the waypoint's name.
+    ///
+    /// DO_LAND_START is a DO command: ArduPilot runs it (and reports it
+    /// reached) as soon as the navigation item before it starts — the last
+    /// loiter, still under way —, or on a `land` jump. Reaching it says
+    /// nothing of where the aircraft is: phase `none`, and no progress.
     pub fn item(&mut self, seq: u16) -> Answer {
         let plan = self.active.as_ref().ok_or("no plan yet")?;
         let (Some(item), Some(phase)) = (plan.item(seq), plan.phase_after(seq)) else {
@@ -142,11 +147,16 @@ impl Dec {
             (Role::Approach, _) => "approach".into(),
             _ => "home".into(),
         };
-        self.last_reached = self.last_reached.max(seq);
+        let phase = if item.role == Role::LandStart {
+            "none"
+        } else {
+            self.last_reached = self.last_reached.max(seq);
+            phase.name()
+        };
         self.airborne = true;
         Ok(params(json!({
             "seq": seq,
-            "phase": phase.name(),
+            "phase": phase,
             "payload": payload.unwrap_or_default(),
             "waypoint": waypoint,
         })))
@@ -319,7 +329,7 @@ mod tests {
             ("operations", ""),
             ("operations", "camera"),
             ("return", ""),
-            ("return", ""),
+            ("none", ""), // DO_LAND_START: reported as O3's loiter starts
             ("landing", ""),
             ("landing", ""),
         ];
@@ -389,6 +399,7 @@ mod tests {
         assert_eq!(a["count"], 5);
         assert_eq!(item(&mut dec, 1), ("operations".into(), "sensor".into()));
         assert_eq!(item(&mut dec, 2), ("return".into(), "".into()));
+        assert_eq!(item(&mut dec, 3), ("none".into(), "".into()));
         // Checked again: nothing more to change.
         let r = ok(call(&mut dec, "replan", json!({})));
         assert_eq!(r["changed"], false);
@@ -417,6 +428,22 @@ mod tests {
         ok(call(&mut dec, "payload_failed", json!({"failed": 100})));
         assert_eq!(ok(call(&mut dec, "replan", json!({})))["changed"], false);
         assert_eq!(dec.failed().collect::<Vec<_>>(), ["camera", "sensor"]);
+    }
+
+    #[test]
+    fn the_landing_sequence_start_is_no_progress() {
+        // ArduPilot reports DO_LAND_START (9) reached as O3's loiter (8)
+        // starts: O3 is still under way, a camera failure now skips it.
+        let mut dec = Dec::new(example());
+        ok(call(&mut dec, "plan", json!({})));
+        for s in [1, 2, 3, 4, 5, 6, 7, 9] {
+            item(&mut dec, s);
+        }
+        ok(call(&mut dec, "payload_failed", json!({"failed": 100})));
+        let r = ok(call(&mut dec, "replan", json!({})));
+        assert_eq!(r["changed"], true);
+        assert_eq!(r["skipped"], json!(["O3"]));
+        assert_eq!(commands(&r["items"]), ["DO_LAND_START", "WAYPOINT", "LAND"]);
     }
 
     #[test]

@@ -1,18 +1,24 @@
 //! The emergency landing site for an engine-out glide: the nearest site the
 //! aircraft can reach from where it is, keeping the mission's margin of the
 //! glide range in reserve; none reachable, the nearest all the same,
-//! flagged. Its mission: an approach point `emergency_approach` metres
-//! before the site on the line from the aircraft (when it is farther than
-//! that), then LAND at the site.
+//! flagged.
+//!
+//! Its mission brings the aircraft to the site on its glide path, since an
+//! autopilot holding its airspeed cannot descend more steeply than it
+//! glides: the final leg, `emergency_approach` metres long, starts from a
+//! key point on the line from the site toward the aircraft, at the height
+//! the glide needs for it (`emergency_approach / glide_ratio`). Energy to
+//! spare at the key point is burnt in a loiter over it (LOITER_TIME, as long
+//! as the glide's sink rate takes); too little, and it goes straight in.
 
 use serde_json::{json, Value};
 
 use crate::geo::LatLon;
 use crate::mission::{Mission, Site};
 
-/// How far a glide takes the aircraft, at least this high over the
-/// approach point (m): the turn onto the landing.
-pub const MIN_APPROACH_HEIGHT: f64 = 20.0;
+/// Below this height at the key point, the aircraft goes straight to the
+/// site (m).
+pub const MIN_KEY_HEIGHT: f64 = 10.0;
 
 /// A chosen site and its mission.
 #[derive(Debug, Clone, PartialEq)]
@@ -30,6 +36,15 @@ pub struct Choice {
 /// The glide range (m) from `height` metres above a site.
 pub fn glide_range(mission: &Mission, height: f64) -> f64 {
     height.max(0.0) * mission.flight.glide_ratio * (1.0 - mission.flight.glide_margin)
+}
+
+/// The sink rate (m/s) of an engine-out loiter at cruise speed: the glide's
+/// (speed / glide ratio), raised by the turn's load factor 1 / cos(bank),
+/// the bank that holds the loiter radius.
+pub fn loiter_sink(mission: &Mission) -> f64 {
+    let f = &mission.flight;
+    let bank = (f.cruise_speed.powi(2) / (9.80665 * f.loiter_radius)).atan();
+    f.cruise_speed / f.glide_ratio / bank.cos().max(0.2)
 }
 
 /// Picks the site for an aircraft at `from`, `alt` metres above home.
@@ -62,27 +77,38 @@ pub fn choose(mission: &Mission, from: LatLon, alt: f64) -> Option<Choice> {
 
 fn items(mission: &Mission, from: LatLon, alt: f64, site: &Site, distance: f64) -> Value {
     let site_alt = site.elevation - mission.home_alt; // relative to home
-    let land = site.at.rounded();
-    let land = json!({"command": "LAND", "lat": land.lat, "lon": land.lon, "alt": site_alt});
-    let approach = mission.flight.emergency_approach;
-    // Close enough: straight in.
-    if distance <= approach * 1.5 {
+    let at = site.at.rounded();
+    let land = json!({"command": "LAND", "lat": at.lat, "lon": at.lon, "alt": site_alt});
+    let glide = mission.flight.glide_ratio;
+    let leg = mission.flight.emergency_approach;
+    // The key point: `leg` metres from the site, toward the aircraft.
+    let bearing = if distance < 1.0 {
+        0.0
+    } else {
+        site.at.bearing(from)
+    };
+    let key = site.at.destination(bearing, leg);
+    let height = alt + mission.home_alt - site.elevation;
+    let at_key = height - from.distance(key) / glide;
+    if leg < 1.0 || !key.inside(&mission.fence) || at_key < MIN_KEY_HEIGHT {
         return json!([land]);
     }
-    let point = site.at.destination(site.at.bearing(from), approach);
-    if !point.inside(&mission.fence) {
-        return json!([land]);
-    }
-    let height_there = alt - (distance - approach) / mission.flight.glide_ratio;
-    let point_alt = height_there.clamp(
-        site_alt + MIN_APPROACH_HEIGHT,
-        alt.max(site_alt + MIN_APPROACH_HEIGHT),
-    );
-    let p = point.rounded();
-    json!([
-        {"command": "WAYPOINT", "lat": p.lat, "lon": p.lon, "alt": (point_alt * 10.0).round() / 10.0},
-        land,
-    ])
+    let final_height = leg / glide;
+    let k = key.rounded();
+    let round = |x: f64| (x * 10.0).round() / 10.0;
+    let first = if at_key > final_height + 5.0 {
+        // The loiter's time counts from its circle, reached this high.
+        let radius = mission.flight.loiter_radius;
+        let at_circle = height - (from.distance(key) - radius).max(0.0) / glide;
+        let sink = loiter_sink(mission);
+        json!({"command": "LOITER_TIME", "lat": k.lat, "lon": k.lon,
+               "alt": round(site_alt + final_height),
+               "p1": ((at_circle - final_height) / sink).ceil()})
+    } else {
+        json!({"command": "WAYPOINT", "lat": k.lat, "lon": k.lon,
+               "alt": round(site_alt + at_key.min(final_height))})
+    };
+    json!([first, land])
 }
 
 #[cfg(test)]
@@ -150,35 +176,87 @@ mod tests {
         assert_eq!(glide_range(&m, -3.0), 0.0);
     }
 
+    fn key_point(items: &Value) -> (LatLon, Value) {
+        let first = items[0].clone();
+        let p = LatLon::new(
+            first["lat"].as_f64().unwrap_or(0.0),
+            first["lon"].as_f64().unwrap_or(0.0),
+        );
+        (p, first)
+    }
+
     #[test]
-    fn the_mission_approaches_then_lands_at_the_site() {
+    fn spare_height_is_burnt_over_the_key_point() {
         let m = example();
+        // Over O2, 80 m up, 300 m from the East field: 800 m of glide.
         let from = at(&m, 620.0, 550.0);
         let c = choose(&m, from, 80.0).expect("a site");
         let items = c.items.as_array().cloned().unwrap_or_default();
         assert_eq!(items.len(), 2, "{items:?}");
-        assert_eq!(items[0]["command"], "WAYPOINT");
         assert_eq!(items[1]["command"], "LAND");
         assert_eq!(items[1]["lat"], -35.359205);
         assert_eq!(items[1]["alt"], 0.0);
-        let approach = LatLon::new(
-            items[0]["lat"].as_f64().unwrap_or(0.0),
-            items[0]["lon"].as_f64().unwrap_or(0.0),
-        );
+        let (key, first) = key_point(&c.items);
+        assert_eq!(first["command"], "LOITER_TIME");
         let site = m.sites[2].at;
-        assert!((approach.distance(site) - 150.0).abs() < 1.0);
-        // On the line from the aircraft: closer to it than the site is.
-        assert!(approach.distance(from) < site.distance(from));
-        // Lower than the aircraft, by the glide over the distance flown.
-        let alt = items[0]["alt"].as_f64().unwrap_or(0.0);
-        assert!((MIN_APPROACH_HEIGHT..80.0).contains(&alt), "{alt}");
+        // The final leg: 300 m, from 30 m (glide ratio 10).
+        assert!((key.distance(site) - 300.0).abs() < 1.0);
+        assert_eq!(first["alt"], 30.0);
+        // On the aircraft's side of the site.
+        assert!(key.distance(from) < site.distance(from));
+        // 80 m less the glide to the loiter circle, less 30 m, at the
+        // loiter's sink rate: 2.2 m/s in a 39° bank (60 m at 22 m/s), 2.84 m/s.
+        let sink = loiter_sink(&m);
+        assert!((sink - 2.84).abs() < 0.01, "{sink}");
+        // From the loiter's circle, 60 m before the key point: here the
+        // aircraft is already on it (the key point 2 m away).
+        assert!(from.distance(key) < 60.0);
+        let at_circle = 80.0;
+        let expect = ((at_circle - 30.0) / sink).ceil();
+        assert_eq!(first["p1"].as_f64(), Some(expect));
+        assert!(expect > 10.0, "{expect}");
     }
 
     #[test]
-    fn close_to_the_site_straight_in() {
+    fn no_height_to_spare_a_waypoint_then_land() {
         let m = example();
-        let c = choose(&m, at(&m, 100.0, 0.0), 30.0).expect("a site");
+        // 600 m south of the North field, 62 m up: at the key point (300 m
+        // out) 32 m are left, 2 above the final leg's 30.
+        let site = m.sites[1].at;
+        let from = site.destination(std::f64::consts::PI, 600.0);
+        let c = items(&m, from, 62.0, &m.sites[1], 600.0);
+        let (_, first) = key_point(&c);
+        assert_eq!(first["command"], "WAYPOINT");
+        assert_eq!(first["alt"], 30.0);
+        // Lower still: the key point's own height.
+        let c = items(&m, from, 55.0, &m.sites[1], 600.0);
+        let (_, first) = key_point(&c);
+        assert_eq!(first["alt"], 25.0);
+    }
+
+    #[test]
+    fn too_low_for_the_key_point_straight_in() {
+        let m = example();
+        // 100 m north of the runway, 25 m up: the key point is 300 m
+        // north, 200 m behind, and would be reached at 5 m.
+        let c = choose(&m, at(&m, 100.0, 0.0), 25.0).expect("a site");
         assert_eq!(c.name, "Runway");
         assert_eq!(c.items.as_array().map(Vec::len), Some(1));
+        assert_eq!(c.items[0]["command"], "LAND");
+    }
+
+    #[test]
+    fn a_key_point_outside_the_fence_straight_in() {
+        let mut m = example();
+        // A fence hugging the runway: the key point 300 m north is out.
+        m.fence = vec![
+            LatLon::new(-35.3650, 149.1630),
+            LatLon::new(-35.3650, 149.1675),
+            LatLon::new(-35.3620, 149.1675),
+            LatLon::new(-35.3620, 149.1630),
+        ];
+        let from = at(&m, 100.0, 0.0);
+        let c = items(&m, from, 80.0, &m.sites[0], 100.0);
+        assert_eq!(c.as_array().map(Vec::len), Some(1));
     }
 }

@@ -46,8 +46,10 @@ pub struct Flight {
     pub glide_ratio: f64,
     /// The part of the glide range kept in reserve, in [0, 1).
     pub glide_margin: f64,
-    /// Metres: the approach point before an emergency site.
+    /// Metres: the final leg to an emergency site.
     pub emergency_approach: f64,
+    /// Metres: the autopilot's loiter radius (ArduPlane's WP_LOITER_RAD).
+    pub loiter_radius: f64,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -317,6 +319,11 @@ impl Checker<'_> {
                 "emergency_approach",
                 flight.emergency_approach,
                 flight.emergency_approach >= 0.0,
+            ),
+            (
+                "loiter_radius",
+                flight.loiter_radius,
+                flight.loiter_radius > 0.0,
             ),
         ] {
             if !(value.is_finite() && ok) {
