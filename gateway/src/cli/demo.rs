@@ -49,7 +49,7 @@ impl Scenario {
     /// The simulator's fault schedule (sitl-tests `--fault` syntax).
     pub fn faults(self) -> &'static [&'static str] {
         match self {
-            Scenario::PayloadThenEngine => &["payload_failure@wp3", "engine_failure@55s"],
+            Scenario::PayloadThenEngine => &["payload_failure=critical@38s", "engine_failure@50s"],
             Scenario::Nominal => &[],
             Scenario::Payload => &["payload_failure@wp3"],
             Scenario::Engine => &["engine_failure@wp2"],
