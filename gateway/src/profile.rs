@@ -51,22 +51,19 @@ impl Layers {
 
     /// The profile for telemetry from an autopilot whose built-in profile
     /// is `detected`: `--profile` when given (a file relative to the working
-    /// directory), else the project's `[gateway] profile` (relative to the
-    /// project), else the built-in one.
+    /// directory), else the project's `[gateway] profile` (`project`: the
+    /// project's folder and that setting; a file relative to the folder),
+    /// else the built-in one.
     pub fn pick(
         given: Option<&str>,
-        project: Option<&Path>,
+        project: Option<(&Path, Option<&str>)>,
         detected: &str,
     ) -> Result<Layers, miette::Report> {
-        if let Some(choice) = given {
-            return Layers::choose(choice, None, detected);
+        match (given, project) {
+            (Some(choice), _) => Layers::choose(choice, None, detected),
+            (None, Some((dir, Some(choice)))) => Layers::choose(choice, Some(dir), detected),
+            _ => Ok(Layers::builtin(detected)),
         }
-        if let Some(dir) = project {
-            if let Some(choice) = crate::project::gateway_setting(dir, "profile")? {
-                return Layers::choose(&choice, Some(dir), detected);
-            }
-        }
-        Ok(Layers::builtin(detected))
     }
 
     /// Compiles the layers; every problem is printed on stderr for people

@@ -36,6 +36,30 @@ fn free_port() -> u16 {
     s.local_addr().expect("addr").port()
 }
 
+/// A scripted ArduCopter on UDP that flips from STABILIZE to GUIDED every
+/// 100 ms and accepts every command.
+async fn flipping_copter(port: u16) -> peer::Peer {
+    let hb = peer::heartbeat(
+        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        MavType::MAV_TYPE_QUADROTOR,
+    );
+    let mut guided = hb.clone();
+    if let MavMessage::HEARTBEAT(h) = &mut guided {
+        h.custom_mode = 4; // GUIDED
+    }
+    let script: peer::Script = Box::new(|_, m| match peer::command_of(m) {
+        Some(c) => vec![peer::now(peer::ack(c, MavResult::MAV_RESULT_ACCEPTED))],
+        None => Vec::new(),
+    });
+    peer::Peer::start(
+        &format!("udpout:127.0.0.1:{port}"),
+        hb,
+        vec![guided],
+        script,
+    )
+    .await
+}
+
 const TAKEOFF_NET: &str = r#"name = "N"
 places = ["wait", "taking_off", "up"]
 initial = ["wait"]
@@ -67,28 +91,7 @@ async fn run_commands_the_vehicle_from_the_nets_and_hears_the_ack() {
     let port = free_port();
     // The copter flips from STABILIZE to GUIDED every 100 ms: mode_changed
     // fires on a change, not on the first mode heard.
-    let hb = peer::heartbeat(
-        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-        MavType::MAV_TYPE_QUADROTOR,
-    );
-    let mut guided = hb.clone();
-    if let MavMessage::HEARTBEAT(h) = &mut guided {
-        h.custom_mode = 4; // GUIDED
-    }
-    let script: peer::Script = Box::new(|_, m| match peer::command_of(m) {
-        Some(c @ MavCmd::MAV_CMD_NAV_TAKEOFF) => {
-            vec![peer::now(peer::ack(c, MavResult::MAV_RESULT_ACCEPTED))]
-        }
-        Some(c) => vec![peer::now(peer::ack(c, MavResult::MAV_RESULT_ACCEPTED))],
-        None => Vec::new(),
-    });
-    let vehicle = peer::Peer::start(
-        &format!("udpout:127.0.0.1:{port}"),
-        hb,
-        vec![guided],
-        script,
-    )
-    .await;
+    let vehicle = flipping_copter(port).await;
     let out = tokio::time::timeout(
         Duration::from_secs(30),
         petrel()
@@ -300,25 +303,7 @@ on = "command.failed"
     .expect("write");
     let recording = dir.join("fast.mcap");
     let port = free_port();
-    let hb = peer::heartbeat(
-        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-        MavType::MAV_TYPE_QUADROTOR,
-    );
-    let mut guided = hb.clone();
-    if let MavMessage::HEARTBEAT(h) = &mut guided {
-        h.custom_mode = 4;
-    }
-    let script: peer::Script = Box::new(|_, m| match peer::command_of(m) {
-        Some(c) => vec![peer::now(peer::ack(c, MavResult::MAV_RESULT_ACCEPTED))],
-        None => Vec::new(),
-    });
-    let _vehicle = peer::Peer::start(
-        &format!("udpout:127.0.0.1:{port}"),
-        hb,
-        vec![guided],
-        script,
-    )
-    .await;
+    let _vehicle = flipping_copter(port).await;
     let wall = std::time::Instant::now();
     let out = tokio::time::timeout(
         Duration::from_secs(30),

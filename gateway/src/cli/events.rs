@@ -64,6 +64,11 @@ pub(crate) fn load_profile(
     project: Option<&Path>,
     bytes: &[u8],
 ) -> Result<Result<(Profile, crate::profile::Layers), ()>, miette::Report> {
+    let setting = match project {
+        Some(dir) if choice.is_none() => crate::project::gateway_setting(dir, "profile")?,
+        _ => None,
+    };
+    let project = project.map(|dir| (dir, setting.as_deref()));
     let layers = crate::profile::Layers::pick(choice, project, detect(bytes))?;
     Ok(layers.load().map(|p| (p, layers)).ok_or(()))
 }

@@ -114,8 +114,11 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     let get = |key: &str| gateway.get(key).and_then(|v| v.as_str()).map(str::to_owned);
     // --profile (beside the working directory), else `[gateway] profile`
     // (beside project.toml), else ArduPilot's.
-    let layers =
-        crate::profile::Layers::pick(args.profile.as_deref(), Some(&args.project), "ardupilot")?;
+    let layers = crate::profile::Layers::pick(
+        args.profile.as_deref(),
+        Some((&args.project, get("profile").as_deref())),
+        "ardupilot",
+    )?;
     let Some(profile) = layers.load() else {
         return Ok(Err(Outcome::BadInput));
     };

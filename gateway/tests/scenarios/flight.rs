@@ -107,6 +107,87 @@ fn free_port() -> u16 {
         .expect("a free port")
 }
 
+/// A fresh scratch folder for one flight.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("petrel-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    dir
+}
+
+/// `petrel run` on the example, its clock `time_scale` times the wall,
+/// its timeline (JSON lines) and stderr piped.
+fn petrel_run(
+    mavlink: &str,
+    programs: &str,
+    time_scale: f64,
+    recording: &Path,
+    duration: Duration,
+) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .current_dir(root())
+        .arg("run")
+        .arg(project())
+        .args(["--mavlink", mavlink])
+        .args(["--programs", programs])
+        .args(["--time-scale", &time_scale.to_string()])
+        .arg("--record")
+        .arg(recording)
+        .args(["--duration", &format!("{:.0}", duration.as_secs_f64())])
+        .arg("--json")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("petrel runs")
+}
+
+/// Stops `petrel run` cleanly (SIGTERM: the recording is finished) and
+/// returns what it printed: (stdout, stderr).
+fn stop(mut child: Child) -> (String, String) {
+    let _ = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status();
+    let mut stdout = String::new();
+    let mut stderr = String::new();
+    if let Some(mut o) = child.stdout.take() {
+        let _ = o.read_to_string(&mut stdout);
+    }
+    if let Some(mut e) = child.stderr.take() {
+        let _ = e.read_to_string(&mut stderr);
+    }
+    let _ = child.wait();
+    (stdout, stderr)
+}
+
+/// DEC on a thread, connecting to the gateway's programs address.
+struct Dec {
+    stop: Arc<AtomicBool>,
+    thread: std::thread::JoinHandle<Result<(), petrel_dec::Error>>,
+}
+
+impl Dec {
+    fn start(programs: &str) -> Dec {
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let mission = project().join(super::MISSION_FILE);
+        let address = programs.to_owned();
+        let thread = std::thread::spawn(move || petrel_dec::serve_until(&address, &mission, flag));
+        Dec { stop, thread }
+    }
+
+    fn stop(self) {
+        self.stop.store(true, Ordering::Relaxed);
+        let _ = self.thread.join();
+    }
+}
+
+fn timeline(stdout: &str) -> Vec<serde_json::Value> {
+    stdout
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
+}
+
 /// Flies `faults` (sitl-tests `--fault` syntax) until `done` holds of the
 /// simulated vehicle (then 3 more simulated seconds for the nets to
 /// finish), at most `max_sim_s` simulated seconds.
@@ -117,11 +198,7 @@ pub fn fly(
     max_sim_s: f64,
     done: impl Fn(&SimState) -> bool,
 ) -> Flown {
-    let scratch =
-        std::env::temp_dir().join(format!("petrel-scenario-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&scratch);
-    std::fs::create_dir_all(&scratch).expect("scratch folder");
-    let recording = scratch.join("flight.mcap");
+    let recording = scratch(&format!("scenario-{name}")).join("flight.mcap");
     let sim = Sim::start(SimConfig {
         listen: "tcpin:127.0.0.1:0".into(),
         // GPS and EKF ready in 3 s instead of ArduPlane's 20.
@@ -133,32 +210,15 @@ pub fn fly(
     .expect("the simulator starts");
     let programs = format!("tcp:127.0.0.1:{}", free_port());
     let max_wall = Duration::from_secs_f64(max_sim_s / SPEED + 10.0);
-    let petrel = Command::new(env!("CARGO_BIN_EXE_petrel"))
-        .current_dir(root())
-        .arg("run")
-        .arg(project())
-        .args(["--mavlink", &sim.client_address()])
-        .args(["--programs", &programs])
-        .args(["--time-scale", &SPEED.to_string()])
-        .arg("--record")
-        .arg(&recording)
-        .args([
-            "--duration",
-            &format!("{:.0}", max_wall.as_secs_f64() + 5.0),
-        ])
-        .arg("--json")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("petrel runs");
+    let petrel = petrel_run(
+        &sim.client_address(),
+        &programs,
+        SPEED,
+        &recording,
+        max_wall + Duration::from_secs(5),
+    );
     let mut petrel = Killed(Some(petrel));
-    let dec_stop = Arc::new(AtomicBool::new(false));
-    let dec = {
-        let stop = dec_stop.clone();
-        let mission = project().join(super::MISSION_FILE);
-        let address = programs.clone();
-        std::thread::spawn(move || petrel_dec::serve_until(&address, &mission, stop))
-    };
+    let dec = Dec::start(&programs);
     let started = Instant::now();
     let mut finished_at: Option<f64> = None;
     loop {
@@ -189,31 +249,13 @@ pub fn fly(
         }
     }
     let wall = started.elapsed();
-    // Stop the gateway cleanly: the recording is finished.
-    let mut child = petrel.0.take().expect("petrel");
-    let _ = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status();
-    let mut stdout = String::new();
-    let mut stderr = String::new();
-    if let Some(mut o) = child.stdout.take() {
-        let _ = o.read_to_string(&mut stdout);
-    }
-    if let Some(mut e) = child.stderr.take() {
-        let _ = e.read_to_string(&mut stderr);
-    }
-    let _ = child.wait();
-    dec_stop.store(true, Ordering::Relaxed);
-    let _ = dec.join();
+    let (stdout, stderr) = stop(petrel.0.take().expect("petrel"));
+    dec.stop();
     let state = sim.state();
     sim.stop();
-    let timeline = stdout
-        .lines()
-        .filter_map(|l| serde_json::from_str(l).ok())
-        .collect();
     Flown {
         state,
-        timeline,
+        timeline: timeline(&stdout),
         stderr,
         recording,
         wall,
@@ -226,10 +268,7 @@ pub fn fly(
 /// available there: `state` is left empty and the assertions read the
 /// gateway's timeline and recording.
 pub fn fly_ardupilot_sitl(binary: &Path, defaults: &Path, speedup: u32) -> Flown {
-    let scratch =
-        std::env::temp_dir().join(format!("petrel-ardupilot-sitl-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&scratch);
-    std::fs::create_dir_all(&scratch).expect("scratch folder");
+    let scratch = scratch("ardupilot-sitl");
     let recording = scratch.join("flight.mcap");
     // SITL writes its eeprom and logs into its working directory.
     let sitl = Command::new(binary)
@@ -254,29 +293,15 @@ pub fn fly_ardupilot_sitl(binary: &Path, defaults: &Path, speedup: u32) -> Flown
     std::thread::sleep(Duration::from_secs(3));
     let programs = format!("tcp:127.0.0.1:{}", free_port());
     let max_wall = Duration::from_secs_f64(600.0 / f64::from(speedup) + 30.0);
-    let dec_stop = Arc::new(AtomicBool::new(false));
-    let dec = {
-        let stop = dec_stop.clone();
-        let mission = project().join(super::MISSION_FILE);
-        let address = programs.clone();
-        std::thread::spawn(move || petrel_dec::serve_until(&address, &mission, stop))
-    };
+    let dec = Dec::start(&programs);
     let started = Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_petrel"))
-        .current_dir(root())
-        .arg("run")
-        .arg(project())
-        .args(["--mavlink", "tcpout:127.0.0.1:5760"])
-        .args(["--programs", &programs])
-        .args(["--time-scale", &speedup.to_string()])
-        .arg("--record")
-        .arg(&recording)
-        .args(["--duration", &format!("{:.0}", max_wall.as_secs_f64())])
-        .arg("--json")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("petrel runs");
+    let mut child = petrel_run(
+        "tcpout:127.0.0.1:5760",
+        &programs,
+        f64::from(speedup),
+        &recording,
+        max_wall,
+    );
     // The flight ends with `disarmed` after `landed`: read the timeline as
     // it comes, then stop the gateway cleanly.
     let mut stdout = String::new();
@@ -296,19 +321,11 @@ pub fn fly_ardupilot_sitl(binary: &Path, defaults: &Path, speedup: u32) -> Flown
             }
         }
     }
-    let mut stderr = String::new();
-    if let Some(mut e) = child.stderr.take() {
-        let _ = e.read_to_string(&mut stderr);
-    }
-    let _ = child.wait();
-    dec_stop.store(true, Ordering::Relaxed);
-    let _ = dec.join();
+    let (_, stderr) = stop(child);
+    dec.stop();
     Flown {
         state: SimState::default(),
-        timeline: stdout
-            .lines()
-            .filter_map(|l| serde_json::from_str(l).ok())
-            .collect(),
+        timeline: timeline(&stdout),
         stderr,
         recording,
         wall: started.elapsed(),
