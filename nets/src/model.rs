@@ -159,7 +159,8 @@ pub struct EventDecl {
 pub struct Limits {
     /// Firings (of immediate transitions) after one handled event.
     pub firings_per_step: usize,
-    /// Events handled in one run to completion.
+    /// Events handled in one run to completion; also timer expiries at
+    /// one instant.
     pub steps_per_input: usize,
 }
 

@@ -570,6 +570,79 @@ fn an_endless_chain_of_emitted_events_overflows_into_a_fault() {
     assert_eq!(player.state().queued(), 0);
 }
 
+#[test]
+fn a_timer_restarted_at_its_own_instant_is_an_overflow_fault_not_a_hang() {
+    // `tick` restarts itself with a zero duration each time it expires: at
+    // one instant, forever. Both inputs that fire timers must stop it.
+    let p = project(&[
+        (
+            "project.toml",
+            "[limits]\nsteps_per_input = 10\n[[net]]\nfile = \"n.toml\"\nactive = true\n",
+        ),
+        (
+            "n.toml",
+            r#"name = "N"
+places = ["a", "b"]
+initial = ["a"]
+[[transition]]
+name = "go"
+from = ["a"]
+to = ["a"]
+on = "go"
+do = ["timer tick after 0s", "timer later after 1s"]
+[[transition]]
+name = "spin"
+from = ["a"]
+to = ["a"]
+on = "tick"
+do = ["timer tick after 0s"]
+[[transition]]
+name = "later"
+from = ["a"]
+to = ["b"]
+on = "later"
+"#,
+        ),
+    ]);
+    for by_advance in [true, false] {
+        let mut player = Player::start(p.clone(), 0);
+        player.handle(&ev("go"), 0);
+        drain(&mut player);
+        if by_advance {
+            player.advance(2 * S);
+        } else {
+            player.handle(&ev("nothing"), 2 * S);
+        }
+        let effects = drain_effects(&mut player);
+        let spins = fired(&p, &effects);
+        assert_eq!(spins.len(), 11, "{by_advance}: {spins:?}");
+        assert!(spins[..10].iter().all(|f| f == "N.spin"));
+        assert_eq!(spins[10], "N.later");
+        let fault = effects
+            .iter()
+            .position(|e| {
+                matches!(
+                    e,
+                    Effect::Fault {
+                        time: 0,
+                        fault: Fault::Overflow { steps: 10 }
+                    }
+                )
+            })
+            .expect("an overflow fault at 0 s");
+        assert!(
+            matches!(&effects[fault + 1], Effect::Dropped { time: 0, event, reason: DropReason::Overflow } if event.name == "tick"),
+            "the looping timer's expiry is dropped, recorded"
+        );
+        // The timer due later is not dropped: it fires at its own deadline.
+        assert!(effects
+            .iter()
+            .any(|e| matches!(e, Effect::Fired { time, transition: 2, .. } if *time == S)));
+        assert_eq!(player.next_deadline(), None);
+        assert_eq!(marking(&player, "N"), ["b"]);
+    }
+}
+
 const LIFECYCLE: &str = r#"
 [events.job]
 params = ["size"]
@@ -760,46 +833,53 @@ on = "u"
         ("x.toml", &net("X")),
         ("y.toml", &net("Y").replace("on = \"go\"", "on = \"go_y\"").replace("on = \"again\"", "on = \"again_y\"")),
     ]);
-    let mut player = Player::start(p.clone(), 0);
-    drain(&mut player);
-    fire(&mut player, &ev("go"), 0);
-    fire(&mut player, &ev("go_y"), S);
-    // X's u expires at 4 s, Y's at 5 s; X's `t` is restarted at 3 s (now
-    // due at 5 s, started after Y's u). Y's t (11 s) is not X's t.
-    fire(&mut player, &ev("again"), 3 * S);
-    player.handle(&ev("nothing"), 20 * S);
-    let effects = drain_effects(&mut player);
-    let expiries: Vec<(String, u64)> = effects
-        .iter()
-        .filter_map(|e| match e {
-            Effect::TimerExpired { time, net, timer } => Some((
-                format!("{}.{}", p.nets[*net].name, p.nets[*net].timers[*timer]),
-                *time,
-            )),
+    // The same whether the due timers are fired by `handle` or `advance`.
+    for by_advance in [false, true] {
+        let mut player = Player::start(p.clone(), 0);
+        drain(&mut player);
+        fire(&mut player, &ev("go"), 0);
+        fire(&mut player, &ev("go_y"), S);
+        // X's u expires at 4 s, Y's at 5 s; X's `t` is restarted at 3 s (now
+        // due at 5 s, started after Y's u). Y's t (11 s) is not X's t.
+        fire(&mut player, &ev("again"), 3 * S);
+        if by_advance {
+            player.advance(20 * S);
+        } else {
+            player.handle(&ev("nothing"), 20 * S);
+        }
+        let effects = drain_effects(&mut player);
+        let expiries: Vec<(String, u64)> = effects
+            .iter()
+            .filter_map(|e| match e {
+                Effect::TimerExpired { time, net, timer } => Some((
+                    format!("{}.{}", p.nets[*net].name, p.nets[*net].timers[*timer]),
+                    *time,
+                )),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(
+            expiries,
+            [
+                ("X.u".into(), 4 * S),
+                ("Y.u".into(), 5 * S),
+                ("X.t".into(), 5 * S),
+                ("Y.t".into(), 11 * S)
+            ]
+        );
+        // X left b at 3 s, so its u finds nothing to fire; Y is still in b when
+        // its t expires, so it fires u_fired but not t_fired.
+        assert_eq!(fired(&p, &effects), ["Y.u_fired", "X.t_fired"]);
+        let t_fired_time = effects.iter().find_map(|e| match e {
+            Effect::Fired {
+                time,
+                transition: 2,
+                ..
+            } => Some(*time),
             _ => None,
-        })
-        .collect();
-    assert_eq!(
-        expiries,
-        [
-            ("X.u".into(), 4 * S),
-            ("Y.u".into(), 5 * S),
-            ("X.t".into(), 5 * S),
-            ("Y.t".into(), 11 * S)
-        ]
-    );
-    // X left b at 3 s, so its u finds nothing to fire; Y is still in b when
-    // its t expires, so it fires u_fired but not t_fired.
-    assert_eq!(fired(&p, &effects), ["Y.u_fired", "X.t_fired"]);
-    let t_fired_time = effects.iter().find_map(|e| match e {
-        Effect::Fired {
-            time,
-            transition: 2,
-            ..
-        } => Some(*time),
-        _ => None,
-    });
-    assert_eq!(t_fired_time, Some(5 * S), "handled at its own deadline");
+        });
+        assert_eq!(t_fired_time, Some(5 * S), "handled at its own deadline");
+    }
 }
 
 #[test]

@@ -347,7 +347,14 @@ impl Player {
         }
     }
 
+    /// Fires the timers due by `now`, each at its own deadline. A timer that
+    /// its own expiry restarts with a zero duration would expire again and
+    /// again at one instant: more than `steps_per_input` expiries at one
+    /// instant is an overflow fault, and the timers still due then are
+    /// dropped, recorded.
     fn expire_timers(&mut self, project: &Project, now: Micros) {
+        let mut instant = None;
+        let mut expiries = 0usize;
         while let Some(first) = self.state.timers.first() {
             if first.deadline > now {
                 break;
@@ -355,25 +362,44 @@ impl Player {
             let timer = self.state.timers.remove(0);
             let time = self.state.now.max(timer.deadline);
             self.state.now = time;
+            if instant == Some(time) {
+                expiries += 1;
+            } else {
+                instant = Some(time);
+                expiries = 1;
+            }
+            if expiries > project.limits.steps_per_input {
+                self.effects.push(Effect::Fault {
+                    time,
+                    fault: Fault::Overflow {
+                        steps: expiries - 1,
+                    },
+                });
+                let mut due = vec![timer];
+                while self
+                    .state
+                    .timers
+                    .first()
+                    .is_some_and(|t| t.deadline <= time)
+                {
+                    due.push(self.state.timers.remove(0));
+                }
+                for t in &due {
+                    self.effects.push(Effect::Dropped {
+                        time,
+                        event: timer_event(project, t),
+                        reason: DropReason::Overflow,
+                    });
+                }
+                continue;
+            }
             self.effects.push(Effect::TimerExpired {
                 time,
                 net: timer.net,
                 timer: timer.timer,
             });
-            let name = project.nets[timer.net].timers[timer.timer].clone();
-            let category = if timer.catastrophic {
-                Category::Catastrophic
-            } else {
-                project
-                    .declared_category(&name)
-                    .unwrap_or(Category::Nominal)
-            };
             self.state.push(Queued {
-                event: Event {
-                    name,
-                    category,
-                    params: Params::new(),
-                },
+                event: timer_event(project, &timer),
                 target: Some(timer.net),
             });
             self.run_queue(project, time, 0);
@@ -933,6 +959,25 @@ impl Player {
             net,
             marked,
         });
+    }
+}
+
+/// The event a timer's expiry delivers to its net: its name, no parameters,
+/// catastrophic if the catastrophic reaction started it, else the declared
+/// category or nominal.
+fn timer_event(project: &Project, timer: &Timer) -> Event {
+    let name = project.nets[timer.net].timers[timer.timer].clone();
+    let category = if timer.catastrophic {
+        Category::Catastrophic
+    } else {
+        project
+            .declared_category(&name)
+            .unwrap_or(Category::Nominal)
+    };
+    Event {
+        name,
+        category,
+        params: Params::new(),
     }
 }
 
