@@ -796,6 +796,105 @@ fn deactivation_removes_tokens_cancels_timers_forgets_calls_and_drops_late_resul
 }
 
 #[test]
+fn a_net_that_deactivates_itself_still_acts_but_a_new_activation_inherits_none_of_it() {
+    // WORKER's `quit` deactivates WORKER, then starts a timer and calls DEC:
+    // the call goes out (the world must hear it), but the net is inactive,
+    // so the expiry and the result are dropped, recorded; and a new
+    // activation starts clean, without the old timer or call.
+    let worker = r#"name = "WORKER"
+places = ["start", "busy", "done"]
+initial = ["start"]
+[[transition]]
+name = "quit"
+from = ["start"]
+to = ["busy"]
+on = "quit"
+do = ["deactivate WORKER", "timer t after 5s", "call DEC.f {x: 1}"]
+[[transition]]
+name = "expired"
+from = ["start"]
+to = ["done"]
+on = "t"
+[[transition]]
+name = "answered"
+from = ["start"]
+to = ["done"]
+on = "DEC.f.done"
+"#;
+    let p = project(&[
+        ("project.toml", LIFECYCLE),
+        ("boss.toml", BOSS),
+        ("worker.toml", worker),
+    ]);
+    let worker_net = p.net("WORKER").expect("WORKER");
+
+    // Left inactive: the expiry and the result are dropped, recorded.
+    let mut player = Player::start(p.clone(), 0);
+    fire(&mut player, &ev("hire"), 0);
+    player.handle(&ev("quit"), S);
+    let effects = drain_effects(&mut player);
+    let id = effects
+        .iter()
+        .find_map(|e| match e {
+            Effect::Call { id, .. } => Some(*id),
+            _ => None,
+        })
+        .expect("the call goes out");
+    assert!(!player.is_active(worker_net));
+    assert!(marking(&player, "WORKER").is_empty());
+    player.result(
+        id,
+        Outcome::Done(Params::from([("y".into(), Value::Int(1))])),
+        2 * S,
+    );
+    let effects = drain_effects(&mut player);
+    assert!(
+        matches!(&effects[..], [Effect::Dropped { event, reason: DropReason::NetInactive, .. }] if event.name == "DEC.f.done"),
+        "{effects:?}"
+    );
+    player.advance(10 * S);
+    let effects = drain_effects(&mut player);
+    assert!(effects.iter().any(|e| matches!(e, Effect::Dropped { event, reason: DropReason::NetInactive, .. } if event.name == "t")));
+    assert!(fired(&p, &effects).is_empty());
+
+    // Activated again before they come: the new activation cancels the old
+    // timer and forgets the old call, and receives neither.
+    let mut player = Player::start(p.clone(), 0);
+    fire(&mut player, &ev("hire"), 0);
+    player.handle(&ev("quit"), S);
+    let id = drain_effects(&mut player)
+        .iter()
+        .find_map(|e| match e {
+            Effect::Call { id, .. } => Some(*id),
+            _ => None,
+        })
+        .expect("the call goes out");
+    player.handle(&ev("hire"), 2 * S);
+    let effects = drain_effects(&mut player);
+    assert!(effects
+        .iter()
+        .any(|e| matches!(e, Effect::TimerCancelled { net, .. } if *net == worker_net)));
+    assert!(effects
+        .iter()
+        .any(|e| matches!(e, Effect::Forgotten { id: f, .. } if *f == id)));
+    assert_eq!(marking(&player, "WORKER"), ["start"]);
+    assert_eq!(player.next_deadline(), None);
+    assert!(player.state().pending.is_empty());
+    player.result(
+        id,
+        Outcome::Done(Params::from([("y".into(), Value::Int(1))])),
+        3 * S,
+    );
+    assert_eq!(
+        drain_effects(&mut player),
+        [Effect::LateResult { time: 3 * S, id }]
+    );
+    player.advance(10 * S);
+    assert!(drain_effects(&mut player).is_empty());
+    assert_eq!(marking(&player, "WORKER"), ["start"]);
+}
+
+#[test]
 fn timers_are_scoped_to_their_net_restart_and_expire_in_deadline_then_start_order_each_at_its_deadline(
 ) {
     let net = |name: &str| {

@@ -823,6 +823,10 @@ impl Player {
     }
 
     fn activate(&mut self, project: &Project, m: NetId, now: Micros) {
+        // A net can leave work behind while inactive: actions that follow
+        // its own `deactivate` in one firing. The new activation starts
+        // clean, inheriting none of it.
+        self.forget_work(m, now);
         self.state.active[m] = true;
         let offset = project.place_offsets[m];
         for (i, place) in project.nets[m].places.iter().enumerate() {
@@ -841,6 +845,15 @@ impl Player {
             self.state.set(p, false);
             self.consumed[p / 64] |= 1 << (p % 64);
         }
+        self.forget_work(m, now);
+        self.changed = true;
+        self.effects.push(Effect::Deactivated { time: now, net: m });
+        self.push_marking(now, Some(m));
+    }
+
+    /// Cancels net `m`'s timers, forgets its pending calls and commands, and
+    /// drops the results and expiries already queued for it.
+    fn forget_work(&mut self, m: NetId, now: Micros) {
         let mut cancelled = Vec::new();
         self.state.timers.retain(|x| {
             if x.net == m {
@@ -875,6 +888,9 @@ impl Player {
         // Results and timer expiries already queued for it are dropped now,
         // so that a later activation does not receive them.
         for queue in self.state.queue.iter_mut() {
+            if !queue.iter().any(|q| q.target == Some(m)) {
+                continue;
+            }
             let mut kept = std::collections::VecDeque::with_capacity(queue.len());
             for q in queue.drain(..) {
                 if q.target == Some(m) {
@@ -889,9 +905,6 @@ impl Player {
             }
             *queue = kept;
         }
-        self.changed = true;
-        self.effects.push(Effect::Deactivated { time: now, net: m });
-        self.push_marking(now, Some(m));
     }
 
     /// Fires immediate transitions, first declared first, until none is
