@@ -244,3 +244,128 @@ pub fn play_line(player: &mut Player, line: &Line) -> Result<(), ScriptError> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn one(line: &str) -> Input {
+        let lines = parse(line).unwrap_or_else(|e| panic!("{line}: {e}"));
+        assert_eq!(lines.len(), 1);
+        lines[0].input.clone()
+    }
+
+    #[test]
+    fn every_form() {
+        let lines = parse(
+            "# a comment\n\n// another\n{\"t\": 12.5, \"event\": \"ready\", \"params\": {\"alt\": 3}, \"category\": \"safety\"}\n{\"t\": 14}\n",
+        )
+        .expect("parses");
+        assert_eq!(lines.len(), 2);
+        assert_eq!((lines[0].number, lines[0].time), (4, 12_500_000));
+        assert_eq!(
+            lines[0].input,
+            Input::Event(
+                Event::new("ready")
+                    .category(Category::Safety)
+                    .param("alt", 3)
+            )
+        );
+        assert_eq!((lines[1].number, lines[1].time), (5, 14_000_000));
+        assert_eq!(lines[1].input, Input::Advance);
+        assert_eq!(
+            one(r#"{"t": 1, "reply": "DEC.next", "params": {"lat": 43.5}}"#),
+            Input::Reply {
+                to: ReplyTo::Call {
+                    program: "DEC".into(),
+                    function: "next".into()
+                },
+                outcome: Outcome::Done(Params::from([("lat".into(), Value::Float(43.5))])),
+            }
+        );
+        assert_eq!(
+            one(r#"{"t": 1, "reply": "command.arm", "failed": "denied"}"#),
+            Input::Reply {
+                to: ReplyTo::Command { verb: "arm".into() },
+                outcome: Outcome::Failed("denied".into()),
+            }
+        );
+        assert_eq!(
+            one(r#"{"t": 1, "reply": 7}"#),
+            Input::Reply {
+                to: ReplyTo::Id(7),
+                outcome: Outcome::Done(Params::new()),
+            }
+        );
+    }
+
+    #[test]
+    fn bad_lines_report_their_line_and_column() {
+        let cases = [
+            ("{\"t\": 1, \"event\": \"x\"}\n{\"t\": 0.5, \"event\": \"y\"}", "2:1: `t` goes backwards (0.5 after 1)"),
+            ("{\"t\": 1, \"event\": }", "1:19: not JSON: expected value at line 1 column 19"),
+            ("  [1, 2]", "1:1: expected a JSON object"),
+            ("{\"event\": \"x\"}", "1:1: missing `t` (seconds, a number)"),
+            ("{\"t\": -1}", "1:1: `t` = -1 is out of range (0 to 1e9 seconds)"),
+            ("{\"t\": 1, \"evnt\": \"x\"}", "1:1: unknown key `evnt` (expected t, event, params, category, reply, failed)"),
+            ("{\"t\": 1, \"event\": \"\"}", "1:1: `event` must be a non-empty string"),
+            ("{\"t\": 1, \"event\": \"x\", \"params\": [1]}", "1:1: `params` must be an object"),
+            ("{\"t\": 1, \"event\": \"x\", \"params\": {\"a\": null}}", "1:1: parameter `a` is null"),
+            ("{\"t\": 1, \"event\": \"x\", \"category\": \"urgent\"}", "1:1: unknown category `urgent` (expected catastrophic, safety, communication, mission or nominal)"),
+            ("{\"t\": 1, \"event\": \"x\", \"failed\": \"no\"}", "1:1: `failed` belongs to replies"),
+            ("{\"t\": 1, \"event\": \"x\", \"reply\": 3}", "1:1: a line is an `event` or a `reply`, not both"),
+            ("{\"t\": 1, \"reply\": \"DEC\"}", "1:1: `reply` must be PROGRAM.FUNCTION, command.VERB or an id, not `DEC`"),
+            ("{\"t\": 1, \"reply\": -3}", "1:1: a reply id is a positive integer"),
+            ("{\"t\": 1, \"reply\": \"DEC.f\", \"category\": \"safety\"}", "1:1: `category` belongs to events: a reply's category comes from its call"),
+            ("{\"t\": 1, \"reply\": \"DEC.f\", \"failed\": \"no\", \"params\": {\"a\": 1}}", "1:1: a failed reply carries a reason, not `params`"),
+            ("{\"t\": 1, \"reply\": \"DEC.f\", \"failed\": 3}", "1:1: `failed` must be a string (the reason)"),
+            ("{\"t\": 1, \"params\": {}}", "1:1: a line with neither `event` nor `reply` only lets time pass: it takes only `t`"),
+        ];
+        let mut failures = Vec::new();
+        for (text, expected) in cases {
+            match parse(text) {
+                Ok(_) => failures.push(format!("{text}: parsed")),
+                Err(e) if e.to_string() != expected => {
+                    failures.push(format!("{text}:\n  expected {expected}\n  got      {e}"))
+                }
+                Err(_) => {}
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    #[test]
+    fn a_reply_by_name_answers_the_oldest_pending_call_and_a_missing_one_is_an_error() {
+        let files: std::collections::BTreeMap<String, String> = [
+            ("project.toml".to_owned(), "[programs.DEC.functions]\nf = {}\n[[net]]\nfile = \"n.toml\"\nactive = true\n".to_owned()),
+            ("n.toml".to_owned(), "name = \"N\"\nplaces = [\"a\"]\ninitial = [\"a\"]\n[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"a\"]\non = \"go\"\ndo = [\"command arm\", \"call DEC.f\"]\n".to_owned()),
+        ]
+        .into();
+        let project = std::sync::Arc::new(crate::load(&files).expect("loads"));
+        let mut player = Player::start(project, 0);
+        let lines = parse(
+            "{\"t\": 1, \"event\": \"go\"}\n{\"t\": 2, \"event\": \"go\"}\n{\"t\": 3, \"reply\": \"DEC.f\"}\n{\"t\": 4, \"reply\": \"command.arm\"}\n{\"t\": 5, \"reply\": \"command.disarm\"}\n",
+        )
+        .expect("parses");
+        for line in &lines[..2] {
+            play_line(&mut player, line).expect("plays");
+        }
+        // Ids: arm 1, DEC.f 2, arm 3, DEC.f 4.
+        for (line, id) in [(&lines[2], 2), (&lines[3], 1)] {
+            let Input::Reply { to, .. } = &line.input else {
+                panic!("a reply")
+            };
+            assert_eq!(resolve(&player, line, to), Ok(id));
+            play_line(&mut player, line).expect("plays");
+        }
+        let ids: Vec<u64> = player.state().pending.keys().copied().collect();
+        assert_eq!(ids, [3, 4]);
+        assert_eq!(
+            play_line(&mut player, &lines[4]).map_err(|e| e.to_string()),
+            Err(
+                "5:1: no pending `disarm` command to reply to (reply by id to send a late result)"
+                    .into()
+            )
+        );
+    }
+}

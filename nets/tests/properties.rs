@@ -268,3 +268,45 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    /// `petrel play`'s input never panics: an example script with random
+    /// characters cut, replaced or inserted is refused with a position, or
+    /// plays to the end (a reply with nothing to answer is an error, not a
+    /// panic); wholly random text too.
+    #[test]
+    fn scripts_never_panic(
+        script in 0usize..3,
+        edits in prop::collection::vec((any::<prop::sample::Index>(), 0usize..3, "[ -~\n]{0,8}"), 1..6),
+        garbage in "\\PC{0,200}",
+    ) {
+        let name = ["nominal.jsonl", "payload_failure.jsonl", "engine_failure.jsonl"][script];
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-survey/scripts");
+        let mut text: Vec<char> = std::fs::read_to_string(dir.join(name)).expect("script").chars().collect();
+        for (at, kind, s) in &edits {
+            let i = at.index(text.len().max(1)).min(text.len());
+            match kind {
+                0 => { text.splice(i..(i + s.len()).min(text.len()), std::iter::empty()); }
+                1 => { text.splice(i..(i + s.chars().count()).min(text.len()), s.chars()); }
+                _ => { text.splice(i..i, s.chars()); }
+            }
+        }
+        let project = example();
+        for text in [text.into_iter().collect::<String>(), garbage] {
+            match nets::script::parse(&text) {
+                Ok(lines) => {
+                    let mut player = Player::start(project.clone(), 0);
+                    for line in &lines {
+                        if nets::script::play_line(&mut player, line).is_err() {
+                            break;
+                        }
+                        let _ = player.effects().count();
+                    }
+                }
+                Err(e) => prop_assert!(e.line >= 1 && e.column >= 1),
+            }
+        }
+    }
+}
