@@ -411,9 +411,23 @@ mod tests {
             mode_name(Firmware::Px4, (4 << 16) | (4 << 24)),
             "AUTO_MISSION"
         );
+        assert_eq!(mode_name(Firmware::Rover, 4), "HOLD");
+        assert_eq!(mode_name(Firmware::Rover, 10), "AUTO");
+        assert_eq!(mode_name(Firmware::Sub, 2), "ALT_HOLD");
+        assert_eq!(mode_name(Firmware::Px4, 3 << 16), "POSCTL");
+        assert_eq!(mode_name(Firmware::Px4, 4 << 16), "AUTO");
+        assert_eq!(mode_name(Firmware::Px4, (4 << 16) | (6 << 24)), "AUTO_LAND");
+        assert_eq!(mode_name(Firmware::Px4, 99 << 16), "MODE_6488064");
+        assert_eq!(mode_name(Firmware::Other, 3), "MODE_3");
         assert_eq!(mode_name(Firmware::Copter, 999), "MODE_999");
         assert_eq!(Firmware::from_heartbeat(3, 2), Firmware::Copter);
         assert_eq!(Firmware::from_heartbeat(3, 1), Firmware::Plane);
         assert_eq!(Firmware::from_heartbeat(12, 2), Firmware::Px4);
+        assert_eq!(Firmware::from_heartbeat(3, 10), Firmware::Rover);
+        assert_eq!(Firmware::from_heartbeat(3, 11), Firmware::Rover);
+        assert_eq!(Firmware::from_heartbeat(3, 12), Firmware::Sub);
+        assert_eq!(Firmware::from_heartbeat(3, 20), Firmware::Plane);
+        assert_eq!(Firmware::from_heartbeat(3, 6), Firmware::Other);
+        assert_eq!(Firmware::from_heartbeat(0, 2), Firmware::Other);
     }
 }

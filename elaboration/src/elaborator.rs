@@ -302,12 +302,15 @@ impl Elaborator {
             },
         };
         src.last_by_slot[slot] = Some(now);
-        if self.profile.slots[slot].decode && !self.decode_into(si, slot, msgid, input) {
-            return;
-        }
+        // A frame that does not decode still proves its sender alive: the
+        // rules that only time this message (`age(MSG)`, as link_lost) are
+        // evaluated on it; those reading its fields are not (their values
+        // would be the previous message's).
+        let decoded = !self.profile.slots[slot].decode || self.decode_into(si, slot, msgid, input);
         for k in 0..self.profile.by_slot[slot].len() {
             let r = self.profile.by_slot[slot][k];
-            if self.matches(&self.profile.rules[r].source, si) {
+            let rule = &self.profile.rules[r];
+            if (decoded || !rule.reads_fields_of(slot)) && self.matches(&rule.source, si) {
                 self.evaluate(r, si, true);
             }
         }

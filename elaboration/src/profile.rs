@@ -113,6 +113,15 @@ pub struct Rule {
     pub(crate) ages: bool,
 }
 
+impl Rule {
+    /// Whether the rule reads fields of the message in `slot` (not only its
+    /// age).
+    pub(crate) fn reads_fields_of(&self, slot: usize) -> bool {
+        self.when.reads.contains(&slot)
+            || self.clear.as_ref().is_some_and(|c| c.reads.contains(&slot))
+    }
+}
+
 /// A message the profile reads or times.
 #[derive(Debug, Clone)]
 pub(crate) struct Slot {
@@ -799,6 +808,28 @@ mod tests {
         assert_eq!(lines[2], (7, 9));
         assert_eq!(lines[3], (8, 7));
         assert_eq!(lines[4], (9, 1));
+    }
+
+    #[test]
+    fn problems_of_every_layer_come_together_each_with_its_file() {
+        let base = "[rules.a]\ncategory = \"safety\"\nwhen = \"HEARTBEAT.nope == 1\"\n";
+        let user = "[rules.a]\ncategory = \"fatal\"\n\n[rules.b]\ncategory = \"mission\"\nwhen = \"age(NOT_A_MESSAGE) > 2\"\nfor = \"soon\"\n";
+        let err = Profile::load(&[("base.toml", base), ("user.toml", user)]).expect_err("invalid");
+        let got: Vec<String> = err
+            .problems
+            .iter()
+            .map(|p| format!("{}:{}:{}", p.file, p.line, p.col))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                "base.toml:3:9",
+                "user.toml:2:12",
+                "user.toml:6:13",
+                "user.toml:7:7"
+            ],
+            "{err}"
+        );
     }
 
     #[test]

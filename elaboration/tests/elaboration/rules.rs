@@ -578,3 +578,225 @@ fn builtin_px4_modes_takeoff_and_landing() {
         ]
     );
 }
+
+/// `mode()` and `firmware()` by autopilot and vehicle type: the same
+/// `custom_mode` names a different mode on each ArduPilot vehicle; PX4
+/// packs main and sub modes.
+#[test]
+fn modes_are_named_per_autopilot_and_vehicle_type() {
+    let rules = r#"
+[rules.mode]
+category = "nominal"
+each = true
+when = "HEARTBEAT.custom_mode >= 0"
+params = { mode = "mode()", firmware = "firmware()" }
+"#;
+    let ardupilot = MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA;
+    let px4 = MavAutopilot::MAV_AUTOPILOT_PX4;
+    let cases = [
+        (ardupilot, MavType::MAV_TYPE_QUADROTOR, 6, "RTL", "copter"),
+        (
+            ardupilot,
+            MavType::MAV_TYPE_HEXAROTOR,
+            16,
+            "POSHOLD",
+            "copter",
+        ),
+        (
+            ardupilot,
+            MavType::MAV_TYPE_HELICOPTER,
+            5,
+            "LOITER",
+            "copter",
+        ),
+        (
+            ardupilot,
+            MavType::MAV_TYPE_FIXED_WING,
+            6,
+            "FLY_BY_WIRE_B",
+            "plane",
+        ),
+        (ardupilot, MavType::MAV_TYPE_FIXED_WING, 11, "RTL", "plane"),
+        // A QuadPlane reports a VTOL type: plane modes.
+        (
+            ardupilot,
+            MavType::MAV_TYPE_VTOL_TILTROTOR,
+            17,
+            "QSTABILIZE",
+            "plane",
+        ),
+        (
+            ardupilot,
+            MavType::MAV_TYPE_GROUND_ROVER,
+            6,
+            "FOLLOW",
+            "rover",
+        ),
+        (
+            ardupilot,
+            MavType::MAV_TYPE_SURFACE_BOAT,
+            4,
+            "HOLD",
+            "rover",
+        ),
+        (ardupilot, MavType::MAV_TYPE_SUBMARINE, 19, "MANUAL", "sub"),
+        (ardupilot, MavType::MAV_TYPE_SUBMARINE, 2, "ALT_HOLD", "sub"),
+        (px4, MavType::MAV_TYPE_QUADROTOR, 3 << 16, "POSCTL", "px4"),
+        (
+            px4,
+            MavType::MAV_TYPE_FIXED_WING,
+            (4 << 16) | (5 << 24),
+            "AUTO_RTL",
+            "px4",
+        ),
+        (
+            px4,
+            MavType::MAV_TYPE_QUADROTOR,
+            (4 << 16) | (3 << 24),
+            "AUTO_LOITER",
+            "px4",
+        ),
+        (px4, MavType::MAV_TYPE_QUADROTOR, 6 << 16, "OFFBOARD", "px4"),
+        (
+            ardupilot,
+            MavType::MAV_TYPE_QUADROTOR,
+            999,
+            "MODE_999",
+            "copter",
+        ),
+    ];
+    for (autopilot, mavtype, custom_mode, mode, firmware) in cases {
+        let mut r = Run::new(rules);
+        r.send(
+            0,
+            &MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                custom_mode,
+                mavtype,
+                autopilot,
+                base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                system_status: MavState::MAV_STATE_STANDBY,
+                mavlink_version: 3,
+            }),
+        );
+        assert_eq!(
+            r.names(),
+            [(
+                0,
+                format!("mode {{firmware: \"{firmware}\", mode: \"{mode}\"}}")
+            )],
+            "{autopilot:?} {mavtype:?} {custom_mode}"
+        );
+    }
+}
+
+#[test]
+fn clear_for_holds_the_clear_condition_before_re_arming() {
+    let rules = r#"
+[rules.low]
+category = "safety"
+when = "SYS_STATUS.battery_remaining < 25"
+clear_for = "3s"
+cleared = "low_over"
+"#;
+    let mut r = Run::new(rules);
+    r.send(0, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    r.send(S, &sys_status(20));
+    r.send(2 * S, &sys_status(40)); // above for 1 s only
+    r.send(3 * S, &sys_status(20)); // still the same episode: no new event
+    r.send(4 * S, &sys_status(40));
+    r.tick(7 * S - 1);
+    assert_eq!(r.names(), [(S, "low".to_string())]);
+    r.tick(7 * S); // above for 3 s: cleared, on the tick
+    r.send(8 * S, &sys_status(20)); // a new episode
+    assert_eq!(
+        r.names(),
+        [
+            (S, "low".to_string()),
+            (7 * S, "low_over".to_string()),
+            (8 * S, "low".to_string())
+        ]
+    );
+}
+
+/// A rule is evaluated on the messages it reads, nothing else; frames of
+/// messages no rule reads are not decoded.
+#[test]
+fn only_the_rules_reading_a_message_are_evaluated_on_it() {
+    let rules = r#"
+[rules.battery]
+category = "nominal"
+each = true
+when = "SYS_STATUS.battery_remaining >= 0"
+[rules.gps]
+category = "nominal"
+each = true
+when = "GPS_RAW_INT.satellites_visible >= 0"
+"#;
+    let mut r = Run::new(rules);
+    let attitude = MavMessage::ATTITUDE(ATTITUDE_DATA::DEFAULT);
+    r.send(0, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    for i in 1..=5 {
+        r.send(i * S, &attitude);
+        r.send(i * S + 1, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    }
+    r.send(6 * S, &sys_status(50));
+    r.send(7 * S, &attitude);
+    r.send(8 * S, &sys_status(50));
+    r.send(9 * S, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    assert_eq!(
+        r.names(),
+        [
+            (6 * S, "battery".to_string()),
+            (8 * S, "battery".to_string())
+        ]
+    );
+    let stats = r.elab.stats();
+    assert_eq!(stats.frames, 15);
+    // 7 HEARTBEATs (always decoded: they name the senders) and 2
+    // SYS_STATUS; the 6 ATTITUDE frames are only counted.
+    assert_eq!(stats.decoded, 9);
+}
+
+/// An undecodable HEARTBEAT (a MAV_TYPE rust-mavlink does not know) from
+/// the autopilot restores the link on its own frame, while the rules that
+/// read HEARTBEAT fields keep their state.
+#[test]
+fn an_undecodable_heartbeat_restores_the_link_on_its_own_frame() {
+    let rules = r#"
+[rules.link_lost]
+category = "communication"
+when = "age(HEARTBEAT) > 3.5"
+cleared = "link_restored"
+[rules.mode_changed]
+category = "nominal"
+each = true
+when = "changed(HEARTBEAT.custom_mode)"
+"#;
+    let undecodable = |seq: u8, custom_mode: u32| {
+        let mut bytes = serialize(
+            header(1, 1, seq),
+            MavlinkVersion::V2,
+            &heartbeat(false, custom_mode, MavState::MAV_STATE_STANDBY),
+        );
+        bytes[10 + 4] = 250; // HEARTBEAT.type
+        let end = bytes.len() - 2;
+        let crc = mavlink::calculate_crc(&bytes[1..end], extra_crc(0).expect("HEARTBEAT"));
+        bytes[end..].copy_from_slice(&crc.to_le_bytes());
+        bytes
+    };
+    let mut r = Run::new(rules);
+    r.send(0, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    let late = undecodable(1, 5);
+    let frame = Frame::parse(&late).expect("CRC is valid");
+    assert!(frame.decode().is_err());
+    r.elab.frame(6 * S + 123, &frame);
+    r.elab.drain_into(&mut r.out);
+    assert_eq!(
+        r.names(),
+        [
+            (3 * S + 600_000, "link_lost".to_string()),
+            (6 * S + 123, "link_restored".to_string())
+        ]
+    );
+    assert_eq!(r.elab.stats().decode_failures.get(&0), Some(&1));
+}
