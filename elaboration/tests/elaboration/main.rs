@@ -4,6 +4,7 @@
 mod properties;
 mod real_flights;
 mod rules;
+mod vocabulary;
 
 use elaboration::{Config, Elaborated, Elaborator, Profile, ReadStats, Stats, TlogReader};
 

@@ -347,6 +347,10 @@ fn apm_copter_mission_flight() {
             "ready_for_takeoff {battery: -1, satellites: 10}",
             EXACT,
         ),
+        // APM 2.x stays ACTIVE on the ground: the copter has landed when it
+        // disarms (the pilot cut the throttle at 470.0 s, 2.3 m of baro
+        // drift left on the relative altitude).
+        (472.344, "landed", EXACT),
         // The autopilot's last HEARTBEAT is at 510.484 (the ground station
         // goes on alone until 570.8).
         (513.984, "link_lost", TIMEOUT),
@@ -405,6 +409,8 @@ fn apm_log_starting_in_flight_and_radio_gaps() {
                 "ready_for_takeoff {battery: -1, satellites: 13}",
                 EXACT,
             ),
+            // Disarmed while still ACTIVE (APM 2.x): landed.
+            (362.344, "landed", EXACT),
             (418.406, "link_lost", TIMEOUT),
             // SiK RADIO: remote end silent from 419.625; the in-flight dips
             // under a margin of 10 (81.6, 88.8, 110.7, 131.7, 170.7 s) last
@@ -439,6 +445,9 @@ fn apm_second_mission_flight() {
         "{:?}",
         times("disarmed")
     );
+    // APM 2.x stays ACTIVE on the ground: landed when it disarms.
+    assert!(near(times("landed"), 567.671875), "{:?}", times("landed"));
+    assert!(times("takeoff").is_empty(), "{:?}", times("takeoff"));
     let modes: Vec<String> = named("mode_changed")
         .into_iter()
         .map(|(t, s)| format!("{t:.3} {s}"))
@@ -475,7 +484,9 @@ fn apm_second_mission_flight() {
     );
     // The log ends inside a frame: the tail is counted, not fatal.
     assert_eq!(read.truncated_tail, 9);
-    assert_eq!(events.len(), 1 + 1 + 5 + 26 + 1 + 1 + 1 + 1, "{events:#?}");
+    // armed, disarmed, 5 modes, 26 items, landed, ready_for_takeoff (11.5 s
+    // and at the disarm), link_lost, link_degraded.
+    assert_eq!(events.len(), 1 + 1 + 5 + 26 + 1 + 2 + 1 + 1, "{events:#?}");
 }
 
 #[test]
