@@ -185,7 +185,16 @@ impl Loader {
             Ok(t) => Some(t),
             Err(e) => {
                 let span = e.span().unwrap_or(0..0);
-                let message = e.message().trim().replace('\n', " ");
+                let mut message = e.message().trim().replace('\n', " ");
+                // TOML says only "duplicate key": name it.
+                if message == "duplicate key" {
+                    if let Some(key) = file.text.get(span.clone()) {
+                        let key = key.trim().trim_matches(|c| c == '"' || c == '\'');
+                        if !key.is_empty() && !key.contains('\n') {
+                            message = format!("duplicate key `{key}`: a name is declared once");
+                        }
+                    }
+                }
                 self.problem(file, span, message);
                 None
             }

@@ -149,6 +149,10 @@ fn broken_net_files_report_the_exact_problem_and_position() {
             vec!["n.toml:7:1: unknown field `guard`, expected one of `name`, `description`, `from`, `to`, `on`, `when`, `do`"],
         ),
         (
+            format!("{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nfrom = [\"b\"]\n"),
+            vec!["n.toml:7:1: duplicate key `from`: a name is declared once"],
+        ),
+        (
             "name = \"N\"\nplaces = [\"a\"\n".to_owned(),
             vec!["n.toml:2:14: unclosed array, expected `]`"],
         ),
@@ -200,6 +204,25 @@ fn broken_project_files_report_the_exact_problem_and_position() {
             vec!["project.toml:1:1: unknown field `nets`, expected one of `name`, `description`, `net`, `globals`, `programs`, `events`, `limits`, `gateway`"],
         ),
         ("", vec!["project.toml:1:1: the project has no nets: add [[net]] tables with file = \"NAME.toml\""]),
+        (
+            "[globals]\nflying = false\nflying = true\n[[net]]\nfile = \"n.toml\"\n",
+            vec!["project.toml:3:1: duplicate key `flying`: a name is declared once"],
+        ),
+        (
+            "[programs.DEC.functions]\nf = {}\n[programs.DEC.functions]\ng = {}\n[[net]]\nfile = \"n.toml\"\n",
+            vec!["project.toml:3:15: duplicate key `functions`: a name is declared once"],
+        ),
+        (
+            "[events]\nwp = { params = [\"seq\", \"seq\"] }\n[programs.DEC.functions]\nf = { args = [\"a\", \"a\"] }\n[[net]]\nfile = \"n.toml\"\n",
+            vec![
+                "project.toml:4:20: duplicate argument `a` of DEC.f",
+                "project.toml:2:6: duplicate parameter `seq` of event `wp`",
+            ],
+        ),
+        (
+            "[[net]]\nfile = \"n.toml\"\ndelay = \"5 parsecs\"\n",
+            vec!["project.toml:3:1: unknown field `delay`, expected `file` or `active`"],
+        ),
         (
             "[programs.command.functions]\nx = {}\n[[net]]\nfile = \"n.toml\"\n",
             vec!["project.toml:1:11: `command` is reserved for vehicle commands: choose another program name"],
