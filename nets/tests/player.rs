@@ -1183,6 +1183,114 @@ fn the_digest_hashes_the_documented_byte_layout() {
 }
 
 #[test]
+fn the_digest_layout_covers_the_lockout_calls_queues_and_every_value_kind() {
+    use nets::player::{Pending, PendingKind, Queued, State};
+    // A state written by hand (queues are empty between inputs, so this one
+    // is built rather than played), then its bytes by hand from docs/nets.md.
+    let mut queue: [std::collections::VecDeque<Queued>; 5] = Default::default();
+    queue[1].push_back(Queued {
+        event: Event {
+            name: "e".into(),
+            category: Category::Safety,
+            params: Params::from([
+                ("b".into(), Value::Bool(true)),
+                ("f".into(), Value::Float(1.5)),
+                ("i".into(), Value::Int(-2)),
+                ("l".into(), Value::List(vec![Value::Str("x".into())])),
+                (
+                    "m".into(),
+                    Value::Map(Params::from([("k".into(), Value::Int(1))])),
+                ),
+            ]),
+        },
+        target: Some(2),
+    });
+    queue[4].push_back(Queued {
+        event: Event::new("n"),
+        target: None,
+    });
+    let state = State {
+        now: 3,
+        marking: vec![5],
+        active: vec![true, false],
+        timers: Vec::new(),
+        queue,
+        lockout: true,
+        pending: [(
+            7,
+            Pending {
+                net: 1,
+                kind: PendingKind::Call {
+                    program: 2,
+                    function: 3,
+                },
+                catastrophic: true,
+            },
+        )]
+        .into(),
+        next_id: 8,
+        next_timer_seq: 0,
+    };
+    let str_ = |out: &mut Vec<u8>, s: &str| {
+        out.extend((s.len() as u32).to_le_bytes());
+        out.extend(s.as_bytes());
+    };
+    let mut x: Vec<u8> = b"petrel.player.state".to_vec();
+    x.push(1);
+    x.extend(3u64.to_le_bytes()); // now
+    x.push(1); // lockout
+    x.extend(1u32.to_le_bytes());
+    x.extend(5u64.to_le_bytes()); // marking
+    x.extend(2u32.to_le_bytes());
+    x.extend([1, 0]); // active
+    x.extend(0u32.to_le_bytes()); // no timers
+    x.extend(0u32.to_le_bytes()); // catastrophic queue
+    x.extend(1u32.to_le_bytes()); // safety queue: one event
+    str_(&mut x, "e");
+    x.push(1); // safety
+    x.extend(5u32.to_le_bytes()); // five params, keys in order
+    str_(&mut x, "b");
+    x.extend([0, 1]);
+    str_(&mut x, "f");
+    x.push(2);
+    x.extend(1.5f64.to_bits().to_le_bytes());
+    str_(&mut x, "i");
+    x.push(1);
+    x.extend((-2i64).to_le_bytes());
+    str_(&mut x, "l");
+    x.push(4);
+    x.extend(1u32.to_le_bytes());
+    x.push(3);
+    str_(&mut x, "x");
+    str_(&mut x, "m");
+    x.push(5);
+    x.extend(1u32.to_le_bytes());
+    str_(&mut x, "k");
+    x.push(1);
+    x.extend(1i64.to_le_bytes());
+    x.push(1); // has target
+    x.extend(2u32.to_le_bytes());
+    x.extend(0u32.to_le_bytes()); // communication
+    x.extend(0u32.to_le_bytes()); // mission
+    x.extend(1u32.to_le_bytes()); // nominal: one event
+    str_(&mut x, "n");
+    x.push(4);
+    x.extend(0u32.to_le_bytes()); // no params
+    x.push(0); // no target
+    x.extend(0u32.to_le_bytes());
+    x.extend(1u32.to_le_bytes()); // one pending
+    x.extend(7u64.to_le_bytes());
+    x.extend(1u32.to_le_bytes()); // net
+    x.push(1); // catastrophic
+    x.push(0); // a call
+    x.extend(2u32.to_le_bytes());
+    x.extend(3u32.to_le_bytes());
+    x.extend(8u64.to_le_bytes()); // next id
+    x.extend(0u64.to_le_bytes()); // next timer seq
+    assert_eq!(nets::player::canonical_bytes(&state), x);
+}
+
+#[test]
 fn the_same_inputs_give_the_same_effects_and_digests() {
     let p = project(&[
         ("project.toml", LIFECYCLE),
