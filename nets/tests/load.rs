@@ -271,3 +271,86 @@ fn the_miette_report_shows_the_line_and_a_caret() {
     assert!(out.contains("do = [\"activate MISSON\"]"), "{out}");
     assert!(out.contains("╰── here"), "{out}");
 }
+
+/// docs/nets.md shows every construct with an example: each TOML block must
+/// be TOML, and each action, guard and duration in it (and in the actions
+/// table) must parse.
+#[test]
+fn the_examples_in_docs_nets_md_parse() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/nets.md");
+    let doc = std::fs::read_to_string(&path).expect("docs/nets.md");
+    fn walk(v: &toml::Value, key: &str, checked: &mut usize, failures: &mut Vec<String>) {
+        match v {
+            toml::Value::Table(t) => {
+                for (k, v) in t {
+                    walk(v, k, checked, failures);
+                }
+            }
+            toml::Value::Array(a) => {
+                for item in a {
+                    if let (true, toml::Value::String(s)) = (key == "do", item) {
+                        *checked += 1;
+                        if let Err(e) = nets::action::parse(s) {
+                            failures.push(format!("action `{s}`: {}", e.message));
+                        }
+                    } else {
+                        walk(item, key, checked, failures);
+                    }
+                }
+            }
+            toml::Value::String(s) if key == "when" => {
+                *checked += 1;
+                if let Err(e) = nets::expr::parse(s, nets::expr::Context::Guard) {
+                    failures.push(format!("guard `{s}`: {}", e.message));
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut failures = Vec::new();
+    let mut blocks = 0;
+    let mut checked = 0;
+    let mut table = 0;
+    let mut rest = doc.as_str();
+    while let Some(start) = rest.find("```toml\n") {
+        let body = &rest[start + 8..];
+        let end = body.find("```").expect("a closed block");
+        blocks += 1;
+        match body[..end].parse::<toml::Table>() {
+            Ok(t) => walk(&toml::Value::Table(t), "", &mut checked, &mut failures),
+            Err(e) => failures.push(format!("block {blocks}: {e}")),
+        }
+        rest = &body[end + 3..];
+    }
+    // The actions table: | `FORM` | `example` | what it does |
+    for line in doc.lines().filter(|l| l.starts_with("| `")) {
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        if cells.len() < 4 || !cells[2].starts_with('`') {
+            continue;
+        }
+        let (form, example) = (cells[1], cells[2].trim_matches('`'));
+        let is_action = [
+            "`activate",
+            "`deactivate",
+            "`emit",
+            "`timer",
+            "`cancel",
+            "`call",
+            "`command",
+        ]
+        .iter()
+        .any(|a| form.starts_with(a));
+        if is_action {
+            table += 1;
+            if let Err(e) = nets::action::parse(example) {
+                failures.push(format!("table action `{example}`: {}", e.message));
+            }
+        }
+    }
+    assert!(
+        blocks >= 5 && checked >= 10,
+        "{blocks} blocks, {checked} checked"
+    );
+    assert_eq!(table, 7, "one row per action in the actions table");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
