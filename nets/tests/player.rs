@@ -367,6 +367,11 @@ name = "watchdog"
 from = ["landed"]
 to = ["landed"]
 on = "watchdog"
+[[transition]]
+name = "squawk"
+from = ["ground"]
+to = ["ground"]
+on = "mayday"
 "#;
 
 #[test]
@@ -414,6 +419,12 @@ fn the_catastrophic_lockout_drops_everything_but_the_reactions_own_consequences(
     );
     // The emitted event inherits the catastrophic category.
     assert!(effects.iter().any(|e| matches!(e, Effect::Emitted { event, .. } if event.name == "mayday" && event.category == Category::Catastrophic)));
+    // …and is handled under the lockout.
+    assert_eq!(
+        fired(&p, &effects),
+        ["EMERGENCY.engine", "EMERGENCY.squawk"]
+    );
+    assert!(!effects.iter().any(|e| matches!(e, Effect::Dropped { .. })));
     let site_call = effects
         .iter()
         .find_map(|e| match e {
