@@ -207,6 +207,49 @@ do = ["emit seen"]
 }
 
 #[test]
+fn a_double_token_immediate_firing_is_rejected_once_and_the_next_one_fires() {
+    // `fill` would put a second token in b: rejected whole, reported once
+    // (not retried up to the livelock bound); `other` fires instead.
+    let p = one_net(
+        r#"name = "N"
+places = ["a", "b", "c", "watch"]
+initial = ["a", "b", "watch"]
+[[transition]]
+name = "fill"
+from = ["a"]
+to = ["b"]
+do = ["command rtl"]
+[[transition]]
+name = "other"
+from = ["a"]
+to = ["c"]
+[[transition]]
+name = "seen"
+from = ["watch"]
+to = ["watch"]
+on = "net_fault"
+when = 'transition == "fill" && place == "N.b"'
+"#,
+    );
+    let mut player = Player::start(p.clone(), 0);
+    let effects = drain_effects(&mut player);
+    let faults: Vec<&Fault> = effects
+        .iter()
+        .filter_map(|e| match e {
+            Effect::Fault { fault, .. } => Some(fault),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        matches!(&faults[..], [Fault::DoubleToken { transition: 0, .. }]),
+        "{faults:?}"
+    );
+    assert!(!effects.iter().any(|e| matches!(e, Effect::Command { .. })));
+    assert_eq!(fired(&p, &effects), ["N.other", "N.seen"]);
+    assert_eq!(marking(&player, "N"), ["b", "c", "watch"]);
+}
+
+#[test]
 fn the_project_declares_categories_and_undeclared_events_keep_their_own() {
     // A nominal-looking engine failure becomes catastrophic by declaration
     // and starts the lockout; an undeclared event keeps the category it
