@@ -254,7 +254,21 @@ proptest! {
             *text = chars.into_iter().collect();
         }
         let map: BTreeMap<String, String> = files.iter().cloned().collect();
-        let _ = nets::load(&map);
+        // A mutant that still loads is played too: every event the example
+        // knows, a reply to each pending call, and time passing.
+        if let Ok(project) = nets::load(&map) {
+            let mut player = Player::start(Arc::new(project), 0);
+            for (i, name) in EVENTS.iter().enumerate() {
+                let t = (i as u64 + 1) * 30_000_000;
+                player.handle(&Event::new(*name).param("alt", 120).param("finished", false), t);
+                let ids: Vec<u64> = player.state().pending.keys().copied().collect();
+                for id in ids {
+                    player.result(id, Outcome::Done(Params::new()), t);
+                }
+                player.advance(t + 20_000_000);
+                let _ = player.effects().count();
+            }
+        }
         let mut garbage_files = example_texts();
         garbage_files[file].1 = garbage.clone();
         let map: BTreeMap<String, String> = garbage_files.into_iter().collect();
