@@ -87,17 +87,24 @@ def main():
         print(f"no tlog in {folder}", file=sys.stderr)
         return 1
     failed = 0
+    compared = 0
     for name in logs:
         path = os.path.join(folder, name)
         ref, got = reference(path), petrel(binary, path)
         ok = same(ref, got)
         failed += not ok
+        compared += len(ref)
         print(f"{'ok  ' if ok else 'FAIL'} {name}: {len(ref)} arm/disarm/mode changes (pymavlink), {len(got)} (petrel)")
         if not ok:
             for c in ref:
                 print(f"    pymavlink {c[0]:.3f} {c[1]}")
             for c in got:
                 print(f"    petrel    {c[0]:.3f} {c[1]}")
+    if compared == 0:
+        # Both sides empty everywhere would prove nothing.
+        print("FAIL: pymavlink found no arm, disarm or mode change in any log", file=sys.stderr)
+        return 1
+    print(f"{compared} changes compared in {len(logs)} logs")
     return 1 if failed else 0
 
 
