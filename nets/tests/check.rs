@@ -353,17 +353,24 @@ on = "e"
     assert!(report.holds());
 }
 
+/// An example project's project.toml and net files, as (name, text).
+fn example(name: &str) -> Vec<(String, String)> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../examples")
+        .join(name);
+    let read = |n: &str| std::fs::read_to_string(dir.join(n)).expect("example");
+    let project = read("project.toml");
+    let table: toml::Table = toml::from_str(&project).expect("project.toml");
+    let mut files = vec![("project.toml".to_owned(), project.clone())];
+    for net in table["net"].as_array().expect("[[net]]") {
+        let file = net["file"].as_str().expect("file");
+        files.push((file.to_owned(), read(file)));
+    }
+    files
+}
+
 fn example_files() -> Vec<(String, String)> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-survey");
-    ["project.toml", "mission.toml", "events.toml"]
-        .iter()
-        .map(|n| {
-            (
-                n.to_string(),
-                std::fs::read_to_string(dir.join(n)).expect("example"),
-            )
-        })
-        .collect()
+    example("uav-survey")
 }
 
 #[test]
@@ -399,8 +406,13 @@ fn exported_pnml_is_a_plain_pt_net_with_globals_resolved() {
 
 #[test]
 fn importing_what_we_export_gives_the_same_nets_back() {
+    for name in ["uav-survey", "uav-flight-test"] {
+        round_trip(&example(name));
+    }
+}
+
+fn round_trip(files: &[(String, String)]) {
     use nets::verify::export::{export_net, import_net};
-    let files = example_files();
     let refs: Vec<(&str, &str)> = files
         .iter()
         .map(|(a, b)| (a.as_str(), b.as_str()))
@@ -414,6 +426,7 @@ fn importing_what_we_export_gives_the_same_nets_back() {
             .to_owned();
         let n = original.net(&name).expect("net");
         let (imported, active) = import_net(&export_net(&original, n)).expect("imports");
+        assert_ne!(&imported, text, "{file} is rebuilt, not copied");
         assert_eq!(active, original.nets[n].active_at_start);
         back.push((file.clone(), imported));
     }
@@ -429,6 +442,8 @@ fn importing_what_we_export_gives_the_same_nets_back() {
                 .collect::<Vec<_>>()
         };
         assert_eq!(places(a), places(b));
+        assert_eq!(a.timers, b.timers);
+        assert_eq!(a.immediate, b.immediate);
         assert_eq!(a.transitions.len(), b.transitions.len());
         for (x, y) in a.transitions.iter().zip(&b.transitions) {
             assert_eq!(x.name, y.name);
@@ -442,4 +457,373 @@ fn importing_what_we_export_gives_the_same_nets_back() {
             assert_eq!(x.action_source, y.action_source);
         }
     }
+}
+
+/// The warnings that say a transition can never fire, as `NET.transition`.
+fn never_fired(report: &ProjectReport) -> Vec<String> {
+    let mut out: Vec<String> = report
+        .project
+        .warnings
+        .iter()
+        .filter_map(|w| {
+            w.strip_prefix("transition ")
+                .and_then(|w| w.strip_suffix(" can never fire"))
+                .map(str::to_owned)
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+/// Every step label of every listed path and loop of the project report.
+fn labels(report: &ProjectReport) -> Vec<String> {
+    let r = &report.project;
+    r.loops
+        .iter()
+        .chain(r.deadlock_example.iter())
+        .chain(r.unsafe_example.iter())
+        .flatten()
+        .cloned()
+        .collect()
+}
+
+#[test]
+fn guards_on_a_failures_reason_are_answered_both_ways() {
+    // In flight a failed command or call carries the gateway's or the
+    // program's reason; each guard on it must be explored true and false,
+    // with answers one reason can give together.
+    let report = verify(&[
+        (
+            "project.toml",
+            "[programs.DEC.functions]\nplan = {}\n[[net]]\nfile = \"a.toml\"\nactive = true\n",
+        ),
+        (
+            "a.toml",
+            r#"name = "A"
+places = ["idle", "arming", "armed", "refused", "broken", "planning", "planned", "busy"]
+initial = ["idle"]
+final = ["idle", "refused", "broken", "planned", "busy"]
+[[transition]]
+name = "arm"
+from = ["idle"]
+to = ["arming"]
+on = "go"
+do = ["command arm"]
+[[transition]]
+name = "again"
+from = ["arming"]
+to = ["idle"]
+on = "command.failed"
+when = 'verb == "arm" && reason == "timeout"'
+[[transition]]
+name = "denied"
+from = ["arming"]
+to = ["refused"]
+on = "command.failed"
+when = '"denied" == reason'
+[[transition]]
+name = "other"
+from = ["arming"]
+to = ["broken"]
+on = "command.failed"
+[[transition]]
+name = "armed"
+from = ["arming"]
+to = ["armed"]
+on = "command.ok"
+do = ["call DEC.plan"]
+[[transition]]
+name = "wait"
+from = ["armed"]
+to = ["planning"]
+[[transition]]
+name = "plan_busy"
+from = ["planning"]
+to = ["busy"]
+on = "DEC.plan.failed"
+when = 'reason == "busy"'
+[[transition]]
+name = "plan_failed"
+from = ["planning"]
+to = ["broken"]
+on = "DEC.plan.failed"
+when = 'reason != "busy"'
+[[transition]]
+name = "planned"
+from = ["planning"]
+to = ["planned"]
+on = "DEC.plan.done"
+"#,
+        ),
+    ]);
+    assert!(report.holds(), "{report:#?}");
+    assert_eq!(never_fired(&report), Vec::<String>::new(), "{report:#?}");
+    let all = labels(&report);
+    for label in [
+        "command.failed (arm) [reason: \"timeout\"] → A.again",
+        "go → A.arm",
+    ] {
+        assert!(all.iter().any(|l| l == label), "{label}: {all:#?}");
+    }
+    // A failure with another reason ("failed") takes `other` and
+    // `plan_failed`: no dead marking.
+    assert_eq!(report.project.dead_markings, 0);
+}
+
+#[test]
+fn a_failures_reason_is_shown_only_when_the_guards_tell_reasons_apart() {
+    let report = verify(&[
+        (
+            "project.toml",
+            "[programs.DEC.functions]\nplan = {}\n[[net]]\nfile = \"a.toml\"\nactive = true\n",
+        ),
+        (
+            "a.toml",
+            r#"name = "A"
+places = ["idle", "asking"]
+initial = ["idle"]
+[[transition]]
+name = "ask"
+from = ["idle"]
+to = ["asking"]
+on = "go"
+do = ["call DEC.plan", "command land"]
+[[transition]]
+name = "retry"
+from = ["asking"]
+to = ["idle"]
+on = "DEC.plan.failed"
+[[transition]]
+name = "landing_timeout"
+from = ["asking"]
+to = ["idle"]
+on = "command.failed"
+when = 'verb == "arm" && reason == "timeout"'
+[[transition]]
+name = "landing_failed"
+from = ["asking"]
+to = ["idle"]
+on = "command.failed"
+when = 'verb == "land"'
+"#,
+        ),
+    ]);
+    let all = labels(&report);
+    assert!(
+        all.iter().any(|l| l == "DEC.plan.failed → A.retry"),
+        "{all:#?}"
+    );
+    assert!(
+        all.iter()
+            .any(|l| l == "command.failed (land) → A.landing_failed"),
+        "{all:#?}"
+    );
+    assert!(
+        !all.iter().any(|l| l.contains("[reason:")),
+        "no guard awaiting a `land` failure reads its reason: {all:#?}"
+    );
+    assert_eq!(never_fired(&report), ["A.landing_timeout"]);
+}
+
+#[test]
+fn timers_started_in_one_step_expire_in_the_order_of_their_durations_others_in_any_order() {
+    let report = verify(&[
+        (
+            "project.toml",
+            "[[net]]\nfile = \"t.toml\"\nactive = true\n",
+        ),
+        (
+            "t.toml",
+            r#"name = "T"
+places = ["s", "short_on", "long_on", "i2", "i3", "slow_on", "quick_on", "done"]
+initial = ["s", "i2", "i3"]
+final = ["done"]
+# Started together: `short` always expires first.
+[[transition]]
+name = "start"
+from = ["s"]
+to = ["short_on", "long_on"]
+on = "go"
+do = ["timer long after 10s", "timer short after 5s"]
+[[transition]]
+name = "long_first"
+from = ["long_on", "short_on"]
+to = ["short_on"]
+on = "long"
+[[transition]]
+name = "long_alone"
+from = ["long_on"]
+to = []
+on = "long"
+[[transition]]
+name = "short_first"
+from = ["short_on", "long_on"]
+to = ["long_on"]
+on = "short"
+[[transition]]
+name = "short_alone"
+from = ["short_on"]
+to = []
+on = "short"
+# Started by two inputs: either may expire first.
+[[transition]]
+name = "start_slow"
+from = ["i2"]
+to = ["slow_on"]
+on = "go2"
+do = ["timer slow after 10s"]
+[[transition]]
+name = "start_quick"
+from = ["i3"]
+to = ["quick_on"]
+on = "go3"
+do = ["timer quick after 5s"]
+[[transition]]
+name = "slow_first"
+from = ["slow_on", "quick_on"]
+to = ["quick_on"]
+on = "slow"
+[[transition]]
+name = "slow_alone"
+from = ["slow_on"]
+to = []
+on = "slow"
+[[transition]]
+name = "quick_first"
+from = ["quick_on", "slow_on"]
+to = ["slow_on"]
+on = "quick"
+[[transition]]
+name = "quick_alone"
+from = ["quick_on"]
+to = []
+on = "quick"
+"#,
+        ),
+    ]);
+    assert!(report.project.safe);
+    assert_eq!(never_fired(&report), ["T.long_first", "T.short_alone"]);
+}
+
+#[test]
+fn one_occurrence_and_category_priority_reach_less_than_the_token_game() {
+    // One occurrence of `e` (emitted once) fires `step` but not `again`,
+    // which was not enabled when `e` arrived; `urgent` (safety) is handled
+    // before `routine` (nominal) though emitted after it, so `routine`
+    // never finds `p`. The plain token game fires both `again` and
+    // `routine`, each putting a second token in `full`.
+    let files = [
+        (
+            "project.toml",
+            "[events]\ngo = \"nominal\"\nurgent = \"safety\"\n[[net]]\nfile = \"a.toml\"\nactive = true\n",
+        ),
+        (
+            "a.toml",
+            r#"name = "A"
+places = ["s", "a", "b", "full", "p", "q"]
+initial = ["s", "full", "p"]
+final = ["b", "q"]
+[[transition]]
+name = "start"
+from = ["s"]
+to = ["a"]
+on = "go"
+do = ["emit e", "emit routine", "emit urgent"]
+[[transition]]
+name = "step"
+from = ["a"]
+to = ["b"]
+on = "e"
+[[transition]]
+name = "again"
+from = ["b"]
+to = ["full"]
+on = "e"
+[[transition]]
+name = "routine"
+from = ["p"]
+to = ["full"]
+on = "routine"
+[[transition]]
+name = "handled"
+from = ["p"]
+to = ["q"]
+on = "urgent"
+"#,
+        ),
+    ];
+    let project = common::project(&files);
+    let ptnet = token_game(&project);
+    let game = explore(&ptnet, &PtOptions::default());
+    assert!(!game.summary.safe);
+    assert_eq!(game.summary.max_tokens, 3, "`full`, `again` and `routine`");
+    assert!(game.summary.never_fired.is_empty());
+    let report = check(&project, &Options::default());
+    assert!(report.project.safe, "{report:#?}");
+    assert_eq!(never_fired(&report), ["A.again", "A.routine"]);
+    assert!(report.holds(), "{report:#?}");
+}
+
+#[test]
+fn the_progress_callback_counts_the_states_explored() {
+    use std::cell::Cell;
+    // Ten independent switches: 1024 states.
+    let mut places = Vec::new();
+    let mut transitions = String::new();
+    for i in 0..10 {
+        places.push(format!("\"off{i}\", \"on{i}\""));
+        transitions.push_str(&format!(
+            "[[transition]]\nname = \"flip{i}\"\nfrom = [\"off{i}\"]\nto = [\"on{i}\"]\non = \"tick{i}\"\n[[transition]]\nname = \"flop{i}\"\nfrom = [\"on{i}\"]\nto = [\"off{i}\"]\non = \"tock{i}\"\n"
+        ));
+    }
+    let offs: Vec<String> = (0..10).map(|i| format!("\"off{i}\"")).collect();
+    let net = format!(
+        "name = \"N\"\nplaces = [{}]\ninitial = [{}]\n{transitions}",
+        places.join(", "),
+        offs.join(", ")
+    );
+    let project = common::one_net(&net);
+    let calls = Cell::new(Vec::new());
+    let progress = |n: usize| {
+        let mut v = calls.take();
+        v.push(n);
+        calls.set(v);
+    };
+    let report = check(
+        &project,
+        &Options {
+            progress: Some(&progress),
+            ..Options::default()
+        },
+    );
+    assert_eq!(report.project.states, 1024);
+    let calls = calls.take();
+    assert_eq!(calls, [256, 512, 768, 1024]);
+}
+
+#[test]
+fn a_nets_own_figures_count_its_places_only() {
+    // B is never activated: it never holds a token, never moves.
+    let report = verify(&[
+        (
+            "project.toml",
+            "[[net]]\nfile = \"a.toml\"\nactive = true\n[[net]]\nfile = \"b.toml\"\nactive = false\n",
+        ),
+        (
+            "a.toml",
+            "name = \"A\"\nplaces = [\"p\", \"q\"]\ninitial = [\"p\"]\nfinal = [\"q\"]\n[[transition]]\nname = \"t\"\nfrom = [\"p\"]\nto = [\"q\"]\non = \"go\"\n",
+        ),
+        (
+            "b.toml",
+            "name = \"B\"\nplaces = [\"r\", \"s\"]\ninitial = [\"r\"]\n[[transition]]\nname = \"u\"\nfrom = [\"r\"]\nto = [\"s\"]\non = \"go\"\n",
+        ),
+    ]);
+    let net = |n: &str| &report.nets.iter().find(|(m, _)| m == n).expect(n).1;
+    assert_eq!(report.project.max_tokens, 1);
+    assert_eq!((report.project.states, report.project.edges), (2, 1));
+    assert_eq!(net("A").max_tokens, 1);
+    assert_eq!((net("A").states, net("A").edges), (2, 1));
+    assert_eq!(net("B").max_tokens, 0);
+    assert_eq!((net("B").states, net("B").edges), (1, 0));
+    assert_eq!(net("B").dead_markings, 0, "an inactive net is not dead");
 }

@@ -11,7 +11,9 @@
 //!   produce themselves), in any state;
 //! - the expiry of a running timer — timers started in the same step expire
 //!   in the order their durations fix, others in any order;
-//! - the result of a pending call or command: done or failed;
+//! - the result of a pending call or command: done, or failed with each
+//!   reason the guards awaiting the failure tell apart (every string they
+//!   compare `reason` with, and one they do not);
 //!
 //! Each net gets its own verdict too, read off the same exploration: the net
 //! *in its project*, under what the other nets really do. Its states are its
@@ -24,10 +26,17 @@
 //!
 //! Guards on parameters the verifier does not know are answered both ways
 //! through the player's [`Oracle`]; guards it can evaluate (a command
-//! result's `verb`) are evaluated.
+//! result's `verb`, a failure's `reason` among the values above) are
+//! evaluated.
+//!
+//! Events take the category the project declares (with the elaboration
+//! profile's catalog when the caller loaded it: `petrel check` does, as
+//! `petrel run`), which decides priorities and the catastrophic lockout.
 
+use std::cell::RefCell;
 use std::collections::{BTreeSet, HashMap, HashSet, VecDeque};
 use std::hash::{Hash, Hasher};
+use std::rc::Rc;
 use std::sync::Arc;
 
 use super::graph::{self, Csr, Filtered};
@@ -37,23 +46,34 @@ use crate::player::{canonical_bytes, Effect, Fault, Oracle, Outcome, PendingKind
 use crate::time::Micros;
 use crate::value::Params;
 
+/// The most states a check stores by default (the player's states take
+/// about a kilobyte each). `petrel check` and `petrel run`'s own check
+/// share it, so that `run` never refuses what `check` proves.
+pub const MAX_STATES: usize = 1_000_000;
+
 /// Limits of a check.
-#[derive(Debug, Clone, Copy)]
-pub struct Options {
+#[derive(Clone, Copy)]
+pub struct Options<'a> {
     /// Stop exploring past this many states (the report says so).
     pub max_states: usize,
-    /// Check each net alone as well as the whole project.
+    /// Give each net its own verdict as well as the whole project's.
     pub each_net: bool,
+    /// Called now and then with the number of states explored so far.
+    pub progress: Option<&'a dyn Fn(usize)>,
 }
 
-impl Default for Options {
+impl Default for Options<'_> {
     fn default() -> Self {
         Options {
-            max_states: 200_000,
+            max_states: MAX_STATES,
             each_net: true,
+            progress: None,
         }
     }
 }
+
+/// States explored between two calls of [`Options::progress`].
+const PROGRESS_EVERY: usize = 256;
 
 /// What one exploration found.
 #[derive(Debug, Clone, PartialEq)]
@@ -68,7 +88,9 @@ pub struct Report {
     pub dead_markings: usize,
     /// No reachable step attempts to put a second token in a place.
     pub safe: bool,
-    /// The most tokens a place ever holds (the player never lets it exceed 1).
+    /// The most tokens a place in scope ever holds (for a net: its own
+    /// places and the global places it uses); the player never lets it
+    /// exceed 1.
     pub max_tokens: u32,
     /// A shortest sequence of steps to a dead marking.
     pub deadlock_example: Option<Vec<String>>,
@@ -106,7 +128,7 @@ impl ProjectReport {
 
 /// Checks a project as a whole and, if asked, each net in it.
 pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
-    let explored = Explorer::new(project.clone()).run(options.max_states);
+    let explored = Explorer::new(project.clone()).run(options.max_states, options.progress);
     let whole = explored.verdict(None);
     let nets = if options.each_net {
         (0..project.nets.len())
@@ -149,6 +171,9 @@ impl Hash for Abs {
 /// states is listed once).
 const MAX_LOOPS: usize = 20;
 
+/// The parameter a failed call or command carries its reason in.
+const REASON: &str = "reason";
+
 /// The instant every step runs at (any fixed value would do).
 const T: Micros = 1_000_000_000;
 
@@ -156,7 +181,11 @@ const T: Micros = 1_000_000_000;
 enum Input {
     Event(String),
     Timer(usize),
-    Result { id: u64, done: bool },
+    /// `reason`: `None` for done, the failure's reason otherwise.
+    Result {
+        id: u64,
+        reason: Option<String>,
+    },
 }
 
 /// What happened in one step.
@@ -184,6 +213,20 @@ struct Explorer {
     project: Arc<Project>,
     externals: Vec<String>,
     labels: Vec<Label>,
+    /// Per kind of pending result: whether it is relevant, and the reasons
+    /// its failure is explored with (computed once).
+    awaited: RefCell<HashMap<Awaited, Rc<Known>>>,
+}
+
+/// What is known of a pending result: whether it is relevant, and the
+/// reasons its failure is explored with.
+type Known = (bool, Vec<String>);
+
+/// What a pending call or command is, for [`Explorer::awaited`].
+#[derive(Clone, PartialEq, Eq, Hash)]
+enum Awaited {
+    Call(NetId, usize, usize),
+    Command(NetId, String),
 }
 
 /// An exploration, ready for verdicts.
@@ -191,8 +234,10 @@ struct Explored {
     project: Arc<Project>,
     space: graph::StateSpace<Abs, u32>,
     labels: Vec<Label>,
-    /// Transitions fired at start-up (immediate ones).
-    initial_fired: Vec<(NetId, TransitionId)>,
+    /// Transitions fired at start-up or in a step.
+    fired: HashSet<(NetId, TransitionId)>,
+    /// Each state's predecessors.
+    reverse: Vec<Vec<u32>>,
 }
 
 impl Explorer {
@@ -202,33 +247,76 @@ impl Explorer {
             project,
             externals,
             labels: Vec::new(),
+            awaited: RefCell::new(HashMap::new()),
         }
     }
 
-    fn run(mut self, max_states: usize) -> Explored {
+    fn run(mut self, max_states: usize, progress: Option<&dyn Fn(usize)>) -> Explored {
         let mut player = Player::start(self.project.clone(), T);
         player.set_oracle(Some(Oracle::default()));
         let effects: Vec<Effect> = player.effects().collect();
         let initial_fired = fired_of(&effects);
         let initial = normalize(player.snapshot(), 0, T, None, &|p| self.relevant(p));
+        let mut explored = 0usize;
         let space = graph::explore_bfs(
             initial,
             max_states,
             |abs: &Abs, out: &mut Vec<(u32, Abs)>| {
                 self.successors(abs, out);
+                explored += 1;
+                if explored.is_multiple_of(PROGRESS_EVERY) {
+                    if let Some(report) = progress {
+                        report(explored);
+                    }
+                }
             },
         );
+        let mut reverse: Vec<Vec<u32>> = vec![Vec::new(); space.states.len()];
+        for s in 0..space.states.len() as u32 {
+            for (_, t) in space.graph.edges(s) {
+                reverse[t as usize].push(s);
+            }
+        }
+        let mut fired: HashSet<(NetId, TransitionId)> = initial_fired.into_iter().collect();
+        for l in &self.labels {
+            fired.extend(l.fired.iter().copied());
+        }
         Explored {
             project: self.project,
             space,
             labels: self.labels,
-            initial_fired,
+            fired,
+            reverse,
         }
+    }
+
+    /// What is known of a pending call or command's result: whether it is
+    /// relevant, and the reasons its failure is explored with.
+    fn awaited(&self, pending: &crate::player::Pending) -> Rc<Known> {
+        let key = match &pending.kind {
+            PendingKind::Call { program, function } => {
+                Awaited::Call(pending.net, *program, *function)
+            }
+            PendingKind::Command { verb } => Awaited::Command(pending.net, verb.clone()),
+        };
+        if let Some(known) = self.awaited.borrow().get(&key) {
+            return known.clone();
+        }
+        let known = Rc::new((
+            self.compute_relevant(pending),
+            self.compute_failure_reasons(pending),
+        ));
+        self.awaited.borrow_mut().insert(key, known.clone());
+        known
+    }
+
+    fn relevant(&self, pending: &crate::player::Pending) -> bool {
+        self.awaited(pending).0
     }
 
     /// Whether the result of a pending call or command can ever fire a
     /// transition of the net that awaits it.
-    fn relevant(&self, pending: &crate::player::Pending) -> bool {
+    fn compute_relevant(&self, pending: &crate::player::Pending) -> bool {
         let net = &self.project.nets[pending.net];
         net.transitions.iter().any(|t| {
             let Some(e) = &t.event else { return false };
@@ -266,17 +354,74 @@ impl Explorer {
                 inputs.push(Input::Timer(i));
             }
         }
-        for id in abs.state.pending.keys() {
+        for (id, pending) in &abs.state.pending {
             inputs.push(Input::Result {
                 id: *id,
-                done: true,
+                reason: None,
             });
-            inputs.push(Input::Result {
-                id: *id,
-                done: false,
-            });
+            for reason in &self.awaited(pending).1 {
+                inputs.push(Input::Result {
+                    id: *id,
+                    reason: Some(reason.clone()),
+                });
+            }
         }
         inputs
+    }
+
+    /// The reasons a failed call or command is explored with: one per way
+    /// the guards of the transitions awaiting the failure can read its
+    /// `reason` (each string they compare it with, and one they do not),
+    /// so that a guard on the reason is answered both ways, and answers
+    /// that no reason could give together are never explored.
+    fn compute_failure_reasons(&self, pending: &crate::player::Pending) -> Vec<String> {
+        let (event, verb) = match &pending.kind {
+            PendingKind::Call { program, function } => {
+                let p = &self.project.programs[*program];
+                (
+                    format!(
+                        "{}.{}.{}",
+                        p.name,
+                        p.functions[*function].name,
+                        names::FAILED
+                    ),
+                    None,
+                )
+            }
+            PendingKind::Command { verb } => (names::COMMAND_FAILED.to_owned(), Some(verb)),
+        };
+        let guards: Vec<&crate::expr::Expr> = self.project.nets[pending.net]
+            .transitions
+            .iter()
+            .filter(|t| t.event.as_deref() == Some(event.as_str()))
+            .filter_map(|t| t.guard.as_ref().map(|g| &g.expr))
+            .collect();
+        let mut literals: BTreeSet<String> = BTreeSet::new();
+        for g in &guards {
+            reason_literals(g, &mut literals);
+        }
+        let other = ["failed", "other", "unknown"]
+            .iter()
+            .map(|s| (*s).to_owned())
+            .chain((1..).map(|i| format!("failed {i}")))
+            .find(|s| !literals.contains(s))
+            .unwrap_or_default();
+        // One reason per distinct reading of the guards, the other first.
+        let mut seen: Vec<Vec<Option<bool>>> = Vec::new();
+        let mut out = Vec::new();
+        for reason in std::iter::once(other).chain(literals) {
+            let mut params =
+                Params::from([(REASON.to_owned(), crate::value::Value::Str(reason.clone()))]);
+            if let Some(v) = verb {
+                params.insert("verb".to_owned(), crate::value::Value::Str(v.clone()));
+            }
+            let reading: Vec<Option<bool>> = guards.iter().map(|g| g.holds(&params).ok()).collect();
+            if !seen.contains(&reading) {
+                seen.push(reading);
+                out.push(reason);
+            }
+        }
+        out
     }
 
     fn successors(&mut self, abs: &Abs, out: &mut Vec<(u32, Abs)>) {
@@ -361,11 +506,10 @@ impl Explorer {
         match input {
             Input::Event(name) => player.handle(&Event::new(name.clone()), T + 1),
             Input::Timer(_) => player.advance(T + 1),
-            Input::Result { id, done } => {
-                let outcome = if *done {
-                    Outcome::Done(Params::new())
-                } else {
-                    Outcome::Failed("failed".into())
+            Input::Result { id, reason } => {
+                let outcome = match reason {
+                    None => Outcome::Done(Params::new()),
+                    Some(r) => Outcome::Failed(r.clone()),
                 };
                 player.result(*id, outcome, T + 1);
             }
@@ -386,18 +530,31 @@ impl Explorer {
                     p.nets[t.net].name, p.nets[t.net].timers[t.timer]
                 )
             }
-            Input::Result { id, done } => {
-                let outcome = if *done { names::DONE } else { names::FAILED };
-                match abs.state.pending.get(id).map(|x| &x.kind) {
+            Input::Result { id, reason } => {
+                let done = reason.is_none();
+                let outcome = if done { names::DONE } else { names::FAILED };
+                let mut text = match abs.state.pending.get(id).map(|x| &x.kind) {
                     Some(PendingKind::Call { program, function }) => {
                         let prog = &p.programs[*program];
                         format!("{}.{}.{outcome}", prog.name, prog.functions[*function].name)
                     }
                     Some(PendingKind::Command { verb }) => {
-                        format!("command.{} ({verb})", if *done { "ok" } else { "failed" })
+                        format!("command.{} ({verb})", if done { "ok" } else { "failed" })
                     }
                     None => format!("result #{id}"),
+                };
+                // The reason, when the guards tell reasons apart.
+                if let Some(r) = reason {
+                    let explored = abs
+                        .state
+                        .pending
+                        .get(id)
+                        .map_or(1, |x| self.awaited(x).1.len());
+                    if explored > 1 {
+                        text.push_str(&format!(" [reason: {r:?}]"));
+                    }
                 }
+                text
             }
         };
         if !answers.is_empty() {
@@ -448,6 +605,31 @@ impl Explorer {
     }
 }
 
+/// The strings a guard compares its `reason` parameter with.
+fn reason_literals(expr: &crate::expr::Expr, out: &mut BTreeSet<String>) {
+    use crate::expr::Expr;
+    use crate::value::Value;
+    match expr {
+        Expr::Binary(_, a, b) => {
+            match (a.as_ref(), b.as_ref()) {
+                (Expr::Param { name, .. }, Expr::Lit(Value::Str(s)))
+                | (Expr::Lit(Value::Str(s)), Expr::Param { name, .. })
+                    if name == REASON =>
+                {
+                    out.insert(s.clone());
+                }
+                _ => {}
+            }
+            reason_literals(a, out);
+            reason_literals(b, out);
+        }
+        Expr::Not(e) | Expr::Neg(e) => reason_literals(e, out),
+        Expr::List(items) => items.iter().for_each(|e| reason_literals(e, out)),
+        Expr::Map(items) => items.iter().for_each(|(_, e)| reason_literals(e, out)),
+        Expr::Lit(_) | Expr::Param { .. } => {}
+    }
+}
+
 fn fired_of(effects: &[Effect]) -> Vec<(NetId, TransitionId)> {
     effects
         .iter()
@@ -483,15 +665,14 @@ impl Explored {
         // Live states: those from which a firing step (of the net) is
         // reachable. Also the first unsafe step and the livelocks, in
         // breadth-first order, so their examples are shortest.
-        let mut reverse: Vec<Vec<u32>> = vec![Vec::new(); n];
+        let reverse = &self.reverse;
         let mut live = vec![false; n];
         let mut queue = VecDeque::new();
         let mut first_unsafe: Option<(u32, u32)> = None;
         let mut livelocks: Vec<(u32, u32)> = Vec::new();
         for s in 0..n as u32 {
-            for (l, t) in g.edges(s) {
+            for (l, _) in g.edges(s) {
                 let label = &labels[*l as usize];
-                reverse[t as usize].push(s);
                 if label.fires(net) && !live[s as usize] {
                     live[s as usize] = true;
                     queue.push_back(s);
@@ -537,35 +718,34 @@ impl Explored {
             })
             .collect();
 
-        // A net's own view: whether it is active and its marking.
-        let view = |s: u32| -> Vec<u8> {
-            let st = &space.states[s as usize].state;
-            match net {
-                None => space.states[s as usize].key.clone(),
-                Some(x) => {
-                    let offset = project.place_offsets[x];
-                    let mut key = vec![u8::from(st.active[x])];
-                    key.extend(
-                        (0..project.nets[x].places.len()).map(|i| u8::from(st.marked(offset + i))),
-                    );
-                    key
-                }
-            }
-        };
+        // A net's own view: whether it is active and its marking, numbered
+        // in order of first appearance.
         let (states, edges, dead_markings) = match net {
             None => (n, g.edge_count(), dead.len()),
-            Some(_) => {
-                let views: HashSet<Vec<u8>> = (0..n as u32).map(view).collect();
-                let mut moves: HashSet<(Vec<u8>, Vec<u8>)> = HashSet::new();
+            Some(x) => {
+                let offset = project.place_offsets[x];
+                let places = project.nets[x].places.len();
+                let mut ids: HashMap<Vec<u8>, u32> = HashMap::new();
+                let view: Vec<u32> = space
+                    .states
+                    .iter()
+                    .map(|a| {
+                        let mut key = vec![u8::from(a.state.active[x])];
+                        key.extend((0..places).map(|i| u8::from(a.state.marked(offset + i))));
+                        let next = ids.len() as u32;
+                        *ids.entry(key).or_insert(next)
+                    })
+                    .collect();
+                let mut moves: HashSet<(u32, u32)> = HashSet::new();
                 for s in 0..n as u32 {
                     for (l, t) in g.edges(s) {
                         if labels[*l as usize].fires(net) {
-                            moves.insert((view(s), view(t)));
+                            moves.insert((view[s as usize], view[t as usize]));
                         }
                     }
                 }
-                let dead_views: HashSet<Vec<u8>> = dead.iter().map(|&s| view(s)).collect();
-                (views.len(), moves.len(), dead_views.len())
+                let dead_views: HashSet<u32> = dead.iter().map(|&s| view[s as usize]).collect();
+                (ids.len(), moves.len(), dead_views.len())
             }
         };
 
@@ -596,11 +776,7 @@ impl Explored {
             }
         }
 
-        let mut fired: HashSet<(NetId, TransitionId)> =
-            self.initial_fired.iter().copied().collect();
-        for l in labels {
-            fired.extend(l.fired.iter().copied());
-        }
+        let fired = &self.fired;
         let mut warnings: Vec<String> = static_warnings(project)
             .into_iter()
             .filter(|w| net.is_none_or(|x| w.nets.contains(&x)))
@@ -623,10 +799,24 @@ impl Explored {
                 "state limit reached after {n} states: the exploration is incomplete"
             ));
         }
+        // The places in scope: every place, or the net's own and the
+        // global places its transitions use.
+        let scope: Vec<usize> = match net {
+            None => (0..project.place_count).collect(),
+            Some(x) => {
+                let offset = project.place_offsets[x];
+                let mut places: BTreeSet<usize> =
+                    (offset..offset + project.nets[x].places.len()).collect();
+                for t in &project.nets[x].transitions {
+                    places.extend(t.flat_inputs.iter().chain(&t.flat_outputs));
+                }
+                places.into_iter().collect()
+            }
+        };
         let any_tokens = space
             .states
             .iter()
-            .any(|a| a.state.marking.iter().any(|w| *w != 0));
+            .any(|a| scope.iter().any(|&p| a.state.marked(p)));
         let with_step = |(s, l): (u32, u32)| {
             let mut p = path(s);
             p.push(labels[l as usize].text.clone());
@@ -837,7 +1027,7 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
             if !produced {
                 out.push(Warning {
                     text: format!(
-                        "event `{e}` (awaited by {}.{}) is produced by nothing: no declaration in [events], no net emits it, and it is no timer or result of {}",
+                        "event `{e}` (awaited by {}.{}) is produced by nothing: no elaboration rule or [events] declaration, no net emits it, and it is no timer or result of {}",
                         net.name, t.name, net.name
                     ),
                     nets: vec![ni],
