@@ -228,3 +228,116 @@ fn mcc_nets_through_the_binary() {
     );
     assert_eq!(j["safe"], false);
 }
+
+/// A project folder in the scratch space: (file name, text) pairs.
+fn project_dir(name: &str, files: &[(&str, &str)]) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("check-tests")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    for (file, text) in files {
+        std::fs::write(dir.join(file), text).expect("scratch file");
+    }
+    dir
+}
+
+/// A net awaiting events of ArduPilot's built-in profile (declared nowhere
+/// in the project) and `strike`, which only the project's profile layer
+/// produces. The profile makes `engine_failure` catastrophic: its lockout
+/// drops the `landed` (mission) that would put a second token in `home`.
+const ELABORATED: &str = r#"name = "A"
+places = ["ground", "flying", "gliding", "landed", "home"]
+initial = ["ground", "home"]
+final = ["gliding", "landed"]
+[[transition]]
+name = "up"
+from = ["ground"]
+to = ["flying"]
+on = "takeoff"
+[[transition]]
+name = "crash"
+from = ["flying"]
+to = ["gliding"]
+on = "engine_failure"
+[[transition]]
+name = "struck"
+from = ["flying"]
+to = ["gliding"]
+on = "strike"
+[[transition]]
+name = "down"
+from = ["flying"]
+to = ["landed"]
+on = "landed"
+[[transition]]
+name = "late"
+from = ["gliding"]
+to = ["home"]
+on = "landed"
+"#;
+
+#[test]
+fn a_project_is_checked_with_the_events_its_profile_produces() {
+    let dir = project_dir(
+        "elaborated",
+        &[
+            (
+                "project.toml",
+                "[[net]]\nfile = \"a.toml\"\nactive = true\n[gateway]\nprofile = \"extra.toml\"\n",
+            ),
+            ("a.toml", ELABORATED),
+            (
+                "extra.toml",
+                "[rules.strike]\ncategory = \"catastrophic\"\nwhen = \"HEARTBEAT.custom_mode == 99\"\n",
+            ),
+        ],
+    );
+    let d = dir.to_str().unwrap();
+    let warnings = |j: &serde_json::Value| -> Vec<String> {
+        j["warnings"]
+            .as_array()
+            .expect("warnings")
+            .iter()
+            .map(|w| w.as_str().unwrap_or_default().to_owned())
+            .collect()
+    };
+    // `[gateway] profile`: the layer over ArduPilot's.
+    let (code, out, err) = petrel(&["check", d, "--json"]);
+    assert_eq!(code, 0, "{out}{err}");
+    let j = json_of(&out);
+    assert_eq!(j["safe"], true, "{j}");
+    assert_eq!(warnings(&j), ["transition A.late can never fire"], "{j}");
+    // ArduPilot's alone (`--profile`, as `petrel run`): nothing produces
+    // `strike`, which is then a nominal event: no lockout after it.
+    let (code, out, err) = petrel(&["check", d, "--json", "--profile", "ardupilot"]);
+    assert_eq!(code, 1, "{out}{err}");
+    let j = json_of(&out);
+    assert_eq!(j["safe"], false);
+    assert_eq!(
+        j["unsafe_example"],
+        serde_json::json!([
+            "takeoff → A.up",
+            "strike → A.struck",
+            "landed ✗ A.late would put a second token in A.home"
+        ])
+    );
+    let w = warnings(&j);
+    assert_eq!(w.len(), 2, "{w:#?}");
+    // (`late` is attempted, and the player rejects it)
+    assert_eq!(w[1], "transition A.late can never fire");
+    assert!(w[0].starts_with("event `strike` (awaited by A.struck) is produced by nothing: no elaboration rule or [events] declaration"), "{w:#?}");
+    // A profile that cannot be read is bad input.
+    let (code, out, err) = petrel(&["check", d, "--profile", "no-such-layer.toml"]);
+    assert_eq!(code, 2, "{out}");
+    assert!(
+        plain(&err).contains("cannot read the profile no-such-layer.toml"),
+        "{err}"
+    );
+    // The project's name defaults to its folder's; no progress line when
+    // stderr is not a terminal.
+    let (code, out, err) = petrel(&["check", d]);
+    assert_eq!(code, 0);
+    assert!(out.starts_with("project elaborated: "), "{out}");
+    assert!(err.is_empty(), "{err}");
+}

@@ -18,10 +18,6 @@ use serde_json::json;
 
 use super::{Outcome, VerbResult};
 
-/// The most states a project check stores (projects are explored with the
-/// player itself, about a kilobyte a state).
-const PROJECT_STATE_LIMIT: usize = 1_000_000;
-
 #[derive(clap::Args)]
 #[command(group(clap::ArgGroup::new("input").required(true).args(["project", "pnml"])))]
 pub struct Args {
@@ -36,9 +32,16 @@ pub struct Args {
     /// Threads exploring the state space [default: the number of cores].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=16))]
     pub threads: Option<u16>,
-    /// Stop after storing this many markings (guards against unbounded nets).
+    /// Stop after storing this many markings (guards against unbounded nets;
+    /// a project check stores at most 1,000,000 states).
     #[arg(long, value_name = "N", default_value_t = 100_000_000)]
     pub max_states: u64,
+    /// The elaboration profile whose events the project hears (their
+    /// categories, and what they produce): ardupilot, px4 or a FILE.toml
+    /// extending the ArduPilot one [default: `[gateway] profile`, else
+    /// ardupilot, as `petrel run`].
+    #[arg(long, conflicts_with = "pnml")]
+    pub profile: Option<String>,
     /// How many loops (cyclic strongly connected components) to list.
     #[arg(long, value_name = "N", default_value_t = 5)]
     pub loops: usize,
@@ -53,7 +56,12 @@ pub fn run(args: Args) -> VerbResult {
             return Err(miette::miette!("give a project folder or --pnml FILE"));
         };
         let max_states = usize::try_from(args.max_states).unwrap_or(usize::MAX);
-        return super::check_project::run(dir, args.json, max_states.min(PROJECT_STATE_LIMIT));
+        return super::check_project::run(
+            dir,
+            args.profile.as_deref(),
+            args.json,
+            max_states.min(nets::verify::project::MAX_STATES),
+        );
     };
     if args.project.is_some() {
         return Err(miette::miette!(
@@ -274,37 +282,45 @@ fn print_report(
 
 /// The progress line on stderr: shown after the first second, twice a
 /// second, erased at the end.
-struct Progress {
+pub(super) struct Progress {
     start: Instant,
     last: Mutex<Option<Instant>>,
 }
 
 impl Progress {
-    fn new(start: Instant) -> Progress {
+    pub(super) fn new(start: Instant) -> Progress {
         Progress {
             start,
             last: Mutex::new(None),
         }
     }
 
-    fn report(&self, states: u64) {
-        let now = Instant::now();
+    /// Prints the progress line if it is due.
+    pub(super) fn report(&self, states: u64) {
+        if let Some(line) = self.line(states, Instant::now()) {
+            eprint!("{line}");
+        }
+    }
+
+    /// The line to print at `now` after `states` states, if one is due: none
+    /// in the first second, then at most two a second.
+    fn line(&self, states: u64, now: Instant) -> Option<String> {
         let elapsed = now.duration_since(self.start).as_secs_f64();
         if elapsed < 1.0 {
-            return;
+            return None;
         }
         let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
         if last.is_some_and(|l| now.duration_since(l).as_secs_f64() < 0.5) {
-            return;
+            return None;
         }
         *last = Some(now);
-        eprint!(
+        Some(format!(
             "\r{states} states, {:.0} states/s   ",
             states as f64 / elapsed
-        );
+        ))
     }
 
-    fn finish(&self) {
+    pub(super) fn finish(&self) {
         if self
             .last
             .lock()
@@ -313,5 +329,26 @@ impl Progress {
         {
             eprint!("\r{:60}\r", "");
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+
+    #[test]
+    fn the_progress_line_comes_after_a_second_at_most_twice_a_second() {
+        let start = Instant::now();
+        let p = Progress::new(start);
+        let at = |ms: u64| start + Duration::from_millis(ms);
+        assert_eq!(p.line(10, at(900)), None);
+        assert_eq!(
+            p.line(4000, at(2000)).as_deref(),
+            Some("\r4000 states, 2000 states/s   ")
+        );
+        assert_eq!(p.line(5000, at(2400)), None);
+        assert!(p.line(6000, at(2500)).is_some());
     }
 }

@@ -1,6 +1,12 @@
 //! `petrel check PROJECT`: the project-level verifier's report, for people
 //! or as JSON (`nets::verify::project`).
+//!
+//! The project is loaded as `petrel run` loads it: knowing the events its
+//! elaboration profile produces (their categories, which decide priorities
+//! and the catastrophic lockout), so that the check explores what the
+//! gateway will play.
 
+use std::io::IsTerminal;
 use std::path::Path;
 use std::time::Instant;
 
@@ -9,18 +15,49 @@ use serde_json::{json, Value};
 
 use super::{Outcome, VerbResult};
 
-/// Checks a project; exit 0 when every property holds, 1 when one does not.
-pub fn run(dir: &Path, as_json: bool, max_states: usize) -> VerbResult {
-    let project = crate::project::load(dir)?;
+/// Checks a project with the elaboration profile `profile` (`--profile`;
+/// else the project's `[gateway] profile`, else ArduPilot's); exit 0 when
+/// every property holds, 1 when one does not, 2 for bad input.
+pub fn run(dir: &Path, profile: Option<&str>, as_json: bool, max_states: usize) -> VerbResult {
+    let setting = match crate::project::gateway_setting(dir, "profile") {
+        Ok(s) => s,
+        Err(e) => {
+            // No project, or broken TOML: the loader says it best.
+            crate::project::load(dir)?;
+            return Err(e);
+        }
+    };
+    let layers =
+        crate::profile::Layers::pick(profile, Some((dir, setting.as_deref())), "ardupilot")?;
+    let Some(profile) = layers.load() else {
+        return Ok(Outcome::BadInput);
+    };
+    let project = crate::project::load_with(dir, &profile.catalog())?;
+    let name = if project.name.is_empty() {
+        dir.file_name().map_or_else(
+            || dir.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        )
+    } else {
+        project.name.clone()
+    };
     let start = Instant::now();
+    let meter = super::check::Progress::new(start);
+    let report_progress = |states: usize| meter.report(states as u64);
     let report = check(
         &project,
         &Options {
             max_states,
             each_net: true,
+            progress: if std::io::stderr().is_terminal() {
+                Some(&report_progress)
+            } else {
+                None
+            },
         },
     );
     let seconds = start.elapsed().as_secs_f64();
+    meter.finish();
     if as_json {
         let mut obj = report_json(&report.project, seconds);
         let nets: serde_json::Map<String, Value> = report
@@ -32,7 +69,7 @@ pub fn run(dir: &Path, as_json: bool, max_states: usize) -> VerbResult {
         obj["holds"] = json!(report.holds());
         write_out(&format!("{obj}\n"))?;
     } else {
-        write_out(&human(&project.name, &report, seconds))?;
+        write_out(&human(&name, &report, seconds))?;
     }
     Ok(if report.holds() {
         Outcome::Success
