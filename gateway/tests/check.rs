@@ -308,6 +308,24 @@ fn a_project_is_checked_with_the_events_its_profile_produces() {
     let j = json_of(&out);
     assert_eq!(j["safe"], true, "{j}");
     assert_eq!(warnings(&j), ["transition A.late can never fire"], "{j}");
+    // The keys, for the project and for each net under "nets".
+    for obj in [&j, &j["nets"]["A"]] {
+        for key in [
+            "states",
+            "edges",
+            "dead_markings",
+            "safe",
+            "max_tokens",
+            "deadlock_example",
+            "unsafe_example",
+            "loops",
+            "warnings",
+            "seconds",
+        ] {
+            assert!(obj.get(key).is_some(), "missing {key}: {obj}");
+        }
+    }
+    assert_eq!(j["nets"].as_object().map(|m| m.len()), Some(1));
     // ArduPilot's alone (`--profile`, as `petrel run`): nothing produces
     // `strike`, which is then a nominal event: no lockout after it.
     let (code, out, err) = petrel(&["check", d, "--json", "--profile", "ardupilot"]);
