@@ -637,12 +637,16 @@ fn plane_engine_failure_from_efi_and_from_esc_telemetry() {
         .run(builtin("ardupilot"), 20 * S)
         .iter()
         .all(|e| e.event.name != "engine_failure"));
-    // Combustion: EFI rpm under idle with throttle 50 % for 2 s.
+    // Combustion: EFI rpm under idle with throttle 50 % for 2 s. The ESC
+    // telemetry that also reports the stopped engine (as the simulated
+    // ArduPlane sends both) does not give a second event.
     let mut s = Script::default();
     for step in 0..20u64 {
         s.at(step * S, 1, 1, plane(true, MAV_STATE_ACTIVE));
         let rpm = if step >= 5 { 0.0 } else { 5200.0 };
         s.at(step * S + 1, 1, 1, efi(rpm, 50.0));
+        s.at(step * S + 2, 1, 1, vfr(50));
+        s.at(step * S + 3, 1, 1, esc(rpm as u16));
     }
     let got: Vec<(u64, String)> = timeline(&s.run(builtin("ardupilot"), 20 * S))
         .into_iter()
@@ -735,4 +739,50 @@ fn px4_rules_on_a_synthetic_quad() {
     .map(|(t, s)| (*t, s.to_string()))
     .collect();
     assert_eq!(got, want);
+}
+
+/// `gcs_lost` only once a ground station has been heard: a vehicle flying
+/// without one for a minute gives none; a station heard once and then
+/// silent gives it, per station.
+#[test]
+fn gcs_lost_needs_a_ground_station_heard_first() {
+    use MavState::*;
+    let mut s = Script::default();
+    for t in 0..60u64 {
+        s.at(t * S, 1, 1, copter(false, 0, MAV_STATE_STANDBY));
+    }
+    let events = s.run(builtin("ardupilot"), 60 * S);
+    assert!(
+        events.iter().all(|e| !e.event.name.starts_with("gcs_")),
+        "{:?}",
+        timeline(&events)
+    );
+    // Two stations: 255/190 heard until 9 s, 254/1 throughout.
+    for t in 0..10u64 {
+        s.at(
+            t * S + 1,
+            255,
+            190,
+            other(MavType::MAV_TYPE_GCS, MAV_STATE_ACTIVE),
+        );
+    }
+    for t in 0..60u64 {
+        s.at(
+            t * S + 2,
+            254,
+            1,
+            other(MavType::MAV_TYPE_GCS, MAV_STATE_ACTIVE),
+        );
+    }
+    let got: Vec<(u64, String)> = timeline(&s.run(builtin("ardupilot"), 60 * S))
+        .into_iter()
+        .filter(|(_, e)| e.starts_with("gcs_"))
+        .collect();
+    assert_eq!(
+        got,
+        [(
+            14 * S + 100 * MS,
+            "gcs_lost {compid: 190, sysid: 255}".to_string()
+        )]
+    );
 }
