@@ -458,6 +458,7 @@ fn builtin_ardupilot_safety_and_catastrophic_rules() {
     esc.rpm = [1000, 0, 1100, 1050];
     let mut battery = BATTERY_STATUS_DATA::DEFAULT;
     battery.charge_state = MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_CRITICAL;
+    battery.battery_remaining = 7;
     let schedule: Vec<(u64, MavMessage)> = vec![
         (S, sensors(none, none, 20)),
         (5 * S, sensors(none, none, 8)),
@@ -511,7 +512,10 @@ fn builtin_ardupilot_safety_and_catastrophic_rules() {
                 "autopilot_failsafe {text: \"Radio Failsafe\"}".into()
             ),
             (15 * S, "engine_failure".into()),
-            (16 * S, "battery_critical {charge_state: 3}".into()),
+            (
+                16 * S,
+                "battery_critical {charge_state: 3, remaining: 7}".into()
+            ),
             (17 * S, "vehicle_emergency {system_status: 6}".into()),
         ]
     );

@@ -684,6 +684,7 @@ fn px4_rules_on_a_synthetic_quad() {
     let battery = |state: MavBatteryChargeState| {
         let mut d = BATTERY_STATUS_DATA::DEFAULT;
         d.charge_state = state;
+        d.battery_remaining = 18;
         MavMessage::BATTERY_STATUS(d)
     };
     let esc_info = |flags: u16| {
@@ -727,7 +728,7 @@ fn px4_rules_on_a_synthetic_quad() {
             "mode_changed {custom_mode: 67371008, mode: \"AUTO_MISSION\"}",
         ),
         (9 * S + 3, "ekf_unhealthy"),
-        (12 * S + 4, "battery_low {charge_state: 2}"),
+        (12 * S + 4, "battery_low {charge_state: 2, remaining: 18}"),
         (15 * S + 5, "engine_failure"),
         (
             18 * S,
