@@ -547,3 +547,37 @@ fn removing_or_recategorizing_a_rule_changes_the_events() {
     let (events, _, _) = elaborate(&bytes, profile, Config::default());
     assert!(events.iter().all(|(_, e)| e.event.name != "link_lost"));
 }
+
+/// Every recording in ../shared/telemetry has its timeline test above: a
+/// new recording fails here until it gets one.
+#[test]
+fn every_shared_recording_has_a_timeline() {
+    const COVERED: [&str; 9] = [
+        "SITL_arducopter-4.7.0dev_guided_takeoff_land.tlog",
+        "SITL_arduplane-4.7.0dev_auto_mission_land.tlog",
+        "SITL_dvd_2026-04-05_copter_udpflood_linkloss.tlog",
+        "ardusub_2023-04-18_sub_qgc_baddata.tlog",
+        "ardusub_2023-05-04_small_sub_qgc.tlog",
+        "codelever_2013-10-13_16-58-51_copter_apm.tlog",
+        "codelever_2013-10-13_18-31-24_copter_apm.tlog",
+        "codelever_2013-10-13_18-50-10_copter_apm.tlog",
+        "mavometer_2019_px4_bench_qgc.tlog",
+    ];
+    let Some(dir) = shared() else { return };
+    let mut found: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tlog"))
+        .collect();
+    found.sort();
+    assert_eq!(found, COVERED);
+    // And each is one the tests of this file read.
+    let source = include_str!("real_flights.rs");
+    for name in COVERED {
+        assert!(
+            source.matches(&format!("\"{name}\"")).count() >= 2,
+            "{name} is not read by a test"
+        );
+    }
+}
