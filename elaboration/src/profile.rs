@@ -114,6 +114,11 @@ pub struct Rule {
 }
 
 impl Rule {
+    /// The names of the parameters the rule's event carries, in order.
+    pub fn param_names(&self) -> impl Iterator<Item = &str> {
+        self.params.iter().map(|(name, _)| name.as_str())
+    }
+
     /// Whether the rule reads fields of the message in `slot` (not only its
     /// age).
     pub(crate) fn reads_fields_of(&self, slot: usize) -> bool {

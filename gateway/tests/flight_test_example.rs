@@ -707,3 +707,33 @@ fn the_profile_layer_on_the_sitl_plane_flight() {
         .collect();
     assert_eq!(seqs, [1, 2, 3, 4, 5, 6]);
 }
+
+/// Every catastrophic rule of the built-in ArduPilot profile, under the
+/// project's layer, carries the position DEC needs to pick an emergency
+/// site (a rule added to the built-in profile without it would make the
+/// nets fall back to landing at home).
+#[test]
+fn every_catastrophic_rule_carries_the_position() {
+    let layer = std::fs::read_to_string(root().join(PROJECT).join("profile.toml"))
+        .expect("the project's profile layer");
+    let builtin = elaboration::profile::builtin("ardupilot").expect("built in");
+    let profile =
+        elaboration::Profile::load(&[("ardupilot.toml", builtin), ("profile.toml", &layer)])
+            .expect("the layered profile loads");
+    let mut checked = 0;
+    for rule in profile.rules() {
+        if rule.category != nets::Category::Catastrophic || rule.event == "emergency_landed" {
+            continue;
+        }
+        let params: Vec<&str> = rule.param_names().collect();
+        for p in ["lat", "lon", "alt"] {
+            assert!(
+                params.contains(&p),
+                "rule {} lacks {p}: {params:?}",
+                rule.name
+            );
+        }
+        checked += 1;
+    }
+    assert!(checked >= 6, "only {checked} catastrophic rules");
+}
