@@ -827,3 +827,129 @@ fn a_nets_own_figures_count_its_places_only() {
     assert_eq!((net("B").states, net("B").edges), (1, 0));
     assert_eq!(net("B").dead_markings, 0, "an inactive net is not dead");
 }
+
+#[test]
+fn a_fallback_for_an_event_without_the_parameter_fires() {
+    // In flight, `alert` without `lat` makes `go`'s argument fail: the firing
+    // is rejected (a bad-argument fault and `net_fault`) and `go_blind`,
+    // declared after it, takes the event. The verifier explores both: the
+    // event carries `lat`, or it does not.
+    let report = verify(&[
+        (
+            "project.toml",
+            "[events]\nalert = { category = \"safety\", params = [\"lat\"] }\nreset = \"nominal\"\n[[net]]\nfile = \"a.toml\"\nactive = true\n",
+        ),
+        (
+            "a.toml",
+            r#"name = "A"
+places = ["idle", "going", "blind"]
+initial = ["idle"]
+[[transition]]
+name = "go"
+from = ["idle"]
+to = ["going"]
+on = "alert"
+do = ["command goto {lat: $lat, lon: 2}"]
+[[transition]]
+name = "go_blind"
+from = ["idle"]
+to = ["blind"]
+on = "alert"
+[[transition]]
+name = "back"
+from = ["going"]
+to = ["idle"]
+on = "reset"
+[[transition]]
+name = "back_blind"
+from = ["blind"]
+to = ["idle"]
+on = "reset"
+"#,
+        ),
+    ]);
+    assert!(report.holds(), "{report:#?}");
+    assert_eq!(never_fired(&report), Vec::<String>::new(), "{report:#?}");
+    let all = labels(&report);
+    for label in [
+        "alert [without lat] → A.go_blind",
+        "alert [with lat] → A.go",
+    ] {
+        assert!(all.iter().any(|l| l == label), "{label}: {all:#?}");
+    }
+    // Both answers lead to a state of their own: idle, going, blind.
+    assert_eq!(report.project.states, 3);
+}
+
+#[test]
+fn guard_and_argument_answers_agree_within_one_step() {
+    // The first `alert` is seen by A's guard on `lat` and B's argument
+    // `$lat` (A and B take one alert only). A guard that holds reads `lat`,
+    // so the event carries it and B's firing is not rejected: A.near and
+    // B.blind (taken only without `lat`) never fire in one step, and C.both,
+    // which needs both, never fires. The three real cases do: `lat` absent
+    // (A.far, B.blind), present and near (A.near and B.go: C.agree), present
+    // and far (A.far, B.go).
+    let report = verify(&[
+        (
+            "project.toml",
+            "[events]\nalert = { category = \"safety\", params = [\"lat\"] }\n[globals]\nnear = false\nblind = false\ngoing = false\n[[net]]\nfile = \"a.toml\"\nactive = true\n[[net]]\nfile = \"b.toml\"\nactive = true\n[[net]]\nfile = \"c.toml\"\nactive = true\n",
+        ),
+        (
+            "a.toml",
+            r#"name = "A"
+places = ["a0", "a1", "a2"]
+initial = ["a0"]
+final = ["a0", "a1", "a2"]
+[[transition]]
+name = "near"
+from = ["a0"]
+to = ["a1", "@near"]
+on = "alert"
+when = "lat > 45"
+[[transition]]
+name = "far"
+from = ["a0"]
+to = ["a2"]
+on = "alert"
+"#,
+        ),
+        (
+            "b.toml",
+            r#"name = "B"
+places = ["b0", "b1", "b2"]
+initial = ["b0"]
+final = ["b1", "b2"]
+[[transition]]
+name = "go"
+from = ["b0"]
+to = ["b1", "@going"]
+on = "alert"
+do = ["command goto {lat: $lat, lon: 0}"]
+[[transition]]
+name = "blind"
+from = ["b0"]
+to = ["b2", "@blind"]
+on = "alert"
+"#,
+        ),
+        (
+            "c.toml",
+            r#"name = "C"
+places = ["c0", "agreed", "bad"]
+initial = ["c0"]
+final = ["c0", "agreed"]
+[[transition]]
+name = "both"
+from = ["c0", "@near", "@blind"]
+to = ["bad"]
+[[transition]]
+name = "agree"
+from = ["c0", "@near", "@going"]
+to = ["agreed"]
+"#,
+        ),
+    ]);
+    assert_eq!(never_fired(&report), ["C.both"], "{report:#?}");
+    assert!(report.holds(), "{report:#?}");
+}

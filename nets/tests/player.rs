@@ -1429,3 +1429,97 @@ on = "tock"
     assert_eq!(fired(&p, &effects), ["N.ticked"]);
     assert!(effects.iter().any(|e| matches!(e, Effect::Dropped { event, .. } if event.name == "tock" && event.category == Category::Nominal)));
 }
+
+/// A net that goes to a position when `alert` carries one, and falls back
+/// when it does not; a net that listens for `net_fault`; and, if `guarded`,
+/// a net with a guard on the position.
+fn fallback_project(guarded: bool) -> Arc<nets::Project> {
+    project(&[
+        (
+            "project.toml",
+            &format!(
+                "[events.alert]\ncategory = \"safety\"\nparams = [\"lat\"]\n[[net]]\nfile = \"a.toml\"\nactive = {guarded}\n[[net]]\nfile = \"b.toml\"\nactive = true\n[[net]]\nfile = \"f.toml\"\nactive = true\n"
+            ),
+        ),
+        (
+            "a.toml",
+            "name = \"A\"\nplaces = [\"a0\", \"a1\"]\ninitial = [\"a0\"]\n[[transition]]\nname = \"near\"\nfrom = [\"a0\"]\nto = [\"a1\"]\non = \"alert\"\nwhen = \"lat > 45\"\n",
+        ),
+        (
+            "b.toml",
+            "name = \"B\"\nplaces = [\"idle\", \"going\", \"blind\"]\ninitial = [\"idle\"]\n[[transition]]\nname = \"go\"\nfrom = [\"idle\"]\nto = [\"going\"]\non = \"alert\"\ndo = [\"command goto {lat: $lat, lon: 2}\"]\n[[transition]]\nname = \"go_blind\"\nfrom = [\"idle\"]\nto = [\"blind\"]\non = \"alert\"\n",
+        ),
+        (
+            "f.toml",
+            "name = \"F\"\nplaces = [\"watching\", \"seen\"]\ninitial = [\"watching\"]\n[[transition]]\nname = \"fault\"\nfrom = [\"watching\"]\nto = [\"seen\"]\non = \"net_fault\"\nwhen = 'reason == \"argument `lat`: the event has no parameter `lat`\"'\n",
+        ),
+    ])
+}
+
+#[test]
+fn under_the_oracle_an_event_said_to_lack_a_parameter_plays_exactly_as_in_flight() {
+    use nets::player::{Oracle, Question};
+    let p = fallback_project(false);
+    let mut flight = Player::start(p.clone(), 0);
+    drain(&mut flight);
+    flight.handle(&ev("alert"), 1);
+    let in_flight = drain(&mut flight);
+    let mut verified = Player::start(p.clone(), 0);
+    drain(&mut verified);
+    verified.set_oracle(Some(Oracle::new(vec![false])));
+    verified.handle(&ev("alert"), 1);
+    assert_eq!(drain(&mut verified), in_flight);
+    assert_eq!(verified.digest(), flight.digest());
+    assert_eq!(
+        verified.oracle().map(|o| o.questions.clone()),
+        Some(vec![Question::Carries("lat".into())])
+    );
+    // The fault, the net_fault event with flight's reason, the fallback.
+    let joined = in_flight.join("\n");
+    for line in ["no parameter `lat`", "B.go_blind", "F.fault"] {
+        assert!(joined.contains(line), "{line}: {joined}");
+    }
+
+    // Said to carry it: `go` fires, its unknown argument left out.
+    let mut present = Player::start(p.clone(), 0);
+    drain(&mut present);
+    present.set_oracle(Some(Oracle::new(vec![true])));
+    present.handle(&ev("alert"), 1);
+    let effects = drain_effects(&mut present);
+    assert_eq!(fired(&p, &effects), ["B.go"]);
+    assert!(effects.iter().any(|e| matches!(
+        e,
+        Effect::Command { verb, args, .. }
+            if verb == "goto" && args == &Params::from([("lon".to_owned(), Value::Int(2))])
+    )));
+}
+
+#[test]
+fn under_the_oracle_a_guard_that_holds_makes_the_event_carry_what_it_read() {
+    use nets::player::{Oracle, Question};
+    let p = fallback_project(true);
+    // The guard holds: `lat` is carried, B.go's argument is not asked.
+    let mut player = Player::start(p.clone(), 0);
+    drain(&mut player);
+    player.set_oracle(Some(Oracle::new(vec![true])));
+    player.handle(&ev("alert"), 1);
+    assert_eq!(fired(&p, &drain_effects(&mut player)), ["A.near", "B.go"]);
+    assert_eq!(
+        player.oracle().map(|o| o.questions.clone()),
+        Some(vec![Question::Guard])
+    );
+    // The guard does not hold: whether `lat` is carried is still asked.
+    for (carried, taken) in [(true, "B.go"), (false, "B.go_blind")] {
+        let mut player = Player::start(p.clone(), 0);
+        drain(&mut player);
+        player.set_oracle(Some(Oracle::new(vec![false, carried])));
+        player.handle(&ev("alert"), 1);
+        let fired = fired(&p, &drain_effects(&mut player));
+        assert_eq!(fired.first().map(String::as_str), Some(taken), "{fired:?}");
+        assert!(!fired.contains(&"A.near".to_owned()), "{fired:?}");
+        assert_eq!(
+            player.oracle().map(|o| o.questions.clone()),
+            Some(vec![Question::Guard, Question::Carries("lat".into())])
+        );
+    }
+}

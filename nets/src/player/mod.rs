@@ -11,6 +11,7 @@
 
 mod digest;
 mod effect;
+mod oracle;
 mod render;
 mod state;
 
@@ -18,6 +19,7 @@ use std::sync::Arc;
 
 pub use digest::{canonical_bytes, Digest, DIGEST_ALGORITHM};
 pub use effect::{DropReason, Effect, Fault, Marked};
+pub use oracle::{Oracle, Question};
 
 pub use render::{effect_json, effect_text};
 pub use state::{Pending, PendingKind, Queued, State, Timer};
@@ -41,28 +43,6 @@ pub enum Outcome {
 pub enum RestoreError {
     #[error("the snapshot does not fit this project: {0}")]
     Mismatch(String),
-}
-
-/// How the verifier answers guards it cannot evaluate. In flight there is
-/// no oracle: every guard is evaluated. With an oracle, a guard that reads a
-/// parameter the event does not carry takes the next answer (false once
-/// they run out), and an action argument that cannot be evaluated is left
-/// out instead of rejecting the firing: the verifier explores both answers
-/// of every such guard.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct Oracle {
-    /// Answers to give, in order of asking.
-    pub answers: Vec<bool>,
-    /// How many guards asked.
-    pub asked: usize,
-}
-
-impl Oracle {
-    fn ask(&mut self) -> bool {
-        let answer = self.answers.get(self.asked).copied().unwrap_or(false);
-        self.asked += 1;
-        answer
-    }
 }
 
 /// The player of one project.
@@ -182,13 +162,14 @@ impl Player {
         Ok(Player::with_state(project, state))
     }
 
-    /// Puts the verifier's oracle in charge of guards that cannot be
-    /// evaluated (see [`Oracle`]); `None` restores evaluation.
+    /// Puts the verifier's oracle in charge of guards and arguments that
+    /// read parameters the verifier does not know (see [`Oracle`]); `None`
+    /// restores evaluation.
     pub fn set_oracle(&mut self, oracle: Option<Oracle>) {
         self.oracle = oracle;
     }
 
-    /// The oracle, with how many guards asked it.
+    /// The oracle, with the questions it was asked.
     pub fn oracle(&self) -> Option<&Oracle> {
         self.oracle.as_ref()
     }
@@ -259,7 +240,15 @@ impl Player {
         let category = project
             .declared_category(&event.name)
             .unwrap_or(event.category);
-        if let Err(reason) = self.occur(&project, &event.name, category, &event.params, None, now) {
+        // The verifier does not know an external event's parameters.
+        if let Some(oracle) = &mut self.oracle {
+            oracle.open(true);
+        }
+        let occurred = self.occur(&project, &event.name, category, &event.params, None, now);
+        if let Some(oracle) = &mut self.oracle {
+            oracle.open(false);
+        }
+        if let Err(reason) = occurred {
             self.effects.push(Effect::Dropped {
                 time: now,
                 event: Event {
@@ -491,8 +480,22 @@ impl Player {
                     Ok(true) => {}
                     Ok(false) => continue,
                     Err(crate::expr::EvalError::MissingParam(_)) if self.oracle.is_some() => {
-                        if !self.oracle.as_mut().is_some_and(Oracle::ask) {
-                            continue;
+                        match self.oracle.as_mut().map(|o| o.guard(&guard.expr, params)) {
+                            Some(oracle::GuardAnswer::Holds) => {}
+                            Some(oracle::GuardAnswer::Missing(p)) => {
+                                // As in flight: the guard cannot be evaluated.
+                                let e = crate::expr::EvalError::MissingParam(p);
+                                self.effects.push(Effect::Fault {
+                                    time: now,
+                                    fault: Fault::Guard {
+                                        net: n,
+                                        transition: t,
+                                        message: e.to_string(),
+                                    },
+                                });
+                                continue;
+                            }
+                            _ => continue,
                         }
                     }
                     Err(e) => {
@@ -561,24 +564,30 @@ impl Player {
                 _ => continue,
             };
             for (key, e) in args {
-                if self.oracle.is_some() {
-                    // The verifier does not know parameter values: an
-                    // argument it cannot evaluate is left out.
-                    break;
-                }
-                if let Err(err) = e.eval(params) {
-                    let message = format!("argument `{key}`: {err}");
-                    self.effects.push(Effect::Fault {
-                        time: now,
-                        fault: Fault::BadArgument {
-                            net: n,
-                            transition: t,
-                            message: message.clone(),
-                        },
-                    });
-                    self.net_fault(project, n, t, None, &message, now, tainted);
-                    return Firing::Rejected;
-                }
+                let err = match (e.eval(params), &mut self.oracle) {
+                    (Ok(_), _) => continue,
+                    // The verifier does not know the parameter: if the
+                    // external event is said to lack it, the firing is
+                    // rejected as in flight; else the argument is left out.
+                    (Err(crate::expr::EvalError::MissingParam(_)), Some(oracle)) => {
+                        match oracle.argument(e, params) {
+                            Some(p) => crate::expr::EvalError::MissingParam(p),
+                            None => continue,
+                        }
+                    }
+                    (Err(err), _) => err,
+                };
+                let message = format!("argument `{key}`: {err}");
+                self.effects.push(Effect::Fault {
+                    time: now,
+                    fault: Fault::BadArgument {
+                        net: n,
+                        transition: t,
+                        message: message.clone(),
+                    },
+                });
+                self.net_fault(project, n, t, None, &message, now, tainted);
+                return Firing::Rejected;
             }
         }
         if let Some(&p) = tr

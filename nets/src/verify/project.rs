@@ -42,7 +42,9 @@ use std::sync::Arc;
 use super::graph::{self, Csr, Filtered};
 use crate::event::Event;
 use crate::model::{names, Action, NetId, Project, TransitionId};
-use crate::player::{canonical_bytes, Effect, Fault, Oracle, Outcome, PendingKind, Player, State};
+use crate::player::{
+    canonical_bytes, Effect, Fault, Oracle, Outcome, PendingKind, Player, Question, State,
+};
 use crate::time::Micros;
 use crate::value::Params;
 
@@ -429,7 +431,8 @@ impl Explorer {
             // Every sequence of oracle answers, depth first.
             let mut todo: Vec<Vec<bool>> = vec![Vec::new()];
             while let Some(answers) = todo.pop() {
-                let (state, effects, asked, seq_before) = self.step(abs, &input, &answers);
+                let (state, effects, questions, seq_before) = self.step(abs, &input, &answers);
+                let asked = questions.len();
                 for k in answers.len()..asked {
                     let mut alt = answers.clone();
                     alt.resize(k, false);
@@ -468,7 +471,7 @@ impl Explorer {
                 }
                 let label = self.labels.len() as u32;
                 self.labels.push(Label {
-                    text: self.describe(abs, &input, &used, &effects),
+                    text: self.describe(abs, &input, &questions, &used, &effects),
                     fired,
                     unsafe_by,
                     livelock,
@@ -479,7 +482,12 @@ impl Explorer {
     }
 
     /// Runs one input on the concrete state of `abs`.
-    fn step(&self, abs: &Abs, input: &Input, answers: &[bool]) -> (State, Vec<Effect>, usize, u64) {
+    fn step(
+        &self,
+        abs: &Abs,
+        input: &Input,
+        answers: &[bool],
+    ) -> (State, Vec<Effect>, Vec<Question>, u64) {
         let expire = match input {
             Input::Timer(i) => Some(*i),
             _ => None,
@@ -497,12 +505,9 @@ impl Explorer {
         let seq_before = concrete.next_timer_seq;
         let Ok(mut player) = Player::restore(self.project.clone(), concrete) else {
             // A state the explorer built itself always fits its project.
-            return (abs.state.clone(), Vec::new(), 0, seq_before);
+            return (abs.state.clone(), Vec::new(), Vec::new(), seq_before);
         };
-        player.set_oracle(Some(Oracle {
-            answers: answers.to_vec(),
-            asked: 0,
-        }));
+        player.set_oracle(Some(Oracle::new(answers.to_vec())));
         match input {
             Input::Event(name) => player.handle(&Event::new(name.clone()), T + 1),
             Input::Timer(_) => player.advance(T + 1),
@@ -515,11 +520,20 @@ impl Explorer {
             }
         }
         let effects: Vec<Effect> = player.effects().collect();
-        let asked = player.oracle().map_or(0, |o| o.asked);
-        (player.snapshot(), effects, asked, seq_before)
+        let questions = player
+            .oracle()
+            .map_or_else(Vec::new, |o| o.questions.clone());
+        (player.snapshot(), effects, questions, seq_before)
     }
 
-    fn describe(&self, abs: &Abs, input: &Input, answers: &[bool], effects: &[Effect]) -> String {
+    fn describe(
+        &self,
+        abs: &Abs,
+        input: &Input,
+        questions: &[Question],
+        answers: &[bool],
+        effects: &[Effect],
+    ) -> String {
         let p = &self.project;
         let mut text = match input {
             Input::Event(name) => name.clone(),
@@ -557,12 +571,36 @@ impl Explorer {
                 text
             }
         };
-        if !answers.is_empty() {
-            let a: Vec<&str> = answers
+        // The external event's parameters, as the oracle said.
+        let carried = |present: bool| -> Vec<&str> {
+            questions
                 .iter()
-                .map(|b| if *b { "yes" } else { "no" })
-                .collect();
-            text.push_str(&format!(" [guards: {}]", a.join(", ")));
+                .zip(answers)
+                .filter_map(|(q, a)| match q {
+                    Question::Carries(p) if *a == present => Some(p.as_str()),
+                    _ => None,
+                })
+                .collect()
+        };
+        let (with, without) = (carried(true), carried(false));
+        if !with.is_empty() || !without.is_empty() {
+            let mut parts = Vec::new();
+            if !with.is_empty() {
+                parts.push(format!("with {}", with.join(", ")));
+            }
+            if !without.is_empty() {
+                parts.push(format!("without {}", without.join(", ")));
+            }
+            text.push_str(&format!(" [{}]", parts.join("; ")));
+        }
+        let guards: Vec<&str> = questions
+            .iter()
+            .zip(answers)
+            .filter(|(q, _)| **q == Question::Guard)
+            .map(|(_, b)| if *b { "yes" } else { "no" })
+            .collect();
+        if !guards.is_empty() {
+            text.push_str(&format!(" [guards: {}]", guards.join(", ")));
         }
         let fired: Vec<String> = effects
             .iter()
