@@ -830,14 +830,14 @@ fn a_nets_own_figures_count_its_places_only() {
 
 #[test]
 fn a_fallback_for_an_event_without_the_parameter_fires() {
-    // In flight, `alert` without `lat` makes `go`'s argument fail: the firing
-    // is rejected (a bad-argument fault and `net_fault`) and `go_blind`,
-    // declared after it, takes the event. The verifier explores both: the
-    // event carries `lat`, or it does not.
+    // In flight, `alert` without `lat` (or `lon`) makes `go`'s argument
+    // fail: the firing is rejected (a bad-argument fault and `net_fault`)
+    // and `go_blind`, declared after it, takes the event. The verifier
+    // explores both: the event carries them, or it does not.
     let report = verify(&[
         (
             "project.toml",
-            "[events]\nalert = { category = \"safety\", params = [\"lat\"] }\nreset = \"nominal\"\n[[net]]\nfile = \"a.toml\"\nactive = true\n",
+            "[events]\nalert = { category = \"safety\", params = [\"lat\", \"lon\"] }\nreset = \"nominal\"\n[[net]]\nfile = \"a.toml\"\nactive = true\n",
         ),
         (
             "a.toml",
@@ -849,7 +849,7 @@ name = "go"
 from = ["idle"]
 to = ["going"]
 on = "alert"
-do = ["command goto {lat: $lat, lon: 2}"]
+do = ["command goto {lat: $lat, lon: $lon}"]
 [[transition]]
 name = "go_blind"
 from = ["idle"]
@@ -873,12 +873,13 @@ on = "reset"
     let all = labels(&report);
     for label in [
         "alert [without lat] → A.go_blind",
-        "alert [with lat] → A.go",
+        "alert [with lat, lon] → A.go",
     ] {
         assert!(all.iter().any(|l| l == label), "{label}: {all:#?}");
     }
-    // Both answers lead to a state of their own: idle, going, blind.
-    assert_eq!(report.project.states, 3);
+    // Idle, going, blind. Without `lat`, or with `lat` but without `lon`,
+    // the event is rejected alike: one step, so four in all.
+    assert_eq!((report.project.states, report.project.edges), (3, 4));
 }
 
 #[test]

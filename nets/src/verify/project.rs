@@ -27,7 +27,12 @@
 //! Guards on parameters the verifier does not know are answered both ways
 //! through the player's [`Oracle`]; guards it can evaluate (a command
 //! result's `verb`, a failure's `reason` among the values above) are
-//! evaluated.
+//! evaluated. An action argument that reads a parameter of the external
+//! event asks whether the event carries it: absent, the firing is rejected
+//! as in flight (and a fallback declared after it takes the event); present,
+//! the argument is left out. The answers agree within the step (see
+//! [`Oracle`]); answer sequences that end alike (same state, same firings,
+//! same faults) make one edge.
 //!
 //! Events take the category the project declares (with the elaboration
 //! profile's catalog when the caller loaded it: `petrel check` does, as
@@ -428,6 +433,8 @@ impl Explorer {
 
     fn successors(&mut self, abs: &Abs, out: &mut Vec<(u32, Abs)>) {
         for input in self.inputs(abs) {
+            // This input's successors start here in `out`.
+            let first = out.len();
             // Every sequence of oracle answers, depth first.
             let mut todo: Vec<Vec<bool>> = vec![Vec::new()];
             while let Some(answers) = todo.pop() {
@@ -468,6 +475,18 @@ impl Explorer {
                     && next.key == abs.key
                 {
                     continue; // nothing happened: not an edge
+                }
+                // Answers that end alike (an event lacking `lat` or `lon`
+                // is rejected the same way) make one edge: the first.
+                let labels = &self.labels;
+                if out[first..].iter().any(|(l, a)| {
+                    let l = &labels[*l as usize];
+                    a.key == next.key
+                        && l.fired == fired
+                        && l.unsafe_by == unsafe_by
+                        && l.livelock == livelock
+                }) {
+                    continue;
                 }
                 let label = self.labels.len() as u32;
                 self.labels.push(Label {
