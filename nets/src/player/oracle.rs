@@ -115,13 +115,18 @@ impl Oracle {
         if let Some(p) = reads
             .always()
             .into_iter()
+            .flatten()
             .filter(unknown)
             .find(|p| self.known(p) == Some(false))
         {
             return GuardAnswer::Missing(p.to_owned());
         }
-        // Read by every evaluation that holds: absent, the guard is false.
-        let needed: Vec<&str> = reads.truthy.into_iter().filter(unknown).collect();
+        // Read by every evaluation that holds: absent, the guard is false
+        // (`None`: it never holds).
+        let Some(needed) = reads.truthy else {
+            return GuardAnswer::False;
+        };
+        let needed: Vec<&str> = needed.into_iter().filter(unknown).collect();
         if needed.iter().any(|p| self.known(p) == Some(false)) {
             return GuardAnswer::False;
         }
@@ -146,8 +151,7 @@ impl Oracle {
         if !self.open {
             return None;
         }
-        let reads = Reads::of(argument);
-        let always = reads.always();
+        let always = Reads::of(argument).always().unwrap_or_default();
         // In the order evaluation reads them: the first absent one is the
         // error flight reports.
         let mut order = Vec::new();
@@ -167,26 +171,33 @@ impl Oracle {
     }
 }
 
+/// A set of parameter names, or `None` for every name: what evaluations
+/// that cannot happen read (a literal `true` is never falsy).
+type Names<'a> = Option<Vec<&'a str>>;
+
 /// The parameters an expression surely reads: on every evaluation that
 /// succeeds with a truthy value, and on every one that succeeds with a
 /// falsy value (`&&` and `||` skip their right side). Smaller sets are
-/// always sound: they only leave more answers open.
+/// sound for a guard (a "yes" makes fewer parameters present); for an
+/// argument, a parameter outside them is taken as present (see
+/// [`Oracle::argument`]).
 struct Reads<'a> {
-    truthy: Vec<&'a str>,
-    falsy: Vec<&'a str>,
+    truthy: Names<'a>,
+    falsy: Names<'a>,
 }
 
 impl<'a> Reads<'a> {
     fn of(expr: &'a Expr) -> Reads<'a> {
         match expr {
+            Expr::Lit(v) if v.truthy() => Reads {
+                truthy: Some(Vec::new()),
+                falsy: None,
+            },
             Expr::Lit(_) => Reads {
-                truthy: Vec::new(),
-                falsy: Vec::new(),
+                truthy: None,
+                falsy: Some(Vec::new()),
             },
-            Expr::Param { name, .. } => Reads {
-                truthy: vec![name.as_str()],
-                falsy: vec![name.as_str()],
-            },
+            Expr::Param { name, .. } => Reads::both(Some(vec![name.as_str()])),
             Expr::Not(e) => {
                 let r = Reads::of(e);
                 Reads {
@@ -212,38 +223,45 @@ impl<'a> Reads<'a> {
             Expr::Binary(_, a, b) => {
                 Reads::both(union(&Reads::of(a).always(), &Reads::of(b).always()))
             }
-            Expr::List(items) => Reads::both(
-                items
-                    .iter()
-                    .fold(Vec::new(), |acc, e| union(&acc, &Reads::of(e).always())),
-            ),
-            Expr::Map(items) => Reads::both(items.iter().fold(Vec::new(), |acc, (_, e)| {
-                union(&acc, &Reads::of(e).always())
-            })),
+            Expr::List(items) => Reads::both(always_all(items.iter())),
+            Expr::Map(items) => Reads::both(always_all(items.iter().map(|(_, e)| e))),
         }
     }
 
-    fn both(reads: Vec<&'a str>) -> Reads<'a> {
+    fn both(names: Names<'a>) -> Reads<'a> {
         Reads {
-            truthy: reads.clone(),
-            falsy: reads,
+            truthy: names.clone(),
+            falsy: names,
         }
     }
 
     /// Read by every evaluation that succeeds.
-    fn always(&self) -> Vec<&'a str> {
+    fn always(&self) -> Names<'a> {
         intersection(&self.truthy, &self.falsy)
     }
 }
 
-fn union<'a>(a: &[&'a str], b: &[&'a str]) -> Vec<&'a str> {
-    let mut out = a.to_vec();
-    out.extend(b.iter().filter(|x| !a.contains(x)));
+/// Read by every successful evaluation of all of them.
+fn always_all<'a>(items: impl Iterator<Item = &'a Expr>) -> Names<'a> {
+    let mut out = Some(Vec::new());
+    for e in items {
+        out = union(&out, &Reads::of(e).always());
+    }
     out
 }
 
-fn intersection<'a>(a: &[&'a str], b: &[&'a str]) -> Vec<&'a str> {
-    a.iter().copied().filter(|x| b.contains(x)).collect()
+fn union<'a>(a: &Names<'a>, b: &Names<'a>) -> Names<'a> {
+    let (a, b) = (a.as_ref()?, b.as_ref()?);
+    let mut out = a.clone();
+    out.extend(b.iter().filter(|x| !a.contains(x)));
+    Some(out)
+}
+
+fn intersection<'a>(a: &Names<'a>, b: &Names<'a>) -> Names<'a> {
+    match (a, b) {
+        (None, x) | (x, None) => x.clone(),
+        (Some(a), Some(b)) => Some(a.iter().copied().filter(|x| b.contains(x)).collect()),
+    }
 }
 
 #[cfg(test)]
@@ -251,14 +269,21 @@ mod tests {
     use super::*;
     use crate::expr::Context;
 
+    /// What every evaluation that holds reads, and every one that succeeds
+    /// (`*`: there is none).
     fn reads(text: &str) -> (Vec<String>, Vec<String>) {
         let e = crate::expr::parse(text, Context::Guard).expect("parses");
         let r = Reads::of(&e);
-        let mut t: Vec<String> = r.truthy.iter().map(|s| s.to_string()).collect();
-        let mut a: Vec<String> = r.always().iter().map(|s| s.to_string()).collect();
-        t.sort();
-        a.sort();
-        (t, a)
+        let sorted = |names: Names| -> Vec<String> {
+            let mut v: Vec<String> = names
+                .unwrap_or(vec!["*"])
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
+            v.sort();
+            v
+        };
+        (sorted(r.truthy.clone()), sorted(r.always()))
     }
 
     #[test]
@@ -282,7 +307,14 @@ mod tests {
                 vec!["a".into(), "b".into(), "c".into()]
             )
         );
+        // Literals short-circuit the same way every time.
         assert_eq!(reads("true || a"), (vec![], vec![]));
+        assert_eq!(reads("true && a"), (vec!["a".into()], vec!["a".into()]));
+        assert_eq!(reads("false || a"), (vec!["a".into()], vec!["a".into()]));
+        assert_eq!(
+            reads("a == 1 && false"),
+            (vec!["*".into()], vec!["a".into()])
+        );
         assert_eq!(
             reads("[a, {k: b}] != []"),
             (vec!["a".into(), "b".into()], vec!["a".into(), "b".into()])
@@ -348,6 +380,23 @@ mod tests {
             o.guard(&expr("lat > 45", Context::Guard), &none),
             GuardAnswer::False
         ));
+    }
+
+    #[test]
+    fn a_guard_that_can_never_hold_is_not_asked_and_a_literal_does_not_hide_a_read() {
+        let mut o = Oracle::new(vec![true]);
+        o.open(true);
+        let none = Params::new();
+        assert!(matches!(
+            o.guard(&expr("lat > 45 && false", Context::Guard), &none),
+            GuardAnswer::False
+        ));
+        assert!(o.questions.is_empty());
+        assert_eq!(
+            o.argument(&expr("true && $lat", Context::Argument), &none),
+            None
+        );
+        assert_eq!(o.questions, [Question::Carries("lat".into())]);
     }
 
     #[test]
