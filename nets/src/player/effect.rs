@@ -188,4 +188,20 @@ impl Effect {
             | Effect::Fault { time, .. } => *time,
         }
     }
+
+    /// For a firing, the transition as `NET.transition`.
+    pub fn fired_label(&self, project: &crate::model::Project) -> Option<String> {
+        match self {
+            Effect::Fired {
+                net, transition, ..
+            } => {
+                let net = &project.nets[*net];
+                Some(format!(
+                    "{}.{}",
+                    net.name, net.transitions[*transition].name
+                ))
+            }
+            _ => None,
+        }
+    }
 }

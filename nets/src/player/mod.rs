@@ -476,28 +476,22 @@ impl Player {
                 continue;
             }
             if let Some(guard) = &tr.guard {
-                match guard.expr.holds(params) {
-                    Ok(true) => {}
-                    Ok(false) => continue,
+                let verdict = match guard.expr.holds(params) {
                     Err(crate::expr::EvalError::MissingParam(_)) if self.oracle.is_some() => {
                         match self.oracle.as_mut().map(|o| o.guard(&guard.expr, params)) {
-                            Some(oracle::GuardAnswer::Holds) => {}
+                            Some(oracle::GuardAnswer::Holds) => Ok(true),
+                            // As in flight: the guard cannot be evaluated.
                             Some(oracle::GuardAnswer::Missing(p)) => {
-                                // As in flight: the guard cannot be evaluated.
-                                let e = crate::expr::EvalError::MissingParam(p);
-                                self.effects.push(Effect::Fault {
-                                    time: now,
-                                    fault: Fault::Guard {
-                                        net: n,
-                                        transition: t,
-                                        message: e.to_string(),
-                                    },
-                                });
-                                continue;
+                                Err(crate::expr::EvalError::MissingParam(p))
                             }
-                            _ => continue,
+                            _ => Ok(false),
                         }
                     }
+                    verdict => verdict,
+                };
+                match verdict {
+                    Ok(true) => {}
+                    Ok(false) => continue,
                     Err(e) => {
                         self.effects.push(Effect::Fault {
                             time: now,

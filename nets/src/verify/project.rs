@@ -621,18 +621,7 @@ impl Explorer {
         if !guards.is_empty() {
             text.push_str(&format!(" [guards: {}]", guards.join(", ")));
         }
-        let fired: Vec<String> = effects
-            .iter()
-            .filter_map(|e| match e {
-                Effect::Fired {
-                    net, transition, ..
-                } => Some(format!(
-                    "{}.{}",
-                    p.nets[*net].name, p.nets[*net].transitions[*transition].name
-                )),
-                _ => None,
-            })
-            .collect();
+        let fired: Vec<String> = effects.iter().filter_map(|e| e.fired_label(p)).collect();
         if !fired.is_empty() {
             text.push_str(&format!(" → {}", fired.join(", ")));
         }

@@ -49,15 +49,7 @@ pub fn drain_effects(player: &mut Player) -> Vec<Effect> {
 pub fn fired(project: &Project, effects: &[Effect]) -> Vec<String> {
     effects
         .iter()
-        .filter_map(|e| match e {
-            Effect::Fired {
-                net, transition, ..
-            } => Some(format!(
-                "{}.{}",
-                project.nets[*net].name, project.nets[*net].transitions[*transition].name
-            )),
-            _ => None,
-        })
+        .filter_map(|e| e.fired_label(project))
         .collect()
 }
 
