@@ -5,7 +5,7 @@
 mod common;
 
 use nets::verify::explore::{explore, Options as PtOptions};
-use nets::verify::project::{check, token_game, Options, ProjectReport};
+use nets::verify::project::{check, token_game, Options, ProjectReport, Report};
 
 fn verify(files: &[(&str, &str)]) -> ProjectReport {
     check(&common::project(files), &Options::default())
@@ -797,8 +797,9 @@ fn the_progress_callback_counts_the_states_explored() {
         },
     );
     assert_eq!(report.project.states, 1024);
+    // The project, then N alone (the same 1024 states) counted on.
     let calls = calls.take();
-    assert_eq!(calls, [256, 512, 768, 1024]);
+    assert_eq!(calls, [256, 512, 768, 1024, 1280, 1536, 1792, 2048]);
 }
 
 #[test]
@@ -953,4 +954,164 @@ to = ["agreed"]
     ]);
     assert_eq!(never_fired(&report), ["C.both"], "{report:#?}");
     assert!(report.holds(), "{report:#?}");
+}
+
+/// The net alone of `report` named `n`, and the net in its project.
+fn both<'a>(report: &'a ProjectReport, n: &str) -> (&'a Report, &'a Report) {
+    let i = report
+        .nets
+        .iter()
+        .position(|(m, _)| m == n)
+        .expect("a net of that name");
+    (&report.nets[i].1, &report.alone[i])
+}
+
+#[test]
+fn a_net_waiting_for_a_global_place_another_fills_is_dead_alone_a_warning() {
+    // A fills @ready on `go`; B waits for it. In the project B is never
+    // stuck (`go` can always come); alone, nothing fills @ready.
+    let report = verify(&[
+        (
+            "project.toml",
+            "[globals]\nready = false\n[[net]]\nfile = \"a.toml\"\nactive = true\n[[net]]\nfile = \"b.toml\"\nactive = true\n",
+        ),
+        (
+            "a.toml",
+            "name = \"A\"\nplaces = [\"idle\", \"sent\"]\ninitial = [\"idle\"]\nfinal = [\"sent\"]\n[[transition]]\nname = \"fill\"\nfrom = [\"idle\"]\nto = [\"sent\", \"@ready\"]\non = \"go\"\n",
+        ),
+        (
+            "b.toml",
+            "name = \"B\"\nplaces = [\"waiting\", \"done\"]\ninitial = [\"waiting\"]\nfinal = [\"done\"]\n[[transition]]\nname = \"take\"\nfrom = [\"waiting\", \"@ready\"]\nto = [\"done\"]\n",
+        ),
+    ]);
+    assert!(report.holds(), "{report:#?}");
+    let (b, b_alone) = both(&report, "B");
+    assert_eq!(b.dead_markings, 0);
+    assert_eq!(b_alone.dead_markings, 1);
+    assert_eq!(b_alone.deadlock_example, Some(vec![]));
+    assert_eq!((b_alone.states, b_alone.edges), (1, 0));
+    assert!(b_alone.safe && b_alone.complete);
+    assert_eq!(
+        b_alone.warnings,
+        ["transition B.take can never fire"],
+        "{b_alone:#?}"
+    );
+    let relies = "B alone can reach a dead marking (it relies on other nets): at the start";
+    assert!(b.warnings.iter().any(|w| w == relies), "{:#?}", b.warnings);
+    assert!(
+        report.project.warnings.iter().any(|w| w == relies),
+        "{:#?}",
+        report.project.warnings
+    );
+    // A needs nothing from B: alone as in its project, no warning.
+    let (a, a_alone) = both(&report, "A");
+    assert_eq!(
+        (a_alone.states, a_alone.edges, a_alone.dead_markings),
+        (2, 1, 0)
+    );
+    assert!(!a.warnings.iter().any(|w| w.contains("alone")), "{a:#?}");
+}
+
+#[test]
+fn a_net_unsafe_alone_and_in_its_project_is_an_error_not_a_warning() {
+    // A marks @busy on every `go`: the second is a double token, with or
+    // without B.
+    let report = verify(&[
+        (
+            "project.toml",
+            "[globals]\nbusy = false\n[[net]]\nfile = \"a.toml\"\nactive = true\n[[net]]\nfile = \"b.toml\"\nactive = true\n",
+        ),
+        (
+            "a.toml",
+            "name = \"A\"\nplaces = [\"idle\"]\ninitial = [\"idle\"]\nfinal = [\"idle\"]\n[[transition]]\nname = \"mark\"\nfrom = [\"idle\"]\nto = [\"idle\", \"@busy\"]\non = \"go\"\n",
+        ),
+        (
+            "b.toml",
+            "name = \"B\"\nplaces = [\"wait\", \"free\"]\ninitial = [\"wait\"]\nfinal = [\"free\"]\n[[transition]]\nname = \"clear\"\nfrom = [\"wait\", \"@busy\"]\nto = [\"free\"]\non = \"tick\"\n",
+        ),
+    ]);
+    assert!(!report.holds());
+    let (a, a_alone) = both(&report, "A");
+    assert!(!a.safe && !a.holds());
+    assert!(!a_alone.safe);
+    assert_eq!(
+        a_alone.unsafe_example,
+        Some(vec![
+            "go → A.mark".to_owned(),
+            "go ✗ A.mark would put a second token in @busy".to_owned()
+        ])
+    );
+    // Found at both levels: the project's error, no "relies" warning for A
+    // (B alone, with nothing to fill @busy, is dead: that one is).
+    assert!(
+        !report
+            .project
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("A alone")),
+        "{:#?}",
+        report.project.warnings
+    );
+}
+
+#[test]
+fn a_nets_figures_alone_are_counted_by_hand() {
+    // D emits `x` once; C waits for it. In its project C goes a → b → c
+    // and stays there; alone, `x` may come in any state.
+    let report = verify(&[
+        (
+            "project.toml",
+            "[[net]]\nfile = \"c.toml\"\nactive = true\n[[net]]\nfile = \"d.toml\"\nactive = true\n",
+        ),
+        (
+            "c.toml",
+            r#"name = "C"
+places = ["a", "b", "c"]
+initial = ["a"]
+final = ["c"]
+[[transition]]
+name = "ab"
+from = ["a"]
+to = ["b"]
+on = "x"
+do = ["activate D"]
+[[transition]]
+name = "bc"
+from = ["b"]
+to = ["c"]
+on = "y"
+[[transition]]
+name = "ca"
+from = ["c"]
+to = ["a"]
+on = "x"
+[[transition]]
+name = "stop"
+from = ["b"]
+to = []
+on = "z"
+do = ["deactivate C"]
+"#,
+        ),
+        (
+            "d.toml",
+            "name = \"D\"\nplaces = [\"s0\", \"s1\"]\ninitial = [\"s0\"]\nfinal = [\"s1\"]\n[[transition]]\nname = \"send\"\nfrom = [\"s0\"]\nto = [\"s1\"]\non = \"go\"\ndo = [\"emit x\"]\n",
+        ),
+    ]);
+    assert!(report.holds(), "{report:#?}");
+    let (c, alone) = both(&report, "C");
+    // In its project: {a}, {b}, {c}, inactive; a→b, b→c, b→off.
+    assert_eq!((c.states, c.edges), (4, 3), "{c:#?}");
+    assert!(c.loops.is_empty(), "{:#?}", c.loops);
+    // Alone: the same four states, and c→a too: a loop, no deadlock
+    // (c is final, and the net deactivated itself is not dead).
+    assert_eq!((alone.states, alone.edges), (4, 4), "{alone:#?}");
+    assert_eq!(alone.dead_markings, 0);
+    assert!(alone.safe && alone.complete && alone.livelocks.is_empty());
+    assert_eq!(alone.max_tokens, 1);
+    assert_eq!(alone.loops, [["x → C.ab", "y → C.bc", "x → C.ca"]]);
+    assert!(alone.warnings.is_empty(), "{:#?}", alone.warnings);
+    // D alone: `go` fires its one transition, into a final place.
+    let (_, d) = both(&report, "D");
+    assert_eq!((d.states, d.edges, d.dead_markings), (2, 1, 0));
 }

@@ -9,12 +9,14 @@
 //!   bitset engine for 1-safe nets, a counting engine for the others, both
 //!   parallel); [`reference`]: a plain explorer the tests compare it with.
 //! - [`project`]: the project-level verifier (the player's own semantics,
-//!   on [`graph::explore_bfs`]); [`export`]: Petrel nets as PNML.
+//!   on [`graph::explore_bfs`]); [`alone`]: each net explored alone, the
+//!   single-procedure level; [`export`]: Petrel nets as PNML.
 //!
 //! Pure computation: no file I/O, no clock (the caller times runs).
 //! [`explore`] may use several threads when asked to (scoped, joined before
 //! it returns).
 
+pub mod alone;
 pub mod explore;
 pub mod export;
 pub mod graph;

@@ -15,14 +15,17 @@
 //!   reason the guards awaiting the failure tell apart (every string they
 //!   compare `reason` with, and one they do not);
 //!
-//! Each net gets its own verdict too, read off the same exploration: the net
-//! *in its project*, under what the other nets really do. Its states are its
-//! own markings (and whether it is active); it is dead in a state where it is
-//! active, holds no final place and can never fire again, even if other nets
-//! still can; it is unsafe if one of its transitions attempts a double token.
-//! (Exploring a net in isolation would have to freeze the global places the
-//! other nets move, or let them move arbitrarily: both report deadlocks that
-//! cannot happen.)
+//! Each net gets two verdicts of its own. The first is read off the same
+//! exploration: the net *in its project*, under what the other nets really
+//! do. Its states are its own markings (and whether it is active); it is
+//! dead in a state where it is active, holds no final place and can never
+//! fire again, even if other nets still can; it is unsafe if one of its
+//! transitions attempts a double token. The second is the net *alone* (the
+//! single-procedure level, [`super::alone`]): the same explorer on a copy of
+//! the project where the other nets are absent and the events they emit may
+//! come at any time; its figures are counted the same way. The project level
+//! is authoritative: a violation found alone only is a warning (the net
+//! relies on the other nets), one found in the project too is an error.
 //!
 //! Guards on parameters the verifier does not know are answered both ways
 //! through the player's [`Oracle`]; guards it can evaluate (a command
@@ -63,7 +66,8 @@ pub const MAX_STATES: usize = 1_000_000;
 pub struct Options<'a> {
     /// Stop exploring past this many states (the report says so).
     pub max_states: usize,
-    /// Give each net its own verdict as well as the whole project's.
+    /// Give each net its own verdicts (in its project and alone) as well as
+    /// the whole project's.
     pub each_net: bool,
     /// Called now and then with the number of states explored so far.
     pub progress: Option<&'a dyn Fn(usize)>,
@@ -120,33 +124,75 @@ impl Report {
     }
 }
 
-/// The whole project's report and each net's alone.
+/// The whole project's report, each net's in its project, and each net's
+/// alone.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ProjectReport {
     pub project: Report,
+    /// Each net in its project, in project order.
     pub nets: Vec<(String, Report)>,
+    /// Each net alone (same order as `nets`): information and warnings,
+    /// never part of [`ProjectReport::holds`].
+    pub alone: Vec<Report>,
 }
 
 impl ProjectReport {
+    /// Whether every property holds at the project level (the whole
+    /// project and each net in it); a net's verdict alone does not count.
     pub fn holds(&self) -> bool {
         self.project.holds() && self.nets.iter().all(|(_, r)| r.holds())
     }
 }
 
-/// Checks a project as a whole and, if asked, each net in it.
+/// Checks a project as a whole and, if asked, each net in it and alone.
 pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
     let explored = Explorer::new(project.clone()).run(options.max_states, options.progress);
-    let whole = explored.verdict(None);
-    let nets = if options.each_net {
-        (0..project.nets.len())
-            .map(|n| (project.nets[n].name.clone(), explored.verdict(Some(n))))
-            .collect()
-    } else {
-        Vec::new()
-    };
+    let mut whole = explored.verdict(None, true);
+    if !options.each_net {
+        return ProjectReport {
+            project: whole,
+            nets: Vec::new(),
+            alone: Vec::new(),
+        };
+    }
+    let mut nets: Vec<(String, Report)> = (0..project.nets.len())
+        .map(|n| {
+            (
+                project.nets[n].name.clone(),
+                explored.verdict(Some(n), true),
+            )
+        })
+        .collect();
+    // The progress meter keeps counting through the nets alone.
+    let mut done = explored.space.states.len();
+    drop(explored);
+    let mut alone = Vec::with_capacity(nets.len());
+    for (n, (name, in_project)) in nets.iter_mut().enumerate() {
+        let copy = Arc::new(super::alone::project_alone(project, n));
+        let offset = done;
+        let progress = |k: usize| {
+            if let Some(report) = options.progress {
+                report(offset + k);
+            }
+        };
+        let explored = Explorer::new(copy).run(
+            options.max_states,
+            options.progress.map(|_| &progress as &dyn Fn(usize)),
+        );
+        done += explored.space.states.len();
+        // Static warnings of the copy (events the absent nets emit look
+        // produced by nothing) say nothing of the net: left out.
+        let a = explored.verdict(Some(n), false);
+        for w in super::alone::relies(name, &a, in_project) {
+            in_project.warnings.push(w.clone());
+            whole.warnings.push(w);
+        }
+        alone.push(a);
+    }
     ProjectReport {
         project: whole,
         nets,
+        alone,
     }
 }
 
@@ -692,8 +738,9 @@ fn fired_of(effects: &[Effect]) -> Vec<(NetId, TransitionId)> {
 const LOOP_SEARCHES: usize = 500;
 
 impl Explored {
-    /// The verdict for the whole project (`None`) or one net in it.
-    fn verdict(&self, net: Option<NetId>) -> Report {
+    /// The verdict for the whole project (`None`) or one net in it, with
+    /// the warnings found without exploring if `statics`.
+    fn verdict(&self, net: Option<NetId>, statics: bool) -> Report {
         let space = &self.space;
         let g = &space.graph;
         let labels = &self.labels;
@@ -823,7 +870,12 @@ impl Explored {
         }
 
         let fired = &self.fired;
-        let mut warnings: Vec<String> = static_warnings(project)
+        let statics = if statics {
+            static_warnings(project)
+        } else {
+            Vec::new()
+        };
+        let mut warnings: Vec<String> = statics
             .into_iter()
             .filter(|w| net.is_none_or(|x| w.nets.contains(&x)))
             .map(|w| w.text)
