@@ -359,3 +359,83 @@ fn a_project_is_checked_with_the_events_its_profile_produces() {
     assert!(out.starts_with("project elaborated: "), "{out}");
     assert!(err.is_empty(), "{err}");
 }
+
+#[test]
+fn each_net_is_checked_alone_too() {
+    // A fills @ready on `go`; B waits for it: alone, B is dead at the start
+    // (a warning: it relies on A); the project holds.
+    let dir = project_dir(
+        "alone",
+        &[
+            (
+                "project.toml",
+                "[globals]\nready = false\n[[net]]\nfile = \"a.toml\"\nactive = true\n[[net]]\nfile = \"b.toml\"\nactive = true\n[events.go]\ncategory = \"mission\"\n",
+            ),
+            (
+                "a.toml",
+                "name = \"A\"\nplaces = [\"idle\", \"sent\"]\ninitial = [\"idle\"]\nfinal = [\"sent\"]\n[[transition]]\nname = \"fill\"\nfrom = [\"idle\"]\nto = [\"sent\", \"@ready\"]\non = \"go\"\n",
+            ),
+            (
+                "b.toml",
+                "name = \"B\"\nplaces = [\"waiting\", \"done\"]\ninitial = [\"waiting\"]\nfinal = [\"done\"]\n[[transition]]\nname = \"take\"\nfrom = [\"waiting\", \"@ready\"]\nto = [\"done\"]\n",
+            ),
+        ],
+    );
+    let d = dir.to_str().unwrap();
+    let (code, out, err) = petrel(&["check", d, "--json"]);
+    assert_eq!(code, 0, "{out}{err}");
+    let j = json_of(&out);
+    assert_eq!(j["holds"], true, "{j}");
+    let relies = "B alone can reach a dead marking (it relies on other nets): at the start";
+    assert_eq!(j["warnings"], serde_json::json!([relies]), "{j}");
+    assert_eq!(j["nets"]["B"]["warnings"], serde_json::json!([relies]));
+    for net in ["A", "B"] {
+        let alone = &j["nets"][net]["alone"];
+        for key in [
+            "states",
+            "edges",
+            "dead_markings",
+            "safe",
+            "max_tokens",
+            "deadlock_example",
+            "unsafe_example",
+            "livelocks",
+            "loops",
+            "warnings",
+            "complete",
+        ] {
+            assert!(alone.get(key).is_some(), "{net}: missing {key}: {alone}");
+        }
+        // The net in its project keeps its keys beside it.
+        assert!(j["nets"][net].get("seconds").is_some());
+    }
+    let b = &j["nets"]["B"]["alone"];
+    assert_eq!(
+        (b["states"].as_u64(), b["edges"].as_u64()),
+        (Some(1), Some(0))
+    );
+    assert_eq!(b["dead_markings"], 1);
+    assert_eq!(b["deadlock_example"], serde_json::json!([]));
+    assert_eq!(b["unsafe_example"], serde_json::Value::Null);
+    assert_eq!(b["safe"], true);
+    assert_eq!(b["max_tokens"], 1, "`waiting` holds its token");
+    let a = &j["nets"]["A"]["alone"];
+    assert_eq!(
+        (a["states"].as_u64(), a["edges"].as_u64()),
+        (Some(2), Some(1))
+    );
+    assert_eq!(a["dead_markings"], 0);
+    assert_eq!(a["max_tokens"], 1);
+    // For people: one line per net alone.
+    let (code, out, _) = petrel(&["check", d]);
+    assert_eq!(code, 0);
+    assert!(
+        out.contains("  alone: 2 states, 1 steps; safe, no deadlock, no livelock\n"),
+        "{out}"
+    );
+    assert!(
+        out.contains("  alone: 1 states, 0 steps; safe, DEADLOCK, no livelock\n"),
+        "{out}"
+    );
+    assert!(out.contains(&format!("  warning: {relies}\n")), "{out}");
+}

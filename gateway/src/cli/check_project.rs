@@ -63,7 +63,17 @@ pub fn run(dir: &Path, profile: Option<&str>, as_json: bool, max_states: usize) 
         let nets: serde_json::Map<String, Value> = report
             .nets
             .iter()
-            .map(|(name, r)| (name.clone(), report_json(r, seconds)))
+            .zip(&report.alone)
+            .map(|((name, r), alone)| {
+                let mut obj = report_json(r, seconds);
+                // The net alone: same keys, no time of its own.
+                let mut alone = report_json(alone, seconds);
+                if let Some(map) = alone.as_object_mut() {
+                    map.remove("seconds");
+                }
+                obj["alone"] = alone;
+                (name.clone(), obj)
+            })
             .collect();
         obj["nets"] = Value::Object(nets);
         obj["holds"] = json!(report.holds());
@@ -172,16 +182,79 @@ fn section(out: &mut String, title: &str, r: &Report, loops: bool) {
     }
 }
 
+/// One line for a net alone (the single-procedure level), with the
+/// examples of what fails and its own warnings.
+fn alone_section(out: &mut String, r: &Report) {
+    let mut verdicts = vec![
+        if r.safe { "safe" } else { "UNSAFE" },
+        if r.dead_markings == 0 {
+            "no deadlock"
+        } else {
+            "DEADLOCK"
+        },
+        if r.livelocks.is_empty() {
+            "no livelock"
+        } else {
+            "LIVELOCK"
+        },
+    ];
+    if !r.complete {
+        verdicts.push("INCOMPLETE: state limit reached");
+    }
+    out.push_str(&format!(
+        "  alone: {} states, {} steps; {}\n",
+        r.states,
+        r.edges,
+        verdicts.join(", ")
+    ));
+    if let Some(ex) = &r.unsafe_example {
+        out.push_str("    alone, a double token, reached by:\n");
+        sequence(out, ex);
+    }
+    if let Some(ex) = &r.deadlock_example {
+        out.push_str(&format!(
+            "    alone, {} dead markings; the first, reached by:\n",
+            r.dead_markings
+        ));
+        sequence(out, ex);
+    }
+    for l in &r.livelocks {
+        out.push_str("    alone, a livelock:\n");
+        sequence(out, l);
+    }
+    // Transitions that never fire alone wait for the other nets: one line.
+    let mut never = Vec::new();
+    for w in &r.warnings {
+        match w
+            .strip_prefix("transition ")
+            .and_then(|t| t.strip_suffix(" can never fire"))
+        {
+            Some(t) => never.push(t),
+            None => out.push_str(&format!("    alone, warning: {w}\n")),
+        }
+    }
+    if !never.is_empty() {
+        out.push_str(&format!(
+            "    alone, {} transitions never fire: {}\n",
+            never.len(),
+            never.join(", ")
+        ));
+    }
+}
+
 /// The report for people.
 pub fn human(name: &str, report: &ProjectReport, seconds: f64) -> String {
     let mut out = String::new();
     section(&mut out, &format!("project {name}"), &report.project, true);
-    for (net, r) in &report.nets {
+    for (i, (net, r)) in report.nets.iter().enumerate() {
         out.push('\n');
         let mut r = r.clone();
         // Warnings already printed for the project.
         r.warnings.retain(|w| !report.project.warnings.contains(w));
         section(&mut out, &format!("net {net}"), &r, true);
+        if let Some(alone) = report.alone.get(i) {
+            alone_section(&mut out, alone);
+        }
     }
     out.push_str(&format!(
         "\n{} in {:.3} s\n",
