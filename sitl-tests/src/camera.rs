@@ -119,11 +119,12 @@ impl Camera {
             if c.next > now {
                 break;
             }
-            self.images += 1;
+            self.images = self.images.saturating_add(1);
             out.push(Output::Image {
                 index: self.images - 1,
             });
-            c.next += c.interval_us;
+            // An interval of 1e36 s saturates: the next image never comes.
+            c.next = c.next.saturating_add(c.interval_us);
             if let Some(r) = c.remaining.as_mut() {
                 *r -= 1;
                 if *r == 0 {
@@ -146,6 +147,34 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Found by `hostile_input_never_stops_the_vehicle`: an interval of
+    /// 5.26e36 s overflowed the next image's time.
+    #[test]
+    fn a_huge_interval_takes_one_image_then_waits_for_ever() {
+        let mut c = Camera::default();
+        let huge = [
+            f32::NAN,
+            5.260_086_4e36,
+            0.0,
+            f32::NAN,
+            f32::NAN,
+            f32::NAN,
+            f32::NAN,
+        ];
+        assert_eq!(
+            c.command(0, cmd::IMAGE_START_CAPTURE, huge),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        let images = |o: Vec<Output>| {
+            o.iter()
+                .filter(|x| matches!(x, Output::Image { .. }))
+                .count()
+        };
+        assert_eq!(images(c.tick(0)), 1);
+        assert_eq!(images(c.tick(3_600_000_000)), 0); // an hour later
+        assert!(c.capturing());
+    }
 
     #[test]
     fn heartbeat_every_second_and_images_at_the_interval() {
