@@ -163,7 +163,7 @@ mod tests {
             f32::NAN,
         ];
         assert_eq!(
-            c.command(0, cmd::IMAGE_START_CAPTURE, huge),
+            c.command(1_000_000, cmd::IMAGE_START_CAPTURE, huge),
             Some(MavResult::MAV_RESULT_ACCEPTED)
         );
         let images = |o: Vec<Output>| {
@@ -171,7 +171,7 @@ mod tests {
                 .filter(|x| matches!(x, Output::Image { .. }))
                 .count()
         };
-        assert_eq!(images(c.tick(0)), 1);
+        assert_eq!(images(c.tick(1_000_000)), 1);
         assert_eq!(images(c.tick(3_600_000_000)), 0); // an hour later
         assert!(c.capturing());
     }
