@@ -49,6 +49,7 @@ pub fn run(dir: &Path, profile: Option<&str>, as_json: bool, max_states: usize) 
         &Options {
             max_states,
             each_net: true,
+            alone: true,
             progress: if std::io::stderr().is_terminal() {
                 Some(&report_progress)
             } else {
@@ -63,15 +64,17 @@ pub fn run(dir: &Path, profile: Option<&str>, as_json: bool, max_states: usize) 
         let nets: serde_json::Map<String, Value> = report
             .nets
             .iter()
-            .zip(&report.alone)
-            .map(|((name, r), alone)| {
+            .enumerate()
+            .map(|(i, (name, r))| {
                 let mut obj = report_json(r, seconds);
                 // The net alone: same keys, no time of its own.
-                let mut alone = report_json(alone, seconds);
-                if let Some(map) = alone.as_object_mut() {
-                    map.remove("seconds");
+                if let Some(alone) = report.alone.get(i) {
+                    let mut alone = report_json(alone, seconds);
+                    if let Some(map) = alone.as_object_mut() {
+                        map.remove("seconds");
+                    }
+                    obj["alone"] = alone;
                 }
-                obj["alone"] = alone;
                 (name.clone(), obj)
             })
             .collect();

@@ -370,14 +370,7 @@ fn summary(state: &SimState, log: &Log, record: &Path, wall: Duration, timed_out
         if state.armed { "armed" } else { "disarmed" }
     );
     let reached: Vec<String> = state.reached.iter().map(|r| r.seq.to_string()).collect();
-    println!(
-        "mission items reached: {}",
-        if reached.is_empty() {
-            "none".into()
-        } else {
-            reached.join(", ")
-        }
-    );
+    println!("mission items reached: {}", list_or_none(&reached));
     println!(
         "camera events: {}; payload actions: {}; faults injected: {}",
         state.camera.len(),
@@ -387,11 +380,7 @@ fn summary(state: &SimState, log: &Log, record: &Path, wall: Duration, timed_out
     let events: Vec<String> = log.events.iter().map(|(c, n)| format!("{n} {c}")).collect();
     println!(
         "events: {}; commands: {}; program calls: {}; dropped under the catastrophic lockout: {}",
-        if events.is_empty() {
-            "none".into()
-        } else {
-            events.join(", ")
-        },
+        list_or_none(&events),
         log.commands,
         log.calls,
         log.dropped
@@ -401,4 +390,13 @@ fn summary(state: &SimState, log: &Log, record: &Path, wall: Duration, timed_out
         record.display(),
         record.display()
     );
+}
+
+/// `a, b, c`, or `none`.
+fn list_or_none(items: &[String]) -> String {
+    if items.is_empty() {
+        "none".into()
+    } else {
+        items.join(", ")
+    }
 }

@@ -124,8 +124,12 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     };
     let project = crate::project::load_with(&args.project, &profile.catalog())?;
     if !args.unchecked {
-        let report =
-            nets::verify::project::check(&project, &nets::verify::project::Options::default());
+        // Each net alone is information only: it cannot change the verdict.
+        let options = nets::verify::project::Options {
+            alone: false,
+            ..Default::default()
+        };
+        let report = nets::verify::project::check(&project, &options);
         if !report.holds() {
             eprint!(
                 "{}",

@@ -66,9 +66,13 @@ pub const MAX_STATES: usize = 1_000_000;
 pub struct Options<'a> {
     /// Stop exploring past this many states (the report says so).
     pub max_states: usize,
-    /// Give each net its own verdicts (in its project and alone) as well as
-    /// the whole project's.
+    /// Give each net its own verdict in its project as well as the whole
+    /// project's.
     pub each_net: bool,
+    /// With `each_net`, also explore each net alone (information and
+    /// warnings only: `petrel run`, which needs only [`ProjectReport::holds`],
+    /// leaves it out).
+    pub alone: bool,
     /// Called now and then with the number of states explored so far.
     pub progress: Option<&'a dyn Fn(usize)>,
 }
@@ -78,6 +82,7 @@ impl Default for Options<'_> {
         Options {
             max_states: MAX_STATES,
             each_net: true,
+            alone: true,
             progress: None,
         }
     }
@@ -163,6 +168,13 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
             )
         })
         .collect();
+    if !options.alone {
+        return ProjectReport {
+            project: whole,
+            nets,
+            alone: Vec::new(),
+        };
+    }
     // The progress meter keeps counting through the nets alone.
     let mut done = explored.space.states.len();
     drop(explored);
