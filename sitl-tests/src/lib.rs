@@ -44,8 +44,11 @@
 //!   [`faults`]);
 //! - the core [`Vehicle`] (`new`, `handle`, `advance`, `poll_transmit`,
 //!   `next_deadline`, `state`, `inject`, `inject_for`, `clear`) for tests
-//!   that drive simulated time directly.
+//!   that drive simulated time directly;
+//! - [`ardupilot`]: ArduPilot's own SITL (the real firmware) found, started
+//!   and reaped, for the tests that fly against it.
 
+pub mod ardupilot;
 mod arming;
 mod auto;
 pub mod boot;
