@@ -325,6 +325,23 @@ fn arming_refused_five_times_gives_the_take_off_up() {
 }
 
 #[test]
+fn never_ready_gives_the_take_off_up_after_five_minutes() {
+    let p = Played::of("not_ready");
+    assert_eq!(p.commands(), strings(&["upload_mission"]));
+    let refusals = p
+        .fired()
+        .iter()
+        .filter(|f| *f == "INIT.not_ready_yet")
+        .count();
+    assert_eq!(refusals, 2, "{:?}", p.fired());
+    assert!(p.fired().contains(&"INIT.never_ready".to_owned()));
+    assert_eq!(p.marking("MISSION"), ["not_ready"]);
+    // INIT stopped everything it was doing; FLIGHT never started.
+    assert!(p.marking("INIT").is_empty(), "{:?}", p.marking("INIT"));
+    assert!(p.marking("FLIGHT").is_empty(), "{:?}", p.marking("FLIGHT"));
+}
+
+#[test]
 fn payload_failure_replans_without_the_camera() {
     let p = Played::of("payload_failure");
     assert_eq!(
@@ -621,6 +638,7 @@ fn every_script_is_played_here() {
         "engine_failure_transit",
         "link_loss",
         "nominal",
+        "not_ready",
         "payload_failure",
     ];
     let mut found: Vec<String> = std::fs::read_dir(root().join(PROJECT).join("scripts"))

@@ -427,6 +427,7 @@ impl Gateway {
             }
         });
         let mut next_tick = TICK;
+        let mut refused = false;
         loop {
             let now = gw.now();
             let deadline = [
@@ -474,6 +475,12 @@ impl Gateway {
             }
             gw.pump().await;
             gw.settle();
+            if let Some(verdict) = gw.commander.poll_parameters() {
+                if !parameters_fit(&verdict, gw.commander.armed()) {
+                    refused = true;
+                    break;
+                }
+            }
         }
         // A mission upload under way gets a bounded time to finish.
         let grace = Instant::now() + UPLOAD_GRACE;
@@ -524,7 +531,11 @@ impl Gateway {
         );
         let _ = out.end(player.state().now, &player.digest(), player.locked_out());
         let _ = out.out.flush();
-        Ok(Outcome::Success)
+        Ok(if refused {
+            Outcome::Failed
+        } else {
+            Outcome::Success
+        })
     }
 
     fn effect(&mut self, effect: &Effect) {
@@ -595,6 +606,39 @@ impl Gateway {
             }
         }
     }
+}
+
+/// Reports the check of `[gateway.parameters]`; false when the gateway must
+/// refuse to go on: a parameter is wrong or unreadable and the vehicle is
+/// not armed. An armed vehicle is never abandoned: the misfit is reported
+/// and supervision goes on.
+fn parameters_fit(verdict: &crate::vehicle::parameters::Verdict, armed: Option<bool>) -> bool {
+    if verdict.holds() {
+        let read: Vec<String> = verdict
+            .read
+            .iter()
+            .map(|(name, value)| format!("{name} = {value}"))
+            .collect();
+        tracing::info!(
+            "autopilot parameters as the project needs: {}",
+            read.join(", ")
+        );
+        eprintln!("autopilot parameters checked: {}", read.join(", "));
+        return true;
+    }
+    let misfits: Vec<String> = verdict.misfits.iter().map(|m| format!("  {m}")).collect();
+    if armed == Some(true) {
+        eprintln!(
+            "warning: the vehicle's parameters do not fit the project ([gateway.parameters] in project.toml), but it is armed: supervision goes on\n{}",
+            misfits.join("\n")
+        );
+        return true;
+    }
+    eprintln!(
+        "refused: the vehicle's parameters do not fit the project ([gateway.parameters] in project.toml); set them on the autopilot and start again:\n{}",
+        misfits.join("\n")
+    );
+    false
 }
 
 /// SIGINT and SIGTERM.

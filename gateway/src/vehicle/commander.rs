@@ -19,9 +19,10 @@ use nets::{Micros, Outcome, Params, Value};
 
 use super::config::VehicleConfig;
 use super::mission::{build_items, Step, Upload};
+use super::parameters::{ParameterCheck, Verdict};
 use super::plan::{plan, CommandSpec, Context, Fallback, Plan};
 use super::request::{parse, Request};
-use super::streams::data_streams;
+use super::streams::{data_streams, message_name, stream_of, streamable};
 
 /// Resends of one SET_MESSAGE_INTERVAL before falling back.
 const STREAM_RETRIES: u8 = 1;
@@ -111,6 +112,10 @@ pub struct Commander {
     home: Option<(i32, i32, f32)>,
     home_amsl: Option<f32>,
     relative_alt: Option<f32>,
+    /// The autopilot parameters the project needs, read at start.
+    parameters: ParameterCheck,
+    /// Armed, as the autopilot's last HEARTBEAT said.
+    armed: Option<bool>,
 }
 
 fn result_name(result: MavResult) -> String {
@@ -133,6 +138,8 @@ impl Commander {
             _ => None,
         };
         Commander {
+            parameters: ParameterCheck::new(&config.parameters),
+            armed: None,
             firmware: config.firmware,
             config,
             target,
@@ -268,9 +275,20 @@ impl Commander {
 
     /// The telemetry to ask for: (message id, rate in Hz; 0 stops it). Sent
     /// when the vehicle is known, and again whenever the link comes back.
+    /// Messages that are events, or that the autopilot only relays, are
+    /// left out (`streams::NEVER_STREAMED`): they come by themselves.
     pub fn request_streams(&mut self, messages: &[(u32, f32)], now: Micros) {
         let now = self.clock(now);
-        self.streams = messages.to_vec();
+        let (wanted, left): (Vec<(u32, f32)>, Vec<(u32, f32)>) =
+            messages.iter().partition(|(id, _)| streamable(*id));
+        if !left.is_empty() {
+            let names: Vec<String> = left.iter().map(|(id, _)| message_name(*id)).collect();
+            tracing::info!(
+                "not asked for at an interval (events, or relayed from another component): {}",
+                names.join(", ")
+            );
+        }
+        self.streams = wanted;
         self.restart_streams();
         self.pump(now);
     }
@@ -361,6 +379,17 @@ impl Commander {
             return;
         }
         if sender.1 == target.1 {
+            self.parameters.start(target, now);
+            match message {
+                MavMessage::HEARTBEAT(hb) => {
+                    self.armed = Some(
+                        hb.base_mode
+                            .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED),
+                    );
+                }
+                MavMessage::PARAM_VALUE(v) => self.parameters.value(v),
+                _ => {}
+            }
             if let (None, MavMessage::HEARTBEAT(hb)) = (self.firmware, message) {
                 // Target configured, firmware not: learn it here.
                 self.firmware = Some(Firmware::from_heartbeat(
@@ -585,8 +614,15 @@ impl Commander {
             }
             Origin::Stream { message } => {
                 if let Err(reason) = result {
-                    tracing::info!(message, %reason, "SET_MESSAGE_INTERVAL refused: falling back to REQUEST_DATA_STREAM");
-                    self.stream_fallback.insert(message);
+                    let name = message_name(message);
+                    if stream_of(message).is_some() {
+                        tracing::info!("SET_MESSAGE_INTERVAL {reason} for {name}: asking with REQUEST_DATA_STREAM instead");
+                        self.stream_fallback.insert(message);
+                    } else {
+                        // In no stream group: REQUEST_DATA_STREAM would
+                        // have to ask for every stream to get it.
+                        tracing::warn!("SET_MESSAGE_INTERVAL {reason} for {name}: the autopilot will not stream it; the rules reading it see it only when the autopilot sends it by itself");
+                    }
                     if reason != "FAILED" && reason != "DENIED" {
                         // UNSUPPORTED, or no answer: the autopilot does not
                         // do it at all. (ArduPilot answers DENIED for a
@@ -677,6 +713,10 @@ impl Commander {
 
     fn pump(&mut self, now: Micros) {
         let timing = self.config.timing;
+        if self.identity().is_some() {
+            let transmit = &mut self.transmit;
+            self.parameters.poll(now, &mut |m| transmit.push_back(m));
+        }
         // Heartbeat.
         if self.identity().is_some() {
             let due = *self.next_heartbeat.get_or_insert(now);
@@ -873,6 +913,19 @@ impl Commander {
         self.transmit.pop_front()
     }
 
+    /// The verdict on the project's autopilot parameters
+    /// (`[gateway.parameters]`), once, when every one is read or given up
+    /// on; never when the project names none.
+    pub fn poll_parameters(&mut self) -> Option<Verdict> {
+        self.parameters.poll_verdict()
+    }
+
+    /// Whether the autopilot says it is armed (`None` before its first
+    /// HEARTBEAT).
+    pub fn armed(&self) -> Option<bool> {
+        self.armed
+    }
+
     /// The next outcome for the nets: `(command id, Done | Failed)`.
     pub fn poll_outcome(&mut self) -> Option<(u64, Outcome)> {
         self.outcomes.pop_front()
@@ -889,6 +942,9 @@ impl Commander {
         }
         if let (Some(heard), false) = (self.last_heard, self.link_lost) {
             at(heard + timing.link_timeout);
+        }
+        if let Some(t) = self.parameters.next_deadline() {
+            at(t);
         }
         for op in &self.ops {
             match op.state {

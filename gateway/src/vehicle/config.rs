@@ -7,6 +7,8 @@ use std::collections::BTreeMap;
 use elaboration::Firmware;
 use nets::Micros;
 
+use super::parameters::Expected;
+
 /// MAV_COMP_ID_ONBOARD_COMPUTER: the component we speak as.
 pub const ONBOARD_COMPUTER: u8 = 191;
 
@@ -73,6 +75,9 @@ pub struct VehicleConfig {
     pub quadplane: bool,
     pub payloads: BTreeMap<String, Payload>,
     pub timing: Timing,
+    /// Autopilot parameters the project needs, checked at start
+    /// (`[gateway.parameters]`), by name.
+    pub parameters: Vec<(String, Expected)>,
 }
 
 impl VehicleConfig {
@@ -148,6 +153,17 @@ impl VehicleConfig {
                 config.payloads.insert(name.clone(), payload);
             }
         }
+        if let Some(v) = gateway.get("parameters") {
+            let table = v
+                .as_table()
+                .ok_or_else(|| ConfigError::new("gateway.parameters", "expected a table"))?;
+            for (name, entry) in table {
+                let key = format!("gateway.parameters.{name}");
+                config
+                    .parameters
+                    .push((name.clone(), parameter(&key, name, entry)?));
+            }
+        }
         if let Some(v) = gateway.get("commands") {
             let table = v
                 .as_table()
@@ -155,6 +171,59 @@ impl VehicleConfig {
             config.timing = timing(table)?;
         }
         Ok(config)
+    }
+}
+
+/// One `[gateway.parameters]` entry: `NAME = 2`, `NAME = [1, 2]` (one of
+/// them) or `NAME = { min = 0.5, max = 3 }`.
+fn parameter(key: &str, name: &str, entry: &toml::Value) -> Result<Expected, ConfigError> {
+    if name.is_empty()
+        || name.len() > 16
+        || !name
+            .bytes()
+            .all(|b| b.is_ascii_uppercase() || b.is_ascii_digit() || b == b'_')
+    {
+        return Err(ConfigError::new(
+            key,
+            "a parameter name is 1 to 16 capital letters, digits and underscores",
+        ));
+    }
+    let number = |v: &toml::Value| match v {
+        toml::Value::Integer(i) => Some(*i as f64),
+        toml::Value::Float(f) if f.is_finite() => Some(*f),
+        _ => None,
+    };
+    let bad = || {
+        ConfigError::new(
+            key,
+            "expected a number, a list of numbers (one of them), or { min = …, max = … }",
+        )
+    };
+    match entry {
+        toml::Value::Array(values) if !values.is_empty() => values
+            .iter()
+            .map(|v| number(v).ok_or_else(bad))
+            .collect::<Result<Vec<f64>, _>>()
+            .map(Expected::OneOf),
+        toml::Value::Table(t) => {
+            if let Some(other) = t.keys().find(|k| *k != "min" && *k != "max") {
+                return Err(ConfigError::new(
+                    &format!("{key}.{other}"),
+                    "unknown key (min, max)",
+                ));
+            }
+            let bound = |k: &str| match t.get(k) {
+                None => Ok(None),
+                Some(v) => number(v).map(Some).ok_or_else(bad),
+            };
+            let (min, max) = (bound("min")?, bound("max")?);
+            match (min, max) {
+                (None, None) => Err(bad()),
+                (Some(a), Some(b)) if a > b => Err(ConfigError::new(key, "min is above max")),
+                _ => Ok(Expected::Range { min, max }),
+            }
+        }
+        v => number(v).map(Expected::Equal).ok_or_else(bad),
     }
 }
 
@@ -390,6 +459,28 @@ mod tests {
     }
 
     #[test]
+    fn parameters_in_three_forms_by_name() {
+        let c = parse(
+            "[gateway.parameters]\nRTL_AUTOLAND = [1, 2]\nFS_LONG_ACTN = 1\nTHR_MIN = { max = 0.5 }\n",
+        )
+        .expect("valid");
+        assert_eq!(
+            c.parameters,
+            vec![
+                ("FS_LONG_ACTN".to_owned(), Expected::Equal(1.0)),
+                ("RTL_AUTOLAND".to_owned(), Expected::OneOf(vec![1.0, 2.0])),
+                (
+                    "THR_MIN".to_owned(),
+                    Expected::Range {
+                        min: None,
+                        max: Some(0.5)
+                    }
+                ),
+            ]
+        );
+    }
+
+    #[test]
     fn bad_tables_name_the_key() {
         let cases = [
             ("[gateway]\nsystem_id = 0", "gateway.system_id"),
@@ -418,6 +509,35 @@ mod tests {
                 "gateway.commands.ack_timeout",
             ),
             ("[gateway.commands]\nspeed = 1", "gateway.commands.speed"),
+            ("[gateway]\nparameters = 1", "gateway.parameters"),
+            (
+                "[gateway.parameters]\nrtl_autoland = 2",
+                "gateway.parameters.rtl_autoland",
+            ),
+            (
+                "[gateway.parameters]\nA_NAME_LONGER_THAN_16 = 2",
+                "gateway.parameters.A_NAME_LONGER_THAN_16",
+            ),
+            (
+                "[gateway.parameters]\nRTL_AUTOLAND = \"two\"",
+                "gateway.parameters.RTL_AUTOLAND",
+            ),
+            (
+                "[gateway.parameters]\nRTL_AUTOLAND = []",
+                "gateway.parameters.RTL_AUTOLAND",
+            ),
+            (
+                "[gateway.parameters]\nRTL_AUTOLAND = { min = 3, max = 1 }",
+                "gateway.parameters.RTL_AUTOLAND",
+            ),
+            (
+                "[gateway.parameters]\nRTL_AUTOLAND = { least = 3 }",
+                "gateway.parameters.RTL_AUTOLAND.least",
+            ),
+            (
+                "[gateway.parameters]\nRTL_AUTOLAND = nan",
+                "gateway.parameters.RTL_AUTOLAND",
+            ),
         ];
         for (text, key) in cases {
             let e = parse(text).expect_err(text);

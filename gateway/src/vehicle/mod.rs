@@ -40,6 +40,7 @@ pub mod commander;
 pub mod config;
 pub mod mission;
 pub mod modes;
+pub mod parameters;
 pub mod plan;
 pub mod request;
 pub mod streams;

@@ -6,7 +6,48 @@
 // fallback for autopilots that only know it.
 #![allow(deprecated)]
 
-use mavlink::dialects::ardupilotmega::MavDataStream;
+use mavlink::dialects::ardupilotmega::{self as dialect, MavDataStream};
+use mavlink::{Message, MessageData};
+
+/// Messages never asked for at an interval. Some are events, sent when
+/// something happens (an answer, a text, a reached item): a stream would
+/// make the autopilot send its last one again on every period — ArduPilot
+/// does, MISSION_ITEM_REACHED with its last seq (65535 before any), and it
+/// answers DENIED for STATUSTEXT and COMMAND_ACK. Others come from another
+/// component that the autopilot only relays (RADIO_STATUS and RADIO from
+/// the telemetry radio: ArduPilot answers DENIED). They arrive by
+/// themselves; the rules that read them still see every one.
+pub const NEVER_STREAMED: &[u32] = &[
+    dialect::HEARTBEAT_DATA::ID,
+    dialect::PARAM_VALUE_DATA::ID,
+    dialect::MISSION_ITEM_DATA::ID,
+    dialect::MISSION_REQUEST_DATA::ID,
+    dialect::MISSION_COUNT_DATA::ID,
+    dialect::MISSION_ITEM_REACHED_DATA::ID,
+    dialect::MISSION_ACK_DATA::ID,
+    dialect::MISSION_REQUEST_INT_DATA::ID,
+    dialect::MISSION_ITEM_INT_DATA::ID,
+    dialect::COMMAND_INT_DATA::ID,
+    dialect::COMMAND_LONG_DATA::ID,
+    dialect::COMMAND_ACK_DATA::ID,
+    dialect::RADIO_STATUS_DATA::ID,
+    dialect::RADIO_DATA::ID,
+    dialect::STATUSTEXT_DATA::ID,
+    dialect::CAMERA_IMAGE_CAPTURED_DATA::ID,
+];
+
+/// Whether a message may be asked for at an interval.
+pub fn streamable(message: u32) -> bool {
+    !NEVER_STREAMED.contains(&message)
+}
+
+/// A message's MAVLink name (`STATUSTEXT`), or its number when this
+/// dialect does not know it.
+pub fn message_name(message: u32) -> String {
+    dialect::MavMessage::default_message_from_id(message)
+        .map(|m| m.message_name().to_owned())
+        .unwrap_or_else(|| format!("message {message}"))
+}
 
 /// The REQUEST_DATA_STREAM group that carries a message on ArduPilot
 /// (GCS_Common's stream lists); `None` for messages outside every group.
@@ -67,6 +108,20 @@ pub fn data_streams(messages: &[(u32, f32)]) -> Vec<(MavDataStream, u16)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn events_and_relayed_messages_are_never_streamed_and_names_read() {
+        // What real ArduPlane 4.7 SITL answers DENIED, and what it repeats.
+        for id in [77, 253, 109, 166, 46] {
+            assert!(!streamable(id), "{}", message_name(id));
+        }
+        for id in [1, 24, 33, 42, 74, 147, 193, 225, 245, 11030, 36] {
+            assert!(streamable(id), "{}", message_name(id));
+        }
+        assert_eq!(message_name(253), "STATUSTEXT");
+        assert_eq!(message_name(46), "MISSION_ITEM_REACHED");
+        assert_eq!(message_name(65000), "message 65000");
+    }
 
     #[test]
     fn groups_take_the_fastest_rate_and_unknowns_ask_for_all() {

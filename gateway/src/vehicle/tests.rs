@@ -880,17 +880,31 @@ fn mission_errors_retries_and_timeouts() {
 }
 
 #[test]
-fn a_message_the_autopilot_cannot_stream_falls_back_alone() {
-    // ArduPlane answers SET_MESSAGE_INTERVAL for RADIO_STATUS (109) with
-    // DENIED ("No ap_message for mavlink id (109)"): the other messages are
-    // still asked for by interval.
+fn events_are_never_asked_for_and_a_denied_message_falls_back_only_by_its_group() {
+    // Real ArduPlane 4.7 answers DENIED for STATUSTEXT, COMMAND_ACK,
+    // RADIO_STATUS and RADIO, and re-sends its last MISSION_ITEM_REACHED on
+    // every period when asked for it: none of them is asked for.
     let mut s = Sim::new(Firmware::Plane);
-    s.c.request_streams(&[(109, 4.0), (33, 4.0)], 0);
-    assert_eq!(s.one_long().param1, 109.0);
+    s.c.request_streams(
+        &[
+            (253, 4.0),
+            (77, 4.0),
+            (109, 4.0),
+            (166, 4.0),
+            (46, 4.0),
+            (225, 4.0),
+            (33, 4.0),
+        ],
+        0,
+    );
+    // EFI_STATUS (in no stream group) is DENIED: nothing else asks for it
+    // (REQUEST_DATA_STREAM would have to ask for every stream).
+    assert_eq!(s.one_long().param1, 225.0);
     s.ack(
         MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
         MavResult::MAV_RESULT_DENIED,
     );
+    // GLOBAL_POSITION_INT is DENIED too: its group, POSITION, is asked for.
     let c = s.one_long();
     assert_eq!(
         (c.command, c.param1),
@@ -898,16 +912,28 @@ fn a_message_the_autopilot_cannot_stream_falls_back_alone() {
     );
     s.ack(
         MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
-        MavResult::MAV_RESULT_ACCEPTED,
+        MavResult::MAV_RESULT_DENIED,
     );
-    // RADIO_STATUS alone goes by REQUEST_DATA_STREAM (in no group: ALL).
     let rest: Vec<MavMessage> = s.sent();
-    assert!(
-        rest.iter()
-            .all(|m| matches!(m, MavMessage::REQUEST_DATA_STREAM(_))),
+    #[allow(deprecated)]
+    let streams: Vec<MavDataStream> = rest
+        .iter()
+        .filter_map(|m| match m {
+            MavMessage::REQUEST_DATA_STREAM(r) => Some(r.req_stream_id),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        streams,
+        [MavDataStream::MAV_DATA_STREAM_POSITION],
         "{rest:?}"
     );
-    assert!(!rest.is_empty());
+    assert!(
+        !rest
+            .iter()
+            .any(|m| matches!(m, MavMessage::COMMAND_LONG(_))),
+        "{rest:?}"
+    );
 }
 
 #[test]
@@ -1307,4 +1333,58 @@ fn quadplane_takes_off_vertically_and_lands_in_qland() {
             (MavCmd::MAV_CMD_DO_SET_MODE, 20.0, 0.0),
         ]
     );
+}
+
+#[test]
+fn the_projects_parameters_are_read_from_the_autopilot_and_judged() {
+    use super::parameters::Expected;
+    let mut config = VehicleConfig::default();
+    config
+        .parameters
+        .push(("RTL_AUTOLAND".into(), Expected::OneOf(vec![1.0, 2.0])));
+    let mut c = Commander::new(config);
+    assert_eq!(c.armed(), None);
+    let mut hb = autopilot_heartbeat(
+        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        MavType::MAV_TYPE_FIXED_WING,
+    );
+    c.message(0, &from(1, 1), &hb);
+    let asked: Vec<MavMessage> = std::iter::from_fn(|| c.poll_transmit())
+        .filter(|m| matches!(m, MavMessage::PARAM_REQUEST_READ(_)))
+        .collect();
+    match asked.as_slice() {
+        [MavMessage::PARAM_REQUEST_READ(r)] => {
+            assert_eq!(r.param_id.to_str(), Ok("RTL_AUTOLAND"));
+            assert_eq!((r.target_system, r.target_component), (1, 1));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(c.armed(), Some(false));
+    // Another vehicle's answer is not ours.
+    let value = |v: f32| {
+        MavMessage::PARAM_VALUE(PARAM_VALUE_DATA {
+            param_value: v,
+            param_count: 1406,
+            param_index: 65535,
+            param_id: "RTL_AUTOLAND".into(),
+            param_type: MavParamType::MAV_PARAM_TYPE_INT8,
+        })
+    };
+    c.message(S / 10, &from(2, 1), &value(2.0));
+    assert_eq!(c.poll_parameters(), None);
+    c.message(S / 5, &from(1, 1), &value(0.0));
+    let verdict = c.poll_parameters().expect("judged");
+    assert_eq!(
+        verdict
+            .misfits
+            .iter()
+            .map(|m| m.to_string())
+            .collect::<Vec<_>>(),
+        ["RTL_AUTOLAND is 0 on the vehicle; the project needs one of 1, 2"]
+    );
+    if let MavMessage::HEARTBEAT(h) = &mut hb {
+        h.base_mode = MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+    }
+    c.message(S, &from(1, 1), &hb);
+    assert_eq!(c.armed(), Some(true));
 }
