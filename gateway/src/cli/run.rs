@@ -13,6 +13,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use elaboration::Profile;
+use mavlink::dialects::ardupilotmega::MavMessage;
 use nets::{Effect, Micros, Project};
 use serde_json::json;
 use tokio::sync::mpsc;
@@ -355,7 +356,7 @@ impl Gateway {
                 Some(rec)
             }
         };
-        let (mut reader, writer) = Link::open(&setup.address, clock)
+        let (mut reader, writer) = Link::open(&setup.address, clock.clone())
             .await
             .map_err(|e| miette::miette!("{e}"))?;
         // The program server listens only for a project that has programs.
@@ -456,6 +457,7 @@ impl Gateway {
                 Some(rx) = frames.recv() => {
                     gw.frames += 1;
                     if let Some(message) = &rx.message {
+                        gw.follow_vehicle_time(&rx.header, message);
                         gw.commander.message(rx.time_us, &rx.header, message);
                     }
                     gw.feed(rx.time_us, Owned::Frame(rx.bytes));
@@ -536,6 +538,23 @@ impl Gateway {
         } else {
             Outcome::Success
         })
+    }
+
+    /// A scaled clock follows the simulated autopilot's own time
+    /// (`clock::Clock::sync`); at scale 1 this does nothing.
+    fn follow_vehicle_time(&self, header: &mavlink::MavHeader, message: &MavMessage) {
+        if self.clock.scale() == 1.0
+            || self.commander.target() != Some((header.system_id as u8, header.component_id))
+        {
+            return;
+        }
+        let boot_ms = match message {
+            MavMessage::SYSTEM_TIME(m) => m.time_boot_ms,
+            MavMessage::GLOBAL_POSITION_INT(m) => m.time_boot_ms,
+            MavMessage::ATTITUDE(m) => m.time_boot_ms,
+            _ => return,
+        };
+        self.clock.sync(Micros::from(boot_ms) * 1000);
     }
 
     fn effect(&mut self, effect: &Effect) {

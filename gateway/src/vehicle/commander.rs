@@ -821,6 +821,15 @@ impl Commander {
                 i += 1;
                 continue;
             }
+            // The nets' commands wait for the verdict on the vehicle's
+            // parameters (bounded: parameters::ATTEMPTS × PATIENCE).
+            if matches!(self.ops[i].origin, Origin::Net(_))
+                && self.target.is_some()
+                && !self.parameters.settled()
+            {
+                i += 1;
+                continue;
+            }
             let (Some(target), Some(firmware)) = (self.target, self.firmware) else {
                 if now >= self.ops[i].issued + budget {
                     self.finish(i, Err("no_vehicle".into()));
@@ -861,8 +870,12 @@ impl Commander {
             }
             i += 1;
         }
-        // Mission uploads, one at a time.
+        // Mission uploads, one at a time (none before the vehicle's
+        // parameters are judged).
         while let Some(job) = self.missions.front_mut() {
+            if !self.parameters.settled() && job.upload.is_none() {
+                break;
+            }
             if let Some(upload) = job.upload.as_mut() {
                 let step = upload.tick(now);
                 let finished = matches!(step, Step::Done { .. } | Step::Failed { .. });

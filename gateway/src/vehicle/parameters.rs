@@ -147,6 +147,11 @@ impl ParameterCheck {
         self.wanted.is_empty()
     }
 
+    /// Judged, or nothing to judge: commands may go to the vehicle.
+    pub fn settled(&self) -> bool {
+        self.wanted.is_empty() || self.verdict.is_some()
+    }
+
     /// The autopilot is known: ask from `now` on.
     pub fn start(&mut self, target: (u8, u8), now: Micros) {
         if self.target.is_none() && !self.wanted.is_empty() {

@@ -1372,7 +1372,23 @@ fn the_projects_parameters_are_read_from_the_autopilot_and_judged() {
     };
     c.message(S / 10, &from(2, 1), &value(2.0));
     assert_eq!(c.poll_parameters(), None);
+    // The nets' commands wait for the verdict.
+    c.command(7, "arm", &Params::new(), S / 10);
+    c.command(8, "upload_mission", &params(&[("items", items(3))]), S / 10);
+    let held: Vec<MavMessage> = std::iter::from_fn(|| c.poll_transmit())
+        .filter(|m| !matches!(m, MavMessage::HEARTBEAT(_)))
+        .collect();
+    assert!(held.is_empty(), "{held:?}");
     c.message(S / 5, &from(1, 1), &value(0.0));
+    let arm: Vec<MavMessage> = std::iter::from_fn(|| c.poll_transmit())
+        .filter(|m| {
+            matches!(
+                m,
+                MavMessage::COMMAND_LONG(_) | MavMessage::MISSION_COUNT(_)
+            )
+        })
+        .collect();
+    assert_eq!(arm.len(), 2, "sent once judged: {arm:?}");
     let verdict = c.poll_parameters().expect("judged");
     assert_eq!(
         verdict

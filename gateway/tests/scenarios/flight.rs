@@ -1,3 +1,4 @@
+#![allow(dead_code)] // shared by several test binaries, each using a part
 //! One end-to-end flight: the simulated ArduPlane (in this process), DEC
 //! (a thread of this process, over the program protocol on TCP) and the
 //! real `petrel run` process on examples/uav-flight-test, all over
@@ -89,7 +90,7 @@ impl Flown {
     }
 }
 
-struct Killed(Option<Child>);
+pub struct Killed(pub Option<Child>);
 
 impl Drop for Killed {
     fn drop(&mut self) {
@@ -100,7 +101,7 @@ impl Drop for Killed {
     }
 }
 
-fn free_port() -> u16 {
+pub fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0")
         .and_then(|l| l.local_addr())
         .map(|a| a.port())
@@ -108,7 +109,7 @@ fn free_port() -> u16 {
 }
 
 /// A fresh scratch folder for one flight.
-fn scratch(name: &str) -> PathBuf {
+pub fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("petrel-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("scratch folder");
@@ -117,12 +118,13 @@ fn scratch(name: &str) -> PathBuf {
 
 /// `petrel run` on the example, its clock `time_scale` times the wall,
 /// its timeline (JSON lines) and stderr piped.
-fn petrel_run(
+pub fn petrel_run(
     mavlink: &str,
     programs: &str,
     time_scale: f64,
     recording: &Path,
     duration: Duration,
+    extra: &[&str],
 ) -> Child {
     Command::new(env!("CARGO_BIN_EXE_petrel"))
         .current_dir(root())
@@ -135,6 +137,7 @@ fn petrel_run(
         .arg(recording)
         .args(["--duration", &format!("{:.0}", duration.as_secs_f64())])
         .arg("--json")
+        .args(extra)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -143,7 +146,7 @@ fn petrel_run(
 
 /// Stops `petrel run` cleanly (SIGTERM: the recording is finished) and
 /// returns what it printed: (stdout, stderr).
-fn stop(mut child: Child) -> (String, String) {
+pub fn stop(mut child: Child) -> (String, String) {
     let _ = Command::new("kill")
         .args(["-TERM", &child.id().to_string()])
         .status();
@@ -160,13 +163,13 @@ fn stop(mut child: Child) -> (String, String) {
 }
 
 /// DEC on a thread, connecting to the gateway's programs address.
-struct Dec {
+pub struct Dec {
     stop: Arc<AtomicBool>,
     thread: std::thread::JoinHandle<Result<(), petrel_dec::Error>>,
 }
 
 impl Dec {
-    fn start(programs: &str) -> Dec {
+    pub fn start(programs: &str) -> Dec {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         let mission = project().join(super::MISSION_FILE);
@@ -175,13 +178,13 @@ impl Dec {
         Dec { stop, thread }
     }
 
-    fn stop(self) {
+    pub fn stop(self) {
         self.stop.store(true, Ordering::Relaxed);
         let _ = self.thread.join();
     }
 }
 
-fn timeline(stdout: &str) -> Vec<serde_json::Value> {
+pub fn timeline(stdout: &str) -> Vec<serde_json::Value> {
     stdout
         .lines()
         .filter_map(|l| serde_json::from_str(l).ok())
@@ -216,6 +219,7 @@ pub fn fly(
         SPEED,
         &recording,
         max_wall + Duration::from_secs(5),
+        &[],
     );
     let mut petrel = Killed(Some(petrel));
     let dec = Dec::start(&programs);
@@ -259,75 +263,5 @@ pub fn fly(
         stderr,
         recording,
         wall,
-    }
-}
-
-/// Flies the nominal mission against ArduPilot's own ArduPlane SITL
-/// (`arduplane`, started as the issue says, reached on TCP 127.0.0.1:5760,
-/// `speedup` times faster than real time). The simulator's truth is not
-/// available there: `state` is left empty and the assertions read the
-/// gateway's timeline and recording.
-pub fn fly_ardupilot_sitl(binary: &Path, defaults: &Path, speedup: u32) -> Flown {
-    let scratch = scratch("ardupilot-sitl");
-    let recording = scratch.join("flight.mcap");
-    // SITL writes its eeprom and logs into its working directory.
-    let sitl = Command::new(binary)
-        .current_dir(&scratch)
-        .args([
-            "--model",
-            "plane",
-            "--speedup",
-            &speedup.to_string(),
-            "-I0",
-            "--defaults",
-        ])
-        .arg(defaults)
-        .args(["--home", "-35.363261,149.165230,584,353"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("ArduPlane SITL starts");
-    let _sitl = Killed(Some(sitl));
-    // It listens on 5760 once it has started; the gateway's first connect
-    // must find it there (a probe would take its one client slot).
-    std::thread::sleep(Duration::from_secs(3));
-    let programs = format!("tcp:127.0.0.1:{}", free_port());
-    let max_wall = Duration::from_secs_f64(600.0 / f64::from(speedup) + 30.0);
-    let dec = Dec::start(&programs);
-    let started = Instant::now();
-    let mut child = petrel_run(
-        "tcpout:127.0.0.1:5760",
-        &programs,
-        f64::from(speedup),
-        &recording,
-        max_wall,
-    );
-    // The flight ends with `disarmed` after `landed`: read the timeline as
-    // it comes, then stop the gateway cleanly.
-    let mut stdout = String::new();
-    if let Some(out) = child.stdout.take() {
-        use std::io::BufRead;
-        let mut landed = false;
-        for line in std::io::BufReader::new(out).lines().map_while(Result::ok) {
-            landed |= line.contains(r#""event":"landed""#)
-                || line.contains(r#""event":"emergency_landed""#);
-            let over = landed && line.contains(r#""event":"disarmed""#);
-            stdout.push_str(&line);
-            stdout.push('\n');
-            if over || started.elapsed() > max_wall {
-                let _ = Command::new("kill")
-                    .args(["-TERM", &child.id().to_string()])
-                    .status();
-            }
-        }
-    }
-    let (_, stderr) = stop(child);
-    dec.stop();
-    Flown {
-        state: SimState::default(),
-        timeline: timeline(&stdout),
-        stderr,
-        recording,
-        wall: started.elapsed(),
     }
 }

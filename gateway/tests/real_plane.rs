@@ -1,0 +1,186 @@
+//! The paper's UAV mission (examples/uav-flight-test) against ArduPilot's
+//! own ArduPlane SITL (`shared/ardupilot-sitl`): the real `petrel run`,
+//! DEC, and the real firmware, with failures injected as ArduPilot's
+//! autotest injects them. Each test asserts what Petrel did (its timeline
+//! and recording, replayed with `--check-against`) beside what ArduPilot
+//! did (modes, arming, texts, items reached, position, seen from SERIAL1).
+//! Without the SITL binaries each test says why and returns; with
+//! `CI=true` it fails.
+
+#[path = "scenarios/flight.rs"]
+mod flight;
+#[path = "scenarios/real.rs"]
+mod real;
+
+use real::{Plan, RealFlown, Truth};
+
+/// The mission file DEC reads, in the project folder.
+pub const MISSION_FILE: &str = "mission.toml";
+
+/// What the mission needs of ArduPlane (docs/flight-test.md), over
+/// plane.parm.
+const MISSION_PARAMS: &[(&str, f64)] = &[("RTL_AUTOLAND", 2.0)];
+
+/// A flight of the mission as it needs ArduPlane to be set.
+fn mission(name: &'static str, instance: u8) -> Plan {
+    Plan {
+        params: MISSION_PARAMS.to_vec(),
+        ..Plan::new(name, instance)
+    }
+}
+
+/// Metres between two positions (equirectangular, fine at these ranges).
+fn metres(a: (f64, f64), b: (f64, f64)) -> f64 {
+    let north = (a.0 - b.0).to_radians() * 6_371_000.0;
+    let east = (a.1 - b.1).to_radians() * 6_371_000.0 * a.0.to_radians().cos();
+    (north * north + east * east).sqrt()
+}
+
+/// An emergency site of the mission file, by name.
+fn site(name: &str) -> (f64, f64) {
+    let text = std::fs::read_to_string(flight::project().join(MISSION_FILE)).expect("mission file");
+    let mission: toml::Table = toml::from_str(&text).expect("TOML");
+    let sites = mission["site"].as_array().expect("sites");
+    let site = sites
+        .iter()
+        .find(|s| s["name"].as_str() == Some(name))
+        .unwrap_or_else(|| panic!("no site {name}"));
+    (
+        site["lat"].as_float().expect("lat"),
+        site["lon"].as_float().expect("lon"),
+    )
+}
+
+fn at(t: &Truth) -> (f64, f64) {
+    (t.lat, t.lon)
+}
+
+/// The gateway's events, in order.
+fn events(f: &RealFlown) -> Vec<String> {
+    f.flown.events()
+}
+
+/// How many times each event was heard, for people reading a failure.
+fn event_counts(f: &RealFlown) -> String {
+    let mut counts = std::collections::BTreeMap::<String, usize>::new();
+    for e in events(f) {
+        *counts.entry(e).or_default() += 1;
+    }
+    format!("{counts:?}")
+}
+
+/// Landed, disarmed, and the recording replays exactly.
+fn ended_well(name: &str, f: &RealFlown) {
+    let t = &f.truth;
+    assert!(
+        t.down(),
+        "{name}: ArduPlane did not end down and disarmed (armed {}, alt {:.1} m, mode {}, t {:.0} s)\ntexts: {:?}\ngateway: {}",
+        t.armed,
+        t.alt,
+        t.mode,
+        t.t,
+        t.texts,
+        f.flown.stderr
+    );
+    let (code, err) = f.flown.replay_check();
+    assert_eq!(
+        code,
+        Some(0),
+        "{name}: the recording does not replay exactly: {err}"
+    );
+}
+
+#[test]
+fn nominal_mission_flown_landed_and_disarmed_on_real_arduplane() {
+    let plan = Plan {
+        checked: true,
+        ..mission("nominal", 0)
+    };
+    let Some(f) = real::fly(plan, Truth::down) else {
+        return;
+    };
+    eprintln!("{}", event_counts(&f));
+    ended_well("nominal", &f);
+    let t = &f.truth;
+    // Every navigation item reached, as ArduPilot says.
+    let reached: Vec<u16> = t.reached.iter().map(|r| r.1).collect();
+    for seq in [1, 2, 3, 4, 5, 6, 7, 8, 10, 11] {
+        assert!(
+            reached.contains(&seq),
+            "item {seq} not reached: {reached:?}"
+        );
+    }
+    assert!(
+        metres(at(t), site("Runway")) < 300.0,
+        "landed {:.0} m from the runway",
+        metres(at(t), site("Runway"))
+    );
+    assert_eq!(t.modes_after(0.0).first(), Some(&"MANUAL"), "{:?}", t.modes);
+    assert!(t.modes_after(0.0).contains(&"AUTO"), "{:?}", t.modes);
+    // Petrel: the whole mission heard, each item once (ArduPilot repeats
+    // its last MISSION_ITEM_REACHED when asked for it as a stream: never).
+    let heard = events(&f);
+    for e in [
+        "ready_for_takeoff",
+        "armed",
+        "takeoff",
+        "landed",
+        "disarmed",
+    ] {
+        assert!(heard.contains(&e.to_owned()), "{e} not heard: {heard:?}");
+    }
+    let items: Vec<i64> = f
+        .flown
+        .timeline
+        .iter()
+        .filter(|l| l["input"] == "event" && l["event"] == "mission_item_reached")
+        .filter_map(|l| l["params"]["seq"].as_i64())
+        .collect();
+    let mut unique = items.clone();
+    unique.dedup();
+    assert_eq!(items, unique, "an item heard twice in a row");
+    assert!(!items.contains(&65535), "{items:?}");
+    assert!(items.len() >= 10, "{items:?}");
+    assert!(
+        !f.flown.stderr.contains("DENIED"),
+        "a telemetry request was denied:\n{}",
+        f.flown.stderr
+    );
+    let verbs = f.flown.verbs();
+    assert_eq!(verbs.first().map(String::as_str), Some("upload_mission"));
+    assert!(verbs.contains(&"arm".to_owned()), "{verbs:?}");
+    assert!(f.flown.calls().contains(&"plan".to_owned()));
+    assert!(f
+        .flown
+        .stderr
+        .contains("autopilot parameters checked: RTL_AUTOLAND = 2"));
+}
+
+#[test]
+fn a_vehicle_without_rtl_autoland_is_refused_before_the_mission() {
+    // plane.parm leaves RTL_AUTOLAND at 0: ArduPlane would refuse to arm
+    // with the mission's DO_LAND_START ("PreArm: DO_LAND_START set and
+    // RTL_AUTOLAND disabled"). The gateway reads it at start and refuses.
+    let plan = Plan {
+        params: vec![("RTL_AUTOLAND", 0.0)],
+        max_sim_s: 120.0,
+        ..Plan::new("refused", 1)
+    };
+    let Some(f) = real::fly(plan, |_| false) else {
+        return;
+    };
+    assert!(
+        f.flown
+            .stderr
+            .contains("RTL_AUTOLAND is 0 on the vehicle; the project needs one of 1, 2"),
+        "{}",
+        f.flown.stderr
+    );
+    assert_eq!(f.code, Some(1), "the refusal is a failed check");
+    assert!(f.truth.arming.iter().all(|(_, armed)| !armed));
+    assert!(
+        !f.flown.verbs().contains(&"arm".to_owned()),
+        "{:?}",
+        f.flown.verbs()
+    );
+}
