@@ -12,7 +12,7 @@ mod flight;
 #[path = "scenarios/real.rs"]
 mod real;
 
-use real::{Plan, RealFlown, Truth};
+use real::{Act, Plan, RealFlown, Truth};
 
 /// The mission file DEC reads, in the project folder.
 pub const MISSION_FILE: &str = "mission.toml";
@@ -60,6 +60,30 @@ fn events(f: &RealFlown) -> Vec<String> {
     f.flown.events()
 }
 
+/// ArduPlane's "Distance from LAND point=3.49m", after the disarm.
+fn land_point_distance(t: &Truth) -> Option<f64> {
+    t.texts.iter().rev().find_map(|(_, text)| {
+        text.strip_prefix("Distance from LAND point=")
+            .and_then(|d| d.trim_end_matches('m').parse().ok())
+    })
+}
+
+/// A net's places marked at the end of the flight.
+fn last_marking(f: &RealFlown, net: &str) -> Vec<String> {
+    f.flown
+        .timeline
+        .iter()
+        .rev()
+        .find(|l| l["effect"] == "marking" && l["net"] == net)
+        .and_then(|l| l["marked"].as_array())
+        .map(|m| {
+            m.iter()
+                .filter_map(|p| p.as_str().map(str::to_owned))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 /// How many times each event was heard, for people reading a failure.
 fn event_counts(f: &RealFlown) -> String {
     let mut counts = std::collections::BTreeMap::<String, usize>::new();
@@ -102,19 +126,29 @@ fn nominal_mission_flown_landed_and_disarmed_on_real_arduplane() {
     eprintln!("{}", event_counts(&f));
     ended_well("nominal", &f);
     let t = &f.truth;
-    // Every navigation item reached, as ArduPilot says.
+    // Every waypoint reached, as ArduPilot says. ArduPlane reports the end
+    // of O3's loiter (8) as the DO_LAND_START after it (9), and the LAND
+    // item (11) is never "reached": it ends with the disarm.
     let reached: Vec<u16> = t.reached.iter().map(|r| r.1).collect();
-    for seq in [1, 2, 3, 4, 5, 6, 7, 8, 10, 11] {
+    for seq in [1, 2, 3, 4, 5, 6, 7, 10] {
         assert!(
             reached.contains(&seq),
             "item {seq} not reached: {reached:?}"
         );
     }
+    assert!(reached.contains(&8) || reached.contains(&9), "{reached:?}");
+    let touchdown = land_point_distance(t).expect("ArduPlane says how far from the LAND point");
     assert!(
-        metres(at(t), site("Runway")) < 300.0,
+        touchdown < 30.0,
+        "stopped {touchdown} m from the LAND point"
+    );
+    assert!(
+        metres(at(t), site("Runway")) < 100.0,
         "landed {:.0} m from the runway",
         metres(at(t), site("Runway"))
     );
+    assert_eq!(last_marking(&f, "MISSION"), ["complete"]);
+    assert_eq!(last_marking(&f, "FLIGHT"), ["complete"]);
     assert_eq!(t.modes_after(0.0).first(), Some(&"MANUAL"), "{:?}", t.modes);
     assert!(t.modes_after(0.0).contains(&"AUTO"), "{:?}", t.modes);
     // Petrel: the whole mission heard, each item once (ArduPilot repeats
@@ -182,5 +216,98 @@ fn a_vehicle_without_rtl_autoland_is_refused_before_the_mission() {
         !f.flown.verbs().contains(&"arm".to_owned()),
         "{:?}",
         f.flown.verbs()
+    );
+}
+
+/// The vehicle reached item `seq` (as ArduPilot says).
+fn reached(seq: u16) -> Box<dyn Fn(&Truth) -> bool + Send> {
+    Box::new(move |t: &Truth| t.reached.iter().any(|r| r.1 == seq))
+}
+
+/// ArduPilot's engine failure as its SITL does it: the throttle output
+/// (servo 3, bit 2 of SIM_ENGINE_FAIL) multiplied by SIM_ENGINE_MUL = 0.
+fn engine_out() -> Vec<Act> {
+    vec![
+        Act::Param("SIM_ENGINE_MUL", 0.0),
+        Act::Param("SIM_ENGINE_FAIL", 4.0),
+    ]
+}
+
+/// The site DEC picked (the LAND of the emergency mission CATASTROPHIC
+/// uploaded), and how far from it the aircraft came to rest.
+fn emergency(f: &RealFlown) -> (String, f64) {
+    let land = f
+        .flown
+        .effects("command")
+        .into_iter()
+        .filter(|l| l["net"] == "CATASTROPHIC" && l["verb"] == "upload_mission")
+        .find_map(|l| {
+            l["args"]["items"]
+                .as_array()
+                .and_then(|items| items.last())
+                .filter(|i| i["command"] == "LAND")
+                .and_then(|i| Some((i["lat"].as_f64()?, i["lon"].as_f64()?)))
+        })
+        .unwrap_or_else(|| panic!("no emergency mission: {:?}", f.flown.verbs()));
+    let name = ["Runway", "North field", "East field"]
+        .into_iter()
+        .find(|n| metres(site(n), land) < 5.0)
+        .unwrap_or_else(|| panic!("the emergency LAND {land:?} is no site"));
+    (name.to_owned(), metres(at(&f.truth), land))
+}
+
+#[test]
+fn engine_failure_glides_to_the_site_dec_picked_and_another_position_picks_another() {
+    let early = Plan {
+        steps: vec![("engine out", reached(2), engine_out())],
+        ..mission("engine-early", 1)
+    };
+    let late = Plan {
+        steps: vec![("engine out", reached(6), engine_out())],
+        ..mission("engine-late", 2)
+    };
+    let (early, late) = std::thread::scope(|s| {
+        let a = s.spawn(|| real::fly(early, Truth::down));
+        let b = s.spawn(|| real::fly(late, Truth::down));
+        (
+            a.join().expect("early flight"),
+            b.join().expect("late flight"),
+        )
+    });
+    let (Some(early), Some(late)) = (early, late) else {
+        return;
+    };
+    let mut sites = Vec::new();
+    for (name, f) in [("engine-early", &early), ("engine-late", &late)] {
+        ended_well(name, f);
+        let heard = events(f);
+        assert!(
+            heard.contains(&"engine_failure".to_owned()),
+            "{name}: {heard:?}"
+        );
+        assert!(
+            f.flown.calls().contains(&"emergency_site".to_owned()),
+            "{name}: {:?}",
+            f.flown.calls()
+        );
+        // After the failure, ArduPlane flew the emergency mission in AUTO
+        // on its own TECS and L1, and never went back to the operations.
+        let at_fail = f.truth.injected_at("engine out").expect("injected");
+        let (site_name, distance) = emergency(f);
+        eprintln!(
+            "{name}: engine out at {at_fail:.0} s; landed {distance:.0} m from {site_name} ({} s later); ArduPlane: {:?}",
+            (f.truth.t - at_fail).round(),
+            f.truth.modes_after(at_fail)
+        );
+        assert!(
+            distance < 300.0,
+            "{name}: landed {distance:.0} m from {site_name}"
+        );
+        sites.push(site_name);
+    }
+    assert_ne!(
+        sites[0], sites[1],
+        "both engine failures landed at {}",
+        sites[0]
     );
 }

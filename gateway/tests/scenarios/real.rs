@@ -155,11 +155,14 @@ impl Observer {
         let thread = std::thread::spawn(move || {
             loop {
                 match l.recv() {
-                    Ok((_, message)) => {
+                    // The autopilot's own messages only: ArduPilot routes
+                    // the gateway's (and a camera's) to this port too.
+                    Ok((header, message)) if (header.system_id, header.component_id) == (1, 1) => {
                         if let Ok(mut truth) = t.lock() {
                             truth.heard(&message);
                         }
                     }
+                    Ok(_) => {}
                     // A message this dialect cannot decode: skip it.
                     Err(mavlink::error::MessageReadError::Parse(_)) => {}
                     // rust-mavlink's TCP reads time out now and then.
@@ -394,7 +397,7 @@ pub enum Act {
 
 /// An act, when a condition on the truth first holds, named for the
 /// assertions (`Truth::injected_at`).
-pub type Step = (&'static str, Box<dyn Fn(&Truth) -> bool>, Vec<Act>);
+pub type Step = (&'static str, Box<dyn Fn(&Truth) -> bool + Send>, Vec<Act>);
 
 /// A real flight's result: the gateway's side (`flown`) and ArduPilot's.
 pub struct RealFlown {
@@ -555,6 +558,8 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
     observer.finish();
     drop(relay);
     let stdout = lines.lock().map(|l| l.clone()).unwrap_or_default();
+    let _ = std::fs::write(dir.join("timeline.jsonl"), &stdout);
+    let _ = std::fs::write(dir.join("petrel.err"), &stderr);
     eprintln!(
         "{name}: {:.0} s simulated in {:.1} s; SITL in {}",
         truth.t,

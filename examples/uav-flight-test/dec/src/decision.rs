@@ -495,7 +495,7 @@ mod tests {
 
     #[test]
     fn emergency_sites_depend_on_where_the_engine_fails() {
-        let mut dec = Dec::new(example());
+        let mut dec = Dec::new(crate::mission::tests::glider());
         assert!(call(&mut dec, "emergency_plan", json!({})).is_err());
         // Near T1, 80 m up.
         let a = ok(call(

@@ -525,6 +525,16 @@ pub(crate) mod tests {
     use super::*;
 
     /// The example's mission file.
+    /// The example with a clean glider's numbers (10:1, a 300 m final
+    /// leg), on which DEC's emergency geometry is tested whatever the
+    /// example's airframe measures.
+    pub(crate) fn glider() -> Mission {
+        let mut m = example();
+        m.flight.glide_ratio = 10.0;
+        m.flight.emergency_approach = 300.0;
+        m
+    }
+
     pub(crate) fn example() -> Mission {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../mission.toml");
         match Mission::load(&path) {

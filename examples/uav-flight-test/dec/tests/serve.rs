@@ -98,7 +98,7 @@ fn hello_calls_replies_and_a_malformed_call() {
         json!({"call": 5, "function": "warp", "args": {}}).to_string(),
         json!({"call": 6, "function": "item", "args": [3]}).to_string(),
         // Near T1, 80 m up: the North field.
-        json!({"call": 7, "function": "emergency_site", "args": {"lat": -35.3600, "lon": 149.16523, "alt": 80}}).to_string(),
+        json!({"call": 7, "function": "emergency_site", "args": {"lat": -35.3600, "lon": 149.16523, "alt": 100}}).to_string(),
         "".to_owned(),
         json!({"call": 8, "function": "payload_failed", "args": {"failed": 100}}).to_string() + "\r",
     ];
