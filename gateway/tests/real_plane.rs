@@ -299,8 +299,12 @@ fn engine_failure_glides_to_the_site_dec_picked_and_another_position_picks_anoth
             (f.truth.t - at_fail).round(),
             f.truth.modes_after(at_fail)
         );
+        // DEC plans a 4:1 glide (ArduPlane SITL's, measured) with 20 % of
+        // the range in reserve: from 60-80 m the aircraft may come down up
+        // to that reserve short of the LAND point (≤ 0.2 × 4 × 80 m ≈ 64 m)
+        // and roll on the ground after it (≈ 40 m): 150 m.
         assert!(
-            distance < 300.0,
+            distance < 150.0,
             "{name}: landed {distance:.0} m from {site_name}"
         );
         sites.push(site_name);
