@@ -113,7 +113,7 @@ impl Vehicle {
                 health |= AHRS;
             }
         }
-        if self.fl.armed || self.prearm_failure().is_none() {
+        if self.fl.armed || self.prearm_failures().is_empty() {
             health |= PREARM;
         }
         if self.fl.battery_failsafe > 0 {
@@ -219,21 +219,30 @@ impl Vehicle {
     }
 
     /// PARAM_VALUE of a parameter of the table.
+    /// PARAM_VALUE of a parameter named (a read by name, the answer to
+    /// PARAM_SET, a notification): ArduPilot leaves param_index at 65535
+    /// there, as it was asked by name.
     pub(crate) fn send_param(&mut self, name: &str) {
         let Some(index) = self.params.index(name) else {
             return;
         };
-        self.send_param_at(index);
+        self.send_param_value(index, u16::MAX);
     }
 
+    /// PARAM_VALUE of the parameter at `index` (PARAM_REQUEST_LIST, a read
+    /// by index): param_index is the index.
     pub(crate) fn send_param_at(&mut self, index: usize) {
+        self.send_param_value(index, index as u16);
+    }
+
+    fn send_param_value(&mut self, index: usize, param_index: u16) {
         let Some(p) = self.params.at(index).cloned() else {
             return;
         };
         let msg = MavMessage::PARAM_VALUE(PARAM_VALUE_DATA {
             param_value: p.value,
             param_count: self.params.len() as u16,
-            param_index: index as u16,
+            param_index,
             param_id: p.name.into(),
             param_type: p.kind,
         });
@@ -346,6 +355,19 @@ impl Vehicle {
     /// Sends a streamed message (or the one asked by REQUEST_MESSAGE).
     /// Returns false when the message cannot be sent now.
     pub(crate) fn send_stream(&mut self, m: u32) -> bool {
+        if m == id::MISSION_ITEM_REACHED {
+            // ArduPilot re-sends the last one (65535 before any).
+            let seq = self.last_reached;
+            self.send(MavMessage::MISSION_ITEM_REACHED(
+                MISSION_ITEM_REACHED_DATA { seq },
+            ));
+            return true;
+        }
+        if m == id::AUTOPILOT_VERSION {
+            let v = self.autopilot_version();
+            self.send(v);
+            return true;
+        }
         if m == id::SERVO_OUTPUT_RAW {
             self.send_servo_output(false);
             return true;
@@ -955,5 +977,53 @@ mod tests {
             hb.iter().map(|x| x.0 / 10_000).collect::<Vec<_>>(),
             vec![100, 174, 200, 300]
         );
+    }
+
+    /// SET_MESSAGE_INTERVAL as ArduPlane 4.7 SITL answered a gateway (see
+    /// the README): events and a radio's messages DENIED, each with its
+    /// text; HEARTBEAT at the interval asked, −1 stopping it but for mode
+    /// changes.
+    #[test]
+    fn interval_requests_denied_and_heartbeat_as_arduplane() {
+        let mut b = Bench::new(quick());
+        b.run_to(2.0);
+        let ask = |b: &mut Bench, m: u32, us: f32| {
+            b.command(
+                MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+                [m as f32, us, 0.0, 0.0, 0.0, 0.0, 0.0],
+            )
+        };
+        for m in [77, 253, 109, 166, 47] {
+            assert_eq!(
+                ask(&mut b, m, 250_000.0),
+                Some(MavResult::MAV_RESULT_DENIED)
+            );
+            assert_eq!(
+                b.texts().last().unwrap(),
+                &format!("No ap_message for mavlink id ({m})")
+            );
+        }
+        let beats = |b: &Bench, from: usize| {
+            b.since(from, "HEARTBEAT")
+                .into_iter()
+                .filter(|(_, h, _)| h.component_id == 1)
+                .count()
+        };
+        assert_eq!(
+            ask(&mut b, 0, 250_000.0),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        let from = b.got.len();
+        b.run_to(7.0);
+        assert!((19..=21).contains(&beats(&b, from)), "{}", beats(&b, from));
+        assert_eq!(ask(&mut b, 0, -1.0), Some(MavResult::MAV_RESULT_ACCEPTED));
+        let from = b.got.len();
+        b.run_to(12.0);
+        assert_eq!(beats(&b, from), 0);
+        assert_eq!(
+            b.set_mode(crate::modes::FBWA),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        assert_eq!(beats(&b, from), 1, "a mode change still says so");
     }
 }

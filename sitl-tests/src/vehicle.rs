@@ -72,6 +72,9 @@ pub struct Vehicle {
     pub(crate) next_terrain_request: u64,
     pub(crate) esc_count: u16,
     pub(crate) statustext_id: u16,
+    /// The last MISSION_ITEM_REACHED (65535 before any), re-sent when
+    /// streamed.
+    pub(crate) last_reached: u16,
     /// HOME_POSITION to send at this time.
     pub(crate) home_due: Option<u64>,
     /// Messages held while a command is handled (they follow its ack).
@@ -135,6 +138,7 @@ impl Vehicle {
             next_terrain_request: 0,
             esc_count: 0,
             statustext_id: 0,
+            last_reached: u16::MAX,
             home_due: None,
             held: None,
             dropped: 0,
@@ -592,6 +596,11 @@ pub(crate) mod testing {
             while let Some((h, m)) = self.v.poll_transmit() {
                 self.got.push((self.v.now_us(), h, m));
             }
+        }
+
+        /// Collects what the vehicle sent after a direct call.
+        pub fn drain_for_tests(&mut self) {
+            self.drain();
         }
 
         /// Runs until `t` seconds.
