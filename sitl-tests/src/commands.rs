@@ -35,7 +35,7 @@ impl Vehicle {
         p: [f32; 7],
         int: Option<IntArgs>,
     ) {
-        let camera_cmd = matches!(command, cmd::IMAGE_START_CAPTURE | cmd::IMAGE_STOP_CAPTURE);
+        let camera_cmd = camera::Camera::is_camera_command(command);
         let to_camera =
             self.cfg.camera && (target == camera::COMPONENT || (target == 0 && camera_cmd));
         // Everything the command causes waits for its COMMAND_ACK.

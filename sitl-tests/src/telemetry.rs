@@ -135,45 +135,23 @@ impl Vehicle {
     }
 
     pub(crate) fn camera_output(&mut self, o: Output) {
-        match o {
-            Output::Heartbeat { critical } => {
-                let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-                    custom_mode: 0,
-                    mavtype: MavType::MAV_TYPE_CAMERA,
-                    autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
-                    base_mode: MavModeFlag::empty(),
-                    system_status: if critical {
-                        MavState::MAV_STATE_CRITICAL
-                    } else {
-                        MavState::MAV_STATE_ACTIVE
-                    },
-                    mavlink_version: 3,
-                });
-                self.send_from(camera::COMPONENT, msg);
-            }
-            Output::Image { index } => {
-                let at = self.fix();
-                let (lat, lon) = (e7(at.lat), e7(at.lon));
-                self.truth.camera.push(CameraEvent {
-                    at,
-                    action: CameraAction::Image { index },
-                });
-                let msg = MavMessage::CAMERA_IMAGE_CAPTURED(CAMERA_IMAGE_CAPTURED_DATA {
-                    time_utc: self.cfg.unix_boot_us + self.now,
-                    time_boot_ms: self.boot_ms(),
-                    lat,
-                    lon,
-                    alt: (self.alt_amsl() * 1000.0) as i32,
-                    relative_alt: (self.ac.alt * 1000.0) as i32,
-                    q: [1.0, 0.0, 0.0, 0.0],
-                    image_index: index,
-                    camera_id: 1,
-                    capture_result: MavBool::MAV_BOOL_TRUE,
-                    file_url: format!("img{index:05}.jpg").as_str().into(),
-                });
-                self.send_from(camera::COMPONENT, msg);
-            }
+        let at = self.fix();
+        if let Output::Image { index } = o {
+            self.truth.camera.push(CameraEvent {
+                at,
+                action: CameraAction::Image { index },
+            });
         }
+        let context = camera::Context {
+            time_boot_ms: self.boot_ms(),
+            time_utc_us: self.cfg.unix_boot_us + self.now,
+            lat: e7(at.lat),
+            lon: e7(at.lon),
+            alt_mm: (self.alt_amsl() * 1000.0) as i32,
+            relative_alt_mm: (self.ac.alt * 1000.0) as i32,
+        };
+        let msg = self.camera.message(o, &context);
+        self.send_from(camera::COMPONENT, msg);
     }
 
     /// HOME_POSITION, and GPS_GLOBAL_ORIGIN once the EKF has its origin.
