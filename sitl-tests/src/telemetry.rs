@@ -843,10 +843,37 @@ mod tests {
             .collect()
     }
 
+    /// As ArduPlane 4.7 SITL with plane.parm (MAVn_* at 1): every group
+    /// at 1 Hz from start-up, unasked.
+    #[test]
+    fn every_group_at_1_hz_until_asked_otherwise() {
+        let mut b = Bench::new(crate::SimConfig {
+            boot_servo_burst: false,
+            ..crate::SimConfig::default()
+        });
+        b.run_to(12.0);
+        for name in [
+            "SYS_STATUS",
+            "GPS_RAW_INT",
+            "ATTITUDE",
+            "VFR_HUD",
+            "BATTERY_STATUS",
+        ] {
+            let n = b.of(name).len();
+            // From 2 s (ready at 1.74 s) to 12 s.
+            assert!((10..=11).contains(&n), "{n} {name} in 12 s");
+        }
+        assert!(b.of("MISSION_ITEM_REACHED").is_empty(), "in no group");
+        let mav1 = b.v.params.get("MAV1_EXTRA1");
+        assert_eq!(mav1, 1.0);
+    }
+
+    /// With MAVn_* at 0: nothing but what ArduPlane sends unasked.
     #[test]
     fn nothing_is_streamed_until_asked() {
         let mut b = Bench::new(crate::SimConfig {
             boot_servo_burst: false,
+            stream_hz: 0,
             ..quick()
         });
         b.run_to(12.0);
@@ -926,7 +953,10 @@ mod tests {
 
     #[test]
     fn heartbeat_as_arduplane_and_the_boot_burst() {
-        let mut b = Bench::new(crate::SimConfig::default());
+        let mut b = Bench::new(crate::SimConfig {
+            stream_hz: 0,
+            ..crate::SimConfig::default()
+        });
         b.run_to(3.0);
         // While INITIALISING: SERVO_OUTPUT_RAW at 50 Hz, all zero, unasked.
         let servo = b.of("SERVO_OUTPUT_RAW");

@@ -93,6 +93,10 @@ impl Vehicle {
             }
         }
         params.set("SYSID_THISMAV", cfg.system_id as f32);
+        let mut streams = Streams::default();
+        for group in streams.request_stream(0, 0, cfg.stream_hz, cfg.stream_hz > 0) {
+            params.set(group.param(), cfg.stream_hz.min(50) as f32);
+        }
         params.set("BATT_CAPACITY", cfg.airframe.battery_capacity_mah as f32);
         let af = cfg.airframe.clone();
         let wind = V2::new(cfg.wind.0, cfg.wind.1);
@@ -121,7 +125,7 @@ impl Vehicle {
             mission: Vec::new(),
             auto: Default::default(),
             uploads: Uploads::default(),
-            streams: Streams::default(),
+            streams,
             camera: Camera::default(),
             scheduled,
             active: Vec::new(),
