@@ -1,8 +1,11 @@
-//! Telemetry streams as ArduPlane schedules them: nothing until asked
-//! (HEARTBEAT excepted, 1 Hz), then per message at the interval set by
-//! MAV_CMD_SET_MESSAGE_INTERVAL, or at the rate of its REQUEST_DATA_STREAM
-//! group (ArduPlane 4.7's groups, GCS_Mavlink.cpp). Times are sim
-//! microseconds.
+//! Telemetry streams as ArduPlane schedules them: HEARTBEAT at 1 Hz and
+//! every REQUEST_DATA_STREAM group at its MAVn_* rate (1 Hz in SITL with
+//! plane.parm; `SimConfig::stream_hz`), then per message at the interval
+//! set by MAV_CMD_SET_MESSAGE_INTERVAL (HEARTBEAT included), or at the rate
+//! of its group as REQUEST_DATA_STREAM sets it (ArduPlane 4.7's groups,
+//! GCS_Mavlink.cpp). Which requests are DENIED and which event messages are
+//! re-sent on every period were checked on ArduPlane 4.7 SITL ([`DENIED`],
+//! [`REPEATED_EVENTS`]). Times are sim microseconds.
 
 use std::collections::BTreeMap;
 

@@ -156,8 +156,16 @@ impl Vehicle {
 
     /// HOME_POSITION, and GPS_GLOBAL_ORIGIN once the EKF has its origin.
     pub(crate) fn send_home(&mut self) {
+        if self.send_home_position() && self.boot.has(Phase::Origin) {
+            self.send_origin();
+        }
+    }
+
+    /// HOME_POSITION alone (as streamed: SITL sends GPS_GLOBAL_ORIGIN on
+    /// its own, every few seconds); false before home is set.
+    pub(crate) fn send_home_position(&mut self) -> bool {
         if !self.home_set {
-            return;
+            return false;
         }
         let (lat, lon) = self.latlon(self.home_pos);
         let alt = (self.origin().alt_amsl * 1000.0) as i32;
@@ -181,9 +189,7 @@ impl Vehicle {
             approach_z: 0.0,
             time_usec,
         }));
-        if origin {
-            self.send_origin();
-        }
+        true
     }
 
     fn send_origin(&mut self) {
@@ -196,7 +202,6 @@ impl Vehicle {
         }));
     }
 
-    /// PARAM_VALUE of a parameter of the table.
     /// PARAM_VALUE of a parameter named (a read by name, the answer to
     /// PARAM_SET, a notification): ArduPilot leaves param_index at 65535
     /// there, as it was asked by name.
@@ -351,11 +356,7 @@ impl Vehicle {
             return true;
         }
         if m == id::HOME_POSITION {
-            if !self.home_set {
-                return false;
-            }
-            self.send_home();
-            return true;
+            return self.send_home_position();
         }
         if m == id::TERRAIN_REPORT && self.gps_ok() {
             // MSG_TERRAIN: a TERRAIN_REQUEST every seventh time (0.57 Hz at
