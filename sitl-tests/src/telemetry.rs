@@ -97,8 +97,17 @@ impl Vehicle {
         let present =
             base | CONTROL | MOTORS | RC | AHRS | LOGGING | BATTERY | PREARM | TERRAIN | gps;
         let mut enabled = base | MOTORS | RC | BATTERY | PREARM | TERRAIN | gps;
+        // As ArduPlane 4.7 SITL: the controllers in the modes that fly
+        // themselves, the AHRS once the EKF is active, logging while armed.
+        let ekf = self.boot.has(Phase::EkfGps);
         if guided {
-            enabled |= CONTROL | AHRS | LOGGING;
+            enabled |= CONTROL;
+        }
+        if ekf {
+            enabled |= AHRS;
+        }
+        if self.fl.armed {
+            enabled |= LOGGING;
         }
         let mut health = GYRO | ACCEL | MAG | BARO | MOTORS | RC | GEOFENCE | LOGGING | BATTERY;
         if self.boot.has(Phase::AirspeedCalibrated) {
@@ -109,9 +118,9 @@ impl Vehicle {
         }
         if guided {
             health |= CONTROL;
-            if !self.has_fault(FaultKind::GpsLoss) {
-                health |= AHRS;
-            }
+        }
+        if (ekf || guided) && !self.has_fault(FaultKind::GpsLoss) {
+            health |= AHRS;
         }
         if self.fl.armed || self.prearm_failures().is_empty() {
             health |= PREARM;
@@ -428,9 +437,10 @@ impl Vehicle {
                     errors_count3: 0,
                     errors_count4: 0,
                     battery_remaining: self.battery_remaining().round() as i8,
-                    onboard_control_sensors_present_extended: Default::default(),
-                    onboard_control_sensors_enabled_extended: Default::default(),
-                    onboard_control_sensors_health_extended: Default::default(),
+                    // None (rust-mavlink's Default is the first flag).
+                    onboard_control_sensors_present_extended: MavSysStatusSensorExtended::empty(),
+                    onboard_control_sensors_enabled_extended: MavSysStatusSensorExtended::empty(),
+                    onboard_control_sensors_health_extended: MavSysStatusSensorExtended::empty(),
                 })
             }
             id::POWER_STATUS => MavMessage::POWER_STATUS(POWER_STATUS_DATA {
@@ -1034,5 +1044,38 @@ mod tests {
             Some(MavResult::MAV_RESULT_ACCEPTED)
         );
         assert_eq!(beats(&b, from), 1, "a mode change still says so");
+    }
+
+    /// SYS_STATUS's bits as ArduPlane 4.7 SITL sets them (see the README):
+    /// the AHRS enabled and healthy once the EKF is active, whatever the
+    /// mode; logging enabled while armed; no extended bits.
+    #[test]
+    fn sys_status_bits_as_arduplane() {
+        let mut b = Bench::new(crate::SimConfig {
+            first_arm_refused: false,
+            ..crate::SimConfig::default()
+        });
+        let bits = |b: &Bench| match b.of("SYS_STATUS").last() {
+            Some(MavMessage::SYS_STATUS(s)) => (
+                s.onboard_control_sensors_enabled.bits(),
+                s.onboard_control_sensors_health.bits(),
+                s.onboard_control_sensors_present_extended.bits(),
+            ),
+            _ => panic!("no SYS_STATUS"),
+        };
+        const AHRS: u32 = 0x20_0000;
+        const LOGGING: u32 = 0x100_0000;
+        b.run_to(15.0);
+        let (enabled, health, extended) = bits(&b);
+        assert_eq!((enabled & AHRS, health & AHRS, extended), (0, 0, 0));
+        b.run_to(22.0); // the EKF active at 20.5 s
+        let (enabled, health, _) = bits(&b);
+        assert_eq!(
+            (enabled & AHRS, health & AHRS, enabled & LOGGING),
+            (AHRS, AHRS, 0)
+        );
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_ACCEPTED));
+        b.run_to(23.5);
+        assert_eq!(bits(&b).0 & LOGGING, LOGGING);
     }
 }
