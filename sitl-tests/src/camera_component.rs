@@ -88,6 +88,10 @@ pub struct CameraState {
     pub position_streamed: bool,
     /// The last position heard (GLOBAL_POSITION_INT), time in camera seconds.
     pub position: Option<Fix>,
+    /// The autopilot's time since its boot minus the camera's, from the last
+    /// GLOBAL_POSITION_INT's `time_boot_ms` (s): a camera time plus this is
+    /// the autopilot's (SITL's) time.
+    pub autopilot_offset_s: Option<f64>,
     /// Every command addressed to the camera.
     pub commands: Vec<CameraCommand>,
     /// Captures started and stopped, images taken, with where and when.
@@ -162,6 +166,7 @@ impl CameraComponent {
             }
             MavMessage::GLOBAL_POSITION_INT(p) if from == autopilot => {
                 self.alt_mm = p.alt;
+                self.truth.autopilot_offset_s = Some(p.time_boot_ms as f64 / 1e3 - self.t_s());
                 self.truth.position = Some(Fix {
                     time_s: self.t_s(),
                     lat: p.lat as f64 / 1e7,
@@ -442,10 +447,12 @@ mod tests {
             }),
         );
         assert!(c.state().position_streamed);
+        assert_eq!(c.state().autopilot_offset_s, None);
         c.handle(
             4_000_000,
             &header((1, 1)),
             &MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+                time_boot_ms: 30_000,
                 lat: -353_632_610,
                 lon: 1_491_652_300,
                 alt: 664_000,
@@ -473,6 +480,8 @@ mod tests {
         c.advance(9_000_000);
         let s = c.state();
         assert_eq!(s.images, 3, "three images asked, at 4, 6, 8 s");
+        // The autopilot's clock: 30 s when the camera's said 4 s.
+        assert_eq!(s.autopilot_offset_s, Some(26.0));
         assert_eq!(s.results_of(2000), vec![Some(0)]);
         assert!(matches!(
             s.camera[0].action,

@@ -1,6 +1,8 @@
 //! The simulated ArduPlane: a vehicle that behaves on the wire as ArduPlane
-//! 4.7 SITL does (checked against a recording of it, see the README), for
-//! Petrel's end-to-end tests and `petrel demo`.
+//! 4.7 SITL does (checked against a recording of it and against ArduPilot's
+//! own SITL, see the README), for Petrel's end-to-end tests and `petrel
+//! demo`; the payload camera on its own link; the harness for ArduPilot's
+//! real SITL.
 //!
 //! It owns a sans-IO core, [`Vehicle`] (the autopilot, its camera and a
 //! point-mass fixed-wing model: fed `(now, header, message)` and

@@ -96,6 +96,11 @@ fn a_camera_on_serial1_is_commanded_through_the_real_autopilot() {
         .wait_for(Duration::from_secs(10), |s| s.position.is_some())
         .unwrap_or_else(|| panic!("no position on SERIAL1: {:?}", camera.state()));
     assert!(s.connected && s.autopilot_heard && s.position_streamed);
+    // The autopilot's clock runs with the camera's (both ×5), SITL's ahead
+    // by the seconds it ran before the camera powered on (bounded, and
+    // not negative beyond a frame's delay).
+    let offset = s.autopilot_offset_s.expect("the autopilot's time");
+    assert!((-0.5..30.0).contains(&offset), "offset {offset} s");
     let heard: Vec<(u32, (u8, u8), Option<u8>)> = s
         .commands
         .iter()
