@@ -281,7 +281,19 @@ mod tests {
             },
         )
         .unwrap();
-        let (mut peer, _) = listener.accept().unwrap();
+        // Accepting, bounded: the camera connects within 5 s.
+        listener.set_nonblocking(true).unwrap();
+        let accept_by = Instant::now() + Duration::from_secs(5);
+        let mut peer = loop {
+            match listener.accept() {
+                Ok((peer, _)) => break peer,
+                Err(e) if e.kind() == ErrorKind::WouldBlock && Instant::now() < accept_by => {
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                Err(e) => panic!("the camera did not connect: {e}"),
+            }
+        };
+        peer.set_nonblocking(false).unwrap();
         peer.set_read_timeout(Some(Duration::from_millis(100)))
             .unwrap();
         let cmd = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
