@@ -7,7 +7,7 @@ use mavlink::dialects::ardupilotmega::{MavResult, MavSeverity};
 use crate::boot::{texts, Phase};
 use crate::faults::FaultKind;
 use crate::flight::Stage;
-use crate::mission::MissionItem;
+use crate::mission::{cmd, MissionItem};
 use crate::modes;
 use crate::vehicle::Vehicle;
 
@@ -75,34 +75,49 @@ impl Vehicle {
         self.boot.has(Phase::Gps) && !self.has_fault(FaultKind::GpsLoss)
     }
 
-    /// The first pre-arm check that fails, in ArduPilot's words (without
-    /// the "PreArm: " / "Arm: " prefix).
-    pub(crate) fn prearm_failure(&self) -> Option<String> {
+    /// The pre-arm checks that fail, in ArduPilot's words (without the
+    /// "PreArm: " / "Arm: " prefix): the first of the start-up chain
+    /// (initialised, gyros, EKF, GPS), then each independent check that
+    /// fails, as ArduPilot reports every failing check.
+    pub(crate) fn prearm_failures(&self) -> Vec<String> {
+        let mut out = Vec::new();
         if !self.ready() {
-            return Some("System not initialised".to_owned());
+            out.push("System not initialised".to_owned());
+        } else if self.cfg.first_arm_refused && !self.boot.has(Phase::GyrosSettled) {
+            out.push("Gyros inconsistent".to_owned());
+        } else if !self.boot.has(Phase::EkfGps) {
+            out.push("AHRS: EKF3 still initialising".to_owned());
+        } else if !self.gps_ok() || !self.home_set {
+            out.push("Bad GPS Position".to_owned());
         }
-        if self.cfg.first_arm_refused && !self.boot.has(Phase::GyrosSettled) {
-            return Some("Gyros inconsistent".to_owned());
+        // AP_Arming_Plane: a landing sequence RTL would never use.
+        if self.params.get("RTL_AUTOLAND") as i64 == 0
+            && self
+                .mission
+                .iter()
+                .any(|it| it.command == cmd::DO_LAND_START)
+        {
+            out.push("DO_LAND_START set and RTL_AUTOLAND disabled".to_owned());
         }
-        if !self.boot.has(Phase::EkfGps) {
-            return Some("AHRS: EKF3 still initialising".to_owned());
-        }
-        if !self.gps_ok() || !self.home_set {
-            return Some("Bad GPS Position".to_owned());
-        }
-        None
+        out
     }
 
-    /// Every 30 s while disarmed and failing: "PreArm: <reason>".
+    /// A failing check said as ArduPilot's check_failed says it: CRITICAL,
+    /// cut to the 50 characters of one STATUSTEXT ("PreArm: DO_LAND_START
+    /// set and RTL_AUTOLAND disable").
+    fn check_failed(&mut self, prefix: &str, reason: &str) {
+        let text: String = format!("{prefix}: {reason}").chars().take(50).collect();
+        self.text(MavSeverity::MAV_SEVERITY_CRITICAL, text);
+    }
+
+    /// Every 30 s while disarmed and failing: "PreArm: <reason>" for each
+    /// failing check.
     pub(crate) fn prearm_report(&mut self) {
         if self.fl.armed || !self.ready() {
             return;
         }
-        if let Some(reason) = self.prearm_failure() {
-            self.text(
-                MavSeverity::MAV_SEVERITY_CRITICAL,
-                format!("PreArm: {reason}"),
-            );
+        for reason in self.prearm_failures() {
+            self.check_failed("PreArm", &reason);
         }
     }
 
@@ -115,8 +130,11 @@ impl Vehicle {
             return MavResult::MAV_RESULT_FAILED;
         }
         if !force {
-            if let Some(reason) = self.prearm_failure() {
-                self.text(MavSeverity::MAV_SEVERITY_CRITICAL, format!("Arm: {reason}"));
+            let failures = self.prearm_failures();
+            if !failures.is_empty() {
+                for reason in failures {
+                    self.check_failed("Arm", &reason);
+                }
                 return MavResult::MAV_RESULT_FAILED;
             }
         }
@@ -289,5 +307,168 @@ mod tests {
         assert_eq!(disarm(&mut b, FORCE), Some(MavResult::MAV_RESULT_ACCEPTED));
         assert!(!b.v.state().armed);
         assert_eq!(b.texts().last().unwrap(), "Throttle disarmed");
+    }
+
+    /// The texts on the wire (STATUSTEXT as sent), with their severity.
+    fn wire_texts(b: &Bench, from: usize) -> Vec<(u64, MavSeverity, String)> {
+        b.since(from, "STATUSTEXT")
+            .into_iter()
+            .map(|(t, _, m)| match m {
+                MavMessage::STATUSTEXT(s) => (t, s.severity, s.text.to_str().unwrap().to_owned()),
+                _ => unreachable!(),
+            })
+            .collect()
+    }
+
+    fn param_values(b: &Bench, from: usize) -> Vec<PARAM_VALUE_DATA> {
+        b.since(from, "PARAM_VALUE")
+            .into_iter()
+            .map(|(_, _, m)| match m {
+                MavMessage::PARAM_VALUE(p) => p,
+                _ => unreachable!(),
+            })
+            .collect()
+    }
+
+    fn prearm_healthy(b: &Bench) -> bool {
+        match b.of("SYS_STATUS").last() {
+            Some(MavMessage::SYS_STATUS(s)) => {
+                s.onboard_control_sensors_health.bits() & 0x1000_0000 != 0
+            }
+            _ => panic!("no SYS_STATUS"),
+        }
+    }
+
+    /// As ArduPlane 4.7 SITL (checked on the real firmware, see the
+    /// README): a mission with DO_LAND_START while RTL_AUTOLAND is 0 keeps
+    /// it from arming; the reason is said every 30 s and after each refused
+    /// arming, cut to 50 characters in the PreArm report; the pre-arm bit
+    /// stays unhealthy; RTL_AUTOLAND set over PARAM_SET lets it arm.
+    #[test]
+    fn a_landing_sequence_needs_rtl_autoland_to_arm() {
+        let mut b = Bench::new(quick());
+        b.send(MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
+            req_message_rate: 2,
+            target_system: 1,
+            target_component: 1,
+            req_stream_id: MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS,
+            start_stop: 1,
+        }));
+        b.run_to(4.0);
+        let v = &b.v;
+        let mut land_start = item(v, cmd::DO_LAND_START, 0.0, 0.0, 0.0);
+        (land_start.x, land_start.y) = (0, 0);
+        let mission = vec![
+            item(v, cmd::NAV_TAKEOFF, 0.0, 0.0, 50.0),
+            item(v, cmd::NAV_WAYPOINT, 600.0, 0.0, 80.0),
+            land_start,
+            item(v, cmd::NAV_WAYPOINT, 400.0, 0.0, 50.0),
+            item(v, cmd::NAV_LAND, 0.0, 0.0, 0.0),
+        ];
+        assert_eq!(b.upload(&mission), MavMissionResult::MAV_MISSION_ACCEPTED);
+        b.run_to(5.0);
+        assert!(!prearm_healthy(&b));
+        let from = b.got.len();
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_FAILED));
+        let order: Vec<&'static str> = b.got[from..]
+            .iter()
+            .map(|(_, _, m)| mavlink::Message::message_name(m))
+            .collect();
+        assert_eq!(order, vec!["COMMAND_ACK", "STATUSTEXT"]);
+        let said = wire_texts(&b, from);
+        assert_eq!(said[0].1, MavSeverity::MAV_SEVERITY_CRITICAL);
+        assert_eq!(
+            said[0].2,
+            "Arm: DO_LAND_START set and RTL_AUTOLAND disabled"
+        );
+        // The report every 30 s, cut to one STATUSTEXT's 50 characters.
+        let from = b.got.len();
+        b.run_to(61.0);
+        let reports: Vec<(u64, String)> = wire_texts(&b, from)
+            .into_iter()
+            .filter(|(_, _, t)| t.starts_with("PreArm"))
+            .map(|(t, _, text)| (t, text))
+            .collect();
+        assert_eq!(
+            reports,
+            vec![
+                (
+                    30_000_000,
+                    "PreArm: DO_LAND_START set and RTL_AUTOLAND disable".to_owned()
+                ),
+                (
+                    60_000_000,
+                    "PreArm: DO_LAND_START set and RTL_AUTOLAND disable".to_owned()
+                ),
+            ]
+        );
+        assert!(!prearm_healthy(&b));
+        // RTL_AUTOLAND read by name, then set: PARAM_VALUE as ArduPilot
+        // answers a request by name (INT8, param_index 65535).
+        let from = b.got.len();
+        b.send(MavMessage::PARAM_REQUEST_READ(PARAM_REQUEST_READ_DATA {
+            param_index: -1,
+            target_system: 1,
+            target_component: 1,
+            param_id: "RTL_AUTOLAND".into(),
+        }));
+        b.send(MavMessage::PARAM_REQUEST_READ(PARAM_REQUEST_READ_DATA {
+            param_index: -1,
+            target_system: 1,
+            target_component: 1,
+            param_id: "NO_SUCH_PARAM".into(),
+        }));
+        b.send(MavMessage::PARAM_SET(PARAM_SET_DATA {
+            param_value: 2.0,
+            target_system: 1,
+            target_component: 1,
+            param_id: "RTL_AUTOLAND".into(),
+            param_type: MavParamType::MAV_PARAM_TYPE_INT8,
+        }));
+        let answers: Vec<(String, f32, MavParamType, u16)> = param_values(&b, from)
+            .into_iter()
+            .map(|p| {
+                let name = p.param_id.to_str().unwrap().to_owned();
+                (name, p.param_value, p.param_type, p.param_index)
+            })
+            .collect();
+        let int8 = MavParamType::MAV_PARAM_TYPE_INT8;
+        assert_eq!(
+            answers,
+            vec![
+                ("RTL_AUTOLAND".to_owned(), 0.0, int8, u16::MAX),
+                ("RTL_AUTOLAND".to_owned(), 2.0, int8, u16::MAX),
+            ]
+        );
+        b.run_to(62.0);
+        assert!(prearm_healthy(&b));
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_ACCEPTED));
+    }
+
+    /// ArduPilot reports every failing check: the start-up chain's first and
+    /// the landing sequence's, each on its own line.
+    #[test]
+    fn each_failing_check_is_reported() {
+        let mut b = Bench::new(crate::SimConfig {
+            first_arm_refused: false,
+            ..crate::SimConfig::default()
+        });
+        b.run_to(12.0); // home set at 10.1 s, the EKF not using the GPS yet
+        let mut land_start = item(&b.v, cmd::DO_LAND_START, 0.0, 0.0, 0.0);
+        (land_start.x, land_start.y) = (0, 0);
+        assert_eq!(
+            b.upload(&[land_start]),
+            MavMissionResult::MAV_MISSION_ACCEPTED
+        );
+        let from = b.got.len();
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_FAILED));
+        let said: Vec<String> = wire_texts(&b, from).into_iter().map(|x| x.2).collect();
+        assert_eq!(
+            said,
+            vec![
+                "Arm: AHRS: EKF3 still initialising",
+                "Arm: DO_LAND_START set and RTL_AUTOLAND disabled"
+            ]
+        );
     }
 }

@@ -212,6 +212,7 @@ impl Vehicle {
     }
 
     fn reached(&mut self, seq: u16) {
+        self.last_reached = seq;
         self.send(MavMessage::MISSION_ITEM_REACHED(
             MISSION_ITEM_REACHED_DATA { seq },
         ));
@@ -634,5 +635,38 @@ mod tests {
         assert!(
             matches!(mc, MavMessage::MISSION_CURRENT(c) if c.mission_state == MissionState::MISSION_STATE_COMPLETE)
         );
+    }
+
+    /// Asked for by SET_MESSAGE_INTERVAL, MISSION_ITEM_REACHED is re-sent
+    /// every period with the last item reached (65535 before any), as
+    /// ArduPlane 4.7 SITL does: repeats, not new occurrences.
+    #[test]
+    fn mission_item_reached_streamed_repeats_the_last_one() {
+        let mut b = Bench::new(quick());
+        b.run_to(1.0);
+        assert_eq!(
+            b.command(
+                MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+                [46.0, 1_000_000.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+            ),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        let seqs = |b: &Bench, from: usize| -> Vec<u16> {
+            b.since(from, "MISSION_ITEM_REACHED")
+                .into_iter()
+                .map(|(_, _, m)| match m {
+                    MavMessage::MISSION_ITEM_REACHED(r) => r.seq,
+                    _ => unreachable!(),
+                })
+                .collect()
+        };
+        b.run_to(4.5);
+        assert_eq!(seqs(&b, 0), vec![65535; 4]); // at 1, 2, 3, 4 s
+        let from = b.got.len();
+        b.v.reached(2);
+        b.drain_for_tests();
+        b.run_to(7.5);
+        assert_eq!(seqs(&b, from), vec![2, 2, 2, 2]); // reached, then 5, 6, 7 s
+        assert_eq!(b.v.state().reached.len(), 1, "one item reached");
     }
 }

@@ -1,16 +1,31 @@
 //! The payload camera: a MAVLink camera component (MAV_COMP_ID_CAMERA,
 //! 100) with its own 1 Hz HEARTBEAT (MAV_TYPE_CAMERA), answering
 //! MAV_CMD_IMAGE_START_CAPTURE / IMAGE_STOP_CAPTURE with a COMMAND_ACK from
-//! component 100, taking images at the asked interval. Sans-IO: the vehicle
-//! turns its outputs into messages and records the captures.
+//! component 100, taking images at the asked interval, and sending
+//! CAMERA_INFORMATION / CAMERA_CAPTURE_STATUS when asked (MAV_CMD_REQUEST_MESSAGE
+//! or the older REQUEST_CAMERA_INFORMATION / REQUEST_CAMERA_CAPTURE_STATUS).
+//! Sans-IO: its outputs become messages through [`Camera::message`], the
+//! same for the camera inside the simulated vehicle and for the camera on
+//! its own ([`crate::CameraComponent`]).
 
-use mavlink::dialects::ardupilotmega::MavResult;
+use mavlink::dialects::ardupilotmega::*;
 
 use crate::faults::PayloadFailure;
 use crate::mission::cmd;
 
 /// MAV_COMP_ID_CAMERA.
 pub const COMPONENT: u8 = 100;
+
+/// MAV_CMD_REQUEST_CAMERA_INFORMATION (superseded by REQUEST_MESSAGE).
+pub const REQUEST_CAMERA_INFORMATION: u32 = 521;
+/// MAV_CMD_REQUEST_CAMERA_CAPTURE_STATUS (superseded by REQUEST_MESSAGE).
+pub const REQUEST_CAMERA_CAPTURE_STATUS: u32 = 527;
+/// CAMERA_INFORMATION's message id.
+pub const CAMERA_INFORMATION_ID: u32 = 259;
+/// CAMERA_CAPTURE_STATUS's message id.
+pub const CAMERA_CAPTURE_STATUS_ID: u32 = 262;
+/// The free space it reports (MiB).
+const CAPACITY_MIB: f32 = 32_768.0;
 
 /// What the camera does at a given time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -19,6 +34,25 @@ pub enum Output {
     Heartbeat { critical: bool },
     /// An image was taken (CAMERA_IMAGE_CAPTURED).
     Image { index: i32 },
+    /// CAMERA_INFORMATION, as asked.
+    Information,
+    /// CAMERA_CAPTURE_STATUS, as asked.
+    CaptureStatus,
+}
+
+/// Where and when, for the messages that carry it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Context {
+    pub time_boot_ms: u32,
+    /// µs since the Unix epoch.
+    pub time_utc_us: u64,
+    /// Degrees × 1e7.
+    pub lat: i32,
+    pub lon: i32,
+    /// mm above mean sea level.
+    pub alt_mm: i32,
+    /// mm above home.
+    pub relative_alt_mm: i32,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -36,6 +70,8 @@ pub struct Camera {
     next_heartbeat: u64,
     capture: Option<Capture>,
     images: i32,
+    /// Messages asked for, sent at the next tick (after the ack).
+    asked: Vec<Output>,
 }
 
 impl Default for Camera {
@@ -46,6 +82,7 @@ impl Default for Camera {
             next_heartbeat: 500_000,
             capture: None,
             images: 0,
+            asked: Vec::new(),
         }
     }
 }
@@ -82,8 +119,112 @@ impl Camera {
                 self.capture = None;
                 MavResult::MAV_RESULT_ACCEPTED
             }
+            cmd::REQUEST_MESSAGE => match params[0] as u32 {
+                CAMERA_INFORMATION_ID if params[0].fract() == 0.0 => {
+                    self.asked.push(Output::Information);
+                    MavResult::MAV_RESULT_ACCEPTED
+                }
+                CAMERA_CAPTURE_STATUS_ID if params[0].fract() == 0.0 => {
+                    self.asked.push(Output::CaptureStatus);
+                    MavResult::MAV_RESULT_ACCEPTED
+                }
+                _ => MavResult::MAV_RESULT_DENIED,
+            },
+            REQUEST_CAMERA_INFORMATION => {
+                self.asked.push(Output::Information);
+                MavResult::MAV_RESULT_ACCEPTED
+            }
+            REQUEST_CAMERA_CAPTURE_STATUS => {
+                self.asked.push(Output::CaptureStatus);
+                MavResult::MAV_RESULT_ACCEPTED
+            }
             _ => MavResult::MAV_RESULT_UNSUPPORTED,
         })
+    }
+
+    /// Whether a command is one a camera answers when addressed to every
+    /// component (target component 0).
+    pub fn is_camera_command(command: u32) -> bool {
+        matches!(
+            command,
+            cmd::IMAGE_START_CAPTURE
+                | cmd::IMAGE_STOP_CAPTURE
+                | REQUEST_CAMERA_INFORMATION
+                | REQUEST_CAMERA_CAPTURE_STATUS
+        )
+    }
+
+    /// The message of an output.
+    pub fn message(&self, o: Output, at: &Context) -> MavMessage {
+        match o {
+            Output::Heartbeat { critical } => MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                custom_mode: 0,
+                mavtype: MavType::MAV_TYPE_CAMERA,
+                autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+                base_mode: MavModeFlag::empty(),
+                system_status: if critical {
+                    MavState::MAV_STATE_CRITICAL
+                } else {
+                    MavState::MAV_STATE_ACTIVE
+                },
+                mavlink_version: 3,
+            }),
+            Output::Image { index } => {
+                MavMessage::CAMERA_IMAGE_CAPTURED(CAMERA_IMAGE_CAPTURED_DATA {
+                    time_utc: at.time_utc_us,
+                    time_boot_ms: at.time_boot_ms,
+                    lat: at.lat,
+                    lon: at.lon,
+                    alt: at.alt_mm,
+                    relative_alt: at.relative_alt_mm,
+                    q: [1.0, 0.0, 0.0, 0.0],
+                    image_index: index,
+                    camera_id: 1,
+                    capture_result: MavBool::MAV_BOOL_TRUE,
+                    file_url: format!("img{index:05}.jpg").as_str().into(),
+                })
+            }
+            Output::Information => {
+                let mut vendor = [0u8; 32];
+                vendor[..6].copy_from_slice(b"Petrel");
+                let mut model = [0u8; 32];
+                model[..9].copy_from_slice(b"SimCamera");
+                MavMessage::CAMERA_INFORMATION(CAMERA_INFORMATION_DATA {
+                    time_boot_ms: at.time_boot_ms,
+                    firmware_version: 1,
+                    focal_length: 16.0,
+                    sensor_size_h: 23.5,
+                    sensor_size_v: 15.6,
+                    flags: CameraCapFlags::CAMERA_CAP_FLAGS_CAPTURE_IMAGE,
+                    resolution_h: 6000,
+                    resolution_v: 4000,
+                    cam_definition_version: 0,
+                    vendor_name: vendor,
+                    model_name: model,
+                    lens_id: 0,
+                    cam_definition_uri: "".into(),
+                    gimbal_device_id: 0,
+                    camera_device_id: 0,
+                })
+            }
+            Output::CaptureStatus => {
+                let (image_status, image_interval) = match &self.capture {
+                    Some(c) if c.remaining != Some(1) => (3, c.interval_us as f32 / 1e6),
+                    Some(_) => (1, 0.0),
+                    None => (0, 0.0),
+                };
+                MavMessage::CAMERA_CAPTURE_STATUS(CAMERA_CAPTURE_STATUS_DATA {
+                    time_boot_ms: at.time_boot_ms,
+                    image_interval,
+                    recording_time_ms: 0,
+                    available_capacity: CAPACITY_MIB,
+                    image_status,
+                    video_status: 0,
+                    image_count: self.images,
+                    camera_device_id: 0,
+                })
+            }
+        }
     }
 
     /// Whether it is capturing images.
@@ -101,6 +242,7 @@ impl Camera {
         self.failure = failure;
         if failure == Some(PayloadFailure::Silent) {
             self.capture = None;
+            self.asked.clear();
         }
     }
 
@@ -115,6 +257,7 @@ impl Camera {
                 None => out.push(Output::Heartbeat { critical: false }),
             }
         }
+        out.append(&mut self.asked);
         while let Some(c) = self.capture.as_mut() {
             if c.next > now {
                 break;
@@ -137,6 +280,9 @@ impl Camera {
 
     /// The next time `tick` has something to do.
     pub fn next_deadline(&self) -> u64 {
+        if !self.asked.is_empty() {
+            return 0;
+        }
         match &self.capture {
             Some(c) => c.next.min(self.next_heartbeat),
             None => self.next_heartbeat,

@@ -35,7 +35,7 @@ impl Vehicle {
         p: [f32; 7],
         int: Option<IntArgs>,
     ) {
-        let camera_cmd = matches!(command, cmd::IMAGE_START_CAPTURE | cmd::IMAGE_STOP_CAPTURE);
+        let camera_cmd = camera::Camera::is_camera_command(command);
         let to_camera =
             self.cfg.camera && (target == camera::COMPONENT || (target == 0 && camera_cmd));
         // Everything the command causes waits for its COMMAND_ACK.
@@ -405,6 +405,33 @@ mod tests {
             .collect();
         assert!(shots.iter().all(|c| c.at.alt > 30.0));
         assert!(shots[0].at.lat != shots[4].at.lat || shots[0].at.lon != shots[4].at.lon);
+        // CAMERA_INFORMATION and CAMERA_CAPTURE_STATUS on request, after
+        // the ack, from component 100 (the same messages as the camera on
+        // its own link).
+        let asked = b.got.len();
+        for id in [259.0, 262.0] {
+            let r = b.command_to(
+                100,
+                MavCmd::MAV_CMD_REQUEST_MESSAGE,
+                [id, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            );
+            assert_eq!(r, Some(MavResult::MAV_RESULT_ACCEPTED));
+        }
+        let answered: Vec<(u8, &str)> = b.got[asked..]
+            .iter()
+            .map(|(_, h, m)| (h.component_id, mavlink::Message::message_name(m)))
+            .filter(|(c, _)| *c == 100)
+            .collect();
+        assert_eq!(
+            answered,
+            vec![
+                (100, "COMMAND_ACK"),
+                (100, "CAMERA_INFORMATION"),
+                (100, "COMMAND_ACK"),
+                (100, "CAMERA_CAPTURE_STATUS")
+            ]
+        );
+        let s = b.v.state();
         // The camera's commands are in the record, with the answer.
         assert!(s
             .commands

@@ -36,6 +36,11 @@ pub struct SimConfig {
     pub boot_servo_burst: bool,
     pub airframe: Airframe,
     pub boot: BootTimeline,
+    /// The rate (Hz) of every REQUEST_DATA_STREAM group before anyone asks
+    /// (ArduPlane's MAVn_* parameters): 1, as ArduPlane 4.7 SITL with
+    /// `plane.parm` streams every group at 1 Hz on every serial port from
+    /// start-up; 0 streams nothing but HEARTBEAT until asked.
+    pub stream_hz: u16,
     /// Parameters set at boot over ArduPlane's defaults (`TKOFF_ALT`,
     /// `AIRSPEED_CRUISE`, `ROLL_LIMIT_DEG`, `WP_RADIUS`, …).
     pub params: Vec<(String, f32)>,
@@ -60,6 +65,7 @@ impl Default for SimConfig {
             boot_servo_burst: true,
             airframe: Airframe::default(),
             boot: BootTimeline::default(),
+            stream_hz: 1,
             params: Vec::new(),
             step_us: 20_000,
             unix_boot_us: 1_795_238_459_000_000,

@@ -104,6 +104,8 @@ pub struct Flight {
     pub battery_failsafe: u8,
     pub armed_at: Option<u64>,
     pub flight_time_us: u64,
+    /// RTL_AUTOLAND 1: the landing sequence was looked for in this RTL.
+    pub rtl_autoland_checked: bool,
 }
 
 impl Flight {
@@ -131,6 +133,7 @@ impl Flight {
             battery_failsafe: 0,
             armed_at: None,
             flight_time_us: 0,
+            rtl_autoland_checked: false,
         }
     }
 }
@@ -310,6 +313,35 @@ impl Vehicle {
         if old != mode {
             tracing::info!(t = self.t_s(), mode = %modes::name(mode), "mode");
             self.send_heartbeat();
+        }
+        if mode == modes::RTL && old != mode {
+            self.fl.rtl_autoland_checked = false;
+            // RTL_AUTOLAND 2: straight to the landing sequence (ArduPlane's
+            // ModeRTL::_enter): RTL is heard, then AUTO.
+            if self.fl.armed && self.params.get("RTL_AUTOLAND") as i64 == 2 {
+                self.auto_jump_to_landing();
+            }
+        }
+    }
+
+    /// RTL_AUTOLAND 1: once on the RTL circle at its altitude (within
+    /// 10 m), the landing sequence, looked for once per RTL (ArduPlane's
+    /// ModeRTL::update).
+    fn rtl_autoland(&mut self) {
+        if self.fl.mode != modes::RTL
+            || self.fl.rtl_autoland_checked
+            || !self.fl.armed
+            || self.params.get("RTL_AUTOLAND") as i64 != 1
+        {
+            return;
+        }
+        let Some(o) = self.fl.orbit else {
+            return;
+        };
+        let on_circle = (self.ac.pos - o.center).len() <= o.radius * 1.25;
+        if on_circle && (self.ac.alt - o.alt).abs() < 10.0 {
+            self.fl.rtl_autoland_checked = true;
+            self.auto_jump_to_landing();
         }
     }
 
@@ -736,6 +768,7 @@ impl Vehicle {
             }
         }
         self.battery_check();
+        self.rtl_autoland();
     }
 
     fn touchdown(&mut self, c: Contact) {
@@ -1036,5 +1069,61 @@ mod tests {
             Some(MavResult::MAV_RESULT_ACCEPTED)
         );
         assert_eq!(b.v.state().mode, "FLY_BY_WIRE_A");
+    }
+
+    /// RTL with RTL_AUTOLAND as on ArduPlane 4.7 SITL (checked on the real
+    /// firmware with 2: RTL heard, then AUTO at once and "Landing sequence
+    /// start"); with 1 the landing sequence once on the RTL circle.
+    #[test]
+    fn rtl_autoland_flies_the_landing_sequence() {
+        for autoland in [2.0, 1.0] {
+            let mut b = Bench::airborne(crate::SimConfig {
+                params: vec![("RTL_AUTOLAND".into(), autoland)],
+                ..quick()
+            });
+            let v = &b.v;
+            let mut land_start = item(v, cmd::DO_LAND_START, 0.0, 0.0, 0.0);
+            (land_start.x, land_start.y) = (0, 0);
+            let mission = vec![
+                item(v, cmd::NAV_WAYPOINT, 800.0, 0.0, 60.0),
+                land_start,
+                item(v, cmd::NAV_WAYPOINT, 500.0, 0.0, 40.0),
+                item(v, cmd::NAV_LAND, 0.0, 0.0, 0.0),
+            ];
+            assert_eq!(b.upload(&mission), MavMissionResult::MAV_MISSION_ACCEPTED);
+            let from = b.got.len();
+            assert_eq!(b.set_mode(modes::RTL), Some(MavResult::MAV_RESULT_ACCEPTED));
+            if autoland == 2.0 {
+                let heard: Vec<u32> = b
+                    .since(from, "HEARTBEAT")
+                    .into_iter()
+                    .filter(|(_, h, _)| h.component_id == 1)
+                    .map(|(_, _, m)| match m {
+                        MavMessage::HEARTBEAT(h) => h.custom_mode,
+                        _ => unreachable!(),
+                    })
+                    .collect();
+                assert_eq!(heard, vec![modes::RTL, modes::AUTO]);
+            } else {
+                assert_eq!(b.v.fl.mode, modes::RTL);
+                let start = b.v.t_s();
+                assert!(b.run_until(start + 120.0, |v| v.fl.mode == modes::AUTO));
+                let o = b.v.fl.orbit.expect("the RTL circle");
+                let d = (b.v.ac.pos - b.v.home_pos).len();
+                assert!(d <= o.radius * 1.25 + 1.0, "{d} m from home");
+                assert!((b.v.ac.alt - 100.0).abs() < 10.0, "at {} m", b.v.ac.alt);
+            }
+            assert!(b.texts().contains(&"Landing sequence start".to_owned()));
+            assert_eq!(
+                b.v.auto.current, 3,
+                "RTL_AUTOLAND {autoland}: the waypoint after DO_LAND_START"
+            );
+            let start = b.v.t_s();
+            assert!(
+                b.run_until(start + 300.0, |v| v.fl.landed),
+                "RTL_AUTOLAND {autoland}: not landed: {:?}",
+                b.texts()
+            );
+        }
     }
 }

@@ -1,6 +1,8 @@
 //! The simulated ArduPlane: a vehicle that behaves on the wire as ArduPlane
-//! 4.7 SITL does (checked against a recording of it, see the README), for
-//! Petrel's end-to-end tests and `petrel demo`.
+//! 4.7 SITL does (checked against a recording of it and against ArduPilot's
+//! own SITL, see the README), for Petrel's end-to-end tests and `petrel
+//! demo`; the payload camera on its own link; the harness for ArduPilot's
+//! real SITL.
 //!
 //! It owns a sans-IO core, [`Vehicle`] (the autopilot, its camera and a
 //! point-mass fixed-wing model: fed `(now, header, message)` and
@@ -46,13 +48,20 @@
 //!   `next_deadline`, `state`, `inject`, `inject_for`, `clear`) for tests
 //!   that drive simulated time directly;
 //! - [`ardupilot`]: ArduPilot's own SITL (the real firmware) found, started
-//!   and reaped, for the tests that fly against it.
+//!   and reaped, for the tests that fly against it;
+//! - [`CameraSim`] (`start(address, CameraConfig)`, `state`, `inject`,
+//!   `clear`, `wait_for`, `connected`, `stop`): the payload camera on its
+//!   own link, a MAVLink component of the vehicle's system on one of the
+//!   real autopilot's serial ports, around the sans-IO [`CameraComponent`];
+//! - [`wire`]: MAVLink frames on a byte stream (through rust-mavlink).
 
 pub mod ardupilot;
 mod arming;
 mod auto;
 pub mod boot;
 pub mod camera;
+pub mod camera_component;
+mod camera_sim;
 pub mod clock;
 mod commands;
 mod config;
@@ -70,8 +79,11 @@ pub mod state;
 pub mod streams;
 mod telemetry;
 mod vehicle;
+pub mod wire;
 
 pub use boot::BootTimeline;
+pub use camera_component::{CameraCommand, CameraComponent, CameraConfig, CameraState};
+pub use camera_sim::{CameraSim, CameraSimError};
 pub use config::SimConfig;
 pub use faults::{
     Fault, FaultKind, PayloadFailure, Schedule, ScheduleError, ScheduledFault, Trigger,

@@ -39,6 +39,10 @@ const TABLE: &[(&str, f32, MavParamType)] = &[
     ("WP_LOITER_RAD", 60.0, INT16),
     ("RTL_RADIUS", 0.0, INT16),
     ("RTL_ALTITUDE", 100.0, REAL),
+    // 0 off, 1 the landing sequence once home is reached, 2 the landing
+    // sequence at once (a DO_LAND_START in the mission needs it non-zero
+    // to arm).
+    ("RTL_AUTOLAND", 0.0, INT8),
     ("LAND_FLARE_ALT", 3.0, REAL),
     ("LAND_FLARE_SEC", 2.0, REAL),
     ("LAND_DISARMDELAY", 20.0, INT8),

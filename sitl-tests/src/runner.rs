@@ -10,7 +10,6 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use elaboration::{Frame, FrameError};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::{MavHeader, MavlinkVersion};
 
@@ -19,6 +18,7 @@ use crate::config::SimConfig;
 use crate::faults::{Fault, FaultKind};
 use crate::state::SimState;
 use crate::vehicle::Vehicle;
+use crate::wire::parse_frames;
 
 /// Why the simulation could not start.
 #[derive(Debug, thiserror::Error)]
@@ -345,32 +345,6 @@ fn write_all(stream: &mut TcpStream, mut bytes: &[u8]) -> std::io::Result<()> {
     Ok(())
 }
 
-/// Takes the whole frames at the start of `buf` (checksums checked by
-/// rust-mavlink through `elaboration::Frame`); garbage is skipped, a frame
-/// cut short waits for the rest.
-pub(crate) fn parse_frames(buf: &mut Vec<u8>, out: &mut Vec<(MavHeader, MavMessage)>) {
-    let mut pos = 0;
-    while pos < buf.len() {
-        match Frame::parse(&buf[pos..]) {
-            Ok(frame) => {
-                pos += frame.bytes().len();
-                if let Ok(msg) = frame.decode() {
-                    out.push((frame.header(), msg));
-                }
-            }
-            Err(FrameError::Truncated { .. }) => break,
-            Err(_) => {
-                // Resync on the next start marker.
-                pos += 1;
-                while pos < buf.len() && buf[pos] != 0xFD && buf[pos] != 0xFE {
-                    pos += 1;
-                }
-            }
-        }
-    }
-    buf.drain(..pos);
-}
-
 /// The simulation thread.
 fn run(shared: Arc<Shared>, mut socket: Socket, mut clock: SimClock) {
     let mut incoming = Vec::new();
@@ -409,7 +383,6 @@ fn run(shared: Arc<Shared>, mut socket: Socket, mut clock: SimClock) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mavlink::dialects::ardupilotmega::HEARTBEAT_DATA;
 
     #[test]
     fn addresses() {
@@ -432,29 +405,5 @@ mod tests {
                 "{bad}"
             );
         }
-    }
-
-    #[test]
-    fn frames_survive_garbage_and_cuts() {
-        let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA::default());
-        let h = MavHeader {
-            system_id: 255,
-            component_id: 190,
-            sequence: 7,
-        };
-        let frame = elaboration::frame::serialize(h, MavlinkVersion::V2, &msg);
-        let mut buf = vec![0x00, 0x42, 0x13];
-        buf.extend_from_slice(&frame);
-        buf.extend_from_slice(&frame[..5]);
-        let mut out = Vec::new();
-        parse_frames(&mut buf, &mut out);
-        assert_eq!(out.len(), 1);
-        assert_eq!(out[0].0.sequence, 7);
-        // The cut frame waits for its end.
-        assert_eq!(buf.len(), 5);
-        buf.extend_from_slice(&frame[5..]);
-        parse_frames(&mut buf, &mut out);
-        assert_eq!(out.len(), 2);
-        assert!(buf.is_empty());
     }
 }

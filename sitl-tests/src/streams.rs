@@ -1,8 +1,11 @@
-//! Telemetry streams as ArduPlane schedules them: nothing until asked
-//! (HEARTBEAT excepted, 1 Hz), then per message at the interval set by
-//! MAV_CMD_SET_MESSAGE_INTERVAL, or at the rate of its REQUEST_DATA_STREAM
-//! group (ArduPlane 4.7's groups, GCS_Mavlink.cpp). Times are sim
-//! microseconds.
+//! Telemetry streams as ArduPlane schedules them: HEARTBEAT at 1 Hz and
+//! every REQUEST_DATA_STREAM group at its MAVn_* rate (1 Hz in SITL with
+//! plane.parm; `SimConfig::stream_hz`), then per message at the interval
+//! set by MAV_CMD_SET_MESSAGE_INTERVAL (HEARTBEAT included), or at the rate
+//! of its group as REQUEST_DATA_STREAM sets it (ArduPlane 4.7's groups,
+//! GCS_Mavlink.cpp). Which requests are DENIED and which event messages are
+//! re-sent on every period were checked on ArduPlane 4.7 SITL ([`DENIED`],
+//! [`REPEATED_EVENTS`]). Times are sim microseconds.
 
 use std::collections::BTreeMap;
 
@@ -68,6 +71,7 @@ pub mod id {
     pub const GLOBAL_POSITION_INT: u32 = 33;
     pub const SERVO_OUTPUT_RAW: u32 = 36;
     pub const MISSION_CURRENT: u32 = 42;
+    pub const MISSION_ITEM_REACHED: u32 = 46;
     pub const GPS_GLOBAL_ORIGIN: u32 = 49;
     pub const NAV_CONTROLLER_OUTPUT: u32 = 62;
     pub const RC_CHANNELS: u32 = 65;
@@ -136,21 +140,48 @@ pub const CATALOG: &[(u32, Option<Group>)] = &[
     (id::HOME_POSITION, None),
     (id::GPS_GLOBAL_ORIGIN, None),
     (id::EXTENDED_SYS_STATE, None),
+    // Sent on an event, but ArduPilot streams them when asked: each period
+    // re-sends the last one (MISSION_ITEM_REACHED 65535 before any item
+    // was reached), a repeat, not a new occurrence.
+    (id::MISSION_ITEM_REACHED, None),
+    (id::AUTOPILOT_VERSION, None),
 ];
 
-/// Messages in ArduPilot's SET_MESSAGE_INTERVAL map (ACCEPTED) that this
-/// simulation does not stream (no such sensor, or sent on events only), as
-/// ArduPlane sends nothing for an absent sensor: PARAM_VALUE, SCALED_IMU,
-/// RC_CHANNELS_RAW, ATTITUDE_QUATERNION, MISSION_ITEM_REACHED,
-/// ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED, OPTICAL_FLOW, HIGHRES_IMU,
-/// SIM_STATE, GPS2_RAW, GPS_RTK, GPS2_RTK, DISTANCE_SENSOR, TERRAIN_REQUEST,
-/// SCALED_PRESSURE3, SENSOR_OFFSETS, FENCE_STATUS, HWSTATUS, RANGEFINDER,
-/// CAMERA_FEEDBACK, BATTERY2, PID_TUNING, RPM, HIGH_LATENCY2, ADSB_VEHICLE,
-/// CAMERA_INFORMATION, CAMERA_SETTINGS, CAMERA_CAPTURE_STATUS, GIMBAL_*,
-/// MCU_STATUS.
+/// Messages ArduPilot re-sends unchanged on every period once asked for by
+/// SET_MESSAGE_INTERVAL although they tell of an event (checked on
+/// ArduPlane 4.7 SITL): a client must not take a repeat for a new
+/// occurrence. COMMAND_ACK, MISSION_ACK and STATUSTEXT are DENIED instead
+/// ([`DENIED`]).
+pub const REPEATED_EVENTS: &[u32] = &[id::MISSION_ITEM_REACHED];
+
+/// Messages ArduPlane 4.7 SITL answers DENIED to SET_MESSAGE_INTERVAL for
+/// (with "No ap_message for mavlink id (N)"): they are not in its map of
+/// streamable messages, events such as COMMAND_ACK (77), MISSION_ACK (47)
+/// and STATUSTEXT (253), a radio's own RADIO_STATUS (109) and RADIO (166),
+/// TIMESYNC (111), and what that build has no sender for (SENSOR_OFFSETS
+/// 150, BATTERY2 181, MCU_STATUS 11039, ESC_TELEMETRY_5_TO_8/9_TO_12,
+/// ESTIMATOR_STATUS 230…). Every id neither streamed ([`CATALOG`]) nor in
+/// [`KNOWN_NOT_SENT`] is denied; this list is what was checked.
+pub const DENIED: &[u32] = &[
+    47, 77, 109, 111, 150, 166, 169, 181, 230, 231, 234, 244, 253, 370, 410, 411, 412, 11031,
+    11032, 11039,
+];
+
+/// Messages ArduPlane 4.7 SITL answers ACCEPTED to SET_MESSAGE_INTERVAL
+/// for that this simulation does not stream. Never sent by SITL either (no
+/// such sensor, or event-driven only): PARAM_VALUE, RC_CHANNELS_RAW,
+/// ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED, OPTICAL_FLOW, GPS2_RAW,
+/// GPS_RTK, GPS2_RTK, DISTANCE_SENSOR, TERRAIN_REQUEST, SCALED_PRESSURE3,
+/// FENCE_STATUS, RANGEFINDER, CAMERA_FEEDBACK, PID_TUNING, RPM,
+/// ADSB_VEHICLE, CAMERA_INFORMATION, CAMERA_SETTINGS, CAMERA_CAPTURE_STATUS
+/// (no camera on the autopilot), GIMBAL_MANAGER_*,
+/// GIMBAL_DEVICE_ATTITUDE_STATUS. Streamed by SITL but not by this
+/// simulation (sensor detail no scenario reads): SCALED_IMU (26),
+/// ATTITUDE_QUATERNION (31), HIGHRES_IMU (105), SIM_STATE (108), HWSTATUS
+/// (165), HIGH_LATENCY2 (235), AUTOPILOT_STATE_FOR_GIMBAL_DEVICE (286).
 pub const KNOWN_NOT_SENT: &[u32] = &[
-    22, 26, 35, 31, 46, 83, 85, 100, 105, 108, 124, 127, 128, 132, 133, 143, 150, 162, 165, 173,
-    180, 181, 194, 226, 235, 246, 259, 260, 262, 280, 281, 285, 286, 11039,
+    22, 26, 35, 31, 83, 85, 100, 105, 108, 124, 127, 128, 132, 133, 143, 162, 165, 173, 180, 194,
+    226, 235, 246, 259, 260, 262, 280, 281, 285, 286,
 ];
 
 /// The group of a message, when it is in one.
@@ -255,19 +286,17 @@ impl Streams {
     }
 
     /// MAV_CMD_SET_MESSAGE_INTERVAL: `interval_us` −1 stops, 0 restores the
-    /// default (the group rate), otherwise the interval. False when the
-    /// message is not one ArduPlane knows ([`KNOWN_NOT_SENT`] are accepted
-    /// and never sent). HEARTBEAT stays at 1 Hz.
+    /// default (the group rate; 1 Hz for HEARTBEAT), otherwise the
+    /// interval. False when the message is not one ArduPlane knows
+    /// ([`KNOWN_NOT_SENT`] are accepted and never sent). HEARTBEAT obeys
+    /// like any other, as on ArduPlane 4.7 SITL: 4 Hz when asked, and −1
+    /// stops it (only a mode change still sends one).
     pub fn set_interval(&mut self, now: u64, message: u32, interval_us: i64) -> bool {
         if KNOWN_NOT_SENT.contains(&message) {
             return true;
         }
         if !streamable(message) {
             return false;
-        }
-        if message == id::HEARTBEAT {
-            // Accepted, but the heartbeat stays at 1 Hz: the link's liveness.
-            return true;
         }
         match interval_us {
             i64::MIN..=-1 => {
@@ -345,7 +374,10 @@ mod tests {
         assert!(!s.set_interval(0, 109, 100_000)); // RADIO_STATUS: a radio's, not ArduPilot's
         assert!(s.set_interval(0, 173, 100_000)); // RANGEFINDER: known, no sensor
         assert_eq!(s.interval(173), None);
-        assert!(s.set_interval(0, id::HEARTBEAT, -1));
+        // HEARTBEAT obeys, as on ArduPlane SITL (−1 stops it).
+        assert!(s.set_interval(0, id::HEARTBEAT, 250_000));
+        assert_eq!(s.interval(id::HEARTBEAT), Some(250_000));
+        assert!(s.set_interval(0, id::HEARTBEAT, 0));
         assert_eq!(s.interval(id::HEARTBEAT), Some(1_000_000));
         let mut count = BTreeMap::new();
         let mut t = 0;
@@ -366,5 +398,41 @@ mod tests {
         assert_eq!(s.interval(id::ATTITUDE), None);
         assert_eq!(s.interval(id::SYS_STATUS), Some(250_000));
         assert_eq!(s.interval(id::VFR_HUD), None);
+    }
+
+    /// What ArduPlane 4.7 SITL answered to SET_MESSAGE_INTERVAL (see the
+    /// README): events and a radio's messages DENIED, MISSION_ITEM_REACHED
+    /// and AUTOPILOT_VERSION ACCEPTED and streamed.
+    #[test]
+    fn denied_and_repeated_as_arduplane_answers() {
+        let mut s = Streams::default();
+        for &m in DENIED {
+            assert!(!s.set_interval(0, m, 250_000), "{m} should be denied");
+        }
+        // COMMAND_ACK, MISSION_ACK, STATUSTEXT, RADIO_STATUS, RADIO: the
+        // four a gateway reading them is refused (and MISSION_ACK).
+        for m in [77, 47, 253, 109, 166] {
+            assert!(DENIED.contains(&m));
+        }
+        for &m in REPEATED_EVENTS.iter().chain(&[id::AUTOPILOT_VERSION]) {
+            assert!(s.set_interval(0, m, 1_000_000));
+            assert_eq!(s.interval(m), Some(1_000_000));
+        }
+        for &m in KNOWN_NOT_SENT {
+            assert!(!DENIED.contains(&m) && !streamable(m), "{m}");
+            assert!(s.set_interval(0, m, 1_000_000));
+            assert_eq!(s.interval(m), None);
+        }
+        let mut count = 0;
+        let mut t = 0;
+        while t <= 10_000_000 {
+            count += s
+                .take_due(t)
+                .iter()
+                .filter(|m| **m == id::MISSION_ITEM_REACHED)
+                .count();
+            t += 10_000;
+        }
+        assert_eq!(count, 11); // at once, then every second
     }
 }

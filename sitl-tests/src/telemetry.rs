@@ -97,8 +97,17 @@ impl Vehicle {
         let present =
             base | CONTROL | MOTORS | RC | AHRS | LOGGING | BATTERY | PREARM | TERRAIN | gps;
         let mut enabled = base | MOTORS | RC | BATTERY | PREARM | TERRAIN | gps;
+        // As ArduPlane 4.7 SITL: the controllers in the modes that fly
+        // themselves, the AHRS once the EKF is active, logging while armed.
+        let ekf = self.boot.has(Phase::EkfGps);
         if guided {
-            enabled |= CONTROL | AHRS | LOGGING;
+            enabled |= CONTROL;
+        }
+        if ekf {
+            enabled |= AHRS;
+        }
+        if self.fl.armed {
+            enabled |= LOGGING;
         }
         let mut health = GYRO | ACCEL | MAG | BARO | MOTORS | RC | GEOFENCE | LOGGING | BATTERY;
         if self.boot.has(Phase::AirspeedCalibrated) {
@@ -109,11 +118,11 @@ impl Vehicle {
         }
         if guided {
             health |= CONTROL;
-            if !self.has_fault(FaultKind::GpsLoss) {
-                health |= AHRS;
-            }
         }
-        if self.fl.armed || self.prearm_failure().is_none() {
+        if (ekf || guided) && !self.has_fault(FaultKind::GpsLoss) {
+            health |= AHRS;
+        }
+        if self.fl.armed || self.prearm_failures().is_empty() {
             health |= PREARM;
         }
         if self.fl.battery_failsafe > 0 {
@@ -135,51 +144,37 @@ impl Vehicle {
     }
 
     pub(crate) fn camera_output(&mut self, o: Output) {
-        match o {
-            Output::Heartbeat { critical } => {
-                let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-                    custom_mode: 0,
-                    mavtype: MavType::MAV_TYPE_CAMERA,
-                    autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
-                    base_mode: MavModeFlag::empty(),
-                    system_status: if critical {
-                        MavState::MAV_STATE_CRITICAL
-                    } else {
-                        MavState::MAV_STATE_ACTIVE
-                    },
-                    mavlink_version: 3,
-                });
-                self.send_from(camera::COMPONENT, msg);
-            }
-            Output::Image { index } => {
-                let at = self.fix();
-                let (lat, lon) = (e7(at.lat), e7(at.lon));
-                self.truth.camera.push(CameraEvent {
-                    at,
-                    action: CameraAction::Image { index },
-                });
-                let msg = MavMessage::CAMERA_IMAGE_CAPTURED(CAMERA_IMAGE_CAPTURED_DATA {
-                    time_utc: self.cfg.unix_boot_us + self.now,
-                    time_boot_ms: self.boot_ms(),
-                    lat,
-                    lon,
-                    alt: (self.alt_amsl() * 1000.0) as i32,
-                    relative_alt: (self.ac.alt * 1000.0) as i32,
-                    q: [1.0, 0.0, 0.0, 0.0],
-                    image_index: index,
-                    camera_id: 1,
-                    capture_result: MavBool::MAV_BOOL_TRUE,
-                    file_url: format!("img{index:05}.jpg").as_str().into(),
-                });
-                self.send_from(camera::COMPONENT, msg);
-            }
+        let at = self.fix();
+        if let Output::Image { index } = o {
+            self.truth.camera.push(CameraEvent {
+                at,
+                action: CameraAction::Image { index },
+            });
         }
+        let context = camera::Context {
+            time_boot_ms: self.boot_ms(),
+            time_utc_us: self.cfg.unix_boot_us + self.now,
+            lat: e7(at.lat),
+            lon: e7(at.lon),
+            alt_mm: (self.alt_amsl() * 1000.0) as i32,
+            relative_alt_mm: (self.ac.alt * 1000.0) as i32,
+        };
+        let msg = self.camera.message(o, &context);
+        self.send_from(camera::COMPONENT, msg);
     }
 
     /// HOME_POSITION, and GPS_GLOBAL_ORIGIN once the EKF has its origin.
     pub(crate) fn send_home(&mut self) {
+        if self.send_home_position() && self.boot.has(Phase::Origin) {
+            self.send_origin();
+        }
+    }
+
+    /// HOME_POSITION alone (as streamed: SITL sends GPS_GLOBAL_ORIGIN on
+    /// its own, every few seconds); false before home is set.
+    pub(crate) fn send_home_position(&mut self) -> bool {
         if !self.home_set {
-            return;
+            return false;
         }
         let (lat, lon) = self.latlon(self.home_pos);
         let alt = (self.origin().alt_amsl * 1000.0) as i32;
@@ -203,9 +198,7 @@ impl Vehicle {
             approach_z: 0.0,
             time_usec,
         }));
-        if origin {
-            self.send_origin();
-        }
+        true
     }
 
     fn send_origin(&mut self) {
@@ -218,22 +211,30 @@ impl Vehicle {
         }));
     }
 
-    /// PARAM_VALUE of a parameter of the table.
+    /// PARAM_VALUE of a parameter named (a read by name, the answer to
+    /// PARAM_SET, a notification): ArduPilot leaves param_index at 65535
+    /// there, as it was asked by name.
     pub(crate) fn send_param(&mut self, name: &str) {
         let Some(index) = self.params.index(name) else {
             return;
         };
-        self.send_param_at(index);
+        self.send_param_value(index, u16::MAX);
     }
 
+    /// PARAM_VALUE of the parameter at `index` (PARAM_REQUEST_LIST, a read
+    /// by index): param_index is the index.
     pub(crate) fn send_param_at(&mut self, index: usize) {
+        self.send_param_value(index, index as u16);
+    }
+
+    fn send_param_value(&mut self, index: usize, param_index: u16) {
         let Some(p) = self.params.at(index).cloned() else {
             return;
         };
         let msg = MavMessage::PARAM_VALUE(PARAM_VALUE_DATA {
             param_value: p.value,
             param_count: self.params.len() as u16,
-            param_index: index as u16,
+            param_index,
             param_id: p.name.into(),
             param_type: p.kind,
         });
@@ -346,16 +347,25 @@ impl Vehicle {
     /// Sends a streamed message (or the one asked by REQUEST_MESSAGE).
     /// Returns false when the message cannot be sent now.
     pub(crate) fn send_stream(&mut self, m: u32) -> bool {
+        if m == id::MISSION_ITEM_REACHED {
+            // ArduPilot re-sends the last one (65535 before any).
+            let seq = self.last_reached;
+            self.send(MavMessage::MISSION_ITEM_REACHED(
+                MISSION_ITEM_REACHED_DATA { seq },
+            ));
+            return true;
+        }
+        if m == id::AUTOPILOT_VERSION {
+            let v = self.autopilot_version();
+            self.send(v);
+            return true;
+        }
         if m == id::SERVO_OUTPUT_RAW {
             self.send_servo_output(false);
             return true;
         }
         if m == id::HOME_POSITION {
-            if !self.home_set {
-                return false;
-            }
-            self.send_home();
-            return true;
+            return self.send_home_position();
         }
         if m == id::TERRAIN_REPORT && self.gps_ok() {
             // MSG_TERRAIN: a TERRAIN_REQUEST every seventh time (0.57 Hz at
@@ -427,9 +437,10 @@ impl Vehicle {
                     errors_count3: 0,
                     errors_count4: 0,
                     battery_remaining: self.battery_remaining().round() as i8,
-                    onboard_control_sensors_present_extended: Default::default(),
-                    onboard_control_sensors_enabled_extended: Default::default(),
-                    onboard_control_sensors_health_extended: Default::default(),
+                    // None (rust-mavlink's Default is the first flag).
+                    onboard_control_sensors_present_extended: MavSysStatusSensorExtended::empty(),
+                    onboard_control_sensors_enabled_extended: MavSysStatusSensorExtended::empty(),
+                    onboard_control_sensors_health_extended: MavSysStatusSensorExtended::empty(),
                 })
             }
             id::POWER_STATUS => MavMessage::POWER_STATUS(POWER_STATUS_DATA {
@@ -843,10 +854,37 @@ mod tests {
             .collect()
     }
 
+    /// As ArduPlane 4.7 SITL with plane.parm (MAVn_* at 1): every group
+    /// at 1 Hz from start-up, unasked.
+    #[test]
+    fn every_group_at_1_hz_until_asked_otherwise() {
+        let mut b = Bench::new(crate::SimConfig {
+            boot_servo_burst: false,
+            ..crate::SimConfig::default()
+        });
+        b.run_to(12.0);
+        for name in [
+            "SYS_STATUS",
+            "GPS_RAW_INT",
+            "ATTITUDE",
+            "VFR_HUD",
+            "BATTERY_STATUS",
+        ] {
+            let n = b.of(name).len();
+            // From 2 s (ready at 1.74 s) to 12 s.
+            assert!((10..=11).contains(&n), "{n} {name} in 12 s");
+        }
+        assert!(b.of("MISSION_ITEM_REACHED").is_empty(), "in no group");
+        let mav1 = b.v.params.get("MAV1_EXTRA1");
+        assert_eq!(mav1, 1.0);
+    }
+
+    /// With MAVn_* at 0: nothing but what ArduPlane sends unasked.
     #[test]
     fn nothing_is_streamed_until_asked() {
         let mut b = Bench::new(crate::SimConfig {
             boot_servo_burst: false,
+            stream_hz: 0,
             ..quick()
         });
         b.run_to(12.0);
@@ -926,7 +964,10 @@ mod tests {
 
     #[test]
     fn heartbeat_as_arduplane_and_the_boot_burst() {
-        let mut b = Bench::new(crate::SimConfig::default());
+        let mut b = Bench::new(crate::SimConfig {
+            stream_hz: 0,
+            ..crate::SimConfig::default()
+        });
         b.run_to(3.0);
         // While INITIALISING: SERVO_OUTPUT_RAW at 50 Hz, all zero, unasked.
         let servo = b.of("SERVO_OUTPUT_RAW");
@@ -955,5 +996,86 @@ mod tests {
             hb.iter().map(|x| x.0 / 10_000).collect::<Vec<_>>(),
             vec![100, 174, 200, 300]
         );
+    }
+
+    /// SET_MESSAGE_INTERVAL as ArduPlane 4.7 SITL answered a gateway (see
+    /// the README): events and a radio's messages DENIED, each with its
+    /// text; HEARTBEAT at the interval asked, −1 stopping it but for mode
+    /// changes.
+    #[test]
+    fn interval_requests_denied_and_heartbeat_as_arduplane() {
+        let mut b = Bench::new(quick());
+        b.run_to(2.0);
+        let ask = |b: &mut Bench, m: u32, us: f32| {
+            b.command(
+                MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+                [m as f32, us, 0.0, 0.0, 0.0, 0.0, 0.0],
+            )
+        };
+        for m in [77, 253, 109, 166, 47] {
+            assert_eq!(
+                ask(&mut b, m, 250_000.0),
+                Some(MavResult::MAV_RESULT_DENIED)
+            );
+            assert_eq!(
+                b.texts().last().unwrap(),
+                &format!("No ap_message for mavlink id ({m})")
+            );
+        }
+        let beats = |b: &Bench, from: usize| {
+            b.since(from, "HEARTBEAT")
+                .into_iter()
+                .filter(|(_, h, _)| h.component_id == 1)
+                .count()
+        };
+        assert_eq!(
+            ask(&mut b, 0, 250_000.0),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        let from = b.got.len();
+        b.run_to(7.0);
+        assert!((19..=21).contains(&beats(&b, from)), "{}", beats(&b, from));
+        assert_eq!(ask(&mut b, 0, -1.0), Some(MavResult::MAV_RESULT_ACCEPTED));
+        let from = b.got.len();
+        b.run_to(12.0);
+        assert_eq!(beats(&b, from), 0);
+        assert_eq!(
+            b.set_mode(crate::modes::FBWA),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        assert_eq!(beats(&b, from), 1, "a mode change still says so");
+    }
+
+    /// SYS_STATUS's bits as ArduPlane 4.7 SITL sets them (see the README):
+    /// the AHRS enabled and healthy once the EKF is active, whatever the
+    /// mode; logging enabled while armed; no extended bits.
+    #[test]
+    fn sys_status_bits_as_arduplane() {
+        let mut b = Bench::new(crate::SimConfig {
+            first_arm_refused: false,
+            ..crate::SimConfig::default()
+        });
+        let bits = |b: &Bench| match b.of("SYS_STATUS").last() {
+            Some(MavMessage::SYS_STATUS(s)) => (
+                s.onboard_control_sensors_enabled.bits(),
+                s.onboard_control_sensors_health.bits(),
+                s.onboard_control_sensors_present_extended.bits(),
+            ),
+            _ => panic!("no SYS_STATUS"),
+        };
+        const AHRS: u32 = 0x20_0000;
+        const LOGGING: u32 = 0x100_0000;
+        b.run_to(15.0);
+        let (enabled, health, extended) = bits(&b);
+        assert_eq!((enabled & AHRS, health & AHRS, extended), (0, 0, 0));
+        b.run_to(22.0); // the EKF active at 20.5 s
+        let (enabled, health, _) = bits(&b);
+        assert_eq!(
+            (enabled & AHRS, health & AHRS, enabled & LOGGING),
+            (AHRS, AHRS, 0)
+        );
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_ACCEPTED));
+        b.run_to(23.5);
+        assert_eq!(bits(&b).0 & LOGGING, LOGGING);
     }
 }

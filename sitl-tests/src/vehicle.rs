@@ -72,6 +72,9 @@ pub struct Vehicle {
     pub(crate) next_terrain_request: u64,
     pub(crate) esc_count: u16,
     pub(crate) statustext_id: u16,
+    /// The last MISSION_ITEM_REACHED (65535 before any), re-sent when
+    /// streamed.
+    pub(crate) last_reached: u16,
     /// HOME_POSITION to send at this time.
     pub(crate) home_due: Option<u64>,
     /// Messages held while a command is handled (they follow its ack).
@@ -90,6 +93,10 @@ impl Vehicle {
             }
         }
         params.set("SYSID_THISMAV", cfg.system_id as f32);
+        let mut streams = Streams::default();
+        for group in streams.request_stream(0, 0, cfg.stream_hz, cfg.stream_hz > 0) {
+            params.set(group.param(), cfg.stream_hz.min(50) as f32);
+        }
         params.set("BATT_CAPACITY", cfg.airframe.battery_capacity_mah as f32);
         let af = cfg.airframe.clone();
         let wind = V2::new(cfg.wind.0, cfg.wind.1);
@@ -118,7 +125,7 @@ impl Vehicle {
             mission: Vec::new(),
             auto: Default::default(),
             uploads: Uploads::default(),
-            streams: Streams::default(),
+            streams,
             camera: Camera::default(),
             scheduled,
             active: Vec::new(),
@@ -135,6 +142,7 @@ impl Vehicle {
             next_terrain_request: 0,
             esc_count: 0,
             statustext_id: 0,
+            last_reached: u16::MAX,
             home_due: None,
             held: None,
             dropped: 0,
@@ -592,6 +600,11 @@ pub(crate) mod testing {
             while let Some((h, m)) = self.v.poll_transmit() {
                 self.got.push((self.v.now_us(), h, m));
             }
+        }
+
+        /// Collects what the vehicle sent after a direct call.
+        pub fn drain_for_tests(&mut self) {
+            self.drain();
         }
 
         /// Runs until `t` seconds.

@@ -50,6 +50,9 @@ struct Args {
     /// No EFI_STATUS (an electric plane, as the recorded SITL one).
     #[arg(long)]
     no_efi: bool,
+    /// Every stream group's rate before anyone asks (ArduPlane's MAVn_*; 0: nothing until asked).
+    #[arg(long, default_value_t = 1)]
+    stream_hz: u16,
     /// Set a parameter at boot: NAME=VALUE (TKOFF_ALT, AIRSPEED_CRUISE, ROLL_LIMIT_DEG, WP_RADIUS…).
     #[arg(long = "param", value_name = "NAME=VALUE")]
     params: Vec<String>,
@@ -84,6 +87,7 @@ fn config(args: &Args) -> Result<SimConfig, String> {
         faults,
         camera: !args.no_camera,
         efi: !args.no_efi,
+        stream_hz: args.stream_hz,
         ..SimConfig::default()
     };
     if let Some(h) = &args.home {

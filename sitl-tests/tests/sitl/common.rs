@@ -1,10 +1,20 @@
 //! Helpers shared by the end-to-end tests.
 
+use std::io::{ErrorKind, Read, Write};
+use std::net::TcpStream;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 use mavlink::dialects::ardupilotmega::*;
 use mavlink::{MavHeader, MavlinkVersion};
-use sitl_tests::Vehicle;
+use sitl_tests::{wire, Vehicle};
+
+/// The gateway's identity: the vehicle's system, component 191.
+pub const GATEWAY: (u8, u8) = (1, 191);
+
+/// ArduPilot SITL instance 8 (TCP 5840…) is this crate's: one test at a time.
+pub static SITL_INSTANCE_8: Mutex<()> = Mutex::new(());
 
 /// `../shared` beside the workspace, or `None` (with the reason printed)
 /// when it is absent; absent under CI=true is a failure.
@@ -238,5 +248,106 @@ pub fn mission_item(
         frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
         autocontinue: 1,
         ..Default::default()
+    }
+}
+
+/// A client on a SITL port, speaking as the gateway.
+pub struct Link {
+    stream: TcpStream,
+    pub buf: Vec<u8>,
+    /// Every frame received so far.
+    pub got: Vec<(MavHeader, MavMessage)>,
+    sequence: u8,
+    next_heartbeat: Instant,
+    heartbeat_every: Duration,
+}
+
+impl Link {
+    /// `heartbeat_every`: the companion HEARTBEAT's period (wall time).
+    pub fn new(stream: TcpStream, heartbeat_every: Duration) -> Link {
+        stream
+            .set_read_timeout(Some(Duration::from_millis(20)))
+            .expect("a read timeout");
+        Link {
+            stream,
+            buf: Vec::new(),
+            got: Vec::new(),
+            sequence: 0,
+            next_heartbeat: Instant::now(),
+            heartbeat_every,
+        }
+    }
+
+    pub fn send(&mut self, msg: &MavMessage) {
+        let header = MavHeader {
+            system_id: GATEWAY.0 as u32,
+            component_id: GATEWAY.1,
+            sequence: self.sequence,
+        };
+        self.sequence = self.sequence.wrapping_add(1);
+        self.stream
+            .write_all(&wire::frame(header, msg))
+            .expect("the vehicle takes our frames");
+    }
+
+    /// Reads for a moment (at most 20 ms); the companion HEARTBEAT
+    /// (MAV_TYPE_ONBOARD_CONTROLLER) when due.
+    pub fn pump(&mut self) {
+        if Instant::now() >= self.next_heartbeat {
+            self.next_heartbeat = Instant::now() + self.heartbeat_every;
+            self.send(&MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                custom_mode: 0,
+                mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+                autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+                base_mode: MavModeFlag::empty(),
+                system_status: MavState::MAV_STATE_ACTIVE,
+                mavlink_version: 3,
+            }));
+        }
+        let mut chunk = [0u8; 8192];
+        match self.stream.read(&mut chunk) {
+            Ok(0) => panic!("the vehicle closed the link"),
+            Ok(n) => {
+                self.buf.extend_from_slice(&chunk[..n]);
+                wire::parse_frames(&mut self.buf, &mut self.got);
+            }
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+            Err(e) => panic!("link: {e}"),
+        }
+    }
+
+    /// Pumps until a frame received from index `from` on matches, within `limit`.
+    pub fn wait(
+        &mut self,
+        from: usize,
+        limit: Duration,
+        what: &str,
+        pred: impl Fn(&MavHeader, &MavMessage) -> bool,
+    ) -> MavMessage {
+        let end = Instant::now() + limit;
+        loop {
+            if let Some((_, m)) = self.got[from..].iter().find(|(h, m)| pred(h, m)) {
+                return m.clone();
+            }
+            assert!(Instant::now() < end, "no {what} within {limit:?}");
+            self.pump();
+        }
+    }
+
+    /// COMMAND_LONG to component `component` of system 1.
+    pub fn command(&mut self, component: u8, command: MavCmd, p: [f32; 7]) {
+        self.send(&MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            param1: p[0],
+            param2: p[1],
+            param3: p[2],
+            param4: p[3],
+            param5: p[4],
+            param6: p[5],
+            param7: p[6],
+            command,
+            target_system: 1,
+            target_component: component,
+            confirmation: 0,
+        }));
     }
 }
