@@ -315,3 +315,149 @@ fn engine_failure_glides_to_the_site_dec_picked_and_another_position_picks_anoth
         sites[0]
     );
 }
+
+/// Some time after the failure named `what` was injected.
+fn after(what: &'static str, seconds: f64) -> Box<dyn Fn(&Truth) -> bool + Send> {
+    Box::new(move |t: &Truth| t.injected_at(what).is_some_and(|at| t.t >= at + seconds))
+}
+
+/// The gateway's commands after the first occurrence of `event`.
+fn verbs_after(f: &RealFlown, event: &str) -> Vec<String> {
+    f.flown
+        .timeline
+        .iter()
+        .skip_while(|l| !(l["input"] == "event" && l["event"] == event))
+        .filter(|l| l["effect"] == "command")
+        .filter_map(|l| l["verb"].as_str().map(str::to_owned))
+        .collect()
+}
+
+/// Back home by the mission's landing sequence: ArduPlane reached the
+/// approach waypoint (10) and stopped near the runway.
+fn returned_home(name: &str, f: &RealFlown) {
+    ended_well(name, f);
+    let t = &f.truth;
+    assert!(
+        t.reached.iter().any(|r| r.1 == 10),
+        "{name}: the landing sequence was not flown: {:?}",
+        t.reached
+    );
+    let d = metres(at(t), site("Runway"));
+    assert!(d < 150.0, "{name}: landed {d:.0} m from the runway");
+}
+
+#[test]
+fn a_ten_second_link_hole_and_rc_loss_the_mission_goes_on() {
+    let plan = Plan {
+        steps: vec![
+            ("link hole", reached(3), vec![Act::LinkHole(10.0)]),
+            ("rc lost", reached(5), vec![Act::Param("SIM_RC_FAIL", 1.0)]),
+            ("rc back", after("rc lost", 10.0), vec![Act::Param("SIM_RC_FAIL", 0.0)]),
+        ],
+        ..mission("link-rc", 0)
+    };
+    let Some(f) = real::fly(plan, Truth::down) else {
+        return;
+    };
+    eprintln!("{}", event_counts(&f));
+    ended_well("link-rc", &f);
+    let heard = events(&f);
+    for e in ["link_lost", "link_restored", "rc_lost"] {
+        assert!(heard.contains(&e.to_owned()), "{e} not heard: {heard:?}");
+    }
+    // ArduPilot's own view: its throttle failsafe, and AUTO throughout
+    // (FS_SHORT_ACTN and FS_LONG_ACTN 0 fly on in AUTO).
+    let t = &f.truth;
+    assert!(t.text("failsafe on").is_some() || t.text("Failsafe").is_some(), "{:?}", t.texts);
+    let armed_at = t.arming.iter().find(|a| a.1).map_or(0.0, |a| a.0);
+    assert!(t.modes_after(armed_at + 1.0).iter().all(|m| *m == "AUTO"), "{:?}", t.modes);
+    // The gateway changed nothing: no return, the mission completed.
+    let verbs = f.flown.verbs();
+    assert!(!verbs.iter().any(|v| v == "rtl" || v == "land"), "{verbs:?}");
+    assert!(t.reached.iter().any(|r| r.1 == 7), "{:?}", t.reached);
+    assert_eq!(last_marking(&f, "MISSION"), ["complete_non_nominal"]);
+}
+
+#[test]
+fn gps_lost_for_twenty_seconds_returns_by_the_landing_sequence() {
+    let plan = Plan {
+        steps: vec![
+            ("gps off", reached(2), vec![Act::Param("SIM_GPS1_ENABLE", 0.0)]),
+            ("gps on", after("gps off", 20.0), vec![Act::Param("SIM_GPS1_ENABLE", 1.0)]),
+        ],
+        ..mission("gps", 1)
+    };
+    let Some(f) = real::fly(plan, Truth::down) else {
+        return;
+    };
+    eprintln!("{}", event_counts(&f));
+    assert!(events(&f).contains(&"gps_lost".to_owned()), "{:?}", events(&f));
+    // 10 s of grace, then the return: `land` joins the landing sequence.
+    assert_eq!(verbs_after(&f, "gps_lost").first().map(String::as_str), Some("land"));
+    returned_home("gps", &f);
+    assert!(
+        !f.truth.reached.iter().any(|r| r.1 == 5),
+        "O2 still flown after the return: {:?}",
+        f.truth.reached
+    );
+}
+
+#[test]
+fn arduplanes_own_battery_failsafe_and_the_nets_agree_on_the_return() {
+    // A voltage-triggered failsafe, as crews set it: BATT_LOW_VOLT with
+    // BATT_FS_LOW_ACT 1 (RTL, which RTL_AUTOLAND 2 turns into the landing
+    // sequence). The simulated battery then sags under load below it.
+    let plan = Plan {
+        params: [
+            MISSION_PARAMS,
+            &[("BATT_LOW_VOLT", 11.5), ("BATT_FS_LOW_ACT", 1.0), ("BATT_LOW_TIMER", 5.0)],
+        ]
+        .concat(),
+        steps: vec![("battery sags", reached(3), vec![Act::Param("SIM_BATT_VOLTAGE", 11.7)])],
+        ..Plan::new("battery", 2)
+    };
+    let Some(f) = real::fly(plan, Truth::down) else {
+        return;
+    };
+    eprintln!("{}", event_counts(&f));
+    let t = &f.truth;
+    let sag = t.injected_at("battery sags").expect("injected");
+    // ArduPilot's judgement and its own action.
+    let low = t.text("Battery 1 is low").expect("ArduPilot's low-battery text");
+    assert!(low > sag, "{low} {sag}");
+    assert!(t.modes_after(sag).contains(&"RTL"), "{:?}", t.modes);
+    // Petrel heard it and asked for the same return.
+    assert!(events(&f).contains(&"battery_low".to_owned()), "{:?}", events(&f));
+    let after_low = verbs_after(&f, "battery_low");
+    assert!(after_low.iter().any(|v| v == "land" || v == "rtl"), "{after_low:?}");
+    returned_home("battery", &f);
+}
+
+#[test]
+fn a_geofence_breach_returns_as_arduplane_does() {
+    // A 500 m circle: O2 and O3 (600-630 m out) are outside.
+    let plan = Plan {
+        params: [
+            MISSION_PARAMS,
+            &[
+                ("FENCE_ENABLE", 1.0),
+                ("FENCE_TYPE", 2.0),
+                ("FENCE_RADIUS", 500.0),
+                ("FENCE_ACTION", 1.0),
+            ],
+        ]
+        .concat(),
+        ..Plan::new("fence", 0)
+    };
+    let Some(f) = real::fly(plan, Truth::down) else {
+        return;
+    };
+    eprintln!("{}", event_counts(&f));
+    let t = &f.truth;
+    let breach = t.text("breach").or_else(|| t.text("Breach")).expect("ArduPilot's breach text");
+    assert!(t.modes_after(breach - 1.0).iter().any(|m| *m == "RTL" || *m == "GUIDED"), "{:?}", t.modes);
+    assert!(events(&f).contains(&"geofence_breach".to_owned()), "{:?}", events(&f));
+    let after = verbs_after(&f, "geofence_breach");
+    assert!(after.iter().any(|v| v == "land" || v == "rtl"), "{after:?}");
+    returned_home("fence", &f);
+}

@@ -149,6 +149,9 @@ fn fly(args: &Args, dir: &Path) -> VerbResult {
         boot: sitl_tests::BootTimeline::quick(),
         speedup: args.speed,
         faults: schedule,
+        // What the example's mission needs of ArduPlane (its DO_LAND_START:
+        // docs/flight-test.md), as a crew sets it.
+        params: vec![("RTL_AUTOLAND".into(), 2.0)],
         ..SimConfig::default()
     })
     .map_err(|e| miette::miette!("cannot start the simulated vehicle: {e}"))?;

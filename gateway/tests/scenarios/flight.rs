@@ -208,6 +208,9 @@ pub fn fly(
         boot: sitl_tests::BootTimeline::quick(),
         speedup: SPEED,
         faults: Schedule::parse(faults).expect("a valid schedule"),
+        // What the example's mission needs of ArduPlane (its DO_LAND_START:
+        // docs/flight-test.md), as a crew sets it.
+        params: vec![("RTL_AUTOLAND".into(), 2.0)],
         ..SimConfig::default()
     })
     .expect("the simulator starts");
