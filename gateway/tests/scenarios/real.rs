@@ -19,6 +19,7 @@ use elaboration::Firmware as Family;
 use mavlink::dialects::ardupilotmega::*;
 use mavlink::{MavConnection, MavHeader};
 use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
+use sitl_tests::{CameraConfig, CameraSim, CameraState};
 
 use super::flight::{self, Dec, Flown};
 
@@ -403,16 +404,51 @@ pub type Step = (&'static str, Box<dyn Fn(&Truth) -> bool + Send>, Vec<Act>);
 pub struct RealFlown {
     pub flown: Flown,
     pub truth: Truth,
+    /// The camera's truth: the commands it heard, its captures.
+    pub camera: CameraState,
     /// The gateway's exit status.
     pub code: Option<i32>,
     pub sitl_dir: PathBuf,
 }
 
+/// SITL instances (`-I`) this test binary's flights take, one each while
+/// they fly (the other real-SITL tests use 3 and above).
+const INSTANCES: [u8; 3] = [0, 1, 2];
+
+static TAKEN: Mutex<[bool; 3]> = Mutex::new([false; 3]);
+static FREED: std::sync::Condvar = std::sync::Condvar::new();
+
+/// An instance taken for one flight, given back on drop.
+struct Instance(usize);
+
+impl Instance {
+    fn take() -> Instance {
+        let mut taken = TAKEN.lock().unwrap_or_else(|e| e.into_inner());
+        loop {
+            if let Some(i) = taken.iter().position(|t| !t) {
+                taken[i] = true;
+                return Instance(i);
+            }
+            taken = FREED.wait(taken).unwrap_or_else(|e| e.into_inner());
+        }
+    }
+
+    fn number(&self) -> u8 {
+        INSTANCES[self.0]
+    }
+}
+
+impl Drop for Instance {
+    fn drop(&mut self) {
+        let mut taken = TAKEN.lock().unwrap_or_else(|e| e.into_inner());
+        taken[self.0] = false;
+        FREED.notify_all();
+    }
+}
+
 /// One flight's set-up.
 pub struct Plan {
     pub name: &'static str,
-    /// SITL instance (`-I`): distinct for flights that may run at once.
-    pub instance: u8,
     /// Parameters over plane.parm at boot.
     pub params: Vec<(&'static str, f64)>,
     /// Failures and the like, as they come due.
@@ -427,10 +463,9 @@ pub struct Plan {
 }
 
 impl Plan {
-    pub fn new(name: &'static str, instance: u8) -> Plan {
+    pub fn new(name: &'static str) -> Plan {
         Plan {
             name,
-            instance,
             params: Vec::new(),
             steps: Vec::new(),
             max_sim_s: 600.0,
@@ -445,18 +480,18 @@ impl Plan {
 pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
     let Plan {
         name,
-        instance,
         params,
         mut steps,
         max_sim_s,
         checked,
     } = plan;
     let located = ardupilot::require(Firmware::Plane, name)?;
+    let instance = Instance::take();
     let dir = flight::scratch(&format!("real-{name}"));
     let mut sitl = Sitl::start(
         &located,
         &Options {
-            instance,
+            instance: instance.number(),
             speedup: SPEEDUP,
             params: params.iter().map(|(n, v)| ((*n).to_owned(), *v)).collect(),
             ..Options::default()
@@ -488,6 +523,17 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
         "{name}: the gateway never connected"
     );
     let observer = Observer::start(sitl.port(1));
+    // The camera the example's payloads need: its own component on
+    // SERIAL2, as on a real vehicle; ArduPilot routes the gateway's camera
+    // commands to it.
+    let camera = CameraSim::start(
+        &sitl.address(2).replace("tcpout:", ""),
+        CameraConfig {
+            speedup: f64::from(SPEEDUP),
+            ..CameraConfig::default()
+        },
+    )
+    .expect("the camera starts");
     // The timeline, read as it comes so that the pipe never fills.
     let lines = Arc::new(Mutex::new(String::new()));
     let stdout = child.0.as_mut().and_then(|c| c.stdout.take());
@@ -554,6 +600,8 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
     }
     dec.stop();
     let truth = observer.truth();
+    let camera_state = camera.state();
+    camera.stop();
     sitl.stop();
     observer.finish();
     drop(relay);
@@ -575,6 +623,7 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
             wall,
         },
         truth,
+        camera: camera_state,
         code,
         sitl_dir: dir,
     })

@@ -9,7 +9,11 @@
 //! key point on the line from the site toward the aircraft, at the height
 //! the glide needs for it (`emergency_approach / glide_ratio`). Energy to
 //! spare at the key point is burnt in a loiter over it (LOITER_TIME, as long
-//! as the glide's sink rate takes); too little, and it goes straight in.
+//! as the glide's sink rate takes) when it is worth at least one whole
+//! circle: ArduPlane leaves a loiter only once headed for the next item,
+//! and on real ArduPlane SITL an engine-out plane that entered a loiter
+//! with less to spare came down in it, 150 m short. Less than that, and it
+//! goes to the key point and straight in.
 
 use serde_json::{json, Value};
 
@@ -31,6 +35,13 @@ pub struct Choice {
     pub reachable: bool,
     /// The emergency mission, as `upload_mission` takes it.
     pub items: Value,
+}
+
+/// The height (m) an engine-out loiter circle costs: its time at cruise
+/// speed, at the loiter's sink rate.
+pub fn circle_sink(mission: &Mission) -> f64 {
+    let f = &mission.flight;
+    std::f64::consts::TAU * f.loiter_radius / f.cruise_speed * loiter_sink(mission)
 }
 
 /// The glide range (m) from `height` metres above a site.
@@ -96,7 +107,7 @@ fn items(mission: &Mission, from: LatLon, alt: f64, site: &Site, distance: f64) 
     let final_height = leg / glide;
     let k = key.rounded();
     let round = |x: f64| (x * 10.0).round() / 10.0;
-    let first = if at_key > final_height + 5.0 {
+    let first = if at_key > final_height + circle_sink(mission) {
         // The loiter's time counts from its circle, reached this high.
         let radius = mission.flight.loiter_radius;
         let at_circle = height - (from.distance(key) - radius).max(0.0) / glide;
