@@ -13,6 +13,7 @@
 //! says whether to keep the frame. What it decides is told once, as
 //! [`Notice`]s for the gateway's log.
 
+use std::collections::btree_map::Entry;
 use std::collections::{BTreeMap, VecDeque};
 use std::fmt;
 
@@ -164,8 +165,8 @@ impl Vehicles {
                 self.supervised = Some(vehicle);
                 self.notices.push_back(Notice::Found(vehicle));
             }
-        } else if !self.ignored.contains_key(&vehicle.system) {
-            self.ignored.insert(vehicle.system, vehicle);
+        } else if let Entry::Vacant(entry) = self.ignored.entry(vehicle.system) {
+            entry.insert(vehicle);
             self.notices.push_back(Notice::Ignored {
                 vehicle,
                 supervised,
