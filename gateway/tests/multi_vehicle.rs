@@ -178,6 +178,28 @@ impl Gateway {
             .collect()
     }
 
+    /// The timeline without markings and with at most 5 of each event,
+    /// for failure messages.
+    fn decisions(&self) -> String {
+        let mut seen = std::collections::BTreeMap::<String, usize>::new();
+        let mut out = String::new();
+        for l in &self.lines {
+            if l["effect"] == "marking" {
+                continue;
+            }
+            if let Some(e) = l["event"].as_str().filter(|_| l["input"] == "event") {
+                let n = seen.entry(e.to_owned()).or_default();
+                *n += 1;
+                if *n > 5 {
+                    continue;
+                }
+            }
+            out.push_str(&l.to_string());
+            out.push('\n');
+        }
+        out
+    }
+
     fn heard(&self, event: &str) -> bool {
         self.events().iter().any(|(e, _)| e == event)
     }
@@ -387,7 +409,8 @@ fn two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway() 
     );
     assert!(
         flew,
-        "vehicle 2 never took off within {LIMIT:?}\nA:\n{}\nB:\n{}\nC:\n{}\nMAVProxy:\n{}",
+        "vehicle 2 never took off within {LIMIT:?}\nA:\n{}{}\nB:\n{}\nC:\n{}\nMAVProxy:\n{}",
+        a.decisions(),
         a.log,
         b.log,
         c.log,
