@@ -407,6 +407,10 @@ fn two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway() 
         routed.max_alt[1],
         routed.commands.len()
     );
+    for gw in [&a, &b, &c] {
+        let summary = gw.log.lines().find(|l| l.starts_with("stopped after"));
+        eprintln!("{test}: {}: {}", gw.name, summary.unwrap_or("no summary"));
+    }
     assert!(
         flew,
         "vehicle 2 never took off within {LIMIT:?}\nA:\n{}{}\nB:\n{}\nC:\n{}\nMAVProxy:\n{}",
