@@ -347,7 +347,7 @@ impl Gateway {
                     clock_offset_ns: unix_ns,
                     profile: setup.layers.name.clone(),
                     profile_layers: setup.layers.layers.clone(),
-                    config: elaboration::Config::default(),
+                    config: elaboration_config(&setup.vehicle),
                     ..RecordOptions::default()
                 };
                 let rec = Recorder::create(path, setup.project.clone(), options)
@@ -359,6 +359,8 @@ impl Gateway {
         let (mut reader, writer) = Link::open(&setup.address, clock.clone())
             .await
             .map_err(|e| miette::miette!("{e}"))?;
+        // One vehicle: the configured one, else the first autopilot heard.
+        reader.supervise(setup.vehicle.system);
         // The program server listens only for a project that has programs.
         let (programs, mut inputs) = if setup.project.programs.is_empty() {
             (None, mpsc::channel(1).1)
@@ -375,14 +377,11 @@ impl Gateway {
             .filter(|&id| id != 0) // HEARTBEAT always comes
             .map(|id| (id, TELEMETRY_HZ))
             .collect();
+        let config = elaboration_config(&setup.vehicle);
         let mut commander = Commander::new(setup.vehicle);
         commander.request_streams(&messages, 0);
-        let (supervisor, start) = Supervisor::start(
-            setup.project.clone(),
-            setup.profile,
-            elaboration::Config::default(),
-            0,
-        );
+        let (supervisor, start) =
+            Supervisor::start(setup.project.clone(), setup.profile, config, 0);
         let mut gw = Gateway {
             clock,
             project: setup.project,
@@ -419,6 +418,9 @@ impl Gateway {
             loop {
                 match reader.recv().await {
                     Ok(rx) => {
+                        while let Some(notice) = reader.poll_notice() {
+                            eprintln!("{notice}");
+                        }
                         if frames_tx.send(rx).await.is_err() {
                             break;
                         }
@@ -658,6 +660,15 @@ fn parameters_fit(verdict: &crate::vehicle::parameters::Verdict, armed: Option<b
         misfits.join("\n")
     );
     false
+}
+
+/// Elaboration follows the vehicle the commander commands (docs/multi-vehicle.md).
+fn elaboration_config(vehicle: &VehicleConfig) -> elaboration::Config {
+    elaboration::Config {
+        sysid: vehicle.system,
+        compid: vehicle.autopilot_component,
+        ..elaboration::Config::default()
+    }
 }
 
 /// SIGINT and SIGTERM.

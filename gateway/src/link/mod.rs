@@ -11,6 +11,10 @@
 //! loop { let frame = reader.recv().await?; ... }       // one task
 //! writer.send((1, 191), &message).await?;              // any task (clone the writer)
 //! ```
+//!
+//! A link may carry several vehicles: `reader.supervise(system_id)` keeps
+//! one (the configured system, else the first autopilot heard) and drops
+//! every frame of the others ([`vehicles`]; docs/multi-vehicle.md).
 
 // Wired into `petrel run` by the lead; until then the binary does not call it.
 #![allow(dead_code)]
@@ -19,12 +23,16 @@ use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::{Arc, RwLock};
 use std::time::Duration;
 
+pub mod vehicles;
+
 use crate::clock::Clock;
-use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::dialects::ardupilotmega::{MavMessage, HEARTBEAT_DATA};
 use mavlink::error::{MessageReadError, MessageWriteError};
 use mavlink::{
-    AsyncMavConnection, MAVLinkMessageRaw, MAVLinkV2MessageRaw, MavHeader, MavlinkVersion,
+    AsyncMavConnection, MAVLinkMessageRaw, MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, Message,
+    MessageData,
 };
+use vehicles::{Notice, Vehicles};
 
 /// One frame as received.
 #[derive(Debug, Clone)]
@@ -120,6 +128,7 @@ impl Link {
             LinkReader {
                 shared: shared.clone(),
                 clock,
+                vehicles: None,
             },
             LinkWriter { shared },
         ))
@@ -130,9 +139,48 @@ impl Link {
 pub struct LinkReader {
     shared: Arc<Shared>,
     clock: Clock,
+    /// When set, frames of vehicles other than the supervised one are dropped.
+    vehicles: Option<Vehicles>,
 }
 
 impl LinkReader {
+    /// From now on, delivers only the frames of one vehicle's system (the
+    /// configured `system`, else the first autopilot heard) and of systems
+    /// that are no vehicle (ground stations, radios); other vehicles'
+    /// frames are dropped. What it decides comes from [`Self::poll_notice`].
+    pub fn supervise(&mut self, system: Option<u8>) {
+        self.vehicles = Some(Vehicles::new(system));
+    }
+
+    /// The vehicles heard, when [`Self::supervise`] was called.
+    pub fn vehicles(&self) -> Option<&Vehicles> {
+        self.vehicles.as_ref()
+    }
+
+    /// The next decision about a vehicle to tell people (each told once).
+    pub fn poll_notice(&mut self) -> Option<Notice> {
+        self.vehicles.as_mut().and_then(Vehicles::poll_notice)
+    }
+
+    /// Whether the supervised-vehicle filter keeps this frame; a HEARTBEAT
+    /// is decoded for it, nothing else.
+    fn admit(&mut self, raw: &MAVLinkMessageRaw) -> bool {
+        let Some(vehicles) = self.vehicles.as_mut() else {
+            return true;
+        };
+        let heartbeat = match raw.message_id() {
+            HEARTBEAT_DATA::ID => {
+                match MavMessage::parse(raw.version(), raw.message_id(), raw.payload()) {
+                    Ok(MavMessage::HEARTBEAT(hb)) => Some(hb),
+                    _ => None,
+                }
+            }
+            _ => None,
+        };
+        let system = u8::try_from(raw.system_id()).unwrap_or(u8::MAX);
+        vehicles.admit(system, raw.component_id(), heartbeat.as_ref())
+    }
+
     fn is_tcp(&self) -> bool {
         self.shared.address.starts_with("tcp")
     }
@@ -169,6 +217,9 @@ impl LinkReader {
                 }
                 Err(e) => return Err(e.into()),
             };
+            if !self.admit(&raw) {
+                continue;
+            }
             return Ok(self.received(&raw));
         }
     }

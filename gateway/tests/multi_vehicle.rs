@@ -1,0 +1,655 @@
+//! Two real ArduCopters on one link, each supervised by its own `petrel
+//! run` (docs/multi-vehicle.md).
+//!
+//! ArduPilot's own SITL flies vehicle 1 (`-I6 --sysid 1`) and vehicle 2
+//! (`-I7 --sysid 2`). MAVProxy routes both onto one link, with one `--out`
+//! per gateway:
+//!
+//! ```text
+//! copter sysid 1 ─SERIAL0─┐                 ┌─udp─▶ petrel A  system_id = 2: GUIDED, arm, takeoff 10 m
+//!                         ├─ MAVProxy ──────┤
+//! copter sysid 2 ─SERIAL0─┘                 └─udp─▶ petrel B  system_id = 1: watches, commands nothing
+//!               └─SERIAL1──── its own link ───────▶ petrel C  no system_id: locks on the first autopilot
+//! ```
+//!
+//! Only A commands. Asserted: each gateway's events name only its own
+//! vehicle; A and B each report the other vehicle ignored, once; C says
+//! it locked on vehicle 2; from the router's own log (MAVProxy's tlog),
+//! every command a gateway sent targets its own vehicle, vehicle 2 armed
+//! only after A's arm command and climbed, vehicle 1 was never armed nor
+//! commanded to. A's recording replays with `--check-against`.
+//!
+//! A second test needs nothing: two scripted vehicles (HEARTBEATs and
+//! COMMAND_ACKs from one UDP socket, as a router would) and two gateways,
+//! one configured for vehicle 2, one locking on the first autopilot heard.
+//!
+//! The first needs the SITL binaries (`../shared/ardupilot-sitl`) and MAVProxy
+//! (`mavproxy.py`, pip): without them it prints why and passes, except
+//! with `CI=true`, where it fails.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use elaboration::TlogReader;
+use mavlink::dialects::ardupilotmega::{
+    MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavResult, MavState, MavType, COMMAND_ACK_DATA,
+    HEARTBEAT_DATA,
+};
+use mavlink::{MavHeader, MavlinkVersion};
+use serde_json::Value;
+use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
+
+/// SITL's --speedup, and the gateways' --time-scale.
+const SPEEDUP: u32 = 5;
+/// Wall-clock bound on the flight (boot, EKF, takeoff).
+const LIMIT: Duration = Duration::from_secs(150);
+/// After A's nets see the takeoff, the climb to 10 m goes on for this long.
+const CLIMB: Duration = Duration::from_secs(4);
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/multi_vehicle")
+        .join(name)
+}
+
+/// `mavproxy.py` on the PATH, or why not (a failure under CI=true).
+fn mavproxy(test: &str) -> Option<PathBuf> {
+    let found = std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|p| p.join("mavproxy.py"))
+            .find(|p| p.is_file())
+    });
+    match found {
+        Some(p) => Some(p),
+        None if ardupilot::in_ci() => panic!("{test}: MAVProxy (mavproxy.py) is required in CI"),
+        None => {
+            eprintln!("skipped {test}: mavproxy.py is not on the PATH (pip install MAVProxy)");
+            None
+        }
+    }
+}
+
+/// What MAVProxy printed, for failure messages.
+fn mavproxy_log(dir: &Path) -> String {
+    let read = |f: &str| std::fs::read_to_string(dir.join(f)).unwrap_or_default();
+    format!("{}{}", read("mavproxy.out"), read("mavproxy.err"))
+}
+
+/// A free UDP port on 127.0.0.1 (bound to port 0, then released).
+fn free_udp_port() -> u16 {
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind a UDP port");
+    socket.local_addr().expect("its address").port()
+}
+
+/// A child process stopped with SIGTERM (then killed) and reaped on drop,
+/// even when the test panics.
+struct Process {
+    name: &'static str,
+    child: Option<Child>,
+}
+
+impl Process {
+    fn spawn(name: &'static str, command: &mut Command) -> Process {
+        let child = command
+            .stdin(Stdio::null())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot start {name}: {e}"));
+        Process {
+            name,
+            child: Some(child),
+        }
+    }
+
+    fn running(&mut self) -> bool {
+        self.child
+            .as_mut()
+            .is_some_and(|c| matches!(c.try_wait(), Ok(None)))
+    }
+
+    /// SIGTERM, up to 5 s to exit, then SIGKILL; always reaped.
+    fn stop(&mut self) {
+        let Some(mut child) = self.child.take() else {
+            return;
+        };
+        if let Ok(pid) = i32::try_from(child.id()) {
+            // SAFETY: a signal to our own child, not yet reaped.
+            unsafe { libc::kill(pid, libc::SIGTERM) };
+        }
+        let until = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < until {
+            if !matches!(child.try_wait(), Ok(None)) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        eprintln!("{} ignored SIGTERM: killed", self.name);
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+}
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// `petrel run PROJECT --mavlink ADDRESS`, timeline to `dir/NAME.jsonl`,
+/// log to `dir/NAME.err`, recording to `dir/NAME.mcap`.
+fn petrel(name: &'static str, project: &Path, address: &str, dir: &Path) -> Process {
+    petrel_with(name, project, address, dir, SPEEDUP, LIMIT)
+}
+
+fn petrel_with(
+    name: &'static str,
+    project: &Path,
+    address: &str,
+    dir: &Path,
+    time_scale: u32,
+    duration: Duration,
+) -> Process {
+    let file = |ext: &str| dir.join(format!("{name}.{ext}"));
+    Process::spawn(
+        name,
+        Command::new(env!("CARGO_BIN_EXE_petrel"))
+            .arg("run")
+            .arg(project)
+            .args(["--mavlink", address, "--json"])
+            .args(["--time-scale", &time_scale.to_string()])
+            .args(["--duration", &duration.as_secs_f64().to_string()])
+            .arg("--record")
+            .arg(file("mcap"))
+            .stdout(std::fs::File::create(file("jsonl")).expect("timeline file"))
+            .stderr(std::fs::File::create(file("err")).expect("log file")),
+    )
+}
+
+/// A gateway's timeline (JSON lines) and log.
+struct Gateway {
+    name: &'static str,
+    lines: Vec<Value>,
+    log: String,
+}
+
+impl Gateway {
+    fn read(name: &'static str, dir: &Path) -> Gateway {
+        let text = std::fs::read_to_string(dir.join(format!("{name}.jsonl"))).unwrap_or_default();
+        let lines = text
+            .lines()
+            .filter_map(|l| serde_json::from_str(l).ok())
+            .collect();
+        let log = std::fs::read_to_string(dir.join(format!("{name}.err"))).unwrap_or_default();
+        Gateway { name, lines, log }
+    }
+
+    /// Elaborated events: (name, sysid).
+    fn events(&self) -> Vec<(String, i64)> {
+        self.lines
+            .iter()
+            .filter(|l| l["input"] == "event")
+            .map(|l| {
+                (
+                    l["event"].as_str().unwrap_or("?").to_owned(),
+                    l["sysid"].as_i64().unwrap_or(-1),
+                )
+            })
+            .collect()
+    }
+
+    /// The timeline without markings and with at most 5 of each event,
+    /// for failure messages.
+    fn decisions(&self) -> String {
+        let mut seen = std::collections::BTreeMap::<String, usize>::new();
+        let mut out = String::new();
+        for l in &self.lines {
+            if l["effect"] == "marking" {
+                continue;
+            }
+            if let Some(e) = l["event"].as_str().filter(|_| l["input"] == "event") {
+                let n = seen.entry(e.to_owned()).or_default();
+                *n += 1;
+                if *n > 5 {
+                    continue;
+                }
+            }
+            out.push_str(&l.to_string());
+            out.push('\n');
+        }
+        out
+    }
+
+    fn heard(&self, event: &str) -> bool {
+        self.events().iter().any(|(e, _)| e == event)
+    }
+
+    fn fired(&self, transition: &str) -> bool {
+        self.lines
+            .iter()
+            .any(|l| l["effect"] == "fired" && l["transition"] == transition)
+    }
+
+    fn commands(&self) -> usize {
+        self.lines
+            .iter()
+            .filter(|l| l["effect"] == "command")
+            .count()
+    }
+
+    /// Log lines containing `text`.
+    fn told(&self, text: &str) -> usize {
+        self.log.lines().filter(|l| l.contains(text)).count()
+    }
+
+    /// Events name `sysid` and never the other vehicle (1 or 2); a ground
+    /// station's (`gcs_lost {sysid: 255}`: MAVProxy's heartbeat, routed by
+    /// the autopilot) are no vehicle's.
+    fn only_from(&self, sysid: i64) {
+        let events = self.events();
+        assert!(
+            events.iter().any(|(_, s)| *s == sysid),
+            "{}: no event of vehicle {sysid}\n{}",
+            self.name,
+            self.log
+        );
+        let foreign: Vec<_> = events
+            .iter()
+            .filter(|(e, s)| *s != sysid && !(e.starts_with("gcs_") && *s == 255))
+            .collect();
+        assert!(
+            foreign.is_empty(),
+            "{}: events of another vehicle than {sysid}: {foreign:?}",
+            self.name
+        );
+    }
+}
+
+/// What the router saw, from MAVProxy's tlog (both vehicles' telemetry and
+/// everything the gateways sent, on MAVProxy's one clock).
+#[derive(Default)]
+struct Router {
+    /// (time µs, sender system, sender component, target system, command, param1)
+    commands: Vec<(u64, u8, u8, u8, MavCmd, f32)>,
+    /// First HEARTBEAT with the armed flag, per vehicle (index = sysid).
+    first_armed: [Option<u64>; 3],
+    /// Highest relative altitude (m), per vehicle.
+    max_alt: [f32; 3],
+    heartbeats: [u64; 3],
+}
+
+impl Router {
+    fn read(path: &Path) -> Router {
+        let bytes = std::fs::read(path).unwrap_or_default();
+        let mut r = Router::default();
+        for record in TlogReader::new(&bytes) {
+            let (sys, comp) = (record.frame.system_id(), record.frame.component_id());
+            let Ok(message) = record.frame.decode() else {
+                continue;
+            };
+            let t = record.time_us;
+            match message {
+                MavMessage::COMMAND_LONG(c) => {
+                    r.commands
+                        .push((t, sys, comp, c.target_system, c.command, c.param1))
+                }
+                MavMessage::COMMAND_INT(c) => {
+                    r.commands
+                        .push((t, sys, comp, c.target_system, c.command, c.param1))
+                }
+                MavMessage::HEARTBEAT(hb) if comp == 1 && (1..=2).contains(&sys) => {
+                    let v = sys as usize;
+                    r.heartbeats[v] += 1;
+                    if hb
+                        .base_mode
+                        .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
+                        && r.first_armed[v].is_none()
+                    {
+                        r.first_armed[v] = Some(t);
+                    }
+                }
+                MavMessage::GLOBAL_POSITION_INT(p) if comp == 1 && (1..=2).contains(&sys) => {
+                    let v = sys as usize;
+                    r.max_alt[v] = r.max_alt[v].max(p.relative_alt as f32 / 1000.0);
+                }
+                _ => {}
+            }
+        }
+        r
+    }
+
+    /// Arm commands (COMPONENT_ARM_DISARM with param1 = 1) to `sysid`.
+    fn arms_to(&self, sysid: u8) -> Vec<&(u64, u8, u8, u8, MavCmd, f32)> {
+        self.commands
+            .iter()
+            .filter(|c| c.3 == sysid && c.4 == MavCmd::MAV_CMD_COMPONENT_ARM_DISARM && c.5 == 1.0)
+            .collect()
+    }
+}
+
+#[test]
+fn two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway() {
+    let test = "two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway";
+    let Some(copter) = ardupilot::require(Firmware::Copter, test) else {
+        return;
+    };
+    let Some(mavproxy) = mavproxy(test) else {
+        return;
+    };
+    let started = Instant::now();
+    let tmp = tempfile::tempdir().expect("scratch folder");
+    let dir = tmp.path();
+    let options = |instance, sysid, east: f64| Options {
+        instance,
+        speedup: SPEEDUP,
+        sysid: Some(sysid),
+        home: (-35.363261, 149.165230 + east, 584.0, 353.0),
+        ..Options::default()
+    };
+    let sitl1 = Sitl::start(&copter, &options(6, 1, 0.0), &dir.join("sitl1")).expect("SITL 1");
+    let mut sitl2 =
+        Sitl::start(&copter, &options(7, 2, 0.001), &dir.join("sitl2")).expect("SITL 2");
+
+    // The gateways behind the router listen first; MAVProxy's connection
+    // to both SERIAL0 starts the simulations.
+    let (port_a, port_b) = (free_udp_port(), free_udp_port());
+    let mut a = petrel(
+        "a",
+        &fixture("copter2_takeoff"),
+        &format!("udpin:127.0.0.1:{port_a}"),
+        dir,
+    );
+    let mut b = petrel(
+        "b",
+        &fixture("copter1_watch"),
+        &format!("udpin:127.0.0.1:{port_b}"),
+        dir,
+    );
+    let router_log = dir.join("router.tlog");
+    let mut router = Process::spawn(
+        "MAVProxy",
+        Command::new(&mavproxy)
+            .arg(format!("--master=tcp:127.0.0.1:{}", sitl1.port(0)))
+            .arg(format!("--master=tcp:127.0.0.1:{}", sitl2.port(0)))
+            .arg(format!("--out=udp:127.0.0.1:{port_a}"))
+            .arg(format!("--out=udp:127.0.0.1:{port_b}"))
+            // The gateways ask for their own telemetry.
+            .args(["--streamrate=-1", "--daemon", "--non-interactive"])
+            .arg("--state-basedir")
+            .arg(dir.join("mavproxy"))
+            .arg("--logfile")
+            .arg(&router_log)
+            .stdout(std::fs::File::create(dir.join("mavproxy.out")).expect("log file"))
+            .stderr(std::fs::File::create(dir.join("mavproxy.err")).expect("log file")),
+    );
+    // Vehicle 2's own link: SERIAL1 listens once the simulation runs.
+    let serial1 = format!("SERIAL1 on TCP port {}", sitl2.port(1));
+    while !sitl2.output().contains(&serial1) {
+        assert!(
+            started.elapsed() < Duration::from_secs(30) && sitl2.running(),
+            "SITL 2 never opened SERIAL1 (is MAVProxy connected?):\n{}\nMAVProxy:\n{}",
+            sitl2.output(),
+            mavproxy_log(dir)
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let mut c = petrel("c", &fixture("first_heard_watch"), &sitl2.address(1), dir);
+
+    // Fly until A's nets have seen vehicle 2 take off, and a little more.
+    let flew = loop {
+        if Gateway::read("a", dir).fired("airborne") {
+            std::thread::sleep(CLIMB);
+            break true;
+        }
+        if started.elapsed() > LIMIT || !(a.running() && b.running() && c.running()) {
+            break false;
+        }
+        if !router.running() {
+            break false;
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    for p in [&mut a, &mut b, &mut c, &mut router] {
+        p.stop();
+    }
+    drop((sitl1, sitl2));
+    let flight = started.elapsed();
+    let (a, b, c) = (
+        Gateway::read("a", dir),
+        Gateway::read("b", dir),
+        Gateway::read("c", dir),
+    );
+    let routed = Router::read(&router_log);
+    eprintln!(
+        "{test}: flown in {:.1} s of wall time; vehicle 2 climbed to {:.1} m, vehicle 1 to {:.1} m; {} commands through the router",
+        flight.as_secs_f64(),
+        routed.max_alt[2],
+        routed.max_alt[1],
+        routed.commands.len()
+    );
+    for gw in [&a, &b, &c] {
+        let summary = gw.log.lines().find(|l| l.starts_with("stopped after"));
+        eprintln!("{test}: {}: {}", gw.name, summary.unwrap_or("no summary"));
+    }
+    assert!(
+        flew,
+        "vehicle 2 never took off within {LIMIT:?}\nA:\n{}{}\nB:\n{}\nC:\n{}\nMAVProxy:\n{}",
+        a.decisions(),
+        a.log,
+        b.log,
+        c.log,
+        mavproxy_log(dir)
+    );
+
+    // Each gateway heard only its own vehicle, and said whom it ignored.
+    a.only_from(2);
+    b.only_from(1);
+    c.only_from(2);
+    assert_eq!(a.told("ignoring vehicle 1 ("), 1, "A's log:\n{}", a.log);
+    assert_eq!(a.told("supervising vehicle 2 ("), 1, "A's log:\n{}", a.log);
+    assert_eq!(b.told("ignoring vehicle 2 ("), 1, "B's log:\n{}", b.log);
+    assert_eq!(b.told("supervising vehicle 1 ("), 1, "B's log:\n{}", b.log);
+    assert_eq!(
+        c.told("supervising vehicle 2 (ARDUPILOTMEGA QUADROTOR, autopilot component 1): the first autopilot heard"),
+        1,
+        "C's log:\n{}",
+        c.log
+    );
+    // A commanded its vehicle, which armed and took off; B and C heard
+    // theirs ready; B's vehicle never left the ground, C's (vehicle 2) did.
+    for (event, gw) in [("armed", &a), ("takeoff", &a), ("ready_for_takeoff", &b)] {
+        assert!(gw.heard(event), "{}: no {event}", gw.name);
+    }
+    assert!(a.fired("airborne") && c.fired("airborne") && b.fired("ready"));
+    assert!(!b.heard("armed") && !b.heard("takeoff") && !b.fired("airborne"));
+    assert_eq!((b.commands(), c.commands()), (0, 0));
+    assert!(a.commands() >= 3, "GUIDED, arm, takeoff");
+
+    // The router's view: every command a gateway (component 191) sent
+    // targets its own system; vehicle 1 was never told to arm, and never
+    // armed; vehicle 2 armed after A's arm command, and climbed.
+    assert!(routed.heartbeats[1] > 10 && routed.heartbeats[2] > 10);
+    let gateway_commands: Vec<_> = routed.commands.iter().filter(|c| c.2 == 191).collect();
+    assert!(!gateway_commands.is_empty());
+    for c in &gateway_commands {
+        assert_eq!(c.1, c.3, "a gateway commanded another vehicle: {c:?}");
+    }
+    assert!(routed.arms_to(1).is_empty(), "{:?}", routed.arms_to(1));
+    assert_eq!(routed.first_armed[1], None, "vehicle 1 armed");
+    let arms = routed.arms_to(2);
+    let first_arm = arms.first().expect("an arm command to vehicle 2");
+    assert_eq!((first_arm.1, first_arm.2), (2, 191), "A sent it");
+    let armed = routed.first_armed[2].expect("vehicle 2 armed");
+    assert!(armed > first_arm.0, "vehicle 2 armed before it was told to");
+    assert!(routed.max_alt[2] > 5.0, "vehicle 2 climbed");
+    assert!(routed.max_alt[1] < 1.0, "vehicle 1 stayed down");
+
+    // A's recording replays to the same decisions.
+    let replay = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("replay")
+        .arg(dir.join("a.mcap"))
+        .arg(fixture("copter2_takeoff"))
+        .arg("--check-against")
+        .output()
+        .expect("petrel replay");
+    assert!(
+        replay.status.success(),
+        "A's recording does not replay:\n{}{}",
+        String::from_utf8_lossy(&replay.stdout),
+        String::from_utf8_lossy(&replay.stderr)
+    );
+    eprintln!(
+        "{test}: {:.1} s of wall time in all",
+        started.elapsed().as_secs_f64()
+    );
+}
+
+/// A frame from (`system`, `component`).
+fn frame(system: u8, component: u8, sequence: u8, message: &MavMessage) -> Vec<u8> {
+    let header = MavHeader {
+        system_id: u32::from(system),
+        component_id: component,
+        sequence,
+    };
+    elaboration::frame::serialize(header, MavlinkVersion::V2, message)
+}
+
+/// A copter autopilot's HEARTBEAT in ArduCopter mode `custom_mode`.
+fn copter_heartbeat(custom_mode: u32) -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode,
+        mavtype: MavType::MAV_TYPE_QUADROTOR,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+        system_status: MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    })
+}
+
+#[test]
+fn two_scripted_vehicles_on_one_link_each_gateway_hears_and_commands_its_own() {
+    let test = "two_scripted_vehicles_on_one_link_each_gateway_hears_and_commands_its_own";
+    let started = Instant::now();
+    let tmp = tempfile::tempdir().expect("scratch folder");
+    let dir = tmp.path();
+    // The "router": one socket speaking for both vehicles to both gateways.
+    let router = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
+    router
+        .set_read_timeout(Some(Duration::from_millis(10)))
+        .expect("timeout");
+    let (port_a, port_b) = (free_udp_port(), free_udp_port());
+    let run_for = Duration::from_secs(6);
+    let mut a = petrel_with(
+        "a",
+        &fixture("scripted2"),
+        &format!("udpin:127.0.0.1:{port_a}"),
+        dir,
+        1,
+        run_for,
+    );
+    let mut b = petrel_with(
+        "b",
+        &fixture("scripted_first"),
+        &format!("udpin:127.0.0.1:{port_b}"),
+        dir,
+        1,
+        run_for,
+    );
+    // Give the gateways time to listen (a datagram before is lost; the
+    // heartbeats go on anyway).
+    std::thread::sleep(Duration::from_millis(300));
+    let gateways = [("127.0.0.1", port_a), ("127.0.0.1", port_b)];
+    // (gateway port, sender system, sender component, target system, command)
+    let mut commands: Vec<(u16, u8, u8, u8, MavCmd)> = Vec::new();
+    // Sequence numbers per vehicle (a gap would be frames lost).
+    let mut seq = [0u8; 3];
+    let mut next_heartbeat = Instant::now();
+    let mut buf = [0u8; 600];
+    while started.elapsed() < run_for + Duration::from_secs(1) && (a.running() || b.running()) {
+        if Instant::now() >= next_heartbeat {
+            next_heartbeat += Duration::from_millis(100);
+            // STABILIZE at first; after 1.5 s vehicle 1 goes AUTO (3) and
+            // vehicle 2 LOITER (5). Vehicle 1 always speaks first.
+            let later = started.elapsed() > Duration::from_millis(1500);
+            for (system, mode) in [
+                (1, if later { 3 } else { 0 }),
+                (2, if later { 5 } else { 0 }),
+            ] {
+                seq[system] = seq[system].wrapping_add(1);
+                let bytes = frame(system as u8, 1, seq[system], &copter_heartbeat(mode));
+                for to in gateways {
+                    let _ = router.send_to(&bytes, to);
+                }
+            }
+        }
+        let Ok((n, from)) = router.recv_from(&mut buf) else {
+            continue;
+        };
+        let Ok(f) = elaboration::Frame::parse(&buf[..n]) else {
+            continue;
+        };
+        let (sender, component) = (f.system_id(), f.component_id());
+        let Ok(MavMessage::COMMAND_LONG(c)) = f.decode() else {
+            continue;
+        };
+        commands.push((from.port(), sender, component, c.target_system, c.command));
+        // The targeted vehicle answers, to whoever asked.
+        let vehicle = usize::from(c.target_system.min(2));
+        seq[vehicle] = seq[vehicle].wrapping_add(1);
+        let ack = MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+            command: c.command,
+            result: MavResult::MAV_RESULT_ACCEPTED,
+            progress: 0,
+            result_param2: 0,
+            target_system: sender,
+            target_component: component,
+        });
+        let _ = router.send_to(&frame(c.target_system, 1, seq[vehicle], &ack), from);
+    }
+    a.stop();
+    b.stop();
+    let (a, b) = (Gateway::read("a", dir), Gateway::read("b", dir));
+    eprintln!(
+        "{test}: {:.1} s of wall time; {} commands",
+        started.elapsed().as_secs_f64(),
+        commands.len()
+    );
+
+    // A: vehicle 2 by configuration; B: vehicle 1, heard first.
+    a.only_from(2);
+    b.only_from(1);
+    assert_eq!(a.told("supervising vehicle 2 ("), 1, "A's log:\n{}", a.log);
+    assert_eq!(a.told("ignoring vehicle 1 ("), 1, "A's log:\n{}", a.log);
+    assert_eq!(
+        b.told("supervising vehicle 1 (ARDUPILOTMEGA QUADROTOR, autopilot component 1): the first autopilot heard"),
+        1,
+        "B's log:\n{}",
+        b.log
+    );
+    assert_eq!(b.told("ignoring vehicle 2 ("), 1, "B's log:\n{}", b.log);
+    let modes = |gw: &Gateway| -> Vec<String> {
+        gw.lines
+            .iter()
+            .filter(|l| l["input"] == "event" && l["event"] == "mode_changed")
+            .map(|l| l["params"]["mode"].as_str().unwrap_or("?").to_owned())
+            .collect()
+    };
+    assert_eq!(modes(&a), ["LOITER"], "{}", a.decisions());
+    assert_eq!(modes(&b), ["AUTO"], "{}", b.decisions());
+    assert!(a.fired("arm_ok"), "{}", a.decisions());
+    assert!(b.fired("arm_ok"), "{}", b.decisions());
+
+    // Every command a gateway sent went to its own vehicle, under that
+    // vehicle's id as component 191; each armed its own, once.
+    for (port, system, name) in [(port_a, 2, "A"), (port_b, 1, "B")] {
+        let sent: Vec<_> = commands.iter().filter(|c| c.0 == port).collect();
+        assert!(!sent.is_empty(), "{name} sent nothing");
+        for c in &sent {
+            assert_eq!((c.1, c.2, c.3), (system, 191, system), "{name}: {c:?}");
+        }
+        let arms = sent
+            .iter()
+            .filter(|c| c.4 == MavCmd::MAV_CMD_COMPONENT_ARM_DISARM)
+            .count();
+        assert_eq!(arms, 1, "{name} armed its vehicle once");
+    }
+}
