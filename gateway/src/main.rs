@@ -58,6 +58,17 @@ fn main() -> ExitCode {
     let _ = miette::set_hook(Box::new(move |_| {
         Box::new(miette::MietteHandlerOpts::new().wrap_lines(wrap).build())
     }));
+    // Logs (tracing) go to stderr: warnings and errors unless PETREL_LOG
+    // says otherwise (`PETREL_LOG=info`, `PETREL_LOG=gateway=debug`).
+    let filter = tracing_subscriber::EnvFilter::try_from_env("PETREL_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(wrap)
+        .without_time()
+        .with_target(false)
+        .try_init();
     let petrel = match Petrel::try_parse() {
         Ok(p) => p,
         Err(e) => {
