@@ -1000,7 +1000,9 @@ mod tests {
             hud.iter().sum::<f64>() * 0.25
         };
         let ratio = dist / s0.alt;
-        assert!((9.0..12.5).contains(&ratio), "glide ratio {ratio}");
+        // ArduPlane SITL's engine-out glide, 4.3:1 (Airframe), stretched
+        // a little by the speed traded from 22 to 15 m/s.
+        assert!((3.5..6.0).contains(&ratio), "glide ratio {ratio}");
         let texts = b.texts();
         assert!(texts.iter().any(|t| t.starts_with("SIM Hit ground")));
         assert_eq!(texts.last().unwrap(), "Crash detected. No action taken");

@@ -61,11 +61,11 @@ fn track(c: &Client, from: usize) -> (f64, f64, f64) {
 }
 
 #[test]
-fn the_glide_with_the_engine_off_follows_the_glide_ratio() {
-    for ratio in [10.0, 12.0] {
+fn the_glide_with_the_engine_failed_follows_its_glide_ratio() {
+    for ratio in [4.3, 10.0] {
         let mut c = airborne(SimConfig {
             airframe: Airframe {
-                glide_ratio: ratio,
+                failed_engine_glide_ratio: ratio,
                 ..Airframe::default()
             },
             ..SimConfig::default()
