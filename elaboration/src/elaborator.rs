@@ -85,6 +85,11 @@ struct RuleState {
     announced: bool,
     pending_since: Option<u64>,
     clearing_since: Option<u64>,
+    /// (`distinct` rules) The parameters of the last event, until re-armed.
+    last_params: Option<Params>,
+    /// (`distinct` rules) `clear` was false at some evaluation since the
+    /// last event: its becoming true re-arms the rule.
+    clear_was_false: bool,
 }
 
 #[derive(Debug)]
@@ -236,7 +241,7 @@ impl Elaborator {
                 let state = &self.sources[si].rules[r];
                 let running = state.pending_since.is_some() || state.clearing_since.is_some();
                 if (ages || running) && self.matches(&source, si) {
-                    self.evaluate(r, si, false);
+                    self.evaluate(r, si, None);
                 }
             }
         }
@@ -311,7 +316,7 @@ impl Elaborator {
             let r = self.profile.by_slot[slot][k];
             let rule = &self.profile.rules[r];
             if (decoded || !rule.reads_fields_of(slot)) && self.matches(&rule.source, si) {
-                self.evaluate(r, si, true);
+                self.evaluate(r, si, Some(slot));
             }
         }
     }
@@ -387,13 +392,67 @@ impl Elaborator {
         }
     }
 
-    fn evaluate(&mut self, r: usize, si: usize, by_message: bool) {
+    /// Evaluates rule `r` for source `si`, on a message of `trigger`'s slot
+    /// or (`None`) on a tick.
+    fn evaluate(&mut self, r: usize, si: usize, trigger: Option<usize>) {
         let profile = &self.profile;
         let rule = &profile.rules[r];
         let now = self.now;
-        if rule.each && !by_message {
+        let Some(slot) = trigger.filter(|_| rule.each) else {
+            if !rule.each {
+                self.evaluate_state(r, si);
+            }
+            return;
+        };
+        let src = &mut self.sources[si];
+        let mut cx = Cx { src, profile, now };
+        if rule.distinct {
+            // Re-armed when `clear` becomes true after the last event.
+            if let (Some(clear), true) = (&rule.clear, cx.src.rules[r].last_params.is_some()) {
+                match expr::eval(&clear.node, &mut cx).truth() {
+                    Some(false) => cx.src.rules[r].clear_was_false = true,
+                    Some(true) if cx.src.rules[r].clear_was_false => {
+                        cx.src.rules[r].last_params = None;
+                    }
+                    _ => {}
+                }
+            }
+        }
+        // An each rule fires on the messages its condition reads; one that
+        // only `clear` reads re-arms it, nothing more.
+        if !rule.fires_on(slot) {
             return;
         }
+        if expr::eval(&rule.when.node, &mut cx).truth() != Some(true) {
+            return;
+        }
+        let params = params(rule, &mut cx);
+        if rule.distinct {
+            let state = &mut cx.src.rules[r];
+            if state.last_params.as_ref() == Some(&params) {
+                return;
+            }
+            state.last_params = Some(params.clone());
+            state.clear_was_false = false;
+        }
+        let (sysid, compid) = (cx.src.sysid, cx.src.compid);
+        self.events.push_back(Elaborated {
+            time_us: now,
+            event: Event {
+                name: rule.event.clone(),
+                category: rule.category,
+                params,
+            },
+            sysid,
+            compid,
+        });
+    }
+
+    /// Evaluates a rule that is not `each`: edges, durations, clearing.
+    fn evaluate_state(&mut self, r: usize, si: usize) {
+        let profile = &self.profile;
+        let rule = &profile.rules[r];
+        let now = self.now;
         let src = &mut self.sources[si];
         let mut cx = Cx { src, profile, now };
         let cond = expr::eval(&rule.when.node, &mut cx).truth();
@@ -401,9 +460,7 @@ impl Elaborator {
         let state = &mut cx.src.rules[r];
         let mut fire = false;
         let mut clear_fire = false;
-        if rule.each {
-            fire = cond;
-        } else if !state.initialized {
+        if !state.initialized {
             state.initialized = true;
             if cond && !rule.initial {
                 state.active = true;
@@ -444,13 +501,11 @@ impl Elaborator {
             }
         }
         if fire {
-            if !rule.each {
-                let state = &mut cx.src.rules[r];
-                state.active = true;
-                state.announced = true;
-                state.pending_since = None;
-                state.clearing_since = None;
-            }
+            let state = &mut cx.src.rules[r];
+            state.active = true;
+            state.announced = true;
+            state.pending_since = None;
+            state.clearing_since = None;
             let params = params(rule, &mut cx);
             let (sysid, compid) = (cx.src.sysid, cx.src.compid);
             self.events.push_back(Elaborated {

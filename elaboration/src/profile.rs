@@ -105,6 +105,10 @@ pub struct Rule {
     /// Fire on every triggering message where the condition holds, instead
     /// of once per false-to-true change.
     pub each: bool,
+    /// (`each` rules) A message whose event carries the same parameters as
+    /// the rule's last event is a repeat, not a new occurrence, until
+    /// `clear` has become true after that event.
+    pub distinct: bool,
     pub(crate) params: Vec<(String, Compiled)>,
     pub source: SourceFilter,
     /// Evaluated on ticks (reads `age()` or has a duration).
@@ -117,6 +121,12 @@ impl Rule {
     /// The names of the parameters the rule's event carries, in order.
     pub fn param_names(&self) -> impl Iterator<Item = &str> {
         self.params.iter().map(|(name, _)| name.as_str())
+    }
+
+    /// Whether a message in `slot` can fire the rule: its condition reads
+    /// it (fields or age). A message read by `clear` only re-arms.
+    pub(crate) fn fires_on(&self, slot: usize) -> bool {
+        self.when.reads.contains(&slot) || self.when.ages.contains(&slot)
     }
 
     /// Whether the rule reads fields of the message in `slot` (not only its
@@ -333,12 +343,13 @@ struct RuleSpec {
     cleared_category: Option<Text>,
     initial: Option<bool>,
     each: Option<bool>,
+    distinct: Option<bool>,
     enabled: Option<bool>,
     source: Option<(SourceFilter, usize, Range<usize>)>,
     params: BTreeMap<String, Text>,
 }
 
-const RULE_KEYS: &str = "event, category, when, clear, for, clear_for, cleared, cleared_category, initial, each, enabled, source, params";
+const RULE_KEYS: &str = "event, category, when, clear, for, clear_for, cleared, cleared_category, initial, each, distinct, enabled, source, params";
 
 fn read_layer(
     loc: &Locator,
@@ -435,6 +446,7 @@ fn read_rule(loc: &Locator, table: &DeTable, spec: &mut RuleSpec, problems: &mut
             "cleared_category" => spec.cleared_category = text_of(loc, v, k, problems),
             "initial" => spec.initial = bool_of(loc, v, k, problems),
             "each" => spec.each = bool_of(loc, v, k, problems),
+            "distinct" => spec.distinct = bool_of(loc, v, k, problems),
             "enabled" => spec.enabled = bool_of(loc, v, k, problems),
             "source" => {
                 if let Some(s) = read_source(loc, v, problems) {
@@ -681,6 +693,20 @@ impl Builder {
                 ));
             }
         }
+        let each = spec.each.unwrap_or(false);
+        let distinct = spec.distinct.unwrap_or(false);
+        if distinct && !each {
+            problems.push(decl.problem(
+                decl_span.clone(),
+                format!("rule `{key}`: `distinct` applies to `each` rules only (a rule without `each` fires once until `clear` anyway)"),
+            ));
+        }
+        if each && !distinct && spec.clear.is_some() {
+            problems.push(decl.problem(
+                decl_span.clone(),
+                format!("rule `{key}`: `clear` on an `each` rule needs `distinct = true` (it re-arms a distinct rule)"),
+            ));
+        }
         if problems.len() > before {
             return None;
         }
@@ -698,7 +724,8 @@ impl Builder {
             clear_for_us,
             cleared,
             initial: spec.initial.unwrap_or(true),
-            each: spec.each.unwrap_or(false),
+            each,
+            distinct,
             params,
             source: spec
                 .source
@@ -833,6 +860,22 @@ mod tests {
                 "user.toml:6:13",
                 "user.toml:7:7"
             ],
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn distinct_needs_each_and_clear_on_each_needs_distinct() {
+        let text = "[rules.a]\ncategory = \"nominal\"\nwhen = \"true\"\ndistinct = true\n\n[rules.b]\ncategory = \"nominal\"\neach = true\nwhen = \"true\"\nclear = \"false\"\n";
+        let err = Profile::load(&[("x.toml", text)]).expect_err("invalid");
+        let lines: Vec<usize> = err.problems.iter().map(|p| p.line).collect();
+        assert_eq!(lines, [1, 6], "{err}");
+        assert!(
+            err.problems[0].message.contains("`each` rules only"),
+            "{err}"
+        );
+        assert!(
+            err.problems[1].message.contains("needs `distinct = true`"),
             "{err}"
         );
     }

@@ -512,9 +512,15 @@ fn builtin_ardupilot_safety_and_catastrophic_rules() {
                 "autopilot_failsafe {text: \"Radio Failsafe\"}".into()
             ),
             (15 * S, "engine_failure".into()),
+            // ArduPilot's own judgement (CRITICAL, so low too) after the
+            // capacity rules: one event from each source.
             (
                 16 * S,
-                "battery_critical {charge_state: 3, remaining: 7}".into()
+                "battery_low {charge_state: \"CRITICAL\", remaining: 7}".into()
+            ),
+            (
+                16 * S,
+                "battery_critical {charge_state: \"CRITICAL\", remaining: 7}".into()
             ),
             (17 * S, "vehicle_emergency {system_status: 6}".into()),
         ]
