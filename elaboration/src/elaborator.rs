@@ -85,8 +85,9 @@ struct RuleState {
     announced: bool,
     pending_since: Option<u64>,
     clearing_since: Option<u64>,
-    /// (`distinct` rules) The parameters of the last event, until re-armed.
-    last_params: Option<Params>,
+    /// (`distinct` rules) The parameters of the last events (the most
+    /// recent last), until re-armed.
+    last_params: Vec<Params>,
     /// (`distinct` rules) `clear` was false at some evaluation since the
     /// last event: its becoming true re-arms the rule.
     clear_was_false: bool,
@@ -406,13 +407,13 @@ impl Elaborator {
         };
         let src = &mut self.sources[si];
         let mut cx = Cx { src, profile, now };
-        if rule.distinct {
+        if rule.distinct > 0 {
             // Re-armed when `clear` becomes true after the last event.
-            if let (Some(clear), true) = (&rule.clear, cx.src.rules[r].last_params.is_some()) {
+            if let (Some(clear), false) = (&rule.clear, cx.src.rules[r].last_params.is_empty()) {
                 match expr::eval(&clear.node, &mut cx).truth() {
                     Some(false) => cx.src.rules[r].clear_was_false = true,
                     Some(true) if cx.src.rules[r].clear_was_false => {
-                        cx.src.rules[r].last_params = None;
+                        cx.src.rules[r].last_params.clear();
                     }
                     _ => {}
                 }
@@ -427,12 +428,15 @@ impl Elaborator {
             return;
         }
         let params = params(rule, &mut cx);
-        if rule.distinct {
+        if rule.distinct > 0 {
             let state = &mut cx.src.rules[r];
-            if state.last_params.as_ref() == Some(&params) {
+            if state.last_params.contains(&params) {
                 return;
             }
-            state.last_params = Some(params.clone());
+            if state.last_params.len() >= rule.distinct {
+                state.last_params.remove(0);
+            }
+            state.last_params.push(params.clone());
             state.clear_was_false = false;
         }
         let (sysid, compid) = (cx.src.sysid, cx.src.compid);

@@ -105,10 +105,12 @@ pub struct Rule {
     /// Fire on every triggering message where the condition holds, instead
     /// of once per false-to-true change.
     pub each: bool,
-    /// (`each` rules) A message whose event carries the same parameters as
-    /// the rule's last event is a repeat, not a new occurrence, until
-    /// `clear` has become true after that event.
-    pub distinct: bool,
+    /// (`each` rules) How many of the rule's last events (with distinct
+    /// parameters) are remembered: a message whose event carries the same
+    /// parameters as one of them is a repeat, not a new occurrence, until
+    /// `clear` has become true after the last event. 0: every message is
+    /// an occurrence.
+    pub distinct: usize,
     pub(crate) params: Vec<(String, Compiled)>,
     pub source: SourceFilter,
     /// Evaluated on ticks (reads `age()` or has a duration).
@@ -343,7 +345,7 @@ struct RuleSpec {
     cleared_category: Option<Text>,
     initial: Option<bool>,
     each: Option<bool>,
-    distinct: Option<bool>,
+    distinct: Option<usize>,
     enabled: Option<bool>,
     source: Option<(SourceFilter, usize, Range<usize>)>,
     params: BTreeMap<String, Text>,
@@ -446,7 +448,7 @@ fn read_rule(loc: &Locator, table: &DeTable, spec: &mut RuleSpec, problems: &mut
             "cleared_category" => spec.cleared_category = text_of(loc, v, k, problems),
             "initial" => spec.initial = bool_of(loc, v, k, problems),
             "each" => spec.each = bool_of(loc, v, k, problems),
-            "distinct" => spec.distinct = bool_of(loc, v, k, problems),
+            "distinct" => spec.distinct = distinct_of(loc, v, problems),
             "enabled" => spec.enabled = bool_of(loc, v, k, problems),
             "source" => {
                 if let Some(s) = read_source(loc, v, problems) {
@@ -472,6 +474,29 @@ fn read_rule(loc: &Locator, table: &DeTable, spec: &mut RuleSpec, problems: &mut
         }
     }
 }
+
+/// `distinct = true` (the last event), `false`, or how many events (1-64).
+fn distinct_of(loc: &Locator, v: &Spanned<DeValue>, problems: &mut Vec<Problem>) -> Option<usize> {
+    if let Some(b) = v.get_ref().as_bool() {
+        return Some(usize::from(b));
+    }
+    let n = v
+        .get_ref()
+        .as_integer()
+        .and_then(|i| i64::from_str_radix(i.as_str(), i.radix()).ok())
+        .and_then(|i| usize::try_from(i).ok())
+        .filter(|n| (1..=MAX_DISTINCT).contains(n));
+    if n.is_none() {
+        problems.push(loc.problem(
+            v.span(),
+            format!("`distinct` must be true, false or how many events to remember (1 to {MAX_DISTINCT})"),
+        ));
+    }
+    n
+}
+
+/// The most events a `distinct` rule remembers.
+pub const MAX_DISTINCT: usize = 64;
 
 fn read_source(
     loc: &Locator,
@@ -694,14 +719,14 @@ impl Builder {
             }
         }
         let each = spec.each.unwrap_or(false);
-        let distinct = spec.distinct.unwrap_or(false);
-        if distinct && !each {
+        let distinct = spec.distinct.unwrap_or(0);
+        if distinct > 0 && !each {
             problems.push(decl.problem(
                 decl_span.clone(),
                 format!("rule `{key}`: `distinct` applies to `each` rules only (a rule without `each` fires once until `clear` anyway)"),
             ));
         }
-        if each && !distinct && spec.clear.is_some() {
+        if each && distinct == 0 && spec.clear.is_some() {
             problems.push(decl.problem(
                 decl_span.clone(),
                 format!("rule `{key}`: `clear` on an `each` rule needs `distinct = true` (it re-arms a distinct rule)"),
@@ -866,10 +891,14 @@ mod tests {
 
     #[test]
     fn distinct_needs_each_and_clear_on_each_needs_distinct() {
-        let text = "[rules.a]\ncategory = \"nominal\"\nwhen = \"true\"\ndistinct = true\n\n[rules.b]\ncategory = \"nominal\"\neach = true\nwhen = \"true\"\nclear = \"false\"\n";
+        let text = "[rules.a]\ncategory = \"nominal\"\nwhen = \"true\"\ndistinct = true\n\n[rules.b]\ncategory = \"nominal\"\neach = true\nwhen = \"true\"\nclear = \"false\"\n\n[rules.c]\ncategory = \"nominal\"\neach = true\nwhen = \"true\"\ndistinct = 65\n";
         let err = Profile::load(&[("x.toml", text)]).expect_err("invalid");
         let lines: Vec<usize> = err.problems.iter().map(|p| p.line).collect();
-        assert_eq!(lines, [1, 6], "{err}");
+        assert_eq!(lines, [1, 6, 16], "{err}");
+        assert!(err.problems[2].message.contains("1 to 64"), "{err}");
+        let ok = "[rules.c]\ncategory = \"nominal\"\neach = true\nwhen = \"true\"\ndistinct = 16\n";
+        let p = Profile::load(&[("x.toml", ok)]).expect("valid");
+        assert_eq!(p.rules()[0].distinct, 16);
         assert!(
             err.problems[0].message.contains("`each` rules only"),
             "{err}"
