@@ -9,7 +9,9 @@
 //! windows that allow it over the whole flight.
 //!
 //! One copter boot carries the failures one after another, one plane boot
-//! ends with its engine out; the two run side by side (instances 3 and 4).
+//! flies an AUTO mission with MISSION_ITEM_REACHED requested as a stream
+//! and ends with its engine out; the two run side by side (instances 3
+//! and 4).
 //! The tlogs stay in the test's scratch folder, printed.
 
 #[path = "real_failures/flight.rs"]
@@ -23,6 +25,10 @@ use flight::Link;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use serde_json::Value;
 use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
+
+use mavlink::dialects::ardupilotmega::{
+    MavFrame, MavMissionType, MavResult, MISSION_ITEM_INT_DATA,
+};
 
 /// Simulated seconds per wall second.
 const SPEEDUP: u32 = 8;
@@ -405,14 +411,69 @@ fn copter_failures_one_after_another() {
 
 // ------------------------------------------------------------ plane
 
-const TAKEOFF: u32 = 13;
-const CRUISE: u32 = 7;
+const AUTO: u32 = 10;
+/// SITL's home (sitl_tests::ardupilot::Options' default).
+const HOME: (f64, f64) = (-35.363261, 149.165230);
 
+/// A mission item at `north`, `east` metres from home, `alt` above it.
+fn item(command: MavCmd, north: f64, east: f64, alt: f32, param1: f32) -> MISSION_ITEM_INT_DATA {
+    let lat = HOME.0 + north / 111_320.0;
+    let lon = HOME.1 + east / (111_320.0 * HOME.0.to_radians().cos());
+    MISSION_ITEM_INT_DATA {
+        param1,
+        x: (lat * 1e7) as i32,
+        y: (lon * 1e7) as i32,
+        z: alt,
+        command,
+        target_system: 1,
+        target_component: 1,
+        frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+        autocontinue: 1,
+        mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+        ..MISSION_ITEM_INT_DATA::DEFAULT
+    }
+}
+
+/// An AUTO mission with MISSION_ITEM_REACHED requested as a stream (the
+/// gateway's mistake that real ArduPlane answers with its last reach
+/// every period, 65535 before any); the engine out at cruise on the
+/// third leg.
 fn fly_plane(link: &mut Link) -> Result<Vec<Window>, String> {
-    link.arm(TAKEOFF, 120.0, |_| Ok(()))?;
-    link.wait("climbed to 40 m", 60.0, |s| s.altitude > 40.0)?;
-    link.mode(CRUISE)?;
-    link.hold(10.0)?;
+    use MavCmd::*;
+    let mut home = item(MAV_CMD_NAV_WAYPOINT, 0.0, 0.0, 0.0, 0.0);
+    home.frame = MavFrame::MAV_FRAME_GLOBAL;
+    let mission = [
+        home,
+        item(MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, 50.0, 15.0),
+        item(MAV_CMD_NAV_WAYPOINT, 400.0, 0.0, 60.0, 0.0),
+        item(MAV_CMD_NAV_WAYPOINT, 400.0, 400.0, 60.0, 0.0),
+        item(MAV_CMD_NAV_WAYPOINT, 0.0, 400.0, 60.0, 0.0),
+        item(MAV_CMD_NAV_WAYPOINT, 0.0, 0.0, 60.0, 0.0),
+    ];
+    // Right after boot ArduPlane answers NO_SPACE until its mission
+    // storage is ready.
+    let mut uploaded = link.upload_mission(&mission);
+    for _ in 0..10 {
+        if uploaded.is_ok() {
+            break;
+        }
+        link.hold(2.0)?;
+        uploaded = link.upload_mission(&mission);
+    }
+    uploaded?;
+    // MISSION_ITEM_REACHED (46) every 250 ms.
+    let interval = link.command(
+        MAV_CMD_SET_MESSAGE_INTERVAL,
+        [46.0, 250_000.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    )?;
+    if interval != MavResult::MAV_RESULT_ACCEPTED {
+        return Err(format!(
+            "SET_MESSAGE_INTERVAL MISSION_ITEM_REACHED: {interval:?}"
+        ));
+    }
+    link.arm(AUTO, 120.0, |_| Ok(()))?;
+    link.wait("waypoint 3 reached", 120.0, |s| s.reached.contains(&3))?;
+    link.hold(3.0)?;
     // The engine out at cruise: servo 3 (the throttle) at no thrust
     // (ArduPilot 4.7: SIM_ENGINE_FAIL is a mask of outputs).
     let from = link.now_us();
@@ -447,6 +508,7 @@ fn plane_engine_out_at_cruise() {
     let flown = fly_plane(&mut link);
     let texts = std::mem::take(&mut link.said.texts);
     let recorded = link.recorded;
+    let (reached_frames, reached) = (link.said.reached_frames, link.said.reached.clone());
     fly_or_panic(&sitl, "plane tlog", link.finish());
     sitl.stop();
     let windows = fly_or_panic(&sitl, "plane flight", flown);
@@ -459,6 +521,30 @@ fn plane_engine_out_at_cruise() {
     eprintln!("{}", timeline(&events));
     check(&events, &windows);
     prearm_reasons_are_the_vehicles(&events, &texts);
+    // Each item reached once, though ArduPlane re-sent its last reach
+    // (65535 before any) four times a second.
+    let items: Vec<u64> = events
+        .iter()
+        .filter(|e| e.name == "mission_item_reached")
+        .map(|e| e.params["seq"].as_u64().unwrap_or(u64::MAX))
+        .collect();
+    eprintln!("plane: {reached_frames} MISSION_ITEM_REACHED frames, seqs {reached:?}");
+    assert_eq!(
+        reached.first(),
+        Some(&65535),
+        "the stream starts with 65535"
+    );
+    assert!(
+        reached_frames > 40,
+        "{reached_frames} MISSION_ITEM_REACHED frames"
+    );
+    let want: Vec<u64> = reached
+        .iter()
+        .filter(|s| **s != 65535)
+        .map(|s| u64::from(*s))
+        .collect();
+    assert!(want.starts_with(&[1, 2, 3]), "{reached:?}");
+    assert_eq!(items, want, "one mission_item_reached per reach");
     eprintln!(
         "plane: done in {:.1} s wall",
         started.elapsed().as_secs_f64()

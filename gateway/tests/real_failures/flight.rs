@@ -38,6 +38,13 @@ pub struct Said {
     pub params: HashMap<String, f32>,
     /// (command, result) of every COMMAND_ACK.
     pub acks: Vec<(MavCmd, MavResult)>,
+    /// The mission items the vehicle asked for, in order.
+    pub mission_requests: Vec<u16>,
+    pub mission_ack: Option<MavMissionResult>,
+    /// MISSION_ITEM_REACHED frames received (repeats included).
+    pub reached_frames: u64,
+    /// The seq of every MISSION_ITEM_REACHED frame, changes only.
+    pub reached: Vec<u16>,
 }
 
 pub struct Link {
@@ -239,6 +246,16 @@ impl Link {
                 said.params.insert(name, d.param_value);
             }
             MavMessage::COMMAND_ACK(d) => said.acks.push((d.command, d.result)),
+            MavMessage::MISSION_REQUEST_INT(d) => said.mission_requests.push(d.seq),
+            #[allow(deprecated)]
+            MavMessage::MISSION_REQUEST(d) => said.mission_requests.push(d.seq),
+            MavMessage::MISSION_ACK(d) => said.mission_ack = Some(d.mavtype),
+            MavMessage::MISSION_ITEM_REACHED(d) => {
+                said.reached_frames += 1;
+                if said.reached.last() != Some(&d.seq) {
+                    said.reached.push(d.seq);
+                }
+            }
             _ => {}
         }
         Ok(())
@@ -400,6 +417,39 @@ impl Link {
             self.hold(2.0)?;
         }
         after(self)
+    }
+
+    /// Uploads a mission (item 0 is home) and waits for its MISSION_ACK.
+    pub fn upload_mission(&mut self, items: &[MISSION_ITEM_INT_DATA]) -> Result<(), String> {
+        self.said.mission_requests.clear();
+        self.said.mission_ack = None;
+        self.send(MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+            count: items.len() as u16,
+            target_system: 1,
+            target_component: 1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+            opaque_id: 0,
+        }))?;
+        let mut sent = 0;
+        while self.said.mission_ack.is_none() {
+            self.wait("a mission request or ack", 10.0, |s| {
+                s.mission_requests.len() > sent || s.mission_ack.is_some()
+            })?;
+            while sent < self.said.mission_requests.len() {
+                let seq = usize::from(self.said.mission_requests[sent]);
+                sent += 1;
+                let item = items
+                    .get(seq)
+                    .ok_or_else(|| format!("the vehicle asked for mission item {seq}"))?;
+                let mut item = item.clone();
+                item.seq = seq as u16;
+                self.send(MavMessage::MISSION_ITEM_INT(item))?;
+            }
+        }
+        match self.said.mission_ack {
+            Some(MavMissionResult::MAV_MISSION_ACCEPTED) => Ok(()),
+            other => Err(format!("mission refused: {other:?}")),
+        }
     }
 
     /// The texts the vehicle said between two vehicle times.
