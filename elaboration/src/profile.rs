@@ -282,6 +282,52 @@ impl Profile {
         self.slots.iter().map(|s| s.id).collect()
     }
 
+    /// The ids of the messages to ask the autopilot for at a rate: those
+    /// whose values the rules read as a state (conditions of rules without
+    /// `each`, any `clear`, parameters). A message only an `each` rule's
+    /// condition reads (STATUSTEXT, COMMAND_ACK, MISSION_ITEM_REACHED) is
+    /// an event the autopilot sends on its own: requested as a stream,
+    /// ArduPilot re-sends its last one every period.
+    pub fn telemetry(&self) -> Vec<u32> {
+        let mut state = vec![false; self.slots.len()];
+        state[HEARTBEAT_SLOT] = true;
+        let mut mark = |slots: &[usize]| {
+            for &s in slots {
+                if let Some(x) = state.get_mut(s) {
+                    *x = true;
+                }
+            }
+        };
+        for r in &self.rules {
+            if !r.each {
+                mark(&r.when.reads);
+                mark(&r.when.ages);
+            }
+            // What an each rule's clear and parameters read of its own
+            // triggering message is that event, not a state.
+            let states = |slots: &[usize]| -> Vec<usize> {
+                slots
+                    .iter()
+                    .copied()
+                    .filter(|s| !(r.each && r.when.reads.contains(s)))
+                    .collect()
+            };
+            if let Some(c) = &r.clear {
+                mark(&states(&c.reads));
+                mark(&c.ages);
+            }
+            for (_, p) in &r.params {
+                mark(&states(&p.reads));
+            }
+        }
+        self.slots
+            .iter()
+            .zip(state)
+            .filter(|(_, state)| *state)
+            .map(|(s, _)| s.id)
+            .collect()
+    }
+
     /// The names of the events this profile can produce.
     pub fn event_names(&self) -> Vec<&str> {
         let mut v: Vec<&str> = self
@@ -907,6 +953,26 @@ mod tests {
             err.problems[1].message.contains("needs `distinct = true`"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn telemetry_leaves_out_the_messages_that_are_events() {
+        for name in ["ardupilot", "px4"] {
+            let p = Profile::builtin(name).expect("profile");
+            let telemetry = p.telemetry();
+            // STATUSTEXT, COMMAND_ACK, MISSION_ITEM_REACHED: read, not streamed.
+            for event in [253, 77, 46] {
+                assert!(p.messages().contains(&event), "{name} reads {event}");
+                assert!(!telemetry.contains(&event), "{name} streams {event}");
+            }
+            // HEARTBEAT, SYS_STATUS, GPS_RAW_INT, MISSION_CURRENT, BATTERY_STATUS.
+            for state in [0, 1, 24, 42, 147] {
+                assert!(telemetry.contains(&state), "{name} does not stream {state}");
+            }
+        }
+        let p = Profile::builtin("ardupilot").expect("profile");
+        // SERVO_OUTPUT_RAW (motor_imbalance), FENCE_STATUS (geofence_breach).
+        assert!(p.telemetry().contains(&36) && p.telemetry().contains(&162));
     }
 
     #[test]

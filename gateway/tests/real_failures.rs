@@ -120,6 +120,7 @@ fn check(events: &[Event], windows: &[Window]) {
         })
         .collect::<Vec<_>>()
         .join("\n");
+    eprintln!("windows:\n{windows_text}");
     for w in windows {
         for name in w.expect {
             assert!(

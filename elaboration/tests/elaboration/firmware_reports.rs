@@ -112,9 +112,14 @@ fn a_prearm_failure_is_said_once_per_reason_until_the_vehicle_was_ready() {
         40 * S,
         text("Arm: DO_LAND_START set and RTL_AUTOLAND disable"),
     );
-    // Another reason is news; the first one again after it is news too.
+    // Another reason is news. ArduPilot gives several reasons in turn at
+    // each attempt (real ArduCopter SITL at boot): each once.
     r.send(70 * S, text("PreArm: Need Position Estimate"));
-    r.send(80 * S, text("PreArm: Need Position Estimate"));
+    for attempt in 0..5u64 {
+        let t = 72 * S + attempt * S;
+        r.send(t, text("Arm: DO_LAND_START set and RTL_AUTOLAND disable"));
+        r.send(t + MS, text("PreArm: Need Position Estimate"));
+    }
     // Ready in between (the pre-arm bit healthy): the same reason again is
     // a new occurrence.
     r.send(90 * S, prearm(true, 100, 12600));
@@ -457,4 +462,93 @@ fn motor_imbalance_from_one_output_far_above_the_others() {
         r.send(t + MS, servos([1400, 1000, 1000, 1000]));
     }
     assert_eq!(r.only(&["motor_imbalance"]), []);
+}
+
+fn sensors(
+    present: MavSysStatusSensor,
+    enabled: MavSysStatusSensor,
+    healthy: MavSysStatusSensor,
+) -> MavMessage {
+    let mut d = SYS_STATUS_DATA::DEFAULT;
+    d.onboard_control_sensors_present = present;
+    d.onboard_control_sensors_enabled = enabled;
+    d.onboard_control_sensors_health = healthy;
+    d.battery_remaining = 90;
+    MavMessage::SYS_STATUS(d)
+}
+
+/// Real ArduCopter 4.7 with its fence on and breached reports the geofence
+/// present but not enabled, and unhealthy; FENCE_STATUS says it plainly.
+#[test]
+fn geofence_breach_from_fence_status_or_the_health_bit() {
+    let fence = MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE;
+    let none = MavSysStatusSensor::empty();
+    let fence_status = |breached: bool| {
+        let mut d = FENCE_STATUS_DATA::DEFAULT;
+        d.breach_status = u8::from(breached);
+        d.breach_count = 1;
+        d.breach_type = if breached {
+            FenceBreach::FENCE_BREACH_MAXALT
+        } else {
+            FenceBreach::FENCE_BREACH_NONE
+        };
+        MavMessage::FENCE_STATUS(d)
+    };
+    // Without FENCE_STATUS: present, not enabled, unhealthy from 3 s to 6 s.
+    let mut r = Run::new("ardupilot");
+    r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+    for t in 0..10u64 {
+        let healthy = if (3..6).contains(&t) { none } else { fence };
+        r.send(t * S + MS, sensors(fence, none, healthy));
+    }
+    assert_eq!(
+        r.only(&["geofence_breach"]),
+        [(3 * S + MS, "geofence_breach".to_string())]
+    );
+    // With FENCE_STATUS it decides, and names the breach.
+    let mut r = Run::new("ardupilot");
+    r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+    for t in 0..10u64 {
+        let breached = (3..6).contains(&t);
+        r.send(
+            t * S + MS,
+            sensors(fence, none, if breached { none } else { fence }),
+        );
+        r.send(t * S + 2 * MS, fence_status(breached));
+    }
+    assert_eq!(
+        r.only(&["geofence_breach"]),
+        [(
+            3 * S + 2 * MS,
+            "geofence_breach {breach: \"MAXALT\"}".to_string()
+        )]
+    );
+}
+
+/// ArduCopter 4.7 says "Radio Failsafe - Continuing Guided Mode" and clears
+/// SYS_STATUS's RC receiver health: one rc_lost, from SYS_STATUS. Where
+/// SYS_STATUS does not report the receiver, the text says it.
+#[test]
+fn one_rc_lost_per_loss() {
+    let rc = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_RC_RECEIVER;
+    let none = MavSysStatusSensor::empty();
+    let mut r = Run::new("ardupilot");
+    r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+    for t in 0..10u64 {
+        let healthy = if t >= 3 { none } else { rc };
+        r.send(t * S + MS, sensors(rc, rc, healthy));
+        if t == 3 {
+            r.send(
+                t * S + 2 * MS,
+                text("Radio Failsafe - Continuing Guided Mode"),
+            );
+        }
+    }
+    assert_eq!(r.only(&["rc_lost"]), [(4 * S + MS, "rc_lost".to_string())]);
+    let mut r = Run::new("ardupilot");
+    r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+    r.send(MS, sensors(none, none, none));
+    r.send(S, text("Radio Failsafe - Continuing Guided Mode"));
+    r.send(2 * S, text("Radio Failsafe Cleared"));
+    assert_eq!(r.only(&["rc_lost"]), [(S, "rc_lost".to_string())]);
 }
