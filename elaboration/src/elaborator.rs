@@ -407,16 +407,19 @@ impl Elaborator {
         };
         let src = &mut self.sources[si];
         let mut cx = Cx { src, profile, now };
-        if rule.distinct > 0 {
-            // Re-armed when `clear` becomes true after the last event.
-            if let (Some(clear), false) = (&rule.clear, cx.src.rules[r].last_params.is_empty()) {
-                match expr::eval(&clear.node, &mut cx).truth() {
-                    Some(false) => cx.src.rules[r].clear_was_false = true,
-                    Some(true) if cx.src.rules[r].clear_was_false => {
-                        cx.src.rules[r].last_params.clear();
-                    }
-                    _ => {}
+        // Re-armed when `clear` becomes true after having been false at or
+        // since the last event.
+        let mut clear_now = None;
+        if let (true, Some(clear)) = (rule.distinct > 0, &rule.clear) {
+            clear_now = expr::eval(&clear.node, &mut cx).truth();
+            let state = &mut cx.src.rules[r];
+            match clear_now {
+                Some(false) => state.clear_was_false = true,
+                Some(true) if state.clear_was_false => {
+                    state.last_params.clear();
+                    state.clear_was_false = false;
                 }
+                _ => {}
             }
         }
         // An each rule fires on the messages its condition reads; one that
@@ -437,7 +440,8 @@ impl Elaborator {
                 state.last_params.remove(0);
             }
             state.last_params.push(params.clone());
-            state.clear_was_false = false;
+            // `clear` false at this very message counts as "since".
+            state.clear_was_false = clear_now == Some(false);
         }
         let (sysid, compid) = (cx.src.sysid, cx.src.compid);
         self.events.push_back(Elaborated {

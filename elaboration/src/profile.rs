@@ -108,7 +108,8 @@ pub struct Rule {
     /// (`each` rules) How many of the rule's last events (with distinct
     /// parameters) are remembered: a message whose event carries the same
     /// parameters as one of them is a repeat, not a new occurrence, until
-    /// `clear` has become true after the last event. 0: every message is
+    /// `clear` becomes true after having been false at the last event or
+    /// since. 0: every message is
     /// an occurrence.
     pub distinct: usize,
     pub(crate) params: Vec<(String, Compiled)>,
