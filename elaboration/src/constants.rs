@@ -12,15 +12,44 @@ use num_traits::FromPrimitive;
 /// Enum values are looked for in `0..ENUM_SCAN` (MAV_CMD in `0..=u16::MAX`).
 const ENUM_SCAN: u32 = 2048;
 
+/// Every name of the dialect with its value, and each enum's values with
+/// their names (without the enum's prefix) under the enum's MAVLink name.
+struct Tables {
+    values: HashMap<String, i64>,
+    enums: HashMap<String, HashMap<i64, String>>,
+}
+
+/// `MavBatteryChargeState` -> `MAV_BATTERY_CHARGE_STATE`.
+fn mavlink_enum_name(rust: &str) -> String {
+    let mut out = String::with_capacity(rust.len() + 4);
+    for (i, c) in rust.chars().enumerate() {
+        if c.is_ascii_uppercase() && i > 0 {
+            out.push('_');
+        }
+        out.push(c.to_ascii_uppercase());
+    }
+    out
+}
+
 fn table() -> &'static HashMap<String, i64> {
-    static TABLE: OnceLock<HashMap<String, i64>> = OnceLock::new();
-    TABLE.get_or_init(|| {
+    &tables().values
+}
+
+fn tables() -> &'static Tables {
+    static TABLES: OnceLock<Tables> = OnceLock::new();
+    TABLES.get_or_init(|| {
         let mut t = HashMap::new();
+        let mut enums_by_name: HashMap<String, HashMap<i64, String>> = HashMap::new();
         macro_rules! enums {
             ($($ty:ident),* $(,)?) => {$(
+                let enum_name = mavlink_enum_name(stringify!($ty));
+                let prefix = format!("{enum_name}_");
+                let names = enums_by_name.entry(enum_name).or_default();
                 for v in 0..ENUM_SCAN {
                     if let Some(e) = <$ty as FromPrimitive>::from_u32(v) {
-                        t.insert(format!("{e:?}"), v as i64);
+                        let name = format!("{e:?}");
+                        names.insert(v as i64, name.strip_prefix(&prefix).unwrap_or(&name).to_owned());
+                        t.insert(name, v as i64);
                     }
                 }
             )*};
@@ -250,13 +279,29 @@ fn table() -> &'static HashMap<String, i64> {
             UtmDataAvailFlags,
             VideoStreamStatusFlags,
         );
+        let commands = enums_by_name.entry("MAV_CMD".to_owned()).or_default();
         for v in ENUM_SCAN..=u16::MAX as u32 {
             if let Some(e) = MavCmd::from_u32(v) {
-                t.insert(format!("{e:?}"), v as i64);
+                let name = format!("{e:?}");
+                commands.insert(
+                    v as i64,
+                    name.strip_prefix("MAV_CMD_").unwrap_or(&name).to_owned(),
+                );
+                t.insert(name, v as i64);
             }
         }
-        t
+        Tables {
+            values: t,
+            enums: enums_by_name,
+        }
     })
+}
+
+/// The values of an enum of the dialect, by its MAVLink name (`MAV_CMD`,
+/// `MAV_RESULT`), each with its name without the enum's prefix
+/// (`SET_MESSAGE_INTERVAL`, `DENIED`).
+pub fn enum_names(name: &str) -> Option<&'static HashMap<i64, String>> {
+    tables().enums.get(name)
 }
 
 /// The value of an enum entry or flag of the dialect, by its MAVLink name.
@@ -397,6 +442,33 @@ mod tests {
         assert_eq!(value("GPS_FIX_TYPE_3D_FIX"), Some(3));
         assert_eq!(value("EKF_UNINITIALIZED"), Some(1024));
         assert_eq!(value("NOT_A_NAME"), None);
+    }
+
+    #[test]
+    fn enum_values_have_names_without_their_prefix() {
+        let cmd = enum_names("MAV_CMD").expect("MAV_CMD");
+        assert_eq!(
+            cmd.get(&511).map(String::as_str),
+            Some("SET_MESSAGE_INTERVAL")
+        );
+        assert_eq!(
+            cmd.get(&400).map(String::as_str),
+            Some("COMPONENT_ARM_DISARM")
+        );
+        // Beyond the scan of the other enums.
+        assert_eq!(cmd.get(&42600).map(String::as_str), Some("DO_WINCH"));
+        let result = enum_names("MAV_RESULT").expect("MAV_RESULT");
+        assert_eq!(result.get(&2).map(String::as_str), Some("DENIED"));
+        let charge = enum_names("MAV_BATTERY_CHARGE_STATE").expect("charge state");
+        assert_eq!(charge.get(&2).map(String::as_str), Some("LOW"));
+        assert_eq!(
+            enum_names("GPS_FIX_TYPE")
+                .and_then(|t| t.get(&3))
+                .map(String::as_str),
+            Some("3D_FIX")
+        );
+        assert!(enum_names("NOT_AN_ENUM").is_none());
+        assert_eq!(mavlink_enum_name("MavOdidUaType"), "MAV_ODID_UA_TYPE");
     }
 
     #[test]

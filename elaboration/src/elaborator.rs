@@ -85,6 +85,12 @@ struct RuleState {
     announced: bool,
     pending_since: Option<u64>,
     clearing_since: Option<u64>,
+    /// (`distinct` rules) The parameters of the last events (the most
+    /// recent last), until re-armed.
+    last_params: Vec<Params>,
+    /// (`distinct` rules) `clear` was false at some evaluation since the
+    /// last event: its becoming true re-arms the rule.
+    clear_was_false: bool,
 }
 
 #[derive(Debug)]
@@ -236,7 +242,7 @@ impl Elaborator {
                 let state = &self.sources[si].rules[r];
                 let running = state.pending_since.is_some() || state.clearing_since.is_some();
                 if (ages || running) && self.matches(&source, si) {
-                    self.evaluate(r, si, false);
+                    self.evaluate(r, si, None);
                 }
             }
         }
@@ -311,7 +317,7 @@ impl Elaborator {
             let r = self.profile.by_slot[slot][k];
             let rule = &self.profile.rules[r];
             if (decoded || !rule.reads_fields_of(slot)) && self.matches(&rule.source, si) {
-                self.evaluate(r, si, true);
+                self.evaluate(r, si, Some(slot));
             }
         }
     }
@@ -387,13 +393,74 @@ impl Elaborator {
         }
     }
 
-    fn evaluate(&mut self, r: usize, si: usize, by_message: bool) {
+    /// Evaluates rule `r` for source `si`, on a message of `trigger`'s slot
+    /// or (`None`) on a tick.
+    fn evaluate(&mut self, r: usize, si: usize, trigger: Option<usize>) {
         let profile = &self.profile;
         let rule = &profile.rules[r];
         let now = self.now;
-        if rule.each && !by_message {
+        let Some(slot) = trigger.filter(|_| rule.each) else {
+            if !rule.each {
+                self.evaluate_state(r, si);
+            }
+            return;
+        };
+        let src = &mut self.sources[si];
+        let mut cx = Cx { src, profile, now };
+        // Re-armed when `clear` becomes true after having been false at or
+        // since the last event.
+        let mut clear_now = None;
+        if let (true, Some(clear)) = (rule.distinct > 0, &rule.clear) {
+            clear_now = expr::eval(&clear.node, &mut cx).truth();
+            let state = &mut cx.src.rules[r];
+            match clear_now {
+                Some(false) => state.clear_was_false = true,
+                Some(true) if state.clear_was_false => {
+                    state.last_params.clear();
+                    state.clear_was_false = false;
+                }
+                _ => {}
+            }
+        }
+        // An each rule fires on the messages its condition reads; one that
+        // only `clear` reads re-arms it, nothing more.
+        if !rule.fires_on(slot) {
             return;
         }
+        if expr::eval(&rule.when.node, &mut cx).truth() != Some(true) {
+            return;
+        }
+        let params = params(rule, &mut cx);
+        if rule.distinct > 0 {
+            let state = &mut cx.src.rules[r];
+            if state.last_params.contains(&params) {
+                return;
+            }
+            if state.last_params.len() >= rule.distinct {
+                state.last_params.remove(0);
+            }
+            state.last_params.push(params.clone());
+            // `clear` false at this very message counts as "since".
+            state.clear_was_false = clear_now == Some(false);
+        }
+        let (sysid, compid) = (cx.src.sysid, cx.src.compid);
+        self.events.push_back(Elaborated {
+            time_us: now,
+            event: Event {
+                name: rule.event.clone(),
+                category: rule.category,
+                params,
+            },
+            sysid,
+            compid,
+        });
+    }
+
+    /// Evaluates a rule that is not `each`: edges, durations, clearing.
+    fn evaluate_state(&mut self, r: usize, si: usize) {
+        let profile = &self.profile;
+        let rule = &profile.rules[r];
+        let now = self.now;
         let src = &mut self.sources[si];
         let mut cx = Cx { src, profile, now };
         let cond = expr::eval(&rule.when.node, &mut cx).truth();
@@ -401,9 +468,7 @@ impl Elaborator {
         let state = &mut cx.src.rules[r];
         let mut fire = false;
         let mut clear_fire = false;
-        if rule.each {
-            fire = cond;
-        } else if !state.initialized {
+        if !state.initialized {
             state.initialized = true;
             if cond && !rule.initial {
                 state.active = true;
@@ -444,13 +509,11 @@ impl Elaborator {
             }
         }
         if fire {
-            if !rule.each {
-                let state = &mut cx.src.rules[r];
-                state.active = true;
-                state.announced = true;
-                state.pending_since = None;
-                state.clearing_since = None;
-            }
+            let state = &mut cx.src.rules[r];
+            state.active = true;
+            state.announced = true;
+            state.pending_since = None;
+            state.clearing_since = None;
             let params = params(rule, &mut cx);
             let (sysid, compid) = (cx.src.sysid, cx.src.compid);
             self.events.push_back(Elaborated {

@@ -7,9 +7,11 @@
 //! (`"..."`), `true`, `false`, constants (`MAV_STATE_CRITICAL`), fields
 //! (`SYS_STATUS.battery_remaining`, `ESC_TELEMETRY_1_TO_4.rpm[0]`), calls
 //! (`age(HEARTBEAT)`, `seen(MSG)`, `mode()`, `firmware()`, `loss()`,
-//! `changed(e)`, `prev(e)`, `abs(e)`, `sysid()`, `compid()`) and parentheses.
+//! `changed(e)`, `prev(e)`, `prev(e, default)`, `abs(e)`, `name(e, ENUM)`, `sysid()`, `compid()`)
+//! and parentheses.
 
 use std::borrow::Cow;
+use std::collections::HashMap;
 
 use regex::Regex;
 
@@ -142,12 +144,21 @@ pub enum Node {
         memo: usize,
         inner: Box<Node>,
     },
-    /// The inner value at the previous evaluation.
+    /// The inner value at the previous evaluation; `default` (else
+    /// unknown) when there was none.
     Prev {
         memo: usize,
         inner: Box<Node>,
+        default: Option<Box<Node>>,
     },
     Abs(Box<Node>),
+    /// The name of an enum value (`name(COMMAND_ACK.result, MAV_RESULT)`
+    /// is `"DENIED"`); a value the enum does not name gives its number as
+    /// text.
+    Name {
+        inner: Box<Node>,
+        names: &'static HashMap<i64, String>,
+    },
     Unary(UnOp, Box<Node>),
     Binary(BinOp, Box<Node>, Box<Node>),
     Match {
@@ -164,6 +175,10 @@ pub trait Resolver {
     /// The slot of a message whose frame times are tracked.
     fn timed_message(&mut self, message: &str) -> Result<usize, String>;
     fn constant(&self, name: &str) -> Option<i64>;
+    /// The values of an enum by its MAVLink name, with their names.
+    fn enum_names(&self, name: &str) -> Option<&'static HashMap<i64, String>> {
+        crate::constants::enum_names(name)
+    }
     fn regex(&mut self, regex: Regex) -> usize;
     fn memo(&mut self) -> usize;
 }
@@ -641,9 +656,37 @@ impl<R: Resolver> Parser<'_, '_, R> {
                     Ok(Node::Seen(slot))
                 }
             }
+            "name" => {
+                self.expect("(")?;
+                let inner = Box::new(self.or()?);
+                self.expect(",")?;
+                let (eat, elen) = (self.at, self.len);
+                let Tok::Ident(enum_name) = self.tok.clone() else {
+                    return Err(self.error(
+                        "`name` takes an enum's MAVLink name second, as in name(COMMAND_ACK.result, MAV_RESULT)",
+                    ));
+                };
+                let names = self.resolver.enum_names(&enum_name).ok_or_else(|| {
+                    self.error_at(
+                        eat,
+                        elen,
+                        format!("unknown enum `{enum_name}` (an enum of the dialect, as MAV_CMD or MAV_RESULT)"),
+                    )
+                })?;
+                self.bump()?;
+                self.expect(")")?;
+                Ok(Node::Name { inner, names })
+            }
             "changed" | "prev" | "abs" => {
                 self.expect("(")?;
                 let inner = Box::new(self.or()?);
+                // prev(e, d): d when there is no previous value.
+                let default = if name == "prev" && self.is_op(",") {
+                    self.bump()?;
+                    Some(Box::new(self.or()?))
+                } else {
+                    None
+                };
                 self.expect(")")?;
                 Ok(match name {
                     "changed" => Node::Changed {
@@ -653,6 +696,7 @@ impl<R: Resolver> Parser<'_, '_, R> {
                     "prev" => Node::Prev {
                         memo: self.resolver.memo(),
                         inner,
+                        default,
                     },
                     _ => Node::Abs(inner),
                 })
@@ -660,7 +704,7 @@ impl<R: Resolver> Parser<'_, '_, R> {
             _ => Err(self.error_at(
                 at,
                 len,
-                format!("unknown function `{name}` (known: age, seen, mode, firmware, loss, changed, prev, abs, sysid, compid)"),
+                format!("unknown function `{name}` (known: age, seen, mode, firmware, loss, changed, prev, abs, name, sysid, compid)"),
             )),
         }
     }
@@ -762,16 +806,34 @@ pub fn eval<'n, C: Context>(node: &'n Node, cx: &mut C) -> V<'n> {
                 b => V::Bool(b != now),
             }
         }
-        Node::Prev { memo, inner } => {
+        Node::Prev {
+            memo,
+            inner,
+            default,
+        } => {
             let now = eval(inner, cx);
             if now == V::Missing {
                 return V::Missing;
             }
-            std::mem::replace(cx.memo(*memo), now.into_owned())
+            match std::mem::replace(cx.memo(*memo), now.into_owned()) {
+                V::Missing => match default {
+                    Some(d) => eval(d, cx).into_owned(),
+                    None => V::Missing,
+                },
+                before => before,
+            }
         }
         Node::Abs(inner) => match eval(inner, cx) {
             V::Int(i) => V::Int(i.saturating_abs()),
             V::Float(f) => V::Float(f.abs()),
+            _ => V::Missing,
+        },
+        Node::Name { inner, names } => match eval(inner, cx) {
+            V::Int(i) => V::Str(match names.get(&i) {
+                Some(name) => Cow::Borrowed(name.as_str()),
+                None => Cow::Owned(i.to_string()),
+            }),
+            V::Str(s) => V::Str(Cow::Owned(s.into_owned())),
             _ => V::Missing,
         },
         Node::Unary(op, inner) => {
@@ -849,7 +911,7 @@ pub fn captures<C: Context>(node: &Node, cx: &mut C, out: &mut nets::Params) {
             captures(a, cx, out);
             captures(b, cx, out);
         }
-        Node::Unary(_, a) | Node::Abs(a) => captures(a, cx, out),
+        Node::Unary(_, a) | Node::Abs(a) | Node::Name { inner: a, .. } => captures(a, cx, out),
         _ => {}
     }
 }
@@ -1015,12 +1077,44 @@ mod tests {
         let mut m = mock(V::Int(1), V::Int(0), "");
         let changed = compile("changed(M.a)", &mut m).expect("compiles");
         let prev = compile("prev(M.a)", &mut m).expect("compiles");
+        let prev_or = compile("prev(M.a, 65535)", &mut m).expect("compiles");
         assert_eq!(eval(&changed.node, &mut m), V::Bool(false));
         assert_eq!(eval(&prev.node, &mut m), V::Missing);
+        assert_eq!(eval(&prev_or.node, &mut m), V::Int(65535));
+        assert_eq!(eval(&prev_or.node, &mut m), V::Int(1));
         m.values[0] = V::Int(2);
         assert_eq!(eval(&changed.node, &mut m), V::Bool(true));
         assert_eq!(eval(&prev.node, &mut m), V::Int(1));
         assert_eq!(eval(&changed.node, &mut m), V::Bool(false));
+    }
+
+    #[test]
+    fn name_gives_an_enum_value_its_name() {
+        let mut m = mock(V::Int(511), V::Int(2), "x");
+        assert_eq!(
+            run("name(M.a, MAV_CMD)", &mut m),
+            V::Str("SET_MESSAGE_INTERVAL".into())
+        );
+        assert_eq!(
+            run("name(M.b, MAV_RESULT)", &mut m),
+            V::Str("DENIED".into())
+        );
+        assert_eq!(
+            run("name(M.b, MAV_RESULT) == \"DENIED\"", &mut m),
+            V::Bool(true)
+        );
+        // A value the enum does not name: its number, as text.
+        assert_eq!(
+            run("name(M.a + 40000, MAV_RESULT)", &mut m),
+            V::Str("40511".into())
+        );
+        let mut m = mock(V::Missing, V::Int(2), "x");
+        assert_eq!(run("name(M.a, MAV_CMD)", &mut m), V::Missing);
+        let e = compile("name(M.a, NOT_AN_ENUM)", &mut m).expect_err("unknown enum");
+        assert_eq!((e.offset, e.len), (10, 11));
+        assert!(e.message.contains("unknown enum"), "{}", e.message);
+        assert!(compile("name(M.a)", &mut m).is_err());
+        assert!(compile("name(M.a, 3)", &mut m).is_err());
     }
 
     #[test]

@@ -105,6 +105,13 @@ pub struct Rule {
     /// Fire on every triggering message where the condition holds, instead
     /// of once per false-to-true change.
     pub each: bool,
+    /// (`each` rules) How many of the rule's last events (with distinct
+    /// parameters) are remembered: a message whose event carries the same
+    /// parameters as one of them is a repeat, not a new occurrence, until
+    /// `clear` becomes true after having been false at the last event or
+    /// since. 0: every message is
+    /// an occurrence.
+    pub distinct: usize,
     pub(crate) params: Vec<(String, Compiled)>,
     pub source: SourceFilter,
     /// Evaluated on ticks (reads `age()` or has a duration).
@@ -117,6 +124,12 @@ impl Rule {
     /// The names of the parameters the rule's event carries, in order.
     pub fn param_names(&self) -> impl Iterator<Item = &str> {
         self.params.iter().map(|(name, _)| name.as_str())
+    }
+
+    /// Whether a message in `slot` can fire the rule: its condition reads
+    /// it (fields or age). A message read by `clear` only re-arms.
+    pub(crate) fn fires_on(&self, slot: usize) -> bool {
+        self.when.reads.contains(&slot) || self.when.ages.contains(&slot)
     }
 
     /// Whether the rule reads fields of the message in `slot` (not only its
@@ -270,6 +283,52 @@ impl Profile {
         self.slots.iter().map(|s| s.id).collect()
     }
 
+    /// The ids of the messages to ask the autopilot for at a rate: those
+    /// whose values the rules read as a state (conditions of rules without
+    /// `each`, any `clear`, parameters). A message only an `each` rule's
+    /// condition reads (STATUSTEXT, COMMAND_ACK, MISSION_ITEM_REACHED) is
+    /// an event the autopilot sends on its own: requested as a stream,
+    /// ArduPilot re-sends its last one every period.
+    pub fn telemetry(&self) -> Vec<u32> {
+        let mut state = vec![false; self.slots.len()];
+        state[HEARTBEAT_SLOT] = true;
+        let mut mark = |slots: &[usize]| {
+            for &s in slots {
+                if let Some(x) = state.get_mut(s) {
+                    *x = true;
+                }
+            }
+        };
+        for r in &self.rules {
+            if !r.each {
+                mark(&r.when.reads);
+                mark(&r.when.ages);
+            }
+            // What an each rule's clear and parameters read of its own
+            // triggering message is that event, not a state.
+            let states = |slots: &[usize]| -> Vec<usize> {
+                slots
+                    .iter()
+                    .copied()
+                    .filter(|s| !(r.each && r.when.reads.contains(s)))
+                    .collect()
+            };
+            if let Some(c) = &r.clear {
+                mark(&states(&c.reads));
+                mark(&c.ages);
+            }
+            for (_, p) in &r.params {
+                mark(&states(&p.reads));
+            }
+        }
+        self.slots
+            .iter()
+            .zip(state)
+            .filter(|(_, state)| *state)
+            .map(|(s, _)| s.id)
+            .collect()
+    }
+
     /// The names of the events this profile can produce.
     pub fn event_names(&self) -> Vec<&str> {
         let mut v: Vec<&str> = self
@@ -333,12 +392,13 @@ struct RuleSpec {
     cleared_category: Option<Text>,
     initial: Option<bool>,
     each: Option<bool>,
+    distinct: Option<usize>,
     enabled: Option<bool>,
     source: Option<(SourceFilter, usize, Range<usize>)>,
     params: BTreeMap<String, Text>,
 }
 
-const RULE_KEYS: &str = "event, category, when, clear, for, clear_for, cleared, cleared_category, initial, each, enabled, source, params";
+const RULE_KEYS: &str = "event, category, when, clear, for, clear_for, cleared, cleared_category, initial, each, distinct, enabled, source, params";
 
 fn read_layer(
     loc: &Locator,
@@ -435,6 +495,7 @@ fn read_rule(loc: &Locator, table: &DeTable, spec: &mut RuleSpec, problems: &mut
             "cleared_category" => spec.cleared_category = text_of(loc, v, k, problems),
             "initial" => spec.initial = bool_of(loc, v, k, problems),
             "each" => spec.each = bool_of(loc, v, k, problems),
+            "distinct" => spec.distinct = distinct_of(loc, v, problems),
             "enabled" => spec.enabled = bool_of(loc, v, k, problems),
             "source" => {
                 if let Some(s) = read_source(loc, v, problems) {
@@ -460,6 +521,29 @@ fn read_rule(loc: &Locator, table: &DeTable, spec: &mut RuleSpec, problems: &mut
         }
     }
 }
+
+/// `distinct = true` (the last event), `false`, or how many events (1-64).
+fn distinct_of(loc: &Locator, v: &Spanned<DeValue>, problems: &mut Vec<Problem>) -> Option<usize> {
+    if let Some(b) = v.get_ref().as_bool() {
+        return Some(usize::from(b));
+    }
+    let n = v
+        .get_ref()
+        .as_integer()
+        .and_then(|i| i64::from_str_radix(i.as_str(), i.radix()).ok())
+        .and_then(|i| usize::try_from(i).ok())
+        .filter(|n| (1..=MAX_DISTINCT).contains(n));
+    if n.is_none() {
+        problems.push(loc.problem(
+            v.span(),
+            format!("`distinct` must be true, false or how many events to remember (1 to {MAX_DISTINCT})"),
+        ));
+    }
+    n
+}
+
+/// The most events a `distinct` rule remembers.
+pub const MAX_DISTINCT: usize = 64;
 
 fn read_source(
     loc: &Locator,
@@ -681,6 +765,20 @@ impl Builder {
                 ));
             }
         }
+        let each = spec.each.unwrap_or(false);
+        let distinct = spec.distinct.unwrap_or(0);
+        if distinct > 0 && !each {
+            problems.push(decl.problem(
+                decl_span.clone(),
+                format!("rule `{key}`: `distinct` applies to `each` rules only (a rule without `each` fires once until `clear` anyway)"),
+            ));
+        }
+        if each && distinct == 0 && spec.clear.is_some() {
+            problems.push(decl.problem(
+                decl_span.clone(),
+                format!("rule `{key}`: `clear` on an `each` rule needs `distinct = true` (it re-arms a distinct rule)"),
+            ));
+        }
         if problems.len() > before {
             return None;
         }
@@ -698,7 +796,8 @@ impl Builder {
             clear_for_us,
             cleared,
             initial: spec.initial.unwrap_or(true),
-            each: spec.each.unwrap_or(false),
+            each,
+            distinct,
             params,
             source: spec
                 .source
@@ -835,6 +934,46 @@ mod tests {
             ],
             "{err}"
         );
+    }
+
+    #[test]
+    fn distinct_needs_each_and_clear_on_each_needs_distinct() {
+        let text = "[rules.a]\ncategory = \"nominal\"\nwhen = \"true\"\ndistinct = true\n\n[rules.b]\ncategory = \"nominal\"\neach = true\nwhen = \"true\"\nclear = \"false\"\n\n[rules.c]\ncategory = \"nominal\"\neach = true\nwhen = \"true\"\ndistinct = 65\n";
+        let err = Profile::load(&[("x.toml", text)]).expect_err("invalid");
+        let lines: Vec<usize> = err.problems.iter().map(|p| p.line).collect();
+        assert_eq!(lines, [1, 6, 16], "{err}");
+        assert!(err.problems[2].message.contains("1 to 64"), "{err}");
+        let ok = "[rules.c]\ncategory = \"nominal\"\neach = true\nwhen = \"true\"\ndistinct = 16\n";
+        let p = Profile::load(&[("x.toml", ok)]).expect("valid");
+        assert_eq!(p.rules()[0].distinct, 16);
+        assert!(
+            err.problems[0].message.contains("`each` rules only"),
+            "{err}"
+        );
+        assert!(
+            err.problems[1].message.contains("needs `distinct = true`"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn telemetry_leaves_out_the_messages_that_are_events() {
+        for name in ["ardupilot", "px4"] {
+            let p = Profile::builtin(name).expect("profile");
+            let telemetry = p.telemetry();
+            // STATUSTEXT, COMMAND_ACK, MISSION_ITEM_REACHED: read, not streamed.
+            for event in [253, 77, 46] {
+                assert!(p.messages().contains(&event), "{name} reads {event}");
+                assert!(!telemetry.contains(&event), "{name} streams {event}");
+            }
+            // HEARTBEAT, SYS_STATUS, GPS_RAW_INT, MISSION_CURRENT, BATTERY_STATUS.
+            for state in [0, 1, 24, 42, 147] {
+                assert!(telemetry.contains(&state), "{name} does not stream {state}");
+            }
+        }
+        let p = Profile::builtin("ardupilot").expect("profile");
+        // SERVO_OUTPUT_RAW (motor_imbalance), FENCE_STATUS (geofence_breach).
+        assert!(p.telemetry().contains(&36) && p.telemetry().contains(&162));
     }
 
     #[test]

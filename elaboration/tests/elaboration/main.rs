@@ -1,6 +1,7 @@
 //! Elaboration's integration tests, one binary: real recorded flights,
 //! rules on synthetic frames, and properties on arbitrary bytes.
 
+mod firmware_reports;
 mod properties;
 mod real_flights;
 mod rules;

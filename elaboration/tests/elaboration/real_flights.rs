@@ -140,8 +140,18 @@ fn sitl_plane_auto_mission() {
             "mode_changed {custom_mode: 10, mode: \"AUTO\"}",
             EXACT,
         ),
-        // The first arm is refused: COMMAND_ACK 400 result 4 (FAILED).
-        (20.561, "command_rejected {command: 400, result: 4}", EXACT),
+        // The first arm is refused: COMMAND_ACK 400 result 4 (FAILED), and
+        // ArduPlane says why a second later.
+        (
+            20.561,
+            "command_rejected {command: \"COMPONENT_ARM_DISARM\", result: \"FAILED\"}",
+            EXACT,
+        ),
+        (
+            21.562,
+            "prearm_failed {text: \"Gyros inconsistent\"}",
+            EXACT,
+        ),
         (
             22.605,
             "ready_for_takeoff {battery: 99, satellites: 10}",
@@ -249,7 +259,11 @@ fn ardusub_bad_crc_frames_are_counted_and_survived() {
                 "autopilot_failsafe {text: \"system_status CRITICAL\"}",
                 EXACT,
             ),
-            (0.776, "command_rejected {command: 512, result: 4}", EXACT),
+            (
+                0.776,
+                "command_rejected {command: \"REQUEST_MESSAGE\", result: \"FAILED\"}",
+                EXACT,
+            ),
         ],
     );
     let Some(bytes) = read(name) else { return };

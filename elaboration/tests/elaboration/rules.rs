@@ -512,9 +512,15 @@ fn builtin_ardupilot_safety_and_catastrophic_rules() {
                 "autopilot_failsafe {text: \"Radio Failsafe\"}".into()
             ),
             (15 * S, "engine_failure".into()),
+            // ArduPilot's own judgement (CRITICAL, so low too) after the
+            // capacity rules: one event from each source.
             (
                 16 * S,
-                "battery_critical {charge_state: 3, remaining: 7}".into()
+                "battery_low {charge_state: \"CRITICAL\", remaining: 7}".into()
+            ),
+            (
+                16 * S,
+                "battery_critical {charge_state: \"CRITICAL\", remaining: 7}".into()
             ),
             (17 * S, "vehicle_emergency {system_status: 6}".into()),
         ]
@@ -803,4 +809,43 @@ when = "changed(HEARTBEAT.custom_mode)"
         ]
     );
     assert_eq!(r.elab.stats().decode_failures.get(&0), Some(&1));
+}
+
+/// `distinct = N`: the same parameters as one of the last N events are a
+/// repeat; `clear` rising after the last event forgets them; a message
+/// read only by `clear` never fires the rule.
+#[test]
+fn distinct_remembers_the_last_events_until_clear_rises() {
+    let rules = r#"
+[rules.said]
+category = "nominal"
+each = true
+distinct = 2
+when = 'STATUSTEXT.text ~ "^Said: (?P<what>.+)$"'
+clear = "SYS_STATUS.battery_remaining > 50"
+"#;
+    let mut r = Run::new(rules);
+    r.send(0, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    r.send(S, &sys_status(10));
+    for (i, what) in ["A", "B", "A", "B", "C", "A"].iter().enumerate() {
+        r.send((2 + i as u64) * S, &text(&format!("Said: {what}")));
+    }
+    // Clear true after having been false: re-armed; the SYS_STATUS itself
+    // fires nothing, though the last text still matches.
+    r.send(10 * S, &sys_status(80));
+    r.send(11 * S, &text("Said: A"));
+    // True again without having been false since the event: not re-armed.
+    r.send(12 * S, &sys_status(80));
+    r.send(13 * S, &text("Said: A"));
+    assert_eq!(
+        r.names(),
+        vec![
+            (2 * S, "said {what: \"A\"}".into()),
+            (3 * S, "said {what: \"B\"}".into()),
+            (6 * S, "said {what: \"C\"}".into()),
+            // A was pushed out by B and C.
+            (7 * S, "said {what: \"A\"}".into()),
+            (11 * S, "said {what: \"A\"}".into()),
+        ]
+    );
 }

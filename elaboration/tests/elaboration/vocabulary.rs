@@ -323,7 +323,7 @@ fn ardupilot_copter_flight_gives_the_whole_vocabulary() {
         (5 * S + 500 * MS, "mission_item_reached {seq: 1}"),
         (
             6 * S + 500 * MS,
-            "command_rejected {command: 176, result: 2}",
+            "command_rejected {command: \"DO_SET_MODE\", result: \"DENIED\"}",
         ),
         (7 * S + 40 * MS, "mission_complete"),
         (11 * S + 10 * MS, "battery_low {remaining: 20}"),
@@ -443,7 +443,7 @@ fn a_project_recategorizes_a_rule_and_its_declaration_wins() {
 fn both_builtin_profiles_define_the_whole_vocabulary_with_its_categories() {
     use nets::Category::*;
     let category = |name: &str| match name {
-        "armed" | "disarmed" | "mode_changed" | "ready_for_takeoff" => Nominal,
+        "armed" | "disarmed" | "mode_changed" | "ready_for_takeoff" | "prearm_failed" => Nominal,
         "takeoff"
         | "landed"
         | "mission_item_reached"
@@ -451,7 +451,7 @@ fn both_builtin_profiles_define_the_whole_vocabulary_with_its_categories() {
         | "command_rejected"
         | "payload_failure" => Mission,
         "battery_low" | "gps_lost" | "gps_restored" | "ekf_unhealthy" | "geofence_breach"
-        | "rc_lost" | "autopilot_failsafe" => Safety,
+        | "rc_lost" | "autopilot_failsafe" | "motor_imbalance" => Safety,
         "battery_critical" | "engine_failure" | "vehicle_emergency" => Catastrophic,
         _ => Communication,
     };
@@ -728,7 +728,10 @@ fn px4_rules_on_a_synthetic_quad() {
             "mode_changed {custom_mode: 67371008, mode: \"AUTO_MISSION\"}",
         ),
         (9 * S + 3, "ekf_unhealthy"),
-        (12 * S + 4, "battery_low {charge_state: 2, remaining: 18}"),
+        (
+            12 * S + 4,
+            "battery_low {charge_state: \"LOW\", remaining: 18}",
+        ),
         (15 * S + 5, "engine_failure"),
         (
             18 * S,

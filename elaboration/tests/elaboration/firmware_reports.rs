@@ -1,0 +1,554 @@
+//! The built-in rules on what the real firmware says of itself, as ArduPilot
+//! 4.7 SITL says it: pre-arm failures and their repeats, its own battery
+//! judgement, MISSION_ITEM_REACHED re-sent as a stream, command results by
+//! name, a weakened copter motor.
+
+use elaboration::frame::serialize;
+use elaboration::{Config, Elaborated, Elaborator, Frame, Profile};
+use mavlink::dialects::ardupilotmega::*;
+use mavlink::{MavHeader, MavlinkVersion};
+
+const S: u64 = 1_000_000;
+const MS: u64 = 1_000;
+
+/// Feeds messages of the autopilot 1/1 through bytes, CRC and decoding.
+struct Run {
+    elab: Elaborator,
+    seq: u8,
+    out: Vec<Elaborated>,
+}
+
+impl Run {
+    fn new(profile: &str) -> Run {
+        Run {
+            elab: Elaborator::new(
+                Profile::builtin(profile).expect("built-in profile"),
+                Config::default(),
+            ),
+            seq: 0,
+            out: Vec::new(),
+        }
+    }
+
+    fn send(&mut self, t: u64, msg: MavMessage) -> &mut Self {
+        let h = MavHeader {
+            system_id: 1,
+            component_id: 1,
+            sequence: self.seq,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        let bytes = serialize(h, MavlinkVersion::V2, &msg);
+        self.elab
+            .frame(t, &Frame::parse(&bytes).expect("valid frame"));
+        self.elab.drain_into(&mut self.out);
+        self
+    }
+
+    /// The events named `names`, as (time, summary).
+    fn only(&self, names: &[&str]) -> Vec<(u64, String)> {
+        self.out
+            .iter()
+            .filter(|e| names.contains(&e.event.name.as_str()))
+            .map(|e| (e.time_us, crate::summary(e)))
+            .collect()
+    }
+}
+
+fn heartbeat(autopilot: MavAutopilot, armed: bool, status: MavState) -> MavMessage {
+    let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+    if armed {
+        base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+    }
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 4,
+        mavtype: MavType::MAV_TYPE_QUADROTOR,
+        autopilot,
+        base_mode: base,
+        system_status: status,
+        mavlink_version: 3,
+    })
+}
+
+fn copter(armed: bool, status: MavState) -> MavMessage {
+    heartbeat(MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA, armed, status)
+}
+
+fn text(t: &str) -> MavMessage {
+    let mut bytes = [0u8; 50];
+    bytes[..t.len()].copy_from_slice(t.as_bytes());
+    let mut d = STATUSTEXT_DATA::DEFAULT;
+    d.text = mavlink::types::CharArray::new(bytes);
+    MavMessage::STATUSTEXT(d)
+}
+
+/// SYS_STATUS with the pre-arm check present, healthy or not.
+fn prearm(healthy: bool, remaining: i8, millivolts: u16) -> MavMessage {
+    let check = MavSysStatusSensor::MAV_SYS_STATUS_PREARM_CHECK;
+    let mut d = SYS_STATUS_DATA::DEFAULT;
+    d.onboard_control_sensors_present = check;
+    d.onboard_control_sensors_enabled = check;
+    if healthy {
+        d.onboard_control_sensors_health = check;
+    }
+    d.battery_remaining = remaining;
+    d.voltage_battery = millivolts;
+    MavMessage::SYS_STATUS(d)
+}
+
+#[test]
+fn a_prearm_failure_is_said_once_per_reason_until_the_vehicle_was_ready() {
+    let mut r = Run::new("ardupilot");
+    r.send(0, copter(false, MavState::MAV_STATE_STANDBY));
+    r.send(10 * MS, prearm(false, 100, 12600));
+    // ArduPilot's reason every 30 s while disarmed, and again (with the
+    // "Arm:" prefix) at each refused attempt: one event.
+    for t in [S, 31 * S, 61 * S] {
+        r.send(
+            t,
+            text("PreArm: DO_LAND_START set and RTL_AUTOLAND disable"),
+        );
+    }
+    r.send(
+        40 * S,
+        text("Arm: DO_LAND_START set and RTL_AUTOLAND disable"),
+    );
+    // Another reason is news. ArduPilot gives several reasons in turn at
+    // each attempt (real ArduCopter SITL at boot): each once.
+    r.send(70 * S, text("PreArm: Need Position Estimate"));
+    for attempt in 0..5u64 {
+        let t = 72 * S + attempt * S;
+        r.send(t, text("Arm: DO_LAND_START set and RTL_AUTOLAND disable"));
+        r.send(t + MS, text("PreArm: Need Position Estimate"));
+    }
+    // Ready in between (the pre-arm bit healthy): the same reason again is
+    // a new occurrence.
+    r.send(90 * S, prearm(true, 100, 12600));
+    r.send(91 * S, prearm(false, 100, 12600));
+    r.send(92 * S, text("PreArm: Need Position Estimate"));
+    // Armed, then landed and disarmed: ArduCopter's check of a battery in
+    // failsafe is a pre-arm failure, not a failsafe of its own.
+    r.send(100 * S, copter(true, MavState::MAV_STATE_STANDBY));
+    r.send(110 * S, copter(false, MavState::MAV_STATE_STANDBY));
+    r.send(111 * S, text("PreArm: Battery 1 low voltage failsafe"));
+    assert_eq!(
+        r.only(&["prearm_failed", "autopilot_failsafe"]),
+        [
+            (
+                S,
+                "prearm_failed {text: \"DO_LAND_START set and RTL_AUTOLAND disable\"}".to_string()
+            ),
+            (
+                70 * S,
+                "prearm_failed {text: \"Need Position Estimate\"}".to_string()
+            ),
+            (
+                92 * S,
+                "prearm_failed {text: \"Need Position Estimate\"}".to_string()
+            ),
+            (
+                111 * S,
+                "prearm_failed {text: \"Battery 1 low voltage failsafe\"}".to_string()
+            ),
+        ]
+    );
+    assert!(r
+        .out
+        .iter()
+        .filter(|e| e.event.name == "prearm_failed")
+        .all(|e| e.event.category == nets::Category::Nominal));
+}
+
+#[test]
+fn px4_preflight_failures_are_prearm_failed_too() {
+    let mut r = Run::new("px4");
+    r.send(
+        0,
+        heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_PX4,
+            false,
+            MavState::MAV_STATE_STANDBY,
+        ),
+    );
+    r.send(S, text("Preflight Fail: No valid data from Compass"));
+    r.send(2 * S, text("Preflight Fail: No valid data from Compass"));
+    r.send(3 * S, text("Arming denied: Resolve system health failures"));
+    r.send(4 * S, text("Preflight Fail: GPS failsafe"));
+    assert_eq!(
+        r.only(&["prearm_failed", "autopilot_failsafe"]),
+        [
+            (
+                S,
+                "prearm_failed {text: \"No valid data from Compass\"}".to_string()
+            ),
+            (
+                3 * S,
+                "prearm_failed {text: \"Resolve system health failures\"}".to_string()
+            ),
+            (4 * S, "prearm_failed {text: \"GPS failsafe\"}".to_string()),
+        ]
+    );
+}
+
+fn battery(state: MavBatteryChargeState, remaining: i8) -> MavMessage {
+    let mut d = BATTERY_STATUS_DATA::DEFAULT;
+    d.charge_state = state;
+    d.battery_remaining = remaining;
+    MavMessage::BATTERY_STATUS(d)
+}
+
+/// A battery failsafe on voltage: ArduPilot says LOW while the remaining
+/// capacity stays at 90 %.
+#[test]
+fn battery_low_from_ardupilots_own_judgement() {
+    use MavBatteryChargeState::*;
+    let mut r = Run::new("ardupilot");
+    for step in 0..20u64 {
+        let t = step * S;
+        r.send(t, copter(true, MavState::MAV_STATE_ACTIVE));
+        let (state, mv) = match step {
+            0..=4 => (MAV_BATTERY_CHARGE_STATE_OK, 12600),
+            5..=14 => (MAV_BATTERY_CHARGE_STATE_LOW, 10400),
+            _ => (MAV_BATTERY_CHARGE_STATE_CRITICAL, 9800),
+        };
+        r.send(t + MS, prearm(true, 90, mv));
+        r.send(t + 2 * MS, battery(state, 90));
+    }
+    let got: Vec<(u64, String)> = r.only(&["battery_low", "battery_critical"]);
+    assert_eq!(
+        got,
+        [
+            (
+                5 * S + 2 * MS,
+                "battery_low {charge_state: \"LOW\", remaining: 90}".to_string()
+            ),
+            (
+                15 * S + 2 * MS,
+                "battery_critical {charge_state: \"CRITICAL\", remaining: 90}".to_string()
+            ),
+        ]
+    );
+    let voltage = r
+        .out
+        .iter()
+        .find(|e| e.event.name == "battery_low")
+        .and_then(|e| e.event.params.get("voltage").cloned());
+    assert_eq!(voltage, Some(nets::Value::Float(10.4)));
+}
+
+/// ArduPilot LOW and the capacity under 25 % at once: one battery_low.
+#[test]
+fn one_battery_low_when_judgement_and_capacity_agree() {
+    use MavBatteryChargeState::*;
+    let mut r = Run::new("ardupilot");
+    for step in 0..12u64 {
+        let t = step * S;
+        r.send(t, copter(true, MavState::MAV_STATE_ACTIVE));
+        let (state, remaining) = if step >= 4 {
+            (MAV_BATTERY_CHARGE_STATE_LOW, 20)
+        } else {
+            (MAV_BATTERY_CHARGE_STATE_OK, 40)
+        };
+        r.send(t + MS, prearm(true, remaining, 11000));
+        r.send(t + 2 * MS, battery(state, remaining));
+    }
+    assert_eq!(
+        r.only(&["battery_low"]),
+        [(
+            4 * S + 2 * MS,
+            "battery_low {charge_state: \"LOW\", remaining: 20}".to_string()
+        )]
+    );
+}
+
+/// Without BATTERY_STATUS (not streamed, or older firmware), ArduPilot's
+/// text says it: "Battery 1 is low", "Low battery" (Copter 3.4), "Battery 1
+/// is critical".
+#[test]
+fn battery_low_from_ardupilots_text_where_battery_status_is_absent() {
+    for (said, event) in [
+        ("Battery 1 is low 10.41V used 120 mAh", "battery_low"),
+        ("Low battery", "battery_low"),
+        (
+            "Battery 2 is critical 9.80V used 130 mAh",
+            "battery_critical",
+        ),
+    ] {
+        let mut r = Run::new("ardupilot");
+        r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+        r.send(MS, prearm(true, 90, 10400));
+        r.send(S, text(said));
+        let got = r.only(&["battery_low", "battery_critical"]);
+        assert_eq!(got.len(), 1, "{said}: {got:?}");
+        assert!(got[0].1.starts_with(event), "{said}: {got:?}");
+        assert!(got[0].1.contains("remaining: 90"), "{said}: {got:?}");
+        // Streamed BATTERY_STATUS decides instead: the text is not counted
+        // twice.
+        let mut r = Run::new("ardupilot");
+        r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+        r.send(
+            MS,
+            battery(MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_OK, 90),
+        );
+        r.send(S, text(said));
+        assert_eq!(r.only(&["battery_low", "battery_critical"]), [], "{said}");
+    }
+}
+
+fn reached(seq: u16) -> MavMessage {
+    MavMessage::MISSION_ITEM_REACHED(MISSION_ITEM_REACHED_DATA { seq })
+}
+
+fn current(seq: u16) -> MavMessage {
+    let mut d = MISSION_CURRENT_DATA::DEFAULT;
+    d.seq = seq;
+    d.mission_state = MissionState::MISSION_STATE_ACTIVE;
+    MavMessage::MISSION_CURRENT(d)
+}
+
+/// MISSION_ITEM_REACHED requested as a stream: ArduPilot re-sends its last
+/// one (65535 before any) every period. Only new reaches are events.
+#[test]
+fn mission_item_reached_repeats_and_65535_are_not_events() {
+    for profile in ["ardupilot", "px4"] {
+        let mut r = Run::new(profile);
+        r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+        let mut cur = 1;
+        // Every 250 ms the autopilot re-sends its last reach (65535 before
+        // any) and its current item.
+        for period in 0..200u64 {
+            let t = period * 250 * MS;
+            let last = match period {
+                0..=19 => 65535,
+                20..=59 => 1,
+                // Item 2 reached, then the mission is restarted at 100
+                // (current back to 1) ...
+                60..=139 => 2,
+                // ... item 1 reached again at 140; a loop (DO_JUMP) back
+                // to item 1 at 165, reached again at 170.
+                _ => 1,
+            };
+            cur = match period {
+                20 => 2,
+                60 => 3,
+                100 => 1,
+                140 => 2,
+                165 => 1,
+                170 => 2,
+                _ => cur,
+            };
+            // A stale MISSION_CURRENT right after the reach (still item 1)
+            // must not re-arm the repeat.
+            let said_current = if period == 20 || period == 21 { 1 } else { cur };
+            r.send(t, reached(last));
+            r.send(t + MS, current(said_current));
+        }
+        let items: Vec<u64> = r
+            .only(&["mission_item_reached"])
+            .into_iter()
+            .map(|(t, _)| t / (250 * MS))
+            .collect();
+        let seqs: Vec<String> = r
+            .only(&["mission_item_reached"])
+            .into_iter()
+            .map(|(_, s)| s)
+            .collect();
+        // 1 at 20, 2 at 60, 1 at 140 (another seq than the last), and 1
+        // again when MISSION_CURRENT moved past it at 170 after coming
+        // back to it at 165 (not on the stale repeats from 165 to 170).
+        assert_eq!(items, [20, 60, 140, 170], "{profile}: {seqs:?}");
+        assert!(seqs.iter().all(|s| !s.contains("65535")), "{profile}");
+    }
+}
+
+#[test]
+fn command_rejected_names_the_command_and_the_result() {
+    let mut r = Run::new("ardupilot");
+    r.send(0, copter(false, MavState::MAV_STATE_STANDBY));
+    let mut ack = COMMAND_ACK_DATA::DEFAULT;
+    ack.command = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL;
+    ack.result = MavResult::MAV_RESULT_DENIED;
+    r.send(S, MavMessage::COMMAND_ACK(ack.clone()));
+    ack.result = MavResult::MAV_RESULT_ACCEPTED;
+    r.send(2 * S, MavMessage::COMMAND_ACK(ack));
+    let rejected: Vec<&Elaborated> = r
+        .out
+        .iter()
+        .filter(|e| e.event.name == "command_rejected")
+        .collect();
+    assert_eq!(rejected.len(), 1);
+    let params = &rejected[0].event.params;
+    assert_eq!(
+        params.get("command"),
+        Some(&nets::Value::Str("SET_MESSAGE_INTERVAL".into()))
+    );
+    assert_eq!(
+        params.get("result"),
+        Some(&nets::Value::Str("DENIED".into()))
+    );
+}
+
+fn servos(outputs: [u16; 4]) -> MavMessage {
+    let mut d = SERVO_OUTPUT_RAW_DATA::DEFAULT;
+    d.servo1_raw = outputs[0];
+    d.servo2_raw = outputs[1];
+    d.servo3_raw = outputs[2];
+    d.servo4_raw = outputs[3];
+    MavMessage::SERVO_OUTPUT_RAW(d)
+}
+
+/// The outputs real ArduCopter SITL gave (SIM_ENGINE_MUL 0.65 on motor 1,
+/// holding position): 1910 / 1591 / 1591 / 1591 µs.
+#[test]
+fn motor_imbalance_from_one_output_far_above_the_others() {
+    // (from, to in 100 ms steps, outputs, armed and flying)
+    type Phase = (u64, u64, [u16; 4], bool);
+    let phases: [Phase; 7] = [
+        // Hover.
+        (0, 50, [1591, 1591, 1590, 1591], true),
+        // A yaw move raises a pair for 1 s.
+        (50, 60, [1632, 1631, 1572, 1570], true),
+        // A hard yaw raises a pair far above the other for 4 s.
+        (60, 100, [1800, 1790, 1400, 1390], true),
+        // A steady diagonal torque with motor 2 pinned at its minimum (the
+        // flood log): motor 1 far above, the others far apart.
+        (100, 200, [1818, 1150, 1543, 1615], true),
+        // Motor 3 weakened: 2.5 s, not yet sustained.
+        (200, 225, [1591, 1591, 1910, 1591], true),
+        (225, 230, [1591, 1591, 1591, 1591], true),
+        // Then for good.
+        (230, 300, [1591, 1590, 1910, 1591], true),
+    ];
+    let mut r = Run::new("ardupilot");
+    for step in 0..300u64 {
+        let t = step * 100 * MS;
+        let Some(&(_, _, outputs, flying)) = phases.iter().find(|p| p.0 <= step && step < p.1)
+        else {
+            continue;
+        };
+        if step % 5 == 0 {
+            let status = if flying {
+                MavState::MAV_STATE_ACTIVE
+            } else {
+                MavState::MAV_STATE_STANDBY
+            };
+            r.send(t, copter(flying, status));
+        }
+        r.send(t + MS, servos(outputs));
+    }
+    let got = r.only(&["motor_imbalance"]);
+    assert_eq!(got.len(), 1, "{got:?}");
+    // Held from 23.0 s: fires on the frame at 26.0 s.
+    assert_eq!(got[0].0, 26 * S + MS, "{got:?}");
+    assert!(
+        got[0]
+            .1
+            .starts_with("motor_imbalance {motor: 3, output: 1910"),
+        "{got:?}"
+    );
+    assert_eq!(
+        r.out
+            .iter()
+            .find(|e| e.event.name == "motor_imbalance")
+            .map(|e| e.event.category),
+        Some(nets::Category::Safety)
+    );
+    // On the ground (disarmed, outputs at idle apart), nothing.
+    let mut r = Run::new("ardupilot");
+    for step in 0..100u64 {
+        let t = step * 100 * MS;
+        if step % 5 == 0 {
+            r.send(t, copter(false, MavState::MAV_STATE_STANDBY));
+        }
+        r.send(t + MS, servos([1400, 1000, 1000, 1000]));
+    }
+    assert_eq!(r.only(&["motor_imbalance"]), []);
+}
+
+fn sensors(
+    present: MavSysStatusSensor,
+    enabled: MavSysStatusSensor,
+    healthy: MavSysStatusSensor,
+) -> MavMessage {
+    let mut d = SYS_STATUS_DATA::DEFAULT;
+    d.onboard_control_sensors_present = present;
+    d.onboard_control_sensors_enabled = enabled;
+    d.onboard_control_sensors_health = healthy;
+    d.battery_remaining = 90;
+    MavMessage::SYS_STATUS(d)
+}
+
+/// Real ArduCopter 4.7 with its fence on and breached reports the geofence
+/// present but not enabled, and unhealthy; FENCE_STATUS says it plainly.
+#[test]
+fn geofence_breach_from_fence_status_or_the_health_bit() {
+    let fence = MavSysStatusSensor::MAV_SYS_STATUS_GEOFENCE;
+    let none = MavSysStatusSensor::empty();
+    let fence_status = |breached: bool| {
+        let mut d = FENCE_STATUS_DATA::DEFAULT;
+        d.breach_status = u8::from(breached);
+        d.breach_count = 1;
+        d.breach_type = if breached {
+            FenceBreach::FENCE_BREACH_MAXALT
+        } else {
+            FenceBreach::FENCE_BREACH_NONE
+        };
+        MavMessage::FENCE_STATUS(d)
+    };
+    // Without FENCE_STATUS: present, not enabled, unhealthy from 3 s to 6 s.
+    let mut r = Run::new("ardupilot");
+    r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+    for t in 0..10u64 {
+        let healthy = if (3..6).contains(&t) { none } else { fence };
+        r.send(t * S + MS, sensors(fence, none, healthy));
+    }
+    assert_eq!(
+        r.only(&["geofence_breach"]),
+        [(3 * S + MS, "geofence_breach".to_string())]
+    );
+    // With FENCE_STATUS it decides, and names the breach.
+    let mut r = Run::new("ardupilot");
+    r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+    for t in 0..10u64 {
+        let breached = (3..6).contains(&t);
+        r.send(
+            t * S + MS,
+            sensors(fence, none, if breached { none } else { fence }),
+        );
+        r.send(t * S + 2 * MS, fence_status(breached));
+    }
+    assert_eq!(
+        r.only(&["geofence_breach"]),
+        [(
+            3 * S + 2 * MS,
+            "geofence_breach {breach: \"MAXALT\"}".to_string()
+        )]
+    );
+}
+
+/// ArduCopter 4.7 says "Radio Failsafe - Continuing Guided Mode" and clears
+/// SYS_STATUS's RC receiver health: one rc_lost, from SYS_STATUS. Where
+/// SYS_STATUS does not report the receiver, the text says it.
+#[test]
+fn one_rc_lost_per_loss() {
+    let rc = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_RC_RECEIVER;
+    let none = MavSysStatusSensor::empty();
+    let mut r = Run::new("ardupilot");
+    r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+    for t in 0..10u64 {
+        let healthy = if t >= 3 { none } else { rc };
+        r.send(t * S + MS, sensors(rc, rc, healthy));
+        if t == 3 {
+            r.send(
+                t * S + 2 * MS,
+                text("Radio Failsafe - Continuing Guided Mode"),
+            );
+        }
+    }
+    assert_eq!(r.only(&["rc_lost"]), [(4 * S + MS, "rc_lost".to_string())]);
+    let mut r = Run::new("ardupilot");
+    r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+    r.send(MS, sensors(none, none, none));
+    r.send(S, text("Radio Failsafe - Continuing Guided Mode"));
+    r.send(2 * S, text("Radio Failsafe Cleared"));
+    assert_eq!(r.only(&["rc_lost"]), [(S, "rc_lost".to_string())]);
+}
