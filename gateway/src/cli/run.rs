@@ -372,7 +372,7 @@ impl Gateway {
         };
         let messages: Vec<(u32, f32)> = setup
             .profile
-            .messages()
+            .telemetry()
             .into_iter()
             .filter(|&id| id != 0) // HEARTBEAT always comes
             .map(|id| (id, TELEMETRY_HZ))

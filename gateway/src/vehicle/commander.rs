@@ -279,8 +279,7 @@ impl Commander {
     /// left out (`streams::NEVER_STREAMED`): they come by themselves.
     pub fn request_streams(&mut self, messages: &[(u32, f32)], now: Micros) {
         let now = self.clock(now);
-        let (wanted, left): (Vec<_>, Vec<_>) =
-            messages.iter().partition(|(id, _)| streamable(*id));
+        let (wanted, left): (Vec<_>, Vec<_>) = messages.iter().partition(|(id, _)| streamable(*id));
         if !left.is_empty() {
             let names: Vec<String> = left.iter().map(|(id, _)| message_name(*id)).collect();
             tracing::info!(

@@ -113,10 +113,10 @@ impl Truth {
                 let text = s.text.to_str().unwrap_or("?").to_owned();
                 self.texts.push((self.t, text));
             }
-            MavMessage::MISSION_ITEM_REACHED(r) => {
-                if r.seq != u16::MAX && self.reached.last().map(|l| l.1) != Some(r.seq) {
-                    self.reached.push((self.t, r.seq));
-                }
+            MavMessage::MISSION_ITEM_REACHED(r)
+                if r.seq != u16::MAX && self.reached.last().map(|l| l.1) != Some(r.seq) =>
+            {
+                self.reached.push((self.t, r.seq));
             }
             _ => {}
         }
