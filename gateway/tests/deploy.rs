@@ -27,6 +27,7 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use gateway::{assert_bench_flight, bench_over, Gateway};
+use mavlink::dialects::ardupilotmega::{MavMessage, MavType};
 use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
 
 fn repository() -> PathBuf {
@@ -338,6 +339,10 @@ fn over_a_serial_link() {
         params: vec![
             ("SERIAL1_PROTOCOL".into(), 2.0),
             ("SERIAL1_BAUD".into(), 57.0),
+            // Accept MAVLink from the ground station's system id only
+            // (SYSID_ENFORCE before 4.7): the vehicle's own components,
+            // Petrel among them, are still obeyed.
+            ("MAV_OPTIONS".into(), 1.0),
         ],
         ..Options::default()
     };
@@ -347,11 +352,12 @@ fn over_a_serial_link() {
         &format!("serial:{}:57600", cable.companion.display()),
         &recording,
     );
-    // SITL simulates nothing until SERIAL0 has a client: a ground link
+    // SITL simulates nothing until SERIAL0 has a client: a ground station
     // that only listens.
-    let _ground = peers::Drain::connect(sitl.port(0));
+    let ground = peers::GroundStation::connect(sitl.port(0));
     let done = petrel.wait_for(BENCH_LIMIT, bench_over);
     let stopped = petrel.stop();
+    let heard = peers::frames(&ground.finish());
     assert!(
         done,
         "the bench net did not end within {BENCH_LIMIT:?}: {:?}\nSITL:\n{}",
@@ -364,6 +370,26 @@ fn over_a_serial_link() {
         sitl.output()
     );
     assert_bench_flight(&stopped, &recording, "serial");
+    // ArduPilot routes between its ports: the ground station's port heard
+    // Petrel's companion HEARTBEAT (1, 191), never a GCS one.
+    let companion: Vec<&MavMessage> = heard
+        .iter()
+        .filter(|(sys, comp, _)| (*sys, *comp) == (1, 191))
+        .filter_map(|(_, _, m)| m.as_ref())
+        .collect();
+    assert!(
+        companion.iter().any(|m| matches!(m,
+            MavMessage::HEARTBEAT(h) if h.mavtype == MavType::MAV_TYPE_ONBOARD_CONTROLLER)),
+        "the ground station's port never heard Petrel's HEARTBEAT ({} frames heard, {} from 1/191)",
+        heard.len(),
+        companion.len()
+    );
+    // And the other way: Petrel heard the ground station through the
+    // autopilot, and still took only the autopilot for the vehicle.
+    assert!(
+        !gateway::recorded_json(&recording, "/mavlink/255/190/HEARTBEAT").is_empty(),
+        "the ground station's HEARTBEAT did not reach Petrel"
+    );
     eprintln!(
         "{test}: {:.1} s (stop on SIGTERM {:.2} s)",
         started.elapsed().as_secs_f64(),

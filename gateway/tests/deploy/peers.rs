@@ -3,7 +3,7 @@
 //! serial cable, and a client that keeps ArduPilot SITL's SERIAL0 busy.
 //! Each is reaped on drop, even when a test panics.
 
-use std::io::Read;
+use std::io::{Read, Write};
 use std::net::{Shutdown, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -12,6 +12,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use mavlink::dialects::ardupilotmega::MavMessage;
 use sitl_tests::ardupilot;
 
 /// `name` on the PATH, or `None` after printing why `test` is skipped;
@@ -128,16 +129,22 @@ impl PtyPair {
     }
 }
 
-/// A TCP client that reads and drops everything a SITL serial port sends
-/// (SITL simulates nothing until SERIAL0 has a client). Stopped on drop.
-pub struct Drain {
+/// A ground station that only listens and says hello: a TCP client of a
+/// SITL serial port that sends a GCS HEARTBEAT (system 255) every second —
+/// ArduPilot forwards to a port only once something has spoken on it — and
+/// keeps what it reads (at most `GROUND_KEEP` bytes). SITL simulates nothing
+/// until SERIAL0 has a client. Stopped on drop.
+pub struct GroundStation {
     stop: Arc<AtomicBool>,
     stream: TcpStream,
-    thread: Option<JoinHandle<u64>>,
+    thread: Option<JoinHandle<Vec<u8>>>,
 }
 
-impl Drain {
-    pub fn connect(port: u16) -> Drain {
+/// What a `GroundStation` keeps of the stream.
+const GROUND_KEEP: usize = 32 << 20;
+
+impl GroundStation {
+    pub fn connect(port: u16) -> GroundStation {
         let stream =
             ardupilot::connect(port, Duration::from_secs(10)).expect("connect to SITL's SERIAL0");
         stream
@@ -148,11 +155,21 @@ impl Drain {
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
             let mut buf = [0u8; 4096];
-            let mut total = 0u64;
+            let mut kept = Vec::new();
+            let mut sequence = 0u8;
+            let mut next_hello = Instant::now();
             while !flag.load(Ordering::Relaxed) {
+                if Instant::now() >= next_hello {
+                    let _ = reader.write_all(&gcs_heartbeat(sequence));
+                    sequence = sequence.wrapping_add(1);
+                    next_hello += Duration::from_secs(1);
+                }
                 match reader.read(&mut buf) {
                     Ok(0) => break,
-                    Ok(n) => total += n as u64,
+                    Ok(n) => {
+                        let room = GROUND_KEEP.saturating_sub(kept.len());
+                        kept.extend_from_slice(&buf[..n.min(room)]);
+                    }
                     Err(e)
                         if matches!(
                             e.kind(),
@@ -161,24 +178,71 @@ impl Drain {
                     Err(_) => break,
                 }
             }
-            total
+            kept
         });
-        Drain {
+        GroundStation {
             stop,
             stream,
             thread: Some(thread),
         }
     }
-}
 
-impl Drop for Drain {
-    fn drop(&mut self) {
+    /// Stops listening; what it heard.
+    pub fn finish(mut self) -> Vec<u8> {
+        self.halt()
+    }
+
+    fn halt(&mut self) -> Vec<u8> {
         self.stop.store(true, Ordering::Relaxed);
         let _ = self.stream.shutdown(Shutdown::Both);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
+        self.thread
+            .take()
+            .and_then(|t| t.join().ok())
+            .unwrap_or_default()
+    }
+}
+
+impl Drop for GroundStation {
+    fn drop(&mut self) {
+        self.halt();
+    }
+}
+
+/// A ground station's HEARTBEAT, as QGroundControl sends it: system 255,
+/// MAV_TYPE_GCS.
+fn gcs_heartbeat(sequence: u8) -> Vec<u8> {
+    use mavlink::dialects::ardupilotmega::*;
+    let header = mavlink::MavHeader {
+        system_id: 255,
+        component_id: 190,
+        sequence,
+    };
+    let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_GCS,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: MavModeFlag::empty(),
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    });
+    elaboration::frame::serialize(header, mavlink::MavlinkVersion::V2, &heartbeat)
+}
+
+/// The MAVLink frames with a valid checksum in a byte stream, as (system,
+/// component, message), skipping what does not parse.
+pub fn frames(bytes: &[u8]) -> Vec<(u8, u8, Option<MavMessage>)> {
+    let mut out = Vec::new();
+    let mut at = 0;
+    while at < bytes.len() {
+        match elaboration::Frame::parse(&bytes[at..]) {
+            Ok(frame) => {
+                out.push((frame.system_id(), frame.component_id(), frame.decode().ok()));
+                at += frame.bytes().len();
+            }
+            Err(_) => at += 1,
         }
     }
+    out
 }
 
 /// ArduPilot SITL with `--serial1 uart:DEVICE:BAUD`, which
