@@ -162,7 +162,8 @@ fn the_unit_restarts_records_and_logs_as_documented() {
 }
 
 /// The unit's command line with the example environment file's values
-/// (deploy/petrel.env), the project and link swapped for the test's: every
+/// (deploy/petrel.env), the project swapped for `deploy/listen` (which
+/// commands nothing) and the serial port for a loopback UDP port: every
 /// option it passes is one `petrel run` takes, it records under
 /// `recordings/` of its working directory, and SIGTERM stops it with 0.
 #[test]
@@ -191,7 +192,8 @@ fn the_units_command_line_runs() {
         .split_whitespace()
         .skip(1) // the binary
         .flat_map(|w| match w {
-            "${PETREL_PROJECT}" => vec![gateway::bench_project().display().to_string()],
+            // The link-check project shipped beside the unit.
+            "${PETREL_PROJECT}" => vec![repository().join("deploy/listen").display().to_string()],
             // Unbraced: split into words, as systemd does. The serial port
             // of the example is not on this machine: a loopback UDP port.
             "$PETREL_OPTIONS" => options
