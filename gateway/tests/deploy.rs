@@ -398,3 +398,71 @@ fn over_a_serial_link() {
         stopped.stop_time.as_secs_f64()
     );
 }
+
+/// A USB serial link pulled out and plugged in again (`/dev/ttyACM0` of a
+/// flight controller's USB port, a USB-serial adapter): the nets must hear
+/// `link_lost`, the gateway must not spin while the device is gone, and the
+/// link must come back by itself once the device is back (a TCP link is
+/// reopened every 0.5 s; a serial link should be too).
+#[test]
+#[ignore = "defect: petrel run does not reopen a serial link whose device went away, and spins a core meanwhile (docs/deploy.md, Known limits)"]
+fn a_usb_serial_link_comes_back() {
+    let test = "a_usb_serial_link_comes_back";
+    let Some(plane) = ardupilot::require(Firmware::Plane, test) else {
+        return;
+    };
+    let Some(socat) = peers::require_program("socat", test, "apt-get install -y socat") else {
+        return;
+    };
+    let _one = INSTANCE_5.lock().unwrap_or_else(|p| p.into_inner());
+    let started = Instant::now();
+    let scratch = tempfile::tempdir().expect("temp dir");
+    let options = Options {
+        instance: INSTANCE,
+        speedup: SPEEDUP,
+        ..Options::default()
+    };
+    let sitl = Sitl::start(&plane, &options, &scratch.path().join("sitl")).expect("SITL starts");
+    let _ground = peers::GroundStation::connect(sitl.port(0));
+    let mut usb = peers::UsbSerial::plugged(&socat, sitl.port(1), scratch.path());
+    let recording = scratch.path().join("usb.mcap");
+    let mut petrel = Gateway::start(
+        &format!("serial:{}:115200", usb.device.display()),
+        &recording,
+    );
+    assert!(
+        petrel.wait_for(BENCH_LIMIT, bench_over),
+        "the link never worked: {:?}",
+        gateway::fired(&petrel.timeline)
+    );
+    usb.pull();
+    let before = petrel.cpu_time();
+    let lost = petrel.wait_for(Duration::from_secs(10) + petrel.started.elapsed(), |l| {
+        l["event"] == "link_lost"
+    });
+    let busy = petrel.cpu_time() - before;
+    usb.plug();
+    let back = petrel.wait_for(Duration::from_secs(15) + petrel.started.elapsed(), |l| {
+        l["event"] == "link_restored"
+    });
+    let stopped = petrel.stop();
+    eprintln!("{test}: {:.1} s", started.elapsed().as_secs_f64());
+    let mut problems = Vec::new();
+    if !lost {
+        problems.push("no link_lost after the device went away".to_owned());
+    }
+    if busy > Duration::from_millis(500) {
+        problems.push(format!(
+            "{busy:?} of CPU between the device going away and link_lost: the gateway spins"
+        ));
+    }
+    if !back {
+        problems.push("no link_restored within 15 s of the device coming back".to_owned());
+    }
+    assert!(
+        problems.is_empty(),
+        "{}\n{}",
+        problems.join("\n"),
+        stopped.stderr
+    );
+}

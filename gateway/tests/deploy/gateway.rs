@@ -89,6 +89,22 @@ impl Gateway {
         }
     }
 
+    /// CPU time (user + system) the process has used so far, from
+    /// `/proc/PID/stat`.
+    pub fn cpu_time(&self) -> Duration {
+        let pid = self.child.as_ref().map(Child::id).expect("running");
+        let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).expect("/proc/PID/stat");
+        // Fields after the command name (in parentheses): utime and stime
+        // are the 12th and 13th of them, in clock ticks.
+        let rest = &stat[stat.rfind(')').expect("comm") + 2..];
+        let fields: Vec<&str> = rest.split_whitespace().collect();
+        let ticks: u64 =
+            fields[11].parse::<u64>().expect("utime") + fields[12].parse::<u64>().expect("stime");
+        // SAFETY: sysconf has no preconditions.
+        let hz = unsafe { libc::sysconf(libc::_SC_CLK_TCK) }.max(1) as u64;
+        Duration::from_micros(ticks * 1_000_000 / hz)
+    }
+
     /// SIGTERM, as `systemctl stop` sends; waits at most 20 s for a clean
     /// exit (then kills it, and the test fails on the status).
     pub fn stop(mut self) -> Stopped {

@@ -129,6 +129,64 @@ impl PtyPair {
     }
 }
 
+/// A USB-serial adapter that can be pulled out and plugged in again: socat
+/// between a SITL serial port (TCP) and a pseudo-terminal whose symbolic
+/// link `device` stays the same across plugs, as `/dev/ttyUSB0` does.
+pub struct UsbSerial {
+    program: PathBuf,
+    port: u16,
+    pub device: PathBuf,
+    dir: PathBuf,
+    socat: Option<Peer>,
+}
+
+impl UsbSerial {
+    pub fn plugged(program: &Path, port: u16, dir: &Path) -> UsbSerial {
+        let mut usb = UsbSerial {
+            program: program.to_owned(),
+            port,
+            device: dir.join("ttyUSB0"),
+            dir: dir.to_owned(),
+            socat: None,
+        };
+        usb.plug();
+        usb
+    }
+
+    /// Plugs it in: the device appears (at most 5 s).
+    pub fn plug(&mut self) {
+        assert!(self.socat.is_none(), "already plugged in");
+        let mut c = Command::new(&self.program);
+        // SITL listens on SERIAL1 only once SERIAL0 has its client: retry.
+        c.arg(format!(
+            "TCP:127.0.0.1:{},retry=40,interval=0.25",
+            self.port
+        ))
+        .arg(format!("pty,raw,echo=0,link={}", self.device.display()));
+        let log = self.dir.join("usb-socat.log");
+        let mut socat = Peer::spawn("socat", c, &log);
+        let started = Instant::now();
+        while !self.device.exists() {
+            socat.assert_running(&log);
+            assert!(
+                started.elapsed() < Duration::from_secs(5),
+                "socat made no pseudo-terminal within 5 s"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        self.socat = Some(socat);
+    }
+
+    /// Pulls it out: the device goes away.
+    pub fn pull(&mut self) {
+        self.socat = None;
+        let started = Instant::now();
+        while self.device.exists() && started.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
 /// A ground station that only listens and says hello: a TCP client of a
 /// SITL serial port that sends a GCS HEARTBEAT (system 255) every second —
 /// ArduPilot forwards to a port only once something has spoken on it — and
