@@ -300,18 +300,61 @@ fn through_mavproxy_as_a_router() {
     // the simulation) and forwards to Petrel's port, and Petrel's replies
     // go back to MAVProxy's address, which it learnt.
     let mut petrel = Gateway::start(&format!("udpin:127.0.0.1:{port}"), &recording);
-    let mut router = peers::mavproxy(&mavproxy, sitl.port(0), port, scratch.path());
+    let first_log = scratch.path().join("mavproxy.log");
+    let mut router = peers::mavproxy(&mavproxy, sitl.port(0), port, &first_log);
     let done = petrel.wait_for(BENCH_LIMIT, bench_over);
-    router.assert_running(&scratch.path().join("mavproxy.log"));
+    router.assert_running(&first_log);
+    // The router restarts (`systemctl restart mavlink-router`): it comes
+    // back from another UDP port, which Petrel must learn to answer.
+    drop(router);
+    let within = |petrel: &Gateway, s: u64| petrel.started.elapsed() + Duration::from_secs(s);
+    let lost = done && petrel.wait_for(within(&petrel, 15), |l| l["event"] == "link_lost");
+    let second_log = scratch.path().join("mavproxy-again.log");
+    let _router = peers::mavproxy(&mavproxy, sitl.port(0), port, &second_log);
+    let restored = lost && petrel.wait_for(within(&petrel, 60), |l| l["event"] == "link_restored");
+    let restored_at = petrel.timeline.last().and_then(|l| l["time_us"].as_u64());
+    // Petrel asks for its telemetry again on the link's return; the
+    // refusals among the answers are events: wait for one (at most 10 s).
+    if restored {
+        petrel.wait_for(within(&petrel, 10), |l| l["event"] == "command_rejected");
+    }
     let stopped = petrel.stop();
+    let logs = || {
+        format!(
+            "SITL:\n{}\nMAVProxy:\n{}\nMAVProxy again:\n{}",
+            sitl.output(),
+            std::fs::read_to_string(&first_log).unwrap_or_default(),
+            std::fs::read_to_string(&second_log).unwrap_or_default()
+        )
+    };
     assert!(
         done,
-        "the bench net did not end within {BENCH_LIMIT:?}: {:?}\nSITL:\n{}\nMAVProxy:\n{}",
+        "the bench net did not end within {BENCH_LIMIT:?}: {:?}\n{}",
         gateway::fired(&stopped.timeline),
-        sitl.output(),
-        std::fs::read_to_string(scratch.path().join("mavproxy.log")).unwrap_or_default()
+        logs()
+    );
+    assert!(lost, "no link_lost once the router was gone\n{}", logs());
+    assert!(
+        restored,
+        "no link_restored once the router was back\n{}",
+        logs()
     );
     assert_bench_flight(&stopped, &recording, "udpin behind MAVProxy");
+    // After the restart the autopilot answered Petrel (component 191)
+    // through the new router: Petrel's replies found its new address.
+    let restored_at = restored_at.expect("link_restored's time");
+    let answered = gateway::recorded_frames(&recording, "/mavlink/raw")
+        .into_iter()
+        .filter(|(t, h, _)| *t > restored_at && (h.system_id, h.component_id) == (1, 1))
+        .filter(
+            |(_, _, m)| matches!(m, Some(MavMessage::COMMAND_ACK(a)) if a.target_component == 191),
+        )
+        .count();
+    assert!(
+        answered > 0,
+        "no COMMAND_ACK to Petrel after the router came back\n{}",
+        logs()
+    );
     eprintln!(
         "{test}: {:.1} s (stop on SIGTERM {:.2} s)",
         started.elapsed().as_secs_f64(),

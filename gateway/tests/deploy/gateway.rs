@@ -180,6 +180,30 @@ pub fn recorded_json(recording: &Path, topic: &str) -> Vec<Value> {
         .collect()
 }
 
+/// A recording's raw frames on `topic` (`/mavlink/raw`, `/mavlink/sent`):
+/// the Supervisor time (µs) each was received or sent at, its header and
+/// its message where it decodes.
+pub fn recorded_frames(
+    recording: &Path,
+    topic: &str,
+) -> Vec<(
+    u64,
+    mavlink::MavHeader,
+    Option<mavlink::dialects::ardupilotmega::MavMessage>,
+)> {
+    let bytes = std::fs::read(recording).expect("the recording");
+    mcap::MessageStream::new(&bytes)
+        .expect("MCAP")
+        .filter_map(Result::ok)
+        .filter(|m| m.channel.topic == topic && m.data.len() > 8)
+        .filter_map(|m| {
+            let time = u64::from_be_bytes(m.data[..8].try_into().ok()?);
+            let frame = elaboration::Frame::parse(&m.data[8..]).ok()?;
+            Some((time, frame.header(), frame.decode().ok()))
+        })
+        .collect()
+}
+
 /// What the bench flight must show, whatever the link: the nets heard the
 /// real autopilot become ready, commanded FBWA, got `command.ok`, and saw
 /// the mode change in the autopilot's own HEARTBEAT; the gateway stopped

@@ -85,13 +85,16 @@ impl Drop for Peer {
 /// console, no map, no shell, no files; it asks for no streams itself
 /// (`--streamrate -1`), so the telemetry Petrel gets is what Petrel asked
 /// for through the router.
-pub fn mavproxy(program: &Path, master_port: u16, out_port: u16, dir: &Path) -> Peer {
+/// Its output goes to `log`.
+pub fn mavproxy(program: &Path, master_port: u16, out_port: u16, log: &Path) -> Peer {
     let mut c = Command::new(program);
-    c.current_dir(dir)
-        .arg(format!("--master=tcp:127.0.0.1:{master_port}"))
+    if let Some(dir) = log.parent() {
+        c.current_dir(dir);
+    }
+    c.arg(format!("--master=tcp:127.0.0.1:{master_port}"))
         .arg(format!("--out=udp:127.0.0.1:{out_port}"))
         .args(["--non-interactive", "--no-state", "--streamrate=-1"]);
-    Peer::spawn("MAVProxy", c, &dir.join("mavproxy.log"))
+    Peer::spawn("MAVProxy", c, log)
 }
 
 /// A pseudo-terminal pair made by socat: what one end writes the other
