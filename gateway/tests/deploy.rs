@@ -9,7 +9,12 @@
 //!   serial link (a socat pseudo-terminal pair between SITL's
 //!   `--serial1 uart:` and Petrel's `serial:`): the bench project's net
 //!   hears the vehicle become ready, commands FBWA, gets `command.ok`, and
-//!   sees the mode change in the autopilot's telemetry.
+//!   sees the mode change in the autopilot's telemetry; the router then
+//!   restarts and Petrel is answered through the new one; on the serial
+//!   link a ground station on another port of the autopilot sees Petrel's
+//!   companion HEARTBEAT;
+//! - (ignored: a defect's reproduction) a USB serial device pulled out and
+//!   plugged in again.
 //!
 //! The real-SITL tests use SITL instance 5 only (TCP 5810..5813), one at a
 //! time. Without the SITL binaries, MAVProxy, socat or systemd-analyze they
