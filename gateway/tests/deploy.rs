@@ -308,20 +308,23 @@ fn through_mavproxy_as_a_router() {
     let first_log = scratch.path().join("mavproxy.log");
     let mut router = peers::mavproxy(&mavproxy, sitl.port(0), port, &first_log);
     let done = petrel.wait_for(BENCH_LIMIT, bench_over);
+    let bench_at = started.elapsed();
     router.assert_running(&first_log);
     // The router restarts (`systemctl restart mavlink-router`): it comes
     // back from another UDP port, which Petrel must learn to answer.
     drop(router);
     let within = |petrel: &Gateway, s: u64| petrel.started.elapsed() + Duration::from_secs(s);
     let lost = done && petrel.wait_for(within(&petrel, 15), |l| l["event"] == "link_lost");
+    let lost_at = started.elapsed();
     let second_log = scratch.path().join("mavproxy-again.log");
     let _router = peers::mavproxy(&mavproxy, sitl.port(0), port, &second_log);
     let restored = lost && petrel.wait_for(within(&petrel, 60), |l| l["event"] == "link_restored");
+    let restored_after = started.elapsed();
     let restored_at = petrel.timeline.last().and_then(|l| l["time_us"].as_u64());
-    // Petrel asks for its telemetry again on the link's return; the
-    // refusals among the answers are events: wait for one (at most 10 s).
+    // Petrel asks for its telemetry again on the link's return: give the
+    // answers 5 s to come back (checked in the recording below).
     if restored {
-        petrel.wait_for(within(&petrel, 10), |l| l["event"] == "command_rejected");
+        petrel.wait_for(within(&petrel, 5), |_| false);
     }
     let stopped = petrel.stop();
     let logs = || {
@@ -361,8 +364,11 @@ fn through_mavproxy_as_a_router() {
         logs()
     );
     eprintln!(
-        "{test}: {:.1} s (stop on SIGTERM {:.2} s)",
+        "{test}: {:.1} s (bench net done at {:.1} s, link_lost at {:.1} s, link_restored at {:.1} s; stop on SIGTERM {:.2} s)",
         started.elapsed().as_secs_f64(),
+        bench_at.as_secs_f64(),
+        lost_at.as_secs_f64(),
+        restored_after.as_secs_f64(),
         stopped.stop_time.as_secs_f64()
     );
 }
