@@ -13,8 +13,8 @@
 //!   restarts and Petrel is answered through the new one; on the serial
 //!   link a ground station on another port of the autopilot sees Petrel's
 //!   companion HEARTBEAT;
-//! - (ignored: a defect's reproduction) a USB serial device pulled out and
-//!   plugged in again.
+//! - a USB serial device pulled out and plugged in again: `link_lost`, no
+//!   spinning meanwhile, `link_restored` once it is back.
 //!
 //! The real-SITL tests use SITL instance 5 only (TCP 5810..5813), one at a
 //! time. Without the SITL binaries, MAVProxy, socat or systemd-analyze they
@@ -459,7 +459,6 @@ fn over_a_serial_link() {
 /// link must come back by itself once the device is back (a TCP link is
 /// reopened every 0.5 s; a serial link should be too).
 #[test]
-#[ignore = "defect: petrel run does not reopen a serial link whose device went away, and spins a core meanwhile (docs/deploy.md, Known limits)"]
 fn a_usb_serial_link_comes_back() {
     let test = "a_usb_serial_link_comes_back";
     let Some(plane) = ardupilot::require(Firmware::Plane, test) else {

@@ -337,25 +337,10 @@ impl Gateway {
                 clock.scale()
             );
         }
-        let recorder = match &setup.record {
-            None => None,
-            Some(path) => {
-                let unix_ns = std::time::SystemTime::now()
-                    .duration_since(std::time::UNIX_EPOCH)
-                    .map_or(0, |d| d.as_nanos() as u64);
-                let options = RecordOptions {
-                    clock_offset_ns: unix_ns,
-                    profile: setup.layers.name.clone(),
-                    profile_layers: setup.layers.layers.clone(),
-                    config: elaboration_config(&setup.vehicle),
-                    ..RecordOptions::default()
-                };
-                let rec = Recorder::create(path, setup.project.clone(), options)
-                    .map_err(|e| miette::miette!("cannot record to {}: {e}", path.display()))?;
-                eprintln!("recording to {}", path.display());
-                Some(rec)
-            }
-        };
+        // The recording's times count from the gateway's origin.
+        let unix_ns = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos() as u64);
         let (mut reader, writer) = Link::open(&setup.address, clock.clone())
             .await
             .map_err(|e| miette::miette!("{e}"))?;
@@ -369,6 +354,24 @@ impl Gateway {
                 .await
                 .map_err(|e| miette::miette!("{e}"))?;
             (Some(p), i)
+        };
+        // The recording is created once the link and the program server
+        // are open: a start that fails leaves no empty recording behind.
+        let recorder = match &setup.record {
+            None => None,
+            Some(path) => {
+                let options = RecordOptions {
+                    clock_offset_ns: unix_ns,
+                    profile: setup.layers.name.clone(),
+                    profile_layers: setup.layers.layers.clone(),
+                    config: elaboration_config(&setup.vehicle),
+                    ..RecordOptions::default()
+                };
+                let rec = Recorder::create(path, setup.project.clone(), options)
+                    .map_err(|e| miette::miette!("cannot record to {}: {e}", path.display()))?;
+                eprintln!("recording to {}", path.display());
+                Some(rec)
+            }
         };
         let messages: Vec<(u32, f32)> = setup
             .profile
@@ -425,7 +428,11 @@ impl Gateway {
                             break;
                         }
                     }
-                    Err(e) => tracing::warn!("{e}"),
+                    Err(e) => {
+                        // Never spin on a link that keeps failing.
+                        tracing::warn!("{e}");
+                        tokio::time::sleep(Duration::from_millis(200)).await;
+                    }
                 }
             }
         });
@@ -592,7 +599,11 @@ impl Gateway {
                                 rec.sent(self.clock.now(), &bytes);
                             }
                         }
-                        Err(e) => tracing::warn!("{e}"),
+                        Err(e) => {
+                        // Never spin on a link that keeps failing.
+                        tracing::warn!("{e}");
+                        tokio::time::sleep(Duration::from_millis(200)).await;
+                    }
                     }
                 }
             }

@@ -181,15 +181,19 @@ impl LinkReader {
         vehicles.admit(system, raw.component_id(), heartbeat.as_ref())
     }
 
-    fn is_tcp(&self) -> bool {
-        self.shared.address.starts_with("tcp")
+    /// TCP and serial links are reopened when they break (a peer gone, a
+    /// USB adapter pulled out); UDP has no connection to lose.
+    fn reopens(&self) -> bool {
+        let a = &self.shared.address;
+        a.starts_with("tcp") || a.starts_with("serial")
     }
 
     /// The next frame. Frames with a bad checksum or an unknown message id
-    /// are skipped by rust-mavlink; UDP and serial errors are retried by
-    /// rust-mavlink. A TCP link that breaks is reopened here (every 0.5 s
-    /// until it comes back; `tcpin:` listens again), so this waits across
-    /// the outage; meanwhile the writer reports `LinkError::Down`.
+    /// are skipped by rust-mavlink; UDP errors are retried by rust-mavlink.
+    /// A TCP or serial link that breaks (a serial device that goes away
+    /// reads as the end of the stream) is reopened here (every 0.5 s until
+    /// it comes back; `tcpin:` listens again), so this waits across the
+    /// outage; meanwhile the writer reports `LinkError::Down`.
     pub async fn recv(&mut self) -> Result<Received, LinkError> {
         loop {
             let connection = match self.shared.current() {
@@ -210,7 +214,7 @@ impl LinkReader {
             };
             let raw = match connection.recv_raw().await {
                 Ok(raw) => raw,
-                Err(e) if self.is_tcp() => {
+                Err(e) if self.reopens() => {
                     tracing::warn!(address = %self.shared.address, error = %e, "MAVLink link broken: reopening");
                     self.shared.set(None);
                     continue;
