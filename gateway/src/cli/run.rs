@@ -600,10 +600,10 @@ impl Gateway {
                             }
                         }
                         Err(e) => {
-                        // Never spin on a link that keeps failing.
-                        tracing::warn!("{e}");
-                        tokio::time::sleep(Duration::from_millis(200)).await;
-                    }
+                            // Never spin on a link that keeps failing.
+                            tracing::warn!("{e}");
+                            tokio::time::sleep(Duration::from_millis(200)).await;
+                        }
                     }
                 }
             }
