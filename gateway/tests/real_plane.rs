@@ -12,6 +12,7 @@ mod flight;
 #[path = "scenarios/real.rs"]
 mod real;
 
+use flight::{metres, site};
 use real::{Act, Plan, RealFlown, Truth};
 
 /// The mission file DEC reads, in the project folder.
@@ -27,28 +28,6 @@ fn mission(name: &'static str) -> Plan {
         params: MISSION_PARAMS.to_vec(),
         ..Plan::new(name)
     }
-}
-
-/// Metres between two positions (equirectangular, fine at these ranges).
-fn metres(a: (f64, f64), b: (f64, f64)) -> f64 {
-    let north = (a.0 - b.0).to_radians() * 6_371_000.0;
-    let east = (a.1 - b.1).to_radians() * 6_371_000.0 * a.0.to_radians().cos();
-    (north * north + east * east).sqrt()
-}
-
-/// An emergency site of the mission file, by name.
-fn site(name: &str) -> (f64, f64) {
-    let text = std::fs::read_to_string(flight::project().join(MISSION_FILE)).expect("mission file");
-    let mission: toml::Table = toml::from_str(&text).expect("TOML");
-    let sites = mission["site"].as_array().expect("sites");
-    let site = sites
-        .iter()
-        .find(|s| s["name"].as_str() == Some(name))
-        .unwrap_or_else(|| panic!("no site {name}"));
-    (
-        site["lat"].as_float().expect("lat"),
-        site["lon"].as_float().expect("lon"),
-    )
 }
 
 fn at(t: &Truth) -> (f64, f64) {

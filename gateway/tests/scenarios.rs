@@ -8,7 +8,7 @@
 #[path = "scenarios/flight.rs"]
 mod flight;
 
-use flight::{fly, Flown, Injection};
+use flight::{fly, metres, site, Flown, Injection};
 use sitl_tests::{Fault, PayloadFailure, SimState};
 
 /// The mission file DEC reads, in the project folder.
@@ -20,28 +20,6 @@ const MAX_SIM_S: f64 = 420.0;
 /// Down and disarmed, or crashed.
 fn over(s: &SimState) -> bool {
     (s.landed && !s.armed && !s.reached.is_empty()) || s.crashed
-}
-
-/// Metres between two positions (equirectangular, fine at these ranges).
-fn metres(a: (f64, f64), b: (f64, f64)) -> f64 {
-    let north = (a.0 - b.0).to_radians() * 6_371_000.0;
-    let east = (a.1 - b.1).to_radians() * 6_371_000.0 * a.0.to_radians().cos();
-    (north * north + east * east).sqrt()
-}
-
-/// An emergency site of the mission file, by name.
-fn site(name: &str) -> (f64, f64) {
-    let text = std::fs::read_to_string(flight::project().join(MISSION_FILE)).expect("mission file");
-    let mission: toml::Table = toml::from_str(&text).expect("TOML");
-    let sites = mission["site"].as_array().expect("sites");
-    let site = sites
-        .iter()
-        .find(|s| s["name"].as_str() == Some(name))
-        .unwrap_or_else(|| panic!("no site {name}"));
-    (
-        site["lat"].as_float().expect("lat"),
-        site["lon"].as_float().expect("lon"),
-    )
 }
 
 /// Where the aircraft came to rest.

@@ -268,3 +268,26 @@ pub fn fly(
         wall,
     }
 }
+
+/// Metres between two positions (equirectangular, fine at these ranges).
+pub fn metres(a: (f64, f64), b: (f64, f64)) -> f64 {
+    let north = (a.0 - b.0).to_radians() * 6_371_000.0;
+    let east = (a.1 - b.1).to_radians() * 6_371_000.0 * a.0.to_radians().cos();
+    (north * north + east * east).sqrt()
+}
+
+/// An emergency site of the mission file, by name.
+pub fn site(name: &str) -> (f64, f64) {
+    let text = std::fs::read_to_string(project().join(super::MISSION_FILE)).expect("mission file");
+    let mission: toml::Table = toml::from_str(&text).expect("TOML");
+    let sites = mission["site"].as_array().expect("sites");
+    let site = sites
+        .iter()
+        .find(|s| s["name"].as_str() == Some(name))
+        .unwrap_or_else(|| panic!("no site {name}"));
+    (
+        site["lat"].as_float().expect("lat"),
+        site["lon"].as_float().expect("lon"),
+    )
+}
+
