@@ -290,4 +290,3 @@ pub fn site(name: &str) -> (f64, f64) {
         site["lon"].as_float().expect("lon"),
     )
 }
-
