@@ -335,16 +335,30 @@ fn fly_copter(link: &mut Link) -> Result<Vec<Window>, String> {
     link.param("SIM_ENGINE_MUL", 0.0)?;
     link.param("SIM_ENGINE_FAIL", 1.0)?;
     link.wait("down", 20.0, |s| s.altitude < 1.0)?;
-    // SITL's copter reports no ESC rpm (all 0), so only ArduCopter's own
-    // "Potential Thrust Loss (n)" says it, and that came 2 to 10 s after
-    // the impact in the runs seen: a window of 15 s after it.
+    // The quad tumbles to the ground in about 2.5 s. SITL's copter
+    // reports no ESC rpm (all 0), so nothing but ArduCopter's own
+    // "Potential Thrust Loss (n)" can say it, and that text came 2 to 10 s
+    // after the impact in some runs, not at all in others. What the
+    // autopilot reported is what is expected: `engine_failure` when it
+    // said so, and in any case no false alarm of another failure.
     link.hold(15.0)?;
+    let to = link.now_us();
+    let thrust_loss = link
+        .texts_between(from, to)
+        .iter()
+        .any(|t| t.starts_with("Potential Thrust Loss"));
+    eprintln!("motor 1 killed: ArduCopter said it lost thrust: {thrust_loss}");
     windows.push(Window {
         what: "motor 1 killed",
         from_us: from,
-        to_us: link.now_us(),
-        expect: &["engine_failure"],
+        to_us: to,
+        expect: if thrust_loss {
+            &["engine_failure"]
+        } else {
+            &[]
+        },
         allow: &[
+            "engine_failure",
             "motor_imbalance",
             "vehicle_emergency",
             "ekf_unhealthy",
