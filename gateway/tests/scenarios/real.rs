@@ -184,8 +184,10 @@ impl Observer {
             truth,
             thread: Some(thread),
         };
-        // What this port streams is its own: ask for what the truth reads.
-        for (id, hz) in [(33, 4.0), (74, 2.0), (2, 2.0)] {
+        // What this port streams is its own: ask for what the truth reads,
+        // HEARTBEAT often enough to see a mode held for a moment (an RTL
+        // that RTL_AUTOLAND turns into the landing sequence at once).
+        for (id, hz) in [(0, 10.0), (33, 4.0), (74, 2.0), (2, 2.0)] {
             observer.command(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, [id as f32, 1e6 / hz]);
         }
         observer
@@ -493,7 +495,13 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
         &Options {
             instance: instance.number(),
             speedup: SPEEDUP,
-            params: params.iter().map(|(n, v)| ((*n).to_owned(), *v)).collect(),
+            // The observer's and the camera's ports at 921600 baud: at the
+            // default 57600 ArduPilot drops what does not fit.
+            params: [("SERIAL1_BAUD", 921.0), ("SERIAL2_BAUD", 921.0)]
+                .iter()
+                .chain(params.iter())
+                .map(|(n, v)| ((*n).to_owned(), *v))
+                .collect(),
             ..Options::default()
         },
         &dir.join("sitl"),
