@@ -531,7 +531,7 @@ fn a_geofence_breach_returns_as_arduplane_does() {
     // Petrel's `land` reaches it.
     let own = t.text("Landing sequence start");
     assert!(
-        t.modes_after(breach - 1.0).iter().any(|m| *m == "RTL")
+        t.modes_after(breach - 1.0).contains(&"RTL")
             || own.is_some_and(|at| (at - breach).abs() < 3.0),
         "ArduPlane did not return by itself: {:?} {:?}",
         t.modes,
