@@ -377,19 +377,7 @@ mod tests {
     }
 
     fn command(c: &mut CameraComponent, now: u64, command: MavCmd, p: [f32; 7]) {
-        let msg = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-            param1: p[0],
-            param2: p[1],
-            param3: p[2],
-            param4: p[3],
-            param5: p[4],
-            param6: p[5],
-            param7: p[6],
-            command,
-            target_system: 1,
-            target_component: 100,
-            confirmation: 0,
-        });
+        let msg = crate::wire::command_long((1, 100), command, p);
         c.handle(now, &header(GATEWAY), &msg);
     }
 

@@ -648,19 +648,7 @@ pub(crate) mod testing {
 
         pub fn command_to(&mut self, comp: u8, command: MavCmd, p: [f32; 7]) -> Option<MavResult> {
             let before = self.got.len();
-            self.send(MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-                param1: p[0],
-                param2: p[1],
-                param3: p[2],
-                param4: p[3],
-                param5: p[4],
-                param6: p[5],
-                param7: p[6],
-                command,
-                target_system: 1,
-                target_component: comp,
-                confirmation: 0,
-            }));
+            self.send(crate::wire::command_long((1, comp), command, p));
             self.got[before..].iter().find_map(|(_, _, m)| match m {
                 MavMessage::COMMAND_ACK(a) if a.command == command => Some(a.result),
                 _ => None,

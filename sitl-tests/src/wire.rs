@@ -3,7 +3,7 @@
 //! the camera on its own and the tests' clients read and write.
 
 use elaboration::{Frame, FrameError};
-use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::dialects::ardupilotmega::{MavCmd, MavMessage, COMMAND_LONG_DATA};
 use mavlink::{MavHeader, MavlinkVersion};
 
 /// Takes the whole frames at the start of `buf`; garbage is skipped, a
@@ -35,6 +35,24 @@ pub fn parse_frames(buf: &mut Vec<u8>, out: &mut Vec<(MavHeader, MavMessage)>) {
 /// One MAVLink 2 frame.
 pub fn frame(header: MavHeader, msg: &MavMessage) -> Vec<u8> {
     elaboration::frame::serialize(header, MavlinkVersion::V2, msg)
+}
+
+/// A COMMAND_LONG to `(system, component)` with its seven parameters, as
+/// the simulator's and the tests' clients send one.
+pub fn command_long(target: (u8, u8), command: MavCmd, p: [f32; 7]) -> MavMessage {
+    MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+        param1: p[0],
+        param2: p[1],
+        param3: p[2],
+        param4: p[3],
+        param5: p[4],
+        param6: p[5],
+        param7: p[6],
+        command,
+        target_system: target.0,
+        target_component: target.1,
+        confirmation: 0,
+    })
 }
 
 #[cfg(test)]

@@ -651,10 +651,6 @@ fn parameters_fit(verdict: &crate::vehicle::parameters::Verdict, armed: Option<b
             .iter()
             .map(|(name, value)| format!("{name} = {value}"))
             .collect();
-        tracing::info!(
-            "autopilot parameters as the project needs: {}",
-            read.join(", ")
-        );
         eprintln!("autopilot parameters checked: {}", read.join(", "));
         return true;
     }

@@ -344,19 +344,7 @@ impl Link {
     /// COMMAND_LONG, and its COMMAND_ACK's result.
     pub fn command(&mut self, command: MavCmd, p: [f32; 7]) -> Result<MavResult, String> {
         let before = self.said.acks.len();
-        self.send(MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-            param1: p[0],
-            param2: p[1],
-            param3: p[2],
-            param4: p[3],
-            param5: p[4],
-            param6: p[5],
-            param7: p[6],
-            command,
-            target_system: 1,
-            target_component: 1,
-            confirmation: 0,
-        }))?;
+        self.send(sitl_tests::wire::command_long((1, 1), command, p))?;
         self.wait(&format!("{command:?} acknowledged"), 5.0, |s| {
             s.acks[before..].iter().any(|(c, _)| *c == command)
         })?;

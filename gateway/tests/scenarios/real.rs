@@ -203,19 +203,12 @@ impl Observer {
     }
 
     fn command(&self, command: MavCmd, params: [f32; 2]) {
-        self.send(&MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-            param1: params[0],
-            param2: params[1],
-            param3: 0.0,
-            param4: 0.0,
-            param5: 0.0,
-            param6: 0.0,
-            param7: 0.0,
+        let [p1, p2] = params;
+        self.send(&sitl_tests::wire::command_long(
+            (1, 1),
             command,
-            target_system: 1,
-            target_component: 1,
-            confirmation: 0,
-        }));
+            [p1, p2, 0.0, 0.0, 0.0, 0.0, 0.0],
+        ));
     }
 
     /// PARAM_SET, as ArduPilot's autotest injects failures.

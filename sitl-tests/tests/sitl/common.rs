@@ -136,19 +136,7 @@ impl Client {
 
     pub fn command(&mut self, command: MavCmd, p: [f32; 7]) -> Option<MavResult> {
         let from = self.got.len();
-        self.send(MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-            param1: p[0],
-            param2: p[1],
-            param3: p[2],
-            param4: p[3],
-            param5: p[4],
-            param6: p[5],
-            param7: p[6],
-            command,
-            target_system: 1,
-            target_component: 1,
-            confirmation: 0,
-        }));
+        self.send(sitl_tests::wire::command_long((1, 1), command, p));
         self.ack_since(from, command)
     }
 
@@ -336,18 +324,6 @@ impl Link {
 
     /// COMMAND_LONG to component `component` of system 1.
     pub fn command(&mut self, component: u8, command: MavCmd, p: [f32; 7]) {
-        self.send(&MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-            param1: p[0],
-            param2: p[1],
-            param3: p[2],
-            param4: p[3],
-            param5: p[4],
-            param6: p[5],
-            param7: p[6],
-            command,
-            target_system: 1,
-            target_component: component,
-            confirmation: 0,
-        }));
+        self.send(&sitl_tests::wire::command_long((1, component), command, p));
     }
 }
