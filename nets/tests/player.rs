@@ -1523,3 +1523,143 @@ fn under_the_oracle_a_guard_that_holds_makes_the_event_carry_what_it_read() {
         );
     }
 }
+
+/// A project whose only reaction to `engine_failure` calls DEC.site with the
+/// event's position, and a net that logs every `net_fault`.
+const FAULT_UNDER_CATASTROPHE: &str = r#"
+[events]
+engine_failure = { category = "catastrophic", params = ["lat", "lon"] }
+[programs.DEC.functions]
+site = { args = ["lat", "lon"], returns = ["lat"] }
+[[net]]
+file = "emergency.toml"
+active = true
+[[net]]
+file = "faults.toml"
+active = true
+[[net]]
+file = "mission.toml"
+active = true
+"#;
+
+const FAULT_EMERGENCY: &str = r#"name = "EMERGENCY"
+places = ["watching", "asking", "busy"]
+initial = ["watching"]
+[[transition]]
+name = "engine"
+from = ["watching"]
+to = ["asking"]
+on = "engine_failure"
+do = ["call DEC.site {lat: $lat, lon: $lon}"]
+"#;
+
+const FAULT_LOG: &str = r#"name = "FAULTS"
+places = ["logging"]
+initial = ["logging"]
+[[transition]]
+name = "log"
+from = ["logging"]
+to = ["logging"]
+on = "net_fault"
+"#;
+
+const FAULT_MISSION: &str = r#"name = "MISSION"
+places = ["a", "b"]
+initial = ["a"]
+[[transition]]
+name = "go"
+from = ["a"]
+to = ["b"]
+on = "waypoint"
+"#;
+
+#[test]
+fn a_rejected_catastrophic_firing_raises_a_net_fault_that_does_not_start_the_lockout() {
+    let p = project(&[
+        ("project.toml", FAULT_UNDER_CATASTROPHE),
+        ("emergency.toml", FAULT_EMERGENCY),
+        ("faults.toml", FAULT_LOG),
+        ("mission.toml", FAULT_MISSION),
+    ]);
+    let mut player = Player::start(p.clone(), 0);
+    drain(&mut player);
+    // The event lacks `lon`: the only catastrophic transition is rejected.
+    let mut failure = Event::new("engine_failure").category(Category::Catastrophic);
+    failure.params.insert("lat".into(), Value::Float(43.6));
+    player.handle(&failure, S);
+    let effects = drain_effects(&mut player);
+    assert!(effects.iter().any(|e| matches!(e, Effect::Fault { fault: Fault::BadArgument { .. }, .. })));
+    // The fault is heard, as a safety event, by the logging net…
+    assert_eq!(fired(&p, &effects), ["FAULTS.log"]);
+    // …and no catastrophic transition fired, so there is no lockout.
+    assert!(!effects.iter().any(|e| matches!(e, Effect::Lockout { .. })));
+    assert!(!player.locked_out());
+    // Later events are still handled, and the emergency net still waits.
+    assert_eq!(fire(&mut player, &ev("waypoint"), 2 * S), ["MISSION.go"]);
+    assert_eq!(marking(&player, "EMERGENCY"), ["watching"]);
+    // A complete engine_failure then starts the reaction and the lockout.
+    failure.params.insert("lon".into(), Value::Float(1.4));
+    assert_eq!(fire(&mut player, &failure, 3 * S), ["EMERGENCY.engine"]);
+    assert!(player.locked_out());
+}
+
+#[test]
+fn a_double_token_under_a_catastrophic_event_does_not_start_the_lockout() {
+    let emergency = r#"name = "EMERGENCY"
+places = ["watching", "asking"]
+initial = ["watching", "asking"]
+[[transition]]
+name = "engine"
+from = ["watching"]
+to = ["asking"]
+on = "engine_failure"
+"#;
+    let p = project(&[
+        ("project.toml", FAULT_UNDER_CATASTROPHE),
+        ("emergency.toml", emergency),
+        ("faults.toml", FAULT_LOG),
+        ("mission.toml", FAULT_MISSION),
+    ]);
+    let mut player = Player::start(p.clone(), 0);
+    drain(&mut player);
+    player.handle(&ev("engine_failure"), S);
+    let effects = drain_effects(&mut player);
+    assert!(effects.iter().any(|e| matches!(e, Effect::Fault { fault: Fault::DoubleToken { .. }, .. })));
+    assert_eq!(fired(&p, &effects), ["FAULTS.log"]);
+    assert!(!player.locked_out());
+    assert_eq!(fire(&mut player, &ev("waypoint"), 2 * S), ["MISSION.go"]);
+}
+
+#[test]
+fn a_net_fault_raised_by_the_running_catastrophic_reaction_stays_catastrophic() {
+    // The first catastrophic candidate is rejected, the second fires: the
+    // reaction is running, so its net_fault is catastrophic and still heard.
+    let emergency = r#"name = "EMERGENCY"
+places = ["watching", "asking", "gliding"]
+initial = ["watching"]
+[[transition]]
+name = "engine"
+from = ["watching"]
+to = ["asking"]
+on = "engine_failure"
+do = ["call DEC.site {lat: $lat, lon: $lon}"]
+[[transition]]
+name = "glide"
+from = ["watching"]
+to = ["gliding"]
+on = "engine_failure"
+"#;
+    let p = project(&[
+        ("project.toml", FAULT_UNDER_CATASTROPHE),
+        ("emergency.toml", emergency),
+        ("faults.toml", FAULT_LOG),
+        ("mission.toml", FAULT_MISSION),
+    ]);
+    let mut player = Player::start(p.clone(), 0);
+    drain(&mut player);
+    player.handle(&ev("engine_failure"), S);
+    let effects = drain_effects(&mut player);
+    assert_eq!(fired(&p, &effects), ["EMERGENCY.glide", "FAULTS.log"]);
+    assert!(player.locked_out());
+    assert!(!effects.iter().any(|e| matches!(e, Effect::Dropped { .. })));
+}

@@ -57,6 +57,10 @@ pub struct Player {
     consumed: Vec<u64>,
     /// Something fired or was activated since the last immediate pass.
     changed: bool,
+    /// `net_fault`s raised by rejected firings of the occurrence being
+    /// handled, with whether the catastrophic reaction raised them; queued
+    /// once the occurrence is over (see [`Player::queue_net_faults`]).
+    net_faults: Vec<(Params, bool)>,
 }
 
 enum Firing {
@@ -109,6 +113,7 @@ impl Player {
             candidates: Vec::new(),
             consumed: vec![0; words],
             changed: false,
+            net_faults: Vec::new(),
         }
     }
 
@@ -531,6 +536,7 @@ impl Player {
                     }
                 }
             }
+            self.queue_net_faults(project);
         }
         self.candidates = candidates;
         Ok(())
@@ -646,21 +652,34 @@ impl Player {
         if let Some(p) = place {
             params.insert("place".into(), Value::Str(flat_place_name(project, p)));
         }
-        let category = if tainted {
-            Category::Catastrophic
-        } else {
-            project
-                .declared_category(names::NET_FAULT)
-                .unwrap_or(Category::Safety)
-        };
-        self.state.push(Queued {
-            event: Event {
-                name: names::NET_FAULT.to_owned(),
-                category,
-                params,
-            },
-            target: None,
-        });
+        self.net_faults.push((params, tainted));
+    }
+
+    /// Queues the `net_fault`s of the occurrence just handled. One raised
+    /// while a catastrophic event was being handled is catastrophic only if
+    /// the catastrophic reaction is running (a catastrophic transition fired,
+    /// so the lockout is on): a rejected firing alone is not a catastrophic
+    /// reaction and must not start the lockout through a net that hears
+    /// `net_fault`. Otherwise it has its declared category (safety by
+    /// default).
+    fn queue_net_faults(&mut self, project: &Project) {
+        for (params, tainted) in std::mem::take(&mut self.net_faults) {
+            let category = if tainted && self.state.lockout {
+                Category::Catastrophic
+            } else {
+                project
+                    .declared_category(names::NET_FAULT)
+                    .unwrap_or(Category::Safety)
+            };
+            self.state.push(Queued {
+                event: Event {
+                    name: names::NET_FAULT.to_owned(),
+                    category,
+                    params,
+                },
+                target: None,
+            });
+        }
     }
 
     fn run_actions(
@@ -949,7 +968,10 @@ impl Player {
                             self.run_actions(project, n, t, &Params::new(), now, tainted);
                             continue 'scan;
                         }
-                        Firing::Rejected => rejected.push((n, t)),
+                        Firing::Rejected => {
+                            self.queue_net_faults(project);
+                            rejected.push((n, t));
+                        }
                     }
                 }
             }
