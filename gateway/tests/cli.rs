@@ -108,7 +108,7 @@ fn play_reports_bad_input_with_exit_2() {
     ]);
     assert_eq!(code, 2);
     assert!(
-        err.contains("bad.jsonl:2:1: `t` goes backwards (0.5 after 1)"),
+        err.contains("bad.jsonl:2:2: `t` goes backwards (0.5 after 1)"),
         "{err}"
     );
 
@@ -286,4 +286,58 @@ fn replay_runs_a_recorded_flight_through_elaboration_and_the_nets() {
     let (code, _, err) = petrel(&["replay", "flight.mcap", "examples/uav-survey"]);
     assert_eq!(code, 2);
     assert!(err.contains("MCAP"), "{err}");
+}
+
+#[test]
+fn play_prints_every_line_in_time_order_with_expiries_before_the_input_that_let_them_fire() {
+    let dir = std::env::temp_dir().join(format!("petrel-play-order-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    std::fs::write(
+        dir.join("project.toml"),
+        "[[net]]\nfile = \"n.toml\"\nactive = true\n",
+    )
+    .expect("write");
+    std::fs::write(
+        dir.join("n.toml"),
+        "name = \"N\"\nplaces = [\"a\", \"b\", \"c\", \"d\"]\ninitial = [\"a\"]\n\
+         [[transition]]\nname = \"go\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"go\"\ndo = [\"timer w after 10s\"]\n\
+         [[transition]]\nname = \"late\"\nfrom = [\"b\"]\nto = [\"c\"]\non = \"w\"\n\
+         [[transition]]\nname = \"on\"\nfrom = [\"c\"]\nto = [\"d\"]\non = \"next\"\n",
+    )
+    .expect("write");
+    let script = dir.join("s.jsonl");
+    std::fs::write(
+        &script,
+        "{\"t\": 1.5, \"event\": \"go\"}\n{\"t\": 30, \"event\": \"next\"}\n{\"t\": 40}\n",
+    )
+    .expect("write");
+    let (code, out, err) = petrel(&[
+        "play",
+        dir.to_str().expect("utf-8"),
+        "--events",
+        script.to_str().expect("utf-8"),
+        "--json",
+    ]);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(code, 0, "{err}");
+    let lines: Vec<serde_json::Value> = out
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect();
+    let times: Vec<f64> = lines.iter().filter_map(|l| l["t"].as_f64()).collect();
+    assert!(
+        times.windows(2).all(|w| w[0] <= w[1]),
+        "out of time order: {times:?}\n{out}"
+    );
+    let expired = lines
+        .iter()
+        .position(|l| l["effect"] == "timer_expired")
+        .unwrap_or_else(|| panic!("no timer expiry:\n{out}"));
+    assert_eq!(lines[expired]["t"].as_f64(), Some(11.5));
+    let next = lines
+        .iter()
+        .position(|l| l["input"] == "event" && l["event"] == "next")
+        .expect("the input at 30 s");
+    assert!(expired < next, "{out}");
+    assert!(out.contains("\"late\""), "the expiry fired N.late:\n{out}");
 }

@@ -39,6 +39,7 @@ pub mod event;
 pub mod expr;
 pub mod load;
 pub mod model;
+pub mod outside;
 pub mod player;
 pub mod script;
 pub mod source;

@@ -17,6 +17,7 @@
 use serde_json::Value as Json;
 
 use crate::event::{Category, Event};
+use crate::model::Project;
 use crate::player::{Outcome, PendingKind, Player};
 use crate::time::Micros;
 use crate::value::{Params, Value};
@@ -44,6 +45,26 @@ pub struct Line {
     pub number: usize,
     pub time: Micros,
     pub input: Input,
+    /// The 1-based column of each key of the line's object, for errors.
+    pub columns: Vec<(String, usize)>,
+}
+
+impl Line {
+    /// The column where `key` starts on the line (1 if it is absent).
+    pub fn column(&self, key: &str) -> usize {
+        self.columns
+            .iter()
+            .find(|(k, _)| k == key)
+            .map_or(1, |&(_, c)| c)
+    }
+
+    fn err(&self, key: &str, message: impl Into<String>) -> ScriptError {
+        ScriptError {
+            line: self.number,
+            column: self.column(key),
+            message: message.into(),
+        }
+    }
 }
 
 /// A problem in a script, at a line (and column, when known).
@@ -81,11 +102,31 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
         let Json::Object(obj) = json else {
             return Err(err(number, "expected a JSON object"));
         };
+        let keys = key_columns(raw);
+        if let Some((key, column)) = keys.duplicate {
+            return Err(ScriptError {
+                line: number,
+                column,
+                message: format!("duplicate key `{key}`"),
+            });
+        }
+        let columns = keys.top;
+        let at = |key: &str| {
+            columns
+                .iter()
+                .find(|(k, _)| k == key)
+                .map_or(1, |&(_, c)| c)
+        };
+        let err_at = |key: &str, message: &dyn std::fmt::Display| ScriptError {
+            line: number,
+            column: at(key),
+            message: message.to_string(),
+        };
         for key in obj.keys() {
             if !["t", "event", "params", "category", "reply", "failed"].contains(&key.as_str()) {
-                return Err(err(
-                    number,
-                    format!(
+                return Err(err_at(
+                    key,
+                    &format!(
                         "unknown key `{key}` (expected t, event, params, category, reply, failed)"
                     ),
                 ));
@@ -94,18 +135,18 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
         let t = obj
             .get("t")
             .and_then(Json::as_f64)
-            .ok_or_else(|| err(number, "missing `t` (seconds, a number)"))?;
+            .ok_or_else(|| err_at("t", &"missing `t` (seconds, a number)"))?;
         if !(0.0..=1e9).contains(&t) {
-            return Err(err(
-                number,
-                format!("`t` = {t} is out of range (0 to 1e9 seconds)"),
+            return Err(err_at(
+                "t",
+                &format!("`t` = {t} is out of range (0 to 1e9 seconds)"),
             ));
         }
         let time = (t * 1e6).round() as Micros;
         if time < last {
-            return Err(err(
-                number,
-                format!("`t` goes backwards ({t} after {})", last as f64 / 1e6),
+            return Err(err_at(
+                "t",
+                &format!("`t` goes backwards ({t} after {})", last as f64 / 1e6),
             ));
         }
         last = time;
@@ -116,30 +157,35 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
                 .map(|(k, v)| {
                     Value::from_json(v)
                         .map(|v| (k.clone(), v))
-                        .ok_or_else(|| err(number, format!("parameter `{k}` is null")))
+                        .ok_or_else(|| err_at("params", &format!("parameter `{k}` is null")))
                 })
                 .collect::<Result<_, _>>()?,
-            Some(_) => return Err(err(number, "`params` must be an object")),
+            Some(_) => return Err(err_at("params", &"`params` must be an object")),
         };
         let input = match (obj.get("event"), obj.get("reply")) {
             (Some(_), Some(_)) => {
-                return Err(err(number, "a line is an `event` or a `reply`, not both"))
+                return Err(err_at(
+                    "reply",
+                    &"a line is an `event` or a `reply`, not both",
+                ))
             }
             (Some(event), None) => {
                 let name = event
                     .as_str()
                     .filter(|s| !s.is_empty())
-                    .ok_or_else(|| err(number, "`event` must be a non-empty string"))?;
+                    .ok_or_else(|| err_at("event", &"`event` must be a non-empty string"))?;
                 if obj.contains_key("failed") {
-                    return Err(err(number, "`failed` belongs to replies"));
+                    return Err(err_at("failed", &"`failed` belongs to replies"));
                 }
                 let category = match obj.get("category") {
                     None => Category::Nominal,
                     Some(c) => c
                         .as_str()
-                        .ok_or_else(|| err(number, "`category` must be a string"))?
+                        .ok_or_else(|| err_at("category", &"`category` must be a string"))?
                         .parse()
-                        .map_err(|e: crate::event::UnknownCategory| err(number, e.to_string()))?,
+                        .map_err(|e: crate::event::UnknownCategory| {
+                            err_at("category", &e.to_string())
+                        })?,
                 };
                 Input::Event(Event {
                     name: name.to_owned(),
@@ -149,13 +195,13 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
             }
             (None, Some(reply)) => {
                 if obj.contains_key("category") {
-                    return Err(err(
-                        number,
-                        "`category` belongs to events: a reply's category comes from its call",
+                    return Err(err_at(
+                        "category",
+                        &"`category` belongs to events: a reply's category comes from its call",
                     ));
                 }
                 let to = match reply {
-                    Json::Number(n) => ReplyTo::Id(n.as_u64().ok_or_else(|| err(number, "a reply id is a positive integer"))?),
+                    Json::Number(n) => ReplyTo::Id(n.as_u64().ok_or_else(|| err_at("reply", &"a reply id is a positive integer"))?),
                     Json::String(s) => match s.split_once('.') {
                         Some(("command", verb)) if !verb.is_empty() => ReplyTo::Command { verb: verb.to_owned() },
                         Some((program, function)) if !program.is_empty() && !function.is_empty() && !function.contains('.') => {
@@ -164,9 +210,9 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
                                 function: function.to_owned(),
                             }
                         }
-                        _ => return Err(err(number, format!("`reply` must be PROGRAM.FUNCTION, command.VERB or an id, not `{s}`"))),
+                        _ => return Err(err_at("reply", &format!("`reply` must be PROGRAM.FUNCTION, command.VERB or an id, not `{s}`"))),
                     },
-                    _ => return Err(err(number, "`reply` must be PROGRAM.FUNCTION, command.VERB or an id")),
+                    _ => return Err(err_at("reply", &"`reply` must be PROGRAM.FUNCTION, command.VERB or an id")),
                 };
                 let outcome = match obj.get("failed") {
                     None => Outcome::Done(params),
@@ -174,15 +220,24 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
                         Outcome::Failed(reason.clone())
                     }
                     Some(Json::String(_)) => {
-                        return Err(err(number, "a failed reply carries a reason, not `params`"))
+                        return Err(err_at(
+                            "params",
+                            &"a failed reply carries a reason, not `params`",
+                        ))
                     }
-                    Some(_) => return Err(err(number, "`failed` must be a string (the reason)")),
+                    Some(_) => {
+                        return Err(err_at("failed", &"`failed` must be a string (the reason)"))
+                    }
                 };
                 Input::Reply { to, outcome }
             }
             (None, None) => {
                 if obj.len() > 1 {
-                    return Err(err(number, "a line with neither `event` nor `reply` only lets time pass: it takes only `t`"));
+                    let other = columns
+                        .iter()
+                        .find(|(k, _)| k != "t")
+                        .map_or("t", |(k, _)| k.as_str());
+                    return Err(err_at(other, &"a line with neither `event` nor `reply` only lets time pass: it takes only `t`"));
                 }
                 Input::Advance
             }
@@ -191,9 +246,104 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
             number,
             time,
             input,
+            columns,
         });
     }
     Ok(lines)
+}
+
+/// The keys of the top-level object on a line, with the 1-based column (in
+/// characters) of each key's opening quote, in the order written; and the
+/// first key repeated within one object at any depth, which a JSON map
+/// would silently merge.
+struct Keys {
+    top: Vec<(String, usize)>,
+    duplicate: Option<(String, usize)>,
+}
+
+fn key_columns(raw: &str) -> Keys {
+    let mut keys = Keys {
+        top: Vec::new(),
+        duplicate: None,
+    };
+    // The keys seen in each open object (`None` for an array).
+    let mut open: Vec<Option<Vec<String>>> = Vec::new();
+    let mut chars = raw.char_indices().enumerate();
+    while let Some((column, (start, c))) = chars.next() {
+        match c {
+            '{' => open.push(Some(Vec::new())),
+            '[' => open.push(None),
+            '}' | ']' => {
+                open.pop();
+            }
+            '"' => {
+                let mut end = raw.len();
+                let mut escaped = false;
+                for (_, (i, c)) in chars.by_ref() {
+                    if escaped {
+                        escaped = false;
+                    } else if c == '\\' {
+                        escaped = true;
+                    } else if c == '"' {
+                        end = i + 1;
+                        break;
+                    }
+                }
+                if !raw[end..].trim_start().starts_with(':') {
+                    continue;
+                }
+                let Some(Some(seen)) = open.last_mut() else {
+                    continue;
+                };
+                let key = serde_json::from_str::<String>(&raw[start..end])
+                    .unwrap_or_else(|_| raw[start..end].trim_matches('"').to_owned());
+                if seen.contains(&key) && keys.duplicate.is_none() {
+                    keys.duplicate = Some((key.clone(), column + 1));
+                }
+                seen.push(key.clone());
+                if open.len() == 1 {
+                    keys.top.push((key, column + 1));
+                }
+            }
+            _ => {}
+        }
+    }
+    keys
+}
+
+/// Checks a parsed script against the project it plays, before anything is
+/// played: a script may only send what the gateway could deliver. Refused:
+/// events the player alone produces (results, `net_fault`) and events only
+/// the nets emit ([`crate::outside`]), and a `category` that contradicts the
+/// project's declaration (which always wins in flight, so the script would
+/// show a flight that cannot happen). A `category` on an undeclared event
+/// is the category the event arrives with, as an elaboration rule or a
+/// program would give it.
+pub fn check(project: &Project, lines: &[Line]) -> Result<(), ScriptError> {
+    for line in lines {
+        let Input::Event(event) = &line.input else {
+            continue;
+        };
+        if let Some(refusal) = crate::outside::refusal(project, &event.name) {
+            return Err(line.err(
+                "event",
+                format!("event `{}` cannot come from outside: {refusal}", event.name),
+            ));
+        }
+        let declared = project.declared_category(&event.name);
+        if let Some(declared) = declared.filter(|&d| d != event.category) {
+            if line.columns.iter().any(|(k, _)| k == "category") {
+                return Err(line.err(
+                    "category",
+                    format!(
+                        "`category`: event `{}` is declared {declared} (by project.toml or the elaboration profile), which always wins; give no category, or {declared}",
+                        event.name
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Finds the pending call or command a reply answers.
@@ -302,24 +452,26 @@ mod tests {
     #[test]
     fn bad_lines_report_their_line_and_column() {
         let cases = [
-            ("{\"t\": 1, \"event\": \"x\"}\n{\"t\": 0.5, \"event\": \"y\"}", "2:1: `t` goes backwards (0.5 after 1)"),
+            ("{\"t\": 1, \"event\": \"x\"}\n{\"t\": 0.5, \"event\": \"y\"}", "2:2: `t` goes backwards (0.5 after 1)"),
             ("{\"t\": 1, \"event\": }", "1:19: not JSON: expected value at line 1 column 19"),
             ("  [1, 2]", "1:1: expected a JSON object"),
             ("{\"event\": \"x\"}", "1:1: missing `t` (seconds, a number)"),
-            ("{\"t\": -1}", "1:1: `t` = -1 is out of range (0 to 1e9 seconds)"),
-            ("{\"t\": 1, \"evnt\": \"x\"}", "1:1: unknown key `evnt` (expected t, event, params, category, reply, failed)"),
-            ("{\"t\": 1, \"event\": \"\"}", "1:1: `event` must be a non-empty string"),
-            ("{\"t\": 1, \"event\": \"x\", \"params\": [1]}", "1:1: `params` must be an object"),
-            ("{\"t\": 1, \"event\": \"x\", \"params\": {\"a\": null}}", "1:1: parameter `a` is null"),
-            ("{\"t\": 1, \"event\": \"x\", \"category\": \"urgent\"}", "1:1: unknown category `urgent` (expected catastrophic, safety, communication, mission or nominal)"),
-            ("{\"t\": 1, \"event\": \"x\", \"failed\": \"no\"}", "1:1: `failed` belongs to replies"),
-            ("{\"t\": 1, \"event\": \"x\", \"reply\": 3}", "1:1: a line is an `event` or a `reply`, not both"),
-            ("{\"t\": 1, \"reply\": \"DEC\"}", "1:1: `reply` must be PROGRAM.FUNCTION, command.VERB or an id, not `DEC`"),
-            ("{\"t\": 1, \"reply\": -3}", "1:1: a reply id is a positive integer"),
-            ("{\"t\": 1, \"reply\": \"DEC.f\", \"category\": \"safety\"}", "1:1: `category` belongs to events: a reply's category comes from its call"),
-            ("{\"t\": 1, \"reply\": \"DEC.f\", \"failed\": \"no\", \"params\": {\"a\": 1}}", "1:1: a failed reply carries a reason, not `params`"),
-            ("{\"t\": 1, \"reply\": \"DEC.f\", \"failed\": 3}", "1:1: `failed` must be a string (the reason)"),
-            ("{\"t\": 1, \"params\": {}}", "1:1: a line with neither `event` nor `reply` only lets time pass: it takes only `t`"),
+            ("{\"t\": -1}", "1:2: `t` = -1 is out of range (0 to 1e9 seconds)"),
+            ("{\"t\": 1, \"evnt\": \"x\"}", "1:10: unknown key `evnt` (expected t, event, params, category, reply, failed)"),
+            ("{\"t\": 1, \"event\": \"\"}", "1:10: `event` must be a non-empty string"),
+            ("{\"t\": 1, \"event\": \"x\", \"params\": [1]}", "1:24: `params` must be an object"),
+            ("{\"t\": 1, \"event\": \"x\", \"params\": {\"a\": null}}", "1:24: parameter `a` is null"),
+            ("{\"t\": 1, \"event\": \"x\", \"category\": \"urgent\"}", "1:24: unknown category `urgent` (expected catastrophic, safety, communication, mission or nominal)"),
+            ("{\"t\": 1, \"event\": \"x\", \"failed\": \"no\"}", "1:24: `failed` belongs to replies"),
+            ("{\"t\": 1, \"event\": \"x\", \"reply\": 3}", "1:24: a line is an `event` or a `reply`, not both"),
+            ("{\"t\": 1, \"reply\": \"DEC\"}", "1:10: `reply` must be PROGRAM.FUNCTION, command.VERB or an id, not `DEC`"),
+            ("{\"t\": 1, \"reply\": -3}", "1:10: a reply id is a positive integer"),
+            ("{\"t\": 1, \"reply\": \"DEC.f\", \"category\": \"safety\"}", "1:28: `category` belongs to events: a reply's category comes from its call"),
+            ("{\"t\": 1, \"reply\": \"DEC.f\", \"failed\": \"no\", \"params\": {\"a\": 1}}", "1:44: a failed reply carries a reason, not `params`"),
+            ("{\"t\": 1, \"reply\": \"DEC.f\", \"failed\": 3}", "1:28: `failed` must be a string (the reason)"),
+            ("{\"t\": 1, \"t\": 2, \"event\": \"x\"}", "1:10: duplicate key `t`"),
+            ("  {\"t\": 1, \"event\": \"x\", \"params\": {\"a\": 1, \"a\": 2}, \"event\": \"y\"}", "1:45: duplicate key `a`"),
+            ("{\"t\": 1, \"params\": {}}", "1:10: a line with neither `event` nor `reply` only lets time pass: it takes only `t`"),
         ];
         let mut failures = Vec::new();
         for (text, expected) in cases {
@@ -332,6 +484,53 @@ mod tests {
             }
         }
         assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    #[test]
+    fn a_script_sends_only_what_the_gateway_could_deliver() {
+        let files: std::collections::BTreeMap<String, String> = [
+            ("project.toml".to_owned(), "[events]\nengine_failure = \"catastrophic\"\n[programs.DEC.functions]\nf = {}\n[[net]]\nfile = \"n.toml\"\nactive = true\n".to_owned()),
+            ("n.toml".to_owned(), "name = \"N\"\nplaces = [\"a\", \"b\"]\ninitial = [\"a\"]\n[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"go\"\ndo = [\"call DEC.f\", \"emit replanned\"]\n[[transition]]\nname = \"u\"\nfrom = [\"b\"]\nto = [\"a\"]\non = \"DEC.f.done\"\n[[transition]]\nname = \"v\"\nfrom = [\"b\"]\nto = [\"a\"]\non = \"replanned\"\n".to_owned()),
+        ]
+        .into();
+        let project = crate::load(&files).expect("loads");
+        let cases = [
+            (
+                r#"{"t": 1, "event": "DEC.f.done"}"#,
+                "1:10: event `DEC.f.done` cannot come from outside: a call's result",
+            ),
+            (
+                r#"{"t": 1, "event": "command.ok"}"#,
+                "1:10: event `command.ok` cannot come from outside: a command's result",
+            ),
+            (
+                r#"{"t": 1, "event": "net_fault", "category": "nominal"}"#,
+                "1:10: event `net_fault` cannot come from outside: `net_fault` is raised",
+            ),
+            (
+                r#"{"t": 1, "event": "replanned"}"#,
+                "1:10: event `replanned` cannot come from outside: the nets emit this event",
+            ),
+            (
+                r#"{"t": 1, "event": "engine_failure", "category": "nominal"}"#,
+                "1:37: `category`: event `engine_failure` is declared catastrophic",
+            ),
+        ];
+        for (text, says) in cases {
+            let lines = parse(text).expect("parses");
+            let e = check(&project, &lines).expect_err(text).to_string();
+            assert!(e.starts_with(says), "{text}: {e}");
+        }
+        for text in [
+            r#"{"t": 1, "event": "go"}"#,
+            r#"{"t": 1, "event": "engine_failure", "category": "catastrophic"}"#,
+            r#"{"t": 1, "event": "engine_failure"}"#,
+            r#"{"t": 1, "event": "obstacle", "category": "safety"}"#,
+            r#"{"t": 1, "reply": "DEC.f"}"#,
+        ] {
+            let lines = parse(text).expect("parses");
+            assert_eq!(check(&project, &lines), Ok(()), "{text}");
+        }
     }
 
     #[test]

@@ -1588,7 +1588,13 @@ fn a_rejected_catastrophic_firing_raises_a_net_fault_that_does_not_start_the_loc
     failure.params.insert("lat".into(), Value::Float(43.6));
     player.handle(&failure, S);
     let effects = drain_effects(&mut player);
-    assert!(effects.iter().any(|e| matches!(e, Effect::Fault { fault: Fault::BadArgument { .. }, .. })));
+    assert!(effects.iter().any(|e| matches!(
+        e,
+        Effect::Fault {
+            fault: Fault::BadArgument { .. },
+            ..
+        }
+    )));
     // The fault is heard, as a safety event, by the logging net…
     assert_eq!(fired(&p, &effects), ["FAULTS.log"]);
     // …and no catastrophic transition fired, so there is no lockout.
@@ -1624,7 +1630,13 @@ on = "engine_failure"
     drain(&mut player);
     player.handle(&ev("engine_failure"), S);
     let effects = drain_effects(&mut player);
-    assert!(effects.iter().any(|e| matches!(e, Effect::Fault { fault: Fault::DoubleToken { .. }, .. })));
+    assert!(effects.iter().any(|e| matches!(
+        e,
+        Effect::Fault {
+            fault: Fault::DoubleToken { .. },
+            ..
+        }
+    )));
     assert_eq!(fired(&p, &effects), ["FAULTS.log"]);
     assert!(!player.locked_out());
     assert_eq!(fire(&mut player, &ev("waypoint"), 2 * S), ["MISSION.go"]);
@@ -1662,4 +1674,131 @@ on = "engine_failure"
     assert_eq!(fired(&p, &effects), ["EMERGENCY.glide", "FAULTS.log"]);
     assert!(player.locked_out());
     assert!(!effects.iter().any(|e| matches!(e, Effect::Dropped { .. })));
+}
+
+const SPOOF: &str = r#"
+[programs.DEC.functions]
+site = {}
+[[net]]
+file = "a.toml"
+active = true
+[[net]]
+file = "b.toml"
+active = true
+[[net]]
+file = "c.toml"
+active = true
+"#;
+
+/// A starts its timer `watchdog` and waits for it.
+const SPOOF_A: &str = r#"name = "A"
+places = ["idle", "waiting", "expired"]
+initial = ["idle"]
+[[transition]]
+name = "start"
+from = ["idle"]
+to = ["waiting"]
+on = "go"
+do = ["timer watchdog after 10s", "call DEC.site"]
+[[transition]]
+name = "expired"
+from = ["waiting"]
+to = ["expired"]
+on = "watchdog"
+"#;
+
+/// B has a timer of the same name it never starts.
+const SPOOF_B: &str = r#"name = "B"
+places = ["idle", "expired"]
+initial = ["idle"]
+[[transition]]
+name = "expired"
+from = ["idle"]
+to = ["expired"]
+on = "watchdog"
+[[transition]]
+name = "never"
+from = ["expired"]
+to = ["expired"]
+on = "never"
+do = ["timer watchdog after 1s"]
+"#;
+
+/// C waits for an ordinary event called `watchdog`, and for DEC's answer
+/// although it never calls DEC.
+const SPOOF_C: &str = r#"name = "C"
+places = ["idle", "heard", "answered"]
+initial = ["idle"]
+[[transition]]
+name = "heard"
+from = ["idle"]
+to = ["heard"]
+on = "watchdog"
+[[transition]]
+name = "answered"
+from = ["heard"]
+to = ["answered"]
+on = "DEC.site.done"
+"#;
+
+#[test]
+fn an_outside_event_named_like_a_timer_never_stands_for_its_expiry() {
+    let p = project(&[
+        ("project.toml", SPOOF),
+        ("a.toml", SPOOF_A),
+        ("b.toml", SPOOF_B),
+        ("c.toml", SPOOF_C),
+    ]);
+    let mut player = Player::start(p.clone(), 0);
+    drain(&mut player);
+    assert_eq!(fire(&mut player, &ev("go"), S), ["A.start"]);
+    // An outside `watchdog`: only C, which waits for an event of that name,
+    // hears it; A's running timer and B's idle one are not spoofed.
+    assert_eq!(fire(&mut player, &ev("watchdog"), 2 * S), ["C.heard"]);
+    assert_eq!(marking(&player, "A"), ["waiting"]);
+    assert_eq!(marking(&player, "B"), ["idle"]);
+    // The real expiry reaches A, and only A.
+    player.advance(11 * S);
+    let effects = drain_effects(&mut player);
+    assert_eq!(fired(&p, &effects), ["A.expired"]);
+    assert_eq!(marking(&player, "B"), ["idle"]);
+}
+
+#[test]
+fn outside_results_and_net_faults_are_dropped_as_reserved() {
+    let p = project(&[
+        ("project.toml", SPOOF),
+        ("a.toml", SPOOF_A),
+        ("b.toml", SPOOF_B),
+        ("c.toml", SPOOF_C),
+    ]);
+    let mut player = Player::start(p.clone(), 0);
+    drain(&mut player);
+    assert_eq!(fire(&mut player, &ev("watchdog"), S), ["C.heard"]);
+    for name in [
+        "DEC.site.done",
+        "DEC.site.failed",
+        "command.ok",
+        "command.failed",
+        "net_fault",
+    ] {
+        player.handle(&ev(name), 2 * S);
+        let effects = drain_effects(&mut player);
+        assert!(
+            matches!(&effects[..], [Effect::Dropped { event, reason: DropReason::Reserved, .. }] if event.name == name),
+            "{name}: {effects:?}"
+        );
+    }
+    assert_eq!(marking(&player, "C"), ["heard"]);
+    // A real result goes to the caller only: C never called DEC.site.
+    assert_eq!(fire(&mut player, &ev("go"), 3 * S), ["A.start"]);
+    let id = *player
+        .state()
+        .pending
+        .keys()
+        .next()
+        .expect("DEC.site pending");
+    player.result(id, Outcome::Done(Params::new()), 4 * S);
+    assert!(fired(&p, &drain_effects(&mut player)).is_empty());
+    assert_eq!(marking(&player, "C"), ["heard"]);
 }

@@ -22,6 +22,10 @@ pub struct Args {
     /// Print JSON lines instead of text for people.
     #[arg(long)]
     pub json: bool,
+    /// The elaboration profile whose events' categories apply (default: the
+    /// project's `[gateway] profile`, else ArduPilot's).
+    #[arg(long)]
+    pub profile: Option<String>,
 }
 
 fn reply_name(to: &ReplyTo) -> serde_json::Value {
@@ -33,11 +37,25 @@ fn reply_name(to: &ReplyTo) -> serde_json::Value {
 }
 
 pub fn run(args: Args) -> VerbResult {
-    let project = crate::project::load(&args.project)?;
+    // The events' categories as in flight: the elaboration profile's
+    // catalog (`--profile`, else `[gateway] profile`, else ArduPilot's),
+    // then the project's declarations.
+    crate::project::load(&args.project)?;
+    let setting = crate::project::gateway_setting(&args.project, "profile")?;
+    let layers = crate::profile::Layers::pick(
+        args.profile.as_deref(),
+        Some((&args.project, setting.as_deref())),
+        "ardupilot",
+    )?;
+    let Some(profile) = layers.load() else {
+        return Ok(Outcome::BadInput);
+    };
+    let project = crate::project::load_with(&args.project, &profile.catalog())?;
     let text = std::fs::read_to_string(&args.events)
         .map_err(|e| miette::miette!("cannot read {}: {e}", args.events.display()))?;
-    let lines =
-        script::parse(&text).map_err(|e| miette::miette!("{}:{e}", args.events.display()))?;
+    let lines = script::parse(&text)
+        .and_then(|lines| script::check(&project, &lines).map(|()| lines))
+        .map_err(|e| miette::miette!("{}:{e}", args.events.display()))?;
     let io = |e: std::io::Error| miette::miette!("cannot write the output: {e}");
     let mut out = Timeline {
         out: BufWriter::new(std::io::stdout().lock()),
@@ -48,6 +66,11 @@ pub fn run(args: Args) -> VerbResult {
     let effects: Vec<_> = player.effects().collect();
     out.effects(&project, &effects).map_err(io)?;
     for line in &lines {
+        // The timers due by the input's time expire at their own times,
+        // before it, and are printed so.
+        player.advance(line.time);
+        let effects: Vec<_> = player.effects().collect();
+        out.effects(&project, &effects).map_err(io)?;
         match &line.input {
             Input::Event(e) => out.event(&project, line.time, e, None),
             Input::Reply {

@@ -315,8 +315,11 @@ impl Session {
                 "event name {name:?}: letters, digits and `_` only (names with `.` are results)"
             ));
         }
-        if name == PROGRAM_LOST || name == nets::model::names::NET_FAULT {
+        if name == PROGRAM_LOST {
             return self.error(&format!("event `{name}` is the gateway's own"));
+        }
+        if let Some(refusal) = nets::outside::refusal(&self.roster.project, &name) {
+            return self.error(&format!("event `{name}`: {refusal}"));
         }
         let decl = self.roster.project.events.get(&name);
         if let Some(declared) = decl.and_then(|d| d.params.as_ref()) {

@@ -120,6 +120,9 @@ pub enum DropReason {
     NetInactive,
     /// The run to completion exceeded its step bound.
     Overflow,
+    /// An outside event bearing a name the player alone produces (a result,
+    /// `net_fault`): see [`crate::outside`].
+    Reserved,
 }
 
 impl DropReason {
@@ -128,6 +131,7 @@ impl DropReason {
             DropReason::Lockout => "lockout",
             DropReason::NetInactive => "net inactive",
             DropReason::Overflow => "overflow",
+            DropReason::Reserved => "reserved",
         }
     }
 }

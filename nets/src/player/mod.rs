@@ -245,6 +245,20 @@ impl Player {
         let category = project
             .declared_category(&event.name)
             .unwrap_or(event.category);
+        // A result or `net_fault` from outside would stand for one the
+        // player never produced: dropped, recorded.
+        if crate::outside::player_own(&project, &event.name).is_some() {
+            self.effects.push(Effect::Dropped {
+                time: now,
+                event: Event {
+                    name: event.name.clone(),
+                    category,
+                    params: event.params.clone(),
+                },
+                reason: DropReason::Reserved,
+            });
+            return;
+        }
         // The verifier does not know an external event's parameters.
         if let Some(oracle) = &mut self.oracle {
             oracle.open(true);
@@ -474,6 +488,11 @@ impl Player {
         candidates.clear();
         for &(n, t) in waiting {
             if target.is_some_and(|x| x != n) || !self.state.active[n] {
+                continue;
+            }
+            // A net's own timer is heard from that timer only, never from
+            // an event that bears its name.
+            if target.is_none() && crate::outside::own_timer(project, n, name) {
                 continue;
             }
             let tr = &project.nets[n].transitions[t];

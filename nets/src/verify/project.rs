@@ -1034,40 +1034,23 @@ fn normalize(
 }
 
 /// Events that may come from outside: every event a transition waits for,
-/// except those only the nets and the player produce (emitted events,
-/// timers, results, `net_fault`). An event the project declares in
-/// `[events]` is external even if a net emits it too.
+/// except those only the nets and the player produce (see
+/// [`crate::outside`]): a net's own timers, results, `net_fault`, and the
+/// events the nets emit that the project does not declare. An event the
+/// project declares in `[events]` is external even if a net emits it too.
 fn external_events(project: &Project) -> Vec<String> {
-    let emitted = emitted_events(project);
     let mut out: BTreeSet<String> = BTreeSet::new();
-    for net in &project.nets {
+    for (ni, net) in project.nets.iter().enumerate() {
         for t in &net.transitions {
             let Some(e) = &t.event else { continue };
-            let internal = e == names::NET_FAULT
-                || e == names::COMMAND_OK
-                || e == names::COMMAND_FAILED
-                || is_result(project, e)
-                || (net.timers.contains(e) && !project.events.contains_key(e))
-                || (emitted.contains(e) && !project.events.contains_key(e));
+            let internal = crate::outside::own_timer(project, ni, e)
+                || crate::outside::refusal(project, e).is_some();
             if !internal {
                 out.insert(e.clone());
             }
         }
     }
     out.into_iter().collect()
-}
-
-fn is_result(project: &Project, event: &str) -> bool {
-    let Some((head, outcome)) = event.rsplit_once('.') else {
-        return false;
-    };
-    (outcome == names::DONE || outcome == names::FAILED)
-        && head.split_once('.').is_some_and(|(p, f)| {
-            project
-                .programs
-                .iter()
-                .any(|pr| pr.name == p && pr.functions.iter().any(|x| x.name == f))
-        })
 }
 
 fn emitted_events(project: &Project) -> BTreeSet<String> {

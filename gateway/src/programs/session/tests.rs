@@ -26,7 +26,7 @@ fn roster() -> Arc<Roster> {
              [[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"go\"\n\
              do = [\"call DEC.next\", \"call DEC.replan {failed: cam}\"]\n\
              [[transition]]\nname = \"u\"\nfrom = [\"b\"]\nto = [\"c\"]\non = \"go\"\n\
-             do = [\"call GUI.goto\"]\n",
+             do = [\"call GUI.goto\", \"emit replanned\"]\n",
         ),
     ];
     let project = Arc::new(nets::load(&files).expect("loads"));
@@ -370,7 +370,8 @@ fn bad_events_are_errors() {
         ("{\"event\": \"\"}", "letters, digits"),
         ("{\"event\": \"9lives\"}", "letters, digits"),
         ("{\"event\": \"program_lost\"}", "gateway's own"),
-        ("{\"event\": \"net_fault\"}", "gateway's own"),
+        ("{\"event\": \"net_fault\"}", "raised by the player itself"),
+        ("{\"event\": \"replanned\"}", "the nets emit this event"),
     ] {
         let mut s = ready();
         s.feed(format!("{line}\n").as_bytes(), free);

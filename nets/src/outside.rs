@@ -1,0 +1,97 @@
+//! Which events may come from outside the nets — from elaboration, a
+//! program, a play script — and which the player alone produces.
+//!
+//! The player names some events itself: a net's timer expiry, a call's or a
+//! command's result, `net_fault`. They are delivered only where they belong
+//! (the timer's net, the caller), so an outside event that merely bears such
+//! a name must never stand for them: the player drops it
+//! ([`crate::player::DropReason::Reserved`]), and a net waiting on one of its
+//! own timers hears that timer only, never an event of the same name. An
+//! event the nets emit and the project does not declare is the nets' own
+//! too: a program or a script cannot send it (declare it in `[events]` if
+//! they should). The verifier explores exactly the rest as outside events,
+//! so that its proof covers every event the gateway can deliver.
+
+use std::fmt;
+
+use crate::model::{names, Action, Project};
+
+/// Why an event cannot come from outside the nets.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Refusal {
+    /// `net_fault`: the player's own.
+    NetFault,
+    /// `command.ok` / `command.failed`: a command's result.
+    CommandResult,
+    /// `PROGRAM.FUNCTION.done` / `.failed`: a call's result.
+    CallResult,
+    /// An event the nets emit that the project does not declare.
+    Emitted,
+}
+
+impl fmt::Display for Refusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Refusal::NetFault => "`net_fault` is raised by the player itself, never from outside",
+            Refusal::CommandResult => {
+                "a command's result comes only from the vehicle, for the net that commanded"
+            }
+            Refusal::CallResult => "a call's result comes only from the program, for the net that called",
+            Refusal::Emitted => {
+                "the nets emit this event and the project does not declare it in [events] (declare it there if it may also come from outside)"
+            }
+        })
+    }
+}
+
+/// Whether `name` is one the player produces itself (a result or
+/// `net_fault`): never deliverable from outside, whatever the source.
+pub fn player_own(project: &Project, name: &str) -> Option<Refusal> {
+    if name == names::NET_FAULT {
+        Some(Refusal::NetFault)
+    } else if name == names::COMMAND_OK || name == names::COMMAND_FAILED {
+        Some(Refusal::CommandResult)
+    } else if is_call_result(project, name) {
+        Some(Refusal::CallResult)
+    } else {
+        None
+    }
+}
+
+/// Why a program or a script cannot send `name`, if it cannot: the player's
+/// own events, and the events only the nets emit.
+pub fn refusal(project: &Project, name: &str) -> Option<Refusal> {
+    player_own(project, name).or_else(|| {
+        (!project.events.contains_key(name) && emitted(project, name)).then_some(Refusal::Emitted)
+    })
+}
+
+/// Whether transition-trigger `name` in net `net` is one of that net's own
+/// timers: such a transition hears the timer's expiry only.
+pub fn own_timer(project: &Project, net: usize, name: &str) -> bool {
+    project.nets[net].timers.iter().any(|t| t == name)
+}
+
+/// `PROGRAM.FUNCTION.done` or `.failed` of a function the project declares.
+pub fn is_call_result(project: &Project, name: &str) -> bool {
+    let Some((head, outcome)) = name.rsplit_once('.') else {
+        return false;
+    };
+    (outcome == names::DONE || outcome == names::FAILED)
+        && head.split_once('.').is_some_and(|(p, f)| {
+            project
+                .programs
+                .iter()
+                .any(|pr| pr.name == p && pr.functions.iter().any(|x| x.name == f))
+        })
+}
+
+/// Whether some net emits `name`.
+pub fn emitted(project: &Project, name: &str) -> bool {
+    project
+        .nets
+        .iter()
+        .flat_map(|n| &n.transitions)
+        .flat_map(|t| &t.actions)
+        .any(|a| matches!(a, Action::Emit { event, .. } if event == name))
+}
