@@ -108,6 +108,10 @@ pub enum EvalError {
     DivisionByZero,
     #[error("integer overflow")]
     Overflow,
+    /// A float that is infinite or NaN, computed (`1e300 * 1e300`) or read
+    /// from a parameter: it must never reach a program or the vehicle.
+    #[error("{0} is not a finite number")]
+    NotFinite(String),
 }
 
 impl Expr {
@@ -130,10 +134,15 @@ impl Expr {
     pub fn eval(&self, params: &Params) -> Result<Value, EvalError> {
         Ok(match self {
             Expr::Lit(v) => v.clone(),
-            Expr::Param { name, .. } => params
-                .get(name)
-                .cloned()
-                .ok_or_else(|| EvalError::MissingParam(name.clone()))?,
+            Expr::Param { name, .. } => {
+                let value = params
+                    .get(name)
+                    .ok_or_else(|| EvalError::MissingParam(name.clone()))?;
+                if !value.is_finite() {
+                    return Err(EvalError::NotFinite(format!("parameter `{name}`")));
+                }
+                value.clone()
+            }
             Expr::Not(e) => Value::Bool(!e.eval(params)?.truthy()),
             Expr::Neg(e) => match e.eval(params)? {
                 Value::Int(i) => Value::Int(i.checked_neg().ok_or(EvalError::Overflow)?),
@@ -246,7 +255,7 @@ fn binary(op: BinOp, a: &Value, b: &Value) -> Result<Value, EvalError> {
         }
         (Value::Int(_) | Value::Float(_), Value::Int(_) | Value::Float(_)) => {
             let (x, y) = (a.as_f64().unwrap_or(0.0), b.as_f64().unwrap_or(0.0));
-            Ok(Value::Float(match op {
+            let r = match op {
                 BinOp::Add => x + y,
                 BinOp::Sub => x - y,
                 BinOp::Mul => x * y,
@@ -255,7 +264,14 @@ fn binary(op: BinOp, a: &Value, b: &Value) -> Result<Value, EvalError> {
                 BinOp::Rem if y == 0.0 => return Err(EvalError::DivisionByZero),
                 BinOp::Rem => x % y,
                 _ => return Err(types()),
-            }))
+            };
+            if !r.is_finite() {
+                return Err(EvalError::NotFinite(format!(
+                    "the result of `{x:?} {} {y:?}`",
+                    op.symbol()
+                )));
+            }
+            Ok(Value::Float(r))
         }
         (Value::Str(x), Value::Str(y)) if op == BinOp::Add => Ok(Value::Str(format!("{x}{y}"))),
         _ => Err(types()),
@@ -669,9 +685,14 @@ impl<'a> Parser<'a> {
             message: format!("malformed number `{}`", &rest[..len]),
         };
         if float {
-            text.parse()
-                .map(|f| Expr::Lit(Value::Float(f)))
-                .map_err(|_| bad())
+            match text.parse::<f64>() {
+                Ok(f) if f.is_finite() => Ok(Expr::Lit(Value::Float(f))),
+                Ok(_) => Err(SyntaxError {
+                    at: start,
+                    message: format!("number `{}` is too large for a float", &rest[..len]),
+                }),
+                Err(_) => Err(bad()),
+            }
         } else {
             text.parse()
                 .map(|i| Expr::Lit(Value::Int(i)))
@@ -746,6 +767,24 @@ mod tests {
             guard("x + 1 > 0", &[("x", i64::MAX.into())]),
             Err(EvalError::Overflow)
         );
+        // Float overflow and non-finite parameters are errors, never inf
+        // or NaN.
+        assert!(matches!(
+            guard("1e100 * 1e300 > 0", &[]),
+            Err(EvalError::NotFinite(_))
+        ));
+        assert!(matches!(
+            guard("x - x == 0", &[("x", Value::Float(f64::INFINITY))]),
+            Err(EvalError::NotFinite(p)) if p == "parameter `x`"
+        ));
+        assert!(matches!(
+            guard("x < 1", &[("x", Value::List(vec![Value::Float(f64::NAN)]))]),
+            Err(EvalError::NotFinite(_))
+        ));
+        assert!(matches!(
+            guard("-x * 2.0 < 0", &[("x", Value::Float(f64::MAX))]),
+            Err(EvalError::NotFinite(_))
+        ));
         // Equality between different types is false, not an error.
         assert_eq!(guard("x == 1", &[("x", "1".into())]), Ok(false));
         // Short-circuit: the missing parameter is never read.

@@ -65,6 +65,16 @@ impl Value {
         }
     }
 
+    /// Whether every float in the value (its items, recursively) is finite.
+    pub fn is_finite(&self) -> bool {
+        match self {
+            Value::Float(f) => f.is_finite(),
+            Value::List(l) => l.iter().all(Value::is_finite),
+            Value::Map(m) => m.values().all(Value::is_finite),
+            Value::Bool(_) | Value::Int(_) | Value::Str(_) => true,
+        }
+    }
+
     /// Converts a JSON value; `null` has no counterpart and gives `None`.
     pub fn from_json(json: &serde_json::Value) -> Option<Value> {
         Some(match json {

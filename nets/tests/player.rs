@@ -1802,3 +1802,75 @@ fn outside_results_and_net_faults_are_dropped_as_reserved() {
     assert!(fired(&p, &drain_effects(&mut player)).is_empty());
     assert_eq!(marking(&player, "C"), ["heard"]);
 }
+
+#[test]
+fn a_non_finite_float_never_reaches_a_command_or_a_call() {
+    let p = project(&[
+        (
+            "project.toml",
+            "[events]\nfix = { params = [\"lat\"] }\n[programs.P.functions]\nf = { args = [\"x\"] }\n[[net]]\nfile = \"n.toml\"\nactive = true\n",
+        ),
+        (
+            "n.toml",
+            r#"name = "N"
+places = ["a", "b"]
+initial = ["a"]
+[[transition]]
+name = "overflow"
+from = ["a"]
+to = ["b"]
+on = "go"
+do = ["call P.f {x: 1e100 * 1e300}"]
+[[transition]]
+name = "goto"
+from = ["a"]
+to = ["b"]
+on = "fix"
+do = ["command goto {lat: $lat, lon: 1.5}"]
+"#,
+        ),
+    ]);
+    let mut player = Player::start(p.clone(), 0);
+    drain(&mut player);
+    for (event, at) in [
+        (ev("go"), S),
+        (ev("fix").param("lat", f64::NAN), 2 * S),
+        (ev("fix").param("lat", f64::INFINITY), 3 * S),
+    ] {
+        player.handle(&event, at);
+        let effects = drain_effects(&mut player);
+        assert!(
+            effects.iter().any(|e| matches!(e, Effect::Fault { fault: Fault::BadArgument { message, .. }, .. } if message.contains("not a finite number"))),
+            "{event}: {effects:?}"
+        );
+        assert!(
+            !effects
+                .iter()
+                .any(|e| matches!(e, Effect::Command { .. } | Effect::Call { .. })),
+            "{event}: {effects:?}"
+        );
+        assert_eq!(marking(&player, "N"), ["a"]);
+    }
+    // A finite one goes through.
+    assert_eq!(
+        fire(&mut player, &ev("fix").param("lat", 43.5), 4 * S),
+        ["N.goto"]
+    );
+}
+
+#[test]
+fn a_float_literal_too_large_is_a_load_error() {
+    let files = [
+        ("project.toml", "[[net]]\nfile = \"n.toml\"\nactive = true\n"),
+        (
+            "n.toml",
+            "name = \"N\"\nplaces = [\"a\"]\ninitial = [\"a\"]\n[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"a\"]\non = \"go\"\ndo = [\"emit x {v: 1e999}\"]\n",
+        ),
+    ];
+    let e = nets::load(&files).expect_err("refused").to_string();
+    let report = format!("{e:?}");
+    assert!(
+        e.contains("too large for a float") || report.contains("too large for a float"),
+        "{e}\n{report}"
+    );
+}
