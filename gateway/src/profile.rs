@@ -98,7 +98,7 @@ pub fn report(err: &ProfileError, sources: &[(String, String)]) {
         if let Some((name, text)) = sources.iter().find(|(n, _)| *n == p.file) {
             r = r.with_source_code(NamedSource::new(name, text.clone()));
         }
-        eprintln!("{r:?}");
+        say!("{r:?}");
     }
 }
 

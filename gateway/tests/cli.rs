@@ -341,3 +341,66 @@ fn play_prints_every_line_in_time_order_with_expiries_before_the_input_that_let_
     assert!(expired < next, "{out}");
     assert!(out.contains("\"late\""), "the expiry fired N.late:\n{out}");
 }
+
+#[test]
+fn no_verb_panics_when_stdout_and_stderr_cannot_be_written() {
+    let full = Path::new("/dev/full");
+    if !full.exists() {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "/dev/full is missing"
+        );
+        eprintln!("skipped: no /dev/full on this system");
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("petrel-full-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    std::fs::write(dir.join("project.toml"), "[[net]]\nfile = \"n.toml\"\n").expect("write");
+    std::fs::write(
+        dir.join("n.toml"),
+        "name = \"N\"\nplaces = [\"a\"]\ninitial = [\"b\"]\n",
+    )
+    .expect("write");
+    let script = dir.join("s.jsonl");
+    std::fs::write(&script, "{\"t\": 1, \"event\": \"go\"}\n").expect("write");
+    let broken = dir.to_str().expect("utf-8");
+    let missing = dir.join("nothing.tlog");
+    let missing = missing.to_str().expect("utf-8");
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["play", broken, "--events", script.to_str().expect("utf-8")],
+        vec!["play", "examples/uav-survey", "--events", missing],
+        vec!["check", broken],
+        vec!["draw", broken],
+        vec!["export", broken, "--out", broken],
+        vec!["events", missing],
+        vec!["replay", missing, broken],
+        vec!["run", broken, "--mavlink", "udpin:127.0.0.1:1"],
+        vec!["stubs", broken, "--out", broken],
+        vec!["play", "--no-such-flag"],
+    ];
+    let mut failures = Vec::new();
+    for args in &cases {
+        let open = || {
+            std::fs::OpenOptions::new()
+                .write(true)
+                .open(full)
+                .expect("/dev/full")
+        };
+        let status = Command::new(env!("CARGO_BIN_EXE_petrel"))
+            .args(args)
+            .current_dir(root())
+            .stdout(open())
+            .stderr(open())
+            .status()
+            .expect("petrel runs");
+        if status.code() != Some(2) {
+            failures.push(format!("petrel {}: {status}", args.join(" ")));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(
+        failures.is_empty(),
+        "expected exit 2:\n{}",
+        failures.join("\n")
+    );
+}

@@ -298,7 +298,7 @@ impl Progress {
     /// Prints the progress line if it is due.
     pub(super) fn report(&self, states: u64) {
         if let Some(line) = self.line(states, Instant::now()) {
-            eprint!("{line}");
+            say_part!("{line}");
         }
     }
 
@@ -327,7 +327,7 @@ impl Progress {
             .unwrap_or_else(|e| e.into_inner())
             .is_some()
         {
-            eprint!("\r{:60}\r", "");
+            say_part!("\r{:60}\r", "");
         }
     }
 }

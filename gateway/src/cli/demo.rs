@@ -177,9 +177,11 @@ fn fly(args: &Args, dir: &Path) -> VerbResult {
     setup.out = Box::new(Lines(tx, Vec::new()));
     let stop = Arc::new(tokio::sync::Notify::new());
     setup.stop = Some(stop.clone());
-    eprintln!(
+    say!(
         "petrel demo: {} over a simulated ArduPlane ({}x real time), scenario {:?}",
-        project.name, args.speed, args.scenario
+        project.name,
+        args.speed,
+        args.scenario
     );
     let gateway = std::thread::Builder::new()
         .name("petrel-gateway".into())

@@ -25,7 +25,7 @@ pub fn run(args: Args) -> VerbResult {
         let path = args.pnml.join(format!("{}.pnml", net.name));
         std::fs::write(&path, export_net(&project, n))
             .map_err(|e| miette::miette!("cannot write {}: {e}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(Outcome::Success)
 }

@@ -119,7 +119,7 @@ pub fn run(args: Args) -> VerbResult {
         print_step(&mut out, &project, &step).map_err(io)?;
         last = time;
         if progress && i % 20_000 == 0 {
-            eprint!(
+            say_part!(
                 "\r{:>5.1}% {} frames",
                 100.0 * i as f64 / records.len() as f64,
                 i
@@ -127,13 +127,13 @@ pub fn run(args: Args) -> VerbResult {
         }
     }
     if progress {
-        eprintln!("\r100.0% {} frames", records.len());
+        say!("\r100.0% {} frames", records.len());
     }
     let player = sup.player();
     out.end(last, &player.digest(), player.locked_out())
         .map_err(io)?;
     out.out.flush().map_err(io)?;
-    eprintln!(
+    say!(
         "replayed {} frames ({} bad) in {:.3} s; {events} events; {} commands and calls left unanswered",
         records.len(),
         sup.bad_frames,

@@ -132,11 +132,11 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         };
         let report = nets::verify::project::check(&project, &options);
         if !report.holds() {
-            eprint!(
+            say_part!(
                 "{}",
                 super::check_project::human(&project.name, &report, 0.0)
             );
-            eprintln!(
+            say!(
                 "refusing to run {}: it fails `petrel check` (run it anyway with --unchecked)",
                 args.project.display()
             );
@@ -332,7 +332,7 @@ impl Gateway {
         let origin = Instant::now();
         let clock = Clock::new(origin, setup.time_scale);
         if clock.scale() != 1.0 {
-            eprintln!(
+            say!(
                 "the gateway's clock runs {}× faster than the wall (--time-scale)",
                 clock.scale()
             );
@@ -369,7 +369,7 @@ impl Gateway {
                 };
                 let rec = Recorder::create(path, setup.project.clone(), options)
                     .map_err(|e| miette::miette!("cannot record to {}: {e}", path.display()))?;
-                eprintln!("recording to {}", path.display());
+                say!("recording to {}", path.display());
                 Some(rec)
             }
         };
@@ -422,7 +422,7 @@ impl Gateway {
                 match reader.recv().await {
                     Ok(rx) => {
                         while let Some(notice) = reader.poll_notice() {
-                            eprintln!("{notice}");
+                            say!("{notice}");
                         }
                         if frames_tx.send(rx).await.is_err() {
                             break;
@@ -522,19 +522,19 @@ impl Gateway {
         }
         if let Some(rec) = recorder {
             match rec.finish() {
-                Ok(report) if report.dropped > 0 => eprintln!(
+                Ok(report) if report.dropped > 0 => say!(
                     "recorded {} steps; the recorder fell behind and dropped {} entries ({} steps): replay stops at the first",
                     report.steps, report.dropped, report.dropped_steps
                 ),
-                Ok(report) => eprintln!(
+                Ok(report) => say!(
                     "recorded {} steps, {} messages",
                     report.steps, report.messages
                 ),
-                Err(e) => eprintln!("the recording is incomplete: {e}"),
+                Err(e) => say!("the recording is incomplete: {e}"),
             }
         }
         let player = supervisor.player();
-        eprintln!(
+        say!(
             "stopped after {:.1} s: {frames} frames, {events} events, {} bad frames, {} calls and commands unanswered",
             origin.elapsed().as_secs_f64(),
             supervisor.bad_frames,
@@ -651,18 +651,18 @@ fn parameters_fit(verdict: &crate::vehicle::parameters::Verdict, armed: Option<b
             .iter()
             .map(|(name, value)| format!("{name} = {value}"))
             .collect();
-        eprintln!("autopilot parameters checked: {}", read.join(", "));
+        say!("autopilot parameters checked: {}", read.join(", "));
         return true;
     }
     let misfits: Vec<String> = verdict.misfits.iter().map(|m| format!("  {m}")).collect();
     if armed == Some(true) {
-        eprintln!(
+        say!(
             "warning: the vehicle's parameters do not fit the project ([gateway.parameters] in project.toml), but it is armed: supervision goes on\n{}",
             misfits.join("\n")
         );
         return true;
     }
-    eprintln!(
+    say!(
         "refused: the vehicle's parameters do not fit the project ([gateway.parameters] in project.toml); set them on the autopilot and start again:\n{}",
         misfits.join("\n")
     );

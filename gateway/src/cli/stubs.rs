@@ -41,7 +41,7 @@ pub fn run(args: Args) -> VerbResult {
     };
     let files = stubs(&project, lang, &config.address.to_string());
     if files.is_empty() {
-        eprintln!("the nets call no program: nothing to write");
+        say!("the nets call no program: nothing to write");
         return Ok(Outcome::Success);
     }
     if !args.force {

@@ -26,12 +26,12 @@ pub fn run(args: Args) -> VerbResult {
     let reading = reading.elapsed();
     drop(bytes);
     if let Some(cut) = &rec.cut {
-        eprintln!(
+        say!(
             "warning: {name} ends early ({cut}): it was cut (power loss?) and replays up to its last complete chunk"
         );
     }
     if rec.dropped > 0 {
-        eprintln!(
+        say!(
             "warning: the recorder dropped {} entries of this flight (it fell behind)",
             rec.dropped
         );
@@ -92,7 +92,7 @@ pub fn run(args: Args) -> VerbResult {
                 "the recording jumps from step {} to step {seq} (the recorder dropped steps): replay stops here",
                 sup.seq()
             );
-            eprintln!("warning: {what}");
+            say!("warning: {what}");
             if args.check_against {
                 difference = Some(Difference {
                     seq: sup.seq() + 1,
@@ -160,7 +160,7 @@ pub fn run(args: Args) -> VerbResult {
         }
         last = time;
         if progress && i % 20_000 == 0 {
-            eprint!(
+            say_part!(
                 "\r{:>5.1}% {} steps",
                 100.0 * i as f64 / rec.inputs.len() as f64,
                 i
@@ -168,7 +168,7 @@ pub fn run(args: Args) -> VerbResult {
         }
     }
     if progress {
-        eprintln!("\r100.0% {} steps", rec.inputs.len());
+        say!("\r100.0% {} steps", rec.inputs.len());
     }
     if difference.is_none() && rec.dropped_steps > 0 && steps + 1 == rec.inputs.len() {
         // Every recorded step replayed, but steps were dropped after them.
@@ -177,7 +177,7 @@ pub fn run(args: Args) -> VerbResult {
             rec.dropped_steps,
             sup.seq()
         );
-        eprintln!("warning: {what}");
+        say!("warning: {what}");
         if args.check_against {
             difference = Some(Difference {
                 seq: sup.seq() + 1,
@@ -198,7 +198,7 @@ pub fn run(args: Args) -> VerbResult {
         .map_err(io)?;
     }
     out.out.flush().map_err(io)?;
-    eprintln!(
+    say!(
         "replayed {steps} steps ({frames} frames, {} bad) in {:.3} s after reading the recording in {:.3} s; {events} events; {} commands and calls left unanswered",
         sup.bad_frames,
         wall.elapsed().as_secs_f64(),
@@ -210,7 +210,7 @@ pub fn run(args: Args) -> VerbResult {
     }
     match difference {
         Some(d) => {
-            eprintln!(
+            say!(
                 "check: first difference at step {} (t = {:.3} s, time_us {}): {}",
                 d.seq,
                 nets::time::seconds(d.time.saturating_sub(origin)),
@@ -220,7 +220,7 @@ pub fn run(args: Args) -> VerbResult {
             Ok(Outcome::Failed)
         }
         None => {
-            eprintln!(
+            say!(
                 "check: the {} replayed steps match the recording (effects and digests)",
                 steps + 1
             );
