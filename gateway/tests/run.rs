@@ -391,3 +391,112 @@ on = "command.failed"
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Behind an endpoint that waits for its client to speak first (a
+/// mavlink-router `Mode = Server` UDP endpoint, pymavlink's `udpin`), the
+/// gateway announces itself from the start, says on stderr that no vehicle
+/// answers, and adopts the vehicle's system id once it is heard.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn run_speaks_first_and_says_when_no_vehicle_is_heard() {
+    let dir = project("speaks-first", TAKEOFF_NET);
+    let server = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
+    let port = server.local_addr().expect("addr").port();
+    server
+        .set_read_timeout(Some(Duration::from_millis(200)))
+        .expect("timeout");
+    let mut child = petrel()
+        .args([
+            "run",
+            dir.to_str().expect("utf-8"),
+            "--mavlink",
+            &format!("udpout:127.0.0.1:{port}"),
+            "--unchecked",
+            "--duration",
+            "9",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("petrel runs");
+    let listen = tokio::task::spawn_blocking(move || {
+        let start = std::time::Instant::now();
+        // (seconds since start, sender, the gateway's heartbeats)
+        let mut heard: Vec<(f64, (u8, u8))> = Vec::new();
+        let mut answered = None;
+        let mut buf = [0u8; 512];
+        while start.elapsed() < Duration::from_secs(12) {
+            let Ok((n, from)) = server.recv_from(&mut buf) else {
+                continue;
+            };
+            let Ok(frame) = elaboration::Frame::parse(&buf[..n]) else {
+                continue;
+            };
+            let header = frame.header();
+            if let Ok(MavMessage::HEARTBEAT(hb)) = frame.decode() {
+                assert_eq!(hb.mavtype, MavType::MAV_TYPE_ONBOARD_CONTROLLER);
+                heard.push((
+                    start.elapsed().as_secs_f64(),
+                    (header.system_id as u8, header.component_id),
+                ));
+            }
+            // Silent for 6 s, then the vehicle (system 7) answers.
+            if answered.is_none() && start.elapsed() > Duration::from_secs(6) {
+                let hb = peer::heartbeat(
+                    MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+                    MavType::MAV_TYPE_QUADROTOR,
+                );
+                let header = MavHeader {
+                    system_id: 7,
+                    component_id: 1,
+                    sequence: 0,
+                };
+                let mut out = Vec::new();
+                mavlink::write_v2_msg(&mut out, header, &hb).expect("encode");
+                for _ in 0..3 {
+                    let _ = server.send_to(&out, from);
+                }
+                answered = Some(start.elapsed().as_secs_f64());
+            }
+            if answered.is_some_and(|a| start.elapsed().as_secs_f64() > a + 1.0) {
+                // Keep the vehicle alive.
+                let mut out = Vec::new();
+                let hb = peer::heartbeat(
+                    MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+                    MavType::MAV_TYPE_QUADROTOR,
+                );
+                let header = MavHeader {
+                    system_id: 7,
+                    component_id: 1,
+                    sequence: 1,
+                };
+                mavlink::write_v2_msg(&mut out, header, &hb).expect("encode");
+                let _ = server.send_to(&out, from);
+            }
+        }
+        (heard, answered)
+    });
+    let out = tokio::time::timeout(Duration::from_secs(30), child.wait_with_output())
+        .await
+        .expect("petrel stops by itself")
+        .expect("petrel runs");
+    let (heard, answered) = listen.await.expect("listener");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let _ = std::fs::remove_dir_all(&dir);
+    let first = heard.first().expect("the gateway spoke first");
+    assert!(first.0 < 3.0, "first heartbeat at {} s", first.0);
+    assert_eq!(first.1, (1, 191), "announced as system 1, component 191");
+    assert!(
+        stderr.contains("no vehicle heard") && stderr.contains(&format!("127.0.0.1:{port}")),
+        "{stderr}"
+    );
+    let answered = answered.expect("the vehicle answered");
+    let after: Vec<_> = heard.iter().filter(|h| h.0 > answered + 0.5).collect();
+    assert!(
+        !after.is_empty(),
+        "heartbeats after the vehicle answered: {heard:?}"
+    );
+    assert!(
+        after.iter().all(|h| h.1 == (7, 191)),
+        "adopted the vehicle's system id: {heard:?}"
+    );
+}

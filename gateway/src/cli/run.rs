@@ -99,6 +99,8 @@ const TICK: Micros = 100_000;
 const TELEMETRY_HZ: f32 = 4.0;
 /// On shutdown, how long a mission upload under way may take to finish.
 const UPLOAD_GRACE: Duration = Duration::from_secs(3);
+/// How long the vehicle may stay silent before `run` says so on stderr.
+const SILENCE_WARNING: Duration = Duration::from_secs(5);
 
 pub fn run(args: Args) -> VerbResult {
     match prepare(&args)? {
@@ -438,7 +440,20 @@ impl Gateway {
         });
         let mut next_tick = TICK;
         let mut refused = false;
+        // Said once when the vehicle stays silent: nothing else tells a
+        // user that the address, the router or the autopilot is wrong.
+        let silent_until = Instant::now() + SILENCE_WARNING;
+        let mut said_silent = false;
         loop {
+            if !said_silent && !gw.commander.heard() && Instant::now() >= silent_until {
+                said_silent = true;
+                let (system, component) = gw.commander.sender();
+                say!(
+                    "petrel: no vehicle heard on {} after {} s; petrel sends its HEARTBEAT there as system {system}, component {component}. Check the address, that the router or autopilot sends telemetry to it, and the vehicle's system id.",
+                    setup.address,
+                    SILENCE_WARNING.as_secs()
+                );
+            }
             let now = gw.now();
             let deadline = [
                 Some(next_tick),
@@ -592,18 +607,17 @@ impl Gateway {
             let mut busy = false;
             while let Some(message) = self.commander.poll_transmit() {
                 busy = true;
-                if let Some(from) = self.commander.identity() {
-                    match self.writer.send(from, &message).await {
-                        Ok(bytes) => {
-                            if let (Some(rec), false) = (&self.recorder, bytes.is_empty()) {
-                                rec.sent(self.clock.now(), &bytes);
-                            }
+                let from = self.commander.sender();
+                match self.writer.send(from, &message).await {
+                    Ok(bytes) => {
+                        if let (Some(rec), false) = (&self.recorder, bytes.is_empty()) {
+                            rec.sent(self.clock.now(), &bytes);
                         }
-                        Err(e) => {
-                            // Never spin on a link that keeps failing.
-                            tracing::warn!("{e}");
-                            tokio::time::sleep(Duration::from_millis(200)).await;
-                        }
+                    }
+                    Err(e) => {
+                        // Never spin on a link that keeps failing.
+                        tracing::warn!("{e}");
+                        tokio::time::sleep(Duration::from_millis(200)).await;
                     }
                 }
             }

@@ -89,6 +89,11 @@ struct MissionJob {
     issued: Micros,
 }
 
+/// The system id the gateway announces itself under before it knows the
+/// vehicle's (unless `[gateway] system` is configured): 1, ArduPilot's and
+/// PX4's default `SYSID_THISMAV`/`MAV_SYS_ID`.
+pub const ANNOUNCE_SYSTEM: u8 = 1;
+
 /// The vehicle side of the gateway, without I/O. See the module docs of
 /// `vehicle` for the calling order.
 pub struct Commander {
@@ -168,6 +173,21 @@ impl Commander {
             .system
             .or(self.target.map(|t| t.0))
             .map(|s| (s, self.config.own_component()))
+    }
+
+    /// Who we send as: our identity once known; before, the configured or
+    /// default system id ([`ANNOUNCE_SYSTEM`]) — so that the gateway speaks
+    /// first, behind endpoints that wait for their client to speak (a
+    /// mavlink-router `Mode = Server` UDP endpoint, pymavlink's `udpin`).
+    /// Only HEARTBEATs go out under it.
+    pub fn sender(&self) -> (u8, u8) {
+        self.identity()
+            .unwrap_or((ANNOUNCE_SYSTEM, self.config.own_component()))
+    }
+
+    /// Whether a frame from the autopilot has been heard.
+    pub fn heard(&self) -> bool {
+        self.last_heard.is_some()
     }
 
     /// The autopilot we command (system, component), once known.
@@ -716,8 +736,9 @@ impl Commander {
             let transmit = &mut self.transmit;
             self.parameters.poll(now, &mut |m| transmit.push_back(m));
         }
-        // Heartbeat.
-        if self.identity().is_some() {
+        // Heartbeat, from the start: under the vehicle's system id once
+        // known, the announcing one before (`sender`).
+        {
             let due = *self.next_heartbeat.get_or_insert(now);
             if now >= due {
                 self.transmit

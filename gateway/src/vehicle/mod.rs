@@ -20,7 +20,7 @@
 //!     //    every Effect::Forgotten: commander.forget(id)
 //!     // 3. when nothing arrives:    commander.tick(now), at commander.next_deadline() at the latest
 //!     // 4. after each of the above, drain:
-//!     //    while let Some(m) = commander.poll_transmit() { writer.send(commander.identity()?, &m).await }
+//!     //    while let Some(m) = commander.poll_transmit() { writer.send(commander.sender(), &m).await }
 //!     //    while let Some((id, outcome)) = commander.poll_outcome() { player.result(id, outcome, now) }
 //! }
 //! // shutdown: keep steps 1, 3, 4 going while commander.busy() (bounded by the retry rules),
@@ -30,8 +30,11 @@
 //! The commander learns the autopilot (system, component, firmware) from
 //! its first HEARTBEAT unless configured, and speaks as the vehicle's
 //! system id, component 191, with a 1 Hz HEARTBEAT as
-//! MAV_TYPE_ONBOARD_CONTROLLER / MAV_AUTOPILOT_INVALID. Nothing is
-//! transmitted before it knows the system id (`identity()`).
+//! MAV_TYPE_ONBOARD_CONTROLLER / MAV_AUTOPILOT_INVALID. Its HEARTBEAT goes
+//! out from the start, under the configured or default system id
+//! (`sender()`) until the vehicle's is known, so that endpoints waiting for
+//! their client to speak first hear it; nothing else is transmitted before
+//! it knows the system id (`identity()`).
 
 // Wired into `petrel run` by the lead; until then the binary does not call it.
 #![allow(dead_code)]

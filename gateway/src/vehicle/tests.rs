@@ -153,11 +153,13 @@ fn failed(reason: &str) -> Outcome {
 fn heartbeat_identity_and_rate() {
     let mut c = Commander::new(VehicleConfig::default());
     c.tick(0);
-    assert!(
-        c.poll_transmit().is_none(),
-        "nothing before the vehicle is known"
-    );
+    // Before the vehicle is known: only the announcing HEARTBEAT, under the
+    // default system id.
+    assert!(matches!(c.poll_transmit(), Some(MavMessage::HEARTBEAT(_))));
+    assert!(c.poll_transmit().is_none(), "nothing but the heartbeat");
     assert_eq!(c.identity(), None);
+    assert_eq!(c.sender(), (1, 191));
+    assert!(!c.heard());
     // A ground station's heartbeat is not the autopilot.
     c.message(
         10,
@@ -187,7 +189,12 @@ fn heartbeat_identity_and_rate() {
         }
         assert!(c.next_deadline().is_some_and(|d| d <= t + S));
     }
-    assert_eq!(beats.len(), 6, "1 Hz over 5 s: {beats:?}");
+    // 1 Hz, continuing the rhythm of the announcing heartbeat sent at 0.
+    assert_eq!(
+        beats,
+        [1, 2, 3, 4, 5].map(|k| k * S + 20),
+        "1 Hz over 5 s: {beats:?}"
+    );
 }
 
 #[test]

@@ -71,8 +71,7 @@ impl Gateway {
                     _ = tokio::time::sleep(wait) => commander.tick(now()),
                 }
                 while let Some(m) = commander.poll_transmit() {
-                    let from = commander.identity().expect("identity known before sending");
-                    let _ = writer.send(from, &m).await;
+                    let _ = writer.send(commander.sender(), &m).await;
                 }
                 while let Some(o) = commander.poll_outcome() {
                     let _ = outcomes_tx.send(o);
