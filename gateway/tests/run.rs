@@ -404,7 +404,7 @@ async fn run_speaks_first_and_says_when_no_vehicle_is_heard() {
     server
         .set_read_timeout(Some(Duration::from_millis(200)))
         .expect("timeout");
-    let mut child = petrel()
+    let child = petrel()
         .args([
             "run",
             dir.to_str().expect("utf-8"),
