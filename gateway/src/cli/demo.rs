@@ -167,6 +167,10 @@ fn fly(args: &Args, dir: &Path) -> VerbResult {
         record: Some(args.record.clone()),
         no_record: false,
         programs: Some(programs.clone()),
+        signing_key: None,
+        require_signed: false,
+        signing_link_id: 0,
+        signing_timestamp: None,
     };
     let mut setup = match super::run::prepare(&run_args)? {
         Ok(setup) => setup,

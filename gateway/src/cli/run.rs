@@ -66,6 +66,21 @@ pub struct Args {
     /// `[gateway] programs`, else tcp:127.0.0.1:5790].
     #[arg(long, value_name = "ADDRESS")]
     pub programs: Option<String>,
+    /// Sign every frame sent to the vehicle with this MAVLink 2 signing key
+    /// (a file of 32 bytes or 64 hex digits, readable by its owner only);
+    /// frames from the vehicle with a bad signature are dropped.
+    #[arg(long, value_name = "FILE")]
+    pub signing_key: Option<PathBuf>,
+    /// Drop unsigned frames from the vehicle too (needs --signing-key).
+    #[arg(long, requires = "signing_key")]
+    pub require_signed: bool,
+    /// Our link id in the signatures.
+    #[arg(long, value_name = "ID", default_value_t = 0, requires = "signing_key")]
+    pub signing_link_id: u8,
+    /// Where the signing timestamp persists across restarts [default: the
+    /// key file's path with `.timestamp` appended].
+    #[arg(long, value_name = "FILE", requires = "signing_key")]
+    pub signing_timestamp: Option<PathBuf>,
 }
 
 /// `recordings/petrel-YYYYMMDD-HHMMSS.mcap` for the current UTC time.
@@ -99,6 +114,9 @@ const TICK: Micros = 100_000;
 const TELEMETRY_HZ: f32 = 4.0;
 /// On shutdown, how long a mission upload under way may take to finish.
 const UPLOAD_GRACE: Duration = Duration::from_secs(3);
+/// How often the signing timestamp is persisted (well within
+/// `signing::PERSIST_MARGIN`).
+const TIMESTAMP_PERSIST: Duration = Duration::from_secs(10);
 /// How long the vehicle may stay silent before `run` says so on stderr.
 const SILENCE_WARNING: Duration = Duration::from_secs(5);
 
@@ -177,8 +195,22 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     } else {
         Some(args.record.clone().unwrap_or_else(dated_recording))
     };
+    let signing = match &args.signing_key {
+        None => None,
+        Some(path) => Some(crate::link::signing::Setup {
+            key: crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?,
+            link_id: args.signing_link_id,
+            require: args.require_signed,
+            timestamp_file: args.signing_timestamp.clone().unwrap_or_else(|| {
+                let mut p = path.as_os_str().to_owned();
+                p.push(".timestamp");
+                PathBuf::from(p)
+            }),
+        }),
+    };
     Ok(Ok(Setup {
         project,
+        signing,
         dir: args.project.clone(),
         profile,
         layers,
@@ -192,6 +224,19 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         out: Box::new(std::io::stdout()),
         stop: None,
     }))
+}
+
+/// Persists the link's signing timestamp; a failure is said, once per
+/// attempt, and supervision goes on.
+fn persist_timestamp(file: &std::path::Path, writer: &LinkWriter) {
+    if let Some(ts) = writer.signing_timestamp() {
+        if let Err(e) = crate::link::signing::write_timestamp(file, ts) {
+            tracing::warn!(
+                "cannot persist the signing timestamp to {}: {e}",
+                file.display()
+            );
+        }
+    }
 }
 
 /// Runs the gateway until its duration, a signal or `stop`.
@@ -209,6 +254,8 @@ pub(crate) fn fly(setup: Setup) -> VerbResult {
 /// What the gateway runs with.
 pub(crate) struct Setup {
     pub project: Arc<Project>,
+    /// MAVLink 2 signing on the vehicle link.
+    pub signing: Option<crate::link::signing::Setup>,
     pub dir: PathBuf,
     pub profile: Profile,
     pub layers: crate::profile::Layers,
@@ -348,6 +395,13 @@ impl Gateway {
             .map_err(|e| miette::miette!("{e}"))?;
         // One vehicle: the configured one, else the first autopilot heard.
         reader.supervise(setup.vehicle.system);
+        let rejections = reader.rejections();
+        if let Some(signing) = &setup.signing {
+            use crate::link::signing::{read_timestamp, Signer, Verifier};
+            let persisted = read_timestamp(&signing.timestamp_file);
+            writer.sign(Signer::new(signing.key.clone(), signing.link_id, persisted));
+            reader.verify(Verifier::new(signing.key.clone(), signing.require));
+        }
         // The program server listens only for a project that has programs.
         let (programs, mut inputs) = if setup.project.programs.is_empty() {
             (None, mpsc::channel(1).1)
@@ -444,7 +498,21 @@ impl Gateway {
         // user that the address, the router or the autopilot is wrong.
         let silent_until = Instant::now() + SILENCE_WARNING;
         let mut said_silent = false;
+        let mut reporter = crate::link::rejections::Reporter::default();
+        let timestamp_file = setup.signing.as_ref().map(|s| s.timestamp_file.clone());
+        let mut persisted_at = Instant::now();
         loop {
+            // Frames the signature checks dropped reach the nets as an event.
+            if let Some(event) = reporter.poll(&rejections, &gw.project, gw.now()) {
+                let now = gw.now();
+                gw.feed(now, Owned::Event(event));
+            }
+            if let Some(file) = &timestamp_file {
+                if persisted_at.elapsed() >= TIMESTAMP_PERSIST {
+                    persisted_at = Instant::now();
+                    persist_timestamp(file, &gw.writer);
+                }
+            }
             if !said_silent && !gw.commander.heard() && Instant::now() >= silent_until {
                 said_silent = true;
                 let (system, component) = gw.commander.sender();
@@ -523,6 +591,12 @@ impl Gateway {
             gw.settle();
         }
         reader_task.abort();
+        if let Some(file) = &timestamp_file {
+            persist_timestamp(file, &gw.writer);
+        }
+        if let Some(summary) = rejections.summary() {
+            say!("signatures: {summary}");
+        }
         let Gateway {
             programs,
             supervisor,

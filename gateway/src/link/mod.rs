@@ -20,9 +20,11 @@
 #![allow(dead_code)]
 
 use std::sync::atomic::{AtomicU8, Ordering};
-use std::sync::{Arc, RwLock};
-use std::time::Duration;
+use std::sync::{Arc, Mutex, RwLock};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
+pub mod rejections;
+pub mod signing;
 pub mod vehicles;
 
 use crate::clock::Clock;
@@ -32,7 +34,17 @@ use mavlink::{
     AsyncMavConnection, MAVLinkMessageRaw, MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, Message,
     MessageData,
 };
+pub use rejections::Rejections;
+use signing::{Signer, Verifier};
 use vehicles::{Notice, Vehicles};
+
+/// Microseconds since the Unix epoch, for signing timestamps (0 if the
+/// system clock is before 1970; the signer keeps its timestamps growing).
+fn unix_us() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_micros() as u64)
+}
 
 /// One frame as received.
 #[derive(Debug, Clone)]
@@ -77,6 +89,8 @@ struct Shared {
     /// The sequence number of the next frame sent (one counter per link,
     /// as rust-mavlink keeps).
     sequence: AtomicU8,
+    /// Signs every frame sent, when the link is signed.
+    signer: Mutex<Option<Signer>>,
 }
 
 impl Shared {
@@ -123,12 +137,15 @@ impl Link {
             address: address.to_owned(),
             connection: RwLock::new(Some(Arc::new(connection))),
             sequence: AtomicU8::new(0),
+            signer: Mutex::new(None),
         });
         Ok((
             LinkReader {
                 shared: shared.clone(),
                 clock,
                 vehicles: None,
+                verifier: None,
+                rejections: Arc::new(Rejections::default()),
             },
             LinkWriter { shared },
         ))
@@ -141,9 +158,24 @@ pub struct LinkReader {
     clock: Clock,
     /// When set, frames of vehicles other than the supervised one are dropped.
     vehicles: Option<Vehicles>,
+    /// When set, frames whose signature fails are dropped and counted.
+    verifier: Option<Verifier>,
+    rejections: Arc<Rejections>,
 }
 
 impl LinkReader {
+    /// From now on, checks every frame's MAVLink 2 signature: frames that
+    /// fail (and unsigned ones, if the verifier requires signatures) are
+    /// dropped and counted in [`Self::rejections`].
+    pub fn verify(&mut self, verifier: Verifier) {
+        self.verifier = Some(verifier);
+    }
+
+    /// The frames rejected by signature checks.
+    pub fn rejections(&self) -> Arc<Rejections> {
+        self.rejections.clone()
+    }
+
     /// From now on, delivers only the frames of one vehicle's system (the
     /// configured `system`, else the first autopilot heard) and of systems
     /// that are no vehicle (ground stations, radios); other vehicles'
@@ -221,6 +253,18 @@ impl LinkReader {
                 }
                 Err(e) => return Err(e.into()),
             };
+            if let Some(verifier) = &mut self.verifier {
+                if let Err(why) = verifier.check(&raw, unix_us()) {
+                    let system = u8::try_from(raw.system_id()).unwrap_or(u8::MAX);
+                    tracing::debug!(
+                        system,
+                        component = raw.component_id(),
+                        "frame rejected: {why}"
+                    );
+                    self.rejections.add(why, system, raw.component_id());
+                    continue;
+                }
+            }
             if !self.admit(&raw) {
                 continue;
             }
@@ -259,6 +303,21 @@ pub struct LinkWriter {
 }
 
 impl LinkWriter {
+    /// From now on, signs every frame sent.
+    pub fn sign(&self, signer: Signer) {
+        *self.shared.signer.lock().unwrap_or_else(|p| p.into_inner()) = Some(signer);
+    }
+
+    /// The last signing timestamp used, to persist across restarts.
+    pub fn signing_timestamp(&self) -> Option<u64> {
+        self.shared
+            .signer
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .as_ref()
+            .map(Signer::timestamp)
+    }
+
     /// Sends a message as `from` = (system, component), MAVLink 2. The
     /// sequence number is the link's own counter. Returns the frame's bytes
     /// as written on the wire (empty on `udpin:` before anyone has spoken),
@@ -270,8 +329,18 @@ impl LinkWriter {
             component_id: from.1,
             sequence: self.shared.sequence.fetch_add(1, Ordering::Relaxed),
         };
-        let mut raw = MAVLinkV2MessageRaw::new();
-        raw.serialize_message(header, message);
+        let signed = self
+            .shared
+            .signer
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .as_mut()
+            .map(|signer| signer.sign(header, message, unix_us()));
+        let raw = signed.unwrap_or_else(|| {
+            let mut raw = MAVLinkV2MessageRaw::new();
+            raw.serialize_message(header, message);
+            raw
+        });
         let frame = MAVLinkMessageRaw::V2(raw);
         let written = connection.send_raw(&frame).await?;
         Ok(match (&frame, written) {

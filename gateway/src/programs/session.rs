@@ -14,6 +14,10 @@ use super::roster::Roster;
 
 /// Name of the event a lost program becomes.
 pub const PROGRAM_LOST: &str = "program_lost";
+
+/// The gateway's event for frames dropped by signature checks
+/// (`crate::link::rejections`); a program may not send it either.
+pub const SIGNATURE_REJECTED: &str = "signature_rejected";
 /// Reasons of failed outcomes the gateway gives itself.
 pub const REASON_LOST: &str = "program lost";
 pub const REASON_TIMEOUT: &str = "timeout";
@@ -315,7 +319,7 @@ impl Session {
                 "event name {name:?}: letters, digits and `_` only (names with `.` are results)"
             ));
         }
-        if name == PROGRAM_LOST {
+        if name == PROGRAM_LOST || name == SIGNATURE_REJECTED {
             return self.error(&format!("event `{name}` is the gateway's own"));
         }
         if let Some(refusal) = nets::outside::refusal(&self.roster.project, &name) {

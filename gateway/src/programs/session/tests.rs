@@ -372,6 +372,7 @@ fn bad_events_are_errors() {
         ("{\"event\": \"program_lost\"}", "gateway's own"),
         ("{\"event\": \"net_fault\"}", "raised by the player itself"),
         ("{\"event\": \"replanned\"}", "the nets emit this event"),
+        ("{\"event\": \"signature_rejected\"}", "gateway's own"),
     ] {
         let mut s = ready();
         s.feed(format!("{line}\n").as_bytes(), free);
