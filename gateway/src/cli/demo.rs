@@ -167,6 +167,7 @@ fn fly(args: &Args, dir: &Path) -> VerbResult {
         record: Some(args.record.clone()),
         no_record: false,
         programs: Some(programs.clone()),
+        programs_token: None,
         signing_key: None,
         require_signed: false,
         signing_link_id: 0,

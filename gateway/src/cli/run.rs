@@ -66,6 +66,11 @@ pub struct Args {
     /// `[gateway] programs`, else tcp:127.0.0.1:5790].
     #[arg(long, value_name = "ADDRESS")]
     pub programs: Option<String>,
+    /// The token programs must give in their hello (a file readable by its
+    /// owner only) [default: `[gateway] programs_token`]; required to
+    /// listen for programs anywhere but loopback.
+    #[arg(long, value_name = "FILE")]
+    pub programs_token: Option<PathBuf>,
     /// Sign every frame sent to the vehicle with this MAVLink 2 signing key
     /// (a file of 32 bytes or 64 hex digits, readable by its owner only);
     /// frames from the vehicle with a bad signature are dropped.
@@ -189,6 +194,27 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         programs.address = address
             .parse()
             .map_err(|e| miette::miette!("--programs {address}: {e}"))?;
+    }
+    // The token: --programs-token (beside the working directory), else
+    // `[gateway] programs_token` (beside project.toml).
+    let token_file = args
+        .programs_token
+        .clone()
+        .or_else(|| programs.token_file.as_ref().map(|f| args.project.join(f)));
+    if let Some(file) = token_file {
+        let bytes =
+            crate::link::signing::read_private(&file).map_err(|e| miette::miette!("{e}"))?;
+        let token = String::from_utf8(bytes)
+            .ok()
+            .map(|t| t.trim().to_owned())
+            .filter(|t| !t.is_empty())
+            .ok_or_else(|| {
+                miette::miette!(
+                    "{}: the programs' token must be non-empty text",
+                    file.display()
+                )
+            })?;
+        programs.token = Some(token);
     }
     let record = if args.no_record {
         None

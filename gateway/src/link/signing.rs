@@ -43,17 +43,38 @@ pub fn timestamp_at(unix_us: u64) -> u64 {
 /// Why a key file is refused.
 #[derive(Debug, thiserror::Error)]
 pub enum KeyError {
-    #[error("cannot read the signing key {path}: {source}")]
+    #[error("cannot read {path}: {source}")]
     Read {
         path: String,
         source: std::io::Error,
     },
     #[error(
-        "the signing key {path} may be read by other users (mode {mode:o}): `chmod 600 {path}`"
+        "{path} holds a secret but may be read by other users (mode {mode:o}): `chmod 600 {path}`"
     )]
     Readable { path: String, mode: u32 },
     #[error("the signing key {path} is neither 32 bytes nor 64 hexadecimal digits ({len} bytes)")]
     Format { path: String, len: usize },
+}
+
+/// Reads a file that holds a secret (a signing key, the programs' token):
+/// on Unix, refused when group or others may read it.
+pub fn read_private(path: &Path) -> Result<Vec<u8>, KeyError> {
+    let read = |source| KeyError::Read {
+        path: path.display().to_string(),
+        source,
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(path).map_err(read)?.permissions().mode();
+        if mode & 0o077 != 0 {
+            return Err(KeyError::Readable {
+                path: path.display().to_string(),
+                mode: mode & 0o777,
+            });
+        }
+    }
+    std::fs::read(path).map_err(read)
 }
 
 /// A 32-byte signing secret, as `SETUP_SIGNING` gives it to the autopilot.
@@ -79,25 +100,9 @@ impl Key {
     /// (surrounding whitespace ignored). On Unix, a file that group or
     /// others may read is refused.
     pub fn load(path: &Path) -> Result<Key, KeyError> {
-        let name = path.display().to_string();
-        let read = |source| KeyError::Read {
-            path: name.clone(),
-            source,
-        };
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            let mode = std::fs::metadata(path).map_err(read)?.permissions().mode();
-            if mode & 0o077 != 0 {
-                return Err(KeyError::Readable {
-                    path: name,
-                    mode: mode & 0o777,
-                });
-            }
-        }
-        let bytes = std::fs::read(path).map_err(read)?;
+        let bytes = read_private(path)?;
         Key::parse(&bytes).ok_or(KeyError::Format {
-            path: name,
+            path: path.display().to_string(),
             len: bytes.len(),
         })
     }

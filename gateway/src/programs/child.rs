@@ -20,6 +20,8 @@ use super::server::stopped;
 
 /// The environment variable holding the gateway's programs address.
 pub const ENV_ADDRESS: &str = "PETREL_PROGRAMS";
+/// The token a started program gives in its hello, when one is required.
+pub const ENV_TOKEN: &str = "PETREL_PROGRAMS_TOKEN";
 /// The environment variable holding the program's name.
 pub const ENV_NAME: &str = "PETREL_PROGRAM";
 
@@ -35,6 +37,9 @@ pub struct Launch {
     pub restart: Restart,
     pub dir: PathBuf,
     pub address: String,
+    /// Given to the program as `PETREL_PROGRAMS_TOKEN` when the gateway
+    /// requires a token.
+    pub token: Option<String>,
     pub backoff_min: Duration,
     pub backoff_max: Duration,
     pub stable_after: Duration,
@@ -135,6 +140,7 @@ fn spawn(launch: &Launch) -> std::io::Result<Child> {
         .current_dir(&launch.dir)
         .env(ENV_ADDRESS, &launch.address)
         .env(ENV_NAME, &launch.name)
+        .envs(launch.token.as_ref().map(|t| (ENV_TOKEN, t)))
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

@@ -11,10 +11,12 @@ pub const MAX_LINE: usize = 1 << 20;
 /// A line from a program.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Incoming {
-    /// `{"hello": "DEC", "functions": ["next_waypoint", …]}`
+    /// `{"hello": "DEC", "functions": ["next_waypoint", …], "token": "…"}`
+    /// (`token` when the gateway requires one).
     Hello {
         program: String,
         functions: Vec<String>,
+        token: Option<String>,
     },
     /// `{"reply": 7, "event": "done", "params": {…}}`
     Done { id: u64, params: Params },
@@ -22,6 +24,20 @@ pub enum Incoming {
     Failed { id: u64, reason: String },
     /// `{"event": "obstacle", "params": {…}}`
     Event { name: String, params: Params },
+}
+
+/// A hello line with its `token` replaced by `"(redacted)"`, for logs and
+/// recordings.
+pub fn redact_token(line: &str) -> String {
+    match serde_json::from_str::<serde_json::Value>(line) {
+        Ok(serde_json::Value::Object(mut object)) => {
+            if object.contains_key("token") {
+                object.insert("token".into(), json!("(redacted)"));
+            }
+            serde_json::Value::Object(object).to_string()
+        }
+        _ => "(a hello, redacted)".to_owned(),
+    }
 }
 
 /// Parses one line (without its newline).
@@ -32,7 +48,12 @@ pub fn parse(line: &str) -> Result<Incoming, String> {
         return Err("expected a JSON object".into());
     };
     if object.contains_key("hello") {
-        only(&object, &["hello", "functions"], "a hello")?;
+        only(&object, &["hello", "functions", "token"], "a hello")?;
+        let token = match object.get("token") {
+            None => None,
+            Some(serde_json::Value::String(t)) => Some(t.clone()),
+            Some(_) => return Err("`token` must be a string".into()),
+        };
         let program = string(&object, "hello")?;
         let functions = match object.get("functions") {
             Some(serde_json::Value::Array(a)) => a
@@ -45,7 +66,11 @@ pub fn parse(line: &str) -> Result<Incoming, String> {
                 return Err("a hello needs `functions`: the functions the program serves".into())
             }
         };
-        Ok(Incoming::Hello { program, functions })
+        Ok(Incoming::Hello {
+            program,
+            functions,
+            token,
+        })
     } else if object.contains_key("reply") {
         only(&object, &["reply", "event", "params"], "a reply")?;
         let id = object
@@ -150,7 +175,16 @@ mod tests {
             parse(r#"{"hello": "DEC", "functions": ["a", "b"]}"#),
             Ok(Incoming::Hello {
                 program: "DEC".into(),
-                functions: vec!["a".into(), "b".into()]
+                functions: vec!["a".into(), "b".into()],
+                token: None,
+            })
+        );
+        assert_eq!(
+            parse(r#"{"hello": "DEC", "functions": [], "token": "s3cret"}"#),
+            Ok(Incoming::Hello {
+                program: "DEC".into(),
+                functions: vec![],
+                token: Some("s3cret".into()),
             })
         );
         assert_eq!(

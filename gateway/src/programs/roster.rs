@@ -140,6 +140,8 @@ pub struct Roster {
     pub called: Vec<BTreeSet<usize>>,
     /// Per program (project order): its settings.
     pub settings: Vec<Settings>,
+    /// The token every hello must carry, when the gateway requires one.
+    pub token: Option<String>,
 }
 
 impl Roster {
@@ -155,6 +157,7 @@ impl Roster {
             project,
             called,
             settings,
+            token: None,
         })
     }
 
@@ -228,6 +231,13 @@ pub struct Config {
     /// A program that ran this long before exiting restarts after
     /// `backoff_min` again.
     pub stable_after: Duration,
+    /// The token programs must give in their hello (`--programs-token
+    /// FILE` or `[gateway] programs_token = "FILE"`); required to listen
+    /// anywhere but loopback.
+    pub token: Option<String>,
+    /// `[gateway] programs_token`: the token's file, relative to the
+    /// project folder (read by `run` into `token`).
+    pub token_file: Option<std::path::PathBuf>,
 }
 
 impl Default for Config {
@@ -243,6 +253,8 @@ impl Default for Config {
             backoff_min: Duration::from_millis(200),
             backoff_max: Duration::from_secs(10),
             stable_after: Duration::from_secs(30),
+            token: None,
+            token_file: None,
         }
     }
 }
@@ -256,6 +268,8 @@ pub enum ConfigError {
     Address(#[from] address::AddressError),
     #[error("project.toml [gateway] `programs`: expected a string such as \"tcp:127.0.0.1:5790\"")]
     NotAString,
+    #[error("project.toml [gateway] `programs_token`: expected the path of the token's file")]
+    TokenNotAString,
 }
 
 impl Config {
@@ -266,6 +280,10 @@ impl Config {
         if let Some(value) = table.and_then(|t| t.get("programs")) {
             let text = value.as_str().ok_or(ConfigError::NotAString)?;
             config.address = text.parse()?;
+        }
+        if let Some(value) = table.and_then(|t| t.get("programs_token")) {
+            let text = value.as_str().ok_or(ConfigError::TokenNotAString)?;
+            config.token_file = Some(text.into());
         }
         Ok(config)
     }

@@ -74,6 +74,8 @@ pub enum ProgramsError {
         address: Address,
         source: std::io::Error,
     },
+    #[error("programs would listen on {address}, reachable from other computers, with no token: give one (--programs-token FILE, or [gateway] programs_token) so that only authorised programs connect, or listen on loopback")]
+    Exposed { address: Address },
 }
 
 enum Command {
@@ -108,7 +110,16 @@ impl Programs {
         project_dir: &Path,
         config: Config,
     ) -> Result<(Programs, mpsc::Receiver<ProgramInput>), ProgramsError> {
-        let roster = Arc::new(Roster::new(project)?);
+        let mut roster = Roster::new(project)?;
+        roster.token = config.token.clone();
+        if let (Address::Tcp(a), None) = (&config.address, &roster.token) {
+            if !a.ip().is_loopback() {
+                return Err(ProgramsError::Exposed {
+                    address: config.address.clone(),
+                });
+            }
+        }
+        let roster = Arc::new(roster);
         let listen_error = |source| ProgramsError::Listen {
             address: config.address.clone(),
             source,
@@ -143,6 +154,7 @@ impl Programs {
                 restart: settings.restart,
                 dir: project_dir.to_path_buf(),
                 address: address.to_string(),
+                token: config.token.clone(),
                 backoff_min: config.backoff_min,
                 backoff_max: config.backoff_max,
                 stable_after: config.stable_after,

@@ -12,6 +12,21 @@ use nets::{Category, Event, Outcome, Params, Value};
 use super::protocol::{self, Incoming, MAX_LINE};
 use super::roster::Roster;
 
+/// Whether a hello's token lets the program in: any hello when the gateway
+/// requires none; else the same token, compared in constant time.
+fn authorised(required: Option<&str>, given: Option<&str>) -> bool {
+    let Some(required) = required else {
+        return true;
+    };
+    let given = given.unwrap_or("").as_bytes();
+    let required = required.as_bytes();
+    let mut diff = u8::from(given.len() != required.len());
+    for (i, r) in required.iter().enumerate() {
+        diff |= r ^ given.get(i).copied().unwrap_or(0);
+    }
+    diff == 0
+}
+
 /// Name of the event a lost program becomes.
 pub const PROGRAM_LOST: &str = "program_lost";
 
@@ -163,20 +178,38 @@ impl Session {
 
     fn line(&mut self, raw: &[u8], taken: &impl Fn(usize) -> bool) {
         let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
-        self.outputs
-            .push_back(Output::Received(String::from_utf8_lossy(raw).into_owned()));
-        let Ok(text) = std::str::from_utf8(raw) else {
+        let parsed = std::str::from_utf8(raw).map(|text| (text, protocol::parse(text)));
+        // What is logged and recorded: the line, with a hello's token
+        // redacted (a recording must never hold the secret).
+        let received = match &parsed {
+            Ok((text, Ok(Incoming::Hello { token: Some(_), .. }))) => protocol::redact_token(text),
+            _ => String::from_utf8_lossy(raw).into_owned(),
+        };
+        self.outputs.push_back(Output::Received(received));
+        let Ok((text, incoming)) = parsed else {
             return self.error("not UTF-8");
         };
         if text.trim().is_empty() {
             return;
         }
-        let incoming = match protocol::parse(text) {
+        let incoming = match incoming {
             Ok(i) => i,
             Err(message) => return self.error(&message),
         };
         match (incoming, self.state) {
-            (Incoming::Hello { program, functions }, State::Greeting) => {
+            (
+                Incoming::Hello {
+                    program,
+                    functions,
+                    token,
+                },
+                State::Greeting,
+            ) => {
+                if !authorised(self.roster.token.as_deref(), token.as_deref()) {
+                    return self.refuse(
+                        "unauthorised: the gateway requires a `token` in the hello, and this one is missing or wrong",
+                    );
+                }
                 self.hello(&program, &functions, taken)
             }
             (Incoming::Hello { .. }, _) => {

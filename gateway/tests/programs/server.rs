@@ -4,6 +4,7 @@ use std::time::Duration;
 
 use nets::{Category, Outcome, Params, Value};
 
+use crate::programs::roster::Config;
 use crate::programs::server::{Direction, ProgramInput};
 use crate::support::*;
 
@@ -377,4 +378,79 @@ async fn the_player_and_a_started_program_play_together() {
     }
     assert_eq!(fired, ["ask", "seen", "done", "lost"]);
     programs.shutdown().await;
+}
+
+#[tokio::test]
+async fn with_a_token_only_programs_that_give_it_connect_and_the_token_is_never_logged() {
+    let config = Config {
+        token: Some("s3cret-token".into()),
+        ..config()
+    };
+    // A started program is given the token and connects.
+    let mut h = Harness::start_with(&fixture_program("never", "5s", ALL), FUNCTIONS, config).await;
+    h.connected().await;
+    let reply = params(&[("value", Value::Int(7))]);
+    h.programs
+        .call(1, 0, ECHO, params(&[("reply", Value::Map(reply.clone()))]));
+    assert_eq!(h.outcome(1).await, Outcome::Done(reply));
+    // A client without the token, and one with a wrong one, are refused.
+    let crate::programs::address::Address::Tcp(at) = h.programs.address().clone() else {
+        panic!("a TCP address")
+    };
+    for hello in [
+        r#"{"hello": "Q", "functions": []}"#,
+        r#"{"hello": "Q", "functions": [], "token": "guess"}"#,
+    ] {
+        let stream = tokio::net::TcpStream::connect(at).await.expect("connects");
+        let (read, mut write) = stream.into_split();
+        use tokio::io::{AsyncBufReadExt, AsyncWriteExt};
+        write
+            .write_all(format!("{hello}\n").as_bytes())
+            .await
+            .expect("hello");
+        let mut lines = tokio::io::BufReader::new(read).lines();
+        let reply = tokio::time::timeout(WAIT, lines.next_line())
+            .await
+            .expect("an answer")
+            .expect("reads")
+            .expect("a line");
+        assert!(reply.contains("unauthorised"), "{hello}: {reply}");
+        let closed = tokio::time::timeout(WAIT, lines.next_line())
+            .await
+            .expect("closes");
+        assert!(
+            matches!(closed, Ok(None)),
+            "{hello}: closed after the refusal"
+        );
+    }
+    // The token never appears in the traffic (which is logged and recorded).
+    while let Ok(Some(input)) =
+        tokio::time::timeout(Duration::from_millis(300), h.inputs.recv()).await
+    {
+        if let ProgramInput::Traffic(t) = input {
+            h.traffic.push(t);
+        }
+    }
+    let hello = h
+        .traffic
+        .iter()
+        .find(|t| t.line.contains("\"hello\""))
+        .expect("the hello was recorded");
+    assert!(hello.line.contains("(redacted)"), "{}", hello.line);
+    assert!(h.traffic.iter().all(|t| !t.line.contains("s3cret-token")));
+    h.programs.shutdown().await;
+}
+
+#[tokio::test]
+async fn listening_beyond_loopback_without_a_token_is_refused() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let project = write_project(dir.path(), &fixture_program("never", "5s", ALL), FUNCTIONS);
+    let config = Config {
+        address: "tcp:0.0.0.0:0".parse().expect("address"),
+        ..config()
+    };
+    let Err(e) = crate::programs::server::Programs::start(project, dir.path(), config).await else {
+        panic!("must refuse");
+    };
+    assert!(e.to_string().contains("no token"), "{e}");
 }

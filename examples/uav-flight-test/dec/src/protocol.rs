@@ -92,9 +92,14 @@ pub fn parse(line: &[u8]) -> Result<FromGateway, BadLine> {
     )))
 }
 
-/// The hello line.
+/// The hello line, with the gateway's token when it requires one (the
+/// gateway gives it to the programs it starts as PETREL_PROGRAMS_TOKEN).
 pub fn hello(name: &str, functions: &[&str]) -> String {
-    json!({"hello": name, "functions": functions}).to_string() + "\n"
+    let mut line = json!({"hello": name, "functions": functions});
+    if let Ok(token) = std::env::var("PETREL_PROGRAMS_TOKEN") {
+        line["token"] = json!(token);
+    }
+    line.to_string() + "\n"
 }
 
 /// A `done` reply.

@@ -205,7 +205,11 @@ def serve():
     """Serves calls until the gateway closes the connection; False if it
     never welcomed this program (the hello was refused)."""
     welcomed = False
-    connection.send({"hello": PROGRAM, "functions": sorted(FUNCTIONS)})
+    hello = {"hello": PROGRAM, "functions": sorted(FUNCTIONS)}
+    if os.environ.get("PETREL_PROGRAMS_TOKEN"):
+        # The gateway requires a token (it gives it to the programs it starts).
+        hello["token"] = os.environ["PETREL_PROGRAMS_TOKEN"]
+    connection.send(hello)
     for line in connection.lines:
         try:
             message = json.loads(line)

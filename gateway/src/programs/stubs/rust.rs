@@ -238,7 +238,13 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    if let Err(e) = send(&mut *writer, &json!({"hello": program, "functions": FUNCTIONS})) {
+    let mut hello = json!({"hello": program, "functions": FUNCTIONS});
+    // The gateway's token, when it requires one (it gives it to the programs
+    // it starts).
+    if let Ok(token) = std::env::var("PETREL_PROGRAMS_TOKEN") {
+        hello["token"] = json!(token);
+    }
+    if let Err(e) = send(&mut *writer, &hello) {
         log(&program, &format!("cannot say hello: {e}"));
         return ExitCode::FAILURE;
     }
