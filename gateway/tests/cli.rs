@@ -404,3 +404,73 @@ fn no_verb_panics_when_stdout_and_stderr_cannot_be_written() {
         failures.join("\n")
     );
 }
+
+#[test]
+fn replay_of_a_telemetry_log_follows_the_vehicle_named_by_sysid() {
+    use elaboration::frame::serialize;
+    use elaboration::TlogWriter;
+    use mavlink::dialects::ardupilotmega::{
+        MavAutopilot, MavMessage, MavModeFlag, MavType, HEARTBEAT_DATA,
+    };
+    use mavlink::{MavHeader, MavlinkVersion};
+    let dir = std::env::temp_dir().join(format!("petrel-replay-sysid-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    std::fs::write(
+        dir.join("project.toml"),
+        "[[net]]\nfile = \"n.toml\"\nactive = true\n",
+    )
+    .expect("write");
+    std::fs::write(
+        dir.join("n.toml"),
+        "name = \"N\"\nplaces = [\"flying\", \"returning\"]\ninitial = [\"flying\"]\n\
+         [[transition]]\nname = \"rtl\"\nfrom = [\"flying\"]\nto = [\"returning\"]\non = \"mode_changed\"\nwhen = 'mode == \"RTL\"'\n",
+    )
+    .expect("write");
+    // Two copters on one link: system 1 goes STABILIZE → LOITER, system 2
+    // STABILIZE → RTL, each heartbeating at 1 Hz for 10 s.
+    let mut w = TlogWriter::new(Vec::new());
+    for s in 0..10u64 {
+        for (sysid, later) in [(1u32, 5u32), (2, 6)] {
+            let hb = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                custom_mode: if s < 5 { 0 } else { later },
+                mavtype: MavType::MAV_TYPE_QUADROTOR,
+                autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+                base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                ..HEARTBEAT_DATA::DEFAULT
+            });
+            let header = MavHeader {
+                system_id: sysid,
+                component_id: 1,
+                sequence: s as u8,
+            };
+            w.write_frame(
+                1_700_000_000_000_000 + s * 1_000_000 + u64::from(sysid) * 1000,
+                &serialize(header, MavlinkVersion::V2, &hb),
+            )
+            .expect("vec");
+        }
+    }
+    let log = dir.join("two.tlog");
+    std::fs::write(&log, w.into_inner().expect("vec")).expect("write");
+    let fired = |extra: &[&str]| {
+        let mut args = vec![
+            "replay",
+            log.to_str().expect("utf-8"),
+            dir.to_str().expect("utf-8"),
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let (code, out, err) = petrel(&args);
+        assert_eq!(code, 0, "{err}");
+        out.lines()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .any(|l| l["effect"] == "fired" && l["transition"] == "rtl")
+    };
+    assert!(
+        !fired(&[]),
+        "the first autopilot heard (system 1) never returns"
+    );
+    assert!(fired(&["--sysid", "2"]), "system 2 goes RTL");
+    assert!(!fired(&["--sysid", "1"]));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -41,6 +41,13 @@ pub struct Args {
     /// recorded ones; report the first difference and exit 1.
     #[arg(long)]
     pub check_against: bool,
+    /// (.tlog) The supervised vehicle's system id, when the log holds
+    /// several [default: the first autopilot heard].
+    #[arg(long, value_name = "ID")]
+    pub sysid: Option<u8>,
+    /// (.tlog) The autopilot's component id [default: from its HEARTBEAT].
+    #[arg(long, value_name = "ID")]
+    pub compid: Option<u8>,
 }
 
 /// Elaboration ticks between frames, at most this far apart (µs), so that
@@ -57,6 +64,11 @@ pub fn run(args: Args) -> VerbResult {
     }
     let ext = args.file.extension().and_then(|e| e.to_str()).unwrap_or("");
     if ext == "mcap" {
+        if args.sysid.is_some() || args.compid.is_some() {
+            return Err(miette::miette!(
+                "--sysid and --compid are for telemetry logs: a Petrel recording replays the vehicle it supervised"
+            ));
+        }
         return from_mcap::run(args);
     }
     if args.check_against {
@@ -86,12 +98,12 @@ pub fn run(args: Args) -> VerbResult {
         json: args.json,
         origin,
     };
-    let (mut sup, start) = Supervisor::start(
-        project.clone(),
-        profile,
-        elaboration::Config::default(),
-        origin,
-    );
+    let config = elaboration::Config {
+        sysid: args.sysid,
+        compid: args.compid,
+        ..elaboration::Config::default()
+    };
+    let (mut sup, start) = Supervisor::start(project.clone(), profile, config, origin);
     out.effects(&project, &start.effects).map_err(io)?;
     let progress = std::io::stderr().is_terminal() && !args.json;
     let wall = Instant::now();
