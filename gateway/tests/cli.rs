@@ -474,3 +474,24 @@ fn replay_of_a_telemetry_log_follows_the_vehicle_named_by_sysid() {
     assert!(!fired(&["--sysid", "1"]));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn draw_svg_lays_out_every_net_without_graphviz() {
+    let (code, out, err) = petrel(&["draw", "examples/uav-flight-test", "--svg"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.starts_with("<svg"), "{}", &out[..out.len().min(200)]);
+    for net in ["INIT", "MISSION", "FLIGHT", "CATASTROPHIC"] {
+        assert!(out.contains(&format!("data-net=\"{net}\"")), "{net}");
+    }
+    let (code, one, _) = petrel(&[
+        "draw",
+        "examples/uav-flight-test",
+        "--svg",
+        "--net",
+        "MISSION",
+    ]);
+    assert_eq!(code, 0);
+    assert_eq!(one.matches("class=\"net\"").count(), 1);
+    let (code, _, err) = petrel(&["draw", "examples/uav-flight-test", "--svg", "--dot"]);
+    assert_eq!(code, 2, "one format: {err}");
+}

@@ -1,6 +1,7 @@
-//! `petrel draw PROJECT [--net NAME] --dot`: the nets as Graphviz DOT
-//! (places as circles with their tokens, transitions as boxes labelled with
-//! their event, guard and actions). Pipe it to `dot -Tsvg`.
+//! `petrel draw PROJECT [--net NAME] [--dot | --svg]`: the nets as Graphviz
+//! DOT (places as circles with their tokens, transitions as boxes labelled
+//! with their event, guard and actions; pipe it to `dot -Tsvg`), or as SVG
+//! laid out by Petrel itself (`nets::layout`: no Graphviz needed).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -16,9 +17,12 @@ pub struct Args {
     /// Draw only this net (with the global places it uses).
     #[arg(long, value_name = "NAME")]
     pub net: Option<String>,
-    /// Write Graphviz DOT (the only format, and the default).
-    #[arg(long)]
+    /// Write Graphviz DOT (the default).
+    #[arg(long, conflicts_with = "svg")]
     pub dot: bool,
+    /// Write SVG, laid out left to right by Petrel (no Graphviz needed).
+    #[arg(long)]
+    pub svg: bool,
     /// Write to this file instead of standard output.
     #[arg(long, short, value_name = "FILE")]
     pub output: Option<PathBuf>,
@@ -36,7 +40,12 @@ pub fn run(args: Args) -> VerbResult {
             )
         })?),
     };
-    let text = dot(&project, &Drawing { net, marking: None });
+    let drawing = Drawing { net, marking: None };
+    let text = if args.svg {
+        nets::svg::svg(&project, &drawing)
+    } else {
+        dot(&project, &drawing)
+    };
     match &args.output {
         Some(path) => std::fs::write(path, text)
             .map_err(|e| miette::miette!("cannot write {}: {e}", path.display()))?,
