@@ -420,7 +420,16 @@ impl Commander {
                     self.mission_step(step);
                 }
             }
-            MavMessage::MISSION_CURRENT(c) => self.on_mission_current(c.seq),
+            MavMessage::MISSION_CURRENT(c) => {
+                self.on_mission_current(c.seq);
+                if sender.1 == target.1 {
+                    if let Some(upload) = self.missions.front_mut().and_then(|j| j.upload.as_mut())
+                    {
+                        let step = upload.current(c.total, c.mission_state as u8);
+                        self.mission_step(step);
+                    }
+                }
+            }
             // 0, 0 is what autopilots report before they have a position.
             MavMessage::GLOBAL_POSITION_INT(p)
                 if sender.1 == target.1 && (p.lat, p.lon) != (0, 0) =>
@@ -900,13 +909,16 @@ impl Commander {
             };
             match build_items(items, firmware, self.home, target) {
                 Ok(items) => {
-                    let (upload, count) = Upload::start(
+                    let (mut upload, count) = Upload::start(
                         items,
                         target,
                         now,
                         timing.ack_timeout,
                         timing.mission_retries,
                     );
+                    if firmware == Firmware::Px4 {
+                        upload = upload.confirmed_by_mission_current();
+                    }
                     job.upload = Some(upload);
                     self.transmit.push_back(count);
                     break;

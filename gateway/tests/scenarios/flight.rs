@@ -73,10 +73,15 @@ impl Flown {
 
     /// Replays the recording with --check-against: (exit code, stderr).
     pub fn replay_check(&self) -> (Option<i32>, String) {
+        self.replay_check_project(&project())
+    }
+
+    /// The same, for a flight of another project.
+    pub fn replay_check_project(&self, project: &Path) -> (Option<i32>, String) {
         let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
             .arg("replay")
             .arg(&self.recording)
-            .arg(project())
+            .arg(project)
             .arg("--check-against")
             .stdout(Stdio::null())
             .output();
@@ -108,6 +113,14 @@ pub fn free_port() -> u16 {
         .expect("a free port")
 }
 
+/// A UDP port free on 127.0.0.1 a moment ago.
+pub fn free_udp_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .and_then(|s| s.local_addr())
+        .map(|a| a.port())
+        .expect("a free UDP port")
+}
+
 /// A fresh scratch folder for one flight.
 pub fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("petrel-{name}-{}", std::process::id()));
@@ -126,10 +139,31 @@ pub fn petrel_run(
     duration: Duration,
     extra: &[&str],
 ) -> Child {
+    petrel_run_project(
+        &project(),
+        mavlink,
+        programs,
+        time_scale,
+        recording,
+        duration,
+        extra,
+    )
+}
+
+/// The same on another project.
+pub fn petrel_run_project(
+    project: &Path,
+    mavlink: &str,
+    programs: &str,
+    time_scale: f64,
+    recording: &Path,
+    duration: Duration,
+    extra: &[&str],
+) -> Child {
     Command::new(env!("CARGO_BIN_EXE_petrel"))
         .current_dir(root())
         .arg("run")
-        .arg(project())
+        .arg(project)
         .args(["--mavlink", mavlink])
         .args(["--programs", programs])
         .args(["--time-scale", &time_scale.to_string()])

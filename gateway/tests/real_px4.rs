@@ -1,0 +1,147 @@
+//! Petrel against PX4's own SITL (`shared/px4-sitl`: PX4 v1.18 flying its
+//! built-in SIH quadcopter): the real `petrel run` on PX4's onboard link, as
+//! a companion computer runs it, with no profile and no firmware named —
+//! it must recognise PX4 from the HEARTBEAT and pick PX4's profile and
+//! verbs by itself. Each test asserts what Petrel did (its timeline, its
+//! recording replayed with `--check-against`) beside what PX4 did (modes,
+//! arming, landed state, items reached, position, as a ground station on
+//! PX4's GCS link saw them). Without the build each test says why and
+//! returns; with `CI=true` it fails.
+
+#[path = "scenarios/flight.rs"]
+mod flight;
+#[path = "scenarios/px4.rs"]
+mod px4;
+
+use px4::{Plan, Px4Flown, Truth};
+
+/// The mission file DEC reads (scenarios/flight.rs asks its crate).
+pub const MISSION_FILE: &str = "mission.toml";
+
+/// The sortie's transitions, in the order they must fire.
+const SORTIE: [&str; 16] = [
+    "arm",
+    "armed_now",
+    "took_off",
+    "climbed",
+    "disarm_refused",
+    "offboard_refused",
+    "held",
+    "going_there",
+    "arrived",
+    "landing_now",
+    "touched_down",
+    "uploaded",
+    "started",
+    "mission_armed",
+    "second_item",
+    "returned",
+];
+
+fn outcomes(f: &Px4Flown) -> Vec<(String, String)> {
+    f.flown
+        .timeline
+        .iter()
+        .filter(|l| {
+            l["effect"] == "emitted" && (l["event"] == "outcome" || l["event"] == "refusal")
+        })
+        .map(|l| {
+            let p = &l["params"];
+            let why = p["result"].as_str().or(p["reason"].as_str()).unwrap_or("?");
+            (
+                p["verb"].as_str().unwrap_or("?").to_owned(),
+                format!("{}:{why}", l["event"].as_str().unwrap_or("?")),
+            )
+        })
+        .collect()
+}
+
+fn explain(f: &Px4Flown) -> String {
+    let t = &f.truth;
+    format!(
+        "fired {:?}\noutcomes {:?}\nPX4: armed {} mode {} alt {:.1} landed_state {} t {:.0}\nmodes {:?}\ntexts {:?}\ngateway stderr:\n{}",
+        f.fired(),
+        outcomes(f),
+        t.armed,
+        t.mode,
+        t.alt,
+        t.landed_state,
+        t.t,
+        t.modes,
+        t.texts,
+        f.flown.stderr
+    )
+}
+
+/// Down, disarmed, after the second flight (the mission, ended by RTL).
+fn sortie_done(t: &Truth) -> bool {
+    t.arms() >= 2 && t.down()
+}
+
+#[test]
+fn every_px4_verb_on_the_sih_quadcopter() {
+    // A script of steps, not a mission: every unexpected outcome is a dead
+    // end, which `petrel check` rightly reports; hence --unchecked.
+    let plan = Plan::new("sortie", px4::project("sortie"));
+    let Some(f) = px4::fly(plan, sortie_done) else {
+        return;
+    };
+    let why = explain(&f);
+    // Recognised by itself, from the HEARTBEAT.
+    assert!(
+        f.flown
+            .stderr
+            .contains("autopilot: PX4, elaboration profile px4"),
+        "{why}"
+    );
+    // Every step, in order.
+    let fired = f.fired();
+    assert_eq!(fired, SORTIE.to_vec(), "{why}");
+    // Each outcome in names, as PX4 gave it.
+    let outcomes = outcomes(&f);
+    let expected: Vec<(String, String)> = [
+        ("arm", "outcome:ACCEPTED"),
+        // PX4 answers a disarm in flight and OFFBOARD without setpoints
+        // TEMPORARILY_REJECTED ("Disarming denied: not landed"): the
+        // commander tries again 3 times, then gives up with that name.
+        ("disarm", "refusal:TEMPORARILY_REJECTED"),
+        ("mode", "refusal:TEMPORARILY_REJECTED"),
+        ("mode", "outcome:ACCEPTED"),
+        ("goto", "outcome:ACCEPTED"),
+        ("land", "outcome:ACCEPTED"),
+        ("upload_mission", "outcome:ACCEPTED"),
+        ("start_mission", "outcome:ACCEPTED"),
+        ("arm", "outcome:ACCEPTED"),
+        ("rtl", "outcome:ACCEPTED"),
+    ]
+    .iter()
+    .map(|(v, o)| ((*v).to_owned(), (*o).to_owned()))
+    .collect();
+    assert_eq!(outcomes, expected, "{why}");
+    // What PX4 did: took off, held, went, landed; then flew the mission
+    // (items 0 and 1 reached) until RTL brought it down.
+    let t = &f.truth;
+    let modes: Vec<&str> = t.modes.iter().map(|(_, m)| m.as_str()).collect();
+    for m in [
+        "AUTO_TAKEOFF",
+        "AUTO_LOITER",
+        "AUTO_LAND",
+        "AUTO_MISSION",
+        "AUTO_RTL",
+    ] {
+        assert!(modes.contains(&m), "PX4 never in {m}: {modes:?}\n{why}");
+    }
+    assert!(t.down(), "{why}");
+    assert_eq!(t.arms(), 2, "{why}");
+    let reached: Vec<u16> = t.reached.iter().map(|r| r.1).collect();
+    assert!(
+        reached.starts_with(&[0, 1]),
+        "items reached {reached:?}\n{why}"
+    );
+    let (code, err) = f.flown.replay_check_project(&px4::project("sortie"));
+    assert_eq!(
+        code,
+        Some(0),
+        "the recording does not replay exactly: {err}"
+    );
+}
