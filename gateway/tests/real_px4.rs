@@ -145,3 +145,50 @@ fn every_px4_verb_on_the_sih_quadcopter() {
         "the recording does not replay exactly: {err}"
     );
 }
+
+/// No GPS fix (SIH's SIM_GPS_USED = 0): PX4 refuses every arming. Its
+/// reasons must reach the nets as `prearm_failed {text}` — from its events
+/// protocol the real one, not only STATUSTEXT's "Resolve system health
+/// failures first" — and the vehicle is never said ready.
+#[test]
+fn px4_prearm_refusals_are_heard_with_their_reason() {
+    let plan = Plan {
+        params: vec![("SIM_GPS_USED", 0.0)],
+        max_sim_s: 60.0,
+        ..Plan::new("prearm", px4::project("prearm"))
+    };
+    let Some(f) = px4::fly(plan, |_| false) else {
+        return;
+    };
+    let why = explain(&f);
+    let texts: Vec<String> = f
+        .heard("prearm_failed")
+        .iter()
+        .filter_map(|p| p["text"].as_str().map(str::to_owned))
+        .collect();
+    eprintln!("prearm_failed: {texts:?}");
+    assert_eq!(f.truth.arms(), 0, "PX4 armed without GPS\n{why}");
+    assert!(
+        f.fired().iter().filter(|t| *t == "refused").count() >= 3,
+        "{why}"
+    );
+    assert!(f.heard("ready_for_takeoff").is_empty(), "{why}");
+    // PX4's own words in STATUSTEXT, and the reason behind them.
+    assert!(
+        texts
+            .iter()
+            .any(|t| t.starts_with("Resolve system health failures")),
+        "{texts:?}\n{why}"
+    );
+    // PX4 sends no STATUSTEXT on its onboard link: these come from its
+    // events protocol, re-published on MAV_CMD_RUN_PREARM_CHECKS.
+    for reason in [
+        "GPS fix too low",
+        "Navigation error: No valid global position estimate",
+    ] {
+        assert!(
+            texts.iter().any(|t| t == reason),
+            "{reason} not heard: {texts:?}\n{why}"
+        );
+    }
+}

@@ -693,6 +693,13 @@ fn px4_rules_on_a_synthetic_quad() {
         MavMessage::ESC_INFO(d)
     };
     let mut s = Script::default();
+    // Home set (PX4 arms only then): HOME_POSITION, before the rest.
+    s.at(
+        0,
+        1,
+        1,
+        MavMessage::HOME_POSITION(HOME_POSITION_DATA::DEFAULT),
+    );
     for t in 0..20u64 {
         let at = t * S;
         let (armed, main, sub, status) = match t {

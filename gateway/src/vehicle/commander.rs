@@ -468,6 +468,44 @@ impl Commander {
         self.restart_streams();
     }
 
+    /// PX4 publishes each failing arming check through its events protocol
+    /// when the check changes, and says only "Arming denied: Resolve system
+    /// health failures first" when an arming is refused: after a refusal,
+    /// MAV_CMD_RUN_PREARM_CHECKS makes it publish every failing check again
+    /// (elaboration turns them into `prearm_failed {text}`). Silent: its
+    /// answer goes nowhere; one at a time.
+    fn ask_prearm_report(&mut self) {
+        let Some(target) = self.target else { return };
+        if self.firmware != Some(Firmware::Px4)
+            || self.ops.iter().any(|o| {
+                o.spec
+                    .as_ref()
+                    .is_some_and(|s| s.command == MavCmd::MAV_CMD_RUN_PREARM_CHECKS)
+            })
+        {
+            return;
+        }
+        self.ops.push(Op {
+            origin: Origin::Net(u64::MAX),
+            request: Request::Rtl, // unused: the spec is given
+            spec: Some(CommandSpec {
+                command: MavCmd::MAV_CMD_RUN_PREARM_CHECKS,
+                params: [0.0; 7],
+                int: None,
+                component: target.1,
+                fallback: Fallback::None,
+            }),
+            issued: self.now,
+            state: State::Waiting,
+            sends: 0,
+            timeouts: 0,
+            rejected: 0,
+            switched: false,
+            silent: true,
+            first_sent: None,
+        });
+    }
+
     fn for_us(&self, system: u8, component: u8) -> bool {
         let Some((own_sys, own_comp)) = self.identity() else {
             return false;
@@ -489,6 +527,14 @@ impl Commander {
             tracing::debug!(command = ?ack.command, result = ?ack.result, "COMMAND_ACK matches no command in flight");
             return;
         };
+        if matches!(self.ops[i].request, Request::Arm { arm: true, .. })
+            && !matches!(
+                ack.result,
+                MavResult::MAV_RESULT_ACCEPTED | MavResult::MAV_RESULT_IN_PROGRESS
+            )
+        {
+            self.ask_prearm_report();
+        }
         let timing = self.config.timing;
         let op = &mut self.ops[i];
         if matches!(op.state, State::SetCurrent { .. }) {
