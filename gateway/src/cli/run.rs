@@ -37,7 +37,8 @@ pub struct Args {
     #[arg(long, value_name = "ADDRESS")]
     pub mavlink: Option<String>,
     /// Elaboration profile: ardupilot, px4 or a FILE.toml extending the
-    /// ArduPilot one [default: `[gateway] profile`, else ardupilot].
+    /// autopilot's built-in one [default: `[gateway] profile`, else the
+    /// autopilot's, from its first HEARTBEAT].
     #[arg(long)]
     pub profile: Option<String>,
     /// Run a project that fails `petrel check`.
