@@ -208,6 +208,16 @@ fn failures(f: &Px4Flown) -> Vec<String> {
         .collect()
 }
 
+/// The failure events `petrel events` finds in the tlog of what reached
+/// the gateway (PX4's profile picked from the log by itself).
+fn tlog_failures(f: &Px4Flown) -> Vec<String> {
+    px4::petrel_events(&f.tlog)
+        .into_iter()
+        .filter(|(_, c)| ["safety", "catastrophic", "communication"].contains(&c.as_str()))
+        .map(|(n, _)| n)
+        .collect()
+}
+
 /// The survey on PX4 as the project flies it; `params` over the SITL's.
 fn survey(
     name: &'static str,
@@ -266,6 +276,29 @@ fn the_survey_flown_nominal_on_px4() {
         );
     }
     assert_eq!(failures(&f), Vec::<String>::new(), "a false alarm\n{why}");
+    // The same flight's tlog through `petrel events`: the nominal events,
+    // and no failure event either.
+    let logged: Vec<String> = px4::petrel_events(&f.tlog)
+        .into_iter()
+        .map(|(n, _)| n)
+        .collect();
+    for e in [
+        "ready_for_takeoff",
+        "armed",
+        "takeoff",
+        "mission_item_reached",
+        "landed",
+    ] {
+        assert!(
+            logged.contains(&e.to_owned()),
+            "{e} not in the tlog's events: {logged:?}"
+        );
+    }
+    assert_eq!(
+        tlog_failures(&f),
+        Vec::<String>::new(),
+        "a false alarm in the tlog"
+    );
     assert!(f.fired().contains(&"touchdown".to_owned()), "{why}");
     let (code, err) = f.flown.replay_check_project(&px4::project("survey"));
     assert_eq!(
@@ -319,6 +352,31 @@ fn a_link_hole_then_a_low_battery_on_px4() {
         );
     }
     assert!(f.fired().contains(&"battery_home".to_owned()), "{why}");
+    // The tlog of what reached the gateway: the same failures (the hole is
+    // a silence in it too), nothing else.
+    let logged = tlog_failures(&f);
+    for e in ["link_lost", "link_restored", "battery_low"] {
+        assert!(
+            logged.contains(&e.to_owned()),
+            "{e} not in the tlog's events: {logged:?}"
+        );
+    }
+    for e in &logged {
+        assert!(
+            [
+                "link_lost",
+                "link_restored",
+                "gcs_lost",
+                "gcs_restored",
+                "link_degraded",
+                "battery_low",
+                "battery_critical",
+                "autopilot_failsafe"
+            ]
+            .contains(&e.as_str()),
+            "a false alarm in the tlog: {e} in {logged:?}"
+        );
+    }
     assert!(t.modes.iter().any(|(_, m)| m == "AUTO_RTL"), "{why}");
     assert!(t.down(), "{why}");
 }
@@ -349,5 +407,13 @@ fn gps_lost_in_flight_on_px4() {
         );
     }
     assert!(f.fired().contains(&"gps_land".to_owned()), "{why}");
+    let logged = tlog_failures(&f);
+    assert!(logged.contains(&"gps_lost".to_owned()), "{logged:?}");
+    for e in &logged {
+        assert!(
+            ["gps_lost", "autopilot_failsafe", "ekf_unhealthy"].contains(&e.as_str()),
+            "a false alarm in the tlog: {e} in {logged:?}"
+        );
+    }
     assert!(f.truth.down(), "{why}");
 }

@@ -607,3 +607,33 @@ fn one_rc_lost_per_loss() {
     r.send(2 * S, text("Radio Failsafe Cleared"));
     assert_eq!(r.only(&["rc_lost"]), [(S, "rc_lost".to_string())]);
 }
+
+/// PX4 without any manual control reports the receiver enabled, unhealthy
+/// and not present (v1.18 SITL, 2 s after boot): no radio, not a radio
+/// lost. A receiver it has (present) that goes unhealthy is rc_lost.
+#[test]
+fn px4_without_a_radio_has_not_lost_it() {
+    let rc = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_RC_RECEIVER;
+    let none = MavSysStatusSensor::empty();
+    let px4 = || {
+        heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_PX4,
+            false,
+            MavState::MAV_STATE_STANDBY,
+        )
+    };
+    let mut r = Run::new("px4");
+    r.send(0, px4());
+    for t in 0..10u64 {
+        let enabled = if t >= 2 { rc } else { none };
+        r.send(t * S + MS, sensors(none, enabled, none));
+    }
+    assert_eq!(r.only(&["rc_lost"]), []);
+    let mut r = Run::new("px4");
+    r.send(0, px4());
+    for t in 0..10u64 {
+        let healthy = if t >= 3 { none } else { rc };
+        r.send(t * S + MS, sensors(rc, rc, healthy));
+    }
+    assert_eq!(r.only(&["rc_lost"]), [(4 * S + MS, "rc_lost".to_string())]);
+}

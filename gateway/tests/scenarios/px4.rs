@@ -320,7 +320,14 @@ pub struct Relay {
 }
 
 impl Relay {
-    pub fn start(px4: &Px4) -> Relay {
+    /// Also writes what reaches the gateway from PX4 to `tlog`, stamped
+    /// with PX4's own time (its latest time_boot_ms): a simulation that
+    /// falls behind its speed-up on a busy machine makes no silence there.
+    pub fn start(px4: &Px4, tlog: &Path) -> Relay {
+        let mut tlog = std::fs::File::create(tlog)
+            .map(|f| elaboration::TlogWriter::new(std::io::BufWriter::new(f)))
+            .expect("the tlog");
+        let mut vehicle_us = 0u64;
         let vehicle = UdpSocket::bind(("127.0.0.1", px4.onboard_port())).expect("the onboard port");
         let gateway = UdpSocket::bind("127.0.0.1:0").expect("a relay port");
         let port = flight::free_udp_port();
@@ -365,8 +372,18 @@ impl Relay {
                     }
                     if open() {
                         let _ = to.send_to(&buf[..n], to_gateway);
+                        let mut rest = &buf[..n];
+                        while let Some(len) = elaboration::frame::announced_len(rest) {
+                            if len > rest.len() {
+                                break;
+                            }
+                            vehicle_us = vehicle_us.max(boot_us(&rest[..len]));
+                            let _ = tlog.write_frame(vehicle_us, &rest[..len]);
+                            rest = &rest[len..];
+                        }
                     }
                 }
+                let _ = tlog.into_inner();
             }));
         }
         let heard_gateway = Arc::new(AtomicBool::new(false));
@@ -419,6 +436,25 @@ impl Drop for Relay {
             let _ = t.join();
         }
     }
+}
+
+/// PX4's boot time in a frame that carries it, in µs (0 otherwise).
+fn boot_us(bytes: &[u8]) -> u64 {
+    let Ok(frame) = elaboration::Frame::parse(bytes) else {
+        return 0;
+    };
+    if !matches!(frame.message_id(), 2 | 30 | 31 | 32 | 33) {
+        return 0;
+    }
+    let ms = match frame.decode() {
+        Ok(MavMessage::SYSTEM_TIME(m)) => m.time_boot_ms,
+        Ok(MavMessage::ATTITUDE(m)) => m.time_boot_ms,
+        Ok(MavMessage::ATTITUDE_QUATERNION(m)) => m.time_boot_ms,
+        Ok(MavMessage::LOCAL_POSITION_NED(m)) => m.time_boot_ms,
+        Ok(MavMessage::GLOBAL_POSITION_INT(m)) => m.time_boot_ms,
+        _ => 0,
+    };
+    u64::from(ms) * 1000
 }
 
 /// PX4's onboard mode streams attitude, IMU, odometry and the like at 50 to
@@ -495,12 +531,16 @@ impl Plan {
 
 static ONE_FLIGHT: Mutex<()> = Mutex::new(());
 
-/// Simulated seconds per wall second, for PX4 and the gateway's clock.
-pub const SPEED: u32 = 10;
+/// Simulated seconds per wall second, for PX4 and the gateway's clock. At
+/// 10× a PX4 stalled 0.35 s by a busy machine is a 3.5 s silence to the
+/// gateway's clock (link_lost); 5× halves that risk.
+pub const SPEED: u32 = 5;
 
 /// A flight's result: the gateway's side and PX4's.
 pub struct Px4Flown {
     pub flown: Flown,
+    /// What reached the gateway from PX4, as a tlog.
+    pub tlog: PathBuf,
     pub truth: Truth,
     pub code: Option<i32>,
     pub dir: PathBuf,
@@ -569,7 +609,8 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
         &dir.join("px4"),
     )
     .expect("PX4 SITL starts");
-    let relay = Relay::start(&sitl);
+    let tlog = dir.join("onboard.tlog");
+    let relay = Relay::start(&sitl, &tlog);
     let recording = dir.join("flight.mcap");
     let max_wall = Duration::from_secs_f64(max_sim_s / f64::from(SPEED) * 4.0 + 60.0);
     let observer = Observer::start(&sitl);
@@ -681,6 +722,7 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
         dir.display()
     );
     Some(Px4Flown {
+        tlog,
         flown: Flown {
             state: Default::default(),
             timeline: flight::timeline(&stdout),
@@ -693,6 +735,30 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
         dir,
         console,
     })
+}
+
+/// `petrel events TLOG --json`: (name, category) in order.
+pub fn petrel_events(tlog: &Path) -> Vec<(String, String)> {
+    let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .args(["events", &tlog.display().to_string(), "--json"])
+        .output()
+        .expect("petrel runs");
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "petrel events: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter_map(|v| {
+            Some((
+                v["event"].as_str()?.to_owned(),
+                v["category"].as_str()?.to_owned(),
+            ))
+        })
+        .collect()
 }
 
 /// A project of the tests' own (gateway/tests/px4/NAME).
