@@ -417,3 +417,50 @@ fn gps_lost_in_flight_on_px4() {
     }
     assert!(f.truth.down(), "{why}");
 }
+
+/// One motor off in flight through PX4's failure injection
+/// (SYS_FAILURE_EN 1, MAV_CMD_INJECT_FAILURE motor 1 OFF): this build
+/// answers ACCEPTED, and SIH flies on as if nothing happened — the mission
+/// completes, PX4 says nothing, and elaboration, rightly, hears no failure.
+/// What Petrel does on a real motor loss (engine_failure from ESC_INFO) is
+/// therefore not provable on this SITL; this test says so, and fails the
+/// day a build honours the injection.
+#[test]
+fn a_motor_off_injection_is_accepted_and_ignored_by_sih() {
+    let steps: Vec<px4::Step> = vec![(
+        "motor",
+        airborne_for(20.0),
+        // FAILURE_UNIT_SYSTEM_MOTOR (101), FAILURE_TYPE_OFF (1), motor 1.
+        vec![px4::Act::Failure(101.0, 1.0, 1.0)],
+    )];
+    let Some(f) = survey(
+        "survey-motor",
+        vec![("SIM_BAT_DRAIN", 3600.0), ("SYS_FAILURE_EN", 1.0)],
+        steps,
+    ) else {
+        return;
+    };
+    let why = explain(&f);
+    let t = &f.truth;
+    let injected = t.injected_at("motor").expect("injected");
+    assert!(
+        t.acks
+            .iter()
+            .any(|(_, c, r)| c == "MAV_CMD_INJECT_FAILURE" && r == "MAV_RESULT_ACCEPTED"),
+        "{:?}\n{why}",
+        t.acks
+    );
+    assert!(t.down(), "{why}");
+    let reached: Vec<u16> = t
+        .reached
+        .iter()
+        .filter(|r| r.0 > injected)
+        .map(|r| r.1)
+        .collect();
+    assert!(
+        reached.contains(&4),
+        "the mission went on: {reached:?}\n{why}"
+    );
+    assert_eq!(failures(&f), Vec::<String>::new(), "{why}");
+    assert_eq!(tlog_failures(&f), Vec::<String>::new(), "{why}");
+}
