@@ -464,3 +464,140 @@ fn a_motor_off_injection_is_accepted_and_ignored_by_sih() {
     assert_eq!(failures(&f), Vec::<String>::new(), "{why}");
     assert_eq!(tlog_failures(&f), Vec::<String>::new(), "{why}");
 }
+
+/// The nominal and mission events of a flight, for comparing firmwares:
+/// mode names, pre-arm reasons and command results are the firmware's own
+/// words and are left out.
+fn compared(events: &[String]) -> Vec<String> {
+    events
+        .iter()
+        .filter(|e| {
+            [
+                "ready_for_takeoff",
+                "armed",
+                "takeoff",
+                "landed",
+                "disarmed",
+            ]
+            .contains(&e.as_str())
+        })
+        .cloned()
+        .collect()
+}
+
+/// The hop on ArduCopter's own SITL (instance 10, TCP 5860), `petrel run`
+/// on SERIAL0: the gateway's events until it has landed and disarmed.
+fn hop_on_arducopter() -> Option<Vec<String>> {
+    use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
+    use std::io::BufRead;
+    use std::time::{Duration, Instant};
+    let located = ardupilot::require(Firmware::Copter, "hop on ArduCopter")?;
+    let dir = flight::scratch("px4-hop-arducopter");
+    let sitl = Sitl::start(
+        &located,
+        &Options {
+            instance: 10,
+            speedup: px4::SPEED,
+            ..Options::default()
+        },
+        &dir.join("sitl"),
+    )
+    .expect("ArduCopter SITL starts");
+    let mut child = flight::Killed(Some(flight::petrel_run_project(
+        &px4::project("hop"),
+        &sitl.address(0),
+        &format!("tcp:127.0.0.1:{}", flight::free_port()),
+        f64::from(px4::SPEED),
+        &dir.join("flight.mcap"),
+        Duration::from_secs(240),
+        &[],
+    )));
+    let stdout = child
+        .0
+        .as_mut()
+        .and_then(|c| c.stdout.take())
+        .expect("stdout");
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout)
+            .lines()
+            .map_while(Result::ok)
+        {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let mut events = Vec::new();
+    let started = Instant::now();
+    while started.elapsed() < Duration::from_secs(240) {
+        let Ok(line) = rx.recv_timeout(Duration::from_millis(200)) else {
+            continue;
+        };
+        let Ok(v) = serde_json::from_str::<serde_json::Value>(&line) else {
+            continue;
+        };
+        if v["input"] == "event" {
+            if let Some(e) = v["event"].as_str() {
+                events.push(e.to_owned());
+            }
+        }
+        let c = compared(&events);
+        if c.contains(&"landed".to_owned()) && c.contains(&"disarmed".to_owned()) {
+            // The same instant's events, then stop.
+            std::thread::sleep(Duration::from_millis(500));
+            while let Ok(line) = rx.try_recv() {
+                if let Ok(v) = serde_json::from_str::<serde_json::Value>(&line) {
+                    if let (true, Some(e)) = (v["input"] == "event", v["event"].as_str()) {
+                        events.push(e.to_owned());
+                    }
+                }
+            }
+            break;
+        }
+    }
+    drop(child);
+    drop(sitl);
+    Some(events)
+}
+
+/// One vocabulary in flight: the same project (take off, hover, land) on
+/// ArduCopter SITL and on PX4 SITL gives the same nominal and mission
+/// events in the same order — ready, armed, takeoff, then landed and
+/// disarmed (these two at one instant, in either order, each firmware
+/// followed by its readiness again).
+#[test]
+fn the_same_hop_gives_the_same_events_on_arducopter_and_px4() {
+    let Some(copter) = hop_on_arducopter() else {
+        return;
+    };
+    let Some(f) = px4::fly(Plan::new("hop", px4::project("hop")), |t| {
+        t.arms() >= 1 && t.down()
+    }) else {
+        return;
+    };
+    let px4_events = compared(&f.flown.events());
+    let copter_events = compared(&copter);
+    eprintln!("ArduCopter {copter_events:?}\nPX4 {px4_events:?}");
+    let head = |e: &[String]| -> Vec<String> {
+        let end = e
+            .iter()
+            .position(|x| x == "takeoff")
+            .map_or(e.len(), |i| i + 1);
+        e[..end].to_vec()
+    };
+    let tail = |e: &[String]| -> std::collections::BTreeSet<String> {
+        let start = e
+            .iter()
+            .position(|x| x == "takeoff")
+            .map_or(e.len(), |i| i + 1);
+        e[start..].iter().cloned().collect()
+    };
+    assert_eq!(
+        head(&copter_events),
+        ["ready_for_takeoff", "armed", "takeoff"]
+    );
+    assert_eq!(head(&px4_events), head(&copter_events), "{}", explain(&f));
+    assert!(tail(&copter_events).contains("landed") && tail(&copter_events).contains("disarmed"));
+    assert_eq!(tail(&px4_events), tail(&copter_events), "{}", explain(&f));
+}
