@@ -601,3 +601,45 @@ fn the_same_hop_gives_the_same_events_on_arducopter_and_px4() {
     assert!(tail(&copter_events).contains("landed") && tail(&copter_events).contains("disarmed"));
     assert_eq!(tail(&px4_events), tail(&copter_events), "{}", explain(&f));
 }
+
+/// The SIH fixed-wing (run-sih.sh -m plane, with the corrected propeller
+/// and airspeeds the shared README describes): the mission flown whole —
+/// take-off, three waypoints, landing — and no failure event.
+#[test]
+fn the_sih_fixed_wing_flies_its_mission() {
+    let plan = Plan {
+        model: sitl_tests::px4::Model::Plane,
+        params: vec![("SIM_BAT_DRAIN", 3600.0)],
+        max_sim_s: 500.0,
+        ..Plan::new("plane", px4::project("plane"))
+    };
+    let Some(f) = px4::fly(plan, |t| {
+        t.arms() >= 1 && t.max_alt > 20.0 && !t.armed && t.landed_state == 1
+    }) else {
+        return;
+    };
+    let why = explain(&f);
+    let t = &f.truth;
+    let reached: Vec<u16> = t.reached.iter().map(|r| r.1).collect();
+    for seq in 0..=4 {
+        assert!(
+            reached.contains(&seq),
+            "item {seq} not reached: {reached:?}\n{why}"
+        );
+    }
+    assert!(t.max_alt > 20.0 && !t.armed && t.landed_state == 1, "{why}");
+    assert!(t.text("Mission finished, landed").is_some(), "{why}");
+    assert!(f.fired().contains(&"touchdown".to_owned()), "{why}");
+    assert_eq!(failures(&f), Vec::<String>::new(), "a false alarm\n{why}");
+    assert_eq!(
+        tlog_failures(&f),
+        Vec::<String>::new(),
+        "a false alarm in the tlog"
+    );
+    let (code, err) = f.flown.replay_check_project(&px4::project("plane"));
+    assert_eq!(
+        code,
+        Some(0),
+        "the recording does not replay exactly: {err}"
+    );
+}
