@@ -6,7 +6,6 @@
 //! texts, items reached, position: the truth the assertions read) and
 //! injects failures with PARAM_SET and MAV_CMD_INJECT_FAILURE.
 
-use std::io::{BufRead, Read};
 use std::net::{SocketAddr, UdpSocket};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -619,7 +618,7 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
     if !checked {
         extra.push("--unchecked");
     }
-    let mut child = flight::Killed(Some(flight::petrel_run_project(
+    let mut petrel = flight::Running::new(flight::petrel_run_project(
         &project,
         &format!("udpin:127.0.0.1:{}", relay.port),
         &format!("tcp:127.0.0.1:{}", flight::free_port()),
@@ -627,20 +626,7 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
         &recording,
         max_wall + Duration::from_secs(10),
         &extra,
-    )));
-    let lines = Arc::new(Mutex::new(String::new()));
-    let stdout = child.0.as_mut().and_then(|c| c.stdout.take());
-    let reader = stdout.map(|out| {
-        let lines = lines.clone();
-        std::thread::spawn(move || {
-            for line in std::io::BufReader::new(out).lines().map_while(Result::ok) {
-                if let Ok(mut l) = lines.lock() {
-                    l.push_str(&line);
-                    l.push('\n');
-                }
-            }
-        })
-    });
+    ));
     // PX4 runs from its start; the flight's time counts from the gateway's
     // first word (a debug build on a busy machine may take seconds).
     assert!(
@@ -686,33 +672,17 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
         {
             break;
         }
-        if child
-            .0
-            .as_mut()
-            .is_some_and(|c| matches!(c.try_wait(), Ok(Some(_))))
-        {
+        if petrel.exited() {
             break;
         }
     }
     let wall = started.elapsed();
-    let mut petrel = child.0.take().expect("petrel");
-    let _ = Command::new("kill")
-        .args(["-TERM", &petrel.id().to_string()])
-        .status();
-    let mut stderr = String::new();
-    if let Some(mut e) = petrel.stderr.take() {
-        let _ = e.read_to_string(&mut stderr);
-    }
-    let code = petrel.wait().ok().and_then(|s| s.code());
-    if let Some(r) = reader {
-        let _ = r.join();
-    }
+    let (stdout, stderr, code) = petrel.stop();
     let truth = observer.truth();
     observer.finish();
     let console = sitl.output();
     sitl.stop();
     drop(relay);
-    let stdout = lines.lock().map(|l| l.clone()).unwrap_or_default();
     let _ = std::fs::write(dir.join("timeline.jsonl"), &stdout);
     let _ = std::fs::write(dir.join("petrel.err"), &stderr);
     eprintln!(
