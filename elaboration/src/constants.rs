@@ -290,11 +290,40 @@ fn tables() -> &'static Tables {
                 t.insert(name, v as i64);
             }
         }
+        enums_by_name.insert(PX4_EVENT.to_owned(), px4_events(|_| true));
+        enums_by_name.insert(
+            PX4_ARMING_CHECK.to_owned(),
+            px4_events(|group| group == "arming_check" || group == "health"),
+        );
         Tables {
             values: t,
             enums: enums_by_name,
         }
     })
+}
+
+/// PX4's events by EVENT.id, read with `name(EVENT.id, PX4_EVENT)`: the
+/// event's message (an id it does not know reads as its number).
+pub const PX4_EVENT: &str = "PX4_EVENT";
+
+/// PX4's arming-check and health events only (`name(EVENT.id,
+/// PX4_ARMING_CHECK)`): each one a check that fails.
+pub const PX4_ARMING_CHECK: &str = "PX4_ARMING_CHECK";
+
+/// `profiles/px4_events.tsv` (id, group, name, message): the messages of
+/// the groups `keep` keeps.
+fn px4_events(keep: impl Fn(&str) -> bool) -> HashMap<i64, String> {
+    include_str!("../profiles/px4_events.tsv")
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .filter_map(|l| {
+            let mut cols = l.split('\t');
+            let id = cols.next()?.parse().ok()?;
+            let group = cols.next()?;
+            let message = cols.nth(1)?;
+            keep(group).then(|| (id, message.to_owned()))
+        })
+        .collect()
 }
 
 /// The values of an enum of the dialect, by its MAVLink name (`MAV_CMD`,
@@ -442,6 +471,31 @@ mod tests {
         assert_eq!(value("GPS_FIX_TYPE_3D_FIX"), Some(3));
         assert_eq!(value("EKF_UNINITIALIZED"), Some(1024));
         assert_eq!(value("NOT_A_NAME"), None);
+    }
+
+    #[test]
+    fn px4_events_are_named_by_their_wire_id() {
+        let events = enum_names(PX4_ARMING_CHECK).expect("PX4_ARMING_CHECK");
+        // Heard from PX4 v1.18 SITL at boot: EVENT.id 0x1ccdef5.
+        assert_eq!(
+            events.get(&0x1cc_def5).map(String::as_str),
+            Some("No heading reference")
+        );
+        assert_eq!(
+            events.get(&0x198_c273).map(String::as_str),
+            Some("Navigation error: No valid global position estimate")
+        );
+        // Summary events carry no reason: left out.
+        assert_eq!(events.get(&0x1a8_93e0), None);
+        assert!(events.len() > 100, "{}", events.len());
+        // Not an arming check: in PX4_EVENT only.
+        assert_eq!(events.get(&0x102_089d), None);
+        assert_eq!(
+            enum_names(PX4_EVENT)
+                .and_then(|e| e.get(&0x102_089d))
+                .map(String::as_str),
+            Some("Arming denied: Resolve system health failures first")
+        );
     }
 
     #[test]

@@ -49,6 +49,8 @@
 //!   that drive simulated time directly;
 //! - [`ardupilot`]: ArduPilot's own SITL (the real firmware) found, started
 //!   and reaped, for the tests that fly against it;
+//! - [`px4`]: PX4's own SITL (v1.18 with its SIH simulator) found, started
+//!   on an instance of its own and reaped, for the tests that fly PX4;
 //! - [`CameraSim`] (`start(address, CameraConfig)`, `state`, `inject`,
 //!   `clear`, `wait_for`, `connected`, `stop`): the payload camera on its
 //!   own link, a MAVLink component of the vehicle's system on one of the
@@ -74,6 +76,7 @@ pub mod mission;
 pub mod model;
 pub mod modes;
 pub mod params;
+pub mod px4;
 mod runner;
 pub mod state;
 pub mod streams;

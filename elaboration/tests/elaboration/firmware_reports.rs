@@ -189,6 +189,61 @@ fn px4_preflight_failures_are_prearm_failed_too() {
     );
 }
 
+/// A PX4 event of its events protocol, as v1.18 SITL sends it.
+fn px4_event(id: u32, log_levels: u8, sequence: u16) -> MavMessage {
+    MavMessage::EVENT(EVENT_DATA {
+        id,
+        log_levels,
+        sequence,
+        ..EVENT_DATA::DEFAULT
+    })
+}
+
+/// PX4 v1.18 names the failing check only through its events protocol
+/// (STATUSTEXT: "Resolve system health failures first"), and says
+/// "Preflight:" where older releases said "Preflight Fail:". Checks at
+/// WARNING or worse are reasons; INFO ones and the summary events are not;
+/// an unknown id says nothing; the refusal comes as an event too.
+#[test]
+fn px4_events_protocol_names_the_failing_check() {
+    let mut r = Run::new("px4");
+    r.send(
+        0,
+        heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_PX4,
+            false,
+            MavState::MAV_STATE_STANDBY,
+        ),
+    );
+    r.send(S, text("Preflight: GPS fix too low"));
+    r.send(2 * S, px4_event(0x198_c273, 0x33, 1)); // no global position
+    r.send(3 * S, px4_event(0x106_ed29, 0x44, 2)); // no manual control input
+    r.send(4 * S, px4_event(0x1a8_93e0, 0x88, 3)); // arming check summary
+    r.send(5 * S, px4_event(0x0fff_ffff, 0x33, 4)); // unknown
+    r.send(6 * S, px4_event(0x198_c273, 0x33, 5)); // again: a repeat
+    r.send(7 * S, px4_event(0x101_3630, 0x66, 6)); // home not set: INFO
+    r.send(8 * S, px4_event(0x102_089d, 0x62, 7)); // the refusal
+    assert_eq!(
+        r.only(&["prearm_failed"]),
+        [
+            (S, "prearm_failed {text: \"GPS fix too low\"}".to_string()),
+            (
+                2 * S,
+                "prearm_failed {text: \"Navigation error: No valid global position estimate\"}"
+                    .to_string()
+            ),
+            (
+                3 * S,
+                "prearm_failed {text: \"No manual control input\"}".to_string()
+            ),
+            (
+                8 * S,
+                "prearm_failed {text: \"Resolve system health failures first\"}".to_string()
+            ),
+        ]
+    );
+}
+
 fn battery(state: MavBatteryChargeState, remaining: i8) -> MavMessage {
     let mut d = BATTERY_STATUS_DATA::DEFAULT;
     d.charge_state = state;
@@ -551,4 +606,34 @@ fn one_rc_lost_per_loss() {
     r.send(S, text("Radio Failsafe - Continuing Guided Mode"));
     r.send(2 * S, text("Radio Failsafe Cleared"));
     assert_eq!(r.only(&["rc_lost"]), [(S, "rc_lost".to_string())]);
+}
+
+/// PX4 without any manual control reports the receiver enabled, unhealthy
+/// and not present (v1.18 SITL, 2 s after boot): no radio, not a radio
+/// lost. A receiver it has (present) that goes unhealthy is rc_lost.
+#[test]
+fn px4_without_a_radio_has_not_lost_it() {
+    let rc = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_RC_RECEIVER;
+    let none = MavSysStatusSensor::empty();
+    let px4 = || {
+        heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_PX4,
+            false,
+            MavState::MAV_STATE_STANDBY,
+        )
+    };
+    let mut r = Run::new("px4");
+    r.send(0, px4());
+    for t in 0..10u64 {
+        let enabled = if t >= 2 { rc } else { none };
+        r.send(t * S + MS, sensors(none, enabled, none));
+    }
+    assert_eq!(r.only(&["rc_lost"]), []);
+    let mut r = Run::new("px4");
+    r.send(0, px4());
+    for t in 0..10u64 {
+        let healthy = if t >= 3 { none } else { rc };
+        r.send(t * S + MS, sensors(rc, rc, healthy));
+    }
+    assert_eq!(r.only(&["rc_lost"]), [(4 * S + MS, "rc_lost".to_string())]);
 }

@@ -693,6 +693,13 @@ fn px4_rules_on_a_synthetic_quad() {
         MavMessage::ESC_INFO(d)
     };
     let mut s = Script::default();
+    // Home set (PX4 arms only then): HOME_POSITION, before the rest.
+    s.at(
+        0,
+        1,
+        1,
+        MavMessage::HOME_POSITION(HOME_POSITION_DATA::DEFAULT),
+    );
     for t in 0..20u64 {
         let at = t * S;
         let (armed, main, sub, status) = match t {
@@ -789,4 +796,60 @@ fn gcs_lost_needs_a_ground_station_heard_first() {
             "gcs_lost {compid: 190, sysid: 255}".to_string()
         )]
     );
+}
+
+/// The events of one firmware only, as docs/px4.md lists them ("ArduPilot
+/// only: `a`, …", "PX4 only: …"), under its marker comment.
+fn documented_as_one_firmware(firmware: &str) -> BTreeSet<String> {
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/px4.md"))
+        .expect("docs/px4.md");
+    let marker = "<!-- read by elaboration/tests/elaboration/vocabulary.rs -->";
+    let list = doc
+        .split(marker)
+        .nth(1)
+        .expect("docs/px4.md keeps its list of one-firmware events");
+    let prefix = format!("- {firmware} only:");
+    let item = list
+        .split("\n- ")
+        .map(|i| format!("- {}", i.trim_start_matches("- ")))
+        .find(|i| i.starts_with(&prefix))
+        .unwrap_or_else(|| panic!("docs/px4.md: no `{prefix}` item"));
+    // The names in backquotes before the first dash of explanation.
+    let names = item[prefix.len()..].split(" — ").next().unwrap_or("");
+    names
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .map(str::to_owned)
+        .collect()
+}
+
+fn events_of(profile: &str) -> BTreeSet<String> {
+    builtin(profile).catalog().keys().cloned().collect()
+}
+
+/// One vocabulary: every event of the ArduPilot profile is in the PX4
+/// profile or documented as ArduPilot's only, and the reverse; nothing is
+/// documented as one firmware's that both have.
+#[test]
+fn one_vocabulary_for_ardupilot_and_px4() {
+    let ardupilot = events_of("ardupilot");
+    let px4 = events_of("px4");
+    let ardupilot_only = documented_as_one_firmware("ArduPilot");
+    let px4_only = documented_as_one_firmware("PX4");
+    let missing_in_px4: BTreeSet<String> = ardupilot.difference(&px4).cloned().collect();
+    let missing_in_ardupilot: BTreeSet<String> = px4.difference(&ardupilot).cloned().collect();
+    assert_eq!(
+        missing_in_px4, ardupilot_only,
+        "ArduPilot's events missing in px4.toml must be those docs/px4.md lists as ArduPilot only"
+    );
+    assert_eq!(
+        missing_in_ardupilot, px4_only,
+        "PX4's events missing in ardupilot.toml must be those docs/px4.md lists as PX4 only"
+    );
+    assert!(ardupilot.contains("prearm_failed") && px4.contains("prearm_failed"));
+    // The issue's minimum vocabulary is in both.
+    for e in VOCABULARY {
+        assert!(ardupilot.contains(e) && px4.contains(e), "{e}");
+    }
 }

@@ -8,12 +8,12 @@
 //! upload under way is given a bounded time to finish.
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use elaboration::Profile;
-use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::dialects::ardupilotmega::{MavAutopilot, MavMessage, MavType};
 use nets::{Effect, Micros, Project};
 use serde_json::json;
 use tokio::sync::mpsc;
@@ -21,7 +21,7 @@ use tokio::sync::mpsc;
 use super::timeline::Timeline;
 use super::{Outcome, VerbResult};
 use crate::clock::Clock;
-use crate::link::{Link, LinkWriter};
+use crate::link::{Link, LinkReader, LinkWriter, Received};
 use crate::programs::server::{Direction, ProgramInput, Programs};
 use crate::record::recorder::{Options as RecordOptions, Recorder};
 use crate::supervisor::{Input, Step, Supervisor};
@@ -37,7 +37,8 @@ pub struct Args {
     #[arg(long, value_name = "ADDRESS")]
     pub mavlink: Option<String>,
     /// Elaboration profile: ardupilot, px4 or a FILE.toml extending the
-    /// ArduPilot one [default: `[gateway] profile`, else ardupilot].
+    /// autopilot's built-in one [default: `[gateway] profile`, else the
+    /// autopilot's, from its first HEARTBEAT].
     #[arg(long)]
     pub profile: Option<String>,
     /// Run a project that fails `petrel check`.
@@ -140,11 +141,21 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     let get = |key: &str| gateway.get(key).and_then(|v| v.as_str()).map(str::to_owned);
     // --profile (beside the working directory), else `[gateway] profile`
     // (beside project.toml), else ArduPilot's.
-    let layers = crate::profile::Layers::pick(
-        args.profile.as_deref(),
-        Some((&args.project, get("profile").as_deref())),
-        "ardupilot",
-    )?;
+    let vehicle = VehicleConfig::from_gateway_table(&gateway)
+        .map_err(|e| miette::miette!("[gateway]: {e}"))?;
+    // The built-in base follows the autopilot: `[gateway] firmware` when
+    // set, else the first autopilot HEARTBEAT heard (`detect`), unless the
+    // profile is a built-in one by name.
+    let choice = ProfileChoice {
+        given: args.profile.clone(),
+        setting: get("profile"),
+    };
+    let base = match vehicle.firmware {
+        Some(elaboration::Firmware::Px4) => "px4",
+        _ => "ardupilot",
+    };
+    let layers = choice.layers(&args.project, base)?;
+    let detect = (vehicle.firmware.is_none() && !choice.named()).then_some(choice);
     let Some(profile) = layers.load() else {
         return Ok(Err(Outcome::BadInput));
     };
@@ -186,8 +197,6 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
             args.time_scale
         ));
     }
-    let vehicle = VehicleConfig::from_gateway_table(&gateway)
-        .map_err(|e| miette::miette!("[gateway]: {e}"))?;
     let mut programs = crate::programs::roster::Config::from_gateway(Some(&gateway))
         .map_err(|e| miette::miette!("[gateway] programs: {e}"))?;
     if let Some(address) = &args.programs {
@@ -240,6 +249,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         dir: args.project.clone(),
         profile,
         layers,
+        detect,
         record,
         address,
         vehicle,
@@ -265,6 +275,34 @@ fn persist_timestamp(file: &std::path::Path, writer: &LinkWriter) {
     }
 }
 
+/// How the profile was chosen: `--profile`, else `[gateway] profile`.
+#[derive(Clone, Debug)]
+pub(crate) struct ProfileChoice {
+    pub given: Option<String>,
+    pub setting: Option<String>,
+}
+
+impl ProfileChoice {
+    /// The layers over the built-in `base` (a file extends it).
+    fn layers(&self, project: &Path, base: &str) -> Result<crate::profile::Layers, miette::Report> {
+        crate::profile::Layers::pick(
+            self.given.as_deref(),
+            Some((project, self.setting.as_deref())),
+            base,
+        )
+    }
+
+    /// A built-in profile named by the user: nothing to detect.
+    fn named(&self) -> bool {
+        let builtin = |c: &str| c == "ardupilot" || c == "px4";
+        match (&self.given, &self.setting) {
+            (Some(g), _) => builtin(g),
+            (None, Some(s)) => builtin(s),
+            (None, None) => false,
+        }
+    }
+}
+
 /// Runs the gateway until its duration, a signal or `stop`.
 pub(crate) fn fly(setup: Setup) -> VerbResult {
     // One thread for the link reader, the programs and the loop (two worker
@@ -285,6 +323,9 @@ pub(crate) struct Setup {
     pub dir: PathBuf,
     pub profile: Profile,
     pub layers: crate::profile::Layers,
+    /// The profile's choice when its built-in base is to follow the
+    /// autopilot heard first (`None`: fixed).
+    pub detect: Option<ProfileChoice>,
     pub record: Option<PathBuf>,
     pub address: String,
     pub vehicle: VehicleConfig,
@@ -403,7 +444,7 @@ impl Gateway {
         let _ = self.out.out.flush();
     }
 
-    async fn run(setup: Setup) -> VerbResult {
+    async fn run(mut setup: Setup) -> VerbResult {
         let origin = Instant::now();
         let clock = Clock::new(origin, setup.time_scale);
         if clock.scale() != 1.0 {
@@ -428,6 +469,26 @@ impl Gateway {
             writer.sign(Signer::new(signing.key.clone(), signing.link_id, persisted));
             reader.verify(Verifier::new(signing.key.clone(), signing.require));
         }
+        // Which autopilot, when the profile follows it: the frames read
+        // meanwhile are fed once the supervisor runs, none lost.
+        let early = match setup.detect.take() {
+            None => Vec::new(),
+            Some(choice) => {
+                let limit = clock
+                    .wall(setup.vehicle.timing.link_timeout)
+                    .max(Duration::from_secs(1));
+                let announce = (
+                    setup
+                        .vehicle
+                        .system
+                        .unwrap_or(crate::vehicle::commander::ANNOUNCE_SYSTEM),
+                    setup.vehicle.own_component(),
+                );
+                let (early, heard) = identify(&mut reader, &writer, announce, limit).await;
+                adopt(&mut setup, &choice, heard)?;
+                early
+            }
+        };
         // The program server listens only for a project that has programs.
         let (programs, mut inputs) = if setup.project.programs.is_empty() {
             (None, mpsc::channel(1).1)
@@ -493,6 +554,11 @@ impl Gateway {
         let _ = gw.out.effects(&gw.project, &start.effects);
         gw.pump().await;
         gw.settle();
+        for rx in early {
+            gw.frame(rx);
+            gw.pump().await;
+            gw.settle();
+        }
         let stop_at = setup.duration.map(|d| origin + d);
         let stop = setup.stop.clone();
         let mut signals = Signals::new()?;
@@ -572,14 +638,7 @@ impl Gateway {
                 }
             };
             tokio::select! {
-                Some(rx) = frames.recv() => {
-                    gw.frames += 1;
-                    if let Some(message) = &rx.message {
-                        gw.follow_vehicle_time(&rx.header, message);
-                        gw.commander.message(rx.time_us, &rx.header, message);
-                    }
-                    gw.feed(rx.time_us, Owned::Frame(rx.bytes));
-                }
+                Some(rx) = frames.recv() => gw.frame(rx),
                 Some(input) = inputs.recv() => gw.program_input(input),
                 _ = sleep => {
                     let now = gw.now();
@@ -662,6 +721,16 @@ impl Gateway {
         } else {
             Outcome::Success
         })
+    }
+
+    /// A frame from the link: to the commander, then to the supervisor.
+    fn frame(&mut self, rx: Received) {
+        self.frames += 1;
+        if let Some(message) = &rx.message {
+            self.follow_vehicle_time(&rx.header, message);
+            self.commander.message(rx.time_us, &rx.header, message);
+        }
+        self.feed(rx.time_us, Owned::Frame(rx.bytes));
     }
 
     /// A scaled clock follows the simulated autopilot's own time
@@ -752,6 +821,91 @@ impl Gateway {
             }
         }
     }
+}
+
+/// Reads the link until the first autopilot HEARTBEAT (not a ground
+/// station's, not a companion's), at most `limit` of wall time: the frames
+/// read, and the autopilot's family when one was heard.
+async fn identify(
+    reader: &mut LinkReader,
+    writer: &LinkWriter,
+    announce: (u8, u8),
+    limit: Duration,
+) -> (Vec<Received>, Option<elaboration::Firmware>) {
+    let until = tokio::time::Instant::now() + limit;
+    let mut early = Vec::new();
+    // Speak first while waiting, as the commander will (docs/run.md):
+    // behind an endpoint that waits for its client, nothing comes otherwise.
+    let mut beat = tokio::time::interval(Duration::from_secs(1));
+    loop {
+        let received = tokio::select! {
+            r = tokio::time::timeout_at(until, reader.recv()) => r,
+            _ = beat.tick() => {
+                let _ = writer.send(announce, &crate::vehicle::commander::companion_heartbeat()).await;
+                continue;
+            }
+        };
+        match received {
+            Err(_) => return (early, None),
+            Ok(Ok(rx)) => {
+                let heard = match &rx.message {
+                    Some(MavMessage::HEARTBEAT(hb))
+                        if hb.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID
+                            && hb.mavtype != MavType::MAV_TYPE_GCS
+                            && hb.mavtype != MavType::MAV_TYPE_ONBOARD_CONTROLLER =>
+                    {
+                        Some(elaboration::Firmware::from_heartbeat(
+                            hb.autopilot as i64,
+                            hb.mavtype as i64,
+                        ))
+                    }
+                    _ => None,
+                };
+                early.push(rx);
+                if heard.is_some() {
+                    return (early, heard);
+                }
+            }
+            Ok(Err(e)) => {
+                tracing::warn!("{e}");
+                tokio::time::sleep(Duration::from_millis(200)).await;
+            }
+        }
+    }
+}
+
+/// The profile and the project for the autopilot heard (`None`: none within
+/// the wait; ArduPilot's profile stays, and the user is told).
+fn adopt(
+    setup: &mut Setup,
+    choice: &ProfileChoice,
+    heard: Option<elaboration::Firmware>,
+) -> Result<(), miette::Report> {
+    let base = match heard {
+        Some(elaboration::Firmware::Px4) => "px4",
+        Some(_) => "ardupilot",
+        None => {
+            eprintln!(
+                "no autopilot HEARTBEAT yet: elaboration uses the ArduPilot profile (give --profile px4 or [gateway] firmware = \"px4\" for PX4)"
+            );
+            return Ok(());
+        }
+    };
+    eprintln!(
+        "autopilot: {}, elaboration profile {base}",
+        if base == "px4" { "PX4" } else { "ArduPilot" }
+    );
+    if setup.layers.layers.first().map(|(n, _)| n.as_str()) == Some(&format!("{base}.toml")) {
+        return Ok(());
+    }
+    let layers = choice.layers(&setup.dir, base)?;
+    let Some(profile) = layers.load() else {
+        return Err(miette::miette!("the {base} profile does not load"));
+    };
+    setup.project = crate::project::load_with(&setup.dir, &profile.catalog())?;
+    setup.profile = profile;
+    setup.layers = layers;
+    Ok(())
 }
 
 /// Reports the check of `[gateway.parameters]`; false when the gateway must

@@ -94,6 +94,20 @@ struct MissionJob {
 /// PX4's default `SYSID_THISMAV`/`MAV_SYS_ID`.
 pub const ANNOUNCE_SYSTEM: u8 = 1;
 
+/// The gateway's HEARTBEAT: a companion computer
+/// (MAV_TYPE_ONBOARD_CONTROLLER, MAV_AUTOPILOT_INVALID), never a ground
+/// station.
+pub fn companion_heartbeat() -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: MavModeFlag::empty(),
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    })
+}
+
 /// The vehicle side of the gateway, without I/O. See the module docs of
 /// `vehicle` for the calling order.
 pub struct Commander {
@@ -440,7 +454,16 @@ impl Commander {
                     self.mission_step(step);
                 }
             }
-            MavMessage::MISSION_CURRENT(c) => self.on_mission_current(c.seq),
+            MavMessage::MISSION_CURRENT(c) => {
+                self.on_mission_current(c.seq);
+                if sender.1 == target.1 {
+                    if let Some(upload) = self.missions.front_mut().and_then(|j| j.upload.as_mut())
+                    {
+                        let step = upload.current(c.total, c.mission_state as u8);
+                        self.mission_step(step);
+                    }
+                }
+            }
             // 0, 0 is what autopilots report before they have a position.
             MavMessage::GLOBAL_POSITION_INT(p)
                 if sender.1 == target.1 && (p.lat, p.lon) != (0, 0) =>
@@ -479,6 +502,44 @@ impl Commander {
         self.restart_streams();
     }
 
+    /// PX4 publishes each failing arming check through its events protocol
+    /// when the check changes, and says only "Arming denied: Resolve system
+    /// health failures first" when an arming is refused: after a refusal,
+    /// MAV_CMD_RUN_PREARM_CHECKS makes it publish every failing check again
+    /// (elaboration turns them into `prearm_failed {text}`). Silent: its
+    /// answer goes nowhere; one at a time.
+    fn ask_prearm_report(&mut self) {
+        let Some(target) = self.target else { return };
+        if self.firmware != Some(Firmware::Px4)
+            || self.ops.iter().any(|o| {
+                o.spec
+                    .as_ref()
+                    .is_some_and(|s| s.command == MavCmd::MAV_CMD_RUN_PREARM_CHECKS)
+            })
+        {
+            return;
+        }
+        self.ops.push(Op {
+            origin: Origin::Net(u64::MAX),
+            request: Request::Rtl, // unused: the spec is given
+            spec: Some(CommandSpec {
+                command: MavCmd::MAV_CMD_RUN_PREARM_CHECKS,
+                params: [0.0; 7],
+                int: None,
+                component: target.1,
+                fallback: Fallback::None,
+            }),
+            issued: self.now,
+            state: State::Waiting,
+            sends: 0,
+            timeouts: 0,
+            rejected: 0,
+            switched: false,
+            silent: true,
+            first_sent: None,
+        });
+    }
+
     fn for_us(&self, system: u8, component: u8) -> bool {
         let Some((own_sys, own_comp)) = self.identity() else {
             return false;
@@ -500,6 +561,14 @@ impl Commander {
             tracing::debug!(command = ?ack.command, result = ?ack.result, "COMMAND_ACK matches no command in flight");
             return;
         };
+        if matches!(self.ops[i].request, Request::Arm { arm: true, .. })
+            && !matches!(
+                ack.result,
+                MavResult::MAV_RESULT_ACCEPTED | MavResult::MAV_RESULT_IN_PROGRESS
+            )
+        {
+            self.ask_prearm_report();
+        }
         let timing = self.config.timing;
         let op = &mut self.ops[i];
         if matches!(op.state, State::SetCurrent { .. }) {
@@ -741,15 +810,7 @@ impl Commander {
         {
             let due = *self.next_heartbeat.get_or_insert(now);
             if now >= due {
-                self.transmit
-                    .push_back(MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-                        custom_mode: 0,
-                        mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
-                        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
-                        base_mode: MavModeFlag::empty(),
-                        system_status: MavState::MAV_STATE_ACTIVE,
-                        mavlink_version: 3,
-                    }));
+                self.transmit.push_back(companion_heartbeat());
                 let next = due + timing.heartbeat_period;
                 self.next_heartbeat = Some(if next <= now {
                     now + timing.heartbeat_period
@@ -921,13 +982,16 @@ impl Commander {
             };
             match build_items(items, firmware, self.home, target) {
                 Ok(items) => {
-                    let (upload, count) = Upload::start(
+                    let (mut upload, count) = Upload::start(
                         items,
                         target,
                         now,
                         timing.ack_timeout,
                         timing.mission_retries,
                     );
+                    if firmware == Firmware::Px4 {
+                        upload = upload.confirmed_by_mission_current();
+                    }
                     job.upload = Some(upload);
                     self.transmit.push_back(count);
                     break;

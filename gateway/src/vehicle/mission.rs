@@ -111,7 +111,18 @@ pub struct Upload {
     error: Option<String>,
     timeout: Micros,
     retries: u8,
+    /// PX4 checks an accepted mission afterwards and refuses MISSION_START
+    /// until it has: the upload is done when MISSION_CURRENT shows the new
+    /// mission (`total` items, a mission state past NO_MISSION).
+    confirm: bool,
+    /// Accepted, waiting for that MISSION_CURRENT until `deadline`.
+    checking: bool,
+    /// The last MISSION_CURRENT seen while checking: (total, mission_state).
+    current: Option<(u16, u8)>,
 }
+
+/// MISSION_STATE_NOT_STARTED: a valid mission, not begun.
+const MISSION_STATE_NOT_STARTED: u8 = 2;
 
 impl Upload {
     /// Starts: returns the upload and its MISSION_COUNT.
@@ -131,6 +142,9 @@ impl Upload {
             error: None,
             timeout,
             retries,
+            confirm: false,
+            checking: false,
+            current: None,
         };
         let count = upload.count();
         (upload, count)
@@ -178,9 +192,25 @@ impl Upload {
         Step::Send(MavMessage::MISSION_ITEM_INT(item.clone()))
     }
 
+    /// Waits, after the vehicle's ACCEPTED, for MISSION_CURRENT to show the
+    /// mission checked (PX4), at most `timeout × (retries + 1)`.
+    pub fn confirmed_by_mission_current(mut self) -> Upload {
+        self.confirm = true;
+        self
+    }
+
     /// The vehicle's MISSION_ACK.
     pub fn ack(&mut self, result: MavMissionResult, now: Micros) -> Step {
         if result == MavMissionResult::MAV_MISSION_ACCEPTED {
+            if self.checking {
+                return Step::Wait;
+            }
+            if self.confirm {
+                self.checking = true;
+                self.error = None;
+                self.deadline = now + self.timeout * (u64::from(self.retries) + 1);
+                return Step::Wait;
+            }
             return Step::Done {
                 count: self.items.len(),
             };
@@ -192,10 +222,46 @@ impl Upload {
         Step::Wait
     }
 
+    /// MISSION_CURRENT while checking: done once it shows this mission
+    /// valid (`total` items, NOT_STARTED or later).
+    pub fn current(&mut self, total: u16, mission_state: u8) -> Step {
+        if !self.checking {
+            return Step::Wait;
+        }
+        self.current = Some((total, mission_state));
+        if usize::from(total) == self.items.len() && mission_state >= MISSION_STATE_NOT_STARTED {
+            return Step::Done {
+                count: self.items.len(),
+            };
+        }
+        Step::Wait
+    }
+
     /// Time passed: resend, or give up.
     pub fn tick(&mut self, now: Micros) -> Step {
         if now < self.deadline {
             return Step::Wait;
+        }
+        if self.checking {
+            // Accepted but never shown valid: PX4 found it infeasible (its
+            // reason is in its events and console), or never said.
+            return match self.current {
+                Some((total, state))
+                    if usize::from(total) == self.items.len()
+                        || state < MISSION_STATE_NOT_STARTED =>
+                {
+                    Step::Failed {
+                        reason: "INVALID".into(),
+                        send: None,
+                    }
+                }
+                _ => {
+                    tracing::warn!("mission upload accepted; the vehicle never showed it checked");
+                    Step::Done {
+                        count: self.items.len(),
+                    }
+                }
+            };
         }
         if let Some(reason) = self.error.take() {
             return Step::Failed { reason, send: None };

@@ -832,6 +832,77 @@ fn mission_upload_px4_starts_at_zero_and_accepts_mission_request() {
         }
     }
     s.recv(1, 1, mission_ack(MavMissionResult::MAV_MISSION_ACCEPTED));
+    // PX4 checks the mission after accepting it and refuses MISSION_START
+    // until then: done only once MISSION_CURRENT shows it valid.
+    assert!(s.outcomes().is_empty());
+    s.recv(
+        1,
+        1,
+        px4_mission_current(0, MissionState::MISSION_STATE_NO_MISSION),
+    );
+    assert!(s.outcomes().is_empty());
+    s.recv(
+        1,
+        1,
+        px4_mission_current(2, MissionState::MISSION_STATE_NOT_STARTED),
+    );
+    assert!(matches!(s.outcomes().as_slice(), [(1, Outcome::Done(_))]));
+}
+
+fn px4_mission_current(total: u16, mission_state: MissionState) -> MavMessage {
+    MavMessage::MISSION_CURRENT(MISSION_CURRENT_DATA {
+        total,
+        mission_state,
+        ..MISSION_CURRENT_DATA::DEFAULT
+    })
+}
+
+#[test]
+fn a_px4_mission_accepted_then_found_infeasible_fails_invalid() {
+    let mut s = Sim::new(Firmware::Px4);
+    s.command(1, "upload_mission", &[("items", items(2))]);
+    s.sent();
+    for seq in 0..2 {
+        s.recv(
+            1,
+            1,
+            MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
+                seq,
+                target_system: 1,
+                target_component: 191,
+                mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+            }),
+        );
+    }
+    s.recv(1, 1, mission_ack(MavMissionResult::MAV_MISSION_ACCEPTED));
+    s.recv(
+        1,
+        1,
+        px4_mission_current(2, MissionState::MISSION_STATE_NO_MISSION),
+    );
+    // ack_timeout 1 s × (mission_retries 5 + 1): still checking at 5 s.
+    s.at(5_000_000);
+    assert!(s.outcomes().is_empty());
+    s.at(6_500_000);
+    assert_eq!(s.outcomes(), vec![(1, Outcome::Failed("INVALID".into()))]);
+}
+
+#[test]
+fn a_px4_mission_never_shown_is_taken_as_accepted() {
+    let mut s = Sim::new(Firmware::Px4);
+    s.command(1, "upload_mission", &[("items", items(1))]);
+    s.recv(
+        1,
+        1,
+        MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
+            seq: 0,
+            target_system: 1,
+            target_component: 191,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+        }),
+    );
+    s.recv(1, 1, mission_ack(MavMissionResult::MAV_MISSION_ACCEPTED));
+    s.at(6_500_000);
     assert!(matches!(s.outcomes().as_slice(), [(1, Outcome::Done(_))]));
 }
 

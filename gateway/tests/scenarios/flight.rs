@@ -73,10 +73,15 @@ impl Flown {
 
     /// Replays the recording with --check-against: (exit code, stderr).
     pub fn replay_check(&self) -> (Option<i32>, String) {
+        self.replay_check_project(&project())
+    }
+
+    /// The same, for a flight of another project.
+    pub fn replay_check_project(&self, project: &Path) -> (Option<i32>, String) {
         let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
             .arg("replay")
             .arg(&self.recording)
-            .arg(project())
+            .arg(project)
             .arg("--check-against")
             .stdout(Stdio::null())
             .output();
@@ -101,11 +106,79 @@ impl Drop for Killed {
     }
 }
 
+/// `petrel run` whose timeline (stdout) is read on a thread as it comes,
+/// so that its pipe never fills; killed and reaped on drop.
+pub struct Running {
+    child: Killed,
+    lines: Arc<std::sync::Mutex<String>>,
+    reader: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Running {
+    pub fn new(mut child: Child) -> Running {
+        let lines = Arc::new(std::sync::Mutex::new(String::new()));
+        let reader = child.stdout.take().map(|out| {
+            let lines = lines.clone();
+            std::thread::spawn(move || {
+                use std::io::BufRead;
+                for line in std::io::BufReader::new(out).lines().map_while(Result::ok) {
+                    if let Ok(mut l) = lines.lock() {
+                        l.push_str(&line);
+                        l.push('\n');
+                    }
+                }
+            })
+        });
+        Running {
+            child: Killed(Some(child)),
+            lines,
+            reader,
+        }
+    }
+
+    /// It has exited by itself.
+    pub fn exited(&mut self) -> bool {
+        self.child
+            .0
+            .as_mut()
+            .is_some_and(|c| matches!(c.try_wait(), Ok(Some(_))))
+    }
+
+    /// SIGTERM (the recording is finished), then what it printed and its
+    /// exit code: (stdout, stderr, code).
+    pub fn stop(mut self) -> (String, String, Option<i32>) {
+        let Some(mut petrel) = self.child.0.take() else {
+            return (String::new(), String::new(), None);
+        };
+        let _ = Command::new("kill")
+            .args(["-TERM", &petrel.id().to_string()])
+            .status();
+        let mut stderr = String::new();
+        if let Some(mut e) = petrel.stderr.take() {
+            let _ = e.read_to_string(&mut stderr);
+        }
+        let code = petrel.wait().ok().and_then(|s| s.code());
+        if let Some(r) = self.reader.take() {
+            let _ = r.join();
+        }
+        let stdout = self.lines.lock().map(|l| l.clone()).unwrap_or_default();
+        (stdout, stderr, code)
+    }
+}
+
 pub fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0")
         .and_then(|l| l.local_addr())
         .map(|a| a.port())
         .expect("a free port")
+}
+
+/// A UDP port free on 127.0.0.1 a moment ago.
+pub fn free_udp_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .and_then(|s| s.local_addr())
+        .map(|a| a.port())
+        .expect("a free UDP port")
 }
 
 /// A fresh scratch folder for one flight.
@@ -126,10 +199,31 @@ pub fn petrel_run(
     duration: Duration,
     extra: &[&str],
 ) -> Child {
+    petrel_run_project(
+        &project(),
+        mavlink,
+        programs,
+        time_scale,
+        recording,
+        duration,
+        extra,
+    )
+}
+
+/// The same on another project.
+pub fn petrel_run_project(
+    project: &Path,
+    mavlink: &str,
+    programs: &str,
+    time_scale: f64,
+    recording: &Path,
+    duration: Duration,
+    extra: &[&str],
+) -> Child {
     Command::new(env!("CARGO_BIN_EXE_petrel"))
         .current_dir(root())
         .arg("run")
-        .arg(project())
+        .arg(project)
         .args(["--mavlink", mavlink])
         .args(["--programs", programs])
         .args(["--time-scale", &time_scale.to_string()])

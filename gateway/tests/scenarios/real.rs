@@ -7,10 +7,9 @@
 //! ArduPilot's autotest does, with PARAM_SET of its SIM_ and failsafe
 //! parameters.
 
-use std::io::{BufRead, Read, Write};
+use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::PathBuf;
-use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -509,14 +508,14 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
     let max_wall = Duration::from_secs_f64(max_sim_s / f64::from(SPEEDUP) * 4.0 + 60.0);
     let dec = Dec::start(&programs);
     let started = Instant::now();
-    let mut child = flight::Killed(Some(flight::petrel_run(
+    let mut petrel = flight::Running::new(flight::petrel_run(
         &format!("tcpout:127.0.0.1:{}", relay.port),
         &programs,
         f64::from(SPEEDUP),
         &recording,
         max_wall + Duration::from_secs(10),
         if checked { &[] } else { &["--unchecked"] },
-    )));
+    ));
     // The gateway connects once it has checked the project; the relay
     // then connects to SERIAL0 and the simulation starts.
     assert!(
@@ -535,20 +534,6 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
         },
     )
     .expect("the camera starts");
-    // The timeline, read as it comes so that the pipe never fills.
-    let lines = Arc::new(Mutex::new(String::new()));
-    let stdout = child.0.as_mut().and_then(|c| c.stdout.take());
-    let reader = stdout.map(|out| {
-        let lines = lines.clone();
-        std::thread::spawn(move || {
-            for line in std::io::BufReader::new(out).lines().map_while(Result::ok) {
-                if let Ok(mut l) = lines.lock() {
-                    l.push_str(&line);
-                    l.push('\n');
-                }
-            }
-        })
-    });
     let mut finished_at: Option<f64> = None;
     loop {
         std::thread::sleep(Duration::from_millis(100));
@@ -578,27 +563,12 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
         {
             break;
         }
-        if child
-            .0
-            .as_mut()
-            .is_some_and(|c| matches!(c.try_wait(), Ok(Some(_))))
-        {
+        if petrel.exited() {
             break;
         }
     }
     let wall = started.elapsed();
-    let mut petrel = child.0.take().expect("petrel");
-    let _ = Command::new("kill")
-        .args(["-TERM", &petrel.id().to_string()])
-        .status();
-    let mut stderr = String::new();
-    if let Some(mut e) = petrel.stderr.take() {
-        let _ = e.read_to_string(&mut stderr);
-    }
-    let code = petrel.wait().ok().and_then(|s| s.code());
-    if let Some(r) = reader {
-        let _ = r.join();
-    }
+    let (stdout, stderr, code) = petrel.stop();
     dec.stop();
     let truth = observer.truth();
     let camera_state = camera.state();
@@ -606,7 +576,6 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
     sitl.stop();
     observer.finish();
     drop(relay);
-    let stdout = lines.lock().map(|l| l.clone()).unwrap_or_default();
     let _ = std::fs::write(dir.join("timeline.jsonl"), &stdout);
     let _ = std::fs::write(dir.join("petrel.err"), &stderr);
     eprintln!(
