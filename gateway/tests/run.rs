@@ -411,6 +411,7 @@ async fn run_speaks_first_and_says_when_no_vehicle_is_heard() {
             "--mavlink",
             &format!("udpout:127.0.0.1:{port}"),
             "--unchecked",
+            "--no-record",
             "--duration",
             "9",
         ])

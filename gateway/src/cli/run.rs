@@ -457,6 +457,9 @@ impl Gateway {
         let unix_ns = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| d.as_nanos() as u64);
+        // Said once if the vehicle stays silent this long after the link
+        // opens (below).
+        let silent_until = Instant::now() + SILENCE_WARNING;
         let (mut reader, writer) = Link::open(&setup.address, clock.clone())
             .await
             .map_err(|e| miette::miette!("{e}"))?;
@@ -588,7 +591,6 @@ impl Gateway {
         let mut refused = false;
         // Said once when the vehicle stays silent: nothing else tells a
         // user that the address, the router or the autopilot is wrong.
-        let silent_until = Instant::now() + SILENCE_WARNING;
         let mut said_silent = false;
         let mut reporter = crate::link::rejections::Reporter::default();
         let timestamp_file = setup.signing.as_ref().map(|s| s.timestamp_file.clone());
