@@ -264,6 +264,26 @@ impl LinkWriter {
     /// as written on the wire (empty on `udpin:` before anyone has spoken),
     /// so that they can be recorded.
     pub async fn send(&self, from: (u8, u8), message: &MavMessage) -> Result<Vec<u8>, LinkError> {
+        self.send_with(from, |header, raw| raw.serialize_message(header, message))
+            .await
+    }
+
+    /// Sends a message that the dialect's types cannot hold (the mirror's
+    /// TUNNEL with a private payload type), framed by rust-mavlink.
+    pub async fn send_data<D: MessageData>(
+        &self,
+        from: (u8, u8),
+        data: &D,
+    ) -> Result<Vec<u8>, LinkError> {
+        self.send_with(from, |header, raw| raw.serialize_message_data(header, data))
+            .await
+    }
+
+    async fn send_with(
+        &self,
+        from: (u8, u8),
+        serialize: impl FnOnce(MavHeader, &mut MAVLinkV2MessageRaw),
+    ) -> Result<Vec<u8>, LinkError> {
         let connection = self.shared.current().ok_or(LinkError::Down)?;
         let header = MavHeader {
             system_id: from.0 as u32,
@@ -271,7 +291,7 @@ impl LinkWriter {
             sequence: self.shared.sequence.fetch_add(1, Ordering::Relaxed),
         };
         let mut raw = MAVLinkV2MessageRaw::new();
-        raw.serialize_message(header, message);
+        serialize(header, &mut raw);
         let frame = MAVLinkMessageRaw::V2(raw);
         let written = connection.send_raw(&frame).await?;
         Ok(match (&frame, written) {

@@ -15,6 +15,7 @@
 pub mod publisher;
 pub mod record;
 pub mod replica;
+pub mod tunnel;
 
 use crate::supervisor::{Input as SupervisorInput, Step};
 use record::Input;

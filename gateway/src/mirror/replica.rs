@@ -34,6 +34,8 @@ pub struct Config {
     /// (the link works, the records do not come) is a divergence. A link
     /// that is down brings no heartbeat: that is a loss, not a divergence.
     pub give_up_after: u32,
+    /// While nothing is heard, a snapshot request this often.
+    pub hello_every: Micros,
     /// Records held while waiting for an earlier one, at most.
     pub hold_max: usize,
     /// Records asked for in one request, at most.
@@ -45,6 +47,7 @@ impl Default for Config {
         Config {
             retry_after: 1_500_000,
             give_up_after: 30,
+            hello_every: 5_000_000,
             hold_max: 1024,
             resend_max: 32,
         }
@@ -706,8 +709,14 @@ impl Replica {
         {
             return;
         }
-        if self.session.is_none() && !self.diverged {
-            // Nothing heard yet: wait for a heartbeat.
+        if self.session.is_none()
+            && self
+                .asked_at
+                .is_some_and(|t| recent(t, self.now, self.config.hello_every))
+        {
+            // Nothing heard yet: the request is also how the autopilot
+            // learns the way to this mirror (docs/mirror.md, "Addressing"),
+            // so it goes up now and then until the vehicle answers.
             return;
         }
         self.counts.snapshots_asked += 1;
