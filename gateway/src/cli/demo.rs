@@ -167,6 +167,8 @@ fn fly(args: &Args, dir: &Path) -> VerbResult {
         record: Some(args.record.clone()),
         no_record: false,
         programs: Some(programs.clone()),
+        downlink: false,
+        mirror_system: None,
     };
     let mut setup = match super::run::prepare(&run_args)? {
         Ok(setup) => setup,

@@ -16,8 +16,13 @@ pub mod publisher;
 pub mod record;
 pub mod replica;
 pub mod tunnel;
+pub mod uplink;
 
 use crate::supervisor::{Input as SupervisorInput, Step};
+
+/// The mirror's MAVLink system id by default: not 255, the ground
+/// station's that ArduPilot's GCS failsafe watches (`SYSID_MYGCS`).
+pub const MIRROR_SYSTEM: u8 = 245;
 use record::Input;
 
 /// The inputs of a supervisor step that reached the player, as the

@@ -11,7 +11,7 @@
 use std::collections::VecDeque;
 
 use nets::binary::Writer;
-use nets::player::snapshot;
+use nets::player::{snapshot, Digest};
 use nets::{Micros, Player};
 
 use super::record::{
@@ -101,27 +101,24 @@ impl Publisher {
         }
     }
 
-    pub fn session(&self) -> u32 {
-        self.session
-    }
-
     /// The number the next record gets.
+    #[cfg(test)]
     pub fn next_record(&self) -> u64 {
         self.next
     }
 
     /// A step whose inputs reached the player: `before` is the player's time
-    /// before it, `time` the step's, `player` the player after it.
+    /// before it, `time` the step's, `after` the player's digest after it.
     pub fn step(
         &mut self,
         step: u64,
         before: Micros,
         time: Micros,
         inputs: Vec<Input>,
-        player: &Player,
+        after: &Digest,
     ) {
         let mut digest = [0u8; 8];
-        digest.copy_from_slice(&player.digest().0[..8]);
+        digest.copy_from_slice(&after.0[..8]);
         let record = StepRecord {
             number: self.next,
             step,

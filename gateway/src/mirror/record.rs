@@ -91,17 +91,6 @@ pub enum Input {
     Answer { time: Micros, event: Event },
 }
 
-impl Input {
-    pub fn time(&self) -> Micros {
-        match self {
-            Input::Elaborated { time, .. }
-            | Input::Result { time, .. }
-            | Input::Program { time, .. }
-            | Input::Answer { time, .. } => *time,
-        }
-    }
-}
-
 /// The vehicle's step counter and digest, at least once a second.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Heartbeat {

@@ -21,7 +21,7 @@ use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
 use nets::player::snapshot;
-use nets::{Effect, Event, Micros, Player, Project, Value};
+use nets::{Effect, Event, Micros, Player, Project};
 
 use super::record::{self, Chunk, Fragment, Heartbeat, Input, Record, Snapshot, StepRecord};
 
@@ -244,6 +244,7 @@ impl Replica {
     }
 
     /// The exact replica, when in step (not while a gap is open).
+    #[cfg(test)]
     pub fn exact(&self) -> Option<&Player> {
         if self.gap_since.is_none() && !self.diverged {
             self.player.as_ref()
@@ -263,12 +264,8 @@ impl Replica {
         }
     }
 
-    /// The last vehicle step played or checked.
-    pub fn step(&self) -> u64 {
-        self.step
-    }
-
     /// The number of the next record to play.
+    #[cfg(test)]
     pub fn next_record(&self) -> u64 {
         self.next
     }
@@ -660,7 +657,9 @@ impl Replica {
     /// Asks for what is missing: the records while the vehicle's ring
     /// holds them, else a snapshot; again after `retry_after`.
     fn ask(&mut self) {
-        let Some(since) = self.gap_since else { return };
+        if self.gap_since.is_none() {
+            return;
+        }
         let session = self.session.unwrap_or(0);
         if self.player.is_some()
             && !self.diverged
@@ -723,13 +722,5 @@ impl Replica {
         self.asked_at = Some(self.now);
         self.uplink
             .push_back(Uplink(record::packet(&[Record::SendSnapshot { session }])));
-    }
-}
-
-/// The parameters of a report, for the timeline (JSON).
-pub fn report_value(r: &Report) -> Value {
-    match r.event() {
-        Some(e) => Value::Map(e.params),
-        None => Value::Map(Default::default()),
     }
 }

@@ -132,7 +132,7 @@ impl Flight {
                 before,
                 step.time,
                 inputs,
-                self.supervisor.player(),
+                &self.supervisor.player().digest(),
             );
         }
     }
