@@ -1,0 +1,255 @@
+//! The ground mirror end to end: the simulated ArduPlane behind a router
+//! that gives it a companion's port and a ground port (as ArduPilot routes
+//! between its serial ports), the real `petrel run --downlink` with DEC on
+//! the companion's, the real `petrel mirror` on the ground's behind a radio
+//! that loses frames. The replica's checks (its digest against the
+//! vehicle's at every record and heartbeat) must all agree, its firings
+//! must be the vehicle's, and every frame the mirror sends is checked on
+//! the wire. The simulator and both clocks run `flight::SPEED` times
+//! faster than real time.
+
+#[path = "scenarios/flight.rs"]
+mod flight;
+#[path = "mirror/router.rs"]
+mod router;
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use flight::{free_port, petrel_run, project, scratch, stop, timeline, Dec, Killed, SPEED};
+use router::{Loss, Router, Traffic};
+use sitl_tests::{Schedule, Sim, SimConfig, SimState};
+
+/// The scenarios' mission file (DEC reads it).
+pub const MISSION_FILE: &str = "mission.toml";
+
+const MAX_SIM_S: f64 = 420.0;
+const MIRROR_SYSTEM: u8 = 245;
+const MIRROR_COMPONENT: u8 = 190;
+const PAYLOAD_TYPE: u16 = 0xD04D;
+
+fn over(s: &SimState) -> bool {
+    (s.landed && !s.armed && !s.reached.is_empty()) || s.crashed
+}
+
+struct Mirrored {
+    run: Vec<serde_json::Value>,
+    run_err: String,
+    mirror: Vec<serde_json::Value>,
+    mirror_err: String,
+    traffic: Traffic,
+    state: SimState,
+}
+
+impl Mirrored {
+    fn mirror_lines(&self, kind: &str) -> Vec<&serde_json::Value> {
+        self.mirror.iter().filter(|l| l["mirror"] == kind).collect()
+    }
+
+    /// (time, net, transition) of every firing in a timeline.
+    fn fired(lines: &[serde_json::Value]) -> Vec<String> {
+        lines
+            .iter()
+            .filter(|l| l["effect"] == "fired")
+            .map(|l| format!("{} {} {}", l["t"], l["net"], l["transition"]))
+            .collect()
+    }
+}
+
+fn fly_mirrored(name: &str, faults: &[&str], loss: Loss) -> Mirrored {
+    let dir = scratch(&format!("mirror-{name}"));
+    let sim = Sim::start(SimConfig {
+        listen: "tcpin:127.0.0.1:0".into(),
+        boot: sitl_tests::BootTimeline::quick(),
+        speedup: SPEED,
+        faults: Schedule::parse(faults).expect("a valid schedule"),
+        params: vec![("RTL_AUTOLAND".into(), 2.0)],
+        ..SimConfig::default()
+    })
+    .expect("the simulator starts");
+    let mut router = Router::start(sim.local_addr(), loss);
+    let programs = format!("tcp:127.0.0.1:{}", free_port());
+    let max_wall = Duration::from_secs_f64(MAX_SIM_S / SPEED + 10.0);
+    let mirror = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("mirror")
+        .arg(project())
+        .args([
+            "--mavlink",
+            &format!("tcpout:127.0.0.1:{}", router.ground_port),
+        ])
+        .args(["--time-scale", &SPEED.to_string()])
+        .args([
+            "--duration",
+            &format!("{:.0}", (max_wall + Duration::from_secs(10)).as_secs_f64()),
+        ])
+        .arg("--json")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("petrel mirror runs");
+    let mut mirror = Killed(Some(mirror));
+    let run = petrel_run(
+        &format!("tcpout:127.0.0.1:{}", router.companion_port),
+        &programs,
+        SPEED,
+        &dir.join("flight.mcap"),
+        max_wall + Duration::from_secs(5),
+        &["--downlink"],
+    );
+    let mut run = Killed(Some(run));
+    let dec = Dec::start(&programs);
+    let started = Instant::now();
+    let mut finished_at: Option<f64> = None;
+    let mut state;
+    loop {
+        std::thread::sleep(Duration::from_millis(100));
+        state = sim.state();
+        if finished_at.is_none() && over(&state) {
+            finished_at = Some(state.time_s);
+        }
+        if finished_at.is_some_and(|t| state.time_s > t + 3.0)
+            || state.time_s > MAX_SIM_S
+            || started.elapsed() > max_wall
+        {
+            break;
+        }
+    }
+    let (run_out, run_err) = stop(run.0.take().expect("petrel run"));
+    // The mirror hears the last heartbeat a moment later.
+    std::thread::sleep(Duration::from_millis(500));
+    let (mirror_out, mirror_err) = stop(mirror.0.take().expect("petrel mirror"));
+    dec.stop();
+    sim.stop();
+    router.stop();
+    let traffic = std::mem::take(&mut *router.traffic());
+    // Kept beside the recording for a look after a failure.
+    let _ = std::fs::write(dir.join("run.jsonl"), &run_out);
+    let _ = std::fs::write(dir.join("run.err"), &run_err);
+    let _ = std::fs::write(dir.join("mirror.jsonl"), &mirror_out);
+    let _ = std::fs::write(dir.join("mirror.err"), &mirror_err);
+    Mirrored {
+        run: timeline(&run_out),
+        run_err,
+        mirror: timeline(&mirror_out),
+        mirror_err,
+        traffic,
+        state,
+    }
+}
+
+/// A uvarint of the documented encoding (docs/mirror.md), read here
+/// independently of the gateway's code.
+fn uvarint(b: &[u8], at: &mut usize) -> Option<u64> {
+    let mut v = 0u64;
+    for i in 0..10 {
+        let byte = *b.get(*at)?;
+        *at += 1;
+        v |= u64::from(byte & 0x7f) << (7 * i);
+        if byte & 0x80 == 0 {
+            return Some(v);
+        }
+    }
+    None
+}
+
+/// Every frame the mirror sent: a MAVLink 2 TUNNEL from the mirror's
+/// (system, component), Petrel's payload type, to the onboard gateway
+/// (vehicle 1, component 191), holding only resync requests (kinds 5
+/// resend and 6 snapshot). Never a HEARTBEAT, never system 255.
+fn only_resync_requests(frames: &[Vec<u8>]) -> usize {
+    for bytes in frames {
+        let f = elaboration::Frame::parse(bytes).expect("the mirror's frames are valid MAVLink");
+        assert_eq!(f.message_id(), 385, "the mirror sent message {}", f.message_id());
+        assert_eq!(
+            (f.system_id(), f.component_id()),
+            (MIRROR_SYSTEM, MIRROR_COMPONENT)
+        );
+        let p = f.payload();
+        assert_eq!(u16::from_le_bytes([p[0], p[1]]), PAYLOAD_TYPE);
+        assert_eq!((p[2], p[3]), (1, 191), "addressed to the onboard gateway");
+        let len = usize::from(p[4]);
+        let mut payload = p[5..].to_vec();
+        payload.resize(128, 0);
+        let payload = &payload[..len];
+        assert_eq!(payload[0], 1, "layout version");
+        let mut at = 1;
+        while at < payload.len() {
+            let kind = payload[at];
+            at += 1;
+            match kind {
+                5 => {
+                    uvarint(payload, &mut at).expect("from");
+                    uvarint(payload, &mut at).expect("count");
+                }
+                6 => at += 4,
+                k => panic!("the mirror sent a record of kind {k}: {payload:?}"),
+            }
+        }
+        assert_eq!(at, payload.len());
+    }
+    frames.len()
+}
+
+fn ended_equal(name: &str, m: &Mirrored) {
+    eprintln!(
+        "{name}: {} frames to the ground ({} B), of which {} downlink TUNNEL ({} B); {} lost; the mirror sent {} frames; {:.0} s simulated",
+        m.traffic.to_ground.0,
+        m.traffic.to_ground_bytes.0,
+        m.traffic.to_ground.1,
+        m.traffic.to_ground_bytes.1,
+        m.traffic.lost,
+        m.traffic.from_ground.len(),
+        m.state.time_s,
+    );
+    assert!(
+        m.state.landed && !m.state.armed && !m.state.crashed,
+        "{name}: the flight did not end landed and disarmed (landed {}, armed {}, crashed {}, mode {}, t {:.0} s)\n{}",
+        m.state.landed,
+        m.state.armed,
+        m.state.crashed,
+        m.state.mode,
+        m.state.time_s,
+        m.run_err
+    );
+    let diverged = m.mirror_lines("mirror_diverged");
+    assert!(
+        diverged.is_empty(),
+        "{name}: false divergences {diverged:?}\n{}",
+        m.mirror_err
+    );
+    let agreed = m.mirror_lines("agreed").len();
+    // A heartbeat a second for the whole flight, and every record.
+    assert!(
+        agreed as f64 > m.state.time_s * 0.5,
+        "{name}: only {agreed} checks agreed in {:.0} s\n{}",
+        m.state.time_s,
+        m.mirror_err
+    );
+    // Exact at the end: the last word is an agreement, not a gap.
+    let last = m
+        .mirror
+        .iter()
+        .rev()
+        .find(|l| l["mirror"].is_string())
+        .expect("the mirror reported");
+    assert!(
+        last["mirror"] == "agreed" || last["mirror"] == "mirror_resynced",
+        "{name}: the mirror ends with {last}\n{}",
+        m.mirror_err
+    );
+    only_resync_requests(&m.traffic.from_ground);
+}
+
+#[test]
+fn the_mirror_agrees_with_the_vehicle_over_the_nominal_mission() {
+    let m = fly_mirrored("nominal", &[], Loss::default());
+    ended_equal("nominal", &m);
+    // Its firings are the vehicle's, from the moment it synced.
+    let run = Mirrored::fired(&m.run);
+    let mirror = Mirrored::fired(&m.mirror);
+    assert!(mirror.len() > 10, "{mirror:?}");
+    assert!(
+        run.ends_with(&mirror),
+        "the replica's firings are not the vehicle's:\nvehicle {run:#?}\nmirror {mirror:#?}"
+    );
+}
