@@ -120,6 +120,9 @@ fn fly_mirrored(name: &str, faults: &[&str], loss: Loss) -> Mirrored {
             break;
         }
     }
+    // Twenty simulated seconds more, so that the records the radio lost
+    // at the end can be sent again before the gateway stops.
+    std::thread::sleep(Duration::from_secs(2));
     let (run_out, run_err) = stop(run.0.take().expect("petrel run"));
     // The mirror hears the last heartbeat a moment later.
     std::thread::sleep(Duration::from_millis(500));

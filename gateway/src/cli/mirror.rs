@@ -214,7 +214,7 @@ async fn mirror(setup: Setup) -> VerbResult {
             replica.ground_event(now, &e.event);
         }
         while let Some(report) = replica.poll_report() {
-            print_report(&mut out, &setup.project, &report);
+            print_report(&mut out, &setup.project, &report, now);
         }
         let to = onboard.or(vehicle.map(|v| (v, 191)));
         while let Some(request) = replica.poll_transmit() {
@@ -257,7 +257,9 @@ async fn mirror(setup: Setup) -> VerbResult {
     })
 }
 
-fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Report) {
+/// A report; `now` is the ground's time (`ground_t` in JSON).
+fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Report, now: Micros) {
+    let ground_t = now as f64 / 1e6;
     match report {
         Report::Step {
             number,
@@ -300,7 +302,7 @@ fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Rep
         }
         Report::Agreed { step } => {
             if out.json {
-                let _ = writeln!(out.out, "{}", json!({"mirror": "agreed", "step": step}));
+                let _ = writeln!(out.out, "{}", json!({"mirror": "agreed", "step": step, "ground_t": ground_t}));
             }
         }
         Report::Gap { from, to, step } => {
@@ -308,7 +310,7 @@ fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Rep
                 out.out,
                 "{}",
                 if out.json {
-                    json!({"mirror": "gap", "from": from, "to": to, "step": step}).to_string()
+                    json!({"mirror": "gap", "from": from, "to": to, "step": step, "ground_t": ground_t}).to_string()
                 } else {
                     format!("mirror: records {from}..{to} missing after step {step}: the replica is provisional")
                 }
@@ -321,7 +323,7 @@ fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Rep
                     _ => tracing::info!("{event}"),
                 }
                 if out.json {
-                    let mut v = json!({"mirror": event.name});
+                    let mut v = json!({"mirror": event.name, "ground_t": ground_t});
                     for (k, val) in &event.params {
                         v[k] = val.to_json();
                     }

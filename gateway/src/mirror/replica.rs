@@ -719,6 +719,7 @@ impl Replica {
             return;
         }
         self.counts.snapshots_asked += 1;
+        tracing::debug!(session, now = self.now, "asking for a snapshot");
         self.asked_at = Some(self.now);
         self.uplink
             .push_back(Uplink(record::packet(&[Record::SendSnapshot { session }])));
