@@ -168,7 +168,12 @@ fn uvarint(b: &[u8], at: &mut usize) -> Option<u64> {
 fn only_resync_requests(frames: &[Vec<u8>]) -> usize {
     for bytes in frames {
         let f = elaboration::Frame::parse(bytes).expect("the mirror's frames are valid MAVLink");
-        assert_eq!(f.message_id(), 385, "the mirror sent message {}", f.message_id());
+        assert_eq!(
+            f.message_id(),
+            385,
+            "the mirror sent message {}",
+            f.message_id()
+        );
         assert_eq!(
             (f.system_id(), f.component_id()),
             (MIRROR_SYSTEM, MIRROR_COMPONENT)
@@ -293,7 +298,11 @@ fn lossy(name: &str, faults: &[&str], loss: Loss) -> Mirrored {
         times.last().copied().unwrap_or(0.0),
     );
     // Every gap repaired.
-    assert!(times.len() >= gaps, "{name}: {gaps} gaps, {} resyncs", times.len());
+    assert!(
+        times.len() >= gaps,
+        "{name}: {gaps} gaps, {} resyncs",
+        times.len()
+    );
     assert!(m.traffic.lost > 0, "{name}: the radio lost nothing");
     m
 }

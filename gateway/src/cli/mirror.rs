@@ -302,7 +302,11 @@ fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Rep
         }
         Report::Agreed { step } => {
             if out.json {
-                let _ = writeln!(out.out, "{}", json!({"mirror": "agreed", "step": step, "ground_t": ground_t}));
+                let _ = writeln!(
+                    out.out,
+                    "{}",
+                    json!({"mirror": "agreed", "step": step, "ground_t": ground_t})
+                );
             }
         }
         Report::Gap { from, to, step } => {

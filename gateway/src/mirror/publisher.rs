@@ -144,7 +144,8 @@ impl Publisher {
         } else {
             &mut self.fresh
         };
-        if record::size(&whole) + 1 <= MAX_PACKET {
+        // The record and the packet's version byte.
+        if record::size(&whole) < MAX_PACKET {
             queue.push_back(whole);
             return;
         }

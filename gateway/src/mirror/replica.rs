@@ -171,6 +171,9 @@ pub struct Counts {
     pub diverged: u64,
 }
 
+/// A snapshot being put together: (session, snapshot number, its pieces).
+type Chunks = (u32, u64, Vec<Option<Vec<u8>>>);
+
 /// The replica.
 pub struct Replica {
     config: Config,
@@ -186,7 +189,7 @@ pub struct Replica {
     /// Records received after a gap, by number.
     held: BTreeMap<u64, StepRecord>,
     fragments: BTreeMap<u64, Vec<Option<Vec<u8>>>>,
-    chunks: Option<(u32, u64, Vec<Option<Vec<u8>>>)>,
+    chunks: Option<Chunks>,
     /// The highest record number known to exist, plus one.
     known: u64,
     /// The oldest record the vehicle's ring holds (last heartbeat).

@@ -218,7 +218,9 @@ impl Router {
                 }
                 for bytes in companion.read() {
                     idle = false;
-                    let Ok(f) = Frame::parse(&bytes) else { continue };
+                    let Ok(f) = Frame::parse(&bytes) else {
+                        continue;
+                    };
                     let target = tunnel_target(&f);
                     let to_ground = match target {
                         Some((s, _)) if s != VEHICLE && s != 0 => {
@@ -256,7 +258,9 @@ impl Router {
                         shared.lock().expect("traffic").lost += 1;
                         continue;
                     }
-                    let Ok(f) = Frame::parse(&bytes) else { continue };
+                    let Ok(f) = Frame::parse(&bytes) else {
+                        continue;
+                    };
                     match tunnel_target(&f) {
                         Some((VEHICLE, c)) if c != 1 => {
                             if companion.heard.contains(&(VEHICLE, c)) {
