@@ -484,3 +484,17 @@ proptest! {
         only_requests(&f.uplink);
     }
 }
+
+#[test]
+fn a_snapshot_of_the_example_fits_in_a_few_packets() {
+    let mut f = Flight::new(Loss::none(), Loss::none(), publisher::Config::default());
+    for i in 0..200 {
+        f.play(&Step::Event {
+            pick: i * 3,
+            dt: 200_000,
+        });
+    }
+    let bytes = nets::player::snapshot::encode(f.supervisor.player().state());
+    eprintln!("snapshot of the flight-test example: {} bytes", bytes.len());
+    assert!(bytes.len() < 512, "{} bytes", bytes.len());
+}
