@@ -24,8 +24,9 @@ use super::timeline::Timeline;
 use super::VerbResult;
 use crate::clock::Clock;
 use crate::link::Link;
+use crate::mirror::check::{Check, WINDOW};
 use crate::mirror::record::Input;
-use crate::mirror::replica::{Config as ReplicaConfig, Replica, Report};
+use crate::mirror::replica::{Config as ReplicaConfig, Repair, Replica, Report};
 use crate::mirror::tunnel::Tunnel;
 use crate::mirror::uplink::UplinkWriter;
 
@@ -135,6 +136,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         .map_err(|e| miette::miette!("{e}"))?;
     let uplink = UplinkWriter::new(writer, setup.system);
     let mut replica = Replica::new(setup.project.clone(), ReplicaConfig::default());
+    let mut check = Check::new(WINDOW);
     let mut elaborator = setup.elaborator;
     let mut out = Timeline {
         out: std::io::BufWriter::new(std::io::stdout()),
@@ -162,6 +164,8 @@ async fn mirror(setup: Setup) -> VerbResult {
     // gateway's address, from its first record.
     let mut vehicle: Option<u8> = None;
     let mut onboard: Option<(u8, u8)> = None;
+    let mut last_seq: Option<(u8, Micros)> = None;
+    let mut last_seqs: std::collections::BTreeMap<u8, (u8, Micros)> = Default::default();
     let mut sent = 0u64;
     let mut ground_events = 0u64;
     let mut elaborated = Vec::new();
@@ -183,6 +187,25 @@ async fn mirror(setup: Setup) -> VerbResult {
                     }
                 }
                 if let Ok(frame) = Frame::parse(&rx.bytes) {
+                    // The vehicle's frames the radio lost: a gap in a
+                    // component's sequence numbers, between the last one
+                    // heard and this.
+                    if Some(frame.system_id()) == vehicle {
+                        let component = frame.component_id();
+                        if let Some((seq, at)) = last_seqs.get(&component) {
+                            if frame.sequence() != seq.wrapping_add(1) {
+                                if let (Some(a), Some(b)) =
+                                    (replica.vehicle_time(*at), replica.vehicle_time(now))
+                                {
+                                    check.lost(a, b);
+                                }
+                            }
+                        }
+                        last_seqs.insert(component, (frame.sequence(), now));
+                        if component == 1 {
+                            last_seq = Some((frame.sequence(), now));
+                        }
+                    }
                     match Tunnel::from_frame(&frame) {
                         Some(t) if t.target_system == setup.system
                             && (t.target_component == 0 || t.target_component == uplink.identity().1) =>
@@ -212,9 +235,46 @@ async fn mirror(setup: Setup) -> VerbResult {
         for e in elaborated.drain(..) {
             ground_events += 1;
             replica.ground_event(now, &e.event);
+            if let Some(t) = replica.vehicle_time(e.time_us) {
+                check.ground(t, &e.event);
+            }
         }
         while let Some(report) = replica.poll_report() {
+            if let (
+                Report::Resynced {
+                    how: Repair::Snapshot,
+                    ..
+                },
+                Some(t),
+            ) = (&report, replica.exact_time())
+            {
+                check.unknown_before(t);
+            }
+            if let Report::Step { inputs, .. } = &report {
+                for input in inputs {
+                    if let Input::Elaborated { time, event } = input {
+                        check.vehicle(*time, event);
+                    }
+                }
+            }
             print_report(&mut out, &setup.project, &report, now);
+        }
+        // The ground's view reaches the last autopilot frame heard (not the
+        // clock: during a radio outage it does not advance).
+        let ground_known = last_seq.and_then(|(_, at)| replica.vehicle_time(at));
+        check.advance(replica.exact_time(), ground_known);
+        while let Some(d) = check.poll() {
+            let event = d.event();
+            tracing::warn!("{event}");
+            if out.json {
+                let mut v = json!({"mirror": event.name, "ground_t": now as f64 / 1e6});
+                for (k, val) in &event.params {
+                    v[k] = val.to_json();
+                }
+                let _ = writeln!(out.out, "{v}");
+            } else {
+                let _ = writeln!(out.out, "mirror: {event}");
+            }
         }
         let to = onboard.or(vehicle.map(|v| (v, 191)));
         while let Some(request) = replica.poll_transmit() {
@@ -227,6 +287,14 @@ async fn mirror(setup: Setup) -> VerbResult {
         let _ = out.out.flush();
     }
     reader_task.abort();
+    eprintln!(
+        "independent check: {} events matched, {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames), {} link events not compared",
+        check.counts.matched,
+        check.counts.ground_only,
+        check.counts.vehicle_only,
+        check.counts.unjudged,
+        check.counts.skipped
+    );
     let c = &replica.counts;
     eprintln!(
         "mirror stopped after {:.1} s: {} downlink packets ({} refused), {} records, {} checks agreed, {} gaps, {} resends and {} snapshots asked, {} snapshots restored, {} divergences; {} requests sent; {} ground events",

@@ -5,6 +5,8 @@
 //! - `record`: the records and their versioned binary encoding (pure).
 //! - `publisher`: on board, sans-IO — numbers the steps' inputs, keeps a
 //!   ring, sends heartbeats and snapshots, answers the ground's requests.
+//! - `check`: on the ground, sans-IO — the independent check of the
+//!   ground's own elaboration against the vehicle's published events.
 //! - `replica`: on the ground, sans-IO — plays the records, compares
 //!   digests, sees gaps, asks for what it lacks, reports
 //!   `mirror_resynced` / `mirror_diverged`.
@@ -12,6 +14,7 @@
 //! Neither opens a socket or reads a clock; `petrel run` and `petrel mirror`
 //! carry their packets.
 
+pub mod check;
 pub mod publisher;
 pub mod record;
 pub mod replica;

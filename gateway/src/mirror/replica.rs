@@ -256,6 +256,20 @@ impl Replica {
         }
     }
 
+    /// The vehicle time through which the replica holds every record (its
+    /// player's time), when it is exact.
+    pub fn exact_time(&self) -> Option<Micros> {
+        (self.gap_since.is_none() && !self.diverged)
+            .then(|| self.player.as_ref().map(|p| p.state().now))
+            .flatten()
+    }
+
+    /// The vehicle's time at ground time `now`, estimated from the last
+    /// heartbeat.
+    pub fn vehicle_time(&self, now: Micros) -> Option<Micros> {
+        self.offset.map(|o| (now as i128 + o).max(0) as Micros)
+    }
+
     /// The replica as shown: exact, or provisional (advanced by the
     /// ground's own elaboration) while a gap is open; `true` when
     /// provisional.
