@@ -231,6 +231,14 @@ fn ended_equal(name: &str, m: &Mirrored) {
         "{name}: false divergences {diverged:?}\n{}",
         m.mirror_err
     );
+    // The independent check agrees too: a vehicle that elaborates as the
+    // ground does, whatever the radio lost.
+    let disagreements = m.mirror_lines("mirror_disagreement");
+    assert!(
+        disagreements.is_empty(),
+        "{name}: false disagreements {disagreements:?}\n{}",
+        m.mirror_err
+    );
     let agreed = m.mirror_lines("agreed").len();
     // A heartbeat a second while the gateway ran, and every record.
     let ran = m
