@@ -61,6 +61,11 @@ impl Mirrored {
 static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 fn fly_mirrored(name: &str, faults: &[&str], loss: Loss) -> Mirrored {
+    fly_mirrored_with(name, faults, loss, &[])
+}
+
+/// A flight whose `petrel run` gets `run_args` besides the usual ones.
+fn fly_mirrored_with(name: &str, faults: &[&str], loss: Loss, run_args: &[&str]) -> Mirrored {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = scratch(&format!("mirror-{name}"));
     let sim = Sim::start(SimConfig {
@@ -100,7 +105,7 @@ fn fly_mirrored(name: &str, faults: &[&str], loss: Loss) -> Mirrored {
         &dir.join("flight.mcap"),
         max_wall + Duration::from_secs(5),
         // `petrel check` is the scenarios' business, not the mirror's.
-        &["--downlink", "--unchecked"],
+        &[&["--downlink", "--unchecked"], run_args].concat(),
     );
     let mut run = Killed(Some(run));
     let dec = Dec::start(&programs);
@@ -381,4 +386,68 @@ fn low_battery_at_ten_percent_loss_and_a_burst() {
             bursts: vec![(8.0, 11.0)],
         },
     );
+}
+
+#[test]
+fn a_vehicle_that_misses_engine_failure_is_caught_by_the_independent_check() {
+    // The onboard profile altered: the project's layer with every rule of
+    // `engine_failure` removed (`enabled = false`). The mirror elaborates
+    // with the project's own.
+    let dir = scratch("mirror-blind-profile");
+    let layer =
+        std::fs::read_to_string(project().join("profile.toml")).expect("the project's profile");
+    let mut altered = String::new();
+    let mut removed = 0;
+    for line in layer.lines() {
+        altered.push_str(line);
+        altered.push('\n');
+        if line.starts_with("[rules.engine_failure") {
+            altered.push_str("enabled = false\n");
+            removed += 1;
+        }
+    }
+    assert_eq!(
+        removed, 4,
+        "the four engine_failure rules of the project's layer"
+    );
+    let file = dir.join("blind.toml");
+    std::fs::write(&file, altered).expect("the altered profile");
+    let file = file.to_string_lossy().into_owned();
+    let m = fly_mirrored_with(
+        "engine-blind",
+        &["engine_failure@wp2"],
+        Loss::default(),
+        &["--profile", &file],
+    );
+    // The vehicle never heard it...
+    assert!(
+        !m.run
+            .iter()
+            .any(|l| l["input"] == "event" && l["event"] == "engine_failure"),
+        "the altered vehicle still elaborated engine_failure"
+    );
+    // ...the mirror says so, with the ground's evidence.
+    let found = m.mirror_lines("mirror_disagreement");
+    let d = found
+        .iter()
+        .find(|d| d["event"] == "engine_failure" && d["seen_by"] == "ground")
+        .unwrap_or_else(|| {
+            panic!(
+                "no disagreement on engine_failure: {found:?}\n{}",
+                m.mirror_err
+            )
+        });
+    assert!(d["ground"].is_object(), "{d}");
+    let seen = d["t"].as_f64().expect("t");
+    let reported = d["reported_t"].as_f64().expect("reported_t");
+    eprintln!(
+        "engine_failure seen by the ground at {seen:.2} s, disagreement reported at {reported:.2} s ({:.2} s later; window {} s)",
+        reported - seen,
+        d["window_s"]
+    );
+    // The window (2 s) plus one heartbeat (1 s) for the vehicle's records
+    // to be known complete past it, plus a tick.
+    assert!(reported - seen <= 3.5, "{d}");
+    // And the replica still agrees with the (wrong) vehicle.
+    assert!(m.mirror_lines("mirror_diverged").is_empty());
 }

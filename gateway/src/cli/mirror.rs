@@ -166,6 +166,7 @@ async fn mirror(setup: Setup) -> VerbResult {
     let mut onboard: Option<(u8, u8)> = None;
     let mut last_seq: Option<(u8, Micros)> = None;
     let mut last_seqs: std::collections::BTreeMap<u8, (u8, Micros)> = Default::default();
+    let mut system_seq: Option<u8> = None;
     let mut sent = 0u64;
     let mut ground_events = 0u64;
     let mut elaborated = Vec::new();
@@ -189,11 +190,16 @@ async fn mirror(setup: Setup) -> VerbResult {
                 if let Ok(frame) = Frame::parse(&rx.bytes) {
                     // The vehicle's frames the radio lost: a gap in a
                     // component's sequence numbers, between the last one
-                    // heard and this.
+                    // heard and this — and in the system's, for vehicles
+                    // whose components share one counter (the simulator)
+                    // rather than one each (ArduPilot and its camera).
                     if Some(frame.system_id()) == vehicle {
                         let component = frame.component_id();
-                        if let Some((seq, at)) = last_seqs.get(&component) {
-                            if frame.sequence() != seq.wrapping_add(1) {
+                        let seq = frame.sequence();
+                        let system_gap = system_seq.is_some_and(|s: u8| seq != s.wrapping_add(1));
+                        system_seq = Some(seq);
+                        if let Some((last, at)) = last_seqs.get(&component) {
+                            if seq != last.wrapping_add(1) && system_gap {
                                 if let (Some(a), Some(b)) =
                                     (replica.vehicle_time(*at), replica.vehicle_time(now))
                                 {
@@ -201,7 +207,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                                 }
                             }
                         }
-                        last_seqs.insert(component, (frame.sequence(), now));
+                        last_seqs.insert(component, (seq, now));
                         if component == 1 {
                             last_seq = Some((frame.sequence(), now));
                         }
@@ -270,6 +276,10 @@ async fn mirror(setup: Setup) -> VerbResult {
                 let mut v = json!({"mirror": event.name, "ground_t": now as f64 / 1e6});
                 for (k, val) in &event.params {
                     v[k] = val.to_json();
+                }
+                // When it was reported, in vehicle time.
+                if let Some(t) = replica.vehicle_time(now) {
+                    v["reported_t"] = json!(t as f64 / 1e6);
                 }
                 let _ = writeln!(out.out, "{v}");
             } else {
