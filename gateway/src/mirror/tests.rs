@@ -498,3 +498,31 @@ fn a_snapshot_of_the_example_fits_in_a_few_packets() {
     eprintln!("snapshot of the flight-test example: {} bytes", bytes.len());
     assert!(bytes.len() < 512, "{} bytes", bytes.len());
 }
+
+#[test]
+fn while_a_gap_is_open_the_replica_is_shown_provisional_then_exact_again() {
+    let mut down = Loss::none();
+    down.bursts.push((2_000_000, 4_000_000));
+    let mut f = Flight::new(down, Loss::none(), publisher::Config::default());
+    let names: Vec<String> = f.project.events.keys().cloned().collect();
+    let mut provisional_seen = false;
+    for i in 0..80 {
+        f.play(&Step::Event {
+            pick: i,
+            dt: 100_000,
+        });
+        if let Some((_, true)) = f.replica.shown() {
+            provisional_seen = true;
+            // The ground's own events advance the provisional view only.
+            let before = f.replica.exact_time();
+            f.replica
+                .ground_event(f.now, &Event::new(names[i % names.len()].clone()));
+            assert_eq!(f.replica.exact_time(), before);
+            assert!(f.replica.exact().is_none());
+        }
+    }
+    f.settle(5);
+    assert!(provisional_seen, "no gap was open: {:?}", f.replica.counts);
+    assert!(matches!(f.replica.shown(), Some((_, false))));
+    f.assert_equal();
+}
