@@ -16,9 +16,11 @@ mod router;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use flight::{free_port, petrel_run, project, scratch, stop, timeline, Dec, Killed, SPEED};
+use flight::{
+    free_port, petrel_run, project, scratch, start_sim, stop, timeline, Dec, Killed, SPEED,
+};
 use router::{Loss, Router, Traffic};
-use sitl_tests::{Schedule, Sim, SimConfig, SimState};
+use sitl_tests::SimState;
 
 /// The scenarios' mission file (DEC reads it).
 pub const MISSION_FILE: &str = "mission.toml";
@@ -68,15 +70,7 @@ fn fly_mirrored(name: &str, faults: &[&str], loss: Loss) -> Mirrored {
 fn fly_mirrored_with(name: &str, faults: &[&str], loss: Loss, run_args: &[&str]) -> Mirrored {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = scratch(&format!("mirror-{name}"));
-    let sim = Sim::start(SimConfig {
-        listen: "tcpin:127.0.0.1:0".into(),
-        boot: sitl_tests::BootTimeline::quick(),
-        speedup: SPEED,
-        faults: Schedule::parse(faults).expect("a valid schedule"),
-        params: vec![("RTL_AUTOLAND".into(), 2.0)],
-        ..SimConfig::default()
-    })
-    .expect("the simulator starts");
+    let sim = start_sim(faults);
     let mut router = Router::start(sim.local_addr(), loss);
     let programs = format!("tcp:127.0.0.1:{}", free_port());
     let max_wall = Duration::from_secs_f64(MAX_SIM_S / SPEED + 10.0);

@@ -89,19 +89,7 @@ pub fn run(args: Args) -> VerbResult {
             "the mirror's system id cannot be {system}: 255 is the ground station's (SYSID_MYGCS), 0 is broadcast"
         ));
     }
-    if let Some(d) = args.duration {
-        if !(d.is_finite() && d > 0.0) {
-            return Err(miette::miette!(
-                "--duration must be a positive number of seconds, not {d}"
-            ));
-        }
-    }
-    if !(args.time_scale.is_finite() && args.time_scale > 0.0) {
-        return Err(miette::miette!(
-            "--time-scale must be a positive number, not {}",
-            args.time_scale
-        ));
-    }
+    super::run::check_timing(args.duration, args.time_scale)?;
     let elaborator = Elaborator::new(profile, elaboration::Config::default());
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()

@@ -159,19 +159,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
             "no MAVLink link: give --mavlink ADDRESS or `mavlink = \"udpin:0.0.0.0:14550\"` in [gateway]"
         ));
     };
-    if let Some(d) = args.duration {
-        if !(d.is_finite() && d > 0.0) {
-            return Err(miette::miette!(
-                "--duration must be a positive number of seconds, not {d}"
-            ));
-        }
-    }
-    if !(args.time_scale.is_finite() && args.time_scale > 0.0) {
-        return Err(miette::miette!(
-            "--time-scale must be a positive number, not {}",
-            args.time_scale
-        ));
-    }
+    check_timing(args.duration, args.time_scale)?;
     let vehicle = VehicleConfig::from_gateway_table(&gateway)
         .map_err(|e| miette::miette!("[gateway]: {e}"))?;
     let mut programs = crate::programs::roster::Config::from_gateway(Some(&gateway))
@@ -216,6 +204,23 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         out: Box::new(std::io::stdout()),
         stop: None,
     }))
+}
+
+/// `--duration` and `--time-scale` (`run` and `mirror`): positive numbers.
+pub(crate) fn check_timing(duration: Option<f64>, time_scale: f64) -> Result<(), miette::Report> {
+    if let Some(d) = duration {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(miette::miette!(
+                "--duration must be a positive number of seconds, not {d}"
+            ));
+        }
+    }
+    if !(time_scale.is_finite() && time_scale > 0.0) {
+        return Err(miette::miette!(
+            "--time-scale must be a positive number, not {time_scale}"
+        ));
+    }
+    Ok(())
 }
 
 /// Runs the gateway until its duration, a signal or `stop`.

@@ -309,6 +309,16 @@ fn session(r: &mut Reader) -> Result<u32, DecodeError> {
     Ok(u32::from_le_bytes(b))
 }
 
+/// A fragment's or chunk's `u8 index, u8 count, uvarint len, bytes`.
+fn piece(r: &mut Reader) -> Result<(u8, u8, Vec<u8>), DecodeError> {
+    let (index, count) = (r.u8()?, r.u8()?);
+    if index >= count {
+        return Err(r.invalid("a piece's index beyond its count"));
+    }
+    let n = r.count(1)?;
+    Ok((index, count, r.raw(n)?.to_vec()))
+}
+
 fn decode_one(r: &mut Reader) -> Result<Record, PacketError> {
     Ok(match r.u8()? {
         STEP => Record::Step(decode_step(r)?),
@@ -322,32 +332,24 @@ fn decode_one(r: &mut Reader) -> Result<Record, PacketError> {
         }),
         FRAGMENT => {
             let number = r.uvarint()?;
-            let (index, count) = (r.u8()?, r.u8()?);
-            if index >= count {
-                return Err(r.invalid("a fragment index beyond its count").into());
-            }
-            let n = r.count(1)?;
+            let (index, count, data) = piece(r)?;
             Record::Fragment(Fragment {
                 number,
                 index,
                 count,
-                data: r.raw(n)?.to_vec(),
+                data,
             })
         }
         CHUNK => {
             let session = session(r)?;
             let snapshot = r.uvarint()?;
-            let (index, count) = (r.u8()?, r.u8()?);
-            if index >= count {
-                return Err(r.invalid("a chunk index beyond its count").into());
-            }
-            let n = r.count(1)?;
+            let (index, count, data) = piece(r)?;
             Record::Chunk(Chunk {
                 session,
                 snapshot,
                 index,
                 count,
-                data: r.raw(n)?.to_vec(),
+                data,
             })
         }
         RESEND => Record::Resend {

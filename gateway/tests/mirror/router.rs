@@ -203,18 +203,26 @@ impl Router {
         let thread = std::thread::spawn(move || {
             while !flag.load(Ordering::Relaxed) {
                 let mut idle = true;
+                // Over the radio to the ground, counted.
+                let mut downlink = |ground: &mut Port, bytes: &[u8], tunnel: bool| {
+                    let mut t = shared.lock().expect("traffic");
+                    if radio.loses() {
+                        t.lost += 1;
+                        return;
+                    }
+                    t.to_ground.0 += 1;
+                    t.to_ground_bytes.0 += bytes.len() as u64;
+                    if tunnel {
+                        t.to_ground.1 += 1;
+                        t.to_ground_bytes.1 += bytes.len() as u64;
+                    }
+                    drop(t);
+                    ground.write(bytes);
+                };
                 for bytes in vehicle.read() {
                     idle = false;
                     companion.write(&bytes);
-                    if radio.loses() {
-                        shared.lock().expect("traffic").lost += 1;
-                    } else {
-                        let mut t = shared.lock().expect("traffic");
-                        t.to_ground.0 += 1;
-                        t.to_ground_bytes.0 += bytes.len() as u64;
-                        drop(t);
-                        ground.write(&bytes);
-                    }
+                    downlink(&mut ground, &bytes, false);
                 }
                 for bytes in companion.read() {
                     idle = false;
@@ -229,19 +237,7 @@ impl Router {
                         _ => f.message_id() == HEARTBEAT,
                     };
                     if to_ground {
-                        if radio.loses() {
-                            shared.lock().expect("traffic").lost += 1;
-                        } else {
-                            let mut t = shared.lock().expect("traffic");
-                            t.to_ground.0 += 1;
-                            t.to_ground_bytes.0 += bytes.len() as u64;
-                            if target.is_some() {
-                                t.to_ground.1 += 1;
-                                t.to_ground_bytes.1 += bytes.len() as u64;
-                            }
-                            drop(t);
-                            ground.write(&bytes);
-                        }
+                        downlink(&mut ground, &bytes, target.is_some());
                     }
                     if target.is_none() || target.is_some_and(|(s, _)| s == VEHICLE || s == 0) {
                         vehicle.write(&bytes);
