@@ -214,6 +214,45 @@ fn ended_equal(name: &str, m: &Mirrored) {
         m.traffic.from_ground.len(),
         m.state.time_s,
     );
+    // Bytes per simulated second delivered to the ground, from the
+    // downlink's first frame to its last: (downlink average, its worst
+    // 10 s, all telemetry's average).
+    let tunnel: Vec<(f64, usize)> = m
+        .traffic
+        .delivered
+        .iter()
+        .filter(|d| d.2)
+        .map(|d| (d.0 * SPEED, d.1))
+        .collect();
+    if let (Some(first), Some(last)) = (tunnel.first(), tunnel.last()) {
+        let span = (last.0 - first.0).max(1.0);
+        let down: usize = tunnel.iter().map(|d| d.1).sum();
+        let all: usize = m
+            .traffic
+            .delivered
+            .iter()
+            .filter(|d| (first.0..=last.0).contains(&(d.0 * SPEED)))
+            .map(|d| d.1)
+            .sum();
+        let worst = tunnel
+            .iter()
+            .map(|(t, _)| {
+                tunnel
+                    .iter()
+                    .filter(|(u, _)| (*t..t + 10.0).contains(u))
+                    .map(|d| d.1)
+                    .sum::<usize>()
+            })
+            .max()
+            .unwrap_or(0);
+        eprintln!(
+            "{name}: downlink {:.1} B/s average, {:.1} B/s over its worst 10 s; all telemetry to the ground {:.0} B/s (downlink {:.1} % of it), over {span:.0} simulated s",
+            down as f64 / span,
+            worst as f64 / 10.0,
+            all as f64 / span,
+            100.0 * down as f64 / all.max(1) as f64,
+        );
+    }
     assert!(
         m.state.landed && !m.state.armed && !m.state.crashed,
         "{name}: the flight did not end landed and disarmed (landed {}, armed {}, crashed {}, mode {}, t {:.0} s)\n{}",

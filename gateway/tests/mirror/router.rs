@@ -39,6 +39,9 @@ pub struct Traffic {
     pub to_ground_bytes: (u64, u64),
     /// Frames the radio lost, both ways.
     pub lost: u64,
+    /// (wall seconds since start, bytes, Petrel's TUNNEL) of every frame
+    /// delivered to the ground.
+    pub delivered: Vec<(f64, usize, bool)>,
 }
 
 pub struct Router {
@@ -212,6 +215,8 @@ impl Router {
                     }
                     t.to_ground.0 += 1;
                     t.to_ground_bytes.0 += bytes.len() as u64;
+                    let at = radio.start.elapsed().as_secs_f64();
+                    t.delivered.push((at, bytes.len(), tunnel));
                     if tunnel {
                         t.to_ground.1 += 1;
                         t.to_ground_bytes.1 += bytes.len() as u64;
