@@ -30,6 +30,7 @@ macro_rules! say_part {
 mod cli;
 mod clock;
 mod link;
+mod mirror;
 mod profile;
 mod programs;
 mod project;
@@ -52,6 +53,8 @@ struct Petrel {
 enum Verb {
     /// Run the gateway beside the autopilot: telemetry to events to the nets, and their commands back.
     Run(cli::run::Args),
+    /// The ground mirror: the vehicle's player replayed on the ground from `run --downlink`, checked step by step.
+    Mirror(cli::mirror::Args),
     /// Play a project on a file of timed events, printing every firing and effect.
     Play(cli::play::Args),
     /// Elaborate a telemetry log (.tlog) into supervision events.
@@ -98,6 +101,7 @@ fn main() -> ExitCode {
     };
     let outcome = match petrel.verb {
         Verb::Run(args) => cli::run::run(args),
+        Verb::Mirror(args) => cli::mirror::run(args),
         Verb::Play(args) => cli::play::run(args),
         Verb::Events(args) => cli::events::run(args),
         Verb::Check(args) => cli::check::run(args),

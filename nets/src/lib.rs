@@ -34,6 +34,7 @@
 //! ```
 
 pub mod action;
+pub mod binary;
 pub mod dot;
 pub mod event;
 pub mod expr;

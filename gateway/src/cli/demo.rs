@@ -172,6 +172,8 @@ fn fly(args: &Args, dir: &Path) -> VerbResult {
         require_signed: false,
         signing_link_id: 0,
         signing_timestamp: None,
+        downlink: false,
+        mirror_system: None,
     };
     let mut setup = match super::run::prepare(&run_args)? {
         Ok(setup) => setup,

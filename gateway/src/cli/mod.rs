@@ -8,6 +8,7 @@ pub mod demo;
 pub mod draw;
 pub mod events;
 pub mod export;
+pub mod mirror;
 pub mod play;
 pub mod replay;
 pub mod run;

@@ -22,6 +22,8 @@ use super::timeline::Timeline;
 use super::{Outcome, VerbResult};
 use crate::clock::Clock;
 use crate::link::{Link, LinkReader, LinkWriter, Received};
+use crate::mirror::publisher::{Config as PublisherConfig, Publisher};
+use crate::mirror::tunnel::{Tunnel, PAYLOAD_TYPE};
 use crate::programs::server::{Direction, ProgramInput, Programs};
 use crate::record::recorder::{Options as RecordOptions, Recorder};
 use crate::supervisor::{Input, Step, Supervisor};
@@ -87,6 +89,15 @@ pub struct Args {
     /// key file's path with `.timestamp` appended].
     #[arg(long, value_name = "FILE", requires = "signing_key")]
     pub signing_timestamp: Option<PathBuf>,
+    /// Publish the downlink for `petrel mirror` (docs/mirror.md): the
+    /// nets' inputs, step counter and digest in MAVLink TUNNEL messages to
+    /// the mirror's system id [default: `[gateway] downlink`, else off].
+    #[arg(long)]
+    pub downlink: bool,
+    /// The mirror's MAVLink system id, which the downlink is addressed to
+    /// [default: `[gateway] mirror_system`, else 245].
+    #[arg(long, value_name = "ID")]
+    pub mirror_system: Option<u8>,
 }
 
 /// `recordings/petrel-YYYYMMDD-HHMMSS.mcap` for the current UTC time.
@@ -184,19 +195,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
             "no MAVLink link: give --mavlink ADDRESS or `mavlink = \"udpin:0.0.0.0:14550\"` in [gateway]"
         ));
     };
-    if let Some(d) = args.duration {
-        if !(d.is_finite() && d > 0.0) {
-            return Err(miette::miette!(
-                "--duration must be a positive number of seconds, not {d}"
-            ));
-        }
-    }
-    if !(args.time_scale.is_finite() && args.time_scale > 0.0) {
-        return Err(miette::miette!(
-            "--time-scale must be a positive number, not {}",
-            args.time_scale
-        ));
-    }
+    check_timing(args.duration, args.time_scale)?;
     let mut programs = crate::programs::roster::Config::from_gateway(Some(&gateway))
         .map_err(|e| miette::miette!("[gateway] programs: {e}"))?;
     if let Some(address) = &args.programs {
@@ -225,6 +224,20 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
             })?;
         programs.token = Some(token);
     }
+    let downlink = (args.downlink
+        || gateway
+            .get("downlink")
+            .and_then(|v| v.as_bool())
+            .unwrap_or(false))
+    .then(|| {
+        args.mirror_system.or_else(|| {
+            gateway
+                .get("mirror_system")
+                .and_then(|v| v.as_integer())
+                .and_then(|v| u8::try_from(v).ok())
+        })
+    })
+    .map(|system| system.unwrap_or(crate::mirror::MIRROR_SYSTEM));
     let record = if args.no_record {
         None
     } else {
@@ -254,6 +267,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         address,
         vehicle,
         programs,
+        downlink,
         json: args.json,
         duration: args.duration.map(Duration::from_secs_f64),
         time_scale: args.time_scale,
@@ -303,6 +317,23 @@ impl ProfileChoice {
     }
 }
 
+/// `--duration` and `--time-scale` (`run` and `mirror`): positive numbers.
+pub(crate) fn check_timing(duration: Option<f64>, time_scale: f64) -> Result<(), miette::Report> {
+    if let Some(d) = duration {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(miette::miette!(
+                "--duration must be a positive number of seconds, not {d}"
+            ));
+        }
+    }
+    if !(time_scale.is_finite() && time_scale > 0.0) {
+        return Err(miette::miette!(
+            "--time-scale must be a positive number, not {time_scale}"
+        ));
+    }
+    Ok(())
+}
+
 /// Runs the gateway until its duration, a signal or `stop`.
 pub(crate) fn fly(setup: Setup) -> VerbResult {
     // One thread for the link reader, the programs and the loop (two worker
@@ -330,6 +361,8 @@ pub(crate) struct Setup {
     pub address: String,
     pub vehicle: VehicleConfig,
     pub programs: crate::programs::roster::Config,
+    /// Publish the mirror's downlink to this system id.
+    pub downlink: Option<u8>,
     pub json: bool,
     pub duration: Option<Duration>,
     pub time_scale: f64,
@@ -347,6 +380,7 @@ struct Gateway {
     programs: Option<Programs>,
     writer: LinkWriter,
     recorder: Option<Recorder>,
+    downlink: Option<Downlink>,
     /// Steps carried out but not yet printed and recorded (see `feed`).
     done: Vec<Done>,
     frames: u64,
@@ -354,10 +388,19 @@ struct Gateway {
     out: Timeline<std::io::BufWriter<Box<dyn Write + Send>>>,
 }
 
+/// The mirror's downlink on board.
+struct Downlink {
+    publisher: Publisher,
+    /// The mirror's system id.
+    mirror: u8,
+}
+
 /// A step carried out, waiting to be printed and recorded.
 struct Done {
     input: Owned,
     step: Step,
+    /// The player's time before the step.
+    before: Micros,
     /// The player's digest right after the step (when recording).
     digest: Option<nets::player::Digest>,
 }
@@ -394,6 +437,7 @@ impl Gateway {
     /// Printing and recording wait for `settle`, off the path from a frame
     /// to the command it causes; the digest is taken now, as it must be.
     fn feed(&mut self, time: Micros, input: Owned) {
+        let before = self.supervisor.player().state().now;
         let step = self.supervisor.step(time, input.input());
         for e in &step.effects {
             self.effect(e);
@@ -403,13 +447,14 @@ impl Gateway {
                 self.effect(e);
             }
         }
-        let digest = self
-            .recorder
-            .as_ref()
-            .map(|_| self.supervisor.player().digest());
+        let published = self.downlink.is_some()
+            && (!step.events.is_empty() || matches!(input, Owned::Result { .. } | Owned::Event(_)));
+        let digest =
+            (self.recorder.is_some() || published).then(|| self.supervisor.player().digest());
         self.done.push(Done {
             input,
             step,
+            before,
             digest,
         });
     }
@@ -420,9 +465,16 @@ impl Gateway {
         for Done {
             input,
             step,
+            before,
             digest,
         } in std::mem::take(&mut self.done)
         {
+            if let (Some(d), Some(digest)) = (&mut self.downlink, &digest) {
+                if let Some(inputs) = crate::mirror::step_inputs(&input.input(), &step) {
+                    d.publisher
+                        .step(step.seq, before, step.time, inputs, digest);
+                }
+            }
             if let Owned::Event(event) = &input {
                 let _ = self.out.event(&self.project, step.time, event, None);
             }
@@ -539,6 +591,10 @@ impl Gateway {
             programs,
             writer,
             recorder,
+            downlink: setup.downlink.map(|mirror| Downlink {
+                publisher: Publisher::new(session(), PublisherConfig::default(), 0),
+                mirror,
+            }),
             done: Vec::new(),
             frames: 0,
             events: 0,
@@ -656,6 +712,7 @@ impl Gateway {
             }
             gw.pump().await;
             gw.settle();
+            gw.publish().await;
             if let Some(verdict) = gw.commander.poll_parameters() {
                 if !parameters_fit(&verdict, gw.commander.armed()) {
                     refused = true;
@@ -728,6 +785,7 @@ impl Gateway {
     /// A frame from the link: to the commander, then to the supervisor.
     fn frame(&mut self, rx: Received) {
         self.frames += 1;
+        self.uplink(&rx.bytes);
         if let Some(message) = &rx.message {
             self.follow_vehicle_time(&rx.header, message);
             self.commander.message(rx.time_us, &rx.header, message);
@@ -799,6 +857,51 @@ impl Gateway {
             }
             if !busy {
                 break;
+            }
+        }
+    }
+
+    /// A frame from the mirror (a resync request) goes to the publisher.
+    fn uplink(&mut self, bytes: &[u8]) {
+        let (Some(d), Some(me)) = (&mut self.downlink, self.commander.identity()) else {
+            return;
+        };
+        let Ok(frame) = elaboration::Frame::parse(bytes) else {
+            return;
+        };
+        if let Some(t) = Tunnel::from_frame(&frame) {
+            if (t.target_system, t.target_component) == me {
+                d.publisher.receive(&t.payload);
+            }
+        }
+    }
+
+    /// The downlink's heartbeat and snapshots when due, and every packet
+    /// the publisher has, sent (and recorded as sent).
+    async fn publish(&mut self) {
+        let now = self.now();
+        let (Some(d), Some(me)) = (&mut self.downlink, self.commander.identity()) else {
+            return;
+        };
+        d.publisher
+            .tick(now, self.supervisor.seq(), self.supervisor.player());
+        while let Some(payload) = d.publisher.poll_transmit() {
+            let tunnel = Tunnel {
+                payload_type: PAYLOAD_TYPE,
+                target_system: d.mirror,
+                target_component: 0,
+                payload,
+            };
+            match self.writer.send_data(me, &tunnel).await {
+                Ok(bytes) => {
+                    if let (Some(rec), false) = (&self.recorder, bytes.is_empty()) {
+                        rec.sent(self.clock.now(), &bytes);
+                    }
+                }
+                Err(e) => {
+                    tracing::warn!("downlink: {e}");
+                    break;
+                }
             }
         }
     }
@@ -937,6 +1040,15 @@ fn parameters_fit(verdict: &crate::vehicle::parameters::Verdict, armed: Option<b
         misfits.join("\n")
     );
     false
+}
+
+/// A number for this run of the gateway, so that a mirror tells a restart
+/// from a gap: the low bits of the UNIX time in milliseconds.
+fn session() -> u32 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(1, |d| d.as_millis() as u32)
+        .max(1)
 }
 
 /// Elaboration follows the vehicle the commander commands (docs/multi-vehicle.md).

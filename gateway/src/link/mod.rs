@@ -323,24 +323,44 @@ impl LinkWriter {
     /// as written on the wire (empty on `udpin:` before anyone has spoken),
     /// so that they can be recorded.
     pub async fn send(&self, from: (u8, u8), message: &MavMessage) -> Result<Vec<u8>, LinkError> {
+        self.send_with(from, |header, raw, signer| match signer {
+            Some(signer) => *raw = signer.sign(header, message, unix_us()),
+            None => raw.serialize_message(header, message),
+        })
+        .await
+    }
+
+    /// Sends a message that the dialect's types cannot hold (the mirror's
+    /// TUNNEL with a private payload type), framed by rust-mavlink. Never
+    /// signed: rust-mavlink frames such data for signing only through the
+    /// dialect's types (docs/mirror.md).
+    pub async fn send_data<D: MessageData>(
+        &self,
+        from: (u8, u8),
+        data: &D,
+    ) -> Result<Vec<u8>, LinkError> {
+        self.send_with(from, |header, raw, _| {
+            raw.serialize_message_data(header, data)
+        })
+        .await
+    }
+
+    async fn send_with(
+        &self,
+        from: (u8, u8),
+        serialize: impl FnOnce(MavHeader, &mut MAVLinkV2MessageRaw, Option<&mut Signer>),
+    ) -> Result<Vec<u8>, LinkError> {
         let connection = self.shared.current().ok_or(LinkError::Down)?;
         let header = MavHeader {
             system_id: from.0 as u32,
             component_id: from.1,
             sequence: self.shared.sequence.fetch_add(1, Ordering::Relaxed),
         };
-        let signed = self
-            .shared
-            .signer
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .as_mut()
-            .map(|signer| signer.sign(header, message, unix_us()));
-        let raw = signed.unwrap_or_else(|| {
-            let mut raw = MAVLinkV2MessageRaw::new();
-            raw.serialize_message(header, message);
-            raw
-        });
+        let mut raw = MAVLinkV2MessageRaw::new();
+        {
+            let mut signer = self.shared.signer.lock().unwrap_or_else(|p| p.into_inner());
+            serialize(header, &mut raw, signer.as_mut());
+        }
         let frame = MAVLinkMessageRaw::V2(raw);
         let written = connection.send_raw(&frame).await?;
         Ok(match (&frame, written) {

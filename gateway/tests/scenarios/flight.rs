@@ -285,6 +285,23 @@ pub fn timeline(stdout: &str) -> Vec<serde_json::Value> {
         .collect()
 }
 
+/// The simulated ArduPlane for the example's flights, on a free TCP port,
+/// with `faults` (sitl-tests `--fault` syntax).
+pub fn start_sim(faults: &[&str]) -> Sim {
+    Sim::start(SimConfig {
+        listen: "tcpin:127.0.0.1:0".into(),
+        // GPS and EKF ready in 3 s instead of ArduPlane's 20.
+        boot: sitl_tests::BootTimeline::quick(),
+        speedup: SPEED,
+        faults: Schedule::parse(faults).expect("a valid schedule"),
+        // What the example's mission needs of ArduPlane (its DO_LAND_START:
+        // docs/flight-test.md), as a crew sets it.
+        params: vec![("RTL_AUTOLAND".into(), 2.0)],
+        ..SimConfig::default()
+    })
+    .expect("the simulator starts")
+}
+
 /// Flies `faults` (sitl-tests `--fault` syntax) until `done` holds of the
 /// simulated vehicle (then 3 more simulated seconds for the nets to
 /// finish), at most `max_sim_s` simulated seconds.
@@ -296,18 +313,7 @@ pub fn fly(
     done: impl Fn(&SimState) -> bool,
 ) -> Flown {
     let recording = scratch(&format!("scenario-{name}")).join("flight.mcap");
-    let sim = Sim::start(SimConfig {
-        listen: "tcpin:127.0.0.1:0".into(),
-        // GPS and EKF ready in 3 s instead of ArduPlane's 20.
-        boot: sitl_tests::BootTimeline::quick(),
-        speedup: SPEED,
-        faults: Schedule::parse(faults).expect("a valid schedule"),
-        // What the example's mission needs of ArduPlane (its DO_LAND_START:
-        // docs/flight-test.md), as a crew sets it.
-        params: vec![("RTL_AUTOLAND".into(), 2.0)],
-        ..SimConfig::default()
-    })
-    .expect("the simulator starts");
+    let sim = start_sim(faults);
     let programs = format!("tcp:127.0.0.1:{}", free_port());
     let max_wall = Duration::from_secs_f64(max_sim_s / SPEED + 10.0);
     let petrel = petrel_run(

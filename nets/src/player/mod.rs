@@ -13,6 +13,7 @@ mod digest;
 mod effect;
 mod oracle;
 mod render;
+pub mod snapshot;
 mod state;
 
 use std::sync::Arc;

@@ -1,0 +1,407 @@
+//! `petrel mirror PROJECT`: the ground mirror (docs/mirror.md). On the
+//! telemetry the ground station receives, it replays the vehicle's player
+//! from the downlink `petrel run --downlink` publishes, checks its digest
+//! against the vehicle's at every record and heartbeat, asks for what the
+//! radio lost, and prints the vehicle's steps — the commands and calls the
+//! vehicle made, shown, never carried out — with `mirror_resynced` and
+//! `mirror_diverged` as they happen.
+//!
+//! It never commands the vehicle nor calls a program: the only thing it
+//! holds to send with is an `UplinkWriter`, which sends resync requests.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use elaboration::{Elaborator, Frame};
+use mavlink::dialects::ardupilotmega::{MavAutopilot, MavMessage};
+use nets::{Micros, Project};
+use serde_json::json;
+use tokio::sync::mpsc;
+
+use super::timeline::Timeline;
+use super::VerbResult;
+use crate::clock::Clock;
+use crate::link::Link;
+use crate::mirror::check::{Check, WINDOW};
+use crate::mirror::record::Input;
+use crate::mirror::replica::{Config as ReplicaConfig, Repair, Replica, Report};
+use crate::mirror::tunnel::Tunnel;
+use crate::mirror::uplink::UplinkWriter;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The project folder: the same project the vehicle runs.
+    pub project: PathBuf,
+    /// The ground's MAVLink link, as for `run` (udpin:, udpout:, tcpout:,
+    /// tcpin:, serial:PORT:BAUD) [default: `[gateway] mirror_mavlink`].
+    #[arg(long, value_name = "ADDRESS")]
+    pub mavlink: Option<String>,
+    /// Elaboration profile, as for `run`.
+    #[arg(long)]
+    pub profile: Option<String>,
+    /// The mirror's own MAVLink system id (never the ground station's 255)
+    /// [default: `[gateway] mirror_system`, else 245].
+    #[arg(long, value_name = "ID")]
+    pub system: Option<u8>,
+    /// The gateway's clock factor, as for `run` (simulated vehicles only).
+    #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
+    pub time_scale: f64,
+    /// Stop after this many seconds of wall-clock time.
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+    /// Print the timeline as JSON lines.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// How often the replica and the ground's elaboration are ticked.
+const TICK: Micros = 100_000;
+
+pub fn run(args: Args) -> VerbResult {
+    let gateway = crate::project::gateway_table(&args.project)?;
+    let get = |key: &str| gateway.get(key).and_then(|v| v.as_str()).map(str::to_owned);
+    let layers = crate::profile::Layers::pick(
+        args.profile.as_deref(),
+        Some((&args.project, get("profile").as_deref())),
+        "ardupilot",
+    )?;
+    let Some(profile) = layers.load() else {
+        return Ok(super::Outcome::BadInput);
+    };
+    let project = crate::project::load_with(&args.project, &profile.catalog())?;
+    let Some(address) = args.mavlink.clone().or_else(|| get("mirror_mavlink")) else {
+        return Err(miette::miette!(
+            "no MAVLink link: give --mavlink ADDRESS (the ground's telemetry, e.g. udpin:0.0.0.0:14551 from mavlink-router or MAVProxy --out)"
+        ));
+    };
+    let system = match args.system {
+        Some(s) => s,
+        None => match gateway.get("mirror_system").and_then(|v| v.as_integer()) {
+            Some(v) => u8::try_from(v)
+                .map_err(|_| miette::miette!("[gateway] mirror_system {v} is not a system id"))?,
+            None => crate::mirror::MIRROR_SYSTEM,
+        },
+    };
+    if system == 255 || system == 0 {
+        return Err(miette::miette!(
+            "the mirror's system id cannot be {system}: 255 is the ground station's (SYSID_MYGCS), 0 is broadcast"
+        ));
+    }
+    super::run::check_timing(args.duration, args.time_scale)?;
+    let elaborator = Elaborator::new(profile, elaboration::Config::default());
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| miette::miette!("cannot start the runtime: {e}"))?;
+    runtime.block_on(mirror(Setup {
+        project,
+        address,
+        system,
+        elaborator,
+        json: args.json,
+        time_scale: args.time_scale,
+        duration: args.duration.map(Duration::from_secs_f64),
+    }))
+}
+
+struct Setup {
+    project: Arc<Project>,
+    address: String,
+    system: u8,
+    elaborator: Elaborator,
+    json: bool,
+    time_scale: f64,
+    duration: Option<Duration>,
+}
+
+async fn mirror(setup: Setup) -> VerbResult {
+    let origin = Instant::now();
+    let clock = Clock::new(origin, setup.time_scale);
+    let (mut reader, writer) = Link::open(&setup.address, clock.clone())
+        .await
+        .map_err(|e| miette::miette!("{e}"))?;
+    let uplink = UplinkWriter::new(writer, setup.system);
+    let mut replica = Replica::new(setup.project.clone(), ReplicaConfig::default());
+    let mut check = Check::new(WINDOW);
+    let mut elaborator = setup.elaborator;
+    let mut out = Timeline {
+        out: std::io::BufWriter::new(std::io::stdout()),
+        json: setup.json,
+        origin: 0,
+    };
+    let (frames_tx, mut frames) = mpsc::channel(1024);
+    let reader_task = tokio::spawn(async move {
+        loop {
+            match reader.recv().await {
+                Ok(rx) => {
+                    if frames_tx.send(rx).await.is_err() {
+                        break;
+                    }
+                }
+                Err(e) => {
+                    tracing::warn!("{e}");
+                    tokio::time::sleep(Duration::from_millis(200)).await;
+                }
+            }
+        }
+    });
+    let stop_at = setup.duration.map(|d| origin + d);
+    // The vehicle's system, from its autopilot's heartbeat; the onboard
+    // gateway's address, from its first record.
+    let mut vehicle: Option<u8> = None;
+    let mut onboard: Option<(u8, u8)> = None;
+    let mut last_seq: Option<(u8, Micros)> = None;
+    let mut last_seqs: std::collections::BTreeMap<u8, (u8, Micros)> = Default::default();
+    let mut system_seq: Option<u8> = None;
+    let mut sent = 0u64;
+    let mut ground_events = 0u64;
+    let mut elaborated = Vec::new();
+    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+        .map_err(|e| miette::miette!("cannot watch for signals: {e}"))?;
+    loop {
+        let until_stop = async {
+            match stop_at {
+                Some(t) => tokio::time::sleep_until(t.into()).await,
+                None => std::future::pending().await,
+            }
+        };
+        tokio::select! {
+            Some(rx) = frames.recv() => {
+                let now = clock.now();
+                if let Some(MavMessage::HEARTBEAT(hb)) = &rx.message {
+                    if vehicle.is_none() && hb.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID {
+                        vehicle = Some(rx.header.system_id as u8);
+                    }
+                }
+                if let Ok(frame) = Frame::parse(&rx.bytes) {
+                    // The vehicle's frames the radio lost: a gap in a
+                    // component's sequence numbers, between the last one
+                    // heard and this — and in the system's, for vehicles
+                    // whose components share one counter (the simulator)
+                    // rather than one each (ArduPilot and its camera).
+                    if Some(frame.system_id()) == vehicle {
+                        let component = frame.component_id();
+                        let seq = frame.sequence();
+                        let system_gap = system_seq.is_some_and(|s: u8| seq != s.wrapping_add(1));
+                        system_seq = Some(seq);
+                        if let Some((last, at)) = last_seqs.get(&component) {
+                            if seq != last.wrapping_add(1) && system_gap {
+                                if let (Some(a), Some(b)) =
+                                    (replica.vehicle_time(*at), replica.vehicle_time(now))
+                                {
+                                    check.lost(a, b);
+                                }
+                            }
+                        }
+                        last_seqs.insert(component, (seq, now));
+                        if component == 1 {
+                            last_seq = Some((frame.sequence(), now));
+                        }
+                    }
+                    match Tunnel::from_frame(&frame) {
+                        Some(t) if t.target_system == setup.system
+                            && (t.target_component == 0 || t.target_component == uplink.identity().1) =>
+                        {
+                            onboard = Some((frame.system_id(), frame.component_id()));
+                            replica.receive(now, &t.payload);
+                        }
+                        Some(_) => {}
+                        None => {
+                            elaborator.tick(now);
+                            elaborator.frame(now, &frame);
+                        }
+                    }
+                }
+            }
+            _ = tokio::time::sleep(clock.wall(TICK)) => {
+                let now = clock.now();
+                elaborator.tick(now);
+                replica.tick(now);
+            }
+            _ = tokio::signal::ctrl_c() => break,
+            _ = term.recv() => break,
+            _ = until_stop => break,
+        }
+        let now = clock.now();
+        elaborator.drain_into(&mut elaborated);
+        for e in elaborated.drain(..) {
+            ground_events += 1;
+            replica.ground_event(now, &e.event);
+            if let Some(t) = replica.vehicle_time(e.time_us) {
+                check.ground(t, &e.event);
+            }
+        }
+        while let Some(report) = replica.poll_report() {
+            if let (
+                Report::Resynced {
+                    how: Repair::Snapshot,
+                    ..
+                },
+                Some(t),
+            ) = (&report, replica.exact_time())
+            {
+                check.unknown_before(t);
+            }
+            if let Report::Step { inputs, .. } = &report {
+                for input in inputs {
+                    if let Input::Elaborated { time, event } = input {
+                        check.vehicle(*time, event);
+                    }
+                }
+            }
+            print_report(&mut out, &setup.project, &report, now);
+        }
+        // The ground's view reaches the last autopilot frame heard (not the
+        // clock: during a radio outage it does not advance).
+        let ground_known = last_seq.and_then(|(_, at)| replica.vehicle_time(at));
+        check.advance(replica.exact_time(), ground_known);
+        while let Some(d) = check.poll() {
+            let event = d.event();
+            tracing::warn!("{event}");
+            if out.json {
+                let mut v = json!({"mirror": event.name, "ground_t": now as f64 / 1e6});
+                for (k, val) in &event.params {
+                    v[k] = val.to_json();
+                }
+                // When it was reported, in vehicle time.
+                if let Some(t) = replica.vehicle_time(now) {
+                    v["reported_t"] = json!(t as f64 / 1e6);
+                }
+                let _ = writeln!(out.out, "{v}");
+            } else {
+                let _ = writeln!(out.out, "mirror: {event}");
+            }
+        }
+        let to = onboard.or(vehicle.map(|v| (v, 191)));
+        while let Some(request) = replica.poll_transmit() {
+            let Some(to) = to else { break };
+            match uplink.send(to, &request).await {
+                Ok(_) => sent += 1,
+                Err(e) => tracing::warn!("uplink: {e}"),
+            }
+        }
+        let _ = out.out.flush();
+    }
+    reader_task.abort();
+    eprintln!(
+        "independent check: {} events matched, {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames), {} link events not compared",
+        check.counts.matched,
+        check.counts.ground_only,
+        check.counts.vehicle_only,
+        check.counts.unjudged,
+        check.counts.skipped
+    );
+    let c = &replica.counts;
+    eprintln!(
+        "mirror stopped after {:.1} s: {} downlink packets ({} refused), {} records, {} checks agreed, {} gaps, {} resends and {} snapshots asked, {} snapshots restored, {} divergences; {} requests sent; {} ground events",
+        origin.elapsed().as_secs_f64(),
+        c.packets,
+        c.refused,
+        c.records,
+        c.agreed,
+        c.gaps,
+        c.resends_asked,
+        c.snapshots_asked,
+        c.snapshots_restored,
+        c.diverged,
+        sent,
+        ground_events,
+    );
+    if let Some((player, provisional)) = replica.shown() {
+        let _ = out.end(player.state().now, &player.digest(), player.locked_out());
+        if provisional {
+            eprintln!("the replica ends provisional: records were missing at the end");
+        }
+    }
+    let _ = out.out.flush();
+    Ok(if c.diverged > 0 {
+        super::Outcome::Failed
+    } else {
+        super::Outcome::Success
+    })
+}
+
+/// A report; `now` is the ground's time (`ground_t` in JSON).
+fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Report, now: Micros) {
+    let ground_t = now as f64 / 1e6;
+    match report {
+        Report::Step {
+            number,
+            step,
+            time,
+            inputs,
+            effects,
+        } => {
+            for input in inputs {
+                match input {
+                    Input::Elaborated { time, event }
+                    | Input::Program { time, event }
+                    | Input::Answer { time, event } => {
+                        let _ = out.event(
+                            project,
+                            *time,
+                            event,
+                            Some(json!({"vehicle_step": step, "record": number})),
+                        );
+                    }
+                    Input::Result { time, id, outcome } => {
+                        let (ok, text) = match outcome {
+                            nets::Outcome::Done(_) => (true, "done".to_owned()),
+                            nets::Outcome::Failed(r) => (false, format!("failed: {r}")),
+                        };
+                        let _ = out.input(
+                            *time,
+                            "reply",
+                            json!({"id": id, "ok": ok, "vehicle_step": step, "record": number}),
+                            &format!("REPLY  #{id} {text}"),
+                        );
+                    }
+                }
+            }
+            let _ = time;
+            let _ = out.effects(project, effects);
+        }
+        Report::Timers { effects, .. } => {
+            let _ = out.effects(project, effects);
+        }
+        Report::Agreed { step } => {
+            if out.json {
+                let _ = writeln!(
+                    out.out,
+                    "{}",
+                    json!({"mirror": "agreed", "step": step, "ground_t": ground_t})
+                );
+            }
+        }
+        Report::Gap { from, to, step } => {
+            let _ = writeln!(
+                out.out,
+                "{}",
+                if out.json {
+                    json!({"mirror": "gap", "from": from, "to": to, "step": step, "ground_t": ground_t}).to_string()
+                } else {
+                    format!("mirror: records {from}..{to} missing after step {step}: the replica is provisional")
+                }
+            );
+        }
+        Report::Resynced { .. } | Report::Diverged { .. } => {
+            if let Some(event) = report.event() {
+                match report {
+                    Report::Diverged { .. } => tracing::warn!("{event}"),
+                    _ => tracing::info!("{event}"),
+                }
+                if out.json {
+                    let mut v = json!({"mirror": event.name, "ground_t": ground_t});
+                    for (k, val) in &event.params {
+                        v[k] = val.to_json();
+                    }
+                    let _ = writeln!(out.out, "{v}");
+                } else {
+                    let _ = writeln!(out.out, "mirror: {event}");
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,386 @@
+//! The independent check, sans-IO: the events the ground elaborates from
+//! its own telemetry (with the same profile) matched against the events the
+//! vehicle published, by name, within a window of vehicle time. One seen on
+//! one side only is a `mirror_disagreement`, with what each side saw.
+//!
+//! Link events (the communication category) are never compared: the
+//! ground's `link_lost` is not the vehicle's. A side is judged only once its
+//! view is complete past the window: the vehicle's once the replica holds
+//! every record through that time (a record the radio lost is not a missing
+//! event), the ground's once its elaboration has seen that time.
+//!
+//! The window (docs/mirror.md, "The independent check"): both sides run
+//! the same rules with the same debounces (`for`) on the same messages, so
+//! an event differs in time by the radio's latency plus one telemetry
+//! period on each side (4 Hz asked by the gateway): 2 s covers both with a
+//! margin, for every rule.
+
+use std::collections::VecDeque;
+
+use nets::{Category, Event, Micros, Params};
+
+/// Two seconds of vehicle time, for every rule.
+pub const WINDOW: Micros = 2_000_000;
+
+/// A ground event within this after the ground lost frames may come from
+/// the loss itself (rules on a component's silence wait up to 15 s, the
+/// flight-test example's camera): it is not judged.
+pub const SILENCE: Micros = 20_000_000;
+
+/// Which side saw an event the other did not.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    Ground,
+    Vehicle,
+}
+
+/// An event seen on one side only.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Disagreement {
+    pub event: String,
+    pub seen_by: Side,
+    /// When it was seen (vehicle time).
+    pub time: Micros,
+    /// Its parameters as that side elaborated them.
+    pub params: Params,
+    pub window: Micros,
+    /// The other side's nearest event of that name, if any: (time, params).
+    pub other: Option<(Micros, Params)>,
+}
+
+impl Disagreement {
+    /// `mirror_disagreement` for the ground's timeline and nets.
+    pub fn event(&self) -> Event {
+        let (who, other) = match self.seen_by {
+            Side::Ground => ("ground", "vehicle"),
+            Side::Vehicle => ("vehicle", "ground"),
+        };
+        let mut e = Event::new("mirror_disagreement")
+            .param("event", self.event.as_str())
+            .param("seen_by", who)
+            .param("t", self.time as f64 / 1e6)
+            .param("window_s", self.window as f64 / 1e6)
+            .param(who, nets::Value::Map(self.params.clone()));
+        if let Some((t, p)) = &self.other {
+            e = e
+                .param(format!("{other}_t"), *t as f64 / 1e6)
+                .param(other, nets::Value::Map(p.clone()));
+        }
+        e
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Seen {
+    name: String,
+    time: Micros,
+    params: Params,
+}
+
+/// What the check counted.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Counts {
+    pub matched: u64,
+    pub ground_only: u64,
+    pub vehicle_only: u64,
+    /// Link events, not compared.
+    pub skipped: u64,
+    /// Events not judged: seen by one side while the ground was losing the
+    /// vehicle's frames, or by the ground before the replica's snapshot.
+    pub unjudged: u64,
+}
+
+/// The independent check.
+#[derive(Debug, Default)]
+pub struct Check {
+    window: Micros,
+    ground: VecDeque<Seen>,
+    vehicle: VecDeque<Seen>,
+    /// Every event seen on each side lately, matched or not, as evidence.
+    recent: VecDeque<(Side, Seen)>,
+    reports: VecDeque<Disagreement>,
+    /// Spans of vehicle time in which the ground lost the vehicle's frames.
+    lost: VecDeque<(Micros, Micros)>,
+    /// The vehicle's events before this time are unknown (the replica was
+    /// restored from a snapshot taken then).
+    known_from: Micros,
+    pub counts: Counts,
+}
+
+impl Check {
+    pub fn new(window: Micros) -> Check {
+        Check {
+            window,
+            ..Check::default()
+        }
+    }
+
+    /// The ground lost autopilot frames (a gap in their sequence numbers)
+    /// between vehicle times `from` and `to`: what it elaborated around
+    /// then may come late or not at all.
+    pub fn lost(&mut self, from: Micros, to: Micros) {
+        self.lost.push_back((from, to));
+        while self.lost.len() > 1024 {
+            self.lost.pop_front();
+        }
+    }
+
+    /// The replica was restored from a snapshot at vehicle time `time`:
+    /// the vehicle's events before it were never published to the ground,
+    /// so the ground's events before it are not judged.
+    pub fn unknown_before(&mut self, time: Micros) {
+        self.known_from = self.known_from.max(time);
+        let before = self.ground.len();
+        self.ground.retain(|g| g.time >= time);
+        self.counts.unjudged += (before - self.ground.len()) as u64;
+    }
+
+    /// Whether the ground lost frames between `from` and `to`.
+    fn losing(&self, from: Micros, to: Micros) -> bool {
+        self.lost.iter().any(|(a, b)| *a <= to && *b >= from)
+    }
+
+    /// How far back a ground event seen at `time` may have happened: the
+    /// start of the losses just before it.
+    fn earliest(&self, time: Micros) -> Micros {
+        let mut earliest = time;
+        for (a, b) in self.lost.iter().rev() {
+            if *b + self.window >= earliest && *a < earliest {
+                earliest = *a;
+            }
+        }
+        earliest.saturating_sub(self.window)
+    }
+
+    /// An event the vehicle published (elaborated on board), at its time.
+    pub fn vehicle(&mut self, time: Micros, event: &Event) {
+        self.seen(Side::Vehicle, time, event);
+    }
+
+    /// An event the ground elaborated, at its vehicle time.
+    pub fn ground(&mut self, time: Micros, event: &Event) {
+        self.seen(Side::Ground, time, event);
+    }
+
+    fn seen(&mut self, side: Side, time: Micros, event: &Event) {
+        if event.category == Category::Communication {
+            self.counts.skipped += 1;
+            return;
+        }
+        if side == Side::Ground && time < self.known_from {
+            self.counts.unjudged += 1;
+            return;
+        }
+        let seen = Seen {
+            name: event.name.clone(),
+            time,
+            params: event.params.clone(),
+        };
+        self.recent.push_back((side, seen.clone()));
+        while self.recent.len() > 256 {
+            self.recent.pop_front();
+        }
+        let window = self.window;
+        // A ground event is seen late when the frames before it were lost:
+        // it matches a vehicle event from the start of those losses on.
+        let matches = |ground: Micros, vehicle: Micros, earliest: Micros| {
+            vehicle <= ground.saturating_add(window) && vehicle >= earliest
+        };
+        let earliest_here = self.earliest(time);
+        let earliest: Vec<Micros> = match side {
+            Side::Vehicle => self.ground.iter().map(|g| self.earliest(g.time)).collect(),
+            Side::Ground => Vec::new(),
+        };
+        let other = match side {
+            Side::Ground => &mut self.vehicle,
+            Side::Vehicle => &mut self.ground,
+        };
+        let found = other.iter().enumerate().position(|(i, o)| {
+            o.name == seen.name
+                && match side {
+                    Side::Ground => matches(time, o.time, earliest_here),
+                    Side::Vehicle => matches(o.time, time, earliest[i]),
+                }
+        });
+        if let Some(i) = found {
+            other.remove(i);
+            self.counts.matched += 1;
+            return;
+        }
+        match side {
+            Side::Ground => self.ground.push_back(seen),
+            Side::Vehicle => self.vehicle.push_back(seen),
+        }
+    }
+
+    /// Judges what can be judged: `vehicle_known` is the vehicle time
+    /// through which the replica holds every record, `ground_known` the
+    /// vehicle time the ground's elaboration has reached.
+    pub fn advance(&mut self, vehicle_known: Option<Micros>, ground_known: Option<Micros>) {
+        let window = self.window;
+        if let Some(v) = vehicle_known {
+            while self
+                .ground
+                .front()
+                .is_some_and(|g| g.time.saturating_add(window) < v)
+            {
+                let g = self.ground.pop_front().expect("checked");
+                if self.losing(g.time.saturating_sub(SILENCE), g.time) {
+                    self.counts.unjudged += 1;
+                    continue;
+                }
+                self.counts.ground_only += 1;
+                let other = self.nearest(Side::Vehicle, &g);
+                self.reports.push_back(Disagreement {
+                    event: g.name,
+                    seen_by: Side::Ground,
+                    time: g.time,
+                    params: g.params,
+                    window,
+                    other,
+                });
+            }
+        }
+        if let Some(gk) = ground_known {
+            while self
+                .vehicle
+                .front()
+                .is_some_and(|v| v.time.saturating_add(window) < gk)
+            {
+                let v = self.vehicle.pop_front().expect("checked");
+                if self.losing(v.time.saturating_sub(window), v.time.saturating_add(window)) {
+                    self.counts.unjudged += 1;
+                    continue;
+                }
+                self.counts.vehicle_only += 1;
+                let other = self.nearest(Side::Ground, &v);
+                self.reports.push_back(Disagreement {
+                    event: v.name,
+                    seen_by: Side::Vehicle,
+                    time: v.time,
+                    params: v.params,
+                    window,
+                    other,
+                });
+            }
+        }
+    }
+
+    fn nearest(&self, side: Side, seen: &Seen) -> Option<(Micros, Params)> {
+        self.recent
+            .iter()
+            .filter(|(s, o)| *s == side && o.name == seen.name)
+            .min_by_key(|(_, o)| o.time.abs_diff(seen.time))
+            .map(|(_, o)| (o.time, o.params.clone()))
+    }
+
+    pub fn poll(&mut self) -> Option<Disagreement> {
+        self.reports.pop_front()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ev(name: &str, category: Category) -> Event {
+        Event {
+            name: name.into(),
+            category,
+            params: Params::new(),
+        }
+    }
+
+    #[test]
+    fn events_within_the_window_match_either_way() {
+        let mut c = Check::new(WINDOW);
+        c.vehicle(10_000_000, &ev("takeoff", Category::Mission));
+        c.ground(11_500_000, &ev("takeoff", Category::Mission));
+        c.ground(20_000_000, &ev("landed", Category::Mission));
+        c.vehicle(19_000_000, &ev("landed", Category::Mission));
+        c.advance(Some(60_000_000), Some(60_000_000));
+        assert_eq!(c.poll(), None);
+        assert_eq!(c.counts.matched, 2);
+    }
+
+    #[test]
+    fn an_engine_failure_the_vehicle_missed_is_reported_once_its_records_are_complete() {
+        let mut c = Check::new(WINDOW);
+        c.ground(52_900_000, &ev("engine_failure", Category::Catastrophic));
+        // The replica's records only reach 54 s: not yet judged.
+        c.advance(Some(54_000_000), Some(55_000_000));
+        assert_eq!(c.poll(), None);
+        c.advance(Some(55_000_000), Some(55_000_000));
+        let d = c.poll().expect("a disagreement");
+        assert_eq!(d.seen_by, Side::Ground);
+        assert_eq!(d.event, "engine_failure");
+        assert_eq!(d.time, 52_900_000);
+        let e = d.event();
+        assert_eq!(e.name, "mirror_disagreement");
+        assert_eq!(e.params["seen_by"], nets::Value::Str("ground".into()));
+        assert_eq!(c.poll(), None);
+    }
+
+    #[test]
+    fn the_reverse_is_reported_with_the_grounds_nearest_evidence() {
+        let mut c = Check::new(WINDOW);
+        c.ground(1_000_000, &ev("battery_low", Category::Safety));
+        c.advance(Some(1_000_000), Some(1_000_000));
+        c.vehicle(40_000_000, &ev("battery_low", Category::Safety));
+        c.advance(Some(43_000_000), Some(43_000_000));
+        let reports: Vec<Disagreement> = std::iter::from_fn(|| c.poll()).collect();
+        assert_eq!(reports.len(), 2, "{reports:?}");
+        let v = reports
+            .iter()
+            .find(|d| d.seen_by == Side::Vehicle)
+            .expect("vehicle only");
+        assert_eq!(v.other.as_ref().map(|o| o.0), Some(1_000_000));
+    }
+
+    #[test]
+    fn losses_on_the_ground_excuse_late_or_missing_ground_events() {
+        let mut c = Check::new(WINDOW);
+        // The ground lost the autopilot's frames from 40 to 45 s: the
+        // vehicle's `disarmed` at 41 s reaches the ground at 45.5 s, and
+        // its `mission_item_reached` at 43 s never does.
+        c.vehicle(41_000_000, &ev("disarmed", Category::Nominal));
+        c.vehicle(43_000_000, &ev("mission_item_reached", Category::Mission));
+        c.lost(40_000_000, 45_000_000);
+        c.ground(45_500_000, &ev("disarmed", Category::Nominal));
+        c.advance(Some(60_000_000), Some(60_000_000));
+        assert_eq!(c.poll(), None);
+        assert_eq!(c.counts.matched, 1);
+        assert_eq!(c.counts.unjudged, 1);
+        // Without losses, the same late event is a disagreement both ways.
+        let mut c = Check::new(WINDOW);
+        c.vehicle(41_000_000, &ev("disarmed", Category::Nominal));
+        c.ground(45_500_000, &ev("disarmed", Category::Nominal));
+        c.advance(Some(60_000_000), Some(60_000_000));
+        assert_eq!(std::iter::from_fn(|| c.poll()).count(), 2);
+    }
+
+    #[test]
+    fn a_silence_the_radio_caused_and_events_before_a_snapshot_are_not_judged() {
+        let mut c = Check::new(WINDOW);
+        // The camera's frames lost from 30 to 40 s: the ground hears its
+        // silence as a payload failure at 45 s; the vehicle heard it.
+        c.lost(30_000_000, 40_000_000);
+        c.ground(45_000_000, &ev("payload_failure", Category::Mission));
+        // Before the snapshot the replica restored at 10 s.
+        c.ground(9_000_000, &ev("takeoff", Category::Mission));
+        c.unknown_before(10_000_000);
+        c.ground(9_500_000, &ev("mission_item_reached", Category::Mission));
+        c.advance(Some(90_000_000), Some(90_000_000));
+        assert_eq!(c.poll(), None);
+        assert_eq!(c.counts.unjudged, 3);
+    }
+
+    #[test]
+    fn link_events_are_never_compared() {
+        let mut c = Check::new(WINDOW);
+        c.ground(1_000_000, &ev("link_lost", Category::Communication));
+        c.advance(Some(100_000_000), Some(100_000_000));
+        assert_eq!(c.poll(), None);
+        assert_eq!(c.counts.skipped, 1);
+    }
+}

@@ -1,0 +1,528 @@
+//! The publisher and the replica together, on the flight-test example: the
+//! real `Supervisor` on board, random traces of program events, results and
+//! ticks, and a downlink and uplink that lose packets by a seeded rule.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use nets::{Event, Micros, Outcome, Params, Project, Value};
+use proptest::prelude::*;
+
+use super::publisher::{self, Publisher};
+use super::record::{self, Record};
+use super::replica::{self, Replica, Report};
+use super::step_inputs;
+use crate::supervisor::{Input, Supervisor};
+
+fn example() -> (Arc<Project>, elaboration::Profile) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-flight-test");
+    let gateway = crate::project::gateway_table(&dir).expect("project.toml");
+    let given = gateway.get("profile").and_then(|v| v.as_str());
+    let layers =
+        crate::profile::Layers::pick(None, Some((&dir, given)), "ardupilot").expect("profile");
+    let profile = layers.load().expect("profile loads");
+    let project = crate::project::load_with(&dir, &profile.catalog()).expect("project loads");
+    (project, profile)
+}
+
+/// One input of a trace.
+#[derive(Debug, Clone)]
+enum Step {
+    /// A declared event (by index), as a program would send it.
+    Event { pick: usize, dt: Micros },
+    /// The outcome of a pending call or command (by index).
+    Reply { pick: usize, ok: bool, dt: Micros },
+    /// Time passes: a tick.
+    Tick { dt: Micros },
+}
+
+fn trace(len: usize) -> impl Strategy<Value = Vec<Step>> {
+    prop::collection::vec(
+        prop_oneof![
+            3 => (0usize..64, 0u64..3_000_000).prop_map(|(pick, dt)| Step::Event { pick, dt }),
+            3 => (0usize..4, any::<bool>(), 0u64..2_000_000).prop_map(|(pick, ok, dt)| Step::Reply { pick, ok, dt }),
+            4 => (0u64..2_000_000).prop_map(|dt| Step::Tick { dt }),
+        ],
+        1..len,
+    )
+}
+
+/// Drops packets: `rate` in a thousand at random (seeded), and everything
+/// while a burst is on.
+struct Loss {
+    seed: u64,
+    rate: u64,
+    bursts: Vec<(Micros, Micros)>,
+    dropped: u64,
+}
+
+impl Loss {
+    fn none() -> Loss {
+        Loss::random(0, 0)
+    }
+
+    fn random(seed: u64, rate: u64) -> Loss {
+        Loss {
+            seed: seed | 1,
+            rate,
+            bursts: Vec::new(),
+            dropped: 0,
+        }
+    }
+
+    fn drops(&mut self, now: Micros) -> bool {
+        // xorshift64
+        self.seed ^= self.seed << 13;
+        self.seed ^= self.seed >> 7;
+        self.seed ^= self.seed << 17;
+        let drop = self.seed % 1000 < self.rate
+            || self.bursts.iter().any(|(a, b)| (*a..*b).contains(&now));
+        self.dropped += u64::from(drop);
+        drop
+    }
+}
+
+/// The vehicle's side, the link and the ground's side.
+struct Flight {
+    project: Arc<Project>,
+    supervisor: Supervisor,
+    publisher: Publisher,
+    replica: Replica,
+    now: Micros,
+    down: Loss,
+    up: Loss,
+    reports: Vec<Report>,
+    /// Inputs the vehicle plays without publishing them (a fault).
+    hidden: Vec<Event>,
+    /// The step at which a hidden input changed the vehicle's state.
+    hidden_at: Option<u64>,
+    uplink: Vec<Vec<u8>>,
+    downlink_bytes: u64,
+}
+
+impl Flight {
+    fn new(down: Loss, up: Loss, config: publisher::Config) -> Flight {
+        let (project, profile) = example();
+        let (supervisor, _) =
+            Supervisor::start(project.clone(), profile, elaboration::Config::default(), 0);
+        let mut f = Flight {
+            replica: Replica::new(project.clone(), replica::Config::default()),
+            project,
+            supervisor,
+            publisher: Publisher::new(7, config, 0),
+            now: 0,
+            down,
+            up,
+            reports: Vec::new(),
+            hidden: Vec::new(),
+            hidden_at: None,
+            uplink: Vec::new(),
+            downlink_bytes: 0,
+        };
+        f.exchange();
+        f
+    }
+
+    fn feed(&mut self, input: Input) {
+        let before = self.supervisor.player().state().now;
+        let step = self.supervisor.step(self.now, input.clone());
+        if let Some(inputs) = step_inputs(&input, &step) {
+            self.publisher.step(
+                step.seq,
+                before,
+                step.time,
+                inputs,
+                &self.supervisor.player().digest(),
+            );
+        }
+    }
+
+    fn play(&mut self, s: &Step) {
+        let names: Vec<&String> = self.project.events.keys().collect();
+        match s {
+            Step::Event { pick, dt } => {
+                self.now += dt;
+                let name = names[pick % names.len()].clone();
+                let event = Event::new(name)
+                    .param("alt", Value::Int(*pick as i64 * 7))
+                    .param("finished", Value::Bool(pick % 2 == 0));
+                self.feed(Input::Event(event));
+            }
+            Step::Reply { pick, ok, dt } => {
+                self.now += dt;
+                let ids: Vec<u64> = self
+                    .supervisor
+                    .player()
+                    .state()
+                    .pending
+                    .keys()
+                    .copied()
+                    .collect();
+                let id = ids.get(*pick).copied().unwrap_or(9_000 + *pick as u64);
+                let outcome = if *ok {
+                    Outcome::Done(Params::from([("index".to_owned(), Value::Int(2))]))
+                } else {
+                    Outcome::Failed("refused".into())
+                };
+                self.feed(Input::Result { id, outcome });
+            }
+            Step::Tick { dt } => {
+                self.now += dt;
+                self.feed(Input::Tick);
+            }
+        }
+        if let Some(e) = self.hidden.pop() {
+            // Played on board, never published.
+            let mut shadow = self.supervisor.player().clone();
+            self.supervisor.step(self.now, Input::Event(e));
+            shadow.advance(self.now);
+            let changed = self.supervisor.player().digest() != shadow.digest();
+            if changed {
+                self.hidden.clear();
+                self.hidden_at = Some(self.supervisor.seq());
+            }
+        }
+        self.exchange();
+    }
+
+    /// Heartbeats, snapshots and packets both ways, as a loop turn does.
+    fn exchange(&mut self) {
+        self.publisher
+            .tick(self.now, self.supervisor.seq(), self.supervisor.player());
+        while let Some(p) = self.publisher.poll_transmit() {
+            self.downlink_bytes += p.len() as u64;
+            if !self.down.drops(self.now) {
+                self.replica.receive(self.now, &p);
+            }
+        }
+        self.replica.tick(self.now);
+        while let Some(u) = self.replica.poll_transmit() {
+            self.uplink.push(u.bytes().to_vec());
+            if !self.up.drops(self.now) {
+                self.publisher.receive(u.bytes());
+            }
+        }
+        while let Some(r) = self.replica.poll_report() {
+            self.reports.push(r);
+        }
+    }
+
+    /// Quiet time with a clean link, so that every gap can be repaired.
+    fn settle(&mut self, seconds: u64) {
+        self.down.rate = 0;
+        self.up.rate = 0;
+        self.down.bursts.clear();
+        self.up.bursts.clear();
+        for _ in 0..seconds * 10 {
+            self.now += 100_000;
+            self.feed(Input::Tick);
+            self.exchange();
+        }
+    }
+
+    fn diverged(&self) -> Vec<&Report> {
+        self.reports
+            .iter()
+            .filter(|r| matches!(r, Report::Diverged { .. }))
+            .collect()
+    }
+
+    /// The replica is exact and equal to the vehicle.
+    fn assert_equal(&self) {
+        let Some(exact) = self.replica.exact() else {
+            panic!(
+                "the replica is not exact: {:?}\n{:?}\nreports {:?}",
+                self.replica.counts,
+                self.publisher.counts,
+                self.reports
+                    .iter()
+                    .filter(|r| !matches!(
+                        r,
+                        Report::Step { .. } | Report::Agreed { .. } | Report::Timers { .. }
+                    ))
+                    .collect::<Vec<_>>()
+            );
+        };
+        let vehicle = self.supervisor.player();
+        assert_eq!(self.replica.next_record(), self.publisher.next_record());
+        // The replica has heard the vehicle up to its last heartbeat: let
+        // its time catch up.
+        let mut exact = exact.clone();
+        assert!(exact.state().now <= vehicle.state().now);
+        exact.advance(vehicle.state().now);
+        assert_eq!(exact.digest(), vehicle.digest());
+    }
+}
+
+/// Every uplink packet holds resync requests only.
+fn only_requests(uplink: &[Vec<u8>]) {
+    for p in uplink {
+        let records = record::decode_packet(p).expect("uplink decodes");
+        for r in records {
+            assert!(
+                matches!(r, Record::Resend { .. } | Record::SendSnapshot { .. }),
+                "{r:?}"
+            );
+        }
+    }
+}
+
+fn fly(steps: &[Step], down: Loss, up: Loss) -> Flight {
+    let mut f = Flight::new(down, up, publisher::Config::default());
+    for s in steps {
+        f.play(s);
+    }
+    f.settle(5);
+    f
+}
+
+#[test]
+fn a_lossless_downlink_agrees_at_every_record() {
+    let steps: Vec<Step> = (0..400)
+        .map(|i| match i % 5 {
+            0 | 3 => Step::Event {
+                pick: i * 7,
+                dt: 300_000,
+            },
+            1 => Step::Reply {
+                pick: 0,
+                ok: i % 3 != 0,
+                dt: 200_000,
+            },
+            _ => Step::Tick { dt: 150_000 },
+        })
+        .collect();
+    let f = fly(&steps, Loss::none(), Loss::none());
+    f.assert_equal();
+    assert!(f.diverged().is_empty(), "{:?}", f.diverged());
+    // Every record and every heartbeat checked, none asked again.
+    assert_eq!(f.replica.counts.records, f.publisher.counts.records);
+    assert!(
+        f.replica.counts.agreed >= f.publisher.counts.records + f.publisher.counts.heartbeats - 1
+    );
+    assert_eq!(f.uplink.len(), 0);
+    assert!(f.publisher.counts.records > 100, "{:?}", f.publisher.counts);
+}
+
+#[test]
+fn losses_are_repaired_by_retransmission_and_never_called_divergence() {
+    let steps: Vec<Step> = (0..600)
+        .map(|i| match i % 4 {
+            0 => Step::Event {
+                pick: i * 5,
+                dt: 250_000,
+            },
+            1 => Step::Reply {
+                pick: i % 2,
+                ok: true,
+                dt: 100_000,
+            },
+            _ => Step::Tick { dt: 100_000 },
+        })
+        .collect();
+    for rate in [10, 100, 300] {
+        let f = fly(
+            &steps,
+            Loss::random(rate, rate),
+            Loss::random(rate + 1, rate),
+        );
+        f.assert_equal();
+        assert!(f.diverged().is_empty(), "{rate}‰: {:?}", f.diverged());
+        assert!(f.down.dropped > 0);
+        assert!(f.replica.counts.gaps > 0, "{rate}‰");
+        let resynced = f
+            .reports
+            .iter()
+            .filter(|r| matches!(r, Report::Resynced { .. }))
+            .count();
+        assert!(resynced as u64 >= f.replica.counts.gaps, "{rate}‰");
+        only_requests(&f.uplink);
+    }
+}
+
+#[test]
+fn a_gap_older_than_the_ring_is_repaired_by_a_snapshot() {
+    let config = publisher::Config {
+        ring: 4,
+        ..publisher::Config::default()
+    };
+    let mut down = Loss::none();
+    // Ten seconds of silence on the downlink.
+    down.bursts.push((5_000_000, 15_000_000));
+    let mut f = Flight::new(down, Loss::none(), config);
+    for i in 0..300 {
+        f.play(&Step::Event {
+            pick: i,
+            dt: 100_000,
+        });
+    }
+    f.settle(5);
+    f.assert_equal();
+    assert!(f.diverged().is_empty(), "{:?}", f.diverged());
+    assert!(f.replica.counts.snapshots_restored >= 1);
+    assert!(f.reports.iter().any(|r| matches!(
+        r,
+        Report::Resynced {
+            how: replica::Repair::Snapshot,
+            ..
+        }
+    )));
+}
+
+#[test]
+fn a_real_divergence_names_its_step_then_resyncs_by_itself() {
+    let mut f = Flight::new(Loss::none(), Loss::none(), publisher::Config::default());
+    for _ in 0..20 {
+        f.play(&Step::Tick { dt: 200_000 });
+    }
+    assert!(f.diverged().is_empty());
+    // The vehicle plays an input it does not publish: the replica's state
+    // differs from the next check on.
+    let names: Vec<String> = f.project.events.keys().cloned().collect();
+    for n in &names {
+        f.hidden.push(Event::new(n.clone()).param("alt", 100));
+    }
+    for i in 0..names.len() + 30 {
+        f.play(&Step::Tick {
+            dt: 100_000 + i as u64,
+        });
+    }
+    f.settle(5);
+    let diverged = f.diverged();
+    assert!(
+        !diverged.is_empty(),
+        "{:?} {:?}",
+        f.hidden_at,
+        f.replica.counts
+    );
+    let Report::Diverged { step, agreed, .. } = diverged[0] else {
+        unreachable!()
+    };
+    let hidden_at = f.hidden_at.expect("a hidden input changed the vehicle");
+    // Named at the first check after the hidden input: the next record or
+    // heartbeat, within a second.
+    assert!(*step >= hidden_at, "{step} < {hidden_at}");
+    assert!(agreed.is_some_and(|a| a < hidden_at), "{agreed:?}");
+    assert_eq!(diverged.len(), 1, "{diverged:?}");
+    // Resynced by a snapshot, and equal at the end.
+    assert!(f.replica.counts.snapshots_restored >= 1);
+    f.assert_equal();
+}
+
+#[test]
+fn a_mirror_started_late_asks_for_a_snapshot() {
+    let mut f = Flight::new(Loss::none(), Loss::none(), publisher::Config::default());
+    for i in 0..50 {
+        f.play(&Step::Event {
+            pick: i,
+            dt: 300_000,
+        });
+    }
+    // A new ground station, mid-flight.
+    f.replica = Replica::new(f.project.clone(), replica::Config::default());
+    f.reports.clear();
+    for i in 0..30 {
+        f.play(&Step::Event {
+            pick: i,
+            dt: 300_000,
+        });
+    }
+    f.settle(5);
+    f.assert_equal();
+    assert!(f.diverged().is_empty(), "{:?}", f.diverged());
+    assert_eq!(f.replica.counts.snapshots_restored, 1);
+}
+
+#[test]
+fn corrupt_packets_are_counted_and_ignored() {
+    let mut f = Flight::new(Loss::none(), Loss::none(), publisher::Config::default());
+    f.replica.receive(1, &[]);
+    f.replica.receive(1, &[9, 1, 2]);
+    f.replica.receive(1, &[1, 1, 0xff]);
+    assert_eq!(f.replica.counts.refused, 3);
+    for i in 0..10 {
+        f.play(&Step::Event {
+            pick: i,
+            dt: 300_000,
+        });
+    }
+    f.publisher.receive(&[1, 77]);
+    assert_eq!(f.publisher.counts.refused, 1);
+    f.settle(2);
+    f.assert_equal();
+}
+
+#[test]
+fn the_downlink_stays_small_when_nothing_happens() {
+    let mut f = Flight::new(Loss::none(), Loss::none(), publisher::Config::default());
+    f.settle(120);
+    // Heartbeats (one a second) and two snapshots in two minutes.
+    let per_s = f.downlink_bytes as f64 / 120.0;
+    assert!(per_s < 60.0, "{per_s} B/s");
+    f.assert_equal();
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    /// Random traces, random loss both ways: the replica ends equal, and
+    /// never reports a divergence that is not there.
+    #[test]
+    fn random_traces_at_random_loss_end_equal(
+        steps in trace(300),
+        seed in any::<u64>(),
+        rate in 0u64..400,
+        burst in prop::option::of((0u64..60_000_000, 0u64..8_000_000)),
+    ) {
+        let mut down = Loss::random(seed, rate);
+        if let Some((at, len)) = burst {
+            down.bursts.push((at, at + len));
+        }
+        let f = fly(&steps, down, Loss::random(seed.rotate_left(7), rate));
+        f.assert_equal();
+        prop_assert!(f.diverged().is_empty(), "{:?}", f.diverged());
+        only_requests(&f.uplink);
+    }
+}
+
+#[test]
+fn a_snapshot_of_the_example_fits_in_a_few_packets() {
+    let mut f = Flight::new(Loss::none(), Loss::none(), publisher::Config::default());
+    for i in 0..200 {
+        f.play(&Step::Event {
+            pick: i * 3,
+            dt: 200_000,
+        });
+    }
+    let bytes = nets::player::snapshot::encode(f.supervisor.player().state());
+    eprintln!("snapshot of the flight-test example: {} bytes", bytes.len());
+    assert!(bytes.len() < 512, "{} bytes", bytes.len());
+}
+
+#[test]
+fn while_a_gap_is_open_the_replica_is_shown_provisional_then_exact_again() {
+    let mut down = Loss::none();
+    down.bursts.push((2_000_000, 4_000_000));
+    let mut f = Flight::new(down, Loss::none(), publisher::Config::default());
+    let names: Vec<String> = f.project.events.keys().cloned().collect();
+    let mut provisional_seen = false;
+    for i in 0..80 {
+        f.play(&Step::Event {
+            pick: i,
+            dt: 100_000,
+        });
+        if let Some((_, true)) = f.replica.shown() {
+            provisional_seen = true;
+            // The ground's own events advance the provisional view only.
+            let before = f.replica.exact_time();
+            f.replica
+                .ground_event(f.now, &Event::new(names[i % names.len()].clone()));
+            assert_eq!(f.replica.exact_time(), before);
+            assert!(f.replica.exact().is_none());
+        }
+    }
+    f.settle(5);
+    assert!(provisional_seen, "no gap was open: {:?}", f.replica.counts);
+    assert!(matches!(f.replica.shown(), Some((_, false))));
+    f.assert_equal();
+}

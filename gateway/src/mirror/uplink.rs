@@ -1,0 +1,46 @@
+//! The mirror's only way to send: [`UplinkWriter`] takes the link's writer
+//! and sends nothing but [`Uplink`] packets — resync requests the replica
+//! built — in TUNNEL messages to the onboard gateway. It has no method for
+//! any other message: the mirror cannot command the vehicle, call a
+//! program, or send a HEARTBEAT (under any system id, and never under the
+//! ground station's 255 that ArduPilot's GCS failsafe watches).
+
+use super::replica::Uplink;
+use super::tunnel::{Tunnel, PAYLOAD_TYPE};
+use crate::link::{LinkError, LinkWriter};
+
+/// The mirror's component id: a ground component beside its own system id.
+pub const MIRROR_COMPONENT: u8 = 190;
+
+/// Sends the replica's requests, and only them.
+pub struct UplinkWriter {
+    writer: LinkWriter,
+    me: (u8, u8),
+}
+
+impl UplinkWriter {
+    /// `system` is the mirror's own system id.
+    pub fn new(writer: LinkWriter, system: u8) -> UplinkWriter {
+        UplinkWriter {
+            writer,
+            me: (system, MIRROR_COMPONENT),
+        }
+    }
+
+    /// The mirror's (system, component).
+    pub fn identity(&self) -> (u8, u8) {
+        self.me
+    }
+
+    /// Sends one request to the onboard gateway `to` = (system, component);
+    /// returns the frame's bytes as written.
+    pub async fn send(&self, to: (u8, u8), uplink: &Uplink) -> Result<Vec<u8>, LinkError> {
+        let tunnel = Tunnel {
+            payload_type: PAYLOAD_TYPE,
+            target_system: to.0,
+            target_component: to.1,
+            payload: uplink.bytes().to_vec(),
+        };
+        self.writer.send_data(self.me, &tunnel).await
+    }
+}

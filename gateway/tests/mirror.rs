@@ -1,0 +1,487 @@
+//! The ground mirror end to end: the simulated ArduPlane behind a router
+//! that gives it a companion's port and a ground port (as ArduPilot routes
+//! between its serial ports), the real `petrel run --downlink` with DEC on
+//! the companion's, the real `petrel mirror` on the ground's behind a radio
+//! that loses frames. The replica's checks (its digest against the
+//! vehicle's at every record and heartbeat) must all agree, its firings
+//! must be the vehicle's, and every frame the mirror sends is checked on
+//! the wire. The simulator and both clocks run `flight::SPEED` times
+//! faster than real time.
+
+#[path = "scenarios/flight.rs"]
+mod flight;
+#[path = "mirror/router.rs"]
+mod router;
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use flight::{
+    free_port, petrel_run, project, scratch, start_sim, stop, timeline, Dec, Killed, SPEED,
+};
+use router::{Loss, Router, Traffic};
+use sitl_tests::SimState;
+
+/// The scenarios' mission file (DEC reads it).
+pub const MISSION_FILE: &str = "mission.toml";
+
+const MAX_SIM_S: f64 = 420.0;
+const MIRROR_SYSTEM: u8 = 245;
+const MIRROR_COMPONENT: u8 = 190;
+const PAYLOAD_TYPE: u16 = 0xD04D;
+
+fn over(s: &SimState) -> bool {
+    (s.landed && !s.armed && !s.reached.is_empty()) || s.crashed
+}
+
+struct Mirrored {
+    run: Vec<serde_json::Value>,
+    run_err: String,
+    mirror: Vec<serde_json::Value>,
+    mirror_err: String,
+    traffic: Traffic,
+    state: SimState,
+}
+
+impl Mirrored {
+    fn mirror_lines(&self, kind: &str) -> Vec<&serde_json::Value> {
+        self.mirror.iter().filter(|l| l["mirror"] == kind).collect()
+    }
+
+    /// (time, net, transition) of every firing in a timeline.
+    fn fired(lines: &[serde_json::Value]) -> Vec<String> {
+        lines
+            .iter()
+            .filter(|l| l["effect"] == "fired")
+            .map(|l| format!("{} {} {}", l["t"], l["net"], l["transition"]))
+            .collect()
+    }
+}
+
+/// One flight at a time: the machine has two cores, and each flight runs
+/// the simulator, two gateways and DEC faster than real time.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn fly_mirrored(name: &str, faults: &[&str], loss: Loss) -> Mirrored {
+    fly_mirrored_with(name, faults, loss, &[])
+}
+
+/// A flight whose `petrel run` gets `run_args` besides the usual ones.
+fn fly_mirrored_with(name: &str, faults: &[&str], loss: Loss, run_args: &[&str]) -> Mirrored {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = scratch(&format!("mirror-{name}"));
+    let sim = start_sim(faults);
+    let mut router = Router::start(sim.local_addr(), loss);
+    let programs = format!("tcp:127.0.0.1:{}", free_port());
+    let max_wall = Duration::from_secs_f64(MAX_SIM_S / SPEED + 10.0);
+    let mirror = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("mirror")
+        .arg(project())
+        .args([
+            "--mavlink",
+            &format!("tcpout:127.0.0.1:{}", router.ground_port),
+        ])
+        .args(["--time-scale", &SPEED.to_string()])
+        .args([
+            "--duration",
+            &format!("{:.0}", (max_wall + Duration::from_secs(10)).as_secs_f64()),
+        ])
+        .arg("--json")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("petrel mirror runs");
+    let mut mirror = Killed(Some(mirror));
+    let run = petrel_run(
+        &format!("tcpout:127.0.0.1:{}", router.companion_port),
+        &programs,
+        SPEED,
+        &dir.join("flight.mcap"),
+        max_wall + Duration::from_secs(5),
+        // `petrel check` is the scenarios' business, not the mirror's.
+        &[&["--downlink", "--unchecked"], run_args].concat(),
+    );
+    let mut run = Killed(Some(run));
+    let dec = Dec::start(&programs);
+    let started = Instant::now();
+    let mut finished_at: Option<f64> = None;
+    let mut state;
+    loop {
+        std::thread::sleep(Duration::from_millis(100));
+        state = sim.state();
+        if finished_at.is_none() && over(&state) {
+            finished_at = Some(state.time_s);
+        }
+        if finished_at.is_some_and(|t| state.time_s > t + 3.0)
+            || state.time_s > MAX_SIM_S
+            || started.elapsed() > max_wall
+        {
+            break;
+        }
+    }
+    // Twenty simulated seconds more, so that the records the radio lost
+    // at the end can be sent again before the gateway stops.
+    std::thread::sleep(Duration::from_secs(2));
+    let (run_out, run_err) = stop(run.0.take().expect("petrel run"));
+    // The mirror hears the last heartbeat a moment later.
+    std::thread::sleep(Duration::from_millis(500));
+    let (mirror_out, mirror_err) = stop(mirror.0.take().expect("petrel mirror"));
+    dec.stop();
+    sim.stop();
+    router.stop();
+    let traffic = std::mem::take(&mut *router.traffic());
+    // Kept beside the recording for a look after a failure.
+    let _ = std::fs::write(dir.join("run.jsonl"), &run_out);
+    let _ = std::fs::write(dir.join("run.err"), &run_err);
+    let _ = std::fs::write(dir.join("mirror.jsonl"), &mirror_out);
+    let _ = std::fs::write(dir.join("mirror.err"), &mirror_err);
+    Mirrored {
+        run: timeline(&run_out),
+        run_err,
+        mirror: timeline(&mirror_out),
+        mirror_err,
+        traffic,
+        state,
+    }
+}
+
+/// A uvarint of the documented encoding (docs/mirror.md), read here
+/// independently of the gateway's code.
+fn uvarint(b: &[u8], at: &mut usize) -> Option<u64> {
+    let mut v = 0u64;
+    for i in 0..10 {
+        let byte = *b.get(*at)?;
+        *at += 1;
+        v |= u64::from(byte & 0x7f) << (7 * i);
+        if byte & 0x80 == 0 {
+            return Some(v);
+        }
+    }
+    None
+}
+
+/// Every frame the mirror sent: a MAVLink 2 TUNNEL from the mirror's
+/// (system, component), Petrel's payload type, to the onboard gateway
+/// (vehicle 1, component 191), holding only resync requests (kinds 5
+/// resend and 6 snapshot). Never a HEARTBEAT, never system 255.
+fn only_resync_requests(frames: &[Vec<u8>]) -> usize {
+    for bytes in frames {
+        let f = elaboration::Frame::parse(bytes).expect("the mirror's frames are valid MAVLink");
+        assert_eq!(
+            f.message_id(),
+            385,
+            "the mirror sent message {}",
+            f.message_id()
+        );
+        assert_eq!(
+            (f.system_id(), f.component_id()),
+            (MIRROR_SYSTEM, MIRROR_COMPONENT)
+        );
+        let p = f.payload();
+        assert_eq!(u16::from_le_bytes([p[0], p[1]]), PAYLOAD_TYPE);
+        assert_eq!((p[2], p[3]), (1, 191), "addressed to the onboard gateway");
+        let len = usize::from(p[4]);
+        let mut payload = p[5..].to_vec();
+        payload.resize(128, 0);
+        let payload = &payload[..len];
+        assert_eq!(payload[0], 1, "layout version");
+        let mut at = 1;
+        while at < payload.len() {
+            let kind = payload[at];
+            at += 1;
+            match kind {
+                5 => {
+                    uvarint(payload, &mut at).expect("from");
+                    uvarint(payload, &mut at).expect("count");
+                }
+                6 => at += 4,
+                k => panic!("the mirror sent a record of kind {k}: {payload:?}"),
+            }
+        }
+        assert_eq!(at, payload.len());
+    }
+    frames.len()
+}
+
+fn ended_equal(name: &str, m: &Mirrored) {
+    eprintln!(
+        "{name}: {} frames to the ground ({} B), of which {} downlink TUNNEL ({} B); {} lost; the mirror sent {} frames; {:.0} s simulated",
+        m.traffic.to_ground.0,
+        m.traffic.to_ground_bytes.0,
+        m.traffic.to_ground.1,
+        m.traffic.to_ground_bytes.1,
+        m.traffic.lost,
+        m.traffic.from_ground.len(),
+        m.state.time_s,
+    );
+    // Bytes per simulated second delivered to the ground, from the
+    // downlink's first frame to its last: (downlink average, its worst
+    // 10 s, all telemetry's average).
+    let tunnel: Vec<(f64, usize)> = m
+        .traffic
+        .delivered
+        .iter()
+        .filter(|d| d.2)
+        .map(|d| (d.0 * SPEED, d.1))
+        .collect();
+    if let (Some(first), Some(last)) = (tunnel.first(), tunnel.last()) {
+        let span = (last.0 - first.0).max(1.0);
+        let down: usize = tunnel.iter().map(|d| d.1).sum();
+        let all: usize = m
+            .traffic
+            .delivered
+            .iter()
+            .filter(|d| (first.0..=last.0).contains(&(d.0 * SPEED)))
+            .map(|d| d.1)
+            .sum();
+        let worst = tunnel
+            .iter()
+            .map(|(t, _)| {
+                tunnel
+                    .iter()
+                    .filter(|(u, _)| (*t..t + 10.0).contains(u))
+                    .map(|d| d.1)
+                    .sum::<usize>()
+            })
+            .max()
+            .unwrap_or(0);
+        eprintln!(
+            "{name}: downlink {:.1} B/s average, {:.1} B/s over its worst 10 s; all telemetry to the ground {:.0} B/s (downlink {:.1} % of it), over {span:.0} simulated s",
+            down as f64 / span,
+            worst as f64 / 10.0,
+            all as f64 / span,
+            100.0 * down as f64 / all.max(1) as f64,
+        );
+    }
+    assert!(
+        m.state.landed && !m.state.armed && !m.state.crashed,
+        "{name}: the flight did not end landed and disarmed (landed {}, armed {}, crashed {}, mode {}, t {:.0} s)\n{}",
+        m.state.landed,
+        m.state.armed,
+        m.state.crashed,
+        m.state.mode,
+        m.state.time_s,
+        m.run_err
+    );
+    let diverged = m.mirror_lines("mirror_diverged");
+    assert!(
+        diverged.is_empty(),
+        "{name}: false divergences {diverged:?}\n{}",
+        m.mirror_err
+    );
+    // The independent check agrees too: a vehicle that elaborates as the
+    // ground does, whatever the radio lost.
+    let disagreements = m.mirror_lines("mirror_disagreement");
+    assert!(
+        disagreements.is_empty(),
+        "{name}: false disagreements {disagreements:?}\n{}",
+        m.mirror_err
+    );
+    let agreed = m.mirror_lines("agreed").len();
+    // A heartbeat a second while the gateway ran, and every record.
+    let ran = m
+        .run
+        .iter()
+        .find(|l| l["end"] == true)
+        .and_then(|l| l["t"].as_f64())
+        .expect("the gateway's closing line");
+    assert!(
+        agreed as f64 > ran * 0.5,
+        "{name}: only {agreed} checks agreed in {ran:.0} s\n{}",
+        m.mirror_err
+    );
+    // Exact at the end: the last word is an agreement, not a gap.
+    let last = m
+        .mirror
+        .iter()
+        .rev()
+        .find(|l| l["mirror"].is_string())
+        .expect("the mirror reported");
+    assert!(
+        last["mirror"] == "agreed" || last["mirror"] == "mirror_resynced",
+        "{name}: the mirror ends with {last}\n{}",
+        m.mirror_err
+    );
+    only_resync_requests(&m.traffic.from_ground);
+}
+
+#[test]
+fn the_mirror_agrees_with_the_vehicle_over_the_nominal_mission() {
+    let m = fly_mirrored("nominal", &[], Loss::default());
+    ended_equal("nominal", &m);
+    // Its firings are the vehicle's, from the moment it synced.
+    let run = Mirrored::fired(&m.run);
+    let mirror = Mirrored::fired(&m.mirror);
+    assert!(mirror.len() > 10, "{mirror:?}");
+    assert!(
+        run.ends_with(&mirror),
+        "the replica's firings are not the vehicle's:\nvehicle {run:#?}\nmirror {mirror:#?}"
+    );
+}
+
+/// Resync times (ground seconds from a gap to `mirror_resynced`), sorted;
+/// the first sync (the mirror joining) is not a repair and is left out.
+fn resync_times(m: &Mirrored) -> Vec<f64> {
+    let mut t: Vec<f64> = m
+        .mirror_lines("mirror_resynced")
+        .iter()
+        .skip(1)
+        .filter_map(|l| l["after_s"].as_f64())
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t
+}
+
+fn lossy(name: &str, faults: &[&str], loss: Loss) -> Mirrored {
+    let m = fly_mirrored(name, faults, loss);
+    ended_equal(name, &m);
+    let times = resync_times(&m);
+    let gaps = m.mirror_lines("gap").len();
+    eprintln!(
+        "{name}: {gaps} gaps, {} resyncs; resync time (s) min {:.2} median {:.2} max {:.2}",
+        times.len(),
+        times.first().copied().unwrap_or(0.0),
+        times.get(times.len() / 2).copied().unwrap_or(0.0),
+        times.last().copied().unwrap_or(0.0),
+    );
+    // Every gap repaired.
+    assert!(
+        times.len() >= gaps,
+        "{name}: {gaps} gaps, {} resyncs",
+        times.len()
+    );
+    assert!(m.traffic.lost > 0, "{name}: the radio lost nothing");
+    m
+}
+
+#[test]
+fn a_third_of_the_frames_lost_at_random_over_the_nominal_mission() {
+    let m = lossy(
+        "nominal-30",
+        &[],
+        Loss {
+            per_mille: 300,
+            seed: 30,
+            ..Loss::default()
+        },
+    );
+    assert!(!m.mirror_lines("gap").is_empty());
+}
+
+#[test]
+fn payload_failure_at_ten_percent_loss() {
+    lossy(
+        "payload-10",
+        &["payload_failure@wp3"],
+        Loss {
+            per_mille: 100,
+            seed: 10,
+            ..Loss::default()
+        },
+    );
+}
+
+#[test]
+fn engine_failure_at_one_percent_loss() {
+    lossy(
+        "engine-1",
+        &["engine_failure@wp2"],
+        Loss {
+            per_mille: 10,
+            seed: 1,
+            ..Loss::default()
+        },
+    );
+}
+
+#[test]
+fn link_loss_and_radio_bursts_of_several_seconds() {
+    // Bursts of 30 and 50 simulated seconds (wall seconds × SPEED) while
+    // the vehicle flies (it takes off about 1.5 wall seconds in).
+    lossy(
+        "link-bursts",
+        &["link_loss@wp3:10s"],
+        Loss {
+            per_mille: 20,
+            seed: 7,
+            bursts: vec![(4.0, 7.0), (10.0, 15.0)],
+        },
+    );
+}
+
+#[test]
+fn low_battery_at_ten_percent_loss_and_a_burst() {
+    lossy(
+        "battery-10",
+        &["battery=22@wp4"],
+        Loss {
+            per_mille: 100,
+            seed: 22,
+            bursts: vec![(8.0, 11.0)],
+        },
+    );
+}
+
+#[test]
+fn a_vehicle_that_misses_engine_failure_is_caught_by_the_independent_check() {
+    // The onboard profile altered: the project's layer with every rule of
+    // `engine_failure` removed (`enabled = false`). The mirror elaborates
+    // with the project's own.
+    let dir = scratch("mirror-blind-profile");
+    let layer =
+        std::fs::read_to_string(project().join("profile.toml")).expect("the project's profile");
+    let mut altered = String::new();
+    let mut removed = 0;
+    for line in layer.lines() {
+        altered.push_str(line);
+        altered.push('\n');
+        if line.starts_with("[rules.engine_failure") {
+            altered.push_str("enabled = false\n");
+            removed += 1;
+        }
+    }
+    assert_eq!(
+        removed, 4,
+        "the four engine_failure rules of the project's layer"
+    );
+    let file = dir.join("blind.toml");
+    std::fs::write(&file, altered).expect("the altered profile");
+    let file = file.to_string_lossy().into_owned();
+    let m = fly_mirrored_with(
+        "engine-blind",
+        &["engine_failure@wp2"],
+        Loss::default(),
+        &["--profile", &file],
+    );
+    // The vehicle never heard it...
+    assert!(
+        !m.run
+            .iter()
+            .any(|l| l["input"] == "event" && l["event"] == "engine_failure"),
+        "the altered vehicle still elaborated engine_failure"
+    );
+    // ...the mirror says so, with the ground's evidence.
+    let found = m.mirror_lines("mirror_disagreement");
+    let d = found
+        .iter()
+        .find(|d| d["event"] == "engine_failure" && d["seen_by"] == "ground")
+        .unwrap_or_else(|| {
+            panic!(
+                "no disagreement on engine_failure: {found:?}\n{}",
+                m.mirror_err
+            )
+        });
+    assert!(d["ground"].is_object(), "{d}");
+    let seen = d["t"].as_f64().expect("t");
+    let reported = d["reported_t"].as_f64().expect("reported_t");
+    eprintln!(
+        "engine_failure seen by the ground at {seen:.2} s, disagreement reported at {reported:.2} s ({:.2} s later; window {} s)",
+        reported - seen,
+        d["window_s"]
+    );
+    // The window (2 s) plus one heartbeat (1 s) for the vehicle's records
+    // to be known complete past it, plus a tick.
+    assert!(reported - seen <= 3.5, "{d}");
+    // And the replica still agrees with the (wrong) vehicle.
+    assert!(m.mirror_lines("mirror_diverged").is_empty());
+}
