@@ -128,6 +128,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         // Each net alone is information only: it cannot change the verdict.
         let options = nets::verify::project::Options {
             alone: false,
+            threads: super::check::threads(None),
             ..Default::default()
         };
         let report = nets::verify::project::check(&project, &options);
