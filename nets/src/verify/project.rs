@@ -49,7 +49,7 @@ use super::levels;
 use super::project_states::{Abs, Codec, Scratch};
 use crate::event::Event;
 use crate::model::{names, Action, NetId, Project, TransitionId};
-use crate::player::{Effect, Fault, Oracle, Outcome, PendingKind, Player, Question};
+use crate::player::{Effect, Fault, Oracle, Outcome, PendingKind, Player, Question, State};
 use crate::time::Micros;
 use crate::value::Params;
 
@@ -271,6 +271,10 @@ struct External {
     catastrophic: bool,
 }
 
+/// A hash map with a fast fixed hash (what it holds never comes from
+/// outside a check).
+type FastMap<K, V> = HashMap<K, V, foldhash::fast::FixedState>;
+
 /// What is known of a pending result: whether it is relevant, and the
 /// reasons its failure is explored with.
 type Known = (bool, Vec<String>);
@@ -281,7 +285,7 @@ struct Explorer {
     externals: Vec<External>,
     /// Per call (net, program, function) and command (net, verb) the
     /// project's actions make: what is known of its result.
-    calls: HashMap<(NetId, usize, usize), Known>,
+    calls: FastMap<(NetId, usize, usize), Known>,
     commands: Vec<(NetId, String, Known)>,
     /// The search's labels, numbered in merge order, and their keys.
     labels: Mutex<LabelTable>,
@@ -297,7 +301,7 @@ struct LabelTable {
 struct Worker {
     /// Labels by the worker's own number, with their keys.
     labels: Vec<(Vec<u8>, Label)>,
-    index: HashMap<Vec<u8>, u32>,
+    index: FastMap<Vec<u8>, u32>,
     /// The search's number of each, once known.
     global: Vec<u32>,
     scratch: Scratch,
@@ -307,6 +311,10 @@ struct Worker {
     /// The edges of the input being explored: label and target key.
     this_input: Vec<(u32, std::ops::Range<usize>)>,
     this_input_keys: Vec<u8>,
+    /// The player every step of the worker runs in, and the state an
+    /// input starts from.
+    player: Option<Player>,
+    concrete: State,
 }
 
 /// An exploration, ready for verdicts.
@@ -327,7 +335,7 @@ impl levels::Explore for Explorer {
     fn worker(&self) -> Worker {
         Worker {
             labels: Vec::new(),
-            index: HashMap::new(),
+            index: FastMap::default(),
             global: Vec::new(),
             scratch: Scratch::default(),
             effects: Vec::new(),
@@ -335,6 +343,18 @@ impl levels::Explore for Explorer {
             label_key: Vec::new(),
             this_input: Vec::new(),
             this_input_keys: Vec::new(),
+            player: None,
+            concrete: State {
+                now: 0,
+                marking: Vec::new(),
+                active: Vec::new(),
+                timers: Vec::new(),
+                queue: Default::default(),
+                lockout: false,
+                pending: Default::default(),
+                next_id: 1,
+                next_timer_seq: 0,
+            },
         }
     }
 
@@ -387,7 +407,7 @@ impl Explorer {
             codec: Codec::new(&project),
             project,
             externals,
-            calls: HashMap::new(),
+            calls: FastMap::default(),
             commands: Vec::new(),
             labels: Mutex::new(LabelTable::default()),
         };
@@ -598,10 +618,12 @@ impl Explorer {
         for input in self.inputs(&abs) {
             w.this_input.clear();
             w.this_input_keys.clear();
+            let seq_before = concrete(&abs, &input, &mut w.concrete);
+            let concrete = &w.concrete;
             // Every sequence of oracle answers, depth first.
             let mut todo: Vec<Vec<bool>> = vec![Vec::new()];
             while let Some(answers) = todo.pop() {
-                let Some((mut player, seq_before)) = self.step(&abs, &input, &answers) else {
+                let Some(player) = self.step(&mut w.player, concrete, &input, &answers) else {
                     continue;
                 };
                 w.effects.clear();
@@ -685,27 +707,27 @@ impl Explorer {
         }
     }
 
-    /// Runs one input on the concrete state of `abs`: the player after it,
-    /// and the start order its first new timer got.
-    fn step(&self, abs: &Abs, input: &Input, answers: &[bool]) -> Option<(Player, u64)> {
-        let expire = match input {
-            Input::Timer(i) => Some(*i),
-            _ => None,
+    /// Runs one input on `concrete` (see [`concrete`]) with the oracle's
+    /// `answers`, in the worker's player: the player after it.
+    fn step<'p>(
+        &self,
+        slot: &'p mut Option<Player>,
+        concrete: &State,
+        input: &Input,
+        answers: &[bool],
+    ) -> Option<&'p mut Player> {
+        let player = match slot {
+            Some(player) => {
+                player.reset_for_verifier(concrete, answers);
+                player
+            }
+            None => {
+                // A state the explorer built itself always fits its project.
+                let mut player = Player::restore(self.project.clone(), concrete.clone()).ok()?;
+                player.set_oracle(Some(Oracle::new(answers.to_vec())));
+                slot.insert(player)
+            }
         };
-        let mut concrete = abs.state.clone();
-        concrete.now = T;
-        for (i, t) in concrete.timers.iter_mut().enumerate() {
-            t.deadline = if Some(i) == expire {
-                T + 1
-            } else {
-                T + 2 + t.deadline
-            };
-        }
-        concrete.timers.sort_by_key(|t| (t.deadline, t.seq));
-        let seq_before = concrete.next_timer_seq;
-        // A state the explorer built itself always fits its project.
-        let mut player = Player::restore(self.project.clone(), concrete).ok()?;
-        player.set_oracle(Some(Oracle::new(answers.to_vec())));
         match input {
             Input::Event(i) => player.handle(&self.externals[*i].event, T + 1),
             Input::Timer(_) => player.advance(T + 1),
@@ -717,7 +739,7 @@ impl Explorer {
                 player.result(*id, outcome, T + 1);
             }
         }
-        Some((player, seq_before))
+        Some(player)
     }
 
     /// The reasons a failed call or command is explored with: one per way
@@ -879,6 +901,40 @@ impl Explorer {
         }
         text
     }
+}
+
+/// The concrete state an input runs on: `abs` at instant `T`, every timer
+/// due after the step's instant, except the one the input expires (due at
+/// it); and the start order the step's first new timer gets.
+fn concrete(abs: &Abs, input: &Input, concrete: &mut State) -> u64 {
+    let expire = match input {
+        Input::Timer(i) => Some(*i),
+        _ => None,
+    };
+    let from = &abs.state;
+    concrete.marking.clone_from(&from.marking);
+    concrete.active.clone_from(&from.active);
+    concrete.timers.clone_from(&from.timers);
+    concrete
+        .queue
+        .iter_mut()
+        .for_each(std::collections::VecDeque::clear);
+    concrete.lockout = from.lockout;
+    if concrete.pending != from.pending {
+        concrete.pending.clone_from(&from.pending);
+    }
+    concrete.next_id = from.next_id;
+    concrete.next_timer_seq = from.next_timer_seq;
+    concrete.now = T;
+    for (i, t) in concrete.timers.iter_mut().enumerate() {
+        t.deadline = if Some(i) == expire {
+            T + 1
+        } else {
+            T + 2 + t.deadline
+        };
+    }
+    concrete.timers.sort_by_key(|t| (t.deadline, t.seq));
+    concrete.next_timer_seq
 }
 
 /// The bytes that tell one step's label from another's: the input, the

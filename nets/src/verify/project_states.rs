@@ -59,8 +59,9 @@ pub(super) struct Scratch {
 pub(super) struct Codec {
     words: usize,
     nets: usize,
-    /// Every verb the project's actions command, sorted.
+    /// Every verb the project's actions command, sorted, and their numbers.
     verbs: Vec<String>,
+    verb_numbers: std::collections::HashMap<String, u32, foldhash::fast::FixedState>,
 }
 
 impl Codec {
@@ -80,6 +81,11 @@ impl Codec {
         Codec {
             words: project.place_count.div_ceil(64).max(1),
             nets: project.nets.len(),
+            verb_numbers: verbs
+                .iter()
+                .enumerate()
+                .map(|(i, v)| (v.clone(), i as u32))
+                .collect(),
             verbs,
         }
     }
@@ -175,12 +181,12 @@ impl Codec {
                     out.extend_from_slice(&(*program as u32).to_le_bytes());
                     out.extend_from_slice(&(*function as u32).to_le_bytes());
                 }
-                PendingKind::Command { verb } => match self.verbs.binary_search(verb) {
-                    Ok(i) => {
+                PendingKind::Command { verb } => match self.verb_numbers.get(verb.as_str()) {
+                    Some(i) => {
                         out.push(1);
-                        out.extend_from_slice(&(i as u32).to_le_bytes());
+                        out.extend_from_slice(&i.to_le_bytes());
                     }
-                    Err(_) => {
+                    None => {
                         out.push(2);
                         out.extend_from_slice(&(verb.len() as u32).to_le_bytes());
                         out.extend_from_slice(verb.as_bytes());
