@@ -11,6 +11,7 @@ use clap::{Parser, Subcommand};
 mod cli;
 mod clock;
 mod link;
+mod preflight;
 mod profile;
 mod programs;
 mod project;

@@ -109,7 +109,7 @@ impl Space {
 
 /// Explores from `initial` with `threads` workers (at least one), storing
 /// at most `max_states` states; `progress` is told how many states were
-/// expanded, now and then.
+/// expanded after each one.
 pub(super) fn explore<E: Explore>(
     space: &E,
     initial: &[u8],
@@ -159,8 +159,8 @@ pub(super) fn explore<E: Explore>(
                 }
                 out.graph.push_node(edges.drain(..));
                 node += 1;
+                progress(node as usize);
             }
-            progress(node as usize);
         }
         level = level.end..out.store.len();
     }

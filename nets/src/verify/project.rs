@@ -465,14 +465,12 @@ impl Explorer {
             &mut Scratch::default(),
             &mut initial,
         );
-        let mut reported = 0usize;
         let mut tell = |expanded: usize| {
             if let Some(report) = progress {
-                if expanded / PROGRESS_EVERY > reported / PROGRESS_EVERY {
+                if expanded.is_multiple_of(PROGRESS_EVERY) {
                     report(expanded);
                 }
             }
-            reported = expanded;
         };
         let space = levels::explore(&self, &initial, max_states, threads, &mut tell);
         let n = space.store.len();
