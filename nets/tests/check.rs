@@ -764,10 +764,9 @@ on = "urgent"
     assert!(report.holds(), "{report:#?}");
 }
 
-#[test]
-fn the_progress_callback_counts_the_states_explored() {
-    use std::cell::Cell;
-    // Ten independent switches: 1024 states.
+/// Ten independent switches, each flipped and flopped by its own events:
+/// 1024 states.
+fn switches() -> std::sync::Arc<nets::Project> {
     let mut places = Vec::new();
     let mut transitions = String::new();
     for i in 0..10 {
@@ -777,12 +776,18 @@ fn the_progress_callback_counts_the_states_explored() {
         ));
     }
     let offs: Vec<String> = (0..10).map(|i| format!("\"off{i}\"")).collect();
-    let net = format!(
+    common::one_net(&format!(
         "name = \"N\"\nplaces = [{}]\ninitial = [{}]\n{transitions}",
         places.join(", "),
         offs.join(", ")
-    );
-    let project = common::one_net(&net);
+    ))
+}
+
+#[test]
+fn the_progress_callback_counts_the_states_explored() {
+    use std::cell::Cell;
+    // Ten independent switches: 1024 states.
+    let project = switches();
     let calls = Cell::new(Vec::new());
     let progress = |n: usize| {
         let mut v = calls.take();
@@ -1122,20 +1127,7 @@ fn two_threads_give_the_same_report_as_one() {
     // shared between threads), and the flight-test example cut at 3,000
     // states (player states with timers, calls and guards answered both
     // ways; the cut itself must fall at the same state).
-    let mut places = Vec::new();
-    let mut transitions = String::new();
-    for i in 0..10 {
-        places.push(format!("\"off{i}\", \"on{i}\""));
-        transitions.push_str(&format!(
-            "[[transition]]\nname = \"flip{i}\"\nfrom = [\"off{i}\"]\nto = [\"on{i}\"]\non = \"tick{i}\"\n[[transition]]\nname = \"flop{i}\"\nfrom = [\"on{i}\"]\nto = [\"off{i}\"]\non = \"tock{i}\"\n"
-        ));
-    }
-    let offs: Vec<String> = (0..10).map(|i| format!("\"off{i}\"")).collect();
-    let switches = common::one_net(&format!(
-        "name = \"N\"\nplaces = [{}]\ninitial = [{}]\n{transitions}",
-        places.join(", "),
-        offs.join(", ")
-    ));
+    let switches = switches();
     let files = example("uav-flight-test");
     let refs: Vec<(&str, &str)> = files
         .iter()

@@ -314,7 +314,7 @@ struct Worker {
     /// The player every step of the worker runs in, and the state an
     /// input starts from.
     player: Option<Player>,
-    concrete: State,
+    concrete: Option<State>,
 }
 
 /// An exploration, ready for verdicts.
@@ -344,17 +344,7 @@ impl levels::Explore for Explorer {
             this_input: Vec::new(),
             this_input_keys: Vec::new(),
             player: None,
-            concrete: State {
-                now: 0,
-                marking: Vec::new(),
-                active: Vec::new(),
-                timers: Vec::new(),
-                queue: Default::default(),
-                lockout: false,
-                pending: Default::default(),
-                next_id: 1,
-                next_timer_seq: 0,
-            },
+            concrete: None,
         }
     }
 
@@ -616,8 +606,9 @@ impl Explorer {
         for input in self.inputs(&abs) {
             w.this_input.clear();
             w.this_input_keys.clear();
-            let seq_before = concrete(&abs, &input, &mut w.concrete);
-            let concrete = &w.concrete;
+            let concrete = w.concrete.get_or_insert_with(|| abs.state.clone());
+            let seq_before = set_concrete(&abs, &input, concrete);
+            let concrete = &*concrete;
             // Every sequence of oracle answers, depth first.
             let mut todo: Vec<Vec<bool>> = vec![Vec::new()];
             while let Some(answers) = todo.pop() {
@@ -705,7 +696,7 @@ impl Explorer {
         }
     }
 
-    /// Runs one input on `concrete` (see [`concrete`]) with the oracle's
+    /// Runs one input on `concrete` (see [`set_concrete`]) with the oracle's
     /// `answers`, in the worker's player: the player after it.
     fn step<'p>(
         &self,
@@ -904,7 +895,7 @@ impl Explorer {
 /// The concrete state an input runs on: `abs` at instant `T`, every timer
 /// due after the step's instant, except the one the input expires (due at
 /// it); and the start order the step's first new timer gets.
-fn concrete(abs: &Abs, input: &Input, concrete: &mut State) -> u64 {
+fn set_concrete(abs: &Abs, input: &Input, concrete: &mut State) -> u64 {
     let expire = match input {
         Input::Timer(i) => Some(*i),
         _ => None,
