@@ -30,13 +30,16 @@ pub fn load_with(
     load_read(dir, catalog).map(|(project, _)| project)
 }
 
+/// Files read, `(path, text)`, in the order read.
+pub type Files = Vec<(String, String)>;
+
 /// Loads the project as [`load_with`] does, with every file the loader
 /// read, `(path, text)` in the order read (what its verdict depends on:
 /// [`crate::preflight`]).
 pub fn load_read(
     dir: &Path,
     catalog: &nets::load::Catalog,
-) -> Result<(Arc<Project>, Vec<(String, String)>), miette::Report> {
+) -> Result<(Arc<Project>, Files), miette::Report> {
     if !dir.join(nets::load::PROJECT_FILE).is_file() {
         return Err(miette::miette!(
             "{} is not a Petrel project: it holds no {}",
@@ -58,7 +61,7 @@ pub fn load_read(
 /// A folder that remembers what was read from it.
 struct Recorded {
     folder: Folder,
-    read: std::sync::Mutex<Vec<(String, String)>>,
+    read: std::sync::Mutex<Files>,
 }
 
 impl Sources for Recorded {
