@@ -31,6 +31,7 @@ mod cli;
 mod clock;
 mod link;
 mod mirror;
+mod preflight;
 mod profile;
 mod programs;
 mod project;

@@ -27,6 +27,19 @@ pub fn load_with(
     dir: &Path,
     catalog: &nets::load::Catalog,
 ) -> Result<Arc<Project>, miette::Report> {
+    load_read(dir, catalog).map(|(project, _)| project)
+}
+
+/// Files read, `(path, text)`, in the order read.
+pub type Files = Vec<(String, String)>;
+
+/// Loads the project as [`load_with`] does, with every file the loader
+/// read, `(path, text)` in the order read (what its verdict depends on:
+/// [`crate::preflight`]).
+pub fn load_read(
+    dir: &Path,
+    catalog: &nets::load::Catalog,
+) -> Result<(Arc<Project>, Files), miette::Report> {
     if !dir.join(nets::load::PROJECT_FILE).is_file() {
         return Err(miette::miette!(
             "{} is not a Petrel project: it holds no {}",
@@ -34,11 +47,31 @@ pub fn load_with(
             nets::load::PROJECT_FILE
         ));
     }
-    nets::load_with(&Folder(dir.to_path_buf()), catalog)
-        .map(Arc::new)
-        .map_err(|e| {
-            miette::Report::new(e).context(format!("cannot load project {}", dir.display()))
-        })
+    let sources = Recorded {
+        folder: Folder(dir.to_path_buf()),
+        read: std::sync::Mutex::new(Vec::new()),
+    };
+    let project = nets::load_with(&sources, catalog).map_err(|e| {
+        miette::Report::new(e).context(format!("cannot load project {}", dir.display()))
+    })?;
+    let read = sources.read.into_inner().unwrap_or_else(|e| e.into_inner());
+    Ok((Arc::new(project), read))
+}
+
+/// A folder that remembers what was read from it.
+struct Recorded {
+    folder: Folder,
+    read: std::sync::Mutex<Files>,
+}
+
+impl Sources for Recorded {
+    fn read(&self, path: &str) -> Result<String, String> {
+        let text = self.folder.read(path)?;
+        if let Ok(mut read) = self.read.lock() {
+            read.push((path.to_owned(), text.clone()));
+        }
+        Ok(text)
+    }
 }
 
 /// The `[gateway]` table of the project.toml in `dir` (empty when absent).

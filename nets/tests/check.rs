@@ -764,10 +764,9 @@ on = "urgent"
     assert!(report.holds(), "{report:#?}");
 }
 
-#[test]
-fn the_progress_callback_counts_the_states_explored() {
-    use std::cell::Cell;
-    // Ten independent switches: 1024 states.
+/// Ten independent switches, each flipped and flopped by its own events:
+/// 1024 states.
+fn switches() -> std::sync::Arc<nets::Project> {
     let mut places = Vec::new();
     let mut transitions = String::new();
     for i in 0..10 {
@@ -777,12 +776,18 @@ fn the_progress_callback_counts_the_states_explored() {
         ));
     }
     let offs: Vec<String> = (0..10).map(|i| format!("\"off{i}\"")).collect();
-    let net = format!(
+    common::one_net(&format!(
         "name = \"N\"\nplaces = [{}]\ninitial = [{}]\n{transitions}",
         places.join(", "),
         offs.join(", ")
-    );
-    let project = common::one_net(&net);
+    ))
+}
+
+#[test]
+fn the_progress_callback_counts_the_states_explored() {
+    use std::cell::Cell;
+    // Ten independent switches: 1024 states.
+    let project = switches();
     let calls = Cell::new(Vec::new());
     let progress = |n: usize| {
         let mut v = calls.take();
@@ -1114,4 +1119,37 @@ do = ["deactivate C"]
     // D alone: `go` fires its one transition, into a final place.
     let (_, d) = both(&report, "D");
     assert_eq!((d.states, d.edges, d.dead_markings), (2, 1, 0));
+}
+
+#[test]
+fn two_threads_give_the_same_report_as_one() {
+    // Ten independent switches (1024 states, levels wide enough to be
+    // shared between threads), and the flight-test example cut at 3,000
+    // states (player states with timers, calls and guards answered both
+    // ways; the cut itself must fall at the same state).
+    let switches = switches();
+    let files = example("uav-flight-test");
+    let refs: Vec<(&str, &str)> = files
+        .iter()
+        .map(|(a, b)| (a.as_str(), b.as_str()))
+        .collect();
+    let flight = common::project(&refs);
+    for (project, max_states, states) in [(switches, 1_000_000, Some(1024)), (flight, 3000, None)] {
+        let options = |threads| Options {
+            threads,
+            max_states,
+            ..Options::default()
+        };
+        let one = check(&project, &options(1));
+        if let Some(states) = states {
+            assert_eq!(one.project.states, states);
+            // Each switch flips both ways in every state.
+            assert_eq!(one.project.edges, 1024 * 10);
+        } else {
+            assert_eq!(one.project.states, max_states);
+            assert!(!one.project.complete);
+        }
+        assert_eq!(check(&project, &options(2)), one);
+        assert_eq!(check(&project, &options(3)), one);
+    }
 }

@@ -50,6 +50,16 @@ pub struct Args {
     pub no_loops: bool,
 }
 
+/// `--threads`, else the number of cores (at most 16).
+pub(crate) fn threads(asked: Option<u16>) -> usize {
+    match asked {
+        Some(n) => usize::from(n),
+        None => std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(16),
+    }
+}
+
 pub fn run(args: Args) -> VerbResult {
     let Some(file) = &args.pnml else {
         let Some(dir) = &args.project else {
@@ -61,6 +71,7 @@ pub fn run(args: Args) -> VerbResult {
             args.profile.as_deref(),
             args.json,
             max_states.min(nets::verify::project::MAX_STATES),
+            threads(args.threads),
         );
     };
     if args.project.is_some() {
@@ -71,12 +82,7 @@ pub fn run(args: Args) -> VerbResult {
     let text = std::fs::read_to_string(file)
         .map_err(|e| miette::miette!("cannot read {}: {e}", file.display()))?;
     let net = read_ptnet(&text).map_err(|e| miette::miette!("{}:{e}", file.display()))?;
-    let threads = match args.threads {
-        Some(n) => usize::from(n),
-        None => std::thread::available_parallelism()
-            .map_or(1, |n| n.get())
-            .min(16),
-    };
+    let threads = threads(args.threads);
     let start = Instant::now();
     let meter = Progress::new(start);
     let report = |states: u64| meter.report(states);

@@ -18,7 +18,13 @@ use super::{Outcome, VerbResult};
 /// Checks a project with the elaboration profile `profile` (`--profile`;
 /// else the project's `[gateway] profile`, else ArduPilot's); exit 0 when
 /// every property holds, 1 when one does not, 2 for bad input.
-pub fn run(dir: &Path, profile: Option<&str>, as_json: bool, max_states: usize) -> VerbResult {
+pub fn run(
+    dir: &Path,
+    profile: Option<&str>,
+    as_json: bool,
+    max_states: usize,
+    threads: usize,
+) -> VerbResult {
     let setting = match crate::project::gateway_setting(dir, "profile") {
         Ok(s) => s,
         Err(e) => {
@@ -50,6 +56,7 @@ pub fn run(dir: &Path, profile: Option<&str>, as_json: bool, max_states: usize) 
             max_states,
             each_net: true,
             alone: true,
+            threads,
             progress: if std::io::stderr().is_terminal() {
                 Some(&report_progress)
             } else {

@@ -81,6 +81,10 @@ pub struct Args {
     /// Print the gateway's timeline as JSON lines instead of the live log.
     #[arg(long)]
     pub json: bool,
+    /// Explore the example before flying even if the same nets, profile and
+    /// Petrel held before.
+    #[arg(long)]
+    pub recheck: bool,
 }
 
 /// A free TCP port on 127.0.0.1 (bound, then released).
@@ -161,6 +165,7 @@ fn fly(args: &Args, dir: &Path) -> VerbResult {
         mavlink: Some(sim.client_address()),
         profile: None,
         unchecked: false,
+        recheck: args.recheck,
         duration: None,
         time_scale: args.speed,
         json: true,

@@ -285,7 +285,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         let _ = out.out.flush();
     }
     reader_task.abort();
-    eprintln!(
+    say!(
         "independent check: {} events matched, {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames), {} link events not compared",
         check.counts.matched,
         check.counts.ground_only,
@@ -294,7 +294,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         check.counts.skipped
     );
     let c = &replica.counts;
-    eprintln!(
+    say!(
         "mirror stopped after {:.1} s: {} downlink packets ({} refused), {} records, {} checks agreed, {} gaps, {} resends and {} snapshots asked, {} snapshots restored, {} divergences; {} requests sent; {} ground events",
         origin.elapsed().as_secs_f64(),
         c.packets,
@@ -312,7 +312,7 @@ async fn mirror(setup: Setup) -> VerbResult {
     if let Some((player, provisional)) = replica.shown() {
         let _ = out.end(player.state().now, &player.digest(), player.locked_out());
         if provisional {
-            eprintln!("the replica ends provisional: records were missing at the end");
+            say!("the replica ends provisional: records were missing at the end");
         }
     }
     let _ = out.out.flush();

@@ -24,6 +24,7 @@ use crate::clock::Clock;
 use crate::link::{Link, LinkReader, LinkWriter, Received};
 use crate::mirror::publisher::{Config as PublisherConfig, Publisher};
 use crate::mirror::tunnel::{Tunnel, PAYLOAD_TYPE};
+use crate::preflight::Preflight;
 use crate::programs::server::{Direction, ProgramInput, Programs};
 use crate::record::recorder::{Options as RecordOptions, Recorder};
 use crate::supervisor::{Input, Step, Supervisor};
@@ -46,6 +47,11 @@ pub struct Args {
     /// Run a project that fails `petrel check`.
     #[arg(long)]
     pub unchecked: bool,
+    /// Explore the project before flying even if the same nets, profile
+    /// and Petrel held before (the pre-flight check is otherwise
+    /// remembered in the user's cache directory).
+    #[arg(long, conflicts_with = "unchecked")]
+    pub recheck: bool,
     /// Run the gateway's clock this many times faster than the wall, for a
     /// simulated vehicle running faster than real time: frame times, the
     /// nets' timers, elaboration timeouts and command timeouts all follow
@@ -170,24 +176,35 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     let Some(profile) = layers.load() else {
         return Ok(Err(Outcome::BadInput));
     };
-    let project = crate::project::load_with(&args.project, &profile.catalog())?;
+    let (project, files) = crate::project::load_read(&args.project, &profile.catalog())?;
     if !args.unchecked {
-        // Each net alone is information only: it cannot change the verdict.
-        let options = nets::verify::project::Options {
-            alone: false,
-            ..Default::default()
+        let inputs = crate::preflight::Inputs {
+            files: &files,
+            layers: &layers.layers,
         };
-        let report = nets::verify::project::check(&project, &options);
-        if !report.holds() {
-            say_part!(
-                "{}",
-                super::check_project::human(&project.name, &report, 0.0)
-            );
-            say!(
-                "refusing to run {}: it fails `petrel check` (run it anyway with --unchecked)",
-                args.project.display()
-            );
-            return Ok(Err(Outcome::Failed));
+        match crate::preflight::check_project(&project, &inputs, args.recheck) {
+            Preflight::Remembered { digest } => say!(
+                "pre-flight check: holds (remembered: the same nets, profile and Petrel held before, {}; --recheck explores again)",
+                &digest[..12]
+            ),
+            Preflight::Held {
+                states,
+                edges,
+                seconds,
+            } => say!(
+                "pre-flight check: holds ({states} states, {edges} steps explored in {seconds:.2} s)"
+            ),
+            Preflight::Failed(report) => {
+                say_part!(
+                    "{}",
+                    super::check_project::human(&project.name, &report, 0.0)
+                );
+                say!(
+                    "refusing to run {}: it fails `petrel check` (run it anyway with --unchecked)",
+                    args.project.display()
+                );
+                return Ok(Err(Outcome::Failed));
+            }
         }
     }
     let Some(address) = args.mavlink.clone().or_else(|| get("mavlink")) else {
@@ -990,13 +1007,13 @@ fn adopt(
         Some(elaboration::Firmware::Px4) => "px4",
         Some(_) => "ardupilot",
         None => {
-            eprintln!(
+            say!(
                 "no autopilot HEARTBEAT yet: elaboration uses the ArduPilot profile (give --profile px4 or [gateway] firmware = \"px4\" for PX4)"
             );
             return Ok(());
         }
     };
-    eprintln!(
+    say!(
         "autopilot: {}, elaboration profile {base}",
         if base == "px4" { "PX4" } else { "ArduPilot" }
     );

@@ -175,6 +175,40 @@ impl Player {
         self.oracle = oracle;
     }
 
+    /// The verifier's restore: puts `state` (built by the verifier for
+    /// this project, so not checked again) in place of the player's own and
+    /// an oracle giving `answers`, keeping the buffers of both, so that
+    /// millions of steps allocate little.
+    pub(crate) fn reset_for_verifier(&mut self, state: &State, answers: &[bool]) {
+        let s = &mut self.state;
+        s.now = state.now;
+        s.marking.clone_from(&state.marking);
+        s.active.clone_from(&state.active);
+        s.timers.clone_from(&state.timers);
+        for (q, from) in s.queue.iter_mut().zip(&state.queue) {
+            q.clear();
+            q.extend(from.iter().cloned());
+        }
+        s.lockout = state.lockout;
+        if s.pending != state.pending {
+            s.pending.clone_from(&state.pending);
+        }
+        s.next_id = state.next_id;
+        s.next_timer_seq = state.next_timer_seq;
+        self.effects.clear();
+        self.changed = false;
+        match &mut self.oracle {
+            Some(o) => {
+                o.answers.clear();
+                o.answers.extend_from_slice(answers);
+                o.asked = 0;
+                o.questions.clear();
+                o.open(false);
+            }
+            None => self.oracle = Some(Oracle::new(answers.to_vec())),
+        }
+    }
+
     /// The oracle, with the questions it was asked.
     pub fn oracle(&self) -> Option<&Oracle> {
         self.oracle.as_ref()

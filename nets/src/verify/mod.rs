@@ -8,8 +8,9 @@
 //! - [`explore`]: explicit-state exploration of a P/T net's token game (a
 //!   bitset engine for 1-safe nets, a counting engine for the others, both
 //!   parallel); [`reference`]: a plain explorer the tests compare it with.
-//! - [`project`]: the project-level verifier (the player's own semantics,
-//!   on [`graph::explore_bfs`]); [`alone`]: each net explored alone, the
+//! - [`project`]: the project-level verifier (the player's own semantics;
+//!   its states kept as bytes by `project_states`, searched breadth-first
+//!   on several threads by `levels`); [`alone`]: each net explored alone, the
 //!   single-procedure level; [`export`]: Petrel nets as PNML.
 //!
 //! Pure computation: no file I/O, no clock (the caller times runs).
@@ -20,7 +21,9 @@ pub mod alone;
 pub mod explore;
 pub mod export;
 pub mod graph;
+mod levels;
 pub mod pnml;
 pub mod project;
+mod project_states;
 pub mod ptnet;
 pub mod reference;

@@ -41,18 +41,15 @@
 //! profile's catalog when the caller loaded it: `petrel check` does, as
 //! `petrel run`), which decides priorities and the catastrophic lockout.
 
-use std::cell::RefCell;
 use std::collections::{BTreeSet, HashMap, HashSet, VecDeque};
-use std::hash::{Hash, Hasher};
-use std::rc::Rc;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use super::graph::{self, Csr, Filtered};
+use super::levels;
+use super::project_states::{Abs, Codec, Scratch};
 use crate::event::Event;
 use crate::model::{names, Action, NetId, Project, TransitionId};
-use crate::player::{
-    canonical_bytes, Effect, Fault, Oracle, Outcome, PendingKind, Player, Question, State,
-};
+use crate::player::{Effect, Fault, Oracle, Outcome, PendingKind, Player, Question, State};
 use crate::time::Micros;
 use crate::value::Params;
 
@@ -75,6 +72,9 @@ pub struct Options<'a> {
     pub alone: bool,
     /// Called now and then with the number of states explored so far.
     pub progress: Option<&'a dyn Fn(usize)>,
+    /// Threads exploring (at least one); the report is the same whatever
+    /// their number.
+    pub threads: usize,
 }
 
 impl Default for Options<'_> {
@@ -84,6 +84,7 @@ impl Default for Options<'_> {
             each_net: true,
             alone: true,
             progress: None,
+            threads: 1,
         }
     }
 }
@@ -151,7 +152,8 @@ impl ProjectReport {
 
 /// Checks a project as a whole and, if asked, each net in it and alone.
 pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
-    let explored = Explorer::new(project.clone()).run(options.max_states, options.progress);
+    let explored =
+        Explorer::new(project.clone()).run(options.max_states, options.threads, options.progress);
     let mut whole = explored.verdict(None, true);
     if !options.each_net {
         return ProjectReport {
@@ -176,7 +178,7 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
         };
     }
     // The progress meter keeps counting through the nets alone.
-    let mut done = explored.space.states.len();
+    let mut done = explored.space.store.len();
     drop(explored);
     let mut alone = Vec::with_capacity(nets.len());
     for (n, (name, in_project)) in nets.iter_mut().enumerate() {
@@ -189,9 +191,10 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
         };
         let explored = Explorer::new(copy).run(
             options.max_states,
+            options.threads,
             options.progress.map(|_| &progress as &dyn Fn(usize)),
         );
-        done += explored.space.states.len();
+        done += explored.space.store.len();
         // Static warnings of the copy (events the absent nets emit look
         // produced by nothing) say nothing of the net: left out.
         let a = explored.verdict(Some(n), false);
@@ -208,30 +211,6 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
     }
 }
 
-/// An abstract state: the player's state with time taken out.
-#[derive(Clone)]
-struct Abs {
-    /// `now` is 0; each timer's `deadline` holds its duration; ids and timer
-    /// sequence numbers are renumbered in order.
-    state: State,
-    /// Per timer (same order as `state.timers`): the step that started it,
-    /// renumbered in order of first appearance.
-    groups: Vec<u32>,
-    key: Vec<u8>,
-}
-
-impl PartialEq for Abs {
-    fn eq(&self, other: &Self) -> bool {
-        self.key == other.key
-    }
-}
-impl Eq for Abs {}
-impl Hash for Abs {
-    fn hash<H: Hasher>(&self, h: &mut H) {
-        self.key.hash(h);
-    }
-}
-
 /// Loops listed in a report, at most (the same loop seen from different
 /// states is listed once).
 const MAX_LOOPS: usize = 20;
@@ -244,7 +223,8 @@ const T: Micros = 1_000_000_000;
 
 #[derive(Debug, Clone)]
 enum Input {
-    Event(String),
+    /// An external event: its index in [`Explorer::externals`].
+    Event(usize),
     Timer(usize),
     /// `reason`: `None` for done, the failure's reason otherwise.
     Result {
@@ -272,84 +252,248 @@ impl Label {
             Some(n) => self.fired.iter().any(|(m, _)| *m == n),
         }
     }
+
+    /// Whether two steps end alike (with the same target).
+    fn alike(&self, other: &Label) -> bool {
+        self.fired == other.fired
+            && self.unsafe_by == other.unsafe_by
+            && self.livelock == other.livelock
+    }
 }
 
-struct Explorer {
-    project: Arc<Project>,
-    externals: Vec<String>,
-    labels: Vec<Label>,
-    /// Per kind of pending result: whether it is relevant, and the reasons
-    /// its failure is explored with (computed once).
-    awaited: RefCell<HashMap<Awaited, Rc<Known>>>,
+/// An external event, ready to send, with what decides whether it can do
+/// anything in a state.
+struct External {
+    event: Event,
+    /// The transitions it triggers.
+    waiting: Vec<(NetId, TransitionId)>,
+    /// Its category is catastrophic (the lockout does not drop it).
+    catastrophic: bool,
 }
+
+/// A hash map with a fast fixed hash (what it holds never comes from
+/// outside a check).
+type FastMap<K, V> = HashMap<K, V, foldhash::fast::FixedState>;
 
 /// What is known of a pending result: whether it is relevant, and the
 /// reasons its failure is explored with.
 type Known = (bool, Vec<String>);
 
-/// What a pending call or command is, for [`Explorer::awaited`].
-#[derive(Clone, PartialEq, Eq, Hash)]
-enum Awaited {
-    Call(NetId, usize, usize),
-    Command(NetId, String),
+struct Explorer {
+    project: Arc<Project>,
+    codec: Codec,
+    externals: Vec<External>,
+    /// Per call (net, program, function) and command (net, verb) the
+    /// project's actions make: what is known of its result.
+    calls: FastMap<(NetId, usize, usize), Known>,
+    commands: Vec<(NetId, String, Known)>,
+    /// The search's labels, numbered in merge order, and their keys.
+    labels: Mutex<LabelTable>,
+}
+
+#[derive(Default)]
+struct LabelTable {
+    labels: Vec<Label>,
+    index: HashMap<Vec<u8>, u32>,
+}
+
+/// One worker's buffers and labels (see [`levels::Explore`]).
+struct Worker {
+    /// Labels by the worker's own number, with their keys.
+    labels: Vec<(Vec<u8>, Label)>,
+    index: FastMap<Vec<u8>, u32>,
+    /// The search's number of each, once known.
+    global: Vec<u32>,
+    scratch: Scratch,
+    effects: Vec<Effect>,
+    next: Vec<u8>,
+    label_key: Vec<u8>,
+    /// The edges of the input being explored: label and target key.
+    this_input: Vec<(u32, std::ops::Range<usize>)>,
+    this_input_keys: Vec<u8>,
+    /// The player every step of the worker runs in, and the state an
+    /// input starts from.
+    player: Option<Player>,
+    concrete: Option<State>,
 }
 
 /// An exploration, ready for verdicts.
 struct Explored {
     project: Arc<Project>,
-    space: graph::StateSpace<Abs, u32>,
+    codec: Codec,
+    space: levels::Space,
     labels: Vec<Label>,
     /// Transitions fired at start-up or in a step.
     fired: HashSet<(NetId, TransitionId)>,
     /// Each state's predecessors.
-    reverse: Vec<Vec<u32>>,
+    reverse: Csr<()>,
+}
+
+impl levels::Explore for Explorer {
+    type Worker = Worker;
+
+    fn worker(&self) -> Worker {
+        Worker {
+            labels: Vec::new(),
+            index: FastMap::default(),
+            global: Vec::new(),
+            scratch: Scratch::default(),
+            effects: Vec::new(),
+            next: Vec::new(),
+            label_key: Vec::new(),
+            this_input: Vec::new(),
+            this_input_keys: Vec::new(),
+            player: None,
+            concrete: None,
+        }
+    }
+
+    fn expand(&self, worker: &mut Worker, key: &[u8], out: &mut levels::Successors<'_>) {
+        self.successors(worker, key, out);
+    }
+
+    fn label(&self, worker: &mut Worker, local: u32) -> u32 {
+        let g = worker.global[local as usize];
+        if g != u32::MAX {
+            return g;
+        }
+        let (key, label) = &worker.labels[local as usize];
+        let mut table = self.labels.lock().unwrap_or_else(|e| e.into_inner());
+        let g = match table.index.get(key) {
+            Some(&g) => g,
+            None => {
+                let g = table.labels.len() as u32;
+                table.labels.push(label.clone());
+                table.index.insert(key.clone(), g);
+                g
+            }
+        };
+        worker.global[local as usize] = g;
+        g
+    }
 }
 
 impl Explorer {
     fn new(project: Arc<Project>) -> Explorer {
-        let externals = external_events(&project);
-        Explorer {
+        let externals = external_events(&project)
+            .into_iter()
+            .map(|name| {
+                let event = Event::new(name);
+                let category = project
+                    .declared_category(&event.name)
+                    .unwrap_or(event.category);
+                External {
+                    waiting: project
+                        .triggers
+                        .get(&event.name)
+                        .cloned()
+                        .unwrap_or_default(),
+                    catastrophic: category == crate::event::Category::Catastrophic,
+                    event,
+                }
+            })
+            .collect();
+        let mut explorer = Explorer {
+            codec: Codec::new(&project),
             project,
             externals,
-            labels: Vec::new(),
-            awaited: RefCell::new(HashMap::new()),
+            calls: FastMap::default(),
+            commands: Vec::new(),
+            labels: Mutex::new(LabelTable::default()),
+        };
+        // What is known of every result the nets' actions can await.
+        let project = explorer.project.clone();
+        for (n, net) in project.nets.iter().enumerate() {
+            for action in net.transitions.iter().flat_map(|t| &t.actions) {
+                let kind = match action {
+                    Action::Call {
+                        program, function, ..
+                    } => PendingKind::Call {
+                        program: *program,
+                        function: *function,
+                    },
+                    Action::Command { verb, .. } => PendingKind::Command { verb: verb.clone() },
+                    _ => continue,
+                };
+                let pending = crate::player::Pending {
+                    net: n,
+                    kind,
+                    catastrophic: false,
+                };
+                let known = explorer.compute_known(&pending);
+                match pending.kind {
+                    PendingKind::Call { program, function } => {
+                        explorer.calls.insert((n, program, function), known);
+                    }
+                    PendingKind::Command { verb } => {
+                        if !explorer
+                            .commands
+                            .iter()
+                            .any(|(m, v, _)| *m == n && *v == verb)
+                        {
+                            explorer.commands.push((n, verb, known));
+                        }
+                    }
+                }
+            }
         }
+        explorer
     }
 
-    fn run(mut self, max_states: usize, progress: Option<&dyn Fn(usize)>) -> Explored {
+    fn run(self, max_states: usize, threads: usize, progress: Option<&dyn Fn(usize)>) -> Explored {
         let mut player = Player::start(self.project.clone(), T);
         player.set_oracle(Some(Oracle::default()));
         let effects: Vec<Effect> = player.effects().collect();
         let initial_fired = fired_of(&effects);
-        let initial = normalize(player.snapshot(), 0, T, None, &|p| self.relevant(p));
-        let mut explored = 0usize;
-        let space = graph::explore_bfs(
-            initial,
-            max_states,
-            |abs: &Abs, out: &mut Vec<(u32, Abs)>| {
-                self.successors(abs, out);
-                explored += 1;
-                if explored.is_multiple_of(PROGRESS_EVERY) {
-                    if let Some(report) = progress {
-                        report(explored);
-                    }
-                }
-            },
+        let mut initial = Vec::new();
+        self.codec.encode(
+            player.state(),
+            0,
+            T,
+            None,
+            &|p| self.relevant(p),
+            &mut Scratch::default(),
+            &mut initial,
         );
-        let mut reverse: Vec<Vec<u32>> = vec![Vec::new(); space.states.len()];
-        for s in 0..space.states.len() as u32 {
+        let mut tell = |expanded: usize| {
+            if let Some(report) = progress {
+                if expanded.is_multiple_of(PROGRESS_EVERY) {
+                    report(expanded);
+                }
+            }
+        };
+        let space = levels::explore(&self, &initial, max_states, threads, &mut tell);
+        let n = space.store.len();
+        let mut reverse_edges: Vec<(u32, u32)> = Vec::with_capacity(space.graph.edge_count());
+        for s in 0..n as u32 {
             for (_, t) in space.graph.edges(s) {
-                reverse[t as usize].push(s);
+                reverse_edges.push((t, s));
             }
         }
+        reverse_edges.sort_unstable();
+        let mut reverse = Csr::default();
+        let mut at = 0;
+        for t in 0..n as u32 {
+            let start = at;
+            while at < reverse_edges.len() && reverse_edges[at].0 == t {
+                at += 1;
+            }
+            reverse.push_node(reverse_edges[start..at].iter().map(|&(_, s)| ((), s)));
+        }
+        let labels = self
+            .labels
+            .into_inner()
+            .unwrap_or_else(|e| e.into_inner())
+            .labels;
         let mut fired: HashSet<(NetId, TransitionId)> = initial_fired.into_iter().collect();
-        for l in &self.labels {
+        for l in &labels {
             fired.extend(l.fired.iter().copied());
         }
         Explored {
             project: self.project,
+            codec: self.codec,
             space,
-            labels: self.labels,
+            labels,
             fired,
             reverse,
         }
@@ -357,28 +501,34 @@ impl Explorer {
 
     /// What is known of a pending call or command's result: whether it is
     /// relevant, and the reasons its failure is explored with.
-    fn awaited(&self, pending: &crate::player::Pending) -> Rc<Known> {
-        let key = match &pending.kind {
+    fn known(&self, pending: &crate::player::Pending) -> std::borrow::Cow<'_, Known> {
+        let found = match &pending.kind {
             PendingKind::Call { program, function } => {
-                Awaited::Call(pending.net, *program, *function)
+                self.calls.get(&(pending.net, *program, *function))
             }
-            PendingKind::Command { verb } => Awaited::Command(pending.net, verb.clone()),
+            PendingKind::Command { verb } => self
+                .commands
+                .iter()
+                .find(|(n, v, _)| *n == pending.net && v == verb)
+                .map(|(_, _, k)| k),
         };
-        if let Some(known) = self.awaited.borrow().get(&key) {
-            return known.clone();
+        match found {
+            Some(k) => std::borrow::Cow::Borrowed(k),
+            // Not issued by an action of the project: worked out now.
+            None => std::borrow::Cow::Owned(self.compute_known(pending)),
         }
-        let known = Rc::new((
+    }
+
+    fn compute_known(&self, pending: &crate::player::Pending) -> Known {
+        (
             self.compute_relevant(pending),
             self.compute_failure_reasons(pending),
-        ));
-        self.awaited.borrow_mut().insert(key, known.clone());
-        known
+        )
     }
 
     fn relevant(&self, pending: &crate::player::Pending) -> bool {
-        self.awaited(pending).0
+        self.known(pending).0
     }
-
     /// Whether the result of a pending call or command can ever fire a
     /// transition of the net that awaits it.
     fn compute_relevant(&self, pending: &crate::player::Pending) -> bool {
@@ -407,8 +557,25 @@ impl Explorer {
     }
 
     fn inputs(&self, abs: &Abs) -> Vec<Input> {
-        let mut inputs: Vec<Input> = self.externals.iter().cloned().map(Input::Event).collect();
-        let timers = &abs.state.timers;
+        let state = &abs.state;
+        // An external event none of whose transitions is enabled by the
+        // marking (or that the lockout drops) changes nothing: the player
+        // would not even look at a guard. Not run.
+        let mut inputs: Vec<Input> = (0..self.externals.len())
+            .filter(|&i| {
+                let x = &self.externals[i];
+                (!state.lockout || x.catastrophic)
+                    && x.waiting.iter().any(|&(n, t)| {
+                        state.active[n]
+                            && self.project.nets[n].transitions[t]
+                                .flat_inputs
+                                .iter()
+                                .all(|&p| state.marked(p))
+                    })
+            })
+            .map(Input::Event)
+            .collect();
+        let timers = &state.timers;
         for (i, t) in timers.iter().enumerate() {
             let blocked = timers.iter().enumerate().any(|(j, u)| {
                 j != i
@@ -419,12 +586,12 @@ impl Explorer {
                 inputs.push(Input::Timer(i));
             }
         }
-        for (id, pending) in &abs.state.pending {
+        for (id, pending) in &state.pending {
             inputs.push(Input::Result {
                 id: *id,
                 reason: None,
             });
-            for reason in &self.awaited(pending).1 {
+            for reason in &self.known(pending).1 {
                 inputs.push(Input::Result {
                     id: *id,
                     reason: Some(reason.clone()),
@@ -432,6 +599,136 @@ impl Explorer {
             }
         }
         inputs
+    }
+
+    fn successors(&self, w: &mut Worker, key: &[u8], out: &mut levels::Successors<'_>) {
+        let abs = self.codec.decode(key);
+        for input in self.inputs(&abs) {
+            w.this_input.clear();
+            w.this_input_keys.clear();
+            let concrete = w.concrete.get_or_insert_with(|| abs.state.clone());
+            let seq_before = set_concrete(&abs, &input, concrete);
+            let concrete = &*concrete;
+            // Every sequence of oracle answers, depth first.
+            let mut todo: Vec<Vec<bool>> = vec![Vec::new()];
+            while let Some(answers) = todo.pop() {
+                let Some(player) = self.step(&mut w.player, concrete, &input, &answers) else {
+                    continue;
+                };
+                w.effects.clear();
+                w.effects.extend(player.effects());
+                let questions: &[Question] = player.oracle().map_or(&[], |o| &o.questions);
+                let asked = questions.len();
+                for k in answers.len()..asked {
+                    let mut alt = answers.clone();
+                    alt.resize(k, false);
+                    alt.push(true);
+                    todo.push(alt);
+                }
+                let mut used = answers.clone();
+                used.resize(asked, false);
+                self.codec.encode(
+                    player.state(),
+                    seq_before,
+                    T + 1,
+                    Some(&abs),
+                    &|p| self.relevant(p),
+                    &mut w.scratch,
+                    &mut w.next,
+                );
+                let effects = &w.effects;
+                let mut unsafe_by = None;
+                let mut livelock = None;
+                let mut fires = false;
+                for e in effects {
+                    match e {
+                        Effect::Fired { .. } => fires = true,
+                        Effect::Fault {
+                            fault: Fault::DoubleToken { net, .. },
+                            ..
+                        } => unsafe_by = unsafe_by.or(Some(*net)),
+                        Effect::Fault {
+                            fault: Fault::Livelock { net, .. },
+                            ..
+                        } => livelock = Some(Some(*net)),
+                        Effect::Fault {
+                            fault: Fault::Overflow { .. },
+                            ..
+                        } => livelock = livelock.or(Some(None)),
+                        _ => {}
+                    }
+                }
+                if !fires && unsafe_by.is_none() && livelock.is_none() && w.next == key {
+                    continue; // nothing happened: not an edge
+                }
+                // The step's label, known by what its text says.
+                label_key(&abs, &input, questions, &used, effects, &mut w.label_key);
+                let local = match w.index.get(&w.label_key) {
+                    Some(&l) => l,
+                    None => {
+                        let l = w.labels.len() as u32;
+                        let label = Label {
+                            text: self.describe(&abs, &input, questions, &used, effects),
+                            fired: fired_of(effects),
+                            unsafe_by,
+                            livelock,
+                        };
+                        w.labels.push((w.label_key.clone(), label));
+                        w.index.insert(w.label_key.clone(), l);
+                        w.global.push(u32::MAX);
+                        l
+                    }
+                };
+                // Answers that end alike (an event lacking `lat` or `lon`
+                // is rejected the same way) make one edge: the first.
+                let label = &w.labels[local as usize].1;
+                if w.this_input.iter().any(|(l, range)| {
+                    w.this_input_keys[range.clone()] == w.next[..]
+                        && w.labels[*l as usize].1.alike(label)
+                }) {
+                    continue;
+                }
+                let start = w.this_input_keys.len();
+                w.this_input_keys.extend_from_slice(&w.next);
+                w.this_input.push((local, start..w.this_input_keys.len()));
+                out.push(local, &w.next);
+            }
+        }
+    }
+
+    /// Runs one input on `concrete` (see [`set_concrete`]) with the oracle's
+    /// `answers`, in the worker's player: the player after it.
+    fn step<'p>(
+        &self,
+        slot: &'p mut Option<Player>,
+        concrete: &State,
+        input: &Input,
+        answers: &[bool],
+    ) -> Option<&'p mut Player> {
+        let player = match slot {
+            Some(player) => {
+                player.reset_for_verifier(concrete, answers);
+                player
+            }
+            None => {
+                // A state the explorer built itself always fits its project.
+                let mut player = Player::restore(self.project.clone(), concrete.clone()).ok()?;
+                player.set_oracle(Some(Oracle::new(answers.to_vec())));
+                slot.insert(player)
+            }
+        };
+        match input {
+            Input::Event(i) => player.handle(&self.externals[*i].event, T + 1),
+            Input::Timer(_) => player.advance(T + 1),
+            Input::Result { id, reason } => {
+                let outcome = match reason {
+                    None => Outcome::Done(Params::new()),
+                    Some(r) => Outcome::Failed(r.clone()),
+                };
+                player.result(*id, outcome, T + 1);
+            }
+        }
+        Some(player)
     }
 
     /// The reasons a failed call or command is explored with: one per way
@@ -489,120 +786,6 @@ impl Explorer {
         out
     }
 
-    fn successors(&mut self, abs: &Abs, out: &mut Vec<(u32, Abs)>) {
-        for input in self.inputs(abs) {
-            // This input's successors start here in `out`.
-            let first = out.len();
-            // Every sequence of oracle answers, depth first.
-            let mut todo: Vec<Vec<bool>> = vec![Vec::new()];
-            while let Some(answers) = todo.pop() {
-                let (state, effects, questions, seq_before) = self.step(abs, &input, &answers);
-                let asked = questions.len();
-                for k in answers.len()..asked {
-                    let mut alt = answers.clone();
-                    alt.resize(k, false);
-                    alt.push(true);
-                    todo.push(alt);
-                }
-                let mut used = answers.clone();
-                used.resize(asked, false);
-                let fired = fired_of(&effects);
-                let next = normalize(state, seq_before, T + 1, Some(abs), &|p| self.relevant(p));
-                let mut unsafe_by = None;
-                let mut livelock = None;
-                for e in &effects {
-                    match e {
-                        Effect::Fault {
-                            fault: Fault::DoubleToken { net, .. },
-                            ..
-                        } => unsafe_by = unsafe_by.or(Some(*net)),
-                        Effect::Fault {
-                            fault: Fault::Livelock { net, .. },
-                            ..
-                        } => livelock = Some(Some(*net)),
-                        Effect::Fault {
-                            fault: Fault::Overflow { .. },
-                            ..
-                        } => livelock = livelock.or(Some(None)),
-                        _ => {}
-                    }
-                }
-                if fired.is_empty()
-                    && unsafe_by.is_none()
-                    && livelock.is_none()
-                    && next.key == abs.key
-                {
-                    continue; // nothing happened: not an edge
-                }
-                // Answers that end alike (an event lacking `lat` or `lon`
-                // is rejected the same way) make one edge: the first.
-                let labels = &self.labels;
-                if out[first..].iter().any(|(l, a)| {
-                    let l = &labels[*l as usize];
-                    a.key == next.key
-                        && l.fired == fired
-                        && l.unsafe_by == unsafe_by
-                        && l.livelock == livelock
-                }) {
-                    continue;
-                }
-                let label = self.labels.len() as u32;
-                self.labels.push(Label {
-                    text: self.describe(abs, &input, &questions, &used, &effects),
-                    fired,
-                    unsafe_by,
-                    livelock,
-                });
-                out.push((label, next));
-            }
-        }
-    }
-
-    /// Runs one input on the concrete state of `abs`.
-    fn step(
-        &self,
-        abs: &Abs,
-        input: &Input,
-        answers: &[bool],
-    ) -> (State, Vec<Effect>, Vec<Question>, u64) {
-        let expire = match input {
-            Input::Timer(i) => Some(*i),
-            _ => None,
-        };
-        let mut concrete = abs.state.clone();
-        concrete.now = T;
-        for (i, t) in concrete.timers.iter_mut().enumerate() {
-            t.deadline = if Some(i) == expire {
-                T + 1
-            } else {
-                T + 2 + t.deadline
-            };
-        }
-        concrete.timers.sort_by_key(|t| (t.deadline, t.seq));
-        let seq_before = concrete.next_timer_seq;
-        let Ok(mut player) = Player::restore(self.project.clone(), concrete) else {
-            // A state the explorer built itself always fits its project.
-            return (abs.state.clone(), Vec::new(), Vec::new(), seq_before);
-        };
-        player.set_oracle(Some(Oracle::new(answers.to_vec())));
-        match input {
-            Input::Event(name) => player.handle(&Event::new(name.clone()), T + 1),
-            Input::Timer(_) => player.advance(T + 1),
-            Input::Result { id, reason } => {
-                let outcome = match reason {
-                    None => Outcome::Done(Params::new()),
-                    Some(r) => Outcome::Failed(r.clone()),
-                };
-                player.result(*id, outcome, T + 1);
-            }
-        }
-        let effects: Vec<Effect> = player.effects().collect();
-        let questions = player
-            .oracle()
-            .map_or_else(Vec::new, |o| o.questions.clone());
-        (player.snapshot(), effects, questions, seq_before)
-    }
-
     fn describe(
         &self,
         abs: &Abs,
@@ -613,7 +796,7 @@ impl Explorer {
     ) -> String {
         let p = &self.project;
         let mut text = match input {
-            Input::Event(name) => name.clone(),
+            Input::Event(i) => self.externals[*i].event.name.clone(),
             Input::Timer(i) => {
                 let t = &abs.state.timers[*i];
                 format!(
@@ -640,7 +823,7 @@ impl Explorer {
                         .state
                         .pending
                         .get(id)
-                        .map_or(1, |x| self.awaited(x).1.len());
+                        .map_or(1, |x| self.known(x).1.len());
                     if explored > 1 {
                         text.push_str(&format!(" [reason: {r:?}]"));
                     }
@@ -709,6 +892,151 @@ impl Explorer {
     }
 }
 
+/// The concrete state an input runs on: `abs` at instant `T`, every timer
+/// due after the step's instant, except the one the input expires (due at
+/// it); and the start order the step's first new timer gets.
+fn set_concrete(abs: &Abs, input: &Input, concrete: &mut State) -> u64 {
+    let expire = match input {
+        Input::Timer(i) => Some(*i),
+        _ => None,
+    };
+    let from = &abs.state;
+    concrete.marking.clone_from(&from.marking);
+    concrete.active.clone_from(&from.active);
+    concrete.timers.clone_from(&from.timers);
+    concrete
+        .queue
+        .iter_mut()
+        .for_each(std::collections::VecDeque::clear);
+    concrete.lockout = from.lockout;
+    if concrete.pending != from.pending {
+        concrete.pending.clone_from(&from.pending);
+    }
+    concrete.next_id = from.next_id;
+    concrete.next_timer_seq = from.next_timer_seq;
+    concrete.now = T;
+    for (i, t) in concrete.timers.iter_mut().enumerate() {
+        t.deadline = if Some(i) == expire {
+            T + 1
+        } else {
+            T + 2 + t.deadline
+        };
+    }
+    concrete.timers.sort_by_key(|t| (t.deadline, t.seq));
+    concrete.next_timer_seq
+}
+
+/// The bytes that tell one step's label from another's: the input, the
+/// oracle's answers, what fired and the faults its text names (the label is
+/// a function of them).
+fn label_key(
+    abs: &Abs,
+    input: &Input,
+    questions: &[Question],
+    answers: &[bool],
+    effects: &[Effect],
+    out: &mut Vec<u8>,
+) {
+    out.clear();
+    let u32_ = |out: &mut Vec<u8>, v: usize| out.extend_from_slice(&(v as u32).to_le_bytes());
+    let str_ = |out: &mut Vec<u8>, s: &str| {
+        out.extend_from_slice(&(s.len() as u32).to_le_bytes());
+        out.extend_from_slice(s.as_bytes());
+    };
+    match input {
+        Input::Event(i) => {
+            out.push(0);
+            u32_(out, *i);
+        }
+        Input::Timer(i) => {
+            let t = &abs.state.timers[*i];
+            out.push(1);
+            u32_(out, t.net);
+            u32_(out, t.timer);
+        }
+        Input::Result { id, reason } => {
+            out.push(2);
+            match abs.state.pending.get(id) {
+                Some(p) => {
+                    out.push(1);
+                    u32_(out, p.net);
+                    match &p.kind {
+                        PendingKind::Call { program, function } => {
+                            out.push(0);
+                            u32_(out, *program);
+                            u32_(out, *function);
+                        }
+                        PendingKind::Command { verb } => {
+                            out.push(1);
+                            str_(out, verb);
+                        }
+                    }
+                }
+                None => {
+                    out.push(0);
+                    out.extend_from_slice(&id.to_le_bytes());
+                }
+            }
+            match reason {
+                None => out.push(0),
+                Some(r) => {
+                    out.push(1);
+                    str_(out, r);
+                }
+            }
+        }
+    }
+    u32_(out, questions.len());
+    for (q, a) in questions.iter().zip(answers) {
+        match q {
+            Question::Guard => out.push(u8::from(*a)),
+            Question::Carries(p) => {
+                out.push(2 + u8::from(*a));
+                str_(out, p);
+            }
+        }
+    }
+    for e in effects {
+        match e {
+            Effect::Fired {
+                net, transition, ..
+            } => {
+                out.push(b'F');
+                u32_(out, *net);
+                u32_(out, *transition);
+            }
+            Effect::Fault { fault, .. } => match fault {
+                Fault::DoubleToken {
+                    net,
+                    transition,
+                    place,
+                } => {
+                    out.push(b'D');
+                    u32_(out, *net);
+                    u32_(out, *transition);
+                    u32_(out, *place);
+                }
+                Fault::Livelock {
+                    net,
+                    transition,
+                    firings,
+                } => {
+                    out.push(b'L');
+                    u32_(out, *net);
+                    u32_(out, *transition);
+                    u32_(out, *firings);
+                }
+                Fault::Overflow { steps } => {
+                    out.push(b'O');
+                    u32_(out, *steps);
+                }
+                _ => {}
+            },
+            _ => {}
+        }
+    }
+}
+
 /// The strings a guard compares its `reason` parameter with.
 fn reason_literals(expr: &crate::expr::Expr, out: &mut BTreeSet<String>) {
     use crate::expr::Expr;
@@ -756,7 +1084,9 @@ impl Explored {
         let space = &self.space;
         let g = &space.graph;
         let labels = &self.labels;
-        let n = space.states.len();
+        let n = space.store.len();
+        let codec = &self.codec;
+        let key = |s: u32| space.store.get(s);
         let project = &self.project;
         let path = |node: u32| -> Vec<String> {
             space
@@ -793,7 +1123,7 @@ impl Explored {
             }
         }
         while let Some(s) = queue.pop_front() {
-            for &p in &reverse[s as usize] {
+            for (_, p) in reverse.edges(s) {
                 if !live[p as usize] {
                     live[p as usize] = true;
                     queue.push_back(p);
@@ -816,10 +1146,10 @@ impl Explored {
             .collect();
         let dead: Vec<u32> = (0..n as u32)
             .filter(|&s| {
-                let st = &space.states[s as usize].state;
+                let st = key(s);
                 !live[s as usize]
-                    && net.is_none_or(|x| st.active[x])
-                    && !finals.iter().any(|&p| st.marked(p))
+                    && net.is_none_or(|x| codec.active(st, x))
+                    && !finals.iter().any(|&p| codec.marked(st, p))
             })
             .collect();
 
@@ -831,24 +1161,33 @@ impl Explored {
                 let offset = project.place_offsets[x];
                 let places = project.nets[x].places.len();
                 let mut ids: HashMap<Vec<u8>, u32> = HashMap::new();
-                let view: Vec<u32> = space
-                    .states
-                    .iter()
-                    .map(|a| {
-                        let mut key = vec![u8::from(a.state.active[x])];
-                        key.extend((0..places).map(|i| u8::from(a.state.marked(offset + i))));
+                let mut buf: Vec<u8> = Vec::with_capacity(places + 1);
+                let view: Vec<u32> = (0..n as u32)
+                    .map(|s| {
+                        let st = key(s);
+                        buf.clear();
+                        buf.push(u8::from(codec.active(st, x)));
+                        buf.extend((0..places).map(|i| u8::from(codec.marked(st, offset + i))));
+                        if let Some(&id) = ids.get(&buf) {
+                            return id;
+                        }
                         let next = ids.len() as u32;
-                        *ids.entry(key).or_insert(next)
+                        ids.insert(buf.clone(), next);
+                        next
                     })
                     .collect();
-                let mut moves: HashSet<(u32, u32)> = HashSet::new();
+                let mut moves: Vec<u64> = Vec::new();
                 for s in 0..n as u32 {
                     for (l, t) in g.edges(s) {
                         if labels[*l as usize].fires(net) {
-                            moves.insert((view[s as usize], view[t as usize]));
+                            moves.push(
+                                u64::from(view[s as usize]) << 32 | u64::from(view[t as usize]),
+                            );
                         }
                     }
                 }
+                moves.sort_unstable();
+                moves.dedup();
                 let dead_views: HashSet<u32> = dead.iter().map(|&s| view[s as usize]).collect();
                 (ids.len(), moves.len(), dead_views.len())
             }
@@ -923,10 +1262,7 @@ impl Explored {
                 places.into_iter().collect()
             }
         };
-        let any_tokens = space
-            .states
-            .iter()
-            .any(|a| scope.iter().any(|&p| a.state.marked(p)));
+        let any_tokens = (0..n as u32).any(|s| scope.iter().any(|&p| codec.marked(key(s), p)));
         let with_step = |(s, l): (u32, u32)| {
             let mut p = path(s);
             p.push(labels[l as usize].text.clone());
@@ -960,77 +1296,6 @@ fn cycle_labels(g: &Csr<u32>, labels: &[Label], cycle: &[u32], net: Option<NetId
         }
     }
     out
-}
-
-/// Puts a state in abstract form: no time, renumbered ids and timers.
-/// How many identical pending calls (same net, same function or verb) the
-/// abstract state keeps: more copies add no behaviour a step can tell apart
-/// except how many results may still come, and would make the state space
-/// infinite for nets that never collect a result.
-const MAX_SAME_PENDING: usize = 2;
-
-fn normalize(
-    mut state: State,
-    seq_before: u64,
-    step_time: Micros,
-    prev: Option<&Abs>,
-    relevant: &dyn Fn(&crate::player::Pending) -> bool,
-) -> Abs {
-    // Each timer's group and duration.
-    let mut old: HashMap<u64, (u32, u64)> = HashMap::new();
-    if let Some(prev) = prev {
-        for (t, g) in prev.state.timers.iter().zip(&prev.groups) {
-            old.insert(t.seq, (*g, t.deadline));
-        }
-    }
-    let fresh = u32::MAX;
-    let mut timers: Vec<(crate::player::Timer, u32)> = state
-        .timers
-        .drain(..)
-        .map(|mut t| {
-            let (group, duration) = if t.seq >= seq_before || prev.is_none() {
-                (fresh, t.deadline.saturating_sub(step_time.min(t.deadline)))
-            } else {
-                old.get(&t.seq).copied().unwrap_or((fresh, 0))
-            };
-            t.deadline = duration;
-            (t, group)
-        })
-        .collect();
-    // Canonical order: by net and timer (unique, since restarting replaces).
-    timers.sort_by_key(|(t, _)| (t.net, t.timer));
-    let mut seqs: Vec<u64> = timers.iter().map(|(t, _)| t.seq).collect();
-    seqs.sort_unstable();
-    let mut group_ids: HashMap<u32, u32> = HashMap::new();
-    let mut groups = Vec::with_capacity(timers.len());
-    for (t, g) in &mut timers {
-        t.seq = seqs.binary_search(&t.seq).unwrap_or(0) as u64;
-        let next = group_ids.len() as u32;
-        groups.push(*group_ids.entry(*g).or_insert(next));
-    }
-    state.next_timer_seq = timers.len() as u64;
-    state.timers = timers.into_iter().map(|(t, _)| t).collect();
-    // Pending calls whose result nothing awaits are dropped; identical ones
-    // are kept up to MAX_SAME_PENDING; ids are renumbered from 1, in order.
-    let pending = std::mem::take(&mut state.pending);
-    let mut kept: Vec<crate::player::Pending> = Vec::new();
-    for p in pending.into_values() {
-        if relevant(&p) && kept.iter().filter(|k| **k == p).count() < MAX_SAME_PENDING {
-            kept.push(p);
-        }
-    }
-    state.pending = kept
-        .into_iter()
-        .enumerate()
-        .map(|(i, p)| (i as u64 + 1, p))
-        .collect();
-    state.next_id = state.pending.len() as u64 + 1;
-    state.now = 0;
-    let mut key = canonical_bytes(&state);
-    for g in &groups {
-        key.extend_from_slice(&g.to_le_bytes());
-    }
-    Abs { state, groups, key }
 }
 
 /// Events that may come from outside: every event a transition waits for,

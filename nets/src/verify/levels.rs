@@ -1,0 +1,220 @@
+//! Breadth-first exploration level by level, on several threads, of states
+//! kept as bytes ([`KeyStore`]): the project explorer's search.
+//!
+//! Each level's states are cut into small chunks that the workers take in
+//! turn (threads scoped to the level, joined before it ends); a worker lists
+//! a state's labelled successors, resolving those already stored (the store
+//! is only read during the level). Then one thread merges the chunks in
+//! order: new states get the next numbers, edges and parent links are added
+//! as a single-threaded search would add them. The numbering, the edges and
+//! the labels are therefore the same whatever the number of threads, and
+//! the parent links give shortest paths.
+//!
+//! Labels are the workers' own numbers until the merge turns them into the
+//! search's ([`Explore::label`]), so that a worker never waits on another.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use super::graph::Csr;
+use super::project_states::{hash, KeyStore};
+
+/// States per chunk a worker takes at once.
+const CHUNK: usize = 16;
+/// Levels smaller than this are expanded on the calling thread.
+const PARALLEL_FROM: usize = 64;
+
+/// What the search asks of the state space it explores.
+pub(super) trait Explore: Sync {
+    type Worker: Send;
+    /// A worker's own buffers and label numbers.
+    fn worker(&self) -> Self::Worker;
+    /// Lists the successors of the state `key` into `out`.
+    fn expand(&self, worker: &mut Self::Worker, key: &[u8], out: &mut Successors<'_>);
+    /// The search's number for a worker's label `local` (called in merge
+    /// order, so that labels are numbered as one thread would).
+    fn label(&self, worker: &mut Self::Worker, local: u32) -> u32;
+}
+
+/// A target already stored, or a new key's place in [`Chunk::bytes`].
+enum Target {
+    Known(u32),
+    New { hash: u64, start: usize, end: usize },
+}
+
+/// One chunk's successors.
+#[derive(Default)]
+struct Chunk {
+    /// Successors of each state of the chunk.
+    counts: Vec<u32>,
+    edges: Vec<(u32, Target)>,
+    bytes: Vec<u8>,
+}
+
+/// Where [`Explore::expand`] puts a state's successors.
+pub(super) struct Successors<'a> {
+    store: &'a KeyStore,
+    chunk: &'a mut Chunk,
+    count: u32,
+}
+
+impl Successors<'_> {
+    /// A successor `key` reached by a step labelled `label` (the worker's
+    /// number).
+    pub fn push(&mut self, label: u32, key: &[u8]) {
+        let h = hash(key);
+        let target = match self.store.lookup(key, h) {
+            Some(i) => Target::Known(i),
+            None => {
+                let start = self.chunk.bytes.len();
+                self.chunk.bytes.extend_from_slice(key);
+                Target::New {
+                    hash: h,
+                    start,
+                    end: self.chunk.bytes.len(),
+                }
+            }
+        };
+        self.chunk.edges.push((label, target));
+        self.count += 1;
+    }
+}
+
+/// The reachable states: keys in breadth-first order (state 0 is the
+/// initial state), a parent link per state, the labelled graph.
+pub(super) struct Space {
+    pub store: KeyStore,
+    /// For each state but the first: the state it was first reached from and
+    /// the label of that edge.
+    pub parents: Vec<Option<(u32, u32)>>,
+    pub graph: Csr<u32>,
+    /// False when the state limit stopped the exploration (then the states
+    /// past the limit are missing).
+    pub complete: bool,
+}
+
+impl Space {
+    /// The labels of a shortest path from the initial state to `node`.
+    pub fn path_to(&self, node: u32) -> Vec<u32> {
+        let mut path = Vec::new();
+        let mut n = node;
+        while let Some((p, l)) = self.parents[n as usize] {
+            path.push(l);
+            n = p;
+        }
+        path.reverse();
+        path
+    }
+}
+
+/// Explores from `initial` with `threads` workers (at least one), storing
+/// at most `max_states` states; `progress` is told how many states were
+/// expanded after each one.
+pub(super) fn explore<E: Explore>(
+    space: &E,
+    initial: &[u8],
+    max_states: usize,
+    threads: usize,
+    progress: &mut dyn FnMut(usize),
+) -> Space {
+    let mut store = KeyStore::new();
+    store.insert(initial, hash(initial));
+    let mut out = Space {
+        store,
+        parents: vec![None],
+        graph: Csr::default(),
+        complete: true,
+    };
+    let mut workers: Vec<E::Worker> = (0..threads.max(1)).map(|_| space.worker()).collect();
+    let mut level = 0..1usize;
+    let mut edges: Vec<(u32, u32)> = Vec::new();
+    while !level.is_empty() {
+        let chunks = expand_level(space, &mut workers, &out.store, level.clone());
+        // Merge in order.
+        let mut node = level.start as u32;
+        for (w, chunk) in chunks {
+            let mut e = chunk.edges.into_iter();
+            for count in chunk.counts {
+                edges.clear();
+                for (local, target) in e.by_ref().take(count as usize) {
+                    let label = space.label(&mut workers[w], local);
+                    let target = match target {
+                        Target::Known(i) => i,
+                        Target::New { hash, start, end } => {
+                            let key = &chunk.bytes[start..end];
+                            match out.store.lookup(key, hash) {
+                                Some(i) => i,
+                                None if out.store.len() >= max_states => {
+                                    out.complete = false;
+                                    continue;
+                                }
+                                None => {
+                                    out.parents.push(Some((node, label)));
+                                    out.store.insert(key, hash)
+                                }
+                            }
+                        }
+                    };
+                    edges.push((label, target));
+                }
+                out.graph.push_node(edges.drain(..));
+                node += 1;
+                progress(node as usize);
+            }
+        }
+        level = level.end..out.store.len();
+    }
+    out
+}
+
+/// The chunks of one level, in order, each with the worker that made it.
+fn expand_level<E: Explore>(
+    space: &E,
+    workers: &mut [E::Worker],
+    store: &KeyStore,
+    level: std::ops::Range<usize>,
+) -> Vec<(usize, Chunk)> {
+    let expand_chunk = |worker: &mut E::Worker, states: std::ops::Range<usize>| {
+        let mut chunk = Chunk::default();
+        for s in states {
+            let mut out = Successors {
+                store,
+                chunk: &mut chunk,
+                count: 0,
+            };
+            space.expand(worker, store.get(s as u32), &mut out);
+            let count = out.count;
+            chunk.counts.push(count);
+        }
+        chunk
+    };
+    if workers.len() == 1 || level.len() < PARALLEL_FROM {
+        return vec![(0, expand_chunk(&mut workers[0], level))];
+    }
+    let n = level.len().div_ceil(CHUNK);
+    let next = AtomicUsize::new(0);
+    let done: Mutex<Vec<(usize, usize, Chunk)>> = Mutex::new(Vec::with_capacity(n));
+    std::thread::scope(|scope| {
+        for (w, worker) in workers.iter_mut().enumerate() {
+            let (next, done, level, expand_chunk) = (&next, &done, &level, &expand_chunk);
+            scope.spawn(move || {
+                let mut mine = Vec::new();
+                loop {
+                    let c = next.fetch_add(1, Ordering::Relaxed);
+                    if c >= n {
+                        break;
+                    }
+                    let start = level.start + c * CHUNK;
+                    let end = (start + CHUNK).min(level.end);
+                    mine.push((c, w, expand_chunk(worker, start..end)));
+                }
+                if let Ok(mut d) = done.lock() {
+                    d.extend(mine);
+                }
+            });
+        }
+    });
+    let mut chunks = done.into_inner().unwrap_or_default();
+    chunks.sort_by_key(|(c, _, _)| *c);
+    chunks.into_iter().map(|(_, w, chunk)| (w, chunk)).collect()
+}
