@@ -9,6 +9,7 @@ pub mod draw;
 pub mod events;
 pub mod export;
 pub mod play;
+pub mod recover;
 pub mod replay;
 pub mod run;
 pub mod stubs;

@@ -38,4 +38,5 @@ pub mod file;
 pub mod layout;
 pub mod read;
 pub mod recorder;
+pub mod recover;
 mod writer;

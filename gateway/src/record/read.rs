@@ -205,7 +205,7 @@ const RECORD_LIMIT: usize = 256 << 20;
 
 /// Hands each record of a chunk (given as its whole record: opcode, length,
 /// body) to `f`, after checking the chunk's CRC.
-fn chunk_records(
+pub(super) fn chunk_records(
     raw: &[u8],
     mut f: impl FnMut(u8, &[u8]) -> Result<(), String>,
 ) -> Result<(), String> {
