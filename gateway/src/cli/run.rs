@@ -521,6 +521,7 @@ impl Gateway {
             programs.shutdown().await;
         }
         if let Some(rec) = recorder {
+            let dropped = rec.dropped();
             match rec.finish() {
                 Ok(report) if report.dropped > 0 => eprintln!(
                     "recorded {} steps; the recorder fell behind and dropped {} entries ({} steps): replay stops at the first",
@@ -530,7 +531,9 @@ impl Gateway {
                     "recorded {} steps, {} messages",
                     report.steps, report.messages
                 ),
-                Err(e) => eprintln!("the recording is incomplete: {e}"),
+                Err(e) => eprintln!(
+                    "the recording stopped in flight ({e}); {dropped} entries were not recorded"
+                ),
             }
         }
         let player = supervisor.player();

@@ -74,6 +74,9 @@ pub enum RecordError {
 
 impl From<mcap::McapError> for RecordError {
     fn from(e: mcap::McapError) -> Self {
+        if let mcap::McapError::Io(e) = &e {
+            return RecordError::Write(e.to_string());
+        }
         // The MCAP error's own text does not say which I/O error it was.
         let mut text = e.to_string();
         if let Some(source) = std::error::Error::source(&e) {
@@ -134,15 +137,20 @@ struct Stopped {
     file: String,
     reason: String,
     steps: u64,
+    /// The Supervisor time of the last step written (µs).
+    at: Micros,
 }
 
 impl std::fmt::Display for Stopped {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "RECORDING STOPPED: {} ({}); {} steps recorded, readable up to the last second before this; \
+            "RECORDING STOPPED at t = {:.1} s: {} ({}); {} steps recorded, readable up to the last chunk closed before; \
              the flight goes on unrecorded, what is not recorded is counted",
-            self.file, self.reason, self.steps
+            nets::time::seconds(self.at),
+            self.file,
+            self.reason,
+            self.steps
         )
     }
 }
@@ -227,9 +235,8 @@ impl Recorder {
         let thread = std::thread::Builder::new()
             .name("petrel-recorder".into())
             .spawn(move || {
-                let steps = |w: &Writer<W>| w.steps();
                 let result = writer.run(rx);
-                let written = steps(&writer);
+                let (written, at) = (writer.steps(), writer.last_time());
                 let result = result.and_then(|report| {
                     seal(writer.into_sink())
                         .map_err(|e| RecordError::Write(format!("cannot end the file: {e}")))?;
@@ -243,9 +250,8 @@ impl Recorder {
                         file: name,
                         reason: e.to_string(),
                         steps: written,
+                        at,
                     };
-                    // Never a panic if stderr is gone.
-                    let _ = writeln!(io::stderr(), "{stopped}");
                     tracing::error!("{stopped}");
                 }
                 result

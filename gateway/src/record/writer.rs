@@ -191,6 +191,11 @@ impl<W: Write + Seek> Writer<W> {
         self.steps
     }
 
+    /// The Supervisor time of the last step written.
+    pub(super) fn last_time(&self) -> Micros {
+        self.last_time
+    }
+
     /// The sink, once the file is finished.
     pub(super) fn into_sink(self) -> W {
         self.mcap.into_inner()

@@ -1,0 +1,27 @@
+//! The tlog reader and the elaborator: any bytes as a telemetry log, each
+//! frame elaborated with the built-in ArduPilot and PX4 profiles, ticks
+//! between frames, every event drained.
+#![no_main]
+
+use elaboration::{Config, Elaborator, Profile, TlogReader};
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    for name in ["ardupilot", "px4"] {
+        let Ok(profile) = Profile::builtin(name) else {
+            return;
+        };
+        let mut e = Elaborator::new(profile, Config::default());
+        let mut last = 0u64;
+        for rec in TlogReader::new(data) {
+            if rec.time_us > last {
+                e.tick(rec.time_us);
+            }
+            last = last.max(rec.time_us);
+            e.frame(rec.time_us, &rec.frame);
+            while e.poll_event().is_some() {}
+        }
+        e.tick(last.saturating_add(60_000_000));
+        while e.poll_event().is_some() {}
+    }
+});
