@@ -40,6 +40,7 @@ const VOCABULARY: [&str; 25] = [
     "gcs_restored",
     "link_degraded",
     "payload_failure",
+    "autopilot_rebooted",
 ];
 
 /// Frames from several senders, fed in time order through bytes, CRC and
@@ -451,7 +452,7 @@ fn both_builtin_profiles_define_the_whole_vocabulary_with_its_categories() {
         | "command_rejected"
         | "payload_failure" => Mission,
         "battery_low" | "gps_lost" | "gps_restored" | "ekf_unhealthy" | "geofence_breach"
-        | "rc_lost" | "autopilot_failsafe" | "motor_imbalance" => Safety,
+        | "rc_lost" | "autopilot_failsafe" | "motor_imbalance" | "autopilot_rebooted" => Safety,
         "battery_critical" | "engine_failure" | "vehicle_emergency" => Catastrophic,
         _ => Communication,
     };
