@@ -9,7 +9,10 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     if let Ok(doc) = pnml::read_document(text) {
-        let _ = doc.to_ptnet();
+        for net in &doc.nets {
+            let _ = net.to_ptnet();
+        }
+        let _ = pnml::write_document(&doc);
     }
     if let Ok(net) = pnml::read_ptnet(text) {
         // What it reads, it writes back and reads again.
