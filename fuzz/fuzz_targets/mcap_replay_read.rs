@@ -7,6 +7,9 @@ use libfuzzer_sys::fuzz_target;
 
 // At the crate's root, as `super::` in them expects.
 #[allow(dead_code)]
+#[path = "../../gateway/src/record/fields.rs"]
+mod fields;
+#[allow(dead_code)]
 #[path = "../../gateway/src/record/layout.rs"]
 mod layout;
 #[allow(dead_code)]

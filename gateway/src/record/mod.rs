@@ -34,6 +34,7 @@
 
 pub mod check;
 pub mod decoded;
+mod fields;
 pub mod file;
 pub mod layout;
 pub mod read;

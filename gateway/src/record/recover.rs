@@ -90,7 +90,7 @@ pub fn recover<W: Write + Seek>(bytes: &[u8], out: W) -> Result<Recovered, Recov
         };
         match opcode {
             op::DATA_END => {
-                copy.got.had_summary = matches!(mcap::Summary::read(bytes), Ok(Some(_)));
+                copy.got.had_summary = super::fields::has_summary(bytes);
                 break;
             }
             op::CHUNK => {
@@ -186,6 +186,11 @@ impl<W: Write + Seek> Copy<W> {
     }
 
     fn record(&mut self, opcode: u8, data: &[u8]) -> Result<(), Fault> {
+        if !super::fields::lengths_fit(opcode, data) {
+            return Err(Fault::Cut(format!(
+                "a damaged record (opcode {opcode:#04x}): a length inside it runs past its end"
+            )));
+        }
         let record = mcap::parse_record(opcode, data)
             .map_err(|e| Fault::Cut(format!("a bad record (opcode {opcode:#04x}): {e}")))?;
         if self.out.is_none() {
