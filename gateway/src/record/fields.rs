@@ -71,7 +71,9 @@ impl Fields<'_> {
                     data: self.data,
                     at: 0,
                 };
-                f.skip(4) && f.string() && f.string();
+                if !(f.skip(4) && f.string() && f.string()) {
+                    return false;
+                }
                 f.at
             }
             op::METADATA => {
@@ -79,7 +81,9 @@ impl Fields<'_> {
                     data: self.data,
                     at: 0,
                 };
-                f.string();
+                if !f.string() {
+                    return false;
+                }
                 f.at
             }
             _ => return true,
