@@ -52,7 +52,9 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             queue: 4096,
-            flush_every: Duration::from_secs(1),
+            // Under a second, so that what a kill loses (the chunk under
+            // way, plus the writer's 10 ms batches) stays within one.
+            flush_every: Duration::from_millis(900),
             clock_offset_ns: 0,
             profile: String::new(),
             profile_layers: Vec::new(),
