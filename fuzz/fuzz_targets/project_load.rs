@@ -21,8 +21,15 @@ fuzz_target!(|data: &[u8]| {
         let mut player = nets::Player::start(std::sync::Arc::new(project), 0);
         let _ = player.effects().count();
     }
-    // With the ArduPilot profile's catalog, as `petrel run` loads it.
-    if let Ok(profile) = elaboration::Profile::builtin("ardupilot") {
-        let _ = nets::load_with(&files, &profile.catalog());
+    // With the ArduPilot profile's catalog, as `petrel run` loads it
+    // (compiled once).
+    static CATALOG: std::sync::OnceLock<Option<nets::load::Catalog>> = std::sync::OnceLock::new();
+    let catalog = CATALOG.get_or_init(|| {
+        elaboration::Profile::builtin("ardupilot")
+            .ok()
+            .map(|p| p.catalog())
+    });
+    if let Some(catalog) = catalog {
+        let _ = nets::load_with(&files, catalog);
     }
 });
