@@ -66,6 +66,8 @@ pub struct Stats {
     pub sequence_lost: u64,
     /// Frames ignored because [`MAX_SOURCES`] senders were already followed.
     pub ignored_senders: u64,
+    /// Reboots detected (`reboot` rules fired).
+    pub reboots: u64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -131,6 +133,10 @@ pub struct Elaborator {
     events: VecDeque<Elaborated>,
     stats: Stats,
     enum_names: fields::EnumNames,
+    /// The frame being ingested: the frames its sequence number says were
+    /// lost, and its sender's loss average before it (undone if the frame
+    /// shows a reboot).
+    this_frame: (u64, f64),
 }
 
 impl Elaborator {
@@ -149,6 +155,7 @@ impl Elaborator {
             events: VecDeque::new(),
             stats: Stats::default(),
             enum_names: fields::EnumNames::default(),
+            this_frame: (0, 0.0),
         }
     }
 
@@ -288,11 +295,13 @@ impl Elaborator {
             return;
         };
         let src = &mut self.sources[si];
+        self.this_frame = (0, src.loss);
         if let Some(last) = src.last_seq {
             let lost = seq.wrapping_sub(last).wrapping_sub(1);
             // Large jumps are a restart or reordering, not losses.
             let lost = if lost < 128 { lost } else { 0 };
             self.stats.sequence_lost += lost as u64;
+            self.this_frame.0 = lost as u64;
             for _ in 0..lost {
                 src.loss += LOSS_WEIGHT * (1.0 - src.loss);
             }
@@ -444,6 +453,7 @@ impl Elaborator {
             state.clear_was_false = clear_now == Some(false);
         }
         let (sysid, compid) = (cx.src.sysid, cx.src.compid);
+        let reboot = rule.reboot;
         self.events.push_back(Elaborated {
             time_us: now,
             event: Event {
@@ -454,6 +464,41 @@ impl Elaborator {
             sysid,
             compid,
         });
+        if reboot {
+            self.forget_boot(si, slot);
+        }
+    }
+
+    /// The sender rebooted (a `reboot` rule fired on a message of `slot`):
+    /// what elaboration remembers of its previous boot is no baseline for
+    /// the new one. Forgotten: the sequence number (its restart is no
+    /// loss), the last values of every other message (a rule waits for
+    /// fresh ones rather than judge the new boot by the old one's GPS fix
+    /// or battery), the holds under way (`for`, `clear_for`) and the
+    /// repeats `distinct` rules remember (a pre-arm failure after a reboot
+    /// is news). Kept: liveness (the sender never stopped talking: no link
+    /// loss is invented), and each rule's state, so that a real change
+    /// across the reboot (armed before, disarmed after) is announced as
+    /// the change it is.
+    fn forget_boot(&mut self, si: usize, slot: usize) {
+        let src = &mut self.sources[si];
+        // The frame that shows the reboot restarted the sequence numbers:
+        // the gap it seemed to leave is no loss either.
+        let (lost, loss_before) = self.this_frame;
+        self.stats.sequence_lost = self.stats.sequence_lost.saturating_sub(lost);
+        src.loss = loss_before;
+        for (i, values) in src.values.iter_mut().enumerate() {
+            if i != slot {
+                *values = None;
+            }
+        }
+        for state in &mut src.rules {
+            state.pending_since = None;
+            state.clearing_since = None;
+            state.last_params.clear();
+            state.clear_was_false = false;
+        }
+        self.stats.reboots += 1;
     }
 
     /// Evaluates a rule that is not `each`: edges, durations, clearing.

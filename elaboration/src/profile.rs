@@ -112,6 +112,10 @@ pub struct Rule {
     /// since. 0: every message is
     /// an occurrence.
     pub distinct: usize,
+    /// (`each` rules) The rule detects the autopilot's reboot: when it
+    /// fires, what elaboration remembers of the sender's previous boot is
+    /// forgotten (docs/events.md, "Autopilot reboot").
+    pub reboot: bool,
     pub(crate) params: Vec<(String, Compiled)>,
     pub source: SourceFilter,
     /// Evaluated on ticks (reads `age()` or has a duration).
@@ -393,12 +397,13 @@ struct RuleSpec {
     initial: Option<bool>,
     each: Option<bool>,
     distinct: Option<usize>,
+    reboot: Option<bool>,
     enabled: Option<bool>,
     source: Option<(SourceFilter, usize, Range<usize>)>,
     params: BTreeMap<String, Text>,
 }
 
-const RULE_KEYS: &str = "event, category, when, clear, for, clear_for, cleared, cleared_category, initial, each, distinct, enabled, source, params";
+const RULE_KEYS: &str = "event, category, when, clear, for, clear_for, cleared, cleared_category, initial, each, distinct, reboot, enabled, source, params";
 
 fn read_layer(
     loc: &Locator,
@@ -496,6 +501,7 @@ fn read_rule(loc: &Locator, table: &DeTable, spec: &mut RuleSpec, problems: &mut
             "initial" => spec.initial = bool_of(loc, v, k, problems),
             "each" => spec.each = bool_of(loc, v, k, problems),
             "distinct" => spec.distinct = distinct_of(loc, v, problems),
+            "reboot" => spec.reboot = bool_of(loc, v, k, problems),
             "enabled" => spec.enabled = bool_of(loc, v, k, problems),
             "source" => {
                 if let Some(s) = read_source(loc, v, problems) {
@@ -773,6 +779,13 @@ impl Builder {
                 format!("rule `{key}`: `distinct` applies to `each` rules only (a rule without `each` fires once until `clear` anyway)"),
             ));
         }
+        let reboot = spec.reboot.unwrap_or(false);
+        if reboot && !each {
+            problems.push(decl.problem(
+                decl_span.clone(),
+                format!("rule `{key}`: `reboot` applies to `each` rules only (a reboot is an occurrence, seen on the message that shows it)"),
+            ));
+        }
         if each && distinct == 0 && spec.clear.is_some() {
             problems.push(decl.problem(
                 decl_span.clone(),
@@ -798,6 +811,7 @@ impl Builder {
             initial: spec.initial.unwrap_or(true),
             each,
             distinct,
+            reboot,
             params,
             source: spec
                 .source

@@ -70,6 +70,8 @@ enum Verb {
     Export(cli::export::Args),
     /// Replay recorded telemetry through elaboration and the player.
     Replay(cli::replay::Args),
+    /// Copy a recording cut short (no summary, a torn last chunk) into a clean, indexed MCAP.
+    Recover(cli::recover::Args),
     /// Fly the paper's UAV mission on a simulated ArduPlane with DEC, live.
     Demo(cli::demo::Args),
 }
@@ -110,6 +112,7 @@ fn main() -> ExitCode {
         Verb::Stubs(args) => cli::stubs::run(args),
         Verb::Export(args) => cli::export::run(args),
         Verb::Replay(args) => cli::replay::run(args),
+        Verb::Recover(args) => cli::recover::run(args),
         Verb::Demo(args) => cli::demo::run(args),
     };
     match outcome {

@@ -637,3 +637,126 @@ fn px4_without_a_radio_has_not_lost_it() {
     }
     assert_eq!(r.only(&["rc_lost"]), [(4 * S + MS, "rc_lost".to_string())]);
 }
+
+fn system_time(boot_ms: u32) -> MavMessage {
+    let mut d = SYSTEM_TIME_DATA::DEFAULT;
+    d.time_boot_ms = boot_ms;
+    d.time_unix_usec = 1_700_000_000_000_000 + boot_ms as u64 * 1000;
+    MavMessage::SYSTEM_TIME(d)
+}
+
+fn gps(fix: GpsFixType, satellites: u8) -> MavMessage {
+    let mut d = GPS_RAW_INT_DATA::DEFAULT;
+    d.fix_type = fix;
+    d.satellites_visible = satellites;
+    MavMessage::GPS_RAW_INT(d)
+}
+
+fn landed(state: MavLandedState) -> MavMessage {
+    let mut d = EXTENDED_SYS_STATE_DATA::DEFAULT;
+    d.landed_state = state;
+    MavMessage::EXTENDED_SYS_STATE(d)
+}
+
+/// An ArduCopter (and a PX4 copter) that flies, reboots in flight (its time since boot back to
+/// zero, its sequence numbers from 0 again), comes back disarmed without a
+/// GPS fix, then gets its fix and is ready again.
+#[test]
+fn an_autopilot_reboot_is_detected_and_the_old_boot_is_no_baseline() {
+    for profile in ["ardupilot", "px4"] {
+        let mut r = Run::new(profile);
+        let hb = |armed| {
+            let autopilot = if profile == "px4" {
+                MavAutopilot::MAV_AUTOPILOT_PX4
+            } else {
+                MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA
+            };
+            let status = if armed {
+                MavState::MAV_STATE_ACTIVE
+            } else {
+                MavState::MAV_STATE_STANDBY
+            };
+            heartbeat(autopilot, armed, status)
+        };
+        // On the ground, ready (fix, battery, pre-arm checks), then armed
+        // and flying for a minute.
+        let mut boot_ms = 20_000u32;
+        let mut t = 0;
+        for _ in 0..5 {
+            r.send(t, hb(false));
+            r.send(t + MS, prearm(true, 100, 12600));
+            r.send(t + 2 * MS, gps(GpsFixType::GPS_FIX_TYPE_3D_FIX, 12));
+            r.send(t + 3 * MS, system_time(boot_ms));
+            t += S;
+            boot_ms += 1000;
+        }
+        for _ in 0..60 {
+            r.send(t, hb(true));
+            r.send(t + 2 * MS, landed(MavLandedState::MAV_LANDED_STATE_IN_AIR));
+            r.send(t + 3 * MS, system_time(boot_ms));
+            // A duplicated, late frame goes back a little: no reboot.
+            r.send(t + 4 * MS, system_time(boot_ms - 300));
+            t += S;
+            boot_ms += 1000;
+        }
+        let before = r.out.len();
+        let lost_before = r.elab.stats().sequence_lost;
+        // The reboot: silence for 1.5 s (less than the link-loss time),
+        // then a new boot: time since boot and sequence numbers from 0.
+        t += 1_500 * MS;
+        r.seq = 0;
+        boot_ms = 300;
+        r.send(t, system_time(boot_ms));
+        let rebooted = r.only(&["autopilot_rebooted"]);
+        assert_eq!(
+            rebooted,
+            [(t, "autopilot_rebooted {boot_ms: 300}".to_string())],
+            "{profile}"
+        );
+        let e = r
+            .out
+            .iter()
+            .find(|e| e.event.name == "autopilot_rebooted")
+            .expect("the event");
+        assert_eq!(e.event.category, nets::Category::Safety, "{profile}");
+        assert_eq!(r.elab.stats().reboots, 1, "{profile}");
+        // The new boot: disarmed (a real change, announced), no fix yet
+        // but the previous boot's GPS fix and pre-arm health are forgotten:
+        // not ready until the new boot says so.
+        for _ in 0..5 {
+            t += S;
+            boot_ms += 1000;
+            r.send(t, hb(false));
+            r.send(t + 3 * MS, system_time(boot_ms));
+        }
+        let after: Vec<&str> = r.out[before..]
+            .iter()
+            .map(|e| e.event.name.as_str())
+            .collect();
+        assert!(after.contains(&"disarmed"), "{profile}: {after:?}");
+        assert!(
+            !after.contains(&"ready_for_takeoff"),
+            "{profile}: {after:?}"
+        );
+        // Nothing invented: no link loss (the autopilot never went silent
+        // for long), no loss counted for the sequence numbers' restart.
+        assert!(!after.contains(&"link_lost"), "{profile}: {after:?}");
+        assert_eq!(r.elab.stats().sequence_lost, lost_before, "{profile}");
+        // Fresh data from the new boot: ready again.
+        t += S;
+        r.send(t, prearm(true, 100, 12600));
+        r.send(t + MS, gps(GpsFixType::GPS_FIX_TYPE_3D_FIX, 12));
+        r.send(
+            t + 2 * MS,
+            landed(MavLandedState::MAV_LANDED_STATE_ON_GROUND),
+        );
+        r.send(t + 3 * MS, hb(false));
+        let names: Vec<&str> = r.out[before..]
+            .iter()
+            .map(|e| e.event.name.as_str())
+            .collect();
+        assert!(names.contains(&"ready_for_takeoff"), "{profile}: {names:?}");
+        // Only one reboot in all that.
+        assert_eq!(r.only(&["autopilot_rebooted"]).len(), 1, "{profile}");
+    }
+}

@@ -14,7 +14,7 @@ const S: u64 = 1_000_000;
 const MS: u64 = 1_000;
 
 /// The minimum vocabulary of issue 4.
-const VOCABULARY: [&str; 25] = [
+const VOCABULARY: [&str; 26] = [
     "armed",
     "disarmed",
     "mode_changed",
@@ -40,6 +40,7 @@ const VOCABULARY: [&str; 25] = [
     "gcs_restored",
     "link_degraded",
     "payload_failure",
+    "autopilot_rebooted",
 ];
 
 /// Frames from several senders, fed in time order through bytes, CRC and
@@ -243,6 +244,15 @@ fn ardupilot_copter_flight() -> Script {
                 MissionState::MISSION_STATE_ACTIVE
             };
             s.at(at + 40 * MS, 1, 1, mission_current(state));
+            // The autopilot reboots at 58 s: its time since boot from 0.
+            let boot_ms = if t < 58 {
+                200_000 + t * 1000
+            } else {
+                500 + (t - 58) * 1000
+            };
+            let mut st = SYSTEM_TIME_DATA::DEFAULT;
+            st.time_boot_ms = boot_ms as u32;
+            s.at(at + 45 * MS, 1, 1, MavMessage::SYSTEM_TIME(st));
         }
         // The ground station 255/190, silent from 40 to 50 s.
         if !(40..50).contains(&t) {
@@ -353,6 +363,7 @@ fn ardupilot_copter_flight_gives_the_whole_vocabulary() {
         (44 * S + 100 * MS, "gcs_lost {compid: 190, sysid: 255}"),
         (50 * S + 50 * MS, "gcs_restored"),
         (55 * S + 80 * MS, "link_degraded {remrssi: 50, rssi: 50}"),
+        (58 * S + 45 * MS, "autopilot_rebooted {boot_ms: 500}"),
     ];
     let pretty = got
         .iter()
@@ -451,7 +462,7 @@ fn both_builtin_profiles_define_the_whole_vocabulary_with_its_categories() {
         | "command_rejected"
         | "payload_failure" => Mission,
         "battery_low" | "gps_lost" | "gps_restored" | "ekf_unhealthy" | "geofence_breach"
-        | "rc_lost" | "autopilot_failsafe" | "motor_imbalance" => Safety,
+        | "rc_lost" | "autopilot_failsafe" | "motor_imbalance" | "autopilot_rebooted" => Safety,
         "battery_critical" | "engine_failure" | "vehicle_emergency" => Catastrophic,
         _ => Communication,
     };

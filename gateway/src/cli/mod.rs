@@ -10,6 +10,7 @@ pub mod events;
 pub mod export;
 pub mod mirror;
 pub mod play;
+pub mod recover;
 pub mod replay;
 pub mod run;
 pub mod stubs;

@@ -771,6 +771,7 @@ impl Gateway {
             programs.shutdown().await;
         }
         if let Some(rec) = recorder {
+            let dropped = rec.dropped();
             match rec.finish() {
                 Ok(report) if report.dropped > 0 => say!(
                     "recorded {} steps; the recorder fell behind and dropped {} entries ({} steps): replay stops at the first",
@@ -780,7 +781,9 @@ impl Gateway {
                     "recorded {} steps, {} messages",
                     report.steps, report.messages
                 ),
-                Err(e) => say!("the recording is incomplete: {e}"),
+                Err(e) => say!(
+                    "the recording stopped in flight ({e}); {dropped} entries were not recorded"
+                ),
             }
         }
         let player = supervisor.player();

@@ -34,7 +34,10 @@
 
 pub mod check;
 pub mod decoded;
+mod fields;
+pub mod file;
 pub mod layout;
 pub mod read;
 pub mod recorder;
+pub mod recover;
 mod writer;

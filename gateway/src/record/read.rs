@@ -194,7 +194,7 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
         reader.rec.cut = ended;
     }
     let mut rec = reader.finish()?;
-    rec.finished = rec.cut.is_none() && matches!(mcap::Summary::read(bytes), Ok(Some(_)));
+    rec.finished = rec.cut.is_none() && super::fields::has_summary(bytes);
     Ok(rec)
 }
 
@@ -205,7 +205,7 @@ const RECORD_LIMIT: usize = 256 << 20;
 
 /// Hands each record of a chunk (given as its whole record: opcode, length,
 /// body) to `f`, after checking the chunk's CRC.
-fn chunk_records(
+pub(super) fn chunk_records(
     raw: &[u8],
     mut f: impl FnMut(u8, &[u8]) -> Result<(), String>,
 ) -> Result<(), String> {
@@ -287,6 +287,12 @@ impl Reader {
 
     /// A channel or message record (opcode and body), in file order.
     fn raw_record(&mut self, opcode: u8, data: &[u8]) -> Result<(), ReadError> {
+        if !super::fields::lengths_fit(opcode, data) {
+            self.rec.cut = Some(format!(
+                "a damaged record (opcode {opcode:#04x}): a length inside it runs past its end"
+            ));
+            return Ok(());
+        }
         match mcap::parse_record(opcode, data) {
             Ok(Record::Channel(c)) => {
                 if let Some(kind) = kind_of(&c.topic) {

@@ -8,7 +8,7 @@
 //! writer to write what is queued and the summary.
 
 use std::fs::File;
-use std::io::{self, BufWriter, Seek, SeekFrom, Write};
+use std::io::{self, Seek, Write};
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, SyncSender, TrySendError};
@@ -20,6 +20,7 @@ use nets::player::Digest;
 use nets::{Micros, Player, Project};
 use serde_json::Value as Json;
 
+use super::file::RecordingFile;
 use super::layout::{self, Input};
 use super::writer::Writer;
 use crate::supervisor::{self, Step, Supervisor};
@@ -51,7 +52,9 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             queue: 4096,
-            flush_every: Duration::from_secs(1),
+            // Under a second, so that what a kill loses (the chunk under
+            // way, plus the writer's 10 ms batches) stays within one.
+            flush_every: Duration::from_millis(900),
             clock_offset_ns: 0,
             profile: String::new(),
             profile_layers: Vec::new(),
@@ -73,6 +76,9 @@ pub enum RecordError {
 
 impl From<mcap::McapError> for RecordError {
     fn from(e: mcap::McapError) -> Self {
+        if let mcap::McapError::Io(e) = &e {
+            return RecordError::Write(e.to_string());
+        }
         // The MCAP error's own text does not say which I/O error it was.
         let mut text = e.to_string();
         if let Some(source) = std::error::Error::source(&e) {
@@ -128,6 +134,32 @@ pub enum Level {
     Fatal = 5,
 }
 
+/// Why the recording stopped in flight: printed at once for the crew.
+struct Stopped {
+    file: String,
+    reason: String,
+    steps: u64,
+    /// The Supervisor time of the last step written (µs).
+    at: Micros,
+}
+
+impl std::fmt::Display for Stopped {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "RECORDING STOPPED at t = {:.1} s: {} ({}); {} steps recorded, readable up to the last chunk closed before; \
+             the flight goes on unrecorded, what is not recorded is counted",
+            nets::time::seconds(self.at),
+            self.file,
+            self.reason,
+            self.steps
+        )
+    }
+}
+
+/// The sink of a recording on the disk.
+type Sink = RecordingFile;
+
 /// The handle. Its methods never block and never fail the caller.
 pub struct Recorder {
     tx: Option<SyncSender<Entry>>,
@@ -140,25 +172,6 @@ pub struct Recorder {
 pub(super) struct Dropped {
     pub(super) entries: AtomicU64,
     pub(super) steps: AtomicU64,
-}
-
-/// A file that syncs its data to the disk on every flush (chunk closed).
-pub struct SyncedFile(BufWriter<File>);
-
-impl Write for SyncedFile {
-    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.0.write(buf)
-    }
-    fn flush(&mut self) -> io::Result<()> {
-        self.0.flush()?;
-        self.0.get_ref().sync_data()
-    }
-}
-
-impl Seek for SyncedFile {
-    fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
-        self.0.seek(pos)
-    }
 }
 
 impl Recorder {
@@ -176,7 +189,13 @@ impl Recorder {
             std::fs::create_dir_all(dir).map_err(create)?;
         }
         let file = File::create(path).map_err(create)?;
-        Recorder::with_sink(SyncedFile(BufWriter::new(file)), project, options)
+        Recorder::spawn(
+            RecordingFile::new(file),
+            Sink::seal,
+            path.display().to_string(),
+            project,
+            options,
+        )
     }
 
     /// Records into any seekable sink (tests inject slow or in-memory ones).
@@ -185,10 +204,31 @@ impl Recorder {
         project: Arc<Project>,
         options: Options,
     ) -> Result<Recorder, RecordError> {
+        Recorder::spawn(
+            sink,
+            |mut w: W| w.flush(),
+            "the recording".into(),
+            project,
+            options,
+        )
+    }
+
+    /// The writer's thread over `sink`; `seal` ends the sink once the
+    /// writer has finished the file.
+    fn spawn<W: Write + Seek + Send + 'static>(
+        sink: W,
+        seal: fn(W) -> io::Result<()>,
+        name: String,
+        project: Arc<Project>,
+        options: Options,
+    ) -> Result<Recorder, RecordError> {
+        // Chunks are compressed in memory and handed whole to the sink
+        // (`disable_seeking`): no placeholder length ever reaches the file.
         let mcap = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
             .compression_threads(0)
             .chunk_size(None)
+            .disable_seeking(true)
             .profile(layout::PROFILE)
             .create(sink)?;
         let dropped = Arc::new(Dropped::default());
@@ -198,10 +238,23 @@ impl Recorder {
             .name("petrel-recorder".into())
             .spawn(move || {
                 let result = writer.run(rx);
+                let (written, at) = (writer.steps(), writer.last_time());
+                let result = result.and_then(|report| {
+                    seal(writer.into_sink())
+                        .map_err(|e| RecordError::Write(format!("cannot end the file: {e}")))?;
+                    Ok(report)
+                });
                 if let Err(e) = &result {
                     // The queue's receiver goes with this thread: from now
-                    // on every entry is counted as dropped.
-                    tracing::error!("the recording stopped: {e}");
+                    // on every entry is counted as dropped, and the flight
+                    // goes on.
+                    let stopped = Stopped {
+                        file: name,
+                        reason: e.to_string(),
+                        steps: written,
+                        at,
+                    };
+                    tracing::error!("{stopped}");
                 }
                 result
             })

@@ -125,6 +125,8 @@ impl<W: Write + Seek> Writer<W> {
             name: "petrel".into(),
             metadata: metadata.into_iter().collect(),
         })?;
+        // The file is a valid MCAP from the start (file.rs).
+        mcap.flush()?;
         Ok(Writer {
             mcap,
             project,
@@ -182,6 +184,21 @@ impl<W: Write + Seek> Writer<W> {
             dropped_steps: self.dropped.steps.load(Ordering::Relaxed),
             messages: self.messages,
         })
+    }
+
+    /// Steps written so far.
+    pub(super) fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// The Supervisor time of the last step written.
+    pub(super) fn last_time(&self) -> Micros {
+        self.last_time
+    }
+
+    /// The sink, once the file is finished.
+    pub(super) fn into_sink(self) -> W {
+        self.mcap.into_inner()
     }
 
     /// Writes the recorder's status and closes the chunk (the file is

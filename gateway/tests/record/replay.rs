@@ -235,7 +235,8 @@ fn a_recording_cut_short_replays_up_to_its_last_complete_chunk() {
     std::fs::write(&cut_path, &bytes[..bytes.len() / 2]).expect("written");
     let (code, _, err) = check(&cut_path, &[]);
     assert_eq!(code, 0, "{err}");
-    assert!(err.contains("ends early"), "{err}");
+    assert!(err.contains("was cut short"), "{err}");
+    assert!(err.contains("torn record"), "{err}");
     assert!(err.contains("match the recording"), "{err}");
 }
 

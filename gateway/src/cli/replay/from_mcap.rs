@@ -25,9 +25,22 @@ pub fn run(args: Args) -> VerbResult {
     let rec = read::read(&bytes, args.check_against).map_err(|e| miette::miette!("{name}: {e}"))?;
     let reading = reading.elapsed();
     drop(bytes);
-    if let Some(cut) = &rec.cut {
+    if !rec.finished {
+        // What a file cut short still holds, said before it replays.
+        let span = match (rec.inputs.first(), rec.inputs.last()) {
+            (Some(a), Some(b)) => nets::time::seconds(b.1.saturating_sub(a.1)),
+            _ => 0.0,
+        };
+        let how = match &rec.cut {
+            Some(cut) => format!("it ends in a torn record ({cut}): everything before it"),
+            None => {
+                "it has no summary (the gateway did not stop cleanly): every closed chunk".into()
+            }
+        };
         say!(
-            "warning: {name} ends early ({cut}): it was cut (power loss?) and replays up to its last complete chunk"
+            "warning: {name} was cut short; {how} is recovered: {} steps, {} frames, {span:.1} s of flight; it replays up to there (`petrel recover` writes a clean, indexed copy)",
+            rec.inputs.len(),
+            rec.frame_count()
         );
     }
     if rec.dropped > 0 {
