@@ -440,8 +440,9 @@ async fn run_speaks_first_and_says_when_no_vehicle_is_heard() {
                     (header.system_id as u8, header.component_id),
                 ));
             }
-            // Silent for 6 s, then the vehicle (system 7) answers.
-            if answered.is_none() && start.elapsed() > Duration::from_secs(6) {
+            // Silent for 6 s, then the vehicle (system 7) answers, and keeps
+            // heartbeating.
+            let copter = |sequence: u8| {
                 let hb = peer::heartbeat(
                     MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
                     MavType::MAV_TYPE_QUADROTOR,
@@ -449,28 +450,20 @@ async fn run_speaks_first_and_says_when_no_vehicle_is_heard() {
                 let header = MavHeader {
                     system_id: 7,
                     component_id: 1,
-                    sequence: 0,
+                    sequence,
                 };
                 let mut out = Vec::new();
                 mavlink::write_v2_msg(&mut out, header, &hb).expect("encode");
+                out
+            };
+            if answered.is_none() && start.elapsed() > Duration::from_secs(6) {
                 for _ in 0..3 {
-                    let _ = server.send_to(&out, from);
+                    let _ = server.send_to(&copter(0), from);
                 }
                 answered = Some(start.elapsed().as_secs_f64());
             }
             if answered.is_some_and(|a| start.elapsed().as_secs_f64() > a + 1.0) {
-                // Keep the vehicle alive.
-                let mut out = Vec::new();
-                let hb = peer::heartbeat(
-                    MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-                    MavType::MAV_TYPE_QUADROTOR,
-                );
-                let header = MavHeader {
-                    system_id: 7,
-                    component_id: 1,
-                    sequence: 1,
-                };
-                mavlink::write_v2_msg(&mut out, header, &hb).expect("encode");
+                let out = copter(1);
                 let _ = server.send_to(&out, from);
             }
         }

@@ -17,6 +17,25 @@ pub struct Drawing<'a> {
     pub marking: Option<&'a dyn Fn(usize) -> bool>,
 }
 
+impl Drawing<'_> {
+    /// Whether flat place `flat` is marked in the drawing: by its marking,
+    /// else in the project's initial marking.
+    pub fn marked(&self, project: &Project, flat: usize) -> bool {
+        match self.marking {
+            Some(f) => f(flat),
+            None => {
+                if flat < project.globals.len() {
+                    project.globals[flat].initial
+                } else {
+                    let n = project.place_offsets.partition_point(|&o| o <= flat) - 1;
+                    let net = &project.nets[n];
+                    net.active_at_start && net.places[flat - project.place_offsets[n]].initial
+                }
+            }
+        }
+    }
+}
+
 fn quote(s: &str) -> String {
     let mut out = String::with_capacity(s.len() + 2);
     out.push('"');
@@ -42,20 +61,7 @@ pub fn dot(project: &Project, drawing: &Drawing) -> String {
     let _ = writeln!(out, "digraph {} {{", quote(&title));
     let _ = writeln!(out, "  rankdir=LR;");
     let _ = writeln!(out, "  node [fontname=\"Helvetica\", fontsize=10];");
-    let marked = |flat: usize| -> bool {
-        match drawing.marking {
-            Some(f) => f(flat),
-            None => {
-                if flat < project.globals.len() {
-                    project.globals[flat].initial
-                } else {
-                    let n = project.place_offsets.partition_point(|&o| o <= flat) - 1;
-                    let net = &project.nets[n];
-                    net.active_at_start && net.places[flat - project.place_offsets[n]].initial
-                }
-            }
-        }
-    };
+    let marked = |flat: usize| drawing.marked(project, flat);
     let place_node =
         |out: &mut String, id: &str, name: &str, flat: usize, global: bool, is_final: bool| {
             let m = marked(flat);

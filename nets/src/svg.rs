@@ -44,20 +44,7 @@ pub fn svg(project: &Project, drawing: &Drawing) -> String {
         Some(n) => vec![n],
         None => (0..project.nets.len()).collect(),
     };
-    let marked = |flat: usize| -> bool {
-        match drawing.marking {
-            Some(f) => f(flat),
-            None => {
-                if flat < project.globals.len() {
-                    project.globals[flat].initial
-                } else {
-                    let n = project.place_offsets.partition_point(|&o| o <= flat) - 1;
-                    let net = &project.nets[n];
-                    net.active_at_start && net.places[flat - project.place_offsets[n]].initial
-                }
-            }
-        }
-    };
+    let marked = |flat: usize| drawing.marked(project, flat);
     let layouts: Vec<_> = nets.iter().map(|&n| (n, layout(project, n))).collect();
     let width = layouts.iter().map(|(_, l)| l.width).fold(200.0, f64::max);
     let height: f64 = layouts.iter().map(|(_, l)| l.height + TITLE).sum();
