@@ -684,6 +684,10 @@ fn an_autopilot_reboot_is_detected_and_the_old_boot_is_no_baseline() {
         let mut t = 0;
         for _ in 0..5 {
             r.send(t, hb(false));
+            r.send(
+                t + MS / 2,
+                MavMessage::HOME_POSITION(HOME_POSITION_DATA::DEFAULT),
+            );
             r.send(t + MS, prearm(true, 100, 12600));
             r.send(t + 2 * MS, gps(GpsFixType::GPS_FIX_TYPE_3D_FIX, 12));
             r.send(t + 3 * MS, system_time(boot_ms));
@@ -742,8 +746,13 @@ fn an_autopilot_reboot_is_detected_and_the_old_boot_is_no_baseline() {
         // for long), no loss counted for the sequence numbers' restart.
         assert!(!after.contains(&"link_lost"), "{profile}: {after:?}");
         assert_eq!(r.elab.stats().sequence_lost, lost_before, "{profile}");
-        // Fresh data from the new boot: ready again.
+        // Fresh data from the new boot: ready again (PX4 also needs its
+        // home again, as it sends it once it has a fix).
         t += S;
+        r.send(
+            t - MS,
+            MavMessage::HOME_POSITION(HOME_POSITION_DATA::DEFAULT),
+        );
         r.send(t, prearm(true, 100, 12600));
         r.send(t + MS, gps(GpsFixType::GPS_FIX_TYPE_3D_FIX, 12));
         r.send(
