@@ -106,7 +106,7 @@ async fn petrel(dir: &Path, port: u16, extra: &[&str]) -> (i32, String, String) 
             "--no-record",
             "--json",
             "--duration",
-            "3",
+            "6",
         ])
         .args(extra)
         .kill_on_drop(true);

@@ -274,12 +274,14 @@ async fn mirror(setup: Setup) -> VerbResult {
                 let _ = writeln!(out.out, "mirror: {event}");
             }
         }
-        let to = onboard.or(vehicle.map(|v| (v, 191)));
-        while let Some(request) = replica.poll_transmit() {
-            let Some(to) = to else { break };
-            match uplink.send(to, &request).await {
-                Ok(_) => sent += 1,
-                Err(e) => tracing::warn!("uplink: {e}"),
+        // Requests wait in the replica until there is someone to ask: the
+        // onboard gateway, else the vehicle's companion.
+        if let Some(to) = onboard.or(vehicle.map(|v| (v, 191))) {
+            while let Some(request) = replica.poll_transmit() {
+                match uplink.send(to, &request).await {
+                    Ok(_) => sent += 1,
+                    Err(e) => tracing::warn!("uplink: {e}"),
+                }
             }
         }
         let _ = out.out.flush();

@@ -543,6 +543,10 @@ impl Gateway {
         }
         // Which autopilot, when the profile follows it: the frames read
         // meanwhile are fed once the supervisor runs, none lost.
+        // Signals are watched from here on: a stop (systemd's SIGTERM)
+        // during the wait for the autopilot still ends cleanly.
+        let mut signals = Signals::new()?;
+        let mut told_early = false;
         let early = match setup.detect.take() {
             None => Vec::new(),
             Some(choice) => {
@@ -556,7 +560,9 @@ impl Gateway {
                         .unwrap_or(crate::vehicle::commander::ANNOUNCE_SYSTEM),
                     setup.vehicle.own_component(),
                 );
-                let (early, heard) = identify(&mut reader, &writer, announce, limit).await;
+                let (early, heard, stopped) =
+                    identify(&mut reader, &writer, announce, limit, &mut signals).await;
+                told_early |= stopped;
                 adopt(&mut setup, &choice, heard)?;
                 early
             }
@@ -637,7 +643,6 @@ impl Gateway {
         }
         let stop_at = setup.duration.map(|d| origin + d);
         let stop = setup.stop.clone();
-        let mut signals = Signals::new()?;
         let (frames_tx, mut frames) = mpsc::channel(1024);
         // The reader runs on its own task so that a frame is never lost to
         // a select! that picked another branch.
@@ -669,6 +674,9 @@ impl Gateway {
         let timestamp_file = setup.signing.as_ref().map(|s| s.timestamp_file.clone());
         let mut persisted_at = Instant::now();
         loop {
+            if told_early {
+                break;
+            }
             // Frames the signature checks dropped reach the nets as an event.
             if let Some(event) = reporter.poll(&rejections, &gw.project, gw.now()) {
                 let now = gw.now();
@@ -956,7 +964,8 @@ async fn identify(
     writer: &LinkWriter,
     announce: (u8, u8),
     limit: Duration,
-) -> (Vec<Received>, Option<elaboration::Firmware>) {
+    signals: &mut Signals,
+) -> (Vec<Received>, Option<elaboration::Firmware>, bool) {
     let until = tokio::time::Instant::now() + limit;
     let mut early = Vec::new();
     // Speak first while waiting, as the commander will (docs/run.md):
@@ -969,9 +978,10 @@ async fn identify(
                 let _ = writer.send(announce, &crate::vehicle::commander::companion_heartbeat()).await;
                 continue;
             }
+            _ = signals.recv() => return (early, None, true),
         };
         match received {
-            Err(_) => return (early, None),
+            Err(_) => return (early, None, false),
             Ok(Ok(rx)) => {
                 let heard = match &rx.message {
                     Some(MavMessage::HEARTBEAT(hb))
@@ -988,7 +998,7 @@ async fn identify(
                 };
                 early.push(rx);
                 if heard.is_some() {
-                    return (early, heard);
+                    return (early, heard, false);
                 }
             }
             Ok(Err(e)) => {
