@@ -359,7 +359,12 @@ struct Locator<'a> {
 
 impl Locator<'_> {
     fn problem(&self, span: Range<usize>, message: impl Into<String>) -> Problem {
-        let start = span.start.min(self.text.len());
+        // A span the TOML parser gives may start inside a multi-byte
+        // character: count from that character's first byte.
+        let mut start = span.start.min(self.text.len());
+        while !self.text.is_char_boundary(start) {
+            start -= 1;
+        }
         let before = &self.text[..start];
         let line = before.matches('\n').count() + 1;
         let col = before.rfind('\n').map(|i| start - i).unwrap_or(start + 1);

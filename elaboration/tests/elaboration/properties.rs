@@ -172,3 +172,22 @@ fn a_clean_log_reads_whole() {
     );
     assert_eq!(run(&bytes, &mut elab), 40);
 }
+
+/// Found by `cargo fuzz` (profile_load): a problem whose span starts inside
+/// a multi-byte character panicked while it was placed at line:col.
+#[test]
+fn a_problem_inside_a_multibyte_character_is_placed_without_a_panic() {
+    let text = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fixtures/fuzz-profile-span-in-a-char.toml"),
+    )
+    .expect("the fixture");
+    let text = String::from_utf8_lossy(&text);
+    let base = elaboration::profile::builtin("ardupilot").unwrap_or("");
+    let loaded = elaboration::Profile::load(&[("ardupilot.toml", base), ("fuzz.toml", &text)]);
+    let alone = elaboration::Profile::load(&[("fuzz.toml", &text)]);
+    assert!(
+        loaded.is_err() || alone.is_err(),
+        "the fixture is a broken profile"
+    );
+}
