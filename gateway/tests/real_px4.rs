@@ -94,21 +94,20 @@ fn every_px4_verb_on_the_sih_quadcopter() {
             .contains("autopilot: PX4, elaboration profile px4"),
         "{why}"
     );
-    // Every step, in order; a MISSION_START PX4 denied at first (see
-    // sortie.toml) tried again, at most twice.
-    let retried = f.fired().iter().filter(|t| *t == "start_again").count();
-    assert!(retried <= 2, "{why}");
-    let fired: Vec<String> = f
-        .fired()
-        .into_iter()
-        .filter(|t| t != "start_refused" && t != "start_again")
-        .collect();
+    // Every step, in order. A MISSION_START PX4 denies for a moment after
+    // the upload (about one in five) is tried again by the commander, not
+    // by the nets: the sortie has no transition for a refused start.
+    let fired = f.fired();
+    eprintln!(
+        "MISSION_START denied and tried again by the commander {} time(s)",
+        f.flown
+            .stderr
+            .matches("MISSION_START DENIED by PX4")
+            .count()
+    );
     assert_eq!(fired, SORTIE.to_vec(), "{why}");
     // Each outcome in names, as PX4 gave it.
-    let outcomes: Vec<(String, String)> = outcomes(&f)
-        .into_iter()
-        .filter(|(v, o)| !(v == "start_mission" && o == "refusal:DENIED"))
-        .collect();
+    let outcomes: Vec<(String, String)> = outcomes(&f);
     let expected: Vec<(String, String)> = [
         ("arm", "outcome:ACCEPTED"),
         // PX4 answers a disarm in flight and OFFBOARD without setpoints

@@ -570,6 +570,7 @@ impl Commander {
             self.ask_prearm_report();
         }
         let timing = self.config.timing;
+        let px4 = self.firmware == Some(Firmware::Px4);
         let op = &mut self.ops[i];
         if matches!(op.state, State::SetCurrent { .. }) {
             return;
@@ -593,6 +594,24 @@ impl Commander {
                 op.state = State::Pausing {
                     until: now + timing.ack_timeout,
                 };
+            }
+            // PX4 v1.18 may deny a MISSION_START for a moment after its
+            // upload showed checked ("Mission start denied! No valid
+            // mission", about one start in five): a DENIED start is tried
+            // again like a TEMPORARILY_REJECTED one, after 1, 2, 3…
+            // ack_timeouts, `rejected_retries` times (docs/vehicle.md).
+            MavResult::MAV_RESULT_DENIED
+                if px4
+                    && matches!(op.request, Request::StartMission { .. })
+                    && op.rejected < timing.rejected_retries =>
+            {
+                op.rejected += 1;
+                let wait = timing.ack_timeout * u64::from(op.rejected);
+                tracing::info!(
+                    "MISSION_START DENIED by PX4: trying again in {:.1} s",
+                    wait as f64 / 1e6
+                );
+                op.state = State::Pausing { until: now + wait };
             }
             MavResult::MAV_RESULT_UNSUPPORTED
                 if matches!(

@@ -1482,3 +1482,59 @@ fn the_projects_parameters_are_read_from_the_autopilot_and_judged() {
     c.message(S, &from(1, 1), &hb);
     assert_eq!(c.armed(), Some(true));
 }
+
+#[test]
+fn a_denied_mission_start_is_tried_again_on_px4_only() {
+    // PX4 v1.18 denies a MISSION_START for a moment after its upload showed
+    // checked: tried again after 1 s, then 2 s, then 3 s.
+    let mut s = Sim::new(Firmware::Px4);
+    s.command(1, "start_mission", &[]);
+    assert_eq!(s.one_long().command, MavCmd::MAV_CMD_MISSION_START);
+    s.ack(MavCmd::MAV_CMD_MISSION_START, MavResult::MAV_RESULT_DENIED);
+    assert!(s.outcomes().is_empty());
+    s.at(S / 2);
+    assert!(s.sent().is_empty(), "the back-off is a whole ack_timeout");
+    s.at(S);
+    s.one_long();
+    s.ack(MavCmd::MAV_CMD_MISSION_START, MavResult::MAV_RESULT_DENIED);
+    s.at(2 * S + S / 2);
+    assert!(s.sent().is_empty(), "the second back-off is two");
+    s.at(3 * S);
+    s.one_long();
+    s.ack(
+        MavCmd::MAV_CMD_MISSION_START,
+        MavResult::MAV_RESULT_ACCEPTED,
+    );
+    assert_eq!(s.outcomes(), vec![(1, ok("ACCEPTED"))]);
+    // Always denied (no valid mission): bounded, the reason by name.
+    s.command(2, "start_mission", &[]);
+    let mut sends = 0;
+    for t in 4..20 {
+        let sent = s.sent().len();
+        if sent > 0 {
+            sends += sent;
+            s.ack(MavCmd::MAV_CMD_MISSION_START, MavResult::MAV_RESULT_DENIED);
+        }
+        s.at(t * S);
+    }
+    assert_eq!(sends, 4);
+    assert_eq!(s.outcomes(), vec![(2, failed("DENIED"))]);
+    // Another command's DENIED stays final on PX4.
+    s.command(3, "arm", &[]);
+    s.sent();
+    s.ack(
+        MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        MavResult::MAV_RESULT_DENIED,
+    );
+    assert_eq!(s.outcomes(), vec![(3, failed("DENIED"))]);
+
+    // ArduPilot's DENIED MISSION_START is final: it means no mission, or
+    // not in a state to start one.
+    let mut s = Sim::new(Firmware::Copter);
+    s.command(1, "start_mission", &[]);
+    s.one_long();
+    s.ack(MavCmd::MAV_CMD_MISSION_START, MavResult::MAV_RESULT_DENIED);
+    assert_eq!(s.outcomes(), vec![(1, failed("DENIED"))]);
+    s.at(5 * S);
+    assert!(s.sent().is_empty());
+}
