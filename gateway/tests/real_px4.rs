@@ -671,3 +671,60 @@ fn the_sih_fixed_wing_flies_its_mission() {
         "the recording does not replay exactly: {err}"
     );
 }
+
+/// RC loss. SIH has no radio, but PX4 v1.18 SITL takes MAVLink
+/// MANUAL_CONTROL as its manual control input (COM_RC_IN_MODE 1): a
+/// joystick on the ground station link from the start, stopped 20 s into
+/// the flight, is a radio lost. PX4 then says so (events protocol; its
+/// failsafe "entering Hold for 5 seconds" on the ground station link,
+/// system_status CRITICAL), holds and returns (NAV_RCL_ACT 2); Petrel hears
+/// `rc_lost` and the project returns home too.
+#[test]
+fn rc_lost_in_flight_on_px4() {
+    let steps: Vec<px4::Step> = vec![
+        (
+            "joystick",
+            Box::new(|_: &Truth| true),
+            vec![px4::Act::ManualControl(true)],
+        ),
+        (
+            "rc",
+            airborne_for(20.0),
+            vec![px4::Act::ManualControl(false)],
+        ),
+    ];
+    let Some(f) = survey("survey-rc", vec![("SIM_BAT_DRAIN", 3600.0)], steps) else {
+        return;
+    };
+    let why = explain(&f);
+    let t = &f.truth;
+    let lost_at = t.injected_at("rc").expect("the joystick stopped");
+    let failures = failures(&f);
+    eprintln!(
+        "failures {failures:?}\nPX4 modes after the loss {:?}\ntexts {:?}",
+        t.modes_after(lost_at),
+        t.texts
+    );
+    assert!(
+        failures.contains(&"rc_lost".to_owned()),
+        "{failures:?}\n{why}"
+    );
+    assert_eq!(
+        failures.iter().filter(|e| *e == "rc_lost").count(),
+        1,
+        "one loss, one rc_lost: {failures:?}"
+    );
+    let allowed = ["rc_lost", "autopilot_failsafe"];
+    only_allowed(&failures, &allowed, &format!("live\n{why}"));
+    assert!(f.fired().contains(&"rc_home".to_owned()), "{why}");
+    // What PX4 did: its failsafe, then home.
+    assert!(
+        t.text("Failsafe activated").is_some_and(|at| at >= lost_at),
+        "{why}"
+    );
+    assert!(t.modes_after(lost_at).contains(&"AUTO_RTL"), "{why}");
+    assert!(t.down(), "{why}");
+    let logged = tlog_failures(&f);
+    assert!(logged.contains(&"rc_lost".to_owned()), "{logged:?}");
+    only_allowed(&logged, &allowed, "in the tlog");
+}

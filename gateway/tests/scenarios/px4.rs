@@ -162,6 +162,8 @@ pub struct Observer {
     px4: SocketAddr,
     target: (u8, u8),
     truth: Arc<Mutex<Truth>>,
+    /// Sending MANUAL_CONTROL (sticks centred), as a joystick would.
+    manual: Arc<AtomicBool>,
     stop: Arc<AtomicBool>,
     threads: Vec<std::thread::JoinHandle<()>>,
 }
@@ -217,11 +219,40 @@ impl Observer {
                 }
             }));
         }
+        let manual = Arc::new(AtomicBool::new(false));
+        {
+            // MANUAL_CONTROL, 20 times a wall second while `manual` is set:
+            // PX4's manual control input when COM_RC_IN_MODE takes MAVLink
+            // (1, the SITL's). Sticks centred, throttle half (z 500).
+            let (s, stop, manual) = (
+                socket.try_clone().expect("the socket"),
+                stop.clone(),
+                manual.clone(),
+            );
+            threads.push(std::thread::spawn(move || {
+                while !stop.load(Ordering::Relaxed) {
+                    if manual.load(Ordering::Relaxed) {
+                        let m = MavMessage::MANUAL_CONTROL(MANUAL_CONTROL_DATA {
+                            x: 0,
+                            y: 0,
+                            z: 500,
+                            r: 0,
+                            buttons: 0,
+                            target: sysid,
+                            ..MANUAL_CONTROL_DATA::DEFAULT
+                        });
+                        let _ = s.send_to(&sitl_tests::wire::frame(header(), &m), to);
+                    }
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+            }));
+        }
         let observer = Observer {
             socket,
             px4: to,
             target: (sysid, 1),
             truth,
+            manual,
             stop,
             threads,
         };
@@ -271,6 +302,11 @@ impl Observer {
             param_id: name.into(),
             param_type: kind,
         }));
+    }
+
+    /// Starts or stops sending MANUAL_CONTROL.
+    pub fn manual_control(&self, on: bool) {
+        self.manual.store(on, Ordering::Relaxed);
     }
 
     pub fn truth(&self) -> Truth {
@@ -492,6 +528,9 @@ pub enum Act {
     /// Nothing through the gateway's link, both ways, for this many
     /// simulated seconds.
     LinkHole(f64),
+    /// MANUAL_CONTROL from the ground station link, started (true) or
+    /// stopped (false): a joystick, or an RC link lost.
+    ManualControl(bool),
 }
 
 /// An act, when a condition on the truth first holds, named for the
@@ -658,6 +697,7 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
                     Act::LinkHole(sim_s) => {
                         relay.hole(Duration::from_secs_f64(sim_s / f64::from(SPEED)))
                     }
+                    Act::ManualControl(on) => observer.manual_control(*on),
                 }
             }
             false
