@@ -724,6 +724,17 @@ fn rc_lost_in_flight_on_px4() {
     );
     assert!(t.modes_after(lost_at).contains(&"AUTO_RTL"), "{why}");
     assert!(t.down(), "{why}");
+    // PX4 goes on publishing its arming checks in flight ("No manual
+    // control input" once the joystick stopped): not pre-arm failures.
+    let events = f.flown.events();
+    let armed = events.iter().position(|e| e == "armed");
+    let disarmed = events.iter().rposition(|e| e == "disarmed");
+    if let (Some(a), Some(d)) = (armed, disarmed) {
+        assert!(
+            !events[a..d].contains(&"prearm_failed".to_owned()),
+            "a pre-arm failure in flight: {events:?}"
+        );
+    }
     let logged = tlog_failures(&f);
     assert!(logged.contains(&"rc_lost".to_owned()), "{logged:?}");
     only_allowed(&logged, &allowed, "in the tlog");

@@ -769,3 +769,87 @@ fn an_autopilot_reboot_is_detected_and_the_old_boot_is_no_baseline() {
         assert_eq!(r.only(&["autopilot_rebooted"]).len(), 1, "{profile}");
     }
 }
+
+/// A PX4 arming check with the modes it stops arming in (its first
+/// argument, navigation_mode_group_t).
+fn px4_check(id: u32, sequence: u16, modes: u32) -> MavMessage {
+    let mut arguments = [0u8; 40];
+    arguments[..4].copy_from_slice(&modes.to_le_bytes());
+    MavMessage::EVENT(EVENT_DATA {
+        id,
+        log_levels: 0x44,
+        sequence,
+        arguments,
+        ..EVENT_DATA::DEFAULT
+    })
+}
+
+fn px4_heartbeat(custom_mode: u32, armed: bool) -> MavMessage {
+    let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+    if armed {
+        base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+    }
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode,
+        mavtype: MavType::MAV_TYPE_QUADROTOR,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_PX4,
+        base_mode: base,
+        system_status: MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    })
+}
+
+/// PX4's arming checks name the modes they stop arming in: a check of
+/// other modes only ("No offboard signal" while in POSCTL) is no pre-arm
+/// failure, nor is any check once armed (PX4 goes on publishing them in
+/// flight); a HEARTBEAT after the check does not say it again.
+#[test]
+fn px4_arming_checks_are_filtered_by_the_mode_and_by_arming() {
+    const POSCTL: u32 = 3 << 16;
+    const AUTO_MISSION: u32 = (4 << 16) | (4 << 24);
+    const OFFBOARD_ONLY: u32 = 1 << 14;
+    const NO_MANUAL: u32 = 0x106_ed29;
+    const NO_OFFBOARD: u32 = 0x1ae_ef7e;
+    let mut r = Run::new("px4");
+    r.send(0, px4_heartbeat(POSCTL, false));
+    r.send(S, px4_check(NO_OFFBOARD, 1, OFFBOARD_ONLY));
+    // Manual control is needed in POSCTL (bit 2) and other manual modes.
+    r.send(2 * S, px4_check(NO_MANUAL, 2, 0b111));
+    r.send(3 * S, px4_heartbeat(POSCTL, false));
+    r.send(4 * S, px4_heartbeat(AUTO_MISSION, false));
+    // In AUTO_MISSION (bit 3) the same check is not a reason.
+    r.send(5 * S, px4_check(NO_MANUAL, 3, 0b111));
+    r.send(6 * S, px4_heartbeat(AUTO_MISSION, true));
+    // Armed: a check that would matter is not a pre-arm failure.
+    r.send(7 * S, px4_check(NO_OFFBOARD, 4, u32::MAX));
+    assert_eq!(
+        r.only(&["prearm_failed"]),
+        [(
+            2 * S,
+            "prearm_failed {text: \"No manual control input\"}".to_string()
+        )]
+    );
+}
+
+/// PX4 v1.18 clears the receiver's present bit as it loses its manual
+/// control (a joystick's MANUAL_CONTROL stopped, as tried on its SITL) and
+/// says "Manual control lost" in its events protocol: that is rc_lost.
+#[test]
+fn px4_manual_control_lost_is_rc_lost() {
+    let rc = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_RC_RECEIVER;
+    let none = MavSysStatusSensor::empty();
+    let mut r = Run::new("px4");
+    r.send(0, px4_heartbeat((4 << 16) | (4 << 24), true));
+    for t in 0..10u64 {
+        let (present, healthy) = if t >= 3 { (none, none) } else { (rc, rc) };
+        r.send(t * S + MS, sensors(present, rc, healthy));
+        if t == 3 {
+            // commander_rc_lost, then PX4's failsafe.
+            r.send(t * S + 2 * MS, px4_event(0x155_cd44, 0x22, 1));
+        }
+    }
+    assert_eq!(
+        r.only(&["rc_lost"]),
+        [(3 * S + 2 * MS, "rc_lost".to_string())]
+    );
+}
