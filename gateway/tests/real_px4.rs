@@ -506,33 +506,66 @@ fn compared(events: &[String]) -> Vec<String> {
                 "takeoff",
                 "landed",
                 "disarmed",
+                "mission_complete",
             ]
             .contains(&e.as_str())
+                || e.starts_with("mission_item_reached")
         })
         .cloned()
         .collect()
 }
 
-/// The hop on ArduCopter's own SITL (instance 10, TCP 5860), `petrel run`
-/// on SERIAL0: the gateway's events until it has landed and disarmed.
-fn hop_on_arducopter() -> Option<Vec<String>> {
+/// An event as compared between firmwares: the gateway's time, its name,
+/// and the item number for `mission_item_reached`.
+fn labelled(line: &serde_json::Value) -> Option<(f64, String)> {
+    let name = line["event"].as_str()?;
+    let t = line["t"].as_f64()?;
+    Some(match line["params"]["seq"].as_i64() {
+        Some(seq) if name == "mission_item_reached" => (t, format!("{name} {seq}")),
+        _ => (t, name.to_owned()),
+    })
+}
+
+/// Events of a PX4 flight, labelled.
+fn px4_labelled(f: &Px4Flown) -> Vec<(f64, String)> {
+    f.flown
+        .timeline
+        .iter()
+        .filter(|l| l["input"] == "event")
+        .filter_map(labelled)
+        .collect()
+}
+
+fn names(events: &[(f64, String)]) -> Vec<String> {
+    events.iter().map(|(_, e)| e.clone()).collect()
+}
+
+/// `project` flown on ArduCopter's own SITL (`instance`, at `home`),
+/// `petrel run` on SERIAL0: the gateway's events, labelled, until it has
+/// landed and disarmed.
+fn on_arducopter(
+    project: &str,
+    instance: u8,
+    home: (f64, f64, f64, f64),
+) -> Option<Vec<(f64, String)>> {
     use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
     use std::io::BufRead;
     use std::time::{Duration, Instant};
-    let located = ardupilot::require(Firmware::Copter, "hop on ArduCopter")?;
-    let dir = flight::scratch("px4-hop-arducopter");
+    let located = ardupilot::require(Firmware::Copter, &format!("{project} on ArduCopter"))?;
+    let dir = flight::scratch(&format!("px4-{project}-arducopter"));
     let sitl = Sitl::start(
         &located,
         &Options {
-            instance: 10,
+            instance,
             speedup: px4::SPEED,
+            home,
             ..Options::default()
         },
         &dir.join("sitl"),
     )
     .expect("ArduCopter SITL starts");
     let mut child = flight::Killed(Some(flight::petrel_run_project(
-        &px4::project("hop"),
+        &px4::project(project),
         &sitl.address(0),
         &format!("tcp:127.0.0.1:{}", flight::free_port()),
         f64::from(px4::SPEED),
@@ -556,37 +589,73 @@ fn hop_on_arducopter() -> Option<Vec<String>> {
             }
         }
     });
+    let event = |line: &str| -> Option<(f64, String)> {
+        let v = serde_json::from_str::<serde_json::Value>(line).ok()?;
+        (v["input"] == "event").then(|| labelled(&v)).flatten()
+    };
     let mut events = Vec::new();
     let started = Instant::now();
     while started.elapsed() < Duration::from_secs(240) {
         let Ok(line) = rx.recv_timeout(Duration::from_millis(200)) else {
             continue;
         };
-        let Ok(v) = serde_json::from_str::<serde_json::Value>(&line) else {
-            continue;
-        };
-        if v["input"] == "event" {
-            if let Some(e) = v["event"].as_str() {
-                events.push(e.to_owned());
-            }
-        }
-        let c = compared(&events);
+        events.extend(event(&line));
+        let c = compared(&names(&events));
         if c.contains(&"landed".to_owned()) && c.contains(&"disarmed".to_owned()) {
-            // The same instant's events, then stop.
-            std::thread::sleep(Duration::from_millis(500));
+            // What follows the landing (the mission's end), then stop.
+            std::thread::sleep(Duration::from_secs(3));
             while let Ok(line) = rx.try_recv() {
-                if let Ok(v) = serde_json::from_str::<serde_json::Value>(&line) {
-                    if let (true, Some(e)) = (v["input"] == "event", v["event"].as_str()) {
-                        events.push(e.to_owned());
-                    }
-                }
+                events.extend(event(&line));
             }
             break;
         }
     }
     drop(child);
     drop(sitl);
+    eprintln!("{project} on ArduCopter: all events {events:?}");
     Some(events)
+}
+
+/// ArduCopter SITL's default home (CMAC).
+const CMAC: (f64, f64, f64, f64) = (-35.363261, 149.165230, 584.0, 353.0);
+
+/// PX4 SITL's home, for a mission written once for both.
+const PX4_HOME: (f64, f64, f64, f64) = (47.397743, 8.545594, 489.4, 0.0);
+
+/// A flight's compared events (see `compared`) up to its landing, in order
+/// — the take-off item reached and `takeoff` come at one instant (within
+/// 1 s), each firmware in its own order: put in one — and the landing's
+/// instant as a set (landed, disarmed, readiness again).
+fn head_and_tail(events: &[(f64, String)]) -> (Vec<String>, std::collections::BTreeSet<String>) {
+    let kept = compared(&names(events));
+    let mut e: Vec<(f64, String)> = events
+        .iter()
+        .filter(|(_, x)| kept.contains(x))
+        .cloned()
+        .collect();
+    for i in 1..e.len() {
+        if e[i].1 == "takeoff"
+            && e[i - 1].1.starts_with("mission_item_reached")
+            && e[i].0 - e[i - 1].0 < 1.0
+        {
+            e.swap(i - 1, i);
+        }
+    }
+    let landing = e
+        .iter()
+        .find(|(_, x)| x == "landed" || x == "disarmed")
+        .map_or(f64::INFINITY, |(t, _)| *t);
+    let head = e
+        .iter()
+        .filter(|(t, _)| *t < landing)
+        .map(|(_, x)| x.clone())
+        .collect();
+    let tail = e
+        .iter()
+        .filter(|(t, _)| *t >= landing)
+        .map(|(_, x)| x.clone())
+        .collect();
+    (head, tail)
 }
 
 /// One vocabulary in flight: the same project (take off, hover, land) on
@@ -596,7 +665,7 @@ fn hop_on_arducopter() -> Option<Vec<String>> {
 /// followed by its readiness again).
 #[test]
 fn the_same_hop_gives_the_same_events_on_arducopter_and_px4() {
-    let Some(copter) = hop_on_arducopter() else {
+    let Some(copter) = on_arducopter("hop", 10, CMAC) else {
         return;
     };
     let Some(f) = px4::fly(Plan::new("hop", px4::project("hop")), |t| {
@@ -604,8 +673,8 @@ fn the_same_hop_gives_the_same_events_on_arducopter_and_px4() {
     }) else {
         return;
     };
-    let px4_events = compared(&f.flown.events());
-    let copter_events = compared(&copter);
+    let px4_events = compared(&names(&px4_labelled(&f)));
+    let copter_events = compared(&names(&copter));
     eprintln!("ArduCopter {copter_events:?}\nPX4 {px4_events:?}");
     let head = |e: &[String]| -> Vec<String> {
         let end = e
@@ -738,4 +807,51 @@ fn rc_lost_in_flight_on_px4() {
     let logged = tlog_failures(&f);
     assert!(logged.contains(&"rc_lost".to_owned()), "{logged:?}");
     only_allowed(&logged, &allowed, "in the tlog");
+}
+
+/// One vocabulary on a mission: the same survey (upload, GUIDED where
+/// there is one, arm, start, four waypoints, land) on ArduCopter SITL
+/// (instance 13, moved to PX4's home) and on PX4 SITL gives the same
+/// nominal and mission events in the same order — ready, armed, takeoff,
+/// each item reached by the same number — then the landing's instant.
+#[test]
+fn the_same_survey_gives_the_same_events_on_arducopter_and_px4() {
+    let Some(copter) = on_arducopter("both", 13, PX4_HOME) else {
+        return;
+    };
+    let plan = Plan {
+        max_sim_s: 400.0,
+        ..Plan::new("both", px4::project("both"))
+    };
+    let Some(f) = px4::fly(plan, |t| t.arms() >= 1 && t.down()) else {
+        return;
+    };
+    let (mut px4_head, px4_tail) = head_and_tail(&px4_labelled(&f));
+    let (copter_head, copter_tail) = head_and_tail(&copter);
+    eprintln!(
+        "ArduCopter {copter_head:?} then {copter_tail:?}\nPX4 {px4_head:?} then {px4_tail:?}"
+    );
+    assert_eq!(copter_head[..3], ["ready_for_takeoff", "armed", "takeoff"]);
+    for item in 1..=5 {
+        let reached = format!("mission_item_reached {item}");
+        assert!(copter_head.contains(&reached), "{reached}: {copter_head:?}");
+    }
+    // What PX4 says and ArduCopter 4.7 does not: its LAND item reached (as
+    // it begins the descent over it) and the mission complete (on
+    // touchdown); ArduCopter's mission ends with the disarm, unsaid. A
+    // project for both waits for `landed` (docs/px4.md).
+    for only_px4 in ["mission_item_reached 6", "mission_complete"] {
+        assert!(
+            !copter_head.contains(&only_px4.to_owned()) && !copter_tail.contains(only_px4),
+            "ArduCopter now says {only_px4}: {copter_head:?} {copter_tail:?}"
+        );
+        assert!(
+            px4_head.contains(&only_px4.to_owned()),
+            "PX4 did not say {only_px4}: {px4_head:?}"
+        );
+        px4_head.retain(|e| e != only_px4);
+    }
+    assert_eq!(px4_head, copter_head, "{}", explain(&f));
+    assert!(copter_tail.contains("landed") && copter_tail.contains("disarmed"));
+    assert_eq!(px4_tail, copter_tail, "{}", explain(&f));
 }
