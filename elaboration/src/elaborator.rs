@@ -7,7 +7,7 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
-use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::dialects::ardupilotmega::{MavMessage, STATUSTEXT_DATA};
 use mavlink::MavHeader;
 use mavlink::Message;
 use nets::{Event, Params};
@@ -17,6 +17,7 @@ use crate::expr::{self, Context, Func, V};
 use crate::fields::{self, Field};
 use crate::frame::Frame;
 use crate::profile::{Profile, Rule, SourceFilter, HEARTBEAT_SLOT};
+use crate::statustext::{Joiner, Piece};
 
 /// An event with its time and the sender it is about.
 #[derive(Debug, Clone, PartialEq)]
@@ -110,6 +111,8 @@ struct Source {
     values: Vec<Option<Vec<Field>>>,
     rules: Vec<RuleState>,
     memos: Vec<V<'static>>,
+    /// Its long STATUSTEXT under way (chunks put back together).
+    statustext: Joiner,
 }
 
 const LOSS_WEIGHT: f64 = 1.0 / 32.0;
@@ -137,6 +140,8 @@ pub struct Elaborator {
     /// lost, and its sender's loss average before it (undone if the frame
     /// shows a reboot).
     this_frame: (u64, f64),
+    /// Where STATUSTEXT's `text` is among its fields.
+    statustext_text: Option<usize>,
 }
 
 impl Elaborator {
@@ -156,6 +161,8 @@ impl Elaborator {
             stats: Stats::default(),
             enum_names: fields::EnumNames::default(),
             this_frame: (0, 0.0),
+            statustext_text: fields::schema(<STATUSTEXT_DATA as mavlink::MessageData>::ID)
+                .and_then(|names| names.iter().position(|n| n == "text")),
         }
     }
 
@@ -282,6 +289,7 @@ impl Elaborator {
             values: vec![None; p.slots.len()],
             rules: vec![RuleState::default(); p.rules.len()],
             memos: vec![V::Missing; p.memos],
+            statustext: Joiner::default(),
         });
         Some(self.sources.len() - 1)
     }
@@ -357,7 +365,38 @@ impl Elaborator {
         if slot == HEARTBEAT_SLOT {
             self.classify(si, msg);
         }
+        if let MavMessage::STATUSTEXT(st) = msg {
+            return self.join_statustext(si, slot, st);
+        }
         true
+    }
+
+    /// A STATUSTEXT chunk (MAVLink 2's `id`, `chunk_seq`): the rules read
+    /// the whole text on its last chunk, and nothing before (false: the
+    /// rules reading it are not evaluated, the frame still counts as heard).
+    fn join_statustext(&mut self, si: usize, slot: usize, st: &STATUSTEXT_DATA) -> bool {
+        let text = String::from_utf8_lossy(&st.text[..]);
+        let (text, last) = match text.find('\0') {
+            Some(end) => (&text[..end], true),
+            None => (&text[..], false),
+        };
+        match self.sources[si]
+            .statustext
+            .push(st.id, st.chunk_seq, text, last)
+        {
+            Piece::Whole => true,
+            Piece::Pending => false,
+            Piece::Joined(whole) => {
+                if let (Some(at), Some(values)) =
+                    (self.statustext_text, self.sources[si].values[slot].as_mut())
+                {
+                    if let Some(field) = values.get_mut(at) {
+                        *field = Field::Str(whole);
+                    }
+                }
+                true
+            }
+        }
     }
 
     fn classify(&mut self, si: usize, msg: &MavMessage) {

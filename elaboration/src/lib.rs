@@ -37,6 +37,7 @@ pub mod expr;
 pub mod fields;
 pub mod frame;
 pub mod profile;
+pub mod statustext;
 pub mod tlog;
 
 pub use constants::Firmware;

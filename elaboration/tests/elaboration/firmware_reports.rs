@@ -215,7 +215,7 @@ fn px4_events_protocol_names_the_failing_check() {
             MavState::MAV_STATE_STANDBY,
         ),
     );
-    r.send(S, text("Preflight: GPS fix too low"));
+    r.send(S, text("Preflight: GPS fix too low\t"));
     r.send(2 * S, px4_event(0x198_c273, 0x33, 1)); // no global position
     r.send(3 * S, px4_event(0x106_ed29, 0x44, 2)); // no manual control input
     r.send(4 * S, px4_event(0x1a8_93e0, 0x88, 3)); // arming check summary
@@ -851,5 +851,47 @@ fn px4_manual_control_lost_is_rc_lost() {
     assert_eq!(
         r.only(&["rc_lost"]),
         [(3 * S + 2 * MS, "rc_lost".to_string())]
+    );
+}
+
+/// One chunk of a long STATUSTEXT (MAVLink 2's id, chunk_seq).
+fn chunk(id: u16, chunk_seq: u8, t: &str) -> MavMessage {
+    let mut m = text(t);
+    if let MavMessage::STATUSTEXT(d) = &mut m {
+        d.id = id;
+        d.chunk_seq = chunk_seq;
+    }
+    m
+}
+
+/// A text longer than 50 bytes comes in chunks: the rules read it whole,
+/// once, on its last chunk (PX4's "RTL: start return at 505 m (15 m above
+/// destination" + ")" as heard on its SITL; a pre-arm reason cut at 50
+/// bytes would be a different reason each time).
+#[test]
+fn chunked_statustexts_are_read_whole() {
+    let reason = "PreArm: Battery 1 below minimum arming voltage of 10.50V and more";
+    let mut r = Run::new("ardupilot");
+    r.send(0, copter(false, MavState::MAV_STATE_STANDBY));
+    r.send(S, chunk(12, 0, &reason[..50]));
+    r.send(S + MS, chunk(12, 1, &reason[50..]));
+    // The same reason again in one piece is a repeat; a lone last chunk
+    // whose beginning was lost is marked cut.
+    r.send(2 * S, chunk(13, 0, &reason[..50]));
+    r.send(2 * S + MS, chunk(13, 1, &reason[50..]));
+    r.send(3 * S, chunk(14, 1, "lost its start"));
+    let want = format!("prearm_failed {{text: \"{}\"}}", &reason[8..]);
+    assert_eq!(r.only(&["prearm_failed"]), [(S + MS, want)]);
+    let failsafe = "Failsafe activated: entering Hold for 5 seconds, then Return";
+    let mut r = Run::new("px4");
+    r.send(0, px4_heartbeat((4 << 16) | (5 << 24), true));
+    r.send(S, chunk(3, 0, &failsafe[..50]));
+    r.send(S + MS, chunk(3, 1, &failsafe[50..]));
+    assert_eq!(
+        r.only(&["autopilot_failsafe"]),
+        [(
+            S + MS,
+            format!("autopilot_failsafe {{text: \"{failsafe}\"}}")
+        )]
     );
 }

@@ -51,8 +51,8 @@ pub struct Truth {
     pub acks: Vec<(f64, String, String)>,
     /// When each act was done (name, time).
     pub injected: Vec<(f64, String)>,
-    /// A chunked STATUSTEXT being put together: (id, text so far).
-    chunk: Option<(u16, String)>,
+    /// A chunked STATUSTEXT being put together.
+    chunks: elaboration::statustext::Joiner,
 }
 
 impl Truth {
@@ -117,28 +117,20 @@ impl Truth {
             MavMessage::EXTENDED_SYS_STATE(s) => self.landed_state = s.landed_state as u8,
             MavMessage::SYS_STATUS(s) => self.battery = s.battery_remaining,
             MavMessage::GPS_RAW_INT(g) => self.fix = (g.fix_type as u8, g.satellites_visible),
-            // PX4 sends a text longer than 50 bytes in chunks of one `id`;
-            // the last is shorter than 50.
+            // PX4 sends a text longer than 50 bytes in chunks of one `id`.
             MavMessage::STATUSTEXT(s) => {
-                let part = s
-                    .text
-                    .to_str()
-                    .unwrap_or("?")
-                    .trim_end_matches('\t')
-                    .to_owned();
-                let last = s.text.to_str().map_or(true, |t| t.len() < 50);
-                let text = match self.chunk.take() {
-                    Some((id, mut text)) if s.id != 0 && id == s.id => {
-                        text.push_str(&part);
-                        text
-                    }
-                    _ => part,
+                let raw = String::from_utf8_lossy(&s.text[..]);
+                let (part, last) = match raw.find('\0') {
+                    Some(end) => (&raw[..end], true),
+                    None => (&raw[..], false),
                 };
-                if s.id == 0 || last {
-                    self.texts.push((self.t, text));
-                } else {
-                    self.chunk = Some((s.id, text));
-                }
+                let text = match self.chunks.push(s.id, s.chunk_seq, part, last) {
+                    elaboration::statustext::Piece::Whole => part.to_owned(),
+                    elaboration::statustext::Piece::Joined(whole) => whole,
+                    elaboration::statustext::Piece::Pending => return,
+                };
+                self.texts
+                    .push((self.t, text.trim_end_matches('\t').to_owned()));
             }
             MavMessage::COMMAND_ACK(a) => self.acks.push((
                 self.t,
