@@ -864,3 +864,100 @@ fn one_vocabulary_for_ardupilot_and_px4() {
         assert!(ardupilot.contains(e) && px4.contains(e), "{e}");
     }
 }
+
+/// PX4 SIH's battery settles at SIM_BAT_MIN_PCT = 50 % (v1.18 reports 51
+/// there and holds it, tried on its SITL), the take-off threshold of
+/// `ready_for_takeoff`. Landed at the floor: ready once, and not again while
+/// it holds. A real battery jittering across 50 % (49, 50, 51 every second)
+/// does not make readiness flap either: said again only after 5 s below.
+#[test]
+fn px4_readiness_does_not_flap_at_the_battery_threshold() {
+    use MavState::*;
+    let px4 = |armed: bool| {
+        heartbeat(
+            MavAutopilot::MAV_AUTOPILOT_PX4,
+            MavType::MAV_TYPE_QUADROTOR,
+            armed,
+            (4 << 16) | (3 << 24),
+            if armed {
+                MAV_STATE_ACTIVE
+            } else {
+                MAV_STATE_STANDBY
+            },
+        )
+    };
+    let landed = |state: MavLandedState| {
+        let mut d = EXTENDED_SYS_STATE_DATA::DEFAULT;
+        d.landed_state = state;
+        MavMessage::EXTENDED_SYS_STATE(d)
+    };
+    // PX4 v1.18 SITL does not mark the pre-arm check present.
+    let battery = |remaining: i8| {
+        let mut d = SYS_STATUS_DATA::DEFAULT;
+        d.battery_remaining = remaining;
+        MavMessage::SYS_STATUS(d)
+    };
+    let mut s = Script::default();
+    s.at(
+        0,
+        1,
+        1,
+        MavMessage::HOME_POSITION(HOME_POSITION_DATA::DEFAULT),
+    );
+    // Every 250 ms: (time in quarter seconds, armed, landed, battery).
+    let mut script: Vec<(u64, bool, MavLandedState, i8)> = Vec::new();
+    use MavLandedState::*;
+    for q in 0..40 {
+        script.push((q, false, MAV_LANDED_STATE_ON_GROUND, 100));
+    }
+    // 60 s of flight draining to 51, then down at 51 and held for 60 s.
+    for q in 40..280 {
+        let drained = (100 - (q - 40) as i64 / 4).max(51) as i8;
+        script.push((q, true, MAV_LANDED_STATE_IN_AIR, drained));
+    }
+    for q in 280..520 {
+        script.push((q, q < 290, MAV_LANDED_STATE_ON_GROUND, 51));
+    }
+    // A real battery across the threshold, changing every second.
+    for q in 520..760 {
+        let jitter = [49, 50, 51, 50][(q / 4 % 4) as usize];
+        script.push((q, false, MAV_LANDED_STATE_ON_GROUND, jitter));
+    }
+    // Then 10 s below, and back: said again, once.
+    for q in 760..800 {
+        script.push((q, false, MAV_LANDED_STATE_ON_GROUND, 49));
+    }
+    for q in 800..840 {
+        script.push((q, false, MAV_LANDED_STATE_ON_GROUND, 50));
+    }
+    for (q, armed, state, remaining) in script {
+        let t = q * S / 4;
+        s.at(t + 1, 1, 1, px4(armed));
+        s.at(t + 2, 1, 1, landed(state));
+        s.at(t + 3, 1, 1, battery(remaining));
+        s.at(t + 4, 1, 1, gps(GpsFixType::GPS_FIX_TYPE_3D_FIX, 10));
+    }
+    let ready: Vec<(u64, String)> = timeline(&s.run(builtin("px4"), 210 * S))
+        .into_iter()
+        .filter(|(_, e)| e.starts_with("ready_for_takeoff"))
+        .collect();
+    assert_eq!(
+        ready,
+        [
+            (
+                4,
+                "ready_for_takeoff {battery: 100, satellites: 10}".to_string()
+            ),
+            // On the landed state's message (armed, on the ground).
+            (
+                70 * S + 2,
+                "ready_for_takeoff {battery: 51, satellites: 10}".to_string()
+            ),
+            // On the battery's.
+            (
+                200 * S + 3,
+                "ready_for_takeoff {battery: 50, satellites: 10}".to_string()
+            ),
+        ]
+    );
+}
