@@ -55,12 +55,21 @@ impl Run {
 }
 
 fn heartbeat(autopilot: MavAutopilot, armed: bool, status: MavState) -> MavMessage {
+    heartbeat_in(autopilot, 4, armed, status)
+}
+
+fn heartbeat_in(
+    autopilot: MavAutopilot,
+    custom_mode: u32,
+    armed: bool,
+    status: MavState,
+) -> MavMessage {
     let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
     if armed {
         base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
     }
     MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-        custom_mode: 4,
+        custom_mode,
         mavtype: MavType::MAV_TYPE_QUADROTOR,
         autopilot,
         base_mode: base,
@@ -785,18 +794,12 @@ fn px4_check(id: u32, sequence: u16, modes: u32) -> MavMessage {
 }
 
 fn px4_heartbeat(custom_mode: u32, armed: bool) -> MavMessage {
-    let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
-    if armed {
-        base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
-    }
-    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+    heartbeat_in(
+        MavAutopilot::MAV_AUTOPILOT_PX4,
         custom_mode,
-        mavtype: MavType::MAV_TYPE_QUADROTOR,
-        autopilot: MavAutopilot::MAV_AUTOPILOT_PX4,
-        base_mode: base,
-        system_status: MavState::MAV_STATE_STANDBY,
-        mavlink_version: 3,
-    })
+        armed,
+        MavState::MAV_STATE_STANDBY,
+    )
 }
 
 /// PX4's arming checks name the modes they stop arming in: a check of
