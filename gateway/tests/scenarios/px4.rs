@@ -83,9 +83,18 @@ impl Truth {
             .map(|(t, _)| *t)
     }
 
-    /// How many times it armed.
+    /// How many times it armed: as its HEARTBEATs showed, or as it said
+    /// ("Armed by …") when a disarmed spell shorter than the heartbeats
+    /// reaching a busy observer went unseen (a landing then a mission start
+    /// 0.75 s later).
     pub fn arms(&self) -> usize {
-        self.arming.iter().filter(|(_, a)| *a).count()
+        let seen = self.arming.iter().filter(|(_, a)| *a).count();
+        let said = self
+            .texts
+            .iter()
+            .filter(|(_, t)| t.starts_with("Armed by"))
+            .count();
+        seen.max(said)
     }
 
     fn heard(&mut self, message: &MavMessage) {
@@ -561,6 +570,13 @@ impl Plan {
 
 static ONE_FLIGHT: Mutex<()> = Mutex::new(());
 
+/// Held while a simulated vehicle flies: one at a time in this binary (a
+/// debug gateway recording PX4's streams falls behind when another SITL
+/// flight shares the two cores).
+pub fn one_flight() -> std::sync::MutexGuard<'static, ()> {
+    ONE_FLIGHT.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Simulated seconds per wall second, for PX4 and the gateway's clock. At
 /// 10× a PX4 stalled 0.35 s by a busy machine is a 3.5 s silence to the
 /// gateway's clock (link_lost); 5× halves that risk.
@@ -626,7 +642,7 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
     let located = px4::require(name)?;
     // One PX4 flight at a time: two SIH at 10× on a busy 2-core machine
     // fall behind their lockstep and starve each other's links.
-    let _one = ONE_FLIGHT.lock().unwrap_or_else(|e| e.into_inner());
+    let _one = one_flight();
     let dir = flight::scratch(&format!("px4-{name}"));
     let mut sitl = Px4::start(
         &located,
