@@ -43,7 +43,12 @@ impl Vehicle {
         let (responder, result) = if to_camera {
             (camera::COMPONENT, self.camera_command(command, p))
         } else if target == 0 || target == AUTOPILOT {
-            (AUTOPILOT, Some(self.autopilot_command(command, p, int)))
+            // A vehicle that says no (Fault::RefuseCommands): no effect.
+            let result = match self.refusal() {
+                Some(refused) => refused,
+                None => self.autopilot_command(command, p, int),
+            };
+            (AUTOPILOT, Some(result))
         } else {
             (AUTOPILOT, None)
         };
