@@ -7,13 +7,15 @@
 //! KIND[=VALUE]@WHEN[:DURATION]
 //!   KIND      engine_failure | payload_failure | gps_loss | battery_drain
 //!             | battery | link_loss | emergency
-//!             | reboot | refuse_commands | garbage | duplicate | reorder
+//!             | reboot | refuse_commands | refuse_command | garbage
+//!             | duplicate | reorder
 //!   VALUE     payload_failure=silent|critical (default silent)
 //!             battery_drain=FACTOR             (default 10: ten times faster)
 //!             battery=PERCENT                  (sets the remaining charge; required)
 //!             emergency=TEXT                   (the STATUSTEXT; default "Emergency")
 //!             reboot=SECONDS                   (silent that long, then boots; default 1.5)
 //!             refuse_commands=denied|failed|temporarily_rejected (default denied)
+//!             refuse_command=…                 (the same, for the next command only)
 //!             garbage=BYTES                    (a burst of random bytes; default 512)
 //!   WHEN      90s | 90 | 1.5s   sim seconds since the simulation started
 //!                               (its first boot; a reboot does not reset it)
@@ -56,6 +58,29 @@ pub enum Refusal {
     TemporarilyRejected,
 }
 
+impl fmt::Display for Refusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Refusal::Denied => "denied",
+            Refusal::Failed => "failed",
+            Refusal::TemporarilyRejected => "temporarily_rejected",
+        })
+    }
+}
+
+impl FromStr for Refusal {
+    type Err = ();
+
+    fn from_str(s: &str) -> Result<Refusal, ()> {
+        match s.trim() {
+            "denied" => Ok(Refusal::Denied),
+            "failed" => Ok(Refusal::Failed),
+            "temporarily_rejected" => Ok(Refusal::TemporarilyRejected),
+            _ => Err(()),
+        }
+    }
+}
+
 /// A fault.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Fault {
@@ -85,9 +110,13 @@ pub enum Fault {
     /// mission's current item: ArduPlane flies on). The aircraft flies on
     /// through it (the physics is the world's, not the autopilot's).
     Reboot { silence_s: f64 },
-    /// Every COMMAND_LONG / COMMAND_INT to the autopilot is answered with
-    /// this result and has no effect (a vehicle that says no).
+    /// Every COMMAND_LONG / COMMAND_INT to the autopilot or its camera is
+    /// answered with this result and has no effect (a vehicle that says
+    /// no).
     RefuseCommands(Refusal),
+    /// The next command to the autopilot or its camera is answered with
+    /// this result and has no effect; then the fault clears.
+    RefuseCommand(Refusal),
     /// A burst of `bytes` random bytes on the wire, among the frames.
     Garbage { bytes: usize },
     /// Every frame the vehicle sends goes out twice.
@@ -108,6 +137,7 @@ pub enum FaultKind {
     Emergency,
     Reboot,
     RefuseCommands,
+    RefuseCommand,
     Garbage,
     Duplicate,
     Reorder,
@@ -125,6 +155,7 @@ impl Fault {
             Fault::Emergency { .. } => FaultKind::Emergency,
             Fault::Reboot { .. } => FaultKind::Reboot,
             Fault::RefuseCommands(_) => FaultKind::RefuseCommands,
+            Fault::RefuseCommand(_) => FaultKind::RefuseCommand,
             Fault::Garbage { .. } => FaultKind::Garbage,
             Fault::Duplicate => FaultKind::Duplicate,
             Fault::Reorder => FaultKind::Reorder,
@@ -146,11 +177,8 @@ impl fmt::Display for Fault {
             Fault::LinkLoss => write!(f, "link_loss"),
             Fault::Emergency { text } => write!(f, "emergency={text}"),
             Fault::Reboot { silence_s } => write!(f, "reboot={silence_s}"),
-            Fault::RefuseCommands(Refusal::Denied) => write!(f, "refuse_commands=denied"),
-            Fault::RefuseCommands(Refusal::Failed) => write!(f, "refuse_commands=failed"),
-            Fault::RefuseCommands(Refusal::TemporarilyRejected) => {
-                write!(f, "refuse_commands=temporarily_rejected")
-            }
+            Fault::RefuseCommands(r) => write!(f, "refuse_commands={r}"),
+            Fault::RefuseCommand(r) => write!(f, "refuse_command={r}"),
             Fault::Garbage { bytes } => write!(f, "garbage={bytes}"),
             Fault::Duplicate => write!(f, "duplicate"),
             Fault::Reorder => write!(f, "reorder"),
@@ -266,15 +294,18 @@ impl FromStr for ScheduledFault {
                 Some(silence_s) => Fault::Reboot { silence_s },
                 None => return Err(err("reboot takes the seconds of silence")),
             },
-            ("refuse_commands", None | Some("denied")) => Fault::RefuseCommands(Refusal::Denied),
-            ("refuse_commands", Some("failed")) => Fault::RefuseCommands(Refusal::Failed),
-            ("refuse_commands", Some("temporarily_rejected")) => {
-                Fault::RefuseCommands(Refusal::TemporarilyRejected)
-            }
-            ("refuse_commands", Some(_)) => {
-                return Err(err(
-                    "refuse_commands takes `denied`, `failed` or `temporarily_rejected`",
-                ))
+            ("refuse_commands" | "refuse_command", v) => {
+                let r = match v {
+                    None => Refusal::Denied,
+                    Some(v) => v.parse().map_err(|()| {
+                        err("refuse_commands takes `denied`, `failed` or `temporarily_rejected`")
+                    })?,
+                };
+                if kind == "refuse_command" {
+                    Fault::RefuseCommand(r)
+                } else {
+                    Fault::RefuseCommands(r)
+                }
             }
             ("garbage", None) => Fault::Garbage { bytes: 512 },
             ("garbage", Some(v)) => match v.trim().parse::<usize>() {
@@ -328,6 +359,7 @@ mod tests {
             "garbage=2000@40s",
             "duplicate@50s:10s",
             "reorder@70:10",
+            "refuse_command=failed@wp4",
         ])
         .unwrap();
         let e = &s.entries;
@@ -361,6 +393,7 @@ mod tests {
         assert_eq!(e[12].fault, Fault::Garbage { bytes: 2000 });
         assert_eq!(e[13].fault, Fault::Duplicate);
         assert_eq!(e[14].fault, Fault::Reorder);
+        assert_eq!(e[15].fault, Fault::RefuseCommand(Refusal::Failed));
         // Each prints as it parses.
         for entry in e {
             let text = entry.fault.to_string();

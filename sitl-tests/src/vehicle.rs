@@ -271,7 +271,7 @@ impl Vehicle {
     /// [`Fault::RefuseCommands`], if active.
     pub(crate) fn refusal(&self) -> Option<MavResult> {
         self.active.iter().find_map(|(f, _)| match f {
-            Fault::RefuseCommands(r) => Some(match r {
+            Fault::RefuseCommands(r) | Fault::RefuseCommand(r) => Some(match r {
                 Refusal::Denied => MavResult::MAV_RESULT_DENIED,
                 Refusal::Failed => MavResult::MAV_RESULT_FAILED,
                 Refusal::TemporarilyRejected => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
@@ -663,7 +663,10 @@ impl Vehicle {
                 self.garbage_due += bytes;
                 return;
             }
-            Fault::RefuseCommands(_) | Fault::Duplicate | Fault::Reorder => {}
+            Fault::RefuseCommands(_)
+            | Fault::RefuseCommand(_)
+            | Fault::Duplicate
+            | Fault::Reorder => {}
         }
         self.active.retain(|(f, _)| f.kind() != fault.kind());
         self.active.push((fault, until));
@@ -686,6 +689,7 @@ impl Vehicle {
             | Fault::Emergency { .. }
             | Fault::Reboot { .. }
             | Fault::RefuseCommands(_)
+            | Fault::RefuseCommand(_)
             | Fault::Garbage { .. }
             | Fault::Duplicate
             | Fault::Reorder => {}
@@ -1015,6 +1019,22 @@ mod tests {
             Some(MavResult::MAV_RESULT_ACCEPTED)
         );
         assert_eq!(b.v.state().mode, "FLY_BY_WIRE_A");
+        // One command refused, then the fault clears by itself.
+        b.v.inject(Fault::RefuseCommand(
+            crate::faults::Refusal::TemporarilyRejected,
+        ));
+        assert_eq!(
+            b.set_mode(crate::modes::MANUAL),
+            Some(MavResult::MAV_RESULT_TEMPORARILY_REJECTED)
+        );
+        assert_eq!(
+            b.set_mode(crate::modes::MANUAL),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        let f = &b.v.state().faults;
+        assert!(f
+            .last()
+            .is_some_and(|f| f.cleared && f.fault.kind() == FaultKind::RefuseCommand));
     }
 
     #[test]
