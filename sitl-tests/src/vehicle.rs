@@ -296,7 +296,7 @@ impl Vehicle {
         // mode, home, the mission's current item; the flight goes on.
         let in_flight = self.fl.armed;
         if in_flight {
-            fresh.fl = std::mem::replace(&mut self.fl, Flight::new());
+            fresh.fl = std::mem::take(&mut self.fl);
             fresh.auto = std::mem::take(&mut self.auto);
             fresh.home_pos = self.home_pos;
             fresh.home_set = self.home_set;
