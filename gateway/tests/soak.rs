@@ -266,12 +266,14 @@ fn vehicle_faults(rng: &mut Rng, start: f64, end: f64, every: f64) -> Schedule {
 }
 
 /// DEC's faults from `start` to `end`: a crash, a few seconds without it,
-/// a mute DEC for 20–60 s, the real one again; then the next round.
+/// a mute DEC for 80–150 s, the real one again; then the next round. A
+/// program's call timeout is in wall time (DEC's 5 s are 50 simulated s
+/// at 10×): the mute DEC stays long enough for its calls to time out.
 fn program_faults(rng: &mut Rng, start: f64, end: f64, every: f64) -> Vec<(f64, ProgramFault)> {
     let mut out = Vec::new();
     let mut t = start;
     while t < end {
-        let mute = rng.range(20.0, 60.0);
+        let mute = rng.range(80.0, 150.0);
         out.push((t, ProgramFault::Crash));
         out.push((t + 5.0, ProgramFault::Mute(mute)));
         out.push((t + 5.0 + mute + 1.0, ProgramFault::Restart));
