@@ -17,7 +17,7 @@ pub const FORCE: f32 = 21196.0;
 impl Vehicle {
     /// Reaches the start-up phases due by now.
     pub(crate) fn boot_tick(&mut self) {
-        let t = self.t_s();
+        let t = self.boot_s();
         let due: Vec<Phase> = self
             .cfg
             .boot
@@ -30,10 +30,17 @@ impl Vehicle {
             self.boot.reached.push(phase);
             tracing::debug!(t, ?phase, "boot");
             match phase {
+                // After a watchdog reset in flight ArduPlane restores its
+                // mode and arming (Fault::Reboot): the flight goes on.
+                Phase::Ready if self.watchdog => {
+                    self.send_param("BARO1_GND_PRESS");
+                }
                 Phase::Ready => {
                     self.enter_mode(modes::MANUAL);
                     self.send_param("BARO1_GND_PRESS");
                 }
+                // Home restored from the watchdog's persistent data.
+                Phase::Home if self.watchdog => self.send_home(),
                 Phase::Home => {
                     self.home_set = true;
                     self.home_pos = self.ac.pos;

@@ -40,7 +40,20 @@ impl Vehicle {
             self.cfg.camera && (target == camera::COMPONENT || (target == 0 && camera_cmd));
         // Everything the command causes waits for its COMMAND_ACK.
         self.hold();
-        let (responder, result) = if to_camera {
+        let refused = self
+            .refusal()
+            .filter(|_| to_camera || target == 0 || target == AUTOPILOT);
+        let (responder, result) = if let Some(refused) = refused {
+            // A vehicle that says no (Fault::RefuseCommands): the autopilot
+            // or its camera answers, and nothing happens.
+            let responder = if to_camera {
+                camera::COMPONENT
+            } else {
+                AUTOPILOT
+            };
+            self.clear(crate::faults::FaultKind::RefuseCommand);
+            (responder, Some(refused))
+        } else if to_camera {
             (camera::COMPONENT, self.camera_command(command, p))
         } else if target == 0 || target == AUTOPILOT {
             (AUTOPILOT, Some(self.autopilot_command(command, p, int)))

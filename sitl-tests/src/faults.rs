@@ -7,18 +7,33 @@
 //! KIND[=VALUE]@WHEN[:DURATION]
 //!   KIND      engine_failure | payload_failure | gps_loss | battery_drain
 //!             | battery | link_loss | emergency
+//!             | reboot | refuse_commands | refuse_command | garbage
+//!             | duplicate | reorder
 //!   VALUE     payload_failure=silent|critical (default silent)
 //!             battery_drain=FACTOR             (default 10: ten times faster)
 //!             battery=PERCENT                  (sets the remaining charge; required)
 //!             emergency=TEXT                   (the STATUSTEXT; default "Emergency")
-//!   WHEN      90s | 90 | 1.5s   sim seconds since boot
+//!             reboot=SECONDS                   (silent that long, then boots; default 1.5)
+//!             refuse_commands=denied|failed|temporarily_rejected (default denied)
+//!             refuse_command=…                 (the same, for the next command only)
+//!             garbage=BYTES                    (a burst of random bytes; default 512)
+//!   WHEN      90s | 90 | 1.5s   sim seconds since the simulation started
+//!                               (its first boot; a reboot does not reset it)
 //!             wp3               when MISSION_ITEM_REACHED 3 is sent
 //!   DURATION  10s | 10          the fault clears after that long (sim seconds);
 //!                               without it the fault stays
 //! ```
 //!
 //! Examples: `engine_failure@90s`, `link_loss@60s:10s`,
-//! `payload_failure=critical@wp3`, `battery=20@120s`, `gps_loss@wp2:15s`.
+//! `payload_failure=critical@wp3`, `battery=20@120s`, `gps_loss@wp2:15s`,
+//! `reboot@300s`, `refuse_commands@wp3:5s`, `garbage=2000@40s`,
+//! `duplicate@50s:10s`, `reorder@70s:10s`.
+//!
+//! The link faults (`garbage`, `duplicate`, `reorder`, and `link_loss`)
+//! act on the vehicle's side of the link: what it sends is corrupted,
+//! doubled or swapped on the wire by [`crate::Sim`]'s socket (a radio's
+//! faults, as the gateway sees them); the core [`crate::Vehicle`] only
+//! says which are active ([`crate::Vehicle::take_wire_faults`]).
 
 use std::fmt;
 use std::str::FromStr;
@@ -30,6 +45,40 @@ pub enum PayloadFailure {
     Silent,
     /// The camera keeps its heartbeat but reports MAV_STATE_CRITICAL.
     Critical,
+}
+
+/// How the autopilot refuses a command under [`Fault::RefuseCommands`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Refusal {
+    /// MAV_RESULT_DENIED.
+    Denied,
+    /// MAV_RESULT_FAILED.
+    Failed,
+    /// MAV_RESULT_TEMPORARILY_REJECTED.
+    TemporarilyRejected,
+}
+
+impl fmt::Display for Refusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Refusal::Denied => "denied",
+            Refusal::Failed => "failed",
+            Refusal::TemporarilyRejected => "temporarily_rejected",
+        })
+    }
+}
+
+impl FromStr for Refusal {
+    type Err = ();
+
+    fn from_str(s: &str) -> Result<Refusal, ()> {
+        match s.trim() {
+            "denied" => Ok(Refusal::Denied),
+            "failed" => Ok(Refusal::Failed),
+            "temporarily_rejected" => Ok(Refusal::TemporarilyRejected),
+            _ => Err(()),
+        }
+    }
 }
 
 /// A fault.
@@ -52,6 +101,28 @@ pub enum Fault {
     /// An emergency: HEARTBEAT.system_status EMERGENCY and this STATUSTEXT
     /// (severity EMERGENCY).
     Emergency { text: String },
+    /// The autopilot reboots in flight, as after a watchdog reset: the
+    /// link goes silent for `silence_s`, then it boots again — HEARTBEAT,
+    /// SYSTEM_TIME and every `time_boot_ms` from 0, sequence numbers from 0,
+    /// the start-up sequence (sensors, GPS, EKF) again. What ArduPilot keeps
+    /// in EEPROM stays (parameters, the mission); what its watchdog keeps
+    /// for a reset in flight is restored (armed, the mode, home, the
+    /// mission's current item: ArduPlane flies on). The aircraft flies on
+    /// through it (the physics is the world's, not the autopilot's).
+    Reboot { silence_s: f64 },
+    /// Every COMMAND_LONG / COMMAND_INT to the autopilot or its camera is
+    /// answered with this result and has no effect (a vehicle that says
+    /// no).
+    RefuseCommands(Refusal),
+    /// The next command to the autopilot or its camera is answered with
+    /// this result and has no effect; then the fault clears.
+    RefuseCommand(Refusal),
+    /// A burst of `bytes` random bytes on the wire, among the frames.
+    Garbage { bytes: usize },
+    /// Every frame the vehicle sends goes out twice.
+    Duplicate,
+    /// The frames the vehicle sends go out swapped two by two.
+    Reorder,
 }
 
 /// The kind of a fault, to clear it.
@@ -64,6 +135,12 @@ pub enum FaultKind {
     BatteryRemaining,
     LinkLoss,
     Emergency,
+    Reboot,
+    RefuseCommands,
+    RefuseCommand,
+    Garbage,
+    Duplicate,
+    Reorder,
 }
 
 impl Fault {
@@ -76,6 +153,12 @@ impl Fault {
             Fault::BatteryRemaining { .. } => FaultKind::BatteryRemaining,
             Fault::LinkLoss => FaultKind::LinkLoss,
             Fault::Emergency { .. } => FaultKind::Emergency,
+            Fault::Reboot { .. } => FaultKind::Reboot,
+            Fault::RefuseCommands(_) => FaultKind::RefuseCommands,
+            Fault::RefuseCommand(_) => FaultKind::RefuseCommand,
+            Fault::Garbage { .. } => FaultKind::Garbage,
+            Fault::Duplicate => FaultKind::Duplicate,
+            Fault::Reorder => FaultKind::Reorder,
         }
     }
 }
@@ -93,6 +176,12 @@ impl fmt::Display for Fault {
             Fault::BatteryRemaining { percent } => write!(f, "battery={percent}"),
             Fault::LinkLoss => write!(f, "link_loss"),
             Fault::Emergency { text } => write!(f, "emergency={text}"),
+            Fault::Reboot { silence_s } => write!(f, "reboot={silence_s}"),
+            Fault::RefuseCommands(r) => write!(f, "refuse_commands={r}"),
+            Fault::RefuseCommand(r) => write!(f, "refuse_command={r}"),
+            Fault::Garbage { bytes } => write!(f, "garbage={bytes}"),
+            Fault::Duplicate => write!(f, "duplicate"),
+            Fault::Reorder => write!(f, "reorder"),
         }
     }
 }
@@ -100,7 +189,8 @@ impl fmt::Display for Fault {
 /// When a scheduled fault happens.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Trigger {
-    /// Sim seconds since boot.
+    /// Sim seconds since the simulation started (a reboot does not reset
+    /// them).
     At(f64),
     /// When the vehicle sends MISSION_ITEM_REACHED for this sequence number.
     Reached(u16),
@@ -199,7 +289,32 @@ impl FromStr for ScheduledFault {
             ("emergency", Some(text)) => Fault::Emergency {
                 text: text.to_owned(),
             },
-            ("engine_failure" | "gps_loss" | "link_loss", Some(_)) => {
+            ("reboot", None) => Fault::Reboot { silence_s: 1.5 },
+            ("reboot", Some(v)) => match seconds(v) {
+                Some(silence_s) => Fault::Reboot { silence_s },
+                None => return Err(err("reboot takes the seconds of silence")),
+            },
+            ("refuse_commands" | "refuse_command", v) => {
+                let r = match v {
+                    None => Refusal::Denied,
+                    Some(v) => v.parse().map_err(|()| {
+                        err("refuse_commands takes `denied`, `failed` or `temporarily_rejected`")
+                    })?,
+                };
+                if kind == "refuse_command" {
+                    Fault::RefuseCommand(r)
+                } else {
+                    Fault::RefuseCommands(r)
+                }
+            }
+            ("garbage", None) => Fault::Garbage { bytes: 512 },
+            ("garbage", Some(v)) => match v.trim().parse::<usize>() {
+                Ok(n) if n > 0 => Fault::Garbage { bytes: n },
+                _ => return Err(err("garbage takes a number of bytes")),
+            },
+            ("duplicate", None) => Fault::Duplicate,
+            ("reorder", None) => Fault::Reorder,
+            ("engine_failure" | "gps_loss" | "link_loss" | "duplicate" | "reorder", Some(_)) => {
                 return Err(err("this fault takes no value"))
             }
             _ => return Err(err("unknown fault kind")),
@@ -237,6 +352,14 @@ mod tests {
             "battery_drain=5@1.5s:30",
             "emergency=Fire on board@100s",
             "gps_loss@wp2:15s",
+            "reboot@300s",
+            "reboot=4@wp5",
+            "refuse_commands@wp3:5s",
+            "refuse_commands=temporarily_rejected@10",
+            "garbage=2000@40s",
+            "duplicate@50s:10s",
+            "reorder@70:10",
+            "refuse_command=failed@wp4",
         ])
         .unwrap();
         let e = &s.entries;
@@ -259,6 +382,29 @@ mod tests {
             }
         );
         assert_eq!(e[7].when, Trigger::Reached(2));
+        assert_eq!(e[8].fault, Fault::Reboot { silence_s: 1.5 });
+        assert_eq!(e[9].fault, Fault::Reboot { silence_s: 4.0 });
+        assert_eq!(e[10].fault, Fault::RefuseCommands(Refusal::Denied));
+        assert_eq!(e[10].duration, Some(5.0));
+        assert_eq!(
+            e[11].fault,
+            Fault::RefuseCommands(Refusal::TemporarilyRejected)
+        );
+        assert_eq!(e[12].fault, Fault::Garbage { bytes: 2000 });
+        assert_eq!(e[13].fault, Fault::Duplicate);
+        assert_eq!(e[14].fault, Fault::Reorder);
+        assert_eq!(e[15].fault, Fault::RefuseCommand(Refusal::Failed));
+        // Each prints as it parses.
+        for entry in e {
+            let text = entry.fault.to_string();
+            assert_eq!(
+                format!("{text}@1")
+                    .parse::<ScheduledFault>()
+                    .map(|f| f.fault),
+                Ok(entry.fault.clone()),
+                "{text}"
+            );
+        }
     }
 
     #[test]
@@ -273,6 +419,10 @@ mod tests {
             ("battery=150@3s", "percentage"),
             ("payload_failure=smoke@wp1", "silent"),
             ("gps_loss@wpX", "bad waypoint"),
+            ("reboot=soon@3s", "seconds of silence"),
+            ("refuse_commands=maybe@3s", "denied"),
+            ("garbage=0@3s", "number of bytes"),
+            ("duplicate=2@3s", "takes no value"),
         ] {
             let e = spec.parse::<ScheduledFault>().unwrap_err();
             assert!(e.reason.contains(why), "{spec}: {}", e.reason);

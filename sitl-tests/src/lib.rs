@@ -89,7 +89,7 @@ pub use camera_component::{CameraCommand, CameraComponent, CameraConfig, CameraS
 pub use camera_sim::{CameraSim, CameraSimError};
 pub use config::SimConfig;
 pub use faults::{
-    Fault, FaultKind, PayloadFailure, Schedule, ScheduleError, ScheduledFault, Trigger,
+    Fault, FaultKind, PayloadFailure, Refusal, Schedule, ScheduleError, ScheduledFault, Trigger,
 };
 pub use geo::Home;
 pub use mission::MissionItem;
@@ -97,7 +97,7 @@ pub use model::Airframe;
 pub use params::Params;
 pub use runner::{Sim, SimError};
 pub use state::SimState;
-pub use vehicle::{Vehicle, AUTOPILOT};
+pub use vehicle::{Vehicle, WireFaults, AUTOPILOT};
 
 /// MAV_COMP_ID_CAMERA: the camera component's id.
 pub const CAMERA: u8 = camera::COMPONENT;

@@ -17,7 +17,7 @@ use crate::clock::SimClock;
 use crate::config::SimConfig;
 use crate::faults::{Fault, FaultKind};
 use crate::state::SimState;
-use crate::vehicle::Vehicle;
+use crate::vehicle::{Vehicle, WireFaults};
 use crate::wire::parse_frames;
 
 /// Why the simulation could not start.
@@ -345,9 +345,71 @@ fn write_all(stream: &mut TcpStream, mut bytes: &[u8]) -> std::io::Result<()> {
     Ok(())
 }
 
+/// The link faults on the wire (faults.rs: `garbage`, `duplicate`,
+/// `reorder`), applied to the frames the vehicle sends.
+struct Wire {
+    /// A frame held back to go out after the next one (reorder).
+    held: Option<Vec<u8>>,
+    /// xorshift state for the garbage.
+    rng: u64,
+}
+
+impl Default for Wire {
+    fn default() -> Wire {
+        Wire {
+            held: None,
+            rng: 0x9e37_79b9_7f4a_7c15,
+        }
+    }
+}
+
+impl Wire {
+    fn send(&mut self, socket: &mut Socket, bytes: Vec<u8>, faults: WireFaults) {
+        let copies = if faults.duplicate { 2 } else { 1 };
+        let mut out = |frame: &[u8]| {
+            for _ in 0..copies {
+                socket.send(frame);
+            }
+        };
+        if !faults.reorder {
+            out(&bytes);
+            return;
+        }
+        match self.held.take() {
+            Some(first) => {
+                out(&bytes);
+                out(&first);
+            }
+            None => self.held = Some(bytes),
+        }
+    }
+
+    /// After a round of frames: the garbage due, and a frame held back when
+    /// reordering has ended.
+    fn end(&mut self, socket: &mut Socket, faults: WireFaults) {
+        if !faults.reorder {
+            if let Some(held) = self.held.take() {
+                socket.send(&held);
+            }
+        }
+        if faults.garbage > 0 {
+            let mut burst = Vec::with_capacity(faults.garbage);
+            while burst.len() < faults.garbage {
+                self.rng ^= self.rng << 13;
+                self.rng ^= self.rng >> 7;
+                self.rng ^= self.rng << 17;
+                burst.extend_from_slice(&self.rng.to_le_bytes());
+            }
+            burst.truncate(faults.garbage);
+            socket.send(&burst);
+        }
+    }
+}
+
 /// The simulation thread.
 fn run(shared: Arc<Shared>, mut socket: Socket, mut clock: SimClock) {
     let mut incoming = Vec::new();
+    let mut wire = Wire::default();
     while !shared.stop.load(Ordering::Relaxed) {
         socket.receive(&mut incoming);
         let connected = socket.connected();
@@ -365,10 +427,12 @@ fn run(shared: Arc<Shared>, mut socket: Socket, mut clock: SimClock) {
             if clock.started() {
                 v.advance(clock.now_us());
             }
+            let faults = v.take_wire_faults();
             while let Some((header, msg)) = v.poll_transmit() {
                 let bytes = elaboration::frame::serialize(header, MavlinkVersion::V2, &msg);
-                socket.send(&bytes);
+                wire.send(&mut socket, bytes, faults);
             }
+            wire.end(&mut socket, faults);
             clock.wall_until(v.next_deadline())
         };
         let nap = if clock.started() {

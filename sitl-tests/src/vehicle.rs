@@ -6,13 +6,13 @@
 
 use std::collections::VecDeque;
 
-use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity, STATUSTEXT_DATA};
+use mavlink::dialects::ardupilotmega::{MavMessage, MavResult, MavSeverity, STATUSTEXT_DATA};
 use mavlink::MavHeader;
 
 use crate::boot::{BootState, Phase};
 use crate::camera::{self, Camera};
 use crate::config::SimConfig;
-use crate::faults::{Fault, FaultKind, Trigger};
+use crate::faults::{Fault, FaultKind, Refusal, Trigger};
 use crate::flight::Flight;
 use crate::geo::{self, Home, V2};
 use crate::mission::{MissionItem, Uploads};
@@ -81,6 +81,29 @@ pub struct Vehicle {
     held: Option<Vec<(u8, MavMessage)>>,
     /// Frames dropped by a link loss.
     pub(crate) dropped: u64,
+    /// Sim µs of the simulation when this boot began (0 until a reboot):
+    /// `now` counts from it, the caller's clock from the first boot.
+    epoch: u64,
+    /// A reboot under way: the boot-time µs at which the autopilot starts
+    /// again (silent until then).
+    reboot_at: Option<u64>,
+    /// This boot follows a watchdog reset in flight: the start-up restores
+    /// the mode and arming instead of starting in MANUAL, disarmed.
+    pub(crate) watchdog: bool,
+    /// Link faults for the socket to apply (bytes of garbage due).
+    garbage_due: usize,
+}
+
+/// The link faults the socket applies to what the vehicle sends
+/// ([`Vehicle::take_wire_faults`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct WireFaults {
+    /// Random bytes to write among the frames now.
+    pub garbage: usize,
+    /// Send every frame twice.
+    pub duplicate: bool,
+    /// Swap the frames two by two.
+    pub reorder: bool,
 }
 
 impl Vehicle {
@@ -146,6 +169,10 @@ impl Vehicle {
             home_due: None,
             held: None,
             dropped: 0,
+            epoch: 0,
+            reboot_at: None,
+            watchdog: false,
+            garbage_due: 0,
             cfg,
         };
         v.cfg.step_us = step;
@@ -153,9 +180,10 @@ impl Vehicle {
         v
     }
 
-    /// Sim time reached (µs since boot).
+    /// Sim time reached (µs since the simulation started: a reboot does
+    /// not reset it).
     pub fn now_us(&self) -> u64 {
-        self.now
+        self.epoch + self.now
     }
 
     /// The vehicle's system id.
@@ -166,6 +194,9 @@ impl Vehicle {
     /// A message received at `now` (sim µs). Time advances to `now` first.
     pub fn handle(&mut self, now: u64, header: &MavHeader, msg: &MavMessage) {
         self.advance(now);
+        if self.reboot_at.is_some() {
+            return;
+        }
         if self.link_lost() {
             return;
         }
@@ -181,13 +212,20 @@ impl Vehicle {
         self.on_message(from, msg);
     }
 
-    /// Runs the simulation up to `now` (sim µs): physics steps, streams,
-    /// heartbeats, timers. Time never goes back.
+    /// Runs the simulation up to `now` (sim µs since the simulation
+    /// started): physics steps, streams, heartbeats, timers. Time never
+    /// goes back.
     pub fn advance(&mut self, now: u64) {
         loop {
+            let now = now.saturating_sub(self.epoch);
             let step = self.next_step;
             let tele = self.next_telemetry();
             let t = step.min(tele);
+            if let Some(at) = self.reboot_at.filter(|at| *at <= t.min(now)) {
+                self.now = self.now.max(at);
+                self.reboot();
+                continue;
+            }
             if t > now {
                 break;
             }
@@ -199,7 +237,7 @@ impl Vehicle {
                 self.emit_telemetry(t);
             }
         }
-        self.now = self.now.max(now);
+        self.now = self.now.max(now.saturating_sub(self.epoch));
     }
 
     /// The next frame to send, with its header (sequence numbers per
@@ -211,7 +249,71 @@ impl Vehicle {
     /// The next time (sim µs) something happens even if nothing arrives:
     /// the runner sleeps until then.
     pub fn next_deadline(&self) -> u64 {
-        self.next_step.min(self.next_telemetry())
+        self.epoch + self.next_step.min(self.next_telemetry())
+    }
+
+    /// The link faults active now, and the garbage due (taken: the
+    /// socket writes it once).
+    pub fn take_wire_faults(&mut self) -> WireFaults {
+        let silent = self.link_lost();
+        WireFaults {
+            garbage: if silent {
+                0
+            } else {
+                std::mem::take(&mut self.garbage_due)
+            },
+            duplicate: self.has_fault(FaultKind::Duplicate),
+            reorder: self.has_fault(FaultKind::Reorder),
+        }
+    }
+
+    /// The result every command to the autopilot gets under
+    /// [`Fault::RefuseCommands`], if active.
+    pub(crate) fn refusal(&self) -> Option<MavResult> {
+        self.active.iter().find_map(|(f, _)| match f {
+            Fault::RefuseCommands(r) | Fault::RefuseCommand(r) => Some(match r {
+                Refusal::Denied => MavResult::MAV_RESULT_DENIED,
+                Refusal::Failed => MavResult::MAV_RESULT_FAILED,
+                Refusal::TemporarilyRejected => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+            }),
+            _ => None,
+        })
+    }
+
+    /// The autopilot boots again (the end of [`Fault::Reboot`]'s silence):
+    /// a fresh autopilot, from boot time 0, with what survives a reset.
+    fn reboot(&mut self) {
+        let boot = self.epoch + self.now;
+        tracing::info!(t = self.t_s(), "autopilot reboots");
+        let mut fresh = Vehicle::new(self.cfg.clone());
+        fresh.epoch = boot;
+        // EEPROM: the parameters, the mission.
+        fresh.params = self.params.clone();
+        fresh.mission = std::mem::take(&mut self.mission);
+        // The world: the aircraft flies on.
+        fresh.ac = self.ac.clone();
+        // The watchdog's persistent data (a reset in flight): armed, the
+        // mode, home, the mission's current item; the flight goes on.
+        let in_flight = self.fl.armed;
+        if in_flight {
+            fresh.fl = std::mem::take(&mut self.fl);
+            fresh.auto = std::mem::take(&mut self.auto);
+            fresh.home_pos = self.home_pos;
+            fresh.home_set = self.home_set;
+            fresh.watchdog = true;
+            fresh.last_reached = self.last_reached;
+        }
+        fresh.servos = self.servos;
+        fresh.relays = self.relays;
+        // The test's records and the faults under way go on.
+        fresh.truth = std::mem::take(&mut self.truth);
+        fresh.scheduled = std::mem::take(&mut self.scheduled);
+        fresh.active = std::mem::take(&mut self.active)
+            .into_iter()
+            .filter(|(f, _)| f.kind() != FaultKind::Reboot)
+            .collect();
+        fresh.dropped = self.dropped;
+        *self = fresh;
     }
 
     /// Injects a fault now; it stays until [`Vehicle::clear`].
@@ -221,7 +323,7 @@ impl Vehicle {
 
     /// Injects a fault now for `duration_s` sim seconds.
     pub fn inject_for(&mut self, fault: Fault, duration_s: f64) {
-        let until = self.now + (duration_s.max(0.0) * 1e6) as u64;
+        let until = self.run_us() + (duration_s.max(0.0) * 1e6) as u64;
         self.start_fault(fault, Some(until));
     }
 
@@ -279,8 +381,20 @@ impl Vehicle {
 
     // ----- helpers shared by the other modules -----
 
+    /// Sim seconds since the simulation started (for the test's records
+    /// and the fault schedule; a reboot does not reset them).
     pub(crate) fn t_s(&self) -> f64 {
+        (self.epoch + self.now) as f64 / 1e6
+    }
+
+    /// Sim seconds since this boot (the start-up sequence's clock).
+    pub(crate) fn boot_s(&self) -> f64 {
         self.now as f64 / 1e6
+    }
+
+    /// Sim µs since the simulation started (faults' end times).
+    fn run_us(&self) -> u64 {
+        self.epoch + self.now
     }
 
     pub(crate) fn fix(&self) -> Fix {
@@ -307,7 +421,7 @@ impl Vehicle {
     }
 
     pub(crate) fn link_lost(&self) -> bool {
-        self.has_fault(FaultKind::LinkLoss)
+        self.has_fault(FaultKind::LinkLoss) || self.reboot_at.is_some()
     }
 
     pub(crate) fn battery_remaining(&self) -> f64 {
@@ -484,10 +598,10 @@ impl Vehicle {
             due
         };
         for p in due {
-            let until = p.duration.map(|d| self.now + (d * 1e6) as u64);
+            let until = p.duration.map(|d| self.run_us() + (d * 1e6) as u64);
             self.start_fault(p.fault, until);
         }
-        let now = self.now;
+        let now = self.run_us();
         let ended: Vec<Fault> = self
             .active
             .iter()
@@ -512,7 +626,7 @@ impl Vehicle {
             due
         };
         for p in due {
-            let until = p.duration.map(|d| self.now + (d * 1e6) as u64);
+            let until = p.duration.map(|d| self.run_us() + (d * 1e6) as u64);
             self.start_fault(p.fault, until);
         }
     }
@@ -540,6 +654,19 @@ impl Vehicle {
                 let text = text.clone();
                 self.text(MavSeverity::MAV_SEVERITY_EMERGENCY, text);
             }
+            Fault::Reboot { silence_s } => {
+                // Instantaneous: silent now, boots after the silence.
+                self.reboot_at = Some(self.now + (silence_s * 1e6) as u64);
+                return;
+            }
+            Fault::Garbage { bytes } => {
+                self.garbage_due += bytes;
+                return;
+            }
+            Fault::RefuseCommands(_)
+            | Fault::RefuseCommand(_)
+            | Fault::Duplicate
+            | Fault::Reorder => {}
         }
         self.active.retain(|(f, _)| f.kind() != fault.kind());
         self.active.push((fault, until));
@@ -559,7 +686,13 @@ impl Vehicle {
             Fault::GpsLoss
             | Fault::BatteryRemaining { .. }
             | Fault::LinkLoss
-            | Fault::Emergency { .. } => {}
+            | Fault::Emergency { .. }
+            | Fault::Reboot { .. }
+            | Fault::RefuseCommands(_)
+            | Fault::RefuseCommand(_)
+            | Fault::Garbage { .. }
+            | Fault::Duplicate
+            | Fault::Reorder => {}
         }
     }
 }
@@ -807,6 +940,120 @@ mod tests {
             req_stream_id: MavDataStream::MAV_DATA_STREAM_ALL,
             start_stop: 1,
         }));
+    }
+
+    #[test]
+    fn a_reboot_in_flight_is_silent_then_boots_from_zero_and_flies_on() {
+        let mut b = Bench::airborne(quick());
+        all_streams(&mut b);
+        b.set_mode(crate::modes::LOITER);
+        b.run_to(b.v.t_s() + 5.0);
+        assert!(b.v.params.set("RTL_AUTOLAND", 2.0));
+        let before = b.v.state();
+        let at = before.time_s;
+        b.v.inject(Fault::Reboot { silence_s: 2.0 });
+        let from = b.got.len();
+        // Silent, and deaf: a command during the silence is not heard.
+        assert_eq!(b.set_mode(crate::modes::RTL), None);
+        b.run_to(at + 1.9);
+        assert_eq!(b.got.len(), from, "frames sent while rebooting");
+        b.run_to(at + 8.0);
+        let s = b.v.state();
+        // The first frames of the new boot: sequence 0, and every
+        // time_boot_ms from the new boot.
+        let (_, h, _) = b.got[from..]
+            .iter()
+            .find(|(_, h, _)| h.component_id == crate::AUTOPILOT)
+            .expect("frames after the reboot");
+        assert_eq!(h.sequence, 0);
+        let boot_ms: Vec<u32> = b
+            .since(from, "SYSTEM_TIME")
+            .iter()
+            .filter_map(|(_, _, m)| match m {
+                MavMessage::SYSTEM_TIME(t) => Some(t.time_boot_ms),
+                _ => None,
+            })
+            .collect();
+        assert!(!boot_ms.is_empty(), "no SYSTEM_TIME after the reboot");
+        // The first at the stream's first second of the new boot.
+        assert!(
+            boot_ms[0] <= 1_000 && (boot_ms[0] as f64) < at * 1e3 - 10_000.0,
+            "{boot_ms:?} after {at} s"
+        );
+        assert!(b.since(from, "HEARTBEAT").len() > 3);
+        // The simulation's clock goes on; the flight goes on, armed, in
+        // its mode, with its parameters and mission.
+        assert!((s.time_s - (at + 8.0)).abs() < 0.01, "{}", s.time_s);
+        assert!(
+            s.armed && s.flying && !s.crashed && s.mode == "LOITER",
+            "{s:?}"
+        );
+        assert_eq!(b.v.params.get("RTL_AUTOLAND"), 2.0);
+        assert_eq!(s.mission, before.mission);
+        assert_eq!(
+            s.faults.last().map(|f| f.fault.kind()),
+            Some(FaultKind::Reboot)
+        );
+        // Commands are heard again.
+        assert_eq!(
+            b.set_mode(crate::modes::RTL),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+    }
+
+    #[test]
+    fn refused_commands_are_answered_and_do_nothing() {
+        let mut b = Bench::new(quick());
+        b.run_to(4.0);
+        b.v.inject_for(Fault::RefuseCommands(crate::faults::Refusal::Denied), 5.0);
+        assert_eq!(
+            b.set_mode(crate::modes::FBWA),
+            Some(MavResult::MAV_RESULT_DENIED)
+        );
+        assert_eq!(b.arm(), Some(MavResult::MAV_RESULT_DENIED));
+        let s = b.v.state();
+        assert!(s.mode == "MANUAL" && !s.armed, "{s:?}");
+        b.run_to(9.5);
+        assert_eq!(
+            b.set_mode(crate::modes::FBWA),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        assert_eq!(b.v.state().mode, "FLY_BY_WIRE_A");
+        // One command refused, then the fault clears by itself.
+        b.v.inject(Fault::RefuseCommand(
+            crate::faults::Refusal::TemporarilyRejected,
+        ));
+        assert_eq!(
+            b.set_mode(crate::modes::MANUAL),
+            Some(MavResult::MAV_RESULT_TEMPORARILY_REJECTED)
+        );
+        assert_eq!(
+            b.set_mode(crate::modes::MANUAL),
+            Some(MavResult::MAV_RESULT_ACCEPTED)
+        );
+        let f = &b.v.state().faults;
+        assert!(f
+            .last()
+            .is_some_and(|f| f.cleared && f.fault.kind() == FaultKind::RefuseCommand));
+    }
+
+    #[test]
+    fn link_faults_are_handed_to_the_socket() {
+        let mut b = Bench::new(quick());
+        b.run_to(1.0);
+        assert_eq!(b.v.take_wire_faults(), crate::WireFaults::default());
+        b.v.inject(Fault::Garbage { bytes: 300 });
+        b.v.inject_for(Fault::Duplicate, 2.0);
+        b.v.inject_for(Fault::Reorder, 4.0);
+        let w = b.v.take_wire_faults();
+        assert_eq!((w.garbage, w.duplicate, w.reorder), (300, true, true));
+        // The garbage once; each fault until it clears.
+        assert_eq!(b.v.take_wire_faults().garbage, 0);
+        b.run_to(3.5);
+        let w = b.v.take_wire_faults();
+        assert_eq!((w.duplicate, w.reorder), (false, true));
+        b.run_to(5.5);
+        assert_eq!(b.v.take_wire_faults(), crate::WireFaults::default());
     }
 
     #[test]

@@ -123,6 +123,9 @@ pub struct Commander {
     next_heartbeat: Option<Micros>,
     last_heard: Option<Micros>,
     link_lost: bool,
+    /// The autopilot's last SYSTEM_TIME.time_boot_ms: when it goes back, the
+    /// autopilot rebooted and forgot the message intervals it was asked.
+    boot_ms: Option<u32>,
     streams: Vec<(u32, f32)>,
     /// Messages SET_MESSAGE_INTERVAL did not obtain.
     stream_fallback: BTreeSet<u32>,
@@ -170,6 +173,7 @@ impl Commander {
             next_heartbeat: None,
             last_heard: None,
             link_lost: false,
+            boot_ms: None,
             streams: Vec::new(),
             stream_fallback: BTreeSet::new(),
             interval_unsupported: false,
@@ -421,6 +425,17 @@ impl Commander {
                     );
                 }
                 MavMessage::PARAM_VALUE(v) => self.parameters.value(v),
+                MavMessage::SYSTEM_TIME(t) => {
+                    // Back by more than 2 s, as elaboration's reboot rule.
+                    let rebooted = self
+                        .boot_ms
+                        .is_some_and(|b| t.time_boot_ms.saturating_add(2_000) < b);
+                    self.boot_ms = Some(t.time_boot_ms);
+                    if rebooted {
+                        tracing::info!("the autopilot rebooted: asking for telemetry again");
+                        self.restart_streams();
+                    }
+                }
                 _ => {}
             }
             if let (None, MavMessage::HEARTBEAT(hb)) = (self.firmware, message) {
@@ -843,6 +858,9 @@ impl Commander {
             if !self.link_lost && now >= heard + timing.link_timeout {
                 tracing::warn!("autopilot silent: link lost");
                 self.link_lost = true;
+                // The streams are asked again when the link is back; a
+                // reboot during the silence needs nothing more.
+                self.boot_ms = None;
             }
         }
         // Deadlines of commands in flight.

@@ -1015,6 +1015,35 @@ fn events_are_never_asked_for_and_a_denied_message_falls_back_only_by_its_group(
 }
 
 #[test]
+fn streams_are_asked_again_after_the_autopilot_reboots() {
+    let mut s = Sim::new(Firmware::Plane);
+    let system_time = |ms: u32| {
+        MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA {
+            time_unix_usec: 0,
+            time_boot_ms: ms,
+        })
+    };
+    s.c.request_streams(&[(33, 4.0)], 0);
+    assert_eq!(s.one_long().param1, 33.0);
+    s.ack(
+        MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+        MavResult::MAV_RESULT_ACCEPTED,
+    );
+    s.recv(1, 1, system_time(600_000));
+    s.at(S / 2);
+    s.recv(1, 1, system_time(600_500));
+    // Time going on, or back by less than 2 s: nothing asked.
+    s.recv(1, 1, system_time(599_000));
+    assert!(s.sent().is_empty());
+    // Back to the start of a boot (a silence shorter than the link
+    // timeout): the intervals are forgotten, asked again.
+    s.at(S);
+    s.recv(1, 1, system_time(700));
+    assert_eq!(s.one_long().param1, 33.0);
+    assert!(!s.c.link_lost());
+}
+
+#[test]
 fn streams_by_interval_then_fallback_and_again_after_link_loss() {
     let mut s = Sim::new(Firmware::Copter);
     s.c.request_streams(&[(33, 4.0), (1, 2.0)], 0);
