@@ -360,7 +360,7 @@ pub fn resolve(player: &Player, line: &Line, to: &ReplyTo) -> Result<u64, Script
                 let prog = &project.programs[*pr];
                 prog.name == *program && prog.functions[*f].name == *function
             }
-            PendingKind::Command { .. } => false,
+            PendingKind::Command { .. } | PendingKind::Question { .. } => false,
         }),
         ReplyTo::Command { verb } => pending
             .iter()
