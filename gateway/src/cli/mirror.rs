@@ -360,6 +360,14 @@ fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Rep
                             &format!("REPLY  #{id} {text}"),
                         );
                     }
+                    Input::Answered { time, id, choice } => {
+                        let _ = out.input(
+                            *time,
+                            "answer",
+                            json!({"id": id, "choice": choice, "vehicle_step": step, "record": number}),
+                            &format!("ANSWER #{id} {choice}"),
+                        );
+                    }
                 }
             }
             let _ = time;

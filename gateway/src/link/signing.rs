@@ -166,6 +166,30 @@ impl Signer {
         raw
     }
 
+    /// Like [`Signer::sign`], for a message the dialect's types cannot hold
+    /// (the mirror's TUNNEL with a private payload type): rust-mavlink frames
+    /// it with the signed flag set first, so that the header and checksum
+    /// carry it, and computes the signature.
+    pub fn sign_data<D: mavlink::MessageData>(
+        &mut self,
+        header: mavlink::MavHeader,
+        data: &D,
+        unix_us: u64,
+    ) -> MAVLinkV2MessageRaw {
+        let mut raw = MAVLinkV2MessageRaw::new();
+        *raw.incompatibility_flags_mut() = IFLAG_SIGNED;
+        raw.serialize_message_data(header, data);
+        let timestamp = timestamp_at(unix_us).max(self.last + 1);
+        self.last = timestamp;
+        *raw.signature_link_id_mut() = self.link_id;
+        raw.signature_timestamp_bytes_mut()
+            .copy_from_slice(&timestamp.to_le_bytes()[..6]);
+        let mut signature = [0u8; SIGNATURE_VALUE_SIZE];
+        raw.calculate_signature(self.key.secret(), &mut signature);
+        raw.signature_value_mut().copy_from_slice(&signature);
+        raw
+    }
+
     /// The last timestamp used, to persist.
     pub fn timestamp(&self) -> u64 {
         self.last
