@@ -158,7 +158,9 @@ impl Dialog {
 }
 
 /// The answer record as a signed TUNNEL frame from `from` to the onboard
-/// gateway `to` (system, component).
+/// gateway `to` (system, component): what `UplinkWriter::send_answer`
+/// sends, built without a link (tests, and a web page's backend later).
+#[cfg_attr(not(test), allow(dead_code))]
 pub fn answer_frame(
     signer: &mut Signer,
     from: (u8, u8),
@@ -259,6 +261,26 @@ impl AnswerGate {
         judged
     }
 
+    /// Judges a frame as received on the wire (bytes): a MAVLink 1 frame
+    /// cannot be signed.
+    pub fn judge_bytes(
+        &mut self,
+        bytes: &[u8],
+        unix_us: u64,
+    ) -> Result<(u64, String), AnswerRejection> {
+        let mut raw = MAVLinkV2MessageRaw::new();
+        let frame = if bytes.first() == Some(&mavlink::MAV_STX_V2)
+            && bytes.len() <= raw.as_mut_slice().len()
+        {
+            raw.as_mut_slice()[..bytes.len()].copy_from_slice(bytes);
+            MAVLinkMessageRaw::V2(raw)
+        } else {
+            *self.rejected.entry(AnswerRejection::Unsigned).or_default() += 1;
+            return Err(AnswerRejection::Unsigned);
+        };
+        self.judge(&frame, unix_us)
+    }
+
     /// The player's verdict on an answer the gate let through.
     pub fn delivered(&mut self, verdict: Result<(), AnswerRefusal>) {
         match verdict {
@@ -294,6 +316,15 @@ pub fn verdict(effects: &[Effect], id: u64) -> Option<Result<(), AnswerRefusal>>
         Effect::AnswerRefused { id: i, reason, .. } if *i == id => Some(Err(*reason)),
         _ => None,
     })
+}
+
+/// Whether a Petrel TUNNEL payload is an answer (to judge with the gate,
+/// not to hand the publisher).
+pub fn is_answer(payload: &[u8]) -> bool {
+    matches!(
+        record::decode_packet(payload).as_deref(),
+        Ok([Record::Answer { .. }])
+    )
 }
 
 /// The answer record a Petrel TUNNEL frame holds, if it holds exactly one.

@@ -15,7 +15,6 @@
 //! carry their packets.
 
 pub mod check;
-#[allow(dead_code)] // until `petrel run` and `petrel mirror` carry it
 pub mod dialog;
 pub mod publisher;
 pub mod record;
