@@ -368,21 +368,13 @@ impl Player {
                 ]),
             ),
         };
-        let category = if pending.catastrophic {
-            Category::Catastrophic
-        } else {
-            project
-                .declared_category(&name)
-                .unwrap_or(Category::Nominal)
-        };
-        self.state.push(Queued {
-            event: Event {
-                name,
-                category,
-                params,
-            },
-            target: Some(pending.net),
-        });
+        self.push_result(
+            project.as_ref(),
+            pending.net,
+            name,
+            params,
+            pending.catastrophic,
+        );
         self.run_queue(&project, now, 0);
     }
 
@@ -436,7 +428,29 @@ impl Player {
             net,
             choice: choice.to_owned(),
         });
-        let name = spec.answer_event(choice);
+        let params = Params::from([("choice".to_owned(), Value::Str(choice.to_owned()))]);
+        self.push_result(
+            &project,
+            net,
+            spec.answer_event(choice),
+            params,
+            catastrophic,
+        );
+        self.run_queue(&project, now, 0);
+        Ok(())
+    }
+
+    /// Queues a result (a call's, a command's, an answer) for net `net`:
+    /// catastrophic if the catastrophic reaction issued it, else the
+    /// declared category or nominal.
+    fn push_result(
+        &mut self,
+        project: &Project,
+        net: NetId,
+        name: String,
+        params: Params,
+        catastrophic: bool,
+    ) {
         let category = if catastrophic {
             Category::Catastrophic
         } else {
@@ -448,12 +462,10 @@ impl Player {
             event: Event {
                 name,
                 category,
-                params: Params::from([("choice".to_owned(), Value::Str(choice.to_owned()))]),
+                params,
             },
             target: Some(net),
         });
-        self.run_queue(&project, now, 0);
-        Ok(())
     }
 
     /// The questions pending, in id order: (id, net, ask).
