@@ -261,3 +261,36 @@ fn load_errors_name_the_bad_ask() {
         assert!(err.contains(message), "{action}: {err}");
     }
 }
+
+#[test]
+fn a_script_answers_by_name_or_id_and_a_late_answer_is_refused_not_an_error() {
+    let p = one_net(SURVEY);
+    let script = nets::script::parse(
+        "{\"t\": 10, \"event\": \"reached_t2\"}\n{\"t\": 20, \"answer\": \"survey\", \"choice\": \"no\"}\n",
+    )
+    .expect("parses");
+    let mut player = Player::start(p.clone(), 0);
+    for line in &script {
+        nets::script::play_line(&mut player, line).expect("plays");
+    }
+    assert_eq!(marking(&player, "N"), ["skipped"]);
+    // By id, after the deadline: refused by the player, the script goes on.
+    let script = nets::script::parse(
+        "{\"t\": 10, \"event\": \"reached_t2\"}\n{\"t\": 80, \"answer\": 1, \"choice\": \"yes\"}\n",
+    )
+    .expect("parses");
+    let mut player = Player::start(p.clone(), 0);
+    for line in &script {
+        nets::script::play_line(&mut player, line).expect("plays");
+    }
+    assert_eq!(marking(&player, "N"), ["timed_out"]);
+    // By name with none pending: an error naming the line.
+    let script = nets::script::parse("{\"t\": 5, \"answer\": \"survey\", \"choice\": \"yes\"}\n")
+        .expect("parses");
+    let mut player = Player::start(p, 0);
+    let e = nets::script::play_line(&mut player, &script[0]).expect_err("none pending");
+    assert!(
+        e.to_string().contains("no pending question `survey`"),
+        "{e}"
+    );
+}
