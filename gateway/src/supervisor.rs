@@ -25,6 +25,9 @@ pub enum Input<'a> {
     Result { id: u64, outcome: Outcome },
     /// An event from a software program.
     Event(Event),
+    /// The operator's answer to question `id` (its signature checked by
+    /// `mirror::dialog::AnswerGate`); the player refuses it if late.
+    Answer { id: u64, choice: String },
 }
 
 /// What one input caused.
@@ -122,6 +125,9 @@ impl Supervisor {
             }
             Input::Result { id, outcome } => self.player.result(id, outcome, time),
             Input::Event(event) => self.player.handle(&event, time),
+            Input::Answer { id, choice } => {
+                let _ = self.player.answer(id, &choice, time);
+            }
         }
         step.effects.extend(self.player.effects());
         for e in self.elaborated.drain(..) {

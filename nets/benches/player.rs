@@ -72,6 +72,7 @@ fn flight() -> Flight {
                 let id = script::resolve(&player, line, to).expect("reply resolves");
                 Step::Reply(id, outcome.clone())
             }
+            Input::Answer { .. } => panic!("the example's script answers no question"),
         };
         script::play_line(&mut player, line).expect("plays");
         let _ = player.effects().count();

@@ -8,6 +8,7 @@
 //! cancel NAME
 //! call PROGRAM.FUNCTION {key: value, ...}
 //! command VERB {key: value, ...}
+//! ask NAME "QUESTION" {choices: [CHOICE, ...]} timeout DURATION
 //! ```
 //!
 //! This module only parses; the loader resolves names.
@@ -40,6 +41,14 @@ pub enum ActionSyntax {
         verb: Name,
         args: Vec<(String, Expr)>,
     },
+    /// `ask NAME "QUESTION" {choices: [..]} timeout DURATION`.
+    Ask {
+        name: Name,
+        question: String,
+        /// The choices, each a name, with their offsets.
+        choices: Vec<Name>,
+        timeout: Name,
+    },
 }
 
 const STOPS: &[char] = &['{', '}', ',', ':'];
@@ -49,7 +58,7 @@ pub fn parse(text: &str) -> Result<ActionSyntax, SyntaxError> {
     let mut p = Parser::new(text, Context::Argument);
     let Some((keyword, at)) = p.name() else {
         return Err(p.error(
-            "expected an action: activate, deactivate, emit, timer, cancel, call or command",
+            "expected an action: activate, deactivate, emit, timer, cancel, call, command or ask",
         ));
     };
     let action = match keyword.as_str() {
@@ -114,11 +123,12 @@ pub fn parse(text: &str) -> Result<ActionSyntax, SyntaxError> {
                 .ok_or_else(|| p.error("expected a verb after `command`"))?,
             args: args(&mut p)?,
         },
+        "ask" => ask(&mut p)?,
         other => {
             return Err(SyntaxError {
                 at,
                 message: format!(
-                    "unknown action `{other}`: expected activate, deactivate, emit, timer, cancel, call or command"
+                    "unknown action `{other}`: expected activate, deactivate, emit, timer, cancel, call, command or ask"
                 ),
             })
         }
@@ -127,6 +137,66 @@ pub fn parse(text: &str) -> Result<ActionSyntax, SyntaxError> {
         return Err(p.error("unexpected text after the action"));
     }
     Ok(action)
+}
+
+fn ask(p: &mut Parser) -> Result<ActionSyntax, SyntaxError> {
+    let name = p
+        .name()
+        .ok_or_else(|| p.error("expected the ask's name after `ask`"))?;
+    p.skip_ws();
+    if !p.text[p.pos..].starts_with('"') {
+        return Err(p.error("expected the question in double quotes after the ask's name"));
+    }
+    let question = p.string()?;
+    p.skip_ws();
+    let map_at = p.pos;
+    let shape = "expected `{choices: [CHOICE, ...]}` after the question";
+    if !p.text[p.pos..].starts_with('{') {
+        return Err(p.error(shape));
+    }
+    let map = p.map()?;
+    let bad = || SyntaxError {
+        at: map_at,
+        message: "expected `{choices: [CHOICE, ...]}` with at least one choice, each a name".into(),
+    };
+    let [(key, Expr::List(items))] = map.as_slice() else {
+        return Err(bad());
+    };
+    if key != "choices" || items.is_empty() {
+        return Err(bad());
+    }
+    let mut choices: Vec<Name> = Vec::new();
+    for item in items {
+        // In an argument a bare name is a string literal; a quoted string
+        // must be a name too, since the choice becomes part of an event name.
+        match item {
+            Expr::Lit(crate::value::Value::Str(s))
+                if s.chars()
+                    .next()
+                    .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+                    && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') =>
+            {
+                choices.push((s.clone(), map_at));
+            }
+            _ => return Err(bad()),
+        }
+    }
+    if !p.eat("timeout") {
+        return Err(p.error("expected `timeout DURATION` after the choices"));
+    }
+    p.skip_ws();
+    let at = p.pos;
+    let rest = p.text[at..].trim_end().to_owned();
+    if rest.is_empty() {
+        return Err(p.error("expected a duration after `timeout`"));
+    }
+    p.pos = p.text.len();
+    Ok(ActionSyntax::Ask {
+        name,
+        question,
+        choices,
+        timeout: (rest, at),
+    })
 }
 
 fn net_name(p: &mut Parser) -> Result<Name, SyntaxError> {
@@ -189,6 +259,22 @@ mod tests {
         };
         assert_eq!(verb.0, "mode");
         assert_eq!(args[0].1, Expr::Lit(Value::Str("AUTO".into())));
+        let ActionSyntax::Ask {
+            name,
+            question,
+            choices,
+            timeout,
+        } = parse(r#"ask survey "Survey T2?" {choices: [yes, "no"]} timeout 60s"#).unwrap()
+        else {
+            panic!("not an ask")
+        };
+        assert_eq!(
+            (name.0.as_str(), question.as_str()),
+            ("survey", "Survey T2?")
+        );
+        let choices: Vec<&str> = choices.iter().map(|c| c.0.as_str()).collect();
+        assert_eq!(choices, ["yes", "no"]);
+        assert_eq!(timeout, ("60s".into(), 55));
         let ActionSyntax::Emit { event, args } = parse("emit replanned").unwrap() else {
             panic!("not an emit")
         };
@@ -198,8 +284,13 @@ mod tests {
     #[test]
     fn errors() {
         let cases = [
-            ("", 0, "expected an action: activate, deactivate, emit, timer, cancel, call or command"),
-            ("launch rockets", 0, "unknown action `launch`: expected activate, deactivate, emit, timer, cancel, call or command"),
+            ("", 0, "expected an action: activate, deactivate, emit, timer, cancel, call, command or ask"),
+            ("launch rockets", 0, "unknown action `launch`: expected activate, deactivate, emit, timer, cancel, call, command or ask"),
+            ("ask q {choices: [a]} timeout 1s", 6, "expected the question in double quotes after the ask's name"),
+            ("ask q \"Go?\" timeout 1s", 12, "expected `{choices: [CHOICE, ...]}` after the question"),
+            ("ask q \"Go?\" {choices: []} timeout 1s", 12, "expected `{choices: [CHOICE, ...]}` with at least one choice, each a name"),
+            ("ask q \"Go?\" {choices: [a, \"b c\"]} timeout 1s", 12, "expected `{choices: [CHOICE, ...]}` with at least one choice, each a name"),
+            ("ask q \"Go?\" {choices: [a]}", 26, "expected `timeout DURATION` after the choices"),
             ("timer t 30s", 8, "expected `after DURATION`"),
             ("call DEC", 8, "expected `.FUNCTION` after the program name"),
             ("call DEC. f", 9, "expected a function name after `.`"),

@@ -615,7 +615,8 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn string(&mut self) -> Result<String, SyntaxError> {
+    /// Parses a quoted string; the opening quote is next.
+    pub fn string(&mut self) -> Result<String, SyntaxError> {
         let start = self.pos;
         self.pos += 1; // opening quote
         let mut out = String::new();

@@ -13,8 +13,8 @@ use crate::action::{self, ActionSyntax};
 use crate::event::Category;
 use crate::expr::{self, Context, Expr};
 use crate::model::{
-    Action, Args, EventDecl, Function, Global, Guard, Limits, Net, NetId, Place, PlaceRef, Program,
-    Project, Transition,
+    Action, Args, Ask, EventDecl, Function, Global, Guard, Limits, Net, NetId, Place, PlaceRef,
+    Program, Project, Transition, ASK_TIMEOUT,
 };
 use crate::source::{LoadError, Problem, SourceFile, Sources};
 use crate::time::parse_duration;
@@ -532,12 +532,24 @@ impl Loader {
             }
         }
         let mut timers: Vec<String> = Vec::new();
+        let mut asks: Vec<Ask> = Vec::new();
         for t in &raw.transitions {
             for a in &t.actions {
-                if let Ok(ActionSyntax::Timer { name, .. }) = action::parse(a.get_ref()) {
-                    if !timers.contains(&name.0) {
+                match action::parse(a.get_ref()) {
+                    Ok(ActionSyntax::Timer { name, .. }) if !timers.contains(&name.0) => {
                         timers.push(name.0);
                     }
+                    Ok(ActionSyntax::Ask { name, choices, .. })
+                        if asks.iter().all(|q| q.name != name.0) =>
+                    {
+                        timers.push(format!("{}.{ASK_TIMEOUT}", name.0));
+                        asks.push(Ask {
+                            name: name.0,
+                            choices: choices.into_iter().map(|c| c.0).collect(),
+                            timer: timers.len() - 1,
+                        });
+                    }
+                    _ => {}
                 }
             }
         }
@@ -548,6 +560,7 @@ impl Loader {
             transitions: Vec::new(),
             active_at_start: active,
             timers,
+            asks,
             immediate: Vec::new(),
         }
     }
@@ -977,6 +990,59 @@ impl Loader {
                 }
                 check_args(self, &args);
                 Action::Command { verb: verb.0, args }
+            }
+            ActionSyntax::Ask {
+                name,
+                question,
+                choices,
+                timeout,
+            } => {
+                let micros = match parse_duration(&timeout.0) {
+                    Ok(m) => m,
+                    Err(e) => {
+                        self.problem(file, name_span(&timeout), e.to_string());
+                        return None;
+                    }
+                };
+                let choices: Vec<String> = choices.into_iter().map(|c| c.0).collect();
+                for (i, c) in choices.iter().enumerate() {
+                    if c == ASK_TIMEOUT || choices[..i].contains(c) {
+                        self.problem(
+                            file,
+                            name_span(&name),
+                            format!(
+                                "ask `{}`: choice `{c}` is {}",
+                                name.0,
+                                if c == ASK_TIMEOUT {
+                                    "reserved for the ask's timeout event"
+                                } else {
+                                    "offered twice"
+                                }
+                            ),
+                        );
+                        return None;
+                    }
+                }
+                let net_asks = &scope.project.nets[net].asks;
+                let ask = net_asks.iter().position(|q| q.name == name.0)?;
+                if net_asks[ask].choices != choices {
+                    self.problem(
+                        file,
+                        name_span(&name),
+                        format!(
+                            "ask `{}` is asked elsewhere in net `{}` with other choices ({}): one name, one set of choices",
+                            name.0,
+                            scope.project.nets[net].name,
+                            list(&net_asks[ask].choices)
+                        ),
+                    );
+                    return None;
+                }
+                Action::Ask {
+                    ask,
+                    question,
+                    after: micros,
+                }
             }
         })
     }

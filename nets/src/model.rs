@@ -57,11 +57,35 @@ pub struct Net {
     pub transitions: Vec<Transition>,
     /// Whether the net is active when the project starts.
     pub active_at_start: bool,
-    /// Timer names this net starts (its timer namespace).
+    /// Timer names this net starts (its timer namespace). Each question the
+    /// net asks has one too, `NAME.timeout`.
     pub timers: Vec<String>,
+    /// The questions this net asks the operator, by name.
+    pub asks: Vec<Ask>,
     /// Indices of its immediate transitions, in file order.
     pub immediate: Vec<TransitionId>,
 }
+
+/// A question a net asks the operator (`ask NAME "QUESTION" {choices: [..]}
+/// timeout DURATION`). Its answer is the event `NAME.CHOICE {choice}`, its
+/// timeout `NAME.timeout`, both delivered to the asking net only.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ask {
+    pub name: String,
+    pub choices: Vec<String>,
+    /// Index of `NAME.timeout` in the net's timers.
+    pub timer: usize,
+}
+
+impl Ask {
+    /// The event an answer delivers: `NAME.CHOICE`.
+    pub fn answer_event(&self, choice: &str) -> String {
+        format!("{}.{choice}", self.name)
+    }
+}
+
+/// The suffix of an ask's timeout event.
+pub const ASK_TIMEOUT: &str = "timeout";
 
 /// A place of a net.
 #[derive(Debug, Clone)]
@@ -121,6 +145,13 @@ pub enum Action {
     Command {
         verb: String,
         args: Args,
+    },
+    /// Ask the operator question `ask` of the net (index into
+    /// [`Net::asks`]), with `question` shown, answered within `after`.
+    Ask {
+        ask: usize,
+        question: String,
+        after: Micros,
     },
 }
 

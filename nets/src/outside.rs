@@ -25,6 +25,8 @@ pub enum Refusal {
     CommandResult,
     /// `PROGRAM.FUNCTION.done` / `.failed`: a call's result.
     CallResult,
+    /// `NAME.CHOICE` / `NAME.timeout` of a question a net asks.
+    Answer,
     /// An event the nets emit that the project does not declare.
     Emitted,
 }
@@ -37,6 +39,9 @@ impl fmt::Display for Refusal {
                 "a command's result comes only from the vehicle, for the net that commanded"
             }
             Refusal::CallResult => "a call's result comes only from the program, for the net that called",
+            Refusal::Answer => {
+                "an answer comes only from the operator (signed), and a timeout from the player, for the net that asked"
+            }
             Refusal::Emitted => {
                 "the nets emit this event and the project does not declare it in [events] (declare it there if it may also come from outside)"
             }
@@ -53,6 +58,8 @@ pub fn player_own(project: &Project, name: &str) -> Option<Refusal> {
         Some(Refusal::CommandResult)
     } else if is_call_result(project, name) {
         Some(Refusal::CallResult)
+    } else if is_answer(project, name) {
+        Some(Refusal::Answer)
     } else {
         None
     }
@@ -84,6 +91,17 @@ pub fn is_call_result(project: &Project, name: &str) -> bool {
                 .iter()
                 .any(|pr| pr.name == p && pr.functions.iter().any(|x| x.name == f))
         })
+}
+
+/// `NAME.CHOICE` or `NAME.timeout` of a question some net asks.
+pub fn is_answer(project: &Project, name: &str) -> bool {
+    let Some((ask, outcome)) = name.split_once('.') else {
+        return false;
+    };
+    project.nets.iter().flat_map(|n| &n.asks).any(|a| {
+        a.name == ask
+            && (outcome == crate::model::ASK_TIMEOUT || a.choices.iter().any(|c| c == outcome))
+    })
 }
 
 /// Whether some net emits `name`.

@@ -7,12 +7,15 @@
 //! {"t": 14.0, "reply": "DEC.replan", "failed": "no plan"}                 a call's failure
 //! {"t": 14.5, "reply": "command.arm"}                                     a command's result
 //! {"t": 15.0, "reply": 7, "failed": "timeout"}                            by id
+//! {"t": 16.0, "answer": "survey", "choice": "yes"}                        the operator's answer to `ask survey`
+//! {"t": 16.0, "answer": 9, "choice": "no"}                                by id
 //! {"t": 60}                                                               time passes
 //! ```
 //!
 //! `t` is in seconds from the start and never goes backwards. A reply by
 //! name goes to the oldest pending call of that function (or command of that
-//! verb). Blank lines and lines starting with `#` or `//` are skipped.
+//! verb), an answer by name to the oldest pending question of that ask.
+//! Blank lines and lines starting with `#` or `//` are skipped.
 
 use serde_json::Value as Json;
 
@@ -26,8 +29,24 @@ use crate::value::{Params, Value};
 #[derive(Debug, Clone, PartialEq)]
 pub enum Input {
     Event(Event),
-    Reply { to: ReplyTo, outcome: Outcome },
+    Reply {
+        to: ReplyTo,
+        outcome: Outcome,
+    },
+    /// The operator's answer: to question `id`, or to the oldest pending
+    /// question of an ask by name.
+    Answer {
+        to: AnswerTo,
+        choice: String,
+    },
     Advance,
+}
+
+/// What an answer answers.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AnswerTo {
+    Id(u64),
+    Ask(String),
 }
 
 /// What a reply answers.
@@ -123,11 +142,15 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
             message: message.to_string(),
         };
         for key in obj.keys() {
-            if !["t", "event", "params", "category", "reply", "failed"].contains(&key.as_str()) {
+            if ![
+                "t", "event", "params", "category", "reply", "failed", "answer", "choice",
+            ]
+            .contains(&key.as_str())
+            {
                 return Err(err_at(
                     key,
                     &format!(
-                        "unknown key `{key}` (expected t, event, params, category, reply, failed)"
+                        "unknown key `{key}` (expected t, event, params, category, reply, failed, answer, choice)"
                     ),
                 ));
             }
@@ -162,6 +185,46 @@ pub fn parse(text: &str) -> Result<Vec<Line>, ScriptError> {
                 .collect::<Result<_, _>>()?,
             Some(_) => return Err(err_at("params", &"`params` must be an object")),
         };
+        if let Some(answer) = obj.get("answer") {
+            if let Some(other) = ["event", "reply", "params", "category", "failed"]
+                .iter()
+                .find(|k| obj.contains_key(**k))
+            {
+                return Err(err_at(
+                    other,
+                    &"an `answer` line takes only `t`, `answer` and `choice`",
+                ));
+            }
+            let to = match answer {
+                Json::Number(n) => AnswerTo::Id(
+                    n.as_u64()
+                        .ok_or_else(|| err_at("answer", &"a question id is a positive integer"))?,
+                ),
+                Json::String(s) if !s.is_empty() => AnswerTo::Ask(s.clone()),
+                _ => {
+                    return Err(err_at(
+                        "answer",
+                        &"`answer` must be an ask's name or a question id",
+                    ))
+                }
+            };
+            let Some(Json::String(choice)) = obj.get("choice") else {
+                return Err(err_at("answer", &"an answer needs `choice`, a string"));
+            };
+            lines.push(Line {
+                number,
+                time,
+                input: Input::Answer {
+                    to,
+                    choice: choice.clone(),
+                },
+                columns,
+            });
+            continue;
+        }
+        if obj.contains_key("choice") {
+            return Err(err_at("choice", &"`choice` belongs to an `answer` line"));
+        }
         let input = match (obj.get("event"), obj.get("reply")) {
             (Some(_), Some(_)) => {
                 return Err(err_at(
@@ -360,7 +423,7 @@ pub fn resolve(player: &Player, line: &Line, to: &ReplyTo) -> Result<u64, Script
                 let prog = &project.programs[*pr];
                 prog.name == *program && prog.functions[*f].name == *function
             }
-            PendingKind::Command { .. } => false,
+            PendingKind::Command { .. } | PendingKind::Question { .. } => false,
         }),
         ReplyTo::Command { verb } => pending
             .iter()
@@ -391,6 +454,29 @@ pub fn play_line(player: &mut Player, line: &Line) -> Result<(), ScriptError> {
             let id = resolve(player, line, to)?;
             player.result(id, outcome.clone(), line.time);
         }
+        Input::Answer { to, choice } => {
+            // Timers due before the answer fire first: a late answer is
+            // refused by the player, recorded.
+            player.advance(line.time);
+            let id = match to {
+                AnswerTo::Id(id) => *id,
+                AnswerTo::Ask(name) => {
+                    let project = player.project().clone();
+                    player
+                        .questions()
+                        .find(|(_, net, ask)| project.nets[*net].asks[*ask].name == *name)
+                        .map(|(id, _, _)| id)
+                        .ok_or_else(|| ScriptError {
+                            line: line.number,
+                            column: line.column("answer"),
+                            message: format!(
+                                "no pending question `{name}` to answer (answer by id to send a late answer)"
+                            ),
+                        })?
+                }
+            };
+            let _ = player.answer(id, choice, line.time);
+        }
     }
     Ok(())
 }
@@ -403,6 +489,45 @@ mod tests {
         let lines = parse(line).unwrap_or_else(|e| panic!("{line}: {e}"));
         assert_eq!(lines.len(), 1);
         lines[0].input.clone()
+    }
+
+    #[test]
+    fn answers_by_name_or_id_and_their_errors() {
+        assert_eq!(
+            one(r#"{"t": 1, "answer": "survey", "choice": "yes"}"#),
+            Input::Answer {
+                to: AnswerTo::Ask("survey".into()),
+                choice: "yes".into()
+            }
+        );
+        assert_eq!(
+            one(r#"{"t": 1, "answer": 9, "choice": "no"}"#),
+            Input::Answer {
+                to: AnswerTo::Id(9),
+                choice: "no".into()
+            }
+        );
+        for (line, message) in [
+            (
+                r#"{"t": 1, "answer": "survey"}"#,
+                "an answer needs `choice`, a string",
+            ),
+            (
+                r#"{"t": 1, "answer": "s", "choice": "y", "event": "e"}"#,
+                "an `answer` line takes only `t`, `answer` and `choice`",
+            ),
+            (
+                r#"{"t": 1, "event": "e", "choice": "y"}"#,
+                "`choice` belongs to an `answer` line",
+            ),
+            (
+                r#"{"t": 1, "answer": true, "choice": "y"}"#,
+                "`answer` must be an ask's name or a question id",
+            ),
+        ] {
+            let e = parse(line).expect_err(line);
+            assert_eq!(e.message, message, "{line}");
+        }
     }
 
     #[test]
@@ -457,7 +582,7 @@ mod tests {
             ("  [1, 2]", "1:1: expected a JSON object"),
             ("{\"event\": \"x\"}", "1:1: missing `t` (seconds, a number)"),
             ("{\"t\": -1}", "1:2: `t` = -1 is out of range (0 to 1e9 seconds)"),
-            ("{\"t\": 1, \"evnt\": \"x\"}", "1:10: unknown key `evnt` (expected t, event, params, category, reply, failed)"),
+            ("{\"t\": 1, \"evnt\": \"x\"}", "1:10: unknown key `evnt` (expected t, event, params, category, reply, failed, answer, choice)"),
             ("{\"t\": 1, \"event\": \"\"}", "1:10: `event` must be a non-empty string"),
             ("{\"t\": 1, \"event\": \"x\", \"params\": [1]}", "1:24: `params` must be an object"),
             ("{\"t\": 1, \"event\": \"x\", \"params\": {\"a\": null}}", "1:24: parameter `a` is null"),

@@ -123,7 +123,7 @@ fn broken_net_files_report_the_exact_problem_and_position() {
         ),
         (
             transition("on = \"wp\"\ndo = [\"lanch\"]\n"),
-            vec!["n.toml:9:8: in action: unknown action `lanch`: expected activate, deactivate, emit, timer, cancel, call or command"],
+            vec!["n.toml:9:8: in action: unknown action `lanch`: expected activate, deactivate, emit, timer, cancel, call, command or ask"],
         ),
         (
             format!("{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"b\"]\n[[transition]]\nname = \"t\"\nfrom = [\"b\"]\nto = [\"a\"]\n"),

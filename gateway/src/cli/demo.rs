@@ -179,6 +179,7 @@ fn fly(args: &Args, dir: &Path) -> VerbResult {
         signing_timestamp: None,
         downlink: false,
         mirror_system: None,
+        operator_key: None,
     };
     let mut setup = match super::run::prepare(&run_args)? {
         Ok(setup) => setup,

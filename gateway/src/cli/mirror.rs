@@ -25,6 +25,7 @@ use super::VerbResult;
 use crate::clock::Clock;
 use crate::link::Link;
 use crate::mirror::check::{Check, WINDOW};
+use crate::mirror::dialog::Dialog;
 use crate::mirror::record::Input;
 use crate::mirror::replica::{Config as ReplicaConfig, Repair, Replica, Report};
 use crate::mirror::tunnel::Tunnel;
@@ -54,6 +55,12 @@ pub struct Args {
     /// Print the timeline as JSON lines.
     #[arg(long)]
     pub json: bool,
+    /// The operator key (the same file as `petrel run --operator-key`):
+    /// the nets' questions (`ask`) are shown with a countdown and answered
+    /// on stdin as `ID CHOICE` (or `CHOICE` when one question is pending),
+    /// sent up signed with it (docs/mirror.md, "Operator dialog").
+    #[arg(long, value_name = "FILE")]
+    pub operator_key: Option<PathBuf>,
 }
 
 /// How often the replica and the ground's elaboration are ticked.
@@ -90,6 +97,12 @@ pub fn run(args: Args) -> VerbResult {
         ));
     }
     super::run::check_timing(args.duration, args.time_scale)?;
+    let operator = match &args.operator_key {
+        None => None,
+        Some(path) => {
+            Some(crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
+        }
+    };
     let elaborator = Elaborator::new(profile, elaboration::Config::default());
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
@@ -103,6 +116,7 @@ pub fn run(args: Args) -> VerbResult {
         json: args.json,
         time_scale: args.time_scale,
         duration: args.duration.map(Duration::from_secs_f64),
+        operator,
     }))
 }
 
@@ -114,6 +128,8 @@ struct Setup {
     json: bool,
     time_scale: f64,
     duration: Option<Duration>,
+    /// The operator key: the dialog is on.
+    operator: Option<crate::link::signing::Key>,
 }
 
 async fn mirror(setup: Setup) -> VerbResult {
@@ -148,6 +164,26 @@ async fn mirror(setup: Setup) -> VerbResult {
         }
     });
     let stop_at = setup.duration.map(|d| origin + d);
+    // The operator dialog: questions from the replica's effects, answers
+    // from stdin, sent signed.
+    let mut dialog = Dialog::new();
+    let mut shown: std::collections::BTreeMap<u64, Micros> = Default::default();
+    let mut signer = setup
+        .operator
+        .clone()
+        .map(|key| crate::link::signing::Signer::new(key, 0, None));
+    let (lines_tx, mut lines) = mpsc::channel::<String>(16);
+    let stdin_task = signer.is_some().then(|| {
+        tokio::spawn(async move {
+            use tokio::io::AsyncBufReadExt;
+            let mut input = tokio::io::BufReader::new(tokio::io::stdin()).lines();
+            while let Ok(Some(line)) = input.next_line().await {
+                if lines_tx.send(line).await.is_err() {
+                    break;
+                }
+            }
+        })
+    });
     // The vehicle's system, from its autopilot's heartbeat; the onboard
     // gateway's address, from its first record.
     let mut vehicle: Option<u8> = None;
@@ -220,6 +256,30 @@ async fn mirror(setup: Setup) -> VerbResult {
                 elaborator.tick(now);
                 replica.tick(now);
             }
+            Some(line) = lines.recv() => {
+                let words: Vec<&str> = line.split_whitespace().collect();
+                let pending: Vec<u64> = dialog.pending().map(|q| q.id).collect();
+                let picked = match words[..] {
+                    [id, choice] => id.trim_start_matches('#').parse::<u64>().ok().map(|id| (id, choice)),
+                    [choice] if pending.len() == 1 => Some((pending[0], choice)),
+                    _ => None,
+                };
+                match picked.map(|(id, choice)| (dialog.answer(id, choice), id, choice)) {
+                    None => say!("answer as `ID CHOICE` (pending: {pending:?})"),
+                    Some((Err(e), _, _)) => say!("not sent: {e}"),
+                    Some((Ok(_), id, choice)) => {
+                        match (onboard.or(vehicle.map(|v| (v, 191))), signer.as_mut()) {
+                            (Some(to), Some(signer)) => {
+                                match uplink.send_answer(to, id, choice, signer).await {
+                                    Ok(_) => say!("answer #{id} {choice} sent (signed)"),
+                                    Err(e) => say!("answer #{id} not sent: {e}"),
+                                }
+                            }
+                            _ => say!("answer #{id} not sent: no vehicle heard yet"),
+                        }
+                    }
+                }
+            }
             _ = tokio::signal::ctrl_c() => break,
             _ = term.recv() => break,
             _ = until_stop => break,
@@ -251,6 +311,22 @@ async fn mirror(setup: Setup) -> VerbResult {
                     }
                 }
             }
+            match &report {
+                Report::Step { effects, .. } | Report::Timers { effects, .. } => {
+                    for e in effects {
+                        dialog.observe(&setup.project, e);
+                    }
+                }
+                Report::Resynced {
+                    how: Repair::Snapshot,
+                    ..
+                } => {
+                    if let Some((p, _)) = replica.shown() {
+                        dialog.sync(p);
+                    }
+                }
+                _ => {}
+            }
             print_report(&mut out, &setup.project, &report, now);
         }
         // The ground's view reaches the last autopilot frame heard (not the
@@ -274,6 +350,30 @@ async fn mirror(setup: Setup) -> VerbResult {
                 let _ = writeln!(out.out, "mirror: {event}");
             }
         }
+        // The questions pending, with their countdown (every 10 s, and each
+        // second of the last 5).
+        if setup.operator.is_some() {
+            let vehicle_now = replica.vehicle_time(now);
+            shown.retain(|id, _| dialog.pending().any(|q| q.id == *id));
+            for q in dialog.pending() {
+                let left = vehicle_now.map_or(q.deadline, |t| q.remaining(t)) / 1_000_000;
+                let mark = if left <= 5 { left } else { left / 10 * 10 };
+                if shown.get(&q.id) != Some(&mark) {
+                    if !shown.contains_key(&q.id) {
+                        say!(
+                            "QUESTION #{} from {}: {}  choices: {}  (answer `{} CHOICE`)",
+                            q.id,
+                            q.net,
+                            q.question,
+                            q.choices.join(" / "),
+                            q.id
+                        );
+                    }
+                    say!("QUESTION #{}: {left} s left", q.id);
+                    shown.insert(q.id, mark);
+                }
+            }
+        }
         // Requests wait in the replica until there is someone to ask: the
         // onboard gateway, else the vehicle's companion.
         if let Some(to) = onboard.or(vehicle.map(|v| (v, 191))) {
@@ -287,6 +387,9 @@ async fn mirror(setup: Setup) -> VerbResult {
         let _ = out.out.flush();
     }
     reader_task.abort();
+    if let Some(t) = stdin_task {
+        t.abort();
+    }
     say!(
         "independent check: {} events matched, {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames), {} link events not compared",
         check.counts.matched,
@@ -358,6 +461,14 @@ fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Rep
                             "reply",
                             json!({"id": id, "ok": ok, "vehicle_step": step, "record": number}),
                             &format!("REPLY  #{id} {text}"),
+                        );
+                    }
+                    Input::Answered { time, id, choice } => {
+                        let _ = out.input(
+                            *time,
+                            "answer",
+                            json!({"id": id, "choice": choice, "vehicle_step": step, "record": number}),
+                            &format!("ANSWER #{id} {choice}"),
                         );
                     }
                 }

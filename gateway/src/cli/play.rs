@@ -106,6 +106,18 @@ pub fn run(args: Args) -> VerbResult {
                     &text,
                 )
             }
+            Input::Answer { to, choice } => {
+                let to = match to {
+                    script::AnswerTo::Id(id) => json!(id),
+                    script::AnswerTo::Ask(name) => json!(name),
+                };
+                out.input(
+                    line.time,
+                    "answer",
+                    json!({"answer": to, "choice": choice}),
+                    &format!("ANSWER {} {choice}", to.to_string().trim_matches('"')),
+                )
+            }
             Input::Advance => out.input(line.time, "advance", json!({}), "...    time passes"),
         }
         .map_err(io)?;

@@ -22,6 +22,7 @@ use super::timeline::Timeline;
 use super::{Outcome, VerbResult};
 use crate::clock::Clock;
 use crate::link::{Link, LinkReader, LinkWriter, Received};
+use crate::mirror::dialog::AnswerGate;
 use crate::mirror::publisher::{Config as PublisherConfig, Publisher};
 use crate::mirror::tunnel::{Tunnel, PAYLOAD_TYPE};
 use crate::preflight::Preflight;
@@ -104,6 +105,13 @@ pub struct Args {
     /// [default: `[gateway] mirror_system`, else 245].
     #[arg(long, value_name = "ID")]
     pub mirror_system: Option<u8>,
+    /// The operator key (32 bytes or 64 hex digits, readable by its owner
+    /// only; the same file as `petrel mirror --operator-key`): answers to
+    /// the nets' `ask` are delivered only when signed with it
+    /// (docs/mirror.md, "Operator dialog"). Without it every answer is
+    /// rejected.
+    #[arg(long, value_name = "FILE")]
+    pub operator_key: Option<PathBuf>,
 }
 
 /// `recordings/petrel-YYYYMMDD-HHMMSS.mcap` for the current UTC time.
@@ -273,9 +281,17 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
             }),
         }),
     };
+    // The operator dialog (mirror::dialog): the key answers are signed with.
+    let operator = match &args.operator_key {
+        None => None,
+        Some(path) => {
+            Some(crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
+        }
+    };
     Ok(Ok(Setup {
         project,
         signing,
+        operator,
         dir: args.project.clone(),
         profile,
         layers,
@@ -368,6 +384,8 @@ pub(crate) struct Setup {
     pub project: Arc<Project>,
     /// MAVLink 2 signing on the vehicle link.
     pub signing: Option<crate::link::signing::Setup>,
+    /// The operator key, for the answers to `ask` (`--operator-key`).
+    pub operator: Option<crate::link::signing::Key>,
     pub dir: PathBuf,
     pub profile: Profile,
     pub layers: crate::profile::Layers,
@@ -398,6 +416,9 @@ struct Gateway {
     writer: LinkWriter,
     recorder: Option<Recorder>,
     downlink: Option<Downlink>,
+    /// Judges the operator's answers (`None`: no `--operator-key`, every
+    /// answer rejected).
+    answers: Option<AnswerGate>,
     /// Steps carried out but not yet printed and recorded (see `feed`).
     done: Vec<Done>,
     frames: u64,
@@ -428,6 +449,7 @@ enum Owned {
     Tick,
     Result { id: u64, outcome: nets::Outcome },
     Event(nets::Event),
+    Answer { id: u64, choice: String },
 }
 
 impl Owned {
@@ -440,6 +462,10 @@ impl Owned {
                 outcome: outcome.clone(),
             },
             Owned::Event(e) => Input::Event(e.clone()),
+            Owned::Answer { id, choice } => Input::Answer {
+                id: *id,
+                choice: choice.clone(),
+            },
         }
     }
 }
@@ -465,7 +491,11 @@ impl Gateway {
             }
         }
         let published = self.downlink.is_some()
-            && (!step.events.is_empty() || matches!(input, Owned::Result { .. } | Owned::Event(_)));
+            && (!step.events.is_empty()
+                || matches!(
+                    input,
+                    Owned::Result { .. } | Owned::Event(_) | Owned::Answer { .. }
+                ));
         let digest =
             (self.recorder.is_some() || published).then(|| self.supervisor.player().digest());
         self.done.push(Done {
@@ -618,6 +648,7 @@ impl Gateway {
                 publisher: Publisher::new(session(), PublisherConfig::default(), 0),
                 mirror,
             }),
+            answers: setup.operator.take().map(AnswerGate::new),
             done: Vec::new(),
             frames: 0,
             events: 0,
@@ -766,6 +797,22 @@ impl Gateway {
         if let Some(summary) = rejections.summary() {
             say!("signatures: {summary}");
         }
+        if let Some(gate) = &gw.answers {
+            let rejected: Vec<String> = gate
+                .rejected()
+                .iter()
+                .map(|(why, n)| format!("{n} {}", why.as_str()))
+                .collect();
+            say!(
+                "operator answers: {} delivered, rejected: {}",
+                gate.delivered_count(),
+                if rejected.is_empty() {
+                    "none".to_owned()
+                } else {
+                    rejected.join(", ")
+                }
+            );
+        }
         let Gateway {
             programs,
             supervisor,
@@ -899,7 +946,39 @@ impl Gateway {
         };
         if let Some(t) = Tunnel::from_frame(&frame) {
             if (t.target_system, t.target_component) == me {
-                d.publisher.receive(&t.payload);
+                if crate::mirror::dialog::is_answer(&t.payload) {
+                    self.answer(bytes);
+                } else {
+                    d.publisher.receive(&t.payload);
+                }
+            }
+        }
+    }
+
+    /// An operator's answer (mirror::dialog): judged by the gate, then, if
+    /// let through, an input of the player like any other (published down).
+    fn answer(&mut self, bytes: &[u8]) {
+        let Some(gate) = &mut self.answers else {
+            tracing::warn!("an operator's answer rejected: no --operator-key");
+            return;
+        };
+        let (id, choice) = match gate.judge_bytes(bytes, crate::link::unix_us()) {
+            Ok(answer) => answer,
+            Err(why) => {
+                tracing::warn!("an operator's answer rejected: {}", why.as_str());
+                return;
+            }
+        };
+        let now = self.now();
+        self.feed(now, Owned::Answer { id, choice });
+        let verdict = self
+            .done
+            .last()
+            .and_then(|d| crate::mirror::dialog::verdict(&d.step.effects, id));
+        if let (Some(gate), Some(v)) = (&mut self.answers, verdict) {
+            gate.delivered(v);
+            if let Err(why) = v {
+                tracing::warn!("the operator's answer to #{id} refused: {}", why.as_str());
             }
         }
     }

@@ -40,7 +40,7 @@ use vehicles::{Notice, Vehicles};
 
 /// Microseconds since the Unix epoch, for signing timestamps (0 if the
 /// system clock is before 1970; the signer keeps its timestamps growing).
-fn unix_us() -> u64 {
+pub(crate) fn unix_us() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| d.as_micros() as u64)
@@ -341,6 +341,21 @@ impl LinkWriter {
     ) -> Result<Vec<u8>, LinkError> {
         self.send_with(from, |header, raw, _| {
             raw.serialize_message_data(header, data)
+        })
+        .await
+    }
+
+    /// Sends a message the dialect's types cannot hold, signed with
+    /// `signer` (not the link's own): the operator's answers
+    /// (`mirror::dialog`), whatever the link's signing.
+    pub async fn send_data_signed<D: MessageData>(
+        &self,
+        from: (u8, u8),
+        data: &D,
+        signer: &mut Signer,
+    ) -> Result<Vec<u8>, LinkError> {
+        self.send_with(from, |header, raw, _| {
+            *raw = signer.sign_data(header, data, unix_us())
         })
         .await
     }

@@ -155,6 +155,13 @@ impl Signer {
     ) -> MAVLinkV2MessageRaw {
         let mut raw = MAVLinkV2MessageRaw::new();
         raw.serialize_message_for_signing(header, message);
+        self.fill_signature(&mut raw, unix_us);
+        raw
+    }
+
+    /// Puts our link id, the next timestamp and the signature (rust-mavlink's
+    /// `calculate_signature`) in a frame serialised for signing.
+    fn fill_signature(&mut self, raw: &mut MAVLinkV2MessageRaw, unix_us: u64) {
         let timestamp = timestamp_at(unix_us).max(self.last + 1);
         self.last = timestamp;
         *raw.signature_link_id_mut() = self.link_id;
@@ -163,6 +170,22 @@ impl Signer {
         let mut signature = [0u8; SIGNATURE_VALUE_SIZE];
         raw.calculate_signature(self.key.secret(), &mut signature);
         raw.signature_value_mut().copy_from_slice(&signature);
+    }
+
+    /// Like [`Signer::sign`], for a message the dialect's types cannot hold
+    /// (the mirror's TUNNEL with a private payload type): rust-mavlink frames
+    /// it with the signed flag set first, so that the header and checksum
+    /// carry it, and computes the signature.
+    pub fn sign_data<D: mavlink::MessageData>(
+        &mut self,
+        header: mavlink::MavHeader,
+        data: &D,
+        unix_us: u64,
+    ) -> MAVLinkV2MessageRaw {
+        let mut raw = MAVLinkV2MessageRaw::new();
+        *raw.incompatibility_flags_mut() = IFLAG_SIGNED;
+        raw.serialize_message_data(header, data);
+        self.fill_signature(&mut raw, unix_us);
         raw
     }
 

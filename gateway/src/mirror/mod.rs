@@ -15,6 +15,7 @@
 //! carry their packets.
 
 pub mod check;
+pub mod dialog;
 pub mod publisher;
 pub mod record;
 pub mod replica;
@@ -49,6 +50,11 @@ pub fn step_inputs(input: &SupervisorInput, step: &Step) -> Option<Vec<Input>> {
         SupervisorInput::Event(event) => vec![Input::Program {
             time: step.time,
             event: event.clone(),
+        }],
+        SupervisorInput::Answer { id, choice } => vec![Input::Answered {
+            time: step.time,
+            id: *id,
+            choice: choice.clone(),
         }],
     };
     (!inputs.is_empty()).then_some(inputs)

@@ -18,10 +18,13 @@
 //!   4 chunk      u32 LE session, uvarint snapshot, u8 index, u8 count, uvarint len, bytes
 //!   5 resend     uvarint from, uvarint count                  (uplink)
 //!   6 snapshot?  u32 LE session                               (uplink)
+//!   7 answer     uvarint id, str choice                       (uplink, only in
+//!                a MAVLink 2 signed TUNNEL: `mirror::dialog`)
 //! input   = u8:0 ivarint dt, event               an event the elaboration produced
 //!         | u8:1 ivarint dt, uvarint id, outcome a call's or command's outcome
 //!         | u8:2 ivarint dt, event               a program's event
-//!         | u8:3 ivarint dt, event               an operator's answer
+//!         | u8:3 ivarint dt, event               (never produced; read, played as an event)
+//!         | u8:4 ivarint dt, uvarint id, str choice   an operator's answer
 //!   dt = the input's time minus the step's `before`
 //! outcome = u8:0 params | u8:1 str reason
 //! snapshot (the chunks' bytes, joined) = uvarint step, uvarint next,
@@ -53,6 +56,11 @@ pub enum Record {
     /// Uplink: send a snapshot of session `session` now.
     SendSnapshot {
         session: u32,
+    },
+    /// Uplink, signed only: the operator's answer to question `id`.
+    Answer {
+        id: u64,
+        choice: String,
     },
 }
 
@@ -87,8 +95,17 @@ pub enum Input {
     },
     /// An event a software program sent (or `program_lost`).
     Program { time: Micros, event: Event },
-    /// An operator's answer, delivered as an event.
+    /// Never produced (an early placeholder for answers): read, and played
+    /// as a plain event, which the player drops if it bears an answer's
+    /// name.
     Answer { time: Micros, event: Event },
+    /// The operator's answer to question `id` (the onboard gateway checked
+    /// its signature): played as `Player::answer`.
+    Answered {
+        time: Micros,
+        id: u64,
+        choice: String,
+    },
 }
 
 /// The vehicle's step counter and digest, at least once a second.
@@ -143,6 +160,7 @@ const FRAGMENT: u8 = 3;
 const CHUNK: u8 = 4;
 const RESEND: u8 = 5;
 const SEND_SNAPSHOT: u8 = 6;
+const ANSWER: u8 = 7;
 
 /// Why a packet does not decode.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -199,6 +217,11 @@ pub fn encode(record: &Record, w: &mut Writer) {
             w.u8(SEND_SNAPSHOT);
             w.raw(&session.to_le_bytes());
         }
+        Record::Answer { id, choice } => {
+            w.u8(ANSWER);
+            w.uvarint(*id);
+            w.str(choice);
+        }
     }
 }
 
@@ -240,6 +263,12 @@ pub fn step_body(s: &StepRecord, w: &mut Writer) {
                 w.u8(3);
                 w.ivarint(delta(*time, s.before));
                 w.event(event);
+            }
+            Input::Answered { time, id, choice } => {
+                w.u8(4);
+                w.ivarint(delta(*time, s.before));
+                w.uvarint(*id);
+                w.str(choice);
             }
         }
     }
@@ -289,6 +318,11 @@ pub fn decode_step(r: &mut Reader) -> Result<StepRecord, DecodeError> {
             3 => Input::Answer {
                 time,
                 event: r.event()?,
+            },
+            4 => Input::Answered {
+                time,
+                id: r.uvarint()?,
+                choice: r.str()?,
             },
             _ => return Err(r.invalid("an unknown input")),
         });
@@ -358,6 +392,10 @@ fn decode_one(r: &mut Reader) -> Result<Record, PacketError> {
         },
         SEND_SNAPSHOT => Record::SendSnapshot {
             session: session(r)?,
+        },
+        ANSWER => Record::Answer {
+            id: r.uvarint()?,
+            choice: r.str()?,
         },
         k => return Err(PacketError::Kind(k)),
     })
@@ -479,13 +517,19 @@ mod tests {
                 }
             ),
             (t.clone(), event()).prop_map(|(time, event)| Input::Program { time, event }),
-            (t, event()).prop_map(|(time, event)| Input::Answer { time, event }),
+            (t.clone(), event()).prop_map(|(time, event)| Input::Answer { time, event }),
+            (t, any::<u64>(), "[a-z_]{1,8}").prop_map(|(time, id, choice)| Input::Answered {
+                time,
+                id,
+                choice
+            }),
         ]
     }
 
     fn record() -> impl Strategy<Value = Record> {
         let t = 0u64..u64::MAX / 2;
         prop_oneof![
+            (any::<u64>(), "[a-z_]{1,8}").prop_map(|(id, choice)| Record::Answer { id, choice }),
             (
                 any::<u64>(),
                 any::<u64>(),

@@ -322,7 +322,7 @@ impl Replica {
                 }
                 Record::Chunk(c) => self.chunk(c),
                 // Uplink records heard back (a shared link): not ours.
-                Record::Resend { .. } | Record::SendSnapshot { .. } => {}
+                Record::Resend { .. } | Record::SendSnapshot { .. } | Record::Answer { .. } => {}
             }
         }
         self.play_held();
@@ -593,6 +593,10 @@ impl Replica {
                 | Input::Program { time, event }
                 | Input::Answer { time, event } => p.handle(event, *time),
                 Input::Result { time, id, outcome } => p.result(*id, outcome.clone(), *time),
+                Input::Answered { time, id, choice } => {
+                    // Refused or not, as on board: the same effects.
+                    let _ = p.answer(*id, choice, *time);
+                }
             }
             effects.extend(p.effects());
         }

@@ -1,12 +1,15 @@
 //! The mirror's only way to send: [`UplinkWriter`] takes the link's writer
 //! and sends nothing but [`Uplink`] packets — resync requests the replica
-//! built — in TUNNEL messages to the onboard gateway. It has no method for
+//! built — and the operator's answers (signed with the operator key,
+//! `mirror::dialog`) in TUNNEL messages to the onboard gateway. It has no method for
 //! any other message: the mirror cannot command the vehicle, call a
 //! program, or send a HEARTBEAT (under any system id, and never under the
 //! ground station's 255 that ArduPilot's GCS failsafe watches).
 
+use super::record::{self, Record};
 use super::replica::Uplink;
 use super::tunnel::{Tunnel, PAYLOAD_TYPE};
+use crate::link::signing::Signer;
 use crate::link::{LinkError, LinkWriter};
 
 /// The mirror's component id: a ground component beside its own system id.
@@ -42,5 +45,28 @@ impl UplinkWriter {
             payload: uplink.bytes().to_vec(),
         };
         self.writer.send_data(self.me, &tunnel).await
+    }
+
+    /// Sends the operator's answer `choice` to question `id` (checked by
+    /// the dialog first) to `to`, as a MAVLink 2 frame signed with the
+    /// operator key.
+    pub async fn send_answer(
+        &self,
+        to: (u8, u8),
+        id: u64,
+        choice: &str,
+        signer: &mut Signer,
+    ) -> Result<Vec<u8>, LinkError> {
+        let answer = Record::Answer {
+            id,
+            choice: choice.to_owned(),
+        };
+        let tunnel = Tunnel {
+            payload_type: PAYLOAD_TYPE,
+            target_system: to.0,
+            target_component: to.1,
+            payload: record::packet(std::slice::from_ref(&answer)),
+        };
+        self.writer.send_data_signed(self.me, &tunnel, signer).await
     }
 }

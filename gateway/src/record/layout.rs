@@ -205,6 +205,11 @@ pub enum Input {
         outcome: Outcome,
     },
     Event(Event),
+    /// The operator's answer to question `id` (signature checked).
+    Answer {
+        id: u64,
+        choice: String,
+    },
 }
 
 /// The JSON of an input on [`INPUTS`].
@@ -231,6 +236,11 @@ pub fn input_json(seq: u64, time: Micros, input: &Input) -> Json {
             o.insert("input".into(), json!("event"));
             o.insert("event".into(), event_json(e));
         }
+        Input::Answer { id, choice } => {
+            o.insert("input".into(), json!("answer"));
+            o.insert("id".into(), json!(id));
+            o.insert("choice".into(), json!(choice));
+        }
     }
     v
 }
@@ -247,6 +257,7 @@ struct InputLine<'a> {
     outcome: Option<Json>,
     event: Option<Json>,
     setup: Option<Json>,
+    choice: Option<String>,
 }
 
 /// Reads an input back from its JSON bytes: `(seq, time, input)`.
@@ -266,6 +277,10 @@ pub fn input_with_setup(bytes: &[u8]) -> Option<((u64, Micros, Input), Option<Js
             outcome: outcome_from(line.outcome.as_ref()?)?,
         },
         "event" => Input::Event(event_from(line.event.as_ref()?)?),
+        "answer" => Input::Answer {
+            id: line.id?,
+            choice: line.choice?,
+        },
         _ => return None,
     };
     Some(((line.seq, line.time_us, input), line.setup))
@@ -296,6 +311,10 @@ mod tests {
             Input::Result {
                 id: 8,
                 outcome: Outcome::Failed("timeout".into()),
+            },
+            Input::Answer {
+                id: 9,
+                choice: "yes".into(),
             },
             Input::Event(
                 Event::new("payload_failure")

@@ -322,6 +322,13 @@ impl Recorder {
                 None,
             ),
             supervisor::Input::Event(e) => (Input::Event(e.clone()), None),
+            supervisor::Input::Answer { id, choice } => (
+                Input::Answer {
+                    id: *id,
+                    choice: choice.clone(),
+                },
+                None,
+            ),
         }
     }
 

@@ -13,7 +13,7 @@
 //! u32 timers, { u32 net, u32 timer, u64 deadline, u64 seq, u8 catastrophic } × timers
 //! 5 × ( u32 len, { event, u8 has_target, u32 target } × len )   queues, catastrophic first
 //! u32 pending, { u64 id, u32 net, u8 catastrophic, kind } × pending   by id
-//!     kind = u8:0 u32 program u32 function | u8:1 str verb
+//!     kind = u8:0 u32 program u32 function | u8:1 str verb | u8:2 u32 ask
 //! u64 next_id, u64 next_timer_seq
 //! event = str name, u8 category (0 catastrophic … 4 nominal), params
 //! params = u32 n, { str key, value } × n          keys in order
@@ -89,6 +89,10 @@ pub fn canonical_bytes(state: &State) -> Vec<u8> {
             PendingKind::Command { verb } => {
                 w.u8(1);
                 w.str(verb);
+            }
+            PendingKind::Question { ask } => {
+                w.u8(2);
+                w.u32(*ask);
             }
         }
     }

@@ -87,7 +87,37 @@ pub enum Effect {
         verb: String,
         args: Params,
     },
-    /// A pending call or command was forgotten because its net was
+    /// Ask the operator a question. The answer comes back through
+    /// [`crate::Player::answer`] with the same id before `deadline`, or the
+    /// ask's timeout event fires at `deadline`.
+    Ask {
+        time: Micros,
+        id: u64,
+        net: NetId,
+        /// Index into the net's asks.
+        ask: usize,
+        question: String,
+        choices: Vec<String>,
+        deadline: Micros,
+    },
+    /// The operator answered question `id` in time: `NAME.CHOICE` is queued
+    /// for the asking net.
+    Answered {
+        time: Micros,
+        id: u64,
+        net: NetId,
+        choice: String,
+    },
+    /// An answer was refused: nothing was delivered.
+    AnswerRefused {
+        time: Micros,
+        id: u64,
+        choice: String,
+        reason: AnswerRefusal,
+    },
+    /// Question `id` timed out unanswered (its timeout event follows).
+    Unanswered { time: Micros, id: u64, net: NetId },
+    /// A pending call, command or question was forgotten because its net was
     /// deactivated; a late result will be dropped.
     Forgotten { time: Micros, id: u64, net: NetId },
     /// An event was not handled.
@@ -109,6 +139,25 @@ pub enum Effect {
     },
     /// Something went wrong in the nets; the player carried on.
     Fault { time: Micros, fault: Fault },
+}
+
+/// Why an answer was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AnswerRefusal {
+    /// No question with that id is pending: never asked, already answered,
+    /// timed out (a late answer) or forgotten with its net.
+    NotPending,
+    /// The choice is not one the question offers.
+    NotOffered,
+}
+
+impl AnswerRefusal {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            AnswerRefusal::NotPending => "not pending",
+            AnswerRefusal::NotOffered => "not offered",
+        }
+    }
 }
 
 /// Why an event was dropped.
@@ -185,6 +234,10 @@ impl Effect {
             | Effect::TimerExpired { time, .. }
             | Effect::Call { time, .. }
             | Effect::Command { time, .. }
+            | Effect::Ask { time, .. }
+            | Effect::Answered { time, .. }
+            | Effect::AnswerRefused { time, .. }
+            | Effect::Unanswered { time, .. }
             | Effect::Forgotten { time, .. }
             | Effect::Dropped { time, .. }
             | Effect::LateResult { time, .. }

@@ -19,7 +19,7 @@ mod state;
 use std::sync::Arc;
 
 pub use digest::{canonical_bytes, Digest, DIGEST_ALGORITHM};
-pub use effect::{DropReason, Effect, Fault, Marked};
+pub use effect::{AnswerRefusal, DropReason, Effect, Fault, Marked};
 pub use oracle::{Oracle, Question};
 
 pub use render::{effect_json, effect_text};
@@ -152,6 +152,9 @@ impl Player {
                         .get(*program)
                         .is_some_and(|pr| *function < pr.functions.len()),
                     PendingKind::Command { .. } => true,
+                    PendingKind::Question { ask } => {
+                        p.net < project.nets.len() && *ask < project.nets[p.net].asks.len()
+                    }
                 };
             if !ok || *id >= state.next_id {
                 return mismatch(format!("pending id {id} does not fit the project"));
@@ -327,7 +330,14 @@ impl Player {
         self.expire_timers(&project, now);
         let now = self.state.now.max(now);
         self.state.now = now;
-        let Some(pending) = self.state.pending.remove(&id) else {
+        // A question is answered through `answer`, never by a result.
+        let pending = match self.state.pending.get(&id) {
+            Some(p) if !matches!(p.kind, PendingKind::Question { .. }) => {
+                self.state.pending.remove(&id)
+            }
+            _ => None,
+        };
+        let Some(pending) = pending else {
             self.effects.push(Effect::LateResult { time: now, id });
             return;
         };
@@ -347,6 +357,9 @@ impl Player {
                 params.insert("verb".into(), Value::Str(verb.clone()));
                 (names::COMMAND_OK.to_owned(), params)
             }
+            (PendingKind::Question { .. }, _) => {
+                unreachable!("questions are answered, not resulted")
+            }
             (PendingKind::Command { verb }, Outcome::Failed(reason)) => (
                 names::COMMAND_FAILED.to_owned(),
                 Params::from([
@@ -355,7 +368,90 @@ impl Player {
                 ]),
             ),
         };
-        let category = if pending.catastrophic {
+        self.push_result(
+            project.as_ref(),
+            pending.net,
+            name,
+            params,
+            pending.catastrophic,
+        );
+        self.run_queue(&project, now, 0);
+    }
+
+    /// Gives the operator's answer `choice` to question `id` at `now` (after
+    /// the timers due by then: an answer at or after the question's deadline
+    /// is late). If the question is pending and offers `choice`, the event
+    /// `NAME.CHOICE {choice}` goes to the asking net and the timeout is
+    /// cancelled; otherwise nothing is delivered and the refusal is
+    /// recorded ([`Effect::AnswerRefused`]) and returned.
+    pub fn answer(&mut self, id: u64, choice: &str, now: Micros) -> Result<(), AnswerRefusal> {
+        let project = Arc::clone(&self.project);
+        self.expire_timers(&project, now);
+        let now = self.state.now.max(now);
+        self.state.now = now;
+        let refused = |this: &mut Self, reason| {
+            this.effects.push(Effect::AnswerRefused {
+                time: now,
+                id,
+                choice: choice.to_owned(),
+                reason,
+            });
+            Err(reason)
+        };
+        let Some(Pending {
+            net,
+            kind: PendingKind::Question { ask },
+            catastrophic,
+        }) = self.state.pending.get(&id).cloned()
+        else {
+            return refused(self, AnswerRefusal::NotPending);
+        };
+        let spec = &project.nets[net].asks[ask];
+        if !spec.choices.iter().any(|c| c == choice) {
+            return refused(self, AnswerRefusal::NotOffered);
+        }
+        self.state.pending.remove(&id);
+        let before = self.state.timers.len();
+        self.state
+            .timers
+            .retain(|x| !(x.net == net && x.timer == spec.timer));
+        if self.state.timers.len() != before {
+            self.effects.push(Effect::TimerCancelled {
+                time: now,
+                net,
+                timer: spec.timer,
+            });
+        }
+        self.effects.push(Effect::Answered {
+            time: now,
+            id,
+            net,
+            choice: choice.to_owned(),
+        });
+        let params = Params::from([("choice".to_owned(), Value::Str(choice.to_owned()))]);
+        self.push_result(
+            &project,
+            net,
+            spec.answer_event(choice),
+            params,
+            catastrophic,
+        );
+        self.run_queue(&project, now, 0);
+        Ok(())
+    }
+
+    /// Queues a result (a call's, a command's, an answer) for net `net`:
+    /// catastrophic if the catastrophic reaction issued it, else the
+    /// declared category or nominal.
+    fn push_result(
+        &mut self,
+        project: &Project,
+        net: NetId,
+        name: String,
+        params: Params,
+        catastrophic: bool,
+    ) {
+        let category = if catastrophic {
             Category::Catastrophic
         } else {
             project
@@ -368,9 +464,19 @@ impl Player {
                 category,
                 params,
             },
-            target: Some(pending.net),
+            target: Some(net),
         });
-        self.run_queue(&project, now, 0);
+    }
+
+    /// The questions pending, in id order: (id, net, ask).
+    pub fn questions(&self) -> impl Iterator<Item = (u64, NetId, usize)> + '_ {
+        self.state
+            .pending
+            .iter()
+            .filter_map(|(id, p)| match p.kind {
+                PendingKind::Question { ask } => Some((*id, p.net, ask)),
+                _ => None,
+            })
     }
 
     /// Marks or empties global place `global` from outside the nets, then
@@ -441,6 +547,7 @@ impl Player {
                 net: timer.net,
                 timer: timer.timer,
             });
+            self.question_timed_out(project, timer.net, timer.timer, time);
             self.state.push(Queued {
                 event: timer_event(project, &timer),
                 target: Some(timer.net),
@@ -801,35 +908,7 @@ impl Player {
                     });
                 }
                 Action::Timer { timer, after } => {
-                    let before = self.state.timers.len();
-                    self.state
-                        .timers
-                        .retain(|x| !(x.net == n && x.timer == *timer));
-                    let restarted = self.state.timers.len() != before;
-                    let deadline = now.saturating_add(*after);
-                    let seq = self.state.next_timer_seq;
-                    self.state.next_timer_seq += 1;
-                    let at = self
-                        .state
-                        .timers
-                        .partition_point(|x| (x.deadline, x.seq) <= (deadline, seq));
-                    self.state.timers.insert(
-                        at,
-                        Timer {
-                            net: n,
-                            timer: *timer,
-                            deadline,
-                            seq,
-                            catastrophic: tainted,
-                        },
-                    );
-                    self.effects.push(Effect::TimerStarted {
-                        time: now,
-                        net: n,
-                        timer: *timer,
-                        deadline,
-                        restarted,
-                    });
+                    self.start_timer(n, *timer, *after, now, tainted);
                 }
                 Action::Cancel { timer } => {
                     let before = self.state.timers.len();
@@ -870,6 +949,11 @@ impl Player {
                         args: eval(args),
                     });
                 }
+                Action::Ask {
+                    ask,
+                    question,
+                    after,
+                } => self.ask(project, n, *ask, question, *after, now, tainted),
                 Action::Command { verb, args } => {
                     let id = self.take_id();
                     self.state.pending.insert(
@@ -889,6 +973,107 @@ impl Player {
                     });
                 }
             }
+        }
+    }
+
+    /// Starts (or restarts) timer `timer` of net `n`.
+    fn start_timer(&mut self, n: NetId, timer: usize, after: Micros, now: Micros, tainted: bool) {
+        let before = self.state.timers.len();
+        self.state
+            .timers
+            .retain(|x| !(x.net == n && x.timer == timer));
+        let restarted = self.state.timers.len() != before;
+        let deadline = now.saturating_add(after);
+        let seq = self.state.next_timer_seq;
+        self.state.next_timer_seq += 1;
+        let at = self
+            .state
+            .timers
+            .partition_point(|x| (x.deadline, x.seq) <= (deadline, seq));
+        self.state.timers.insert(
+            at,
+            Timer {
+                net: n,
+                timer,
+                deadline,
+                seq,
+                catastrophic: tainted,
+            },
+        );
+        self.effects.push(Effect::TimerStarted {
+            time: now,
+            net: n,
+            timer,
+            deadline,
+            restarted,
+        });
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    /// Asks question `ask` of net `n`: a question of that name still
+    /// pending is forgotten (its answer will be refused), the new one is
+    /// pending and its timeout timer (re)started.
+    fn ask(
+        &mut self,
+        project: &Project,
+        n: NetId,
+        ask: usize,
+        question: &str,
+        after: Micros,
+        now: Micros,
+        tainted: bool,
+    ) {
+        let asked = |p: &Pending| p.net == n && p.kind == PendingKind::Question { ask };
+        if let Some(old) = self
+            .state
+            .pending
+            .iter()
+            .find(|(_, p)| asked(p))
+            .map(|(id, _)| *id)
+        {
+            self.state.pending.remove(&old);
+            self.effects.push(Effect::Forgotten {
+                time: now,
+                id: old,
+                net: n,
+            });
+        }
+        let id = self.take_id();
+        self.state.pending.insert(
+            id,
+            Pending {
+                net: n,
+                kind: PendingKind::Question { ask },
+                catastrophic: tainted,
+            },
+        );
+        let spec = &project.nets[n].asks[ask];
+        self.effects.push(Effect::Ask {
+            time: now,
+            id,
+            net: n,
+            ask,
+            question: question.to_owned(),
+            choices: spec.choices.clone(),
+            deadline: now.saturating_add(after),
+        });
+        self.start_timer(n, spec.timer, after, now, tainted);
+    }
+
+    /// The question of net `net` whose timeout timer is `timer`, if one is
+    /// pending: it is over, unanswered.
+    fn question_timed_out(&mut self, project: &Project, net: NetId, timer: usize, time: Micros) {
+        let id = self.state.pending.iter().find_map(|(id, p)| match p.kind {
+            PendingKind::Question { ask }
+                if p.net == net && project.nets[net].asks[ask].timer == timer =>
+            {
+                Some(*id)
+            }
+            _ => None,
+        });
+        if let Some(id) = id {
+            self.state.pending.remove(&id);
+            self.effects.push(Effect::Unanswered { time, id, net });
         }
     }
 

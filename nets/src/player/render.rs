@@ -152,6 +152,41 @@ pub fn effect_json(project: &Project, effect: &Effect) -> Json {
             }),
         ),
         Effect::LateResult { id, .. } => ("late_result", json!({ "id": id })),
+        Effect::Ask {
+            id,
+            net,
+            ask,
+            question,
+            choices,
+            deadline,
+            ..
+        } => (
+            "ask",
+            json!({
+                "id": id,
+                "net": net_name(project, *net),
+                "ask": project.nets[*net].asks[*ask].name,
+                "question": question,
+                "choices": choices,
+                "deadline_t": seconds(*deadline),
+            }),
+        ),
+        Effect::Answered {
+            id, net, choice, ..
+        } => (
+            "answered",
+            json!({ "id": id, "net": net_name(project, *net), "choice": choice }),
+        ),
+        Effect::AnswerRefused {
+            id, choice, reason, ..
+        } => (
+            "answer_refused",
+            json!({ "id": id, "choice": choice, "reason": reason.as_str() }),
+        ),
+        Effect::Unanswered { id, net, .. } => (
+            "unanswered",
+            json!({ "id": id, "net": net_name(project, *net) }),
+        ),
         Effect::Lockout {
             event,
             net,
@@ -336,6 +371,31 @@ pub fn effect_text(project: &Project, effect: &Effect) -> String {
             reason.as_str()
         ),
         Effect::LateResult { id, .. } => format!("drop   result #{id}: not pending"),
+        Effect::Ask {
+            id,
+            net,
+            question,
+            choices,
+            deadline,
+            ..
+        } => format!(
+            "ask    #{id} {question:?} [{}] by {} until {:.3}",
+            choices.join(", "),
+            net_name(project, *net),
+            seconds(*deadline)
+        ),
+        Effect::Answered {
+            id, net, choice, ..
+        } => format!("answer #{id} {choice} for {}", net_name(project, *net)),
+        Effect::AnswerRefused {
+            id, choice, reason, ..
+        } => format!("refuse answer #{id} {choice}: {}", reason.as_str()),
+        Effect::Unanswered { id, net, .. } => {
+            format!(
+                "unanswered #{id} (net {}): timed out",
+                net_name(project, *net)
+            )
+        }
         Effect::Lockout {
             event,
             net,

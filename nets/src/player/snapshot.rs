@@ -18,6 +18,9 @@
 //!                                                    queues, catastrophic first
 //! uvarint pending, { uvarint id, uvarint net, bool catastrophic, kind } × pending
 //!     kind = u8:0 uvarint program uvarint function | u8:1 str verb
+//!          | u8:2 uvarint ask              (a question; added without a version
+//!            bump: states without questions encode as before, and an older
+//!            reader refuses kind 2 as an unknown pending kind)
 //!     ids strictly increasing
 //! uvarint next_id, uvarint next_timer_seq
 //! ```
@@ -128,6 +131,10 @@ pub fn encode_into(state: &State, w: &mut Writer) {
                 w.u8(1);
                 w.str(verb);
             }
+            PendingKind::Question { ask } => {
+                w.u8(2);
+                w.len(*ask);
+            }
         }
     }
     w.uvarint(*next_id);
@@ -214,6 +221,9 @@ pub fn decode_from(r: &mut Reader) -> Result<State, SnapshotError> {
                 function: r.index(usize::MAX)?,
             },
             1 => PendingKind::Command { verb: r.str()? },
+            2 => PendingKind::Question {
+                ask: r.index(usize::MAX)?,
+            },
             _ => return Err(r.invalid("an unknown pending kind").into()),
         };
         pending.insert(

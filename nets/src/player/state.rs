@@ -26,7 +26,7 @@ pub struct State {
     pub queue: [VecDeque<Queued>; 5],
     /// The catastrophic lockout.
     pub lockout: bool,
-    /// Calls and commands awaiting their results, by id.
+    /// Calls, commands and questions awaiting their results, by id.
     pub pending: BTreeMap<u64, Pending>,
     /// The id the next call or command gets.
     pub next_id: u64,
@@ -67,8 +67,19 @@ pub struct Pending {
 /// What is pending.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub enum PendingKind {
-    Call { program: usize, function: usize },
-    Command { verb: String },
+    Call {
+        program: usize,
+        function: usize,
+    },
+    Command {
+        verb: String,
+    },
+    /// A question to the operator: ask `ask` of the pending's net. Its
+    /// answer comes back through [`crate::Player::answer`]; its timeout is
+    /// the net's timer `NAME.timeout`.
+    Question {
+        ask: usize,
+    },
 }
 
 impl State {

@@ -14,6 +14,8 @@
 //! - the result of a pending call or command: done, or failed with each
 //!   reason the guards awaiting the failure tell apart (every string they
 //!   compare `reason` with, and one they do not);
+//! - the operator's answer to a pending question, with each choice it
+//!   offers (its timeout is its timer's expiry, above);
 //!
 //! Each net gets two verdicts of its own. The first is read off the same
 //! exploration: the net *in its project*, under what the other nets really
@@ -425,6 +427,7 @@ impl Explorer {
                     PendingKind::Call { program, function } => {
                         explorer.calls.insert((n, program, function), known);
                     }
+                    PendingKind::Question { .. } => {}
                     PendingKind::Command { verb } => {
                         if !explorer
                             .commands
@@ -511,6 +514,7 @@ impl Explorer {
                 .iter()
                 .find(|(n, v, _)| *n == pending.net && v == verb)
                 .map(|(_, _, k)| k),
+            PendingKind::Question { .. } => None,
         };
         match found {
             Some(k) => std::borrow::Cow::Borrowed(k),
@@ -520,6 +524,11 @@ impl Explorer {
     }
 
     fn compute_known(&self, pending: &crate::player::Pending) -> Known {
+        // A question: always kept, answered with each of its choices.
+        if let PendingKind::Question { ask } = pending.kind {
+            let choices = &self.project.nets[pending.net].asks[ask].choices;
+            return (true, choices.clone());
+        }
         (
             self.compute_relevant(pending),
             self.compute_failure_reasons(pending),
@@ -542,6 +551,7 @@ impl Explorer {
                     e.strip_prefix(&base)
                         .is_some_and(|o| o == names::DONE || o == names::FAILED)
                 }
+                PendingKind::Question { .. } => true,
                 PendingKind::Command { verb } => {
                     if e != names::COMMAND_OK && e != names::COMMAND_FAILED {
                         return false;
@@ -587,10 +597,14 @@ impl Explorer {
             }
         }
         for (id, pending) in &state.pending {
-            inputs.push(Input::Result {
-                id: *id,
-                reason: None,
-            });
+            // A question has no "done": its outcomes are its choices (the
+            // reasons below) and its timeout (a timer, above).
+            if !matches!(pending.kind, PendingKind::Question { .. }) {
+                inputs.push(Input::Result {
+                    id: *id,
+                    reason: None,
+                });
+            }
             for reason in &self.known(pending).1 {
                 inputs.push(Input::Result {
                     id: *id,
@@ -721,11 +735,18 @@ impl Explorer {
             Input::Event(i) => player.handle(&self.externals[*i].event, T + 1),
             Input::Timer(_) => player.advance(T + 1),
             Input::Result { id, reason } => {
-                let outcome = match reason {
-                    None => Outcome::Done(Params::new()),
-                    Some(r) => Outcome::Failed(r.clone()),
-                };
-                player.result(*id, outcome, T + 1);
+                let question = concrete
+                    .pending
+                    .get(id)
+                    .is_some_and(|p| matches!(p.kind, PendingKind::Question { .. }));
+                match reason {
+                    Some(choice) if question => {
+                        // Refusal cannot happen: the choice is offered.
+                        let _ = player.answer(*id, choice, T + 1);
+                    }
+                    None => player.result(*id, Outcome::Done(Params::new()), T + 1),
+                    Some(r) => player.result(*id, Outcome::Failed(r.clone()), T + 1),
+                }
             }
         }
         Some(player)
@@ -751,6 +772,7 @@ impl Explorer {
                 )
             }
             PendingKind::Command { verb } => (names::COMMAND_FAILED.to_owned(), Some(verb)),
+            PendingKind::Question { .. } => return Vec::new(),
         };
         let guards: Vec<&crate::expr::Expr> = self.project.nets[pending.net]
             .transitions
@@ -815,6 +837,13 @@ impl Explorer {
                     Some(PendingKind::Command { verb }) => {
                         format!("command.{} ({verb})", if done { "ok" } else { "failed" })
                     }
+                    Some(PendingKind::Question { ask }) => {
+                        let net = abs.state.pending.get(id).map_or(0, |x| x.net);
+                        let a = &p.nets[net].asks[*ask];
+                        let choice = reason.as_deref().unwrap_or_default();
+                        // The choice is in the event's name: no reason below.
+                        format!("{} (answer)", a.answer_event(choice))
+                    }
                     None => format!("result #{id}"),
                 };
                 // The reason, when the guards tell reasons apart.
@@ -823,6 +852,7 @@ impl Explorer {
                         .state
                         .pending
                         .get(id)
+                        .filter(|x| !matches!(x.kind, PendingKind::Question { .. }))
                         .map_or(1, |x| self.known(x).1.len());
                     if explored > 1 {
                         text.push_str(&format!(" [reason: {r:?}]"));
@@ -969,6 +999,10 @@ fn label_key(
                         PendingKind::Command { verb } => {
                             out.push(1);
                             str_(out, verb);
+                        }
+                        PendingKind::Question { ask } => {
+                            out.push(2);
+                            u32_(out, *ask);
                         }
                     }
                 }

@@ -181,6 +181,10 @@ impl Codec {
                     out.extend_from_slice(&(*program as u32).to_le_bytes());
                     out.extend_from_slice(&(*function as u32).to_le_bytes());
                 }
+                PendingKind::Question { ask } => {
+                    out.push(3);
+                    out.extend_from_slice(&(*ask as u32).to_le_bytes());
+                }
                 PendingKind::Command { verb } => match self.verb_numbers.get(verb.as_str()) {
                     Some(i) => {
                         out.push(1);
@@ -232,6 +236,9 @@ impl Codec {
                 },
                 1 => PendingKind::Command {
                     verb: self.verbs[r.u32() as usize].clone(),
+                },
+                3 => PendingKind::Question {
+                    ask: r.u32() as usize,
                 },
                 _ => {
                     let len = r.u32() as usize;

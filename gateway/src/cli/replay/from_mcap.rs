@@ -139,6 +139,10 @@ pub fn run(args: Args) -> VerbResult {
                 outcome: outcome.clone(),
             },
             Recorded::Event(e) => Input::Event(e.clone()),
+            Recorded::Answer { id, choice } => Input::Answer {
+                id: *id,
+                choice: choice.clone(),
+            },
             Recorded::Start => {
                 return Err(miette::miette!("{name}: a second start at step {seq}"));
             }
@@ -161,6 +165,14 @@ pub fn run(args: Args) -> VerbResult {
             }
             Input::Event(e) => out
                 .event(&project, time, e, Some(json!({"program": true})))
+                .map_err(io)?,
+            Input::Answer { id, choice } => out
+                .input(
+                    time,
+                    "answer",
+                    json!({"answer": id, "choice": choice}),
+                    &format!("ANSWER #{id} {choice}"),
+                )
                 .map_err(io)?,
             Input::Frame(_) | Input::Tick => {}
         }
