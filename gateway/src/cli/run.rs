@@ -104,6 +104,10 @@ pub struct Args {
     /// [default: `[gateway] mirror_system`, else 245].
     #[arg(long, value_name = "ID")]
     pub mirror_system: Option<u8>,
+    /// Serve the web monitor (docs/monitor.md) on ADDRESS:PORT, or on
+    /// 127.0.0.1:PORT given a port alone. Read-only.
+    #[arg(long, value_name = "ADDR:PORT")]
+    pub http: Option<String>,
 }
 
 /// `recordings/petrel-YYYYMMDD-HHMMSS.mcap` for the current UTC time.
@@ -273,7 +277,12 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
             }),
         }),
     };
+    let http = match &args.http {
+        Some(a) => Some(crate::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?),
+        None => None,
+    };
     Ok(Ok(Setup {
+        http,
         project,
         signing,
         dir: args.project.clone(),
@@ -387,6 +396,8 @@ pub(crate) struct Setup {
     pub out: Box<dyn Write + Send>,
     /// Stops the gateway when notified (`petrel demo`).
     pub stop: Option<Arc<tokio::sync::Notify>>,
+    /// Serve the web monitor here.
+    pub http: Option<std::net::SocketAddr>,
 }
 
 struct Gateway {
@@ -398,6 +409,8 @@ struct Gateway {
     writer: LinkWriter,
     recorder: Option<Recorder>,
     downlink: Option<Downlink>,
+    /// The web monitor: fed in `settle`, served on its own thread.
+    monitor: Option<(crate::monitor::Feed, crate::monitor::Server)>,
     /// Steps carried out but not yet printed and recorded (see `feed`).
     done: Vec<Done>,
     frames: u64,
@@ -506,9 +519,15 @@ impl Gateway {
                 );
                 let _ = self.out.effects(&self.project, effects);
             }
+            if let Some((feed, _)) = &self.monitor {
+                feed.step(&input.input(), &step, self.supervisor.player());
+            }
             if let (Some(rec), Some(digest)) = (&self.recorder, digest) {
                 rec.record(&input.input(), step, digest);
             }
+        }
+        if let Some((feed, _)) = &self.monitor {
+            feed.publish();
         }
         let _ = self.out.out.flush();
     }
@@ -618,6 +637,7 @@ impl Gateway {
                 publisher: Publisher::new(session(), PublisherConfig::default(), 0),
                 mirror,
             }),
+            monitor: None,
             done: Vec::new(),
             frames: 0,
             events: 0,
@@ -629,6 +649,13 @@ impl Gateway {
         };
         if let Some(rec) = &gw.recorder {
             rec.start(&start, gw.supervisor.player());
+        }
+        if let Some(address) = setup.http {
+            let (project, player) = (gw.project.clone(), gw.supervisor.player());
+            let monitor = crate::monitor::start_live(address, project, &setup.dir, &start, player)
+                .map_err(|e| miette::miette!("cannot serve the monitor on {address}: {e}"))?;
+            say!("monitor: http://{}/", monitor.1.address);
+            gw.monitor = Some(monitor);
         }
         for e in &start.effects {
             gw.effect(e);
