@@ -30,7 +30,8 @@ pub struct History {
     strips: Vec<(Micros, Strip)>,
     log: Vec<Entry>,
     track: Vec<(Micros, f64, f64)>,
-    /// Sorted, deduplicated instants where something shown changed.
+    /// Sorted, deduplicated instants where the nets changed or the log
+    /// grew (where stepping stops).
     moments: Vec<Micros>,
 }
 
@@ -85,7 +86,6 @@ impl Builder {
             .iter()
             .map(|k| k.time)
             .chain(log.iter().map(|e| e.time))
-            .chain(strips.iter().map(|s| s.0))
             .collect();
         moments.sort_unstable();
         moments.dedup();

@@ -160,7 +160,16 @@ impl Vehicle {
             }
             MavMessage::GPS_RAW_INT(m) => {
                 let fix = format!("{:?}", m.fix_type);
-                s.gps_fix = Some(fix.trim_start_matches("GPS_FIX_TYPE_").to_owned());
+                let fix = match fix.trim_start_matches("GPS_FIX_TYPE_") {
+                    "NO_GPS" => "no GPS".to_owned(),
+                    "NO_FIX" => "no fix".to_owned(),
+                    "2D_FIX" => "2D".to_owned(),
+                    "3D_FIX" => "3D".to_owned(),
+                    "RTK_FLOAT" => "RTK float".to_owned(),
+                    "RTK_FIXED" => "RTK fixed".to_owned(),
+                    other => other.to_owned(),
+                };
+                s.gps_fix = Some(fix);
                 if m.satellites_visible != u8::MAX {
                     s.satellites = Some(m.satellites_visible);
                 }

@@ -163,7 +163,10 @@ function paint(root) {
 }
 
 function apply(f) {
-  if (frame && f.fired) {
+  // Over a recording, a jump (scrubbing) flashes nothing: only playing
+  // and stepping show what just fired.
+  const near = page.mode === "live" || (frame && Math.abs(f.time_us - frame.time_us) <= 2e6);
+  if (frame && f.fired && near) {
     const now = performance.now();
     f.fired.forEach((c, i) => { if (c > (frame.fired[i] || 0)) firedAt[i] = now; });
   }
@@ -207,7 +210,7 @@ function strip(v) {
   const b = v.battery_pct;
   tile("v-battery", (b === null ? "" : b + "% ") + n(v.battery_v, 1, " V"), b === null ? "" : (b < 20 ? "bad" : (b < 35 ? "warn" : "")));
   tile("v-gps", (text(v.gps_fix) || "–") + (v.satellites === null ? "" : " · " + v.satellites + " sats"),
-    v.gps_fix && !/3D|RTK|DGPS/.test(v.gps_fix) ? "bad" : "");
+    v.gps_fix && !/3D|RTK|DGPS/i.test(v.gps_fix) ? "bad" : "");
   tile("v-link", text(v.link).replace(" received", "") || "–");
   const age = v.heartbeat_age;
   tile("v-hb", age === null ? "never" : age.toFixed(1) + " s ago", age === null || age > 3 ? "bad" : (age > 1.5 ? "warn" : "good"));
