@@ -385,3 +385,94 @@ impl Board {
 fn params_json(p: &nets::Params) -> Json {
     Json::Object(p.iter().map(|(k, v)| (k.clone(), v.to_json())).collect())
 }
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// A net that goes `idle` → `on` on `x` (commanding `arm`) and back on `y`.
+    pub(crate) fn project() -> Arc<Project> {
+        let files = [
+            (
+                "project.toml",
+                "[[net]]\nfile = \"a.toml\"\nactive = true\n[events]\nx = {}\ny = {}\n",
+            ),
+            (
+                "a.toml",
+                "name = \"A\"\nplaces = [\"idle\", \"on\"]\ninitial = [\"idle\"]\n\
+                 [[transition]]\nname = \"go\"\nfrom = [\"idle\"]\nto = [\"on\"]\non = \"x\"\ndo = [\"command arm\"]\n\
+                 [[transition]]\nname = \"back\"\nfrom = [\"on\"]\nto = [\"idle\"]\non = \"y\"\n",
+            ),
+        ];
+        Arc::new(nets::load(&files).unwrap_or_else(|e| panic!("{e}")))
+    }
+
+    /// Feeds `input` to the player as the supervisor would: the step.
+    pub(crate) fn step(player: &mut Player, seq: u64, time: Micros, input: &Input) -> Step {
+        match input {
+            Input::Event(e) => player.handle(e, time),
+            Input::Result { id, outcome } => player.result(*id, outcome.clone(), time),
+            Input::Frame(_) | Input::Tick => player.advance(time),
+        }
+        Step {
+            seq,
+            time,
+            events: Vec::new(),
+            effects: player.effects().collect(),
+        }
+    }
+
+    #[test]
+    fn a_step_marks_fires_and_logs_with_its_outcome() {
+        let project = project();
+        let mut player = Player::start(project.clone(), 0);
+        let _ = player.effects().count();
+        let mut board = Board::new(project.clone(), &player, 0, 100);
+        let (idle, on) = (
+            project.flat(0, nets::model::PlaceRef::Local(0)),
+            project.flat(0, nets::model::PlaceRef::Local(1)),
+        );
+        assert!(board.marking.marked(idle) && !board.marking.marked(on));
+        assert_eq!(board.marking.enabled, vec![0], "go waits for x");
+        let x = Input::Event(Event::new("x"));
+        let s = step(&mut player, 1, 1_000_000, &x);
+        board.step(&x, &s, &player);
+        assert!(board.marking_changed);
+        assert!(!board.marking.marked(idle) && board.marking.marked(on));
+        assert_eq!(board.marking.fired, vec![1, 0]);
+        assert_eq!(board.marking.enabled, vec![1]);
+        let log: Vec<&Json> = board.log().iter().map(|e| &e.json).collect();
+        assert_eq!(log[0]["kind"], "event");
+        assert_eq!(log[0]["fired"], json!(["A.go"]));
+        assert_eq!(log[0]["t"], 1.0);
+        assert_eq!(log[1]["kind"], "command");
+        assert_eq!(log[1]["name"], "arm");
+        let id = log[1]["id"].as_u64().unwrap_or(0);
+        let done = Input::Result {
+            id,
+            outcome: Outcome::Done(nets::Params::new()),
+        };
+        let s = step(&mut player, 2, 1_500_000, &done);
+        board.step(&done, &s, &player);
+        let last = &board
+            .log()
+            .back()
+            .map(|e| e.json.clone())
+            .unwrap_or_default();
+        assert_eq!(last["kind"], "result");
+        assert_eq!(last["of"], "arm");
+        assert_eq!(last["ok"], true);
+        // An event nothing waits for is logged as such.
+        let x = Input::Event(Event::new("x"));
+        let s = step(&mut player, 3, 2_000_000, &x);
+        board.step(&x, &s, &player);
+        let last = &board
+            .log()
+            .back()
+            .map(|e| e.json.clone())
+            .unwrap_or_default();
+        assert_eq!(last["name"], "x");
+        assert_eq!(last["fired"], json!([]));
+        assert!(!board.marking_changed);
+    }
+}

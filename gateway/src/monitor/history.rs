@@ -178,3 +178,50 @@ impl History {
         frame
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::board::tests::{project, step};
+    use super::*;
+
+    #[test]
+    fn any_instant_shows_the_state_after_the_last_step_before_it() {
+        let project = project();
+        let mut player = Player::start(project.clone(), 0);
+        let start = Step {
+            seq: 0,
+            time: 0,
+            events: Vec::new(),
+            effects: player.effects().collect(),
+        };
+        let mut builder = Builder::new(project.clone(), &start, &player, 0);
+        let mut after = vec![(0, player.state().marking.clone())];
+        for i in 1..=40u64 {
+            let input = match i % 5 {
+                0 => Input::Tick,
+                1 | 3 => Input::Event(nets::Event::new("x")),
+                _ => Input::Event(nets::Event::new("y")),
+            };
+            let s = step(&mut player, i, i * 1_000_000, &input);
+            builder.step(&input, &s, &player);
+            after.push((i * 1_000_000, player.state().marking.clone()));
+        }
+        let history = builder.finish(json!({}));
+        for (time, marking) in &after {
+            for at in [*time, time + 500_000] {
+                let frame = history.frame_at(at);
+                let marked: Vec<usize> = (0..project.place_count)
+                    .filter(|&p| marking[p / 64] & (1 << (p % 64)) != 0)
+                    .collect();
+                assert_eq!(frame["marked"], json!(marked), "at {at}");
+                let last = frame["log"].as_array().and_then(|l| l.last()).cloned();
+                if let Some(l) = last {
+                    assert!(l["t"].as_f64() <= Some(at as f64 / 1e6), "{l} after {at}");
+                }
+            }
+        }
+        assert_eq!(history.moment(2_000_000, 1), 3_000_000);
+        assert_eq!(history.moment(2_000_000, -1), 1_000_000);
+        assert_eq!(history.frame_at(u64::MAX)["time_us"], 40_000_000);
+    }
+}

@@ -119,3 +119,45 @@ impl Feed {
         self.live.version.send_modify(|v| *v += 1);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::board::tests::{project, step};
+    use super::*;
+
+    #[test]
+    fn a_browser_that_reads_late_gets_the_latest_state_and_a_bounded_frame() {
+        let project = project();
+        let mut player = Player::start(project.clone(), 0);
+        let _ = player.effects().count();
+        let board = Board::new(project.clone(), &player, 0, LOG_LIVE);
+        let live = Live::new(board, json!({}));
+        let feed = Feed::new(live.clone());
+        let mut cursor = Cursor::default();
+        let first = live.frame(&mut cursor);
+        assert_eq!(first["log"], json!([]));
+        // Ten thousand steps while the browser reads nothing.
+        for i in 0..10_000u64 {
+            let name = if i % 2 == 0 { "x" } else { "y" };
+            let input = Input::Event(nets::Event::new(name));
+            let s = step(&mut player, i + 1, (i + 1) * 1000, &input);
+            feed.step(&input, &s, &player);
+        }
+        feed.publish();
+        assert!(live.lock().log().len() <= LOG_LIVE, "the log is bounded");
+        let frame = live.frame(&mut cursor);
+        assert_eq!(frame["seq"], 10_000);
+        assert_eq!(frame["log"].as_array().map(Vec::len), Some(LOG_PER_FRAME));
+        assert_eq!(frame["log_gap"], true, "the skipped entries are said");
+        let last = frame["log"].as_array().and_then(|a| a.last()).cloned();
+        assert_eq!(last.map(|l| l["name"].clone()), Some(json!("y")));
+        assert_eq!(
+            frame["marked"],
+            json!([project.flat(0, nets::model::PlaceRef::Local(0))])
+        );
+        // Nothing new: nothing resent.
+        let again = live.frame(&mut cursor);
+        assert_eq!(again["log"], json!([]));
+        assert_eq!(again["log_gap"], false);
+    }
+}

@@ -222,7 +222,7 @@ mod tests {
         assert_eq!(p["nets"][1]["level"], 1);
         assert_eq!(p["nets"][0]["activates"], json!(["B"]));
         let go = &p["nets"][0]["transitions"][0];
-        assert_eq!(go["line"], 5, "{go}");
+        assert_eq!(go["line"], 6, "{go}: its `name = \"go\"` line");
         assert_eq!(go["id"], "t-A-go");
         assert_eq!(go["actions"], json!(["activate B"]));
         assert_eq!(p["nets"][0]["places"][1]["line"], 2);
