@@ -21,11 +21,16 @@ async function live(page, seen) {
   seen.marked_first = await page.$$eval("#nets g.place.marked", (els) => els.map((e) => e.id));
   seen.log_first = await page.$$eval("#log .row", (els) => els.length);
   await page.screenshot({ path: path.join(out, "monitor-live-start.png") });
-  // The flight goes on: wait for the place the test names to turn red.
-  const place = process.env.MONITOR_WAIT_PLACE;
-  await page.waitForSelector("#nets [id='" + place + "'].marked", { timeout: 120000 });
-  seen.waited_place_marked = true;
-  seen.fill = await page.$eval("#nets [id='" + place + "'] circle", (c) => getComputedStyle(c).fill);
+  // The flight goes on: wait for a place not marked at first to turn red.
+  // (Its colour read at once: a place may stay marked for a moment only.)
+  const handle = await page.waitForFunction((first) => {
+    const el = [...document.querySelectorAll("#nets g.place.marked")].find((e) => !first.includes(e.id));
+    return el && { id: el.id, fill: getComputedStyle(el.querySelector("circle")).fill };
+  }, seen.marked_first, { timeout: 120000 });
+  const red = await handle.jsonValue();
+  seen.turned_red = red.id;
+  seen.fill = red.fill;
+  seen.unmarked_fill = await page.$eval("#nets g.place:not(.marked) circle", (c) => getComputedStyle(c).fill);
   seen.log_later = await page.$$eval("#log .row", (els) => els.length);
   seen.log_kinds = await page.$$eval("#log .row", (els) => [...new Set(els.map((e) => e.dataset.kind))]);
   seen.strip_mode = await page.$eval("#v-mode b", (b) => b.textContent);

@@ -69,6 +69,18 @@ function build() {
     for (const i of levels.get(l)) row.appendChild(card(i));
     nets.appendChild(row);
   }
+  // The mission at a glance: each net and its marked places, by level.
+  const summary = $("summary");
+  for (const l of [...levels.keys()].sort((a, b) => a - b)) {
+    for (const i of levels.get(l)) {
+      const s = document.createElement("div");
+      s.className = "sum";
+      s.id = "sum-" + i;
+      s.innerHTML = "<small>" + esc(page.nets[i].name) + "</small><b>–</b>";
+      s.onclick = () => $("net-" + i).scrollIntoView({ behavior: "smooth" });
+      summary.appendChild(s);
+    }
+  }
   for (const [i, n] of page.nets.entries()) {
     for (const p of n.places) byId[p.id] = { kind: "place", flat: p.flat, def: p, net: i };
     for (const t of n.transitions) byId[t.id] = { kind: "transition", flat: t.flat, def: t, net: i };
@@ -183,6 +195,9 @@ function apply(f) {
     // The marked places' names, large: the net's state read from afar.
     const names = n.places.filter((p) => !p.global && f.marked.includes(p.flat)).map((p) => p.name);
     div.querySelector(".now").textContent = on ? (names.join(", ") || "(no token)") : "";
+    const sum = $("sum-" + i);
+    sum.classList.toggle("inactive", !on);
+    sum.querySelector("b").textContent = on ? (names.join(", ") || "(no token)") : "inactive";
   });
   for (const g of page.globals) $("g-" + g.flat).classList.toggle("marked", f.marked.includes(g.flat));
   paint(document);
