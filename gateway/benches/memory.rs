@@ -182,6 +182,24 @@ fn main() {
             status.map_or("did not run".into(), |s| s.to_string())
         );
     }
+    // The hour's recording opened in `petrel view` (docs/monitor.md): the
+    // whole command until its index is built, then 1,000 instants asked
+    // for as the page's scrubbing asks (`--measure`: no server).
+    let t = Instant::now();
+    let view = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("view")
+        .arg(scratch.join("hour.mcap"))
+        .arg(&here)
+        .args(["--measure", "1000"])
+        .stderr(Stdio::null())
+        .output();
+    println!(
+        "petrel view of the hour's recording: {:.0} ms in all; {}",
+        t.elapsed().as_secs_f64() * 1e3,
+        view.map_or("did not run".into(), |o| String::from_utf8_lossy(&o.stdout)
+            .trim()
+            .to_owned())
+    );
     let _ = std::io::stdout().flush();
     let _ = std::fs::remove_dir_all(&scratch);
 }

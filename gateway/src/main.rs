@@ -31,6 +31,7 @@ mod cli;
 mod clock;
 mod link;
 mod mirror;
+mod monitor;
 mod preflight;
 mod profile;
 mod programs;
@@ -70,6 +71,8 @@ enum Verb {
     Export(cli::export::Args),
     /// Replay recorded telemetry through elaboration and the player.
     Replay(cli::replay::Args),
+    /// Show a recorded flight in the monitor's page: scrub, step, play.
+    View(cli::view::Args),
     /// Copy a recording cut short (no summary, a torn last chunk) into a clean, indexed MCAP.
     Recover(cli::recover::Args),
     /// Fly the paper's UAV mission on a simulated ArduPlane with DEC, live.
@@ -112,6 +115,7 @@ fn main() -> ExitCode {
         Verb::Stubs(args) => cli::stubs::run(args),
         Verb::Export(args) => cli::export::run(args),
         Verb::Replay(args) => cli::replay::run(args),
+        Verb::View(args) => cli::view::run(args),
         Verb::Recover(args) => cli::recover::run(args),
         Verb::Demo(args) => cli::demo::run(args),
     };

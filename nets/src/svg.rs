@@ -26,7 +26,7 @@ fn escape(s: &str) -> String {
 }
 
 /// An id fragment: letters, digits, `_` and `-` kept, anything else `_`.
-fn id(s: &str) -> String {
+pub fn id(s: &str) -> String {
     s.chars()
         .map(|c| {
             if c.is_ascii_alphanumeric() || c == '-' {

@@ -85,6 +85,22 @@ pub struct Args {
     /// Petrel held before.
     #[arg(long)]
     pub recheck: bool,
+    /// Serve the web monitor on ADDR:PORT (or 127.0.0.1:PORT given a port)
+    /// [default: 127.0.0.1:8080, else a free port on 127.0.0.1].
+    #[arg(long, value_name = "ADDR:PORT", conflicts_with = "no_http")]
+    pub http: Option<String>,
+    /// Do not serve the web monitor.
+    #[arg(long)]
+    pub no_http: bool,
+}
+
+/// Where `demo` serves the monitor unless told: 127.0.0.1:8080, or any
+/// free port on loopback when 8080 is taken.
+fn default_http() -> String {
+    match std::net::TcpListener::bind("127.0.0.1:8080") {
+        Ok(_) => "127.0.0.1:8080".into(),
+        Err(_) => "127.0.0.1:0".into(),
+    }
 }
 
 /// A free TCP port on 127.0.0.1 (bound, then released).
@@ -96,7 +112,7 @@ fn free_port() -> Result<u16, miette::Report> {
 }
 
 /// Writes the built-in example into a fresh folder.
-fn unpack() -> Result<PathBuf, miette::Report> {
+pub(crate) fn unpack() -> Result<PathBuf, miette::Report> {
     let dir = std::env::temp_dir().join(format!("petrel-demo-{}", std::process::id()));
     std::fs::create_dir_all(&dir)
         .map_err(|e| miette::miette!("cannot create {}: {e}", dir.display()))?;
@@ -180,6 +196,11 @@ fn fly(args: &Args, dir: &Path) -> VerbResult {
         downlink: false,
         mirror_system: None,
         operator_key: None,
+        http: match (&args.http, args.no_http) {
+            (_, true) => None,
+            (Some(a), false) => Some(a.clone()),
+            (None, false) => Some(default_http()),
+        },
     };
     let mut setup = match super::run::prepare(&run_args)? {
         Ok(setup) => setup,

@@ -15,6 +15,7 @@ pub mod replay;
 pub mod run;
 pub mod stubs;
 pub mod timeline;
+pub mod view;
 
 /// How a verb ended, as an exit status.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -17,7 +17,7 @@ use serde_json::json;
 
 use super::timeline::Timeline;
 
-mod from_mcap;
+pub(crate) mod from_mcap;
 use super::{Outcome, VerbResult};
 use crate::supervisor::{Input, Supervisor};
 

@@ -112,6 +112,10 @@ pub struct Args {
     /// rejected.
     #[arg(long, value_name = "FILE")]
     pub operator_key: Option<PathBuf>,
+    /// Serve the web monitor (docs/monitor.md) on ADDRESS:PORT, or on
+    /// 127.0.0.1:PORT given a port alone. Read-only.
+    #[arg(long, value_name = "ADDR:PORT")]
+    pub http: Option<String>,
 }
 
 /// `recordings/petrel-YYYYMMDD-HHMMSS.mcap` for the current UTC time.
@@ -288,7 +292,12 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
             Some(crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
         }
     };
+    let http = match &args.http {
+        Some(a) => Some(crate::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?),
+        None => None,
+    };
     Ok(Ok(Setup {
+        http,
         project,
         signing,
         operator,
@@ -405,6 +414,8 @@ pub(crate) struct Setup {
     pub out: Box<dyn Write + Send>,
     /// Stops the gateway when notified (`petrel demo`).
     pub stop: Option<Arc<tokio::sync::Notify>>,
+    /// Serve the web monitor here.
+    pub http: Option<std::net::SocketAddr>,
 }
 
 struct Gateway {
@@ -419,6 +430,8 @@ struct Gateway {
     /// Judges the operator's answers (`None`: no `--operator-key`, every
     /// answer rejected).
     answers: Option<AnswerGate>,
+    /// The web monitor: fed in `settle`, served on its own thread.
+    monitor: Option<(crate::monitor::Feed, crate::monitor::Server)>,
     /// Steps carried out but not yet printed and recorded (see `feed`).
     done: Vec<Done>,
     frames: u64,
@@ -536,9 +549,15 @@ impl Gateway {
                 );
                 let _ = self.out.effects(&self.project, effects);
             }
+            if let Some((feed, _)) = &self.monitor {
+                feed.step(&input.input(), &step, self.supervisor.player());
+            }
             if let (Some(rec), Some(digest)) = (&self.recorder, digest) {
                 rec.record(&input.input(), step, digest);
             }
+        }
+        if let Some((feed, _)) = &self.monitor {
+            feed.publish();
         }
         let _ = self.out.out.flush();
     }
@@ -649,6 +668,7 @@ impl Gateway {
                 mirror,
             }),
             answers: setup.operator.take().map(AnswerGate::new),
+            monitor: None,
             done: Vec::new(),
             frames: 0,
             events: 0,
@@ -660,6 +680,13 @@ impl Gateway {
         };
         if let Some(rec) = &gw.recorder {
             rec.start(&start, gw.supervisor.player());
+        }
+        if let Some(address) = setup.http {
+            let (project, player) = (gw.project.clone(), gw.supervisor.player());
+            let monitor = crate::monitor::start_live(address, project, &setup.dir, &start, player)
+                .map_err(|e| miette::miette!("cannot serve the monitor on {address}: {e}"))?;
+            say!("monitor: http://{}/", monitor.1.address);
+            gw.monitor = Some(monitor);
         }
         for e in &start.effects {
             gw.effect(e);

@@ -17,12 +17,32 @@ use crate::record::layout::Input as Recorded;
 use crate::record::read;
 use crate::supervisor::{Input, Supervisor};
 
-pub fn run(args: Args) -> VerbResult {
-    let name = args.file.display().to_string();
-    let bytes = std::fs::read(&args.file)
+/// A recording read, with the profile and project it replays with.
+pub(crate) struct Opened {
+    pub rec: read::Recording,
+    /// The time of the player's start (step 0).
+    pub origin: nets::Micros,
+    pub profile: elaboration::Profile,
+    pub config: elaboration::Config,
+    pub project: std::sync::Arc<nets::Project>,
+    /// How long reading the file took.
+    pub reading: Duration,
+}
+
+/// Reads `file` (saying what a file cut short still holds) and loads
+/// `project` with the profile the flight ran with (or `profile`); `None`
+/// when the profile does not load (already reported).
+pub(crate) fn open(
+    file: &std::path::Path,
+    project: &std::path::Path,
+    profile: Option<&str>,
+    expectations: bool,
+) -> Result<Option<Opened>, miette::Report> {
+    let name = file.display().to_string();
+    let bytes = std::fs::read(file)
         .map_err(|e| miette::miette!("cannot read the MCAP recording {name}: {e}"))?;
     let reading = Instant::now();
-    let rec = read::read(&bytes, args.check_against).map_err(|e| miette::miette!("{name}: {e}"))?;
+    let rec = read::read(&bytes, expectations).map_err(|e| miette::miette!("{name}: {e}"))?;
     let reading = reading.elapsed();
     drop(bytes);
     if !rec.finished {
@@ -58,7 +78,7 @@ pub fn run(args: Args) -> VerbResult {
     let config = setup.config.clone();
     // The profile the flight ran with, as recorded, unless told otherwise;
     // recordings from before the layers were recorded name a built-in one.
-    let profile = if args.profile.is_none() && !setup.layers.is_empty() {
+    let profile = if profile.is_none() && !setup.layers.is_empty() {
         crate::profile::Layers {
             name: setup.profile.clone(),
             layers: setup.layers.clone(),
@@ -69,15 +89,72 @@ pub fn run(args: Args) -> VerbResult {
             p @ ("ardupilot" | "px4") => Some(p),
             _ => None,
         };
-        let choice = args.profile.as_deref().or(builtin);
-        super::super::events::load_profile(choice, Some(&args.project), rec.tlog())?
+        let choice = profile.or(builtin);
+        super::super::events::load_profile(choice, Some(project), rec.tlog())?
             .ok()
             .map(|(p, _)| p)
     };
     let Some(profile) = profile else {
+        return Ok(None);
+    };
+    let project = crate::project::load_with(project, &profile.catalog())?;
+    Ok(Some(Opened {
+        rec,
+        origin,
+        profile,
+        config,
+        project,
+        reading,
+    }))
+}
+
+/// The Supervisor input a recorded input stands for.
+pub(crate) fn input<'a>(
+    rec: &'a read::Recording,
+    seq: u64,
+    input: &'a Recorded,
+) -> Result<Input<'a>, String> {
+    Ok(match input {
+        Recorded::Frame(index) => {
+            let Some((_, bytes)) = rec.frame(*index) else {
+                return Err(format!(
+                    "step {seq} refers to raw frame {index}, which is not in the recording"
+                ));
+            };
+            Input::Frame(bytes)
+        }
+        Recorded::Tick => Input::Tick,
+        Recorded::Result { id, outcome } => Input::Result {
+            id: *id,
+            outcome: outcome.clone(),
+        },
+        Recorded::Event(e) => Input::Event(e.clone()),
+        Recorded::Answer { id, choice } => Input::Answer {
+            id: *id,
+            choice: choice.clone(),
+        },
+        Recorded::Start => return Err(format!("a second start at step {seq}")),
+    })
+}
+
+pub fn run(args: Args) -> VerbResult {
+    let name = args.file.display().to_string();
+    let Some(Opened {
+        rec,
+        origin,
+        profile,
+        config,
+        project,
+        reading,
+    }) = open(
+        &args.file,
+        &args.project,
+        args.profile.as_deref(),
+        args.check_against,
+    )?
+    else {
         return Ok(Outcome::BadInput);
     };
-    let project = crate::project::load_with(&args.project, &profile.catalog())?;
     let io = |e: std::io::Error| miette::miette!("cannot write the output: {e}");
     let mut out = Timeline {
         out: BufWriter::new(std::io::stdout().lock()),
@@ -123,30 +200,10 @@ pub fn run(args: Args) -> VerbResult {
                 std::thread::sleep(wait);
             }
         }
-        let input = match input {
-            Recorded::Frame(index) => {
-                let Some((_, bytes)) = rec.frame(*index) else {
-                    return Err(miette::miette!(
-                        "{name}: step {seq} refers to raw frame {index}, which is not in the recording"
-                    ));
-                };
-                frames += 1;
-                Input::Frame(bytes)
-            }
-            Recorded::Tick => Input::Tick,
-            Recorded::Result { id, outcome } => Input::Result {
-                id: *id,
-                outcome: outcome.clone(),
-            },
-            Recorded::Event(e) => Input::Event(e.clone()),
-            Recorded::Answer { id, choice } => Input::Answer {
-                id: *id,
-                choice: choice.clone(),
-            },
-            Recorded::Start => {
-                return Err(miette::miette!("{name}: a second start at step {seq}"));
-            }
-        };
+        let input = self::input(&rec, *seq, input).map_err(|e| miette::miette!("{name}: {e}"))?;
+        if matches!(input, Input::Frame(_)) {
+            frames += 1;
+        }
         // Recorded answers and program events are inputs: print them as
         // `petrel play` prints its script's.
         match &input {

@@ -1,0 +1,444 @@
+// Petrel monitor: draws the page from /page.json and keeps it up to date
+// from the frames of /ws (live: pushed; a recording: asked for an instant).
+// Plain JavaScript, no library, no build step.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+const FLASH_MS = 1500;
+let page = null;
+let byId = {};             // element id -> {kind: "place"|"transition", flat, def, net}
+let frame = null;          // the last frame applied
+let firedAt = {};          // flat transition -> when it last fired (performance.now())
+let track = [];
+let selected = null;
+let socket = null;
+let logRows = 0;
+
+function text(s) { return s === null || s === undefined ? "" : String(s); }
+function esc(s) {
+  return text(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
+}
+function params(p) {
+  if (!p || typeof p !== "object") return "";
+  const keys = Object.keys(p);
+  if (!keys.length) return "";
+  return " {" + keys.map((k) => {
+    let v = JSON.stringify(p[k]);
+    if (v && v.length > 40) v = "…";
+    return k + ": " + v;
+  }).join(", ") + "}";
+}
+function seconds(t) { return (t === null || t === undefined) ? "–" : t.toFixed(1) + " s"; }
+
+// ---- the fixed part ----------------------------------------------------
+
+function build() {
+  $("project").textContent = page.name;
+  document.title = page.name + " — Petrel monitor";
+  const live = page.mode === "live";
+  $("mode").textContent = live ? "LIVE" : "RECORDING";
+  $("mode").className = "badge" + (live ? "" : " view");
+  const globals = $("globals");
+  globals.innerHTML = page.globals.length ? '<span class="muted">global places:</span>' : "";
+  for (const g of page.globals) {
+    const chip = document.createElement("span");
+    chip.className = "chip";
+    chip.id = "g-" + g.flat;
+    chip.textContent = "@" + g.name;
+    chip.title = "used by " + g.nets.join(", ");
+    chip.onmouseenter = () => linkGlobal(g.name, true);
+    chip.onmouseleave = () => linkGlobal(g.name, false);
+    chip.onclick = () => define({ kind: "global", def: g });
+    globals.appendChild(chip);
+  }
+  // Nets by level: the hierarchy reads top to bottom.
+  const levels = new Map();
+  page.nets.forEach((n, i) => {
+    const l = n.level === null ? 99 : n.level;
+    if (!levels.has(l)) levels.set(l, []);
+    levels.get(l).push(i);
+  });
+  const nets = $("nets");
+  for (const l of [...levels.keys()].sort((a, b) => a - b)) {
+    const title = document.createElement("div");
+    title.className = "level-title";
+    title.textContent = l === 0 ? "level 0 — activated by no other net" : (l === 99 ? "not activated" : "level " + l);
+    nets.appendChild(title);
+    const row = document.createElement("div");
+    row.className = "level";
+    for (const i of levels.get(l)) row.appendChild(card(i));
+    nets.appendChild(row);
+  }
+  // The mission at a glance: each net and its marked places, by level.
+  const summary = $("summary");
+  for (const l of [...levels.keys()].sort((a, b) => a - b)) {
+    for (const i of levels.get(l)) {
+      const s = document.createElement("div");
+      s.className = "sum";
+      s.id = "sum-" + i;
+      s.innerHTML = "<small>" + esc(page.nets[i].name) + "</small><b>–</b>";
+      s.onclick = () => $("net-" + i).scrollIntoView({ behavior: "smooth" });
+      summary.appendChild(s);
+    }
+  }
+  for (const [i, n] of page.nets.entries()) {
+    for (const p of n.places) byId[p.id] = { kind: "place", flat: p.flat, def: p, net: i };
+    for (const t of n.transitions) byId[t.id] = { kind: "transition", flat: t.flat, def: t, net: i };
+  }
+  if (!live) timeline();
+}
+
+function card(i) {
+  const n = page.nets[i];
+  const div = document.createElement("div");
+  div.className = "net";
+  div.id = "net-" + i;
+  div.dataset.net = n.name;
+  const by = page.nets.filter((m) => m.activates.includes(n.name)).map((m) => m.name);
+  div.innerHTML = '<div class="net-head" title="open alone"><b>' + esc(n.name) + '</b><span class="state"></span>' +
+    '<span class="now"></span><span class="activates">' + (n.activates.length ? "activates " + esc(n.activates.join(", ")) : "") +
+    (by.length ? (n.activates.length ? " · " : "") + "activated by " + esc(by.join(", ")) : "") + "</span></div>" + n.svg;
+  div.querySelector(".net-head").onclick = () => zoom(i);
+  // Drawn at most 300 px high and as wide as the page allows.
+  const svg = div.querySelector("svg");
+  const w = +svg.getAttribute("width"), h = +svg.getAttribute("height");
+  const room = Math.max(($("left").clientWidth || 1000) - 30, 300);
+  const k = Math.min(1, room / w, 300 / h);
+  svg.setAttribute("width", (w * k).toFixed(0));
+  svg.setAttribute("height", (h * k).toFixed(0));
+  div.addEventListener("click", pick);
+  return div;
+}
+
+function linkGlobal(name, on) {
+  const id = "@" + name;
+  for (const [eid, e] of Object.entries(byId)) {
+    if (e.kind === "place" && e.def.name === id) {
+      document.querySelectorAll('[id="' + eid + '"]').forEach((el) => el.classList.toggle("linked", on));
+    }
+  }
+}
+
+function pick(ev) {
+  const el = ev.target.closest("g.place, g.transition");
+  if (!el || !byId[el.id]) return;
+  ev.stopPropagation();
+  document.querySelectorAll(".selected").forEach((x) => x.classList.remove("selected"));
+  document.querySelectorAll('[id="' + el.id + '"]').forEach((x) => x.classList.add("selected"));
+  selected = el.id;
+  define(byId[el.id]);
+}
+
+function define(e) {
+  const d = e.def;
+  const where = d.file ? "<code>" + esc(d.file) + (d.line ? ":" + d.line : "") + "</code>" : "";
+  let h = "";
+  if (e.kind === "transition") {
+    const net = page.nets[e.net].name;
+    const fired = frame ? frame.fired[d.flat] : 0;
+    const enabled = frame && frame.enabled.includes(d.flat);
+    h = "<b>transition " + esc(net) + "." + esc(d.name) + "</b> " + where +
+      "<br>on <code>" + esc(d.event || "(immediate)") + "</code>" +
+      (d.guard ? " when <code>" + esc(d.guard) + "</code>" : "") +
+      "<br>from " + esc(d.inputs.join(", ")) + " → to " + esc(d.outputs.join(", ")) +
+      (d.actions.length ? "<br>do:<br>" + d.actions.map((a) => "&nbsp;&nbsp;<code>" + esc(a) + "</code>").join("<br>") : "<br>no actions") +
+      "<br><span class=muted>" + (enabled ? "enabled (waiting for its event)" : "not enabled") + "; fired " + fired + " times</span>";
+  } else if (e.kind === "place") {
+    const net = page.nets[e.net].name;
+    const on = frame && frame.marked.includes(d.flat);
+    h = "<b>place " + esc(net) + "." + esc(d.name) + "</b> " + where +
+      (d.global ? "<br>a global place, shared by every net that names it" : "") +
+      (d.initial ? "<br>initially marked" : "") + (d.final ? "<br>final" : "") +
+      "<br><span class=muted>" + (on ? "MARKED" : "not marked") + "</span>";
+  } else {
+    h = "<b>global place @" + esc(d.name) + "</b> " + where + "<br>used by " + esc(d.nets.join(", "));
+  }
+  $("def-body").innerHTML = h;
+}
+
+// ---- the live part -----------------------------------------------------
+
+function paint(root) {
+  const marked = new Set(frame.marked);
+  const enabled = new Set(frame.enabled);
+  const now = performance.now();
+  root.querySelectorAll("g.place, g.transition").forEach((el) => {
+    const e = byId[el.id];
+    if (!e) return;
+    if (e.kind === "place") {
+      el.classList.toggle("marked", marked.has(e.flat));
+    } else {
+      el.classList.toggle("enabled", enabled.has(e.flat));
+      el.classList.toggle("fired", now - (firedAt[e.flat] || -1e9) < FLASH_MS);
+    }
+  });
+}
+
+function apply(f) {
+  // Over a recording, a jump (scrubbing) flashes nothing: only playing
+  // and stepping show what just fired.
+  const near = page.mode === "live" || (frame && Math.abs(f.time_us - frame.time_us) <= 2e6);
+  if (frame && f.fired && near) {
+    const now = performance.now();
+    f.fired.forEach((c, i) => { if (c > (frame.fired[i] || 0)) firedAt[i] = now; });
+  }
+  frame = f;
+  $("clock").textContent = "t = " + seconds(f.t);
+  $("step").textContent = "step " + f.seq;
+  $("lockout").hidden = !f.lockout;
+  page.nets.forEach((n, i) => {
+    const div = $("net-" + i);
+    const on = !!f.active[i];
+    div.classList.toggle("inactive", !on);
+    div.classList.toggle("locked", f.lockout && on);
+    div.querySelector(".state").textContent = on ? "ACTIVE" : "inactive";
+    // The marked places' names, large: the net's state read from afar.
+    const names = n.places.filter((p) => !p.global && f.marked.includes(p.flat)).map((p) => p.name);
+    div.querySelector(".now").textContent = on ? (names.join(", ") || "(no token)") : "";
+    const sum = $("sum-" + i);
+    sum.classList.toggle("inactive", !on);
+    sum.querySelector("b").textContent = on ? (names.join(", ") || "(no token)") : "inactive";
+  });
+  for (const g of page.globals) $("g-" + g.flat).classList.toggle("marked", f.marked.includes(g.flat));
+  paint(document);
+  strip(f.vehicle);
+  if (f.track_reset) track = [];
+  track = track.concat(f.track || []);
+  map(f.vehicle);
+  log(f.log || [], f.log_reset, f.log_gap);
+  if (page.mode !== "live") position(f.time_us);
+}
+
+function tile(id, value, cls) {
+  const t = $(id);
+  t.querySelector("b").textContent = value;
+  t.className = "tile" + (cls ? " " + cls : "");
+}
+
+function strip(v) {
+  if (!v) return;
+  const n = (x, d, u) => (x === null || x === undefined) ? "–" : x.toFixed(d) + u;
+  tile("v-mode", text(v.mode) || "–");
+  tile("v-armed", v.armed === null ? "–" : (v.armed ? "ARMED" : "disarmed"), v.armed ? "warn" : "");
+  tile("v-alt", n(v.alt, 1, " m"));
+  tile("v-gs", n(v.ground_speed, 1, " m/s"));
+  const b = v.battery_pct;
+  tile("v-battery", (b === null ? "" : b + "% ") + n(v.battery_v, 1, " V"), b === null ? "" : (b < 20 ? "bad" : (b < 35 ? "warn" : "")));
+  tile("v-gps", (text(v.gps_fix) || "–") + (v.satellites === null ? "" : " · " + v.satellites + " sats"),
+    v.gps_fix && !/3D|RTK|DGPS/i.test(v.gps_fix) ? "bad" : "");
+  tile("v-link", text(v.link).replace(" received", "") || "–");
+  const age = v.heartbeat_age;
+  tile("v-hb", age === null ? "never" : age.toFixed(1) + " s ago", age === null || age > 3 ? "bad" : (age > 1.5 ? "warn" : "good"));
+}
+
+function map(v) {
+  const svg = $("map");
+  const pts = track.slice();
+  const add = (p) => { if (p) pts.push(p); };
+  if (v) {
+    add(v.position); add(v.home);
+    (v.waypoints || []).forEach(add); (v.sites || []).forEach(add); (v.targets || []).forEach(add);
+  }
+  if (!pts.length) { svg.innerHTML = '<text x="200" y="130" text-anchor="middle" fill="#777">no position yet</text>'; return; }
+  let [la0, la1, lo0, lo1] = [90, -90, 180, -180];
+  for (const p of pts) { la0 = Math.min(la0, p[0]); la1 = Math.max(la1, p[0]); lo0 = Math.min(lo0, p[1]); lo1 = Math.max(lo1, p[1]); }
+  const k = Math.cos((la0 + la1) / 2 * Math.PI / 180);
+  const w = Math.max((lo1 - lo0) * k, 1e-4), h = Math.max(la1 - la0, 1e-4);
+  const s = Math.min(360 / w, 220 / h);
+  const cx = (lo0 + lo1) / 2, cy = (la0 + la1) / 2;
+  const X = (p) => (200 + (p[1] - cx) * k * s).toFixed(1);
+  const Y = (p) => (130 - (p[0] - cy) * s).toFixed(1);
+  let o = "";
+  // A scale bar: a round number of metres.
+  const mPerUnit = 111320 / s;
+  let bar = Math.pow(10, Math.floor(Math.log10(mPerUnit * 100)));
+  if (bar / mPerUnit < 40) bar *= 5;
+  o += '<line x1="10" y1="250" x2="' + (10 + bar / mPerUnit).toFixed(1) + '" y2="250" stroke="#333" stroke-width="3"/>' +
+    '<text x="12" y="245" font-size="11">' + (bar >= 1000 ? bar / 1000 + " km" : bar + " m") + "</text>";
+  if (v && v.waypoints && v.waypoints.length) {
+    o += '<polyline fill="none" stroke="#777" stroke-dasharray="4 3" points="' + v.waypoints.map((p) => X(p) + "," + Y(p)).join(" ") + '"/>';
+    v.waypoints.forEach((p, i) => {
+      o += '<circle cx="' + X(p) + '" cy="' + Y(p) + '" r="5" fill="#fff" stroke="#333"><title>' + esc(p[2]) + "</title></circle>" +
+        '<text x="' + (+X(p) + 6) + '" y="' + (+Y(p) - 5) + '" font-size="10" fill="#333">' + (i + 1) + "</text>";
+    });
+  }
+  if (track.length > 1) o += '<polyline fill="none" stroke="#06c" stroke-width="2.5" points="' + track.map((p) => X(p) + "," + Y(p)).join(" ") + '"/>';
+  if (v && v.home) o += '<rect x="' + (X(v.home) - 6) + '" y="' + (Y(v.home) - 6) + '" width="12" height="12" fill="#2a2"/><text x="' + (+X(v.home) + 8) + '" y="' + (+Y(v.home) + 4) + '" font-size="11" font-weight="bold">H</text>';
+  for (const p of (v && v.sites) || []) {
+    o += '<path d="M ' + X(p) + " " + (Y(p) - 8) + " l 7 12 l -14 0 z\" fill=\"#d00\"><title>" + esc(p[2]) + "</title></path>" +
+      '<text x="' + (+X(p) + 8) + '" y="' + (+Y(p) + 4) + '" font-size="10" fill="#a00">' + esc(p[2]) + "</text>";
+  }
+  for (const p of (v && v.targets) || []) o += '<circle cx="' + X(p) + '" cy="' + Y(p) + '" r="7" fill="none" stroke="#c0c" stroke-width="2"><title>' + esc(p[2]) + "</title></circle>";
+  if (v && v.position) {
+    const hd = (v.heading || 0) * Math.PI / 180;
+    const x = +X(v.position), y = +Y(v.position);
+    o += '<circle cx="' + x + '" cy="' + y + '" r="7" fill="#06c" stroke="#fff" stroke-width="2"/>' +
+      '<line x1="' + x + '" y1="' + y + '" x2="' + (x + 16 * Math.sin(hd)).toFixed(1) + '" y2="' + (y - 16 * Math.cos(hd)).toFixed(1) + '" stroke="#06c" stroke-width="3"/>';
+  }
+  svg.innerHTML = o;
+}
+
+function row(e) {
+  const div = document.createElement("div");
+  let cls = "row", what = "";
+  const kind = (k) => '<span class="kind">' + k + "</span>";
+  switch (e.kind) {
+    case "event": {
+      cls += " " + e.category;
+      what = '<span class="cat ' + e.category + '">' + esc(e.category) + "</span><b>" + esc(e.name) + "</b>" + esc(params(e.params));
+      if (e.fired && e.fired.length) what += ' <span class="out">→ fired ' + esc(e.fired.join(", ")) + "</span>";
+      else if (e.dropped) what += ' <span class="drop">→ dropped: ' + esc(e.dropped) + "</span>";
+      else what += ' <span class="muted">→ nothing waiting</span>';
+      break;
+    }
+    case "command": what = kind("command") + "<b>" + esc(e.name) + "</b>" + esc(params(e.params)) + ' <span class="muted">(' + esc(e.net) + ", #" + e.id + ")</span>"; break;
+    case "call": what = kind("call") + "<b>" + esc(e.name) + "</b>" + esc(params(e.params)) + ' <span class="muted">(' + esc(e.net) + ", #" + e.id + ")</span>"; break;
+    case "result":
+      what = kind("result") + "<b>" + esc(e.of || "#" + e.id) + "</b> " +
+        (e.ok ? '<span class="out">done' + esc(params(e.detail)) + "</span>" : '<span class="fail">failed: ' + esc(e.detail) + "</span>") +
+        (e.fired && e.fired.length ? ' <span class="out">→ fired ' + esc(e.fired.join(", ")) + "</span>" : "");
+      break;
+    case "answer":
+      what = kind("answer") + "<b>#" + esc(e.id) + "</b> " + esc(e.choice) +
+        (e.fired && e.fired.length ? ' <span class="out">→ fired ' + esc(e.fired.join(", ")) + "</span>" : "");
+      break;
+    case "question": what = kind("question") + "<b>" + esc(e.name) + "</b> " + esc(e.question) + ' <span class="muted">(' + esc((e.choices || []).join(" / ")) + ", #" + e.id + ")</span>"; break;
+    case "timer": what = kind("timer") + esc(e.name) + " expired"; break;
+    case "net": what = kind("net") + esc(e.name) + " " + esc(e.what); break;
+    case "fired": what = kind("fired") + esc(e.name); break;
+    default: cls += " fault"; what = kind(e.kind) + esc(e.text || JSON.stringify(e));
+  }
+  div.className = cls;
+  div.dataset.kind = e.kind;
+  div.innerHTML = '<span class="t">' + e.t.toFixed(1) + '</span><span class="what">' + what + "</span>";
+  return div;
+}
+
+function log(entries, reset, gap) {
+  const box = $("log");
+  if (reset) { box.innerHTML = ""; logRows = 0; }
+  if (gap) {
+    const g = document.createElement("div");
+    g.className = "row muted";
+    g.innerHTML = '<span class="t"></span><span class="what">… entries skipped (the page fell behind)</span>';
+    box.prepend(g);
+  }
+  for (const e of entries) { box.prepend(row(e)); logRows++; }
+  while (box.childElementCount > 500) box.lastElementChild.remove();
+  $("log-count").textContent = "(" + logRows + ")";
+}
+
+// ---- one net alone, zoomable and pannable -------------------------------
+
+function zoom(i) {
+  const view = $("zoom-view");
+  view.innerHTML = page.nets[i].svg;
+  $("zoom-title").textContent = page.nets[i].name;
+  $("zoom").hidden = false;
+  const svg = view.querySelector("svg");
+  svg.removeAttribute("width"); svg.removeAttribute("height");
+  let vb = svg.getAttribute("viewBox").split(" ").map(Number);
+  const set = () => svg.setAttribute("viewBox", vb.map((x) => x.toFixed(1)).join(" "));
+  svg.addEventListener("wheel", (ev) => {
+    ev.preventDefault();
+    const r = svg.getBoundingClientRect();
+    const f = ev.deltaY > 0 ? 1.15 : 1 / 1.15;
+    const px = vb[0] + (ev.clientX - r.left) / r.width * vb[2], py = vb[1] + (ev.clientY - r.top) / r.height * vb[3];
+    vb = [px - (px - vb[0]) * f, py - (py - vb[1]) * f, vb[2] * f, vb[3] * f];
+    set();
+  }, { passive: false });
+  let drag = null;
+  svg.addEventListener("mousedown", (ev) => { drag = [ev.clientX, ev.clientY, vb[0], vb[1]]; });
+  window.onmouseup = () => { drag = null; };
+  svg.addEventListener("mousemove", (ev) => {
+    if (!drag) return;
+    const r = svg.getBoundingClientRect();
+    const k = Math.max(vb[2] / r.width, vb[3] / r.height);
+    vb[0] = drag[2] - (ev.clientX - drag[0]) * k; vb[1] = drag[3] - (ev.clientY - drag[1]) * k;
+    set();
+  });
+  view.onclick = pick;
+  if (frame) paint(view);
+}
+function unzoom() { $("zoom").hidden = true; $("zoom-view").innerHTML = ""; }
+
+// ---- a recording: the timeline -----------------------------------------
+
+let playing = false, at = 0, asked = false, wanted = null, lastTick = 0;
+
+function timeline() {
+  const tl = page.timeline;
+  $("timeline").hidden = false;
+  const span = Math.max(tl.end - tl.start, 1e-6);
+  const marks = $("marks");
+  marks.setAttribute("viewBox", "0 0 1000 26");
+  let o = "";
+  const colour = { catastrophic: "#f22", safety: "#f90", communication: "#b8f", mission: "#6af", nominal: "#9a9", fault: "#fff", lockout: "#f22" };
+  for (const [t, cat, name] of tl.marks) {
+    const x = ((t - tl.start) / span * 1000).toFixed(2);
+    const big = cat === "catastrophic" || cat === "lockout" || cat === "fault";
+    o += '<rect x="' + x + '" y="' + (big ? 0 : 12) + '" width="' + (big ? 3 : 1) + '" height="' + (big ? 26 : 14) +
+      '" fill="' + (colour[cat] || "#ccc") + '"><title>' + t.toFixed(1) + " s " + esc(name) + " [" + cat + "]</title></rect>";
+  }
+  marks.innerHTML = o;
+  at = tl.start_us;
+  const scrub = $("scrub");
+  scrub.oninput = () => { playing = false; $("play").textContent = "▶"; ask(tl.start_us + (tl.end_us - tl.start_us) * scrub.value / 1000); };
+  $("play").onclick = () => { playing = !playing; $("play").textContent = playing ? "⏸" : "▶"; lastTick = performance.now(); if (playing && at >= tl.end_us) ask(tl.start_us); };
+  $("prev").onclick = () => step(-1);
+  $("next").onclick = () => step(1);
+  document.addEventListener("keydown", (ev) => {
+    if (ev.key === " ") { ev.preventDefault(); $("play").click(); }
+    if (ev.key === "ArrowLeft") step(-1);
+    if (ev.key === "ArrowRight") step(1);
+    if (ev.key === "Escape") unzoom();
+  });
+  requestAnimationFrame(tick);
+}
+
+function position(t) {
+  const tl = page.timeline;
+  at = t;
+  $("scrub").value = ((t - tl.start_us) / Math.max(tl.end_us - tl.start_us, 1) * 1000).toFixed(2);
+  $("span").textContent = ((t - tl.origin_us) / 1e6).toFixed(1) + " / " + tl.end.toFixed(1) + " s";
+}
+
+function send(m) { if (socket && socket.readyState === 1) { socket.send(JSON.stringify(m)); asked = true; } }
+// One question at a time: the latest wins (coalesced).
+function ask(t) { wanted = Math.round(t); if (!asked) { send({ at: wanted }); wanted = null; } }
+function step(dir) { playing = false; $("play").textContent = "▶"; send({ at: Math.round(at), step: dir }); }
+
+function tick(now) {
+  const tl = page.timeline;
+  if (playing) {
+    const dt = (now - lastTick) * 1000 * Number($("speed").value);
+    const t = Math.min((wanted === null ? at : wanted) + dt, tl.end_us);
+    ask(t);
+    if (t >= tl.end_us) { playing = false; $("play").textContent = "▶"; }
+  }
+  lastTick = now;
+  requestAnimationFrame(tick);
+}
+
+// ---- the connection ----------------------------------------------------
+
+function connect() {
+  socket = new WebSocket((location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/ws");
+  socket.onopen = () => { $("connection").textContent = "connected"; $("connection").className = "badge"; };
+  socket.onmessage = (m) => {
+    asked = false;
+    apply(JSON.parse(m.data));
+    if (wanted !== null) { send({ at: wanted }); wanted = null; }
+  };
+  socket.onclose = () => {
+    $("connection").textContent = page.mode === "live" ? "disconnected (the gateway stopped?)" : "disconnected";
+    $("connection").className = "badge off";
+    setTimeout(connect, 2000);
+  };
+}
+
+$("zoom-close").onclick = unzoom;
+document.addEventListener("keydown", (ev) => { if (ev.key === "Escape") unzoom(); });
+setInterval(() => { if (frame) { paint(document); if (!$("zoom").hidden) paint($("zoom-view")); } }, 250);
+fetch("page.json").then((r) => r.json()).then((p) => { page = p; build(); connect(); })
+  .catch((e) => { document.body.innerHTML = "<p>cannot load the page: " + esc(e) + "</p>"; });

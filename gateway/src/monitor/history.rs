@@ -1,0 +1,227 @@
+//! A recording's index for `petrel view`: built in one pass while the
+//! player replays the recording's own inputs (the replay path), it keeps
+//! what the page shows each time it changes — the marking part at every
+//! step that changed it, the vehicle strip at every change, the whole log
+//! and the track — so that the state at any instant is a few binary
+//! searches away, never a replay.
+
+use std::sync::Arc;
+
+use nets::{Micros, Player, Project};
+use serde_json::{json, Value as Json};
+
+use super::board::{seconds, Board, Entry, Marking};
+use super::vehicle::Strip;
+use crate::supervisor::{Input, Step};
+
+/// Log entries sent with one instant (the latest up to it).
+const LOG_SHOWN: usize = 300;
+
+/// The index of a recording.
+pub struct History {
+    project: Arc<Project>,
+    pub page: String,
+    pub origin: Micros,
+    pub start: Micros,
+    pub end: Micros,
+    /// Every step's time, in order (the step at an instant).
+    steps: Vec<Micros>,
+    keys: Vec<Marking>,
+    strips: Vec<(Micros, Strip)>,
+    log: Vec<Entry>,
+    track: Vec<(Micros, f64, f64)>,
+    /// Sorted, deduplicated instants where the nets changed or the log
+    /// grew (where stepping stops).
+    moments: Vec<Micros>,
+}
+
+/// Builds a [`History`] as the steps are replayed.
+pub struct Builder {
+    board: Board,
+    steps: Vec<Micros>,
+    keys: Vec<Marking>,
+    strips: Vec<(Micros, Strip)>,
+}
+
+impl Builder {
+    /// From the player's start (step 0).
+    pub fn new(project: Arc<Project>, start: &Step, player: &Player, origin: Micros) -> Builder {
+        let mut board = Board::new(project, player, origin, usize::MAX);
+        board.start(start, player);
+        let keys = vec![board.marking.clone()];
+        Builder {
+            board,
+            steps: vec![start.time],
+            keys,
+            strips: Vec::new(),
+        }
+    }
+
+    pub fn step(&mut self, input: &Input, step: &Step, player: &Player) {
+        self.board.step(input, step, player);
+        self.steps.push(step.time);
+        if self.board.marking_changed {
+            self.keys.push(self.board.marking.clone());
+        }
+        if self.board.vehicle.changed {
+            self.strips
+                .push((step.time, self.board.vehicle.strip.clone()));
+        }
+    }
+
+    pub fn finish(self, page: Json) -> History {
+        let Builder {
+            board,
+            steps,
+            keys,
+            strips,
+        } = self;
+        let project = board.project().clone();
+        let origin = board.origin;
+        let start = steps.first().copied().unwrap_or(origin);
+        let end = steps.last().copied().unwrap_or(start);
+        let log: Vec<Entry> = board.log().iter().cloned().collect();
+        let track = board.vehicle.track.clone();
+        let mut moments: Vec<Micros> = keys
+            .iter()
+            .map(|k| k.time)
+            .chain(log.iter().map(|e| e.time))
+            .collect();
+        moments.sort_unstable();
+        moments.dedup();
+        let marks: Vec<Json> = log
+            .iter()
+            .filter(|e| {
+                e.category.is_some() || e.json["kind"] == "fault" || e.json["kind"] == "lockout"
+            })
+            .map(|e| {
+                let category = e
+                    .category
+                    .map_or(e.json["kind"].as_str().unwrap_or(""), |c| c.as_str());
+                json!([
+                    seconds(e.time, origin),
+                    category,
+                    e.json["name"]
+                        .as_str()
+                        .unwrap_or(e.json["kind"].as_str().unwrap_or(""))
+                ])
+            })
+            .collect();
+        let mut page = page;
+        page["timeline"] = json!({"start": seconds(start, origin), "end": seconds(end, origin),
+                                  "start_us": start, "end_us": end, "origin_us": origin,
+                                  "marks": marks, "steps": steps.len()});
+        History {
+            project,
+            page: page.to_string(),
+            origin,
+            start,
+            end,
+            steps,
+            keys,
+            strips,
+            log,
+            track,
+            moments,
+        }
+    }
+}
+
+impl History {
+    /// The next (`dir` > 0) or previous moment something changed, from `at`.
+    pub fn moment(&self, at: Micros, dir: i64) -> Micros {
+        if dir > 0 {
+            let i = self.moments.partition_point(|&m| m <= at);
+            self.moments.get(i).copied().unwrap_or(self.end)
+        } else {
+            let i = self.moments.partition_point(|&m| m < at);
+            i.checked_sub(1)
+                .and_then(|i| self.moments.get(i))
+                .copied()
+                .unwrap_or(self.start)
+        }
+    }
+
+    /// The marking part at `at`: after the last step at or before it.
+    pub fn marking_at(&self, at: Micros) -> &Marking {
+        let i = self.keys.partition_point(|k| k.time <= at).max(1) - 1;
+        &self.keys[i]
+    }
+
+    /// The page's frame for instant `at` (clamped to the recording).
+    pub fn frame_at(&self, at: Micros) -> Json {
+        let at = at.clamp(self.start, self.end);
+        let mut frame = self.marking_at(at).json(&self.project, self.origin);
+        let seq = self.steps.partition_point(|&t| t <= at).max(1) - 1;
+        frame["seq"] = json!(seq);
+        frame["time_us"] = json!(at);
+        frame["t"] = json!(seconds(at, self.origin));
+        let n = self.log.partition_point(|e| e.time <= at);
+        let entries: Vec<&Json> = self.log[n.saturating_sub(LOG_SHOWN)..n]
+            .iter()
+            .map(|e| &e.json)
+            .collect();
+        frame["log"] = json!(entries);
+        frame["log_reset"] = json!(true);
+        let s = self.strips.partition_point(|s| s.0 <= at);
+        frame["vehicle"] = match s.checked_sub(1) {
+            Some(i) => self.strips[i].1.json(at),
+            None => Strip::default().json(at),
+        };
+        let k = self.track.partition_point(|p| p.0 <= at);
+        frame["track"] = self.track[..k]
+            .iter()
+            .map(|&(_, a, b)| json!([a, b]))
+            .collect::<Vec<_>>()
+            .into();
+        frame["track_reset"] = json!(true);
+        frame
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::board::tests::{project, step};
+    use super::*;
+
+    #[test]
+    fn any_instant_shows_the_state_after_the_last_step_before_it() {
+        let project = project();
+        let mut player = Player::start(project.clone(), 0);
+        let start = Step {
+            seq: 0,
+            time: 0,
+            events: Vec::new(),
+            effects: player.effects().collect(),
+        };
+        let mut builder = Builder::new(project.clone(), &start, &player, 0);
+        let mut after = vec![(0, player.state().marking.clone())];
+        for i in 1..=40u64 {
+            let input = match i % 5 {
+                0 => Input::Tick,
+                1 | 3 => Input::Event(nets::Event::new("x")),
+                _ => Input::Event(nets::Event::new("y")),
+            };
+            let s = step(&mut player, i, i * 1_000_000, &input);
+            builder.step(&input, &s, &player);
+            after.push((i * 1_000_000, player.state().marking.clone()));
+        }
+        let history = builder.finish(json!({}));
+        for (time, marking) in &after {
+            for at in [*time, time + 500_000] {
+                let frame = history.frame_at(at);
+                let marked: Vec<usize> = (0..project.place_count)
+                    .filter(|&p| marking[p / 64] & (1 << (p % 64)) != 0)
+                    .collect();
+                assert_eq!(frame["marked"], json!(marked), "at {at}");
+                let last = frame["log"].as_array().and_then(|l| l.last()).cloned();
+                if let Some(l) = last {
+                    assert!(l["t"].as_f64() <= Some(at as f64 / 1e6), "{l} after {at}");
+                }
+            }
+        }
+        assert_eq!(history.moment(2_000_000, 1), 3_000_000);
+        assert_eq!(history.moment(2_000_000, -1), 1_000_000);
+        assert_eq!(history.frame_at(u64::MAX)["time_us"], 40_000_000);
+    }
+}

@@ -1,0 +1,226 @@
+//! The web server: a thin axum router over a board owned elsewhere (the
+//! live one, or a recording's index). Read-only: GET routes and a
+//! WebSocket that sends frames. It runs on its own thread and runtime, so
+//! serving pages never takes the gateway loop's thread.
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::State;
+use axum::http::header;
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+use serde_json::Value as Json;
+
+use super::history::History;
+use super::live::{Cursor, Live};
+
+/// At most this many frames a second to one browser.
+pub const FRAME_RATE: u64 = 30;
+
+/// What the page shows.
+#[derive(Clone)]
+pub enum Source {
+    Live(Arc<Live>),
+    Recording(Arc<History>),
+}
+
+impl Source {
+    fn page(&self) -> String {
+        match self {
+            Source::Live(l) => l.page.clone(),
+            Source::Recording(h) => h.page.clone(),
+        }
+    }
+}
+
+const INDEX: &str = include_str!("assets/index.html");
+const SCRIPT: &str = include_str!("assets/monitor.js");
+const STYLE: &str = include_str!("assets/monitor.css");
+
+fn asset(kind: &'static str, body: &'static str) -> Response {
+    ([(header::CONTENT_TYPE, kind)], body).into_response()
+}
+
+fn router(source: Source) -> Router {
+    Router::new()
+        .route(
+            "/",
+            get(|| async { asset("text/html; charset=utf-8", INDEX) }),
+        )
+        .route(
+            "/monitor.js",
+            get(|| async { asset("text/javascript; charset=utf-8", SCRIPT) }),
+        )
+        .route(
+            "/monitor.css",
+            get(|| async { asset("text/css; charset=utf-8", STYLE) }),
+        )
+        .route(
+            "/favicon.ico",
+            get(|| async { axum::http::StatusCode::NO_CONTENT }),
+        )
+        .route(
+            "/page.json",
+            get(|State(s): State<Source>| async move {
+                ([(header::CONTENT_TYPE, "application/json")], s.page())
+            }),
+        )
+        .route(
+            "/ws",
+            get(|State(s): State<Source>, ws: WebSocketUpgrade| async move {
+                ws.on_upgrade(move |socket| async move {
+                    match s {
+                        Source::Live(live) => live_socket(socket, live).await,
+                        Source::Recording(h) => recording_socket(socket, h).await,
+                    }
+                })
+            }),
+        )
+        .with_state(source)
+}
+
+async fn send(socket: &mut WebSocket, frame: Json) -> bool {
+    socket
+        .send(Message::Text(frame.to_string().into()))
+        .await
+        .is_ok()
+}
+
+/// A browser on the live board: the latest state when it changed, at most
+/// `FRAME_RATE` a second; what happened in between is coalesced.
+async fn live_socket(mut socket: WebSocket, live: Arc<Live>) {
+    let mut version = live.subscribe();
+    let mut cursor = Cursor::default();
+    let interval = Duration::from_millis(1000 / FRAME_RATE);
+    loop {
+        version.borrow_and_update();
+        if !send(&mut socket, live.frame(&mut cursor)).await {
+            return;
+        }
+        let pause = tokio::time::sleep(interval);
+        tokio::pin!(pause);
+        // Wait out the frame interval, then for a change; the browser's
+        // messages are read meanwhile (a close ends the task).
+        let mut paused = false;
+        loop {
+            tokio::select! {
+                _ = &mut pause, if !paused => paused = true,
+                changed = version.changed(), if paused => {
+                    if changed.is_err() {
+                        return;
+                    }
+                    break;
+                }
+                message = socket.recv() => match message {
+                    Some(Ok(Message::Close(_))) | None | Some(Err(_)) => return,
+                    Some(Ok(_)) => {}
+                },
+            }
+        }
+    }
+}
+
+/// A browser over a recording: it asks for an instant (`{"at": µs}`, or
+/// with `"step": 1 | -1` the next or previous moment something changed),
+/// and gets the state then.
+async fn recording_socket(mut socket: WebSocket, history: Arc<History>) {
+    if !send(&mut socket, history.frame_at(history.start)).await {
+        return;
+    }
+    while let Some(Ok(message)) = socket.recv().await {
+        let Message::Text(text) = message else {
+            if matches!(message, Message::Close(_)) {
+                return;
+            }
+            continue;
+        };
+        let Ok(ask) = serde_json::from_str::<Json>(&text) else {
+            continue;
+        };
+        let Some(at) = ask["at"].as_u64() else {
+            continue;
+        };
+        let at = match ask["step"].as_i64() {
+            Some(dir) => history.moment(at, dir),
+            None => at,
+        };
+        if !send(&mut socket, history.frame_at(at)).await {
+            return;
+        }
+    }
+}
+
+/// A server running on its own thread; stopped when dropped.
+pub struct Server {
+    pub address: SocketAddr,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Server {
+    /// Serves `source` on `address` (bound before this returns).
+    pub fn start(address: SocketAddr, source: Source) -> std::io::Result<Server> {
+        let listener = std::net::TcpListener::bind(address)?;
+        listener.set_nonblocking(true)?;
+        let address = listener.local_addr()?;
+        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()?;
+        let thread = std::thread::Builder::new()
+            .name("petrel-monitor".into())
+            .spawn(move || {
+                runtime.block_on(async move {
+                    let listener = match tokio::net::TcpListener::from_std(listener) {
+                        Ok(l) => l,
+                        Err(e) => {
+                            tracing::warn!("monitor: {e}");
+                            return;
+                        }
+                    };
+                    let serve =
+                        axum::serve(listener, router(source)).with_graceful_shutdown(async move {
+                            let _ = stopped.await;
+                        });
+                    if let Err(e) = serve.await {
+                        tracing::warn!("monitor: {e}");
+                    }
+                });
+            })?;
+        Ok(Server {
+            address,
+            stop: Some(stop),
+            thread: Some(thread),
+        })
+    }
+
+    /// Serves until the process ends (`petrel view`).
+    pub fn wait(mut self) {
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        // Open WebSockets do not hold the graceful shutdown for long: the
+        // thread is left to end with the process if they do.
+        if let Some(t) = self.thread.take() {
+            let deadline = std::time::Instant::now() + Duration::from_secs(1);
+            while !t.is_finished() && std::time::Instant::now() < deadline {
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            if t.is_finished() {
+                let _ = t.join();
+            }
+        }
+    }
+}
