@@ -31,8 +31,10 @@ pub struct Said {
     /// Metres above home.
     pub altitude: f64,
     pub fix_type: u8,
-    /// (vehicle time µs, text) of every STATUSTEXT.
+    /// (vehicle time µs, text) of every STATUSTEXT, a long text's chunks
+    /// put back together as the elaboration does.
     pub texts: Vec<(u64, String)>,
+    chunks: elaboration::statustext::Joiner,
     /// (vehicle time µs, custom_mode) of every mode change.
     pub modes: Vec<(u64, u32)>,
     pub params: HashMap<String, f32>,
@@ -234,10 +236,9 @@ impl Link {
             }
             MavMessage::GPS_RAW_INT(d) => said.fix_type = d.fix_type as u8,
             MavMessage::STATUSTEXT(d) => {
-                let text = String::from_utf8_lossy(d.text.as_slice())
-                    .trim_end_matches('\0')
-                    .to_owned();
-                said.texts.push((now, text));
+                if let Some(text) = joined_text(&mut said.chunks, &d) {
+                    said.texts.push((now, text));
+                }
             }
             MavMessage::PARAM_VALUE(d) => {
                 let name = String::from_utf8_lossy(d.param_id.as_slice())
@@ -456,5 +457,25 @@ impl Link {
             .into_inner()
             .and_then(|mut w| w.flush())
             .map_err(|e| format!("writing the tlog: {e}"))
+    }
+}
+
+/// A STATUSTEXT chunk put together with those before it (ArduPilot sends a
+/// text longer than 50 bytes in chunks of one `id`): the whole text when
+/// this chunk ends it, None while it is under way.
+pub fn joined_text(
+    chunks: &mut elaboration::statustext::Joiner,
+    d: &STATUSTEXT_DATA,
+) -> Option<String> {
+    use elaboration::statustext::Piece;
+    let raw = String::from_utf8_lossy(d.text.as_slice());
+    let (part, last) = match raw.find('\0') {
+        Some(end) => (&raw[..end], true),
+        None => (&raw[..], false),
+    };
+    match chunks.push(d.id, d.chunk_seq, part, last) {
+        Piece::Whole => Some(part.to_owned()),
+        Piece::Joined(whole) => Some(whole),
+        Piece::Pending => None,
     }
 }

@@ -36,7 +36,9 @@ pub struct Truth {
     pub modes: Vec<(f64, String)>,
     /// Arming changes (true: armed), in order.
     pub arming: Vec<(f64, bool)>,
+    /// Every STATUSTEXT, a long text's chunks put back together.
     pub texts: Vec<(f64, String)>,
+    chunks: elaboration::statustext::Joiner,
     /// Items reached (each once: ArduPilot repeats its last one).
     pub reached: Vec<(f64, u16)>,
     pub lat: f64,
@@ -108,8 +110,19 @@ impl Truth {
                 }
             }
             MavMessage::VFR_HUD(v) => self.groundspeed = f64::from(v.groundspeed),
+            // ArduPilot sends a text longer than 50 bytes in chunks of one `id`.
             MavMessage::STATUSTEXT(s) => {
-                let text = s.text.to_str().unwrap_or("?").to_owned();
+                use elaboration::statustext::Piece;
+                let raw = String::from_utf8_lossy(&s.text[..]);
+                let (part, last) = match raw.find('\0') {
+                    Some(end) => (&raw[..end], true),
+                    None => (&raw[..], false),
+                };
+                let text = match self.chunks.push(s.id, s.chunk_seq, part, last) {
+                    Piece::Whole => part.to_owned(),
+                    Piece::Joined(whole) => whole,
+                    Piece::Pending => return,
+                };
                 self.texts.push((self.t, text));
             }
             MavMessage::MISSION_ITEM_REACHED(r)
