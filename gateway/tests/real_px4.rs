@@ -73,9 +73,27 @@ fn explain(f: &Px4Flown) -> String {
     )
 }
 
-/// Down, disarmed, after the second flight (the mission, ended by RTL).
+/// Down, disarmed, after the second flight (the mission, ended by RTL):
+/// a disarm seen after the second arming. PX4's "Armed by mission start"
+/// can arrive before the HEARTBEAT that says armed; until then the vehicle
+/// still looks down from the first landing, which is not the end.
 fn sortie_done(t: &Truth) -> bool {
-    t.arms() >= 2 && t.down()
+    let mut arms: Vec<f64> = t.arming.iter().filter(|a| a.1).map(|a| a.0).collect();
+    arms.extend(
+        t.texts
+            .iter()
+            .filter(|x| x.1.starts_with("Armed by"))
+            .map(|x| x.0),
+    );
+    arms.sort_by(f64::total_cmp);
+    arms.dedup_by(|a, b| (*a - *b).abs() < 1.0);
+    let Some(second) = arms.get(1) else {
+        return false;
+    };
+    t.down()
+        && t.arming
+            .last()
+            .is_some_and(|&(at, armed)| !armed && at > *second)
 }
 
 #[test]

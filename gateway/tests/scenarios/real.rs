@@ -83,7 +83,7 @@ impl Truth {
             .map(|(t, _)| *t)
     }
 
-    fn heard(&mut self, message: &MavMessage) {
+    pub fn heard(&mut self, message: &MavMessage) {
         match message {
             MavMessage::HEARTBEAT(hb) => {
                 let mode = elaboration::constants::mode_name(Family::Plane, hb.custom_mode);
