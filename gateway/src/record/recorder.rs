@@ -51,7 +51,9 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            queue: 4096,
+            // About 8 s of a busy autopilot's frames at 10x (1.3 MB of entries):
+            // a writer starved of CPU for seconds catches up without a drop.
+            queue: 16384,
             // Under a second, so that what a kill loses (the chunk under
             // way, plus the writer's 10 ms batches) stays within one.
             flush_every: Duration::from_millis(900),
