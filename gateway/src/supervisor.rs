@@ -102,6 +102,23 @@ impl Supervisor {
         self.player.next_deadline()
     }
 
+    /// Plays a call of the ground mirror's replica at `time` (replaying a
+    /// mirror's recording): the player alone, no elaboration.
+    pub fn call(
+        &mut self,
+        time: Micros,
+        call: &crate::mirror::call::Call,
+    ) -> Result<Step, crate::mirror::call::CallError> {
+        let effects = crate::mirror::call::apply(&mut self.player, time, call)?;
+        self.seq += 1;
+        Ok(Step {
+            seq: self.seq,
+            time,
+            events: Vec::new(),
+            effects,
+        })
+    }
+
     /// Feeds one input at `time`.
     pub fn step(&mut self, time: Micros, input: Input) -> Step {
         self.seq += 1;

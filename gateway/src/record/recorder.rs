@@ -110,6 +110,20 @@ pub(super) enum Entry {
         time: Micros,
         bytes: Vec<u8>,
     },
+    /// A frame received that is no Supervisor input (the ground mirror's).
+    Received {
+        time: Micros,
+        bytes: Vec<u8>,
+    },
+    /// A call of the mirror's replica: its step number, the ground time it
+    /// was played at, the call.
+    Replica(Box<(u64, Micros, crate::mirror::call::Played)>),
+    /// A line on one of the mirror's own channels.
+    Mirror {
+        time: Micros,
+        topic: &'static str,
+        body: Json,
+    },
     Program {
         time: Micros,
         program: String,
@@ -271,7 +285,7 @@ impl Recorder {
         match tx.try_send(entry) {
             Ok(()) => {}
             Err(TrySendError::Full(e)) | Err(TrySendError::Disconnected(e)) => {
-                if matches!(e, Entry::Step(_)) {
+                if matches!(e, Entry::Step(_) | Entry::Replica(_)) {
                     self.dropped.steps.fetch_add(1, Ordering::Relaxed);
                 }
                 self.dropped.entries.fetch_add(1, Ordering::Relaxed);
@@ -346,6 +360,26 @@ impl Recorder {
             time,
             bytes: bytes.to_vec(),
         });
+    }
+
+    /// A frame received at `time` that feeds no Supervisor (the ground
+    /// mirror's telemetry): on `/mavlink/raw`, referred to by no input.
+    pub fn received(&self, time: Micros, bytes: &[u8]) {
+        self.send(Entry::Received {
+            time,
+            bytes: bytes.to_vec(),
+        });
+    }
+
+    /// The ground mirror's replica's call, its step `seq` (from 1, in
+    /// order), played at ground time `at`: a step whose input is the call.
+    pub fn replica(&self, seq: u64, at: Micros, played: crate::mirror::call::Played) {
+        self.send(Entry::Replica(Box::new((seq, at, played))));
+    }
+
+    /// A line on the ground mirror's channel `topic` (`layout::MIRROR_*`).
+    pub fn mirror(&self, time: Micros, topic: &'static str, body: Json) {
+        self.send(Entry::Mirror { time, topic, body });
     }
 
     /// Program traffic not already in the steps (calls are effects, replies
