@@ -545,10 +545,20 @@ fn report_json(report: &Report, now: Micros) -> serde_json::Value {
             time,
             inputs,
             ..
-        } => json!({"time_us": now, "report": "step", "record": number, "step": step, "vehicle_time_us": time, "inputs": inputs.len()}),
-        Report::Timers { step, time, effects } => json!({"time_us": now, "report": "timers", "step": step, "vehicle_time_us": time, "effects": effects.len()}),
+        } => {
+            json!({"time_us": now, "report": "step", "record": number, "step": step, "vehicle_time_us": time, "inputs": inputs.len()})
+        }
+        Report::Timers {
+            step,
+            time,
+            effects,
+        } => {
+            json!({"time_us": now, "report": "timers", "step": step, "vehicle_time_us": time, "effects": effects.len()})
+        }
         Report::Agreed { step } => json!({"time_us": now, "report": "agreed", "step": step}),
-        Report::Gap { from, to, step } => json!({"time_us": now, "report": "gap", "from": from, "to": to, "step": step}),
+        Report::Gap { from, to, step } => {
+            json!({"time_us": now, "report": "gap", "from": from, "to": to, "step": step})
+        }
         Report::Resynced { .. } | Report::Diverged { .. } => {
             let mut v = json!({"time_us": now});
             if let Some(event) = report.event() {

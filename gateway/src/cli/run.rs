@@ -270,7 +270,11 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     let record = if args.no_record {
         None
     } else {
-        Some(args.record.clone().unwrap_or_else(|| dated_recording("petrel")))
+        Some(
+            args.record
+                .clone()
+                .unwrap_or_else(|| dated_recording("petrel")),
+        )
     };
     let signing = match &args.signing_key {
         None => None,

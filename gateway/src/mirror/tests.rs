@@ -540,7 +540,11 @@ fn replay_kept_calls(f: &mut Flight) -> [usize; 4] {
     let mut seq = 0;
     while let Some(played) = f.replica.poll_played() {
         seq += 1;
-        let line = layout::input_json(seq, played.time, &layout::Input::Replica(played.call.clone()));
+        let line = layout::input_json(
+            seq,
+            played.time,
+            &layout::Input::Replica(played.call.clone()),
+        );
         let read = layout::input_from(line.to_string().as_bytes());
         let Some((_, time, layout::Input::Replica(c))) = read else {
             panic!("call {seq} did not read back: {line}");

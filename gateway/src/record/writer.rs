@@ -293,11 +293,8 @@ impl<W: Write + Seek> Writer<W> {
                 let channel = match self.mirror.get(topic) {
                     Some(c) => *c,
                     None => {
-                        let c = add_json_channel(
-                            &mut self.mcap,
-                            topic,
-                            layout::petrel_schema(topic),
-                        )?;
+                        let c =
+                            add_json_channel(&mut self.mcap, topic, layout::petrel_schema(topic))?;
                         self.mirror.insert(topic, c);
                         c
                     }

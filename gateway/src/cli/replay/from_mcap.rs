@@ -350,7 +350,12 @@ fn print_record_inputs<W: Write>(
                     nets::Outcome::Done(_) => (true, "done".to_owned()),
                     nets::Outcome::Failed(r) => (false, format!("failed: {r}")),
                 };
-                out.input(*time, "reply", json!({"id": id, "ok": ok}), &format!("REPLY  #{id} {text}"))?;
+                out.input(
+                    *time,
+                    "reply",
+                    json!({"id": id, "ok": ok}),
+                    &format!("REPLY  #{id} {text}"),
+                )?;
             }
             Downlink::Answered { time, id, choice } => out.input(
                 *time,
