@@ -128,7 +128,7 @@ pub fn run(args: Args) -> VerbResult {
         .enable_all()
         .build()
         .map_err(|e| miette::miette!("cannot start the runtime: {e}"))?;
-    runtime.block_on(mirror(Setup {
+    let result = runtime.block_on(mirror(Setup {
         project,
         address,
         system,
@@ -139,7 +139,11 @@ pub fn run(args: Args) -> VerbResult {
         operator,
         record,
         layers,
-    }))
+    }));
+    // The operator's stdin is read on a blocking thread that no abort
+    // stops: waiting for it would hold the mirror until the next line.
+    runtime.shutdown_background();
+    result
 }
 
 struct Setup {

@@ -177,6 +177,8 @@ type Sink = RecordingFile;
 /// The handle. Its methods never block and never fail the caller.
 pub struct Recorder {
     tx: Option<SyncSender<Entry>>,
+    /// The queue's capacity.
+    capacity: u64,
     dropped: Arc<Dropped>,
     thread: Option<JoinHandle<Result<Report, RecordError>>>,
 }
@@ -186,6 +188,8 @@ pub struct Recorder {
 pub(super) struct Dropped {
     pub(super) entries: AtomicU64,
     pub(super) steps: AtomicU64,
+    /// Entries on the queue (the writer takes them off).
+    pub(super) queued: AtomicU64,
 }
 
 impl Recorder {
@@ -247,6 +251,7 @@ impl Recorder {
             .create(sink)?;
         let dropped = Arc::new(Dropped::default());
         let (tx, rx) = sync_channel(options.queue.max(1));
+        let capacity = options.queue.max(1) as u64;
         let mut writer = Writer::new(mcap, project, options, Arc::clone(&dropped))?;
         let thread = std::thread::Builder::new()
             .name("petrel-recorder".into())
@@ -275,6 +280,7 @@ impl Recorder {
             .map_err(|_| RecordError::Thread)?;
         Ok(Recorder {
             tx: Some(tx),
+            capacity,
             dropped,
             thread: Some(thread),
         })
@@ -283,7 +289,9 @@ impl Recorder {
     fn send(&self, entry: Entry) {
         let Some(tx) = &self.tx else { return };
         match tx.try_send(entry) {
-            Ok(()) => {}
+            Ok(()) => {
+                self.dropped.queued.fetch_add(1, Ordering::Relaxed);
+            }
             Err(TrySendError::Full(e)) | Err(TrySendError::Disconnected(e)) => {
                 if matches!(e, Entry::Step(_) | Entry::Replica(_)) {
                     self.dropped.steps.fetch_add(1, Ordering::Relaxed);
@@ -364,7 +372,13 @@ impl Recorder {
 
     /// A frame received at `time` that feeds no Supervisor (the ground
     /// mirror's telemetry): on `/mavlink/raw`, referred to by no input.
+    /// When the queue is three quarters full these are dropped (counted)
+    /// first, keeping the rest of it for the replica's steps.
     pub fn received(&self, time: Micros, bytes: &[u8]) {
+        if self.dropped.queued.load(Ordering::Relaxed) >= self.capacity / 4 * 3 {
+            self.dropped.entries.fetch_add(1, Ordering::Relaxed);
+            return;
+        }
         self.send(Entry::Received {
             time,
             bytes: bytes.to_vec(),

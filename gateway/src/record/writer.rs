@@ -166,7 +166,10 @@ impl<W: Write + Seek> Writer<W> {
         'run: loop {
             loop {
                 match rx.try_recv() {
-                    Ok(entry) => self.entry(entry)?,
+                    Ok(entry) => {
+                        self.dropped.queued.fetch_sub(1, Ordering::Relaxed);
+                        self.entry(entry)?
+                    }
                     Err(TryRecvError::Empty) => break,
                     Err(TryRecvError::Disconnected) => break 'run,
                 }
