@@ -102,14 +102,15 @@ impl Supervisor {
         self.player.next_deadline()
     }
 
-    /// Plays a call of the ground mirror's replica at `time` (replaying a
-    /// mirror's recording): the player alone, no elaboration.
-    pub fn call(
+    /// A step of the player alone, no elaboration: `play` calls it and
+    /// returns the effects (replaying a ground mirror's recording, whose
+    /// steps are the replica's calls on its player).
+    pub fn play_with<E>(
         &mut self,
         time: Micros,
-        call: &crate::mirror::call::Call,
-    ) -> Result<Step, crate::mirror::call::CallError> {
-        let effects = crate::mirror::call::apply(&mut self.player, time, call)?;
+        play: impl FnOnce(&mut Player) -> Result<Vec<Effect>, E>,
+    ) -> Result<Step, E> {
+        let effects = play(&mut self.player)?;
         self.seq += 1;
         Ok(Step {
             seq: self.seq,

@@ -18,8 +18,14 @@ use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use flight::SPEED;
 use router::{Loss, Router};
+
+/// Simulated seconds per wall second: half the flights' pace, so that
+/// the two gateways' recorders keep up with the telemetry on a busy
+/// machine.
+const SPEED: f64 = 5.0;
+/// The question's time to answer, in vehicle seconds.
+const TIMEOUT_S: f64 = 50.0;
 
 /// The scenarios' mission file (flight.rs names it; unused here).
 pub const MISSION_FILE: &str = "mission.toml";
@@ -110,7 +116,7 @@ fn an_operator_key_others_may_read_is_refused_on_both_sides() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A net that asks `go` ("Go on?", yes or no, 100 s to answer) 20 s
+/// A net that asks `go` ("Go on?", yes or no, 50 s to answer) 20 s
 /// after the start and after each answer, 60 s after a timeout.
 fn asking_project(dir: &Path) {
     std::fs::write(
@@ -122,7 +128,7 @@ fn asking_project(dir: &Path) {
         "name = \"Q\"\nplaces = [\"init\", \"waiting\", \"asking\"]\ninitial = [\"init\"]\n\
          [[transition]]\nname = \"begin\"\nfrom = [\"init\"]\nto = [\"waiting\"]\ndo = [\"timer next after 20s\"]\n\
          [[transition]]\nname = \"ask\"\nfrom = [\"waiting\"]\nto = [\"asking\"]\non = \"next\"\n\
-         do = ['ask go \"Go on?\" {choices: [yes, no]} timeout 100s']\n",
+         do = ['ask go \"Go on?\" {choices: [yes, no]} timeout 50s']\n",
     );
     for (name, on, after) in [
         ("yes", "go.yes", 20),
@@ -304,7 +310,13 @@ fn answers_typed_on_the_mirror_are_delivered_on_board_only_when_valid_and_in_tim
         operator.to_str().expect("utf-8").to_owned(),
         other.to_str().expect("utf-8").to_owned(),
     );
-    let sim = flight::start_sim(&[]);
+    let sim = sitl_tests::Sim::start(sitl_tests::SimConfig {
+        listen: "tcpin:127.0.0.1:0".into(),
+        boot: sitl_tests::BootTimeline::quick(),
+        speedup: SPEED,
+        ..sitl_tests::SimConfig::default()
+    })
+    .expect("the simulator starts");
     let router = Router::start(sim.local_addr(), Loss::default());
     let speed = SPEED.to_string();
     let run_record = dir.join("run.mcap");
@@ -368,7 +380,7 @@ fn answers_typed_on_the_mirror_are_delivered_on_board_only_when_valid_and_in_tim
     let second = shown(&a, &[first]);
     say(&format!("question #{second} shown; the downlink muted"));
     router.mute_downlink(true);
-    std::thread::sleep(Duration::from_secs_f64(100.0 / SPEED + 1.5));
+    std::thread::sleep(Duration::from_secs_f64(TIMEOUT_S / SPEED + 1.5));
     a.type_line(&format!("{second} no"));
     sent(&a, second, "no");
     say("answered late");

@@ -24,6 +24,7 @@ use super::timeline::Timeline;
 use super::VerbResult;
 use crate::clock::Clock;
 use crate::link::Link;
+use crate::mirror::call::call_json;
 use crate::mirror::check::{Check, WINDOW};
 use crate::mirror::dialog::Dialog;
 use crate::mirror::record::Input;
@@ -412,7 +413,13 @@ async fn mirror(setup: Setup) -> VerbResult {
         while let Some(played) = replica.poll_played() {
             if let Some(rec) = &recorder {
                 calls += 1;
-                rec.replica(calls, now, played);
+                let step = crate::supervisor::Step {
+                    seq: calls,
+                    time: played.time,
+                    events: Vec::new(),
+                    effects: played.effects,
+                };
+                rec.replica(now, call_json(&played.call), step, played.digest);
             }
         }
         // The ground's view reaches the last autopilot frame heard (not the

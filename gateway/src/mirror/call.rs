@@ -7,8 +7,10 @@ use std::sync::Arc;
 
 use nets::player::{snapshot, Digest};
 use nets::{Effect, Micros, Player, Project};
+use serde_json::{json, Value as Json};
 
 use super::record::Input;
+use crate::record::layout;
 
 /// One call of the replica on its player, at a vehicle time.
 #[derive(Debug, Clone, PartialEq)]
@@ -89,4 +91,165 @@ pub fn play(player: &mut Player, before: Micros, inputs: &[Input], time: Micros)
     player.advance(time);
     effects.extend(player.effects());
     effects
+}
+
+/// A call as recorded (`"replica"` of an input on `/petrel/inputs`):
+/// `{"call": "restart" | "advance"}`, `{"call": "record", "before",
+/// "inputs"}`, `{"call": "restore", "state": hex}`.
+pub fn call_json(call: &Call) -> Json {
+    match call {
+        Call::Restart => json!({"call": "restart"}),
+        Call::Advance => json!({"call": "advance"}),
+        Call::Record { before, inputs } => {
+            let inputs: Vec<Json> = inputs.iter().map(input_json).collect();
+            json!({"call": "record", "before": before, "inputs": inputs})
+        }
+        Call::Restore(state) => json!({"call": "restore", "state": hex(state)}),
+    }
+}
+
+/// Reads [`call_json`] back.
+pub fn call_from(json: &Json) -> Option<Call> {
+    Some(match json.get("call")?.as_str()? {
+        "restart" => Call::Restart,
+        "advance" => Call::Advance,
+        "record" => Call::Record {
+            before: json.get("before")?.as_u64()?,
+            inputs: json
+                .get("inputs")?
+                .as_array()?
+                .iter()
+                .map(input_from)
+                .collect::<Option<_>>()?,
+        },
+        "restore" => Call::Restore(unhex(json.get("state")?.as_str()?)?),
+        _ => return None,
+    })
+}
+
+/// One input of a downlink step record as JSON.
+fn input_json(input: &Input) -> Json {
+    match input {
+        Input::Elaborated { time, event } => {
+            json!({"kind": "elaborated", "time_us": time, "event": layout::event_json(event)})
+        }
+        Input::Program { time, event } => {
+            json!({"kind": "program", "time_us": time, "event": layout::event_json(event)})
+        }
+        Input::Answer { time, event } => {
+            json!({"kind": "answer_event", "time_us": time, "event": layout::event_json(event)})
+        }
+        Input::Result { time, id, outcome } => {
+            json!({"kind": "result", "time_us": time, "id": id, "outcome": layout::outcome_json(outcome)})
+        }
+        Input::Answered { time, id, choice } => {
+            json!({"kind": "answered", "time_us": time, "id": id, "choice": choice})
+        }
+    }
+}
+
+fn input_from(json: &Json) -> Option<Input> {
+    let time = json.get("time_us")?.as_u64()?;
+    let event = || layout::event_from(json.get("event")?);
+    Some(match json.get("kind")?.as_str()? {
+        "elaborated" => Input::Elaborated {
+            time,
+            event: event()?,
+        },
+        "program" => Input::Program {
+            time,
+            event: event()?,
+        },
+        "answer_event" => Input::Answer {
+            time,
+            event: event()?,
+        },
+        "result" => Input::Result {
+            time,
+            id: json.get("id")?.as_u64()?,
+            outcome: layout::outcome_from(json.get("outcome")?)?,
+        },
+        "answered" => Input::Answered {
+            time,
+            id: json.get("id")?.as_u64()?,
+            choice: json.get("choice")?.as_str()?.to_owned(),
+        },
+        _ => return None,
+    })
+}
+
+/// Bytes as lower-case hex digits.
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+fn unhex(text: &str) -> Option<Vec<u8>> {
+    if !text.len().is_multiple_of(2) {
+        return None;
+    }
+    (0..text.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(text.get(i..i + 2)?, 16).ok())
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nets::{Event, Outcome};
+
+    #[test]
+    fn calls_round_trip_through_their_recorded_json() {
+        let calls = [
+            Call::Restart,
+            Call::Advance,
+            Call::Restore(vec![1, 0, 0xab, 0xff]),
+            Call::Record {
+                before: 900,
+                inputs: vec![
+                    Input::Elaborated {
+                        time: 950,
+                        event: Event::new("reached").param("wp", 2i64),
+                    },
+                    Input::Program {
+                        time: 960,
+                        event: Event::new("photo_taken"),
+                    },
+                    Input::Answer {
+                        time: 970,
+                        event: Event::new("go.yes"),
+                    },
+                    Input::Result {
+                        time: 980,
+                        id: 4,
+                        outcome: Outcome::Failed("denied".into()),
+                    },
+                    Input::Answered {
+                        time: 990,
+                        id: 5,
+                        choice: "no".into(),
+                    },
+                ],
+            },
+        ];
+        for (i, call) in calls.iter().enumerate() {
+            let line =
+                layout::input_json(i as u64 + 1, 7, &layout::Input::Replica(call_json(call)));
+            let read = layout::input_from(line.to_string().as_bytes());
+            let Some((_, 7, layout::Input::Replica(json))) = read else {
+                panic!("{line}");
+            };
+            assert_eq!(call_from(&json).as_ref(), Some(call), "{line}");
+        }
+        for bad in [
+            json!({}),
+            json!({"call": "jump"}),
+            json!({"call": "restore", "state": "abc"}),
+            json!({"call": "restore", "state": "zz"}),
+            json!({"call": "record", "before": 1, "inputs": [{"kind": "warp", "time_us": 1}]}),
+            json!({"call": "record", "inputs": []}),
+        ] {
+            assert_eq!(call_from(&bad), None, "{bad}");
+        }
+    }
 }

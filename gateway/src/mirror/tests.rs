@@ -543,12 +543,13 @@ fn replay_kept_calls(f: &mut Flight) -> [usize; 4] {
         let line = layout::input_json(
             seq,
             played.time,
-            &layout::Input::Replica(played.call.clone()),
+            &layout::Input::Replica(call::call_json(&played.call)),
         );
         let read = layout::input_from(line.to_string().as_bytes());
-        let Some((_, time, layout::Input::Replica(c))) = read else {
+        let Some((_, time, layout::Input::Replica(json))) = read else {
             panic!("call {seq} did not read back: {line}");
         };
+        let c = call::call_from(&json).expect("a call");
         assert_eq!(c, played.call, "{line}");
         kinds[match c {
             Call::Restart => 0,

@@ -115,9 +115,9 @@ pub(super) enum Entry {
         time: Micros,
         bytes: Vec<u8>,
     },
-    /// A call of the mirror's replica: its step number, the ground time it
-    /// was played at, the call.
-    Replica(Box<(u64, Micros, crate::mirror::call::Played)>),
+    /// A step of the mirror's replica: the ground time it was played at,
+    /// the call (`input: "replica"`), the step, the digest after it.
+    Replica(Box<(Micros, Json, Step, Digest)>),
     /// A line on one of the mirror's own channels.
     Mirror {
         time: Micros,
@@ -385,10 +385,11 @@ impl Recorder {
         });
     }
 
-    /// The ground mirror's replica's call, its step `seq` (from 1, in
-    /// order), played at ground time `at`: a step whose input is the call.
-    pub fn replica(&self, seq: u64, at: Micros, played: crate::mirror::call::Played) {
-        self.send(Entry::Replica(Box::new((seq, at, played))));
+    /// A step of the ground mirror's replica (numbered from 1, in order,
+    /// at the vehicle's time), whose input is `call`
+    /// (`mirror::call::call_json`), played at ground time `at`.
+    pub fn replica(&self, at: Micros, call: Json, step: Step, digest: Digest) {
+        self.send(Entry::Replica(Box::new((at, call, step, digest))));
     }
 
     /// A line on the ground mirror's channel `topic` (`layout::MIRROR_*`).

@@ -279,16 +279,10 @@ impl<W: Write + Seek> Writer<W> {
             Entry::Sent { time, bytes } => self.frame(time, &bytes, true),
             Entry::Received { time, bytes } => self.frame(time, &bytes, false),
             Entry::Replica(b) => {
-                let (seq, at, played) = *b;
-                let step = Step {
-                    seq,
-                    time: played.time,
-                    events: Vec::new(),
-                    effects: played.effects,
-                };
+                let (at, call, step, digest) = *b;
                 // Logged when the ground played it.
-                self.shift = at as i64 - played.time as i64;
-                let written = self.step(Input::Replica(played.call), None, &step, played.digest);
+                self.shift = at as i64 - step.time as i64;
+                let written = self.step(Input::Replica(call), None, &step, digest);
                 self.shift = 0;
                 written
             }

@@ -205,12 +205,15 @@ pub fn run(args: Args) -> VerbResult {
                 std::thread::sleep(wait);
             }
         }
-        if let Recorded::Replica(call) = input {
+        if let Recorded::Replica(json) = input {
             // A ground mirror's recording: the replica's calls on its player.
+            let call = crate::mirror::call::call_from(json).ok_or_else(|| {
+                miette::miette!("{name}: step {seq}: not a call of the replica: {json}")
+            })?;
             let step = sup
-                .call(time, call)
+                .play_with(time, |p| crate::mirror::call::apply(p, time, &call))
                 .map_err(|e| miette::miette!("{name}: step {seq}: {e}"))?;
-            if let crate::mirror::call::Call::Record { inputs, .. } = call {
+            if let crate::mirror::call::Call::Record { inputs, .. } = &call {
                 print_record_inputs(&mut out, &project, inputs).map_err(io)?;
             }
             steps += 1;
