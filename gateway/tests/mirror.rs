@@ -423,9 +423,9 @@ fn a_tampered_mirror_recording_fails_its_check(m: &Mirrored) {
         let v: serde_json::Value = serde_json::from_slice(&message.data).unwrap_or_default();
         let seq = v["seq"].as_u64().unwrap_or(0);
         match message.channel.topic.as_str() {
-            "/petrel/inputs" if v["call"] == "record" => {
-                let before = v["before"].as_u64().unwrap_or(0);
-                let times: Vec<u64> = v["inputs"]
+            "/petrel/inputs" if v["replica"]["call"] == "record" => {
+                let before = v["replica"]["before"].as_u64().unwrap_or(0);
+                let times: Vec<u64> = v["replica"]["inputs"]
                     .as_array()
                     .into_iter()
                     .flatten()
@@ -465,7 +465,7 @@ fn a_tampered_mirror_recording_fails_its_check(m: &Mirrored) {
     let out = m.recording.with_file_name("tampered-input.mcap");
     let edits = rewrite(&m.recording, &out, |topic, v| {
         if topic == "/petrel/inputs" && v["seq"] == k {
-            for input in v["inputs"].as_array_mut().expect("inputs") {
+            for input in v["replica"]["inputs"].as_array_mut().expect("inputs") {
                 if input["kind"] == "elaborated" {
                     input["event"]["name"] = serde_json::json!("never_declared");
                 }
