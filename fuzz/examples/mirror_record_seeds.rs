@@ -88,6 +88,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             packets.push(p);
         }
     }
+    // The operator's answer to question 5: `01 07 05 03 79 65 73`.
+    packets.push(record::packet(&[Record::Answer {
+        id: 5,
+        choice: "yes".into(),
+    }]));
     // Kinds of packet, one file each (the first of each kind, and the
     // longest step body), so that the corpus stays small.
     let mut kept = std::collections::BTreeMap::new();
@@ -101,6 +106,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Record::Fragment(_) => "fragment",
             Record::Chunk(_) => "chunk",
             Record::Resend { .. } | Record::SendSnapshot { .. } => "uplink",
+            Record::Answer { .. } => "answer",
         };
         kept.entry(kind).or_insert_with(|| p.clone());
     }

@@ -102,6 +102,24 @@ impl Supervisor {
         self.player.next_deadline()
     }
 
+    /// A step of the player alone, no elaboration: `play` calls it and
+    /// returns the effects (replaying a ground mirror's recording, whose
+    /// steps are the replica's calls on its player).
+    pub fn play_with<E>(
+        &mut self,
+        time: Micros,
+        play: impl FnOnce(&mut Player) -> Result<Vec<Effect>, E>,
+    ) -> Result<Step, E> {
+        let effects = play(&mut self.player)?;
+        self.seq += 1;
+        Ok(Step {
+            seq: self.seq,
+            time,
+            events: Vec::new(),
+            effects,
+        })
+    }
+
     /// Feeds one input at `time`.
     pub fn step(&mut self, time: Micros, input: Input) -> Step {
         self.seq += 1;

@@ -24,12 +24,15 @@ use super::timeline::Timeline;
 use super::VerbResult;
 use crate::clock::Clock;
 use crate::link::Link;
+use crate::mirror::call::call_json;
 use crate::mirror::check::{Check, WINDOW};
 use crate::mirror::dialog::Dialog;
 use crate::mirror::record::Input;
 use crate::mirror::replica::{Config as ReplicaConfig, Repair, Replica, Report};
 use crate::mirror::tunnel::Tunnel;
 use crate::mirror::uplink::UplinkWriter;
+use crate::record::layout;
+use crate::record::recorder::{Options as RecordOptions, Recorder};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -61,6 +64,15 @@ pub struct Args {
     /// sent up signed with it (docs/mirror.md, "Operator dialog").
     #[arg(long, value_name = "FILE")]
     pub operator_key: Option<PathBuf>,
+    /// Record the mirror to this MCAP file: `run`'s layout, the replica's
+    /// calls as its steps, plus the mirror's channels (docs/mirror.md,
+    /// "The mirror's recording"); `petrel replay --check-against` replays
+    /// it [default: recordings/mirror-<UTC date and time>.mcap].
+    #[arg(long, value_name = "FILE", conflicts_with = "no_record")]
+    pub record: Option<PathBuf>,
+    /// Do not record.
+    #[arg(long)]
+    pub no_record: bool,
 }
 
 /// How often the replica and the ground's elaboration are ticked.
@@ -103,12 +115,21 @@ pub fn run(args: Args) -> VerbResult {
             Some(crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
         }
     };
+    let record = if args.no_record {
+        None
+    } else {
+        Some(
+            args.record
+                .clone()
+                .unwrap_or_else(|| super::run::dated_recording("mirror")),
+        )
+    };
     let elaborator = Elaborator::new(profile, elaboration::Config::default());
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .map_err(|e| miette::miette!("cannot start the runtime: {e}"))?;
-    runtime.block_on(mirror(Setup {
+    let result = runtime.block_on(mirror(Setup {
         project,
         address,
         system,
@@ -117,7 +138,13 @@ pub fn run(args: Args) -> VerbResult {
         time_scale: args.time_scale,
         duration: args.duration.map(Duration::from_secs_f64),
         operator,
-    }))
+        record,
+        layers,
+    }));
+    // The operator's stdin is read on a blocking thread that no abort
+    // stops: waiting for it would hold the mirror until the next line.
+    runtime.shutdown_background();
+    result
 }
 
 struct Setup {
@@ -130,6 +157,10 @@ struct Setup {
     duration: Option<Duration>,
     /// The operator key: the dialog is on.
     operator: Option<crate::link::signing::Key>,
+    /// Where to record.
+    record: Option<PathBuf>,
+    /// The profile's layers, recorded with the start.
+    layers: crate::profile::Layers,
 }
 
 async fn mirror(setup: Setup) -> VerbResult {
@@ -139,7 +170,44 @@ async fn mirror(setup: Setup) -> VerbResult {
         .await
         .map_err(|e| miette::miette!("{e}"))?;
     let uplink = UplinkWriter::new(writer, setup.system);
-    let mut replica = Replica::new(setup.project.clone(), ReplicaConfig::default());
+    // The recording is created once the link is open, as `run`'s.
+    let recorder = match &setup.record {
+        None => None,
+        Some(path) => {
+            let unix_ns = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_nanos() as u64);
+            let options = RecordOptions {
+                clock_offset_ns: unix_ns,
+                profile: setup.layers.name.clone(),
+                profile_layers: setup.layers.layers.clone(),
+                config: elaboration::Config::default(),
+                ..RecordOptions::default()
+            };
+            let rec = Recorder::create(path, setup.project.clone(), options)
+                .map_err(|e| miette::miette!("cannot record to {}: {e}", path.display()))?;
+            // Step 0: a player's start at vehicle time 0, as `petrel
+            // replay` starts one; the replica's own start is a call.
+            let mut player = nets::Player::start(setup.project.clone(), 0);
+            let start = crate::supervisor::Step {
+                seq: 0,
+                time: 0,
+                events: Vec::new(),
+                effects: player.effects().collect(),
+            };
+            rec.start(&start, &player);
+            say!("recording to {}", path.display());
+            Some(rec)
+        }
+    };
+    let mut calls = 0u64;
+    let mut replica = Replica::new(
+        setup.project.clone(),
+        ReplicaConfig {
+            record: recorder.is_some(),
+            ..ReplicaConfig::default()
+        },
+    );
     let mut check = Check::new(WINDOW);
     let mut elaborator = setup.elaborator;
     let mut out = Timeline {
@@ -206,6 +274,9 @@ async fn mirror(setup: Setup) -> VerbResult {
         tokio::select! {
             Some(rx) = frames.recv() => {
                 let now = clock.now();
+                if let Some(rec) = &recorder {
+                    rec.received(now, &rx.bytes);
+                }
                 if let Some(MavMessage::HEARTBEAT(hb)) = &rx.message {
                     if vehicle.is_none() && hb.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID {
                         vehicle = Some(rx.header.system_id as u8);
@@ -270,8 +341,15 @@ async fn mirror(setup: Setup) -> VerbResult {
                     Some((Ok(_), id, choice)) => {
                         match (onboard.or(vehicle.map(|v| (v, 191))), signer.as_mut()) {
                             (Some(to), Some(signer)) => {
+                                let now = clock.now();
                                 match uplink.send_answer(to, id, choice, signer).await {
-                                    Ok(_) => say!("answer #{id} {choice} sent (signed)"),
+                                    Ok(bytes) => {
+                                        say!("answer #{id} {choice} sent (signed)");
+                                        if let Some(rec) = &recorder {
+                                            rec.sent(now, &bytes);
+                                            rec.mirror(now, layout::MIRROR_DIALOG, json!({"time_us": now, "kind": "answer_sent", "id": id, "choice": choice}));
+                                        }
+                                    }
                                     Err(e) => say!("answer #{id} not sent: {e}"),
                                 }
                             }
@@ -327,7 +405,22 @@ async fn mirror(setup: Setup) -> VerbResult {
                 }
                 _ => {}
             }
+            if let Some(rec) = &recorder {
+                rec.mirror(now, layout::MIRROR_REPLICA, report_json(&report, now));
+            }
             print_report(&mut out, &setup.project, &report, now);
+        }
+        while let Some(played) = replica.poll_played() {
+            if let Some(rec) = &recorder {
+                calls += 1;
+                let step = crate::supervisor::Step {
+                    seq: calls,
+                    time: played.time,
+                    events: Vec::new(),
+                    effects: played.effects,
+                };
+                rec.replica(now, call_json(&played.call), step, played.digest);
+            }
         }
         // The ground's view reaches the last autopilot frame heard (not the
         // clock: during a radio outage it does not advance).
@@ -336,6 +429,13 @@ async fn mirror(setup: Setup) -> VerbResult {
         while let Some(d) = check.poll() {
             let event = d.event();
             tracing::warn!("{event}");
+            if let Some(rec) = &recorder {
+                let mut v = json!({"time_us": now});
+                for (k, val) in &event.params {
+                    v[k] = val.to_json();
+                }
+                rec.mirror(now, layout::MIRROR_CHECK, v);
+            }
             if out.json {
                 let mut v = json!({"mirror": event.name, "ground_t": now as f64 / 1e6});
                 for (k, val) in &event.params {
@@ -360,6 +460,9 @@ async fn mirror(setup: Setup) -> VerbResult {
                 let mark = if left <= 5 { left } else { left / 10 * 10 };
                 if shown.get(&q.id) != Some(&mark) {
                     if !shown.contains_key(&q.id) {
+                        if let Some(rec) = &recorder {
+                            rec.mirror(now, layout::MIRROR_DIALOG, json!({"time_us": now, "kind": "question", "id": q.id, "net": q.net, "question": q.question, "choices": q.choices, "deadline_us": q.deadline}));
+                        }
                         say!(
                             "QUESTION #{} from {}: {}  choices: {}  (answer `{} CHOICE`)",
                             q.id,
@@ -379,7 +482,12 @@ async fn mirror(setup: Setup) -> VerbResult {
         if let Some(to) = onboard.or(vehicle.map(|v| (v, 191))) {
             while let Some(request) = replica.poll_transmit() {
                 match uplink.send(to, &request).await {
-                    Ok(_) => sent += 1,
+                    Ok(bytes) => {
+                        sent += 1;
+                        if let Some(rec) = &recorder {
+                            rec.sent(now, &bytes);
+                        }
+                    }
                     Err(e) => tracing::warn!("uplink: {e}"),
                 }
             }
@@ -414,6 +522,17 @@ async fn mirror(setup: Setup) -> VerbResult {
         sent,
         ground_events,
     );
+    if let Some(rec) = recorder {
+        let dropped = rec.dropped();
+        match rec.finish() {
+            Ok(report) if report.dropped > 0 => say!(
+                "recorded {} steps; the recorder fell behind and dropped {} entries ({} steps): replay stops at the first",
+                report.steps, report.dropped, report.dropped_steps
+            ),
+            Ok(report) => say!("recorded {} steps, {} messages", report.steps, report.messages),
+            Err(e) => say!("the recording stopped ({e}); {dropped} entries were not recorded"),
+        }
+    }
     if let Some((player, provisional)) = replica.shown() {
         let _ = out.end(player.state().now, &player.digest(), player.locked_out());
         if provisional {
@@ -426,6 +545,42 @@ async fn mirror(setup: Setup) -> VerbResult {
     } else {
         super::Outcome::Success
     })
+}
+
+/// A report as recorded on `/mirror/replica`; `now` is the ground's time.
+fn report_json(report: &Report, now: Micros) -> serde_json::Value {
+    match report {
+        Report::Step {
+            number,
+            step,
+            time,
+            inputs,
+            ..
+        } => {
+            json!({"time_us": now, "report": "step", "record": number, "step": step, "vehicle_time_us": time, "inputs": inputs.len()})
+        }
+        Report::Timers {
+            step,
+            time,
+            effects,
+        } => {
+            json!({"time_us": now, "report": "timers", "step": step, "vehicle_time_us": time, "effects": effects.len()})
+        }
+        Report::Agreed { step } => json!({"time_us": now, "report": "agreed", "step": step}),
+        Report::Gap { from, to, step } => {
+            json!({"time_us": now, "report": "gap", "from": from, "to": to, "step": step})
+        }
+        Report::Resynced { .. } | Report::Diverged { .. } => {
+            let mut v = json!({"time_us": now});
+            if let Some(event) = report.event() {
+                v["report"] = json!(event.name);
+                for (k, val) in &event.params {
+                    v[k] = val.to_json();
+                }
+            }
+            v
+        }
+    }
 }
 
 /// A report; `now` is the ground's time (`ground_t` in JSON).

@@ -118,8 +118,8 @@ pub struct Args {
     pub http: Option<String>,
 }
 
-/// `recordings/petrel-YYYYMMDD-HHMMSS.mcap` for the current UTC time.
-fn dated_recording() -> PathBuf {
+/// `recordings/NAME-YYYYMMDD-HHMMSS.mcap` for the current UTC time.
+pub(super) fn dated_recording(name: &str) -> PathBuf {
     let secs = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
@@ -135,7 +135,7 @@ fn dated_recording() -> PathBuf {
     let month = if mp < 10 { mp + 3 } else { mp - 9 };
     let year = yoe + era * 400 + i64::from(month <= 2);
     PathBuf::from("recordings").join(format!(
-        "petrel-{year:04}{month:02}{day:02}-{:02}{:02}{:02}.mcap",
+        "{name}-{year:04}{month:02}{day:02}-{:02}{:02}{:02}.mcap",
         rem / 3600,
         rem % 3600 / 60,
         rem % 60
@@ -270,7 +270,11 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     let record = if args.no_record {
         None
     } else {
-        Some(args.record.clone().unwrap_or_else(dated_recording))
+        Some(
+            args.record
+                .clone()
+                .unwrap_or_else(|| dated_recording("petrel")),
+        )
     };
     let signing = match &args.signing_key {
         None => None,

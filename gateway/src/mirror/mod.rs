@@ -2,6 +2,8 @@
 //! the ground, step for step, from a downlink of records in MAVLink TUNNEL
 //! messages.
 //!
+//! - `call`: the replica's calls on its player, as the mirror records them
+//!   and `petrel replay` plays them back.
 //! - `record`: the records and their versioned binary encoding (pure).
 //! - `publisher`: on board, sans-IO — numbers the steps' inputs, keeps a
 //!   ring, sends heartbeats and snapshots, answers the ground's requests.
@@ -14,6 +16,7 @@
 //! Neither opens a socket or reads a clock; `petrel run` and `petrel mirror`
 //! carry their packets.
 
+pub mod call;
 pub mod check;
 pub mod dialog;
 pub mod publisher;

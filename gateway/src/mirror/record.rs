@@ -627,6 +627,19 @@ mod tests {
     }
 
     #[test]
+    fn an_answer_is_laid_out_as_documented() {
+        // docs/mirror.md: version 1, kind 7, uvarint id, str choice (the
+        // fuzz corpus's `packet-answer`).
+        let bytes = [0x01, 0x07, 0x05, 0x03, b'y', b'e', b's'];
+        let answer = Record::Answer {
+            id: 5,
+            choice: "yes".into(),
+        };
+        assert_eq!(packet(std::slice::from_ref(&answer)), bytes);
+        assert_eq!(decode_packet(&bytes).ok(), Some(vec![answer]));
+    }
+
+    #[test]
     fn other_versions_and_kinds_are_refused() {
         assert_eq!(decode_packet(&[]), Err(PacketError::Empty));
         assert_eq!(decode_packet(&[1]), Err(PacketError::Empty));

@@ -23,6 +23,7 @@ use std::sync::Arc;
 use nets::player::snapshot;
 use nets::{Effect, Event, Micros, Player, Project};
 
+use super::call::{self, Call, Played};
 use super::record::{self, Chunk, Fragment, Heartbeat, Input, Record, Snapshot, StepRecord};
 
 /// How the replica waits and asks.
@@ -40,6 +41,9 @@ pub struct Config {
     pub hold_max: usize,
     /// Records asked for in one request, at most.
     pub resend_max: u64,
+    /// Keep every call on the player for [`Replica::poll_played`] (the
+    /// mirror's recording).
+    pub record: bool,
 }
 
 impl Default for Config {
@@ -50,6 +54,7 @@ impl Default for Config {
             hello_every: 5_000_000,
             hold_max: 1024,
             resend_max: 32,
+            record: false,
         }
     }
 }
@@ -213,6 +218,8 @@ pub struct Replica {
     now: Micros,
     reports: VecDeque<Report>,
     uplink: VecDeque<Uplink>,
+    /// The calls on the player, when recording.
+    played: VecDeque<Played>,
     pub counts: Counts,
 }
 
@@ -242,6 +249,7 @@ impl Replica {
             now: 0,
             reports: VecDeque::new(),
             uplink: VecDeque::new(),
+            played: VecDeque::new(),
             counts: Counts::default(),
         }
     }
@@ -290,6 +298,26 @@ impl Replica {
     /// The next report.
     pub fn poll_report(&mut self) -> Option<Report> {
         self.reports.pop_front()
+    }
+
+    /// The next call the exact replica made on its player (kept only
+    /// with [`Config::record`]), in order.
+    pub fn poll_played(&mut self) -> Option<Played> {
+        self.played.pop_front()
+    }
+
+    /// Keeps a call for the recording.
+    fn keep(&mut self, time: Micros, call: impl FnOnce() -> Call, effects: &[Effect]) {
+        if !self.config.record {
+            return;
+        }
+        let Some(p) = &self.player else { return };
+        self.played.push_back(Played {
+            time,
+            call: call(),
+            effects: effects.to_vec(),
+            digest: p.digest(),
+        });
     }
 
     /// The next request to send up.
@@ -399,9 +427,10 @@ impl Replica {
     }
 
     fn start(&mut self) {
-        let mut p = Player::start(self.project.clone(), 0);
-        let _ = p.effects().count();
+        let mut p = call::start(self.project.clone(), 0);
+        let effects: Vec<Effect> = p.effects().collect();
         self.player = Some(p);
+        self.keep(0, || Call::Restart, &effects);
         self.gap_heartbeats = 0;
         if let Some(since) = self.gap_since.take() {
             self.reports.push_back(Report::Resynced {
@@ -503,6 +532,7 @@ impl Replica {
                     p.advance(time);
                     let effects: Vec<Effect> = p.effects().collect();
                     let same = p.digest().0 == s.digest;
+                    self.keep(time, || Call::Advance, &effects);
                     self.timers(s.step, time, effects);
                     if same {
                         self.agree(s.step);
@@ -521,9 +551,12 @@ impl Replica {
     }
 
     fn adopt(&mut self, s: Snapshot, mut player: Player) {
-        let _ = player.effects().count();
+        let effects: Vec<Effect> = player.effects().collect();
         self.counts.snapshots_restored += 1;
+        let time = player.state().now;
         self.player = Some(player);
+        let state = &s.state;
+        self.keep(time, || Call::Restore(state.clone()), &effects);
         self.next = s.next;
         self.step = s.step;
         self.agreed = Some(s.step);
@@ -585,24 +618,17 @@ impl Replica {
 
     fn play(&mut self, s: StepRecord) {
         let Some(p) = &mut self.player else { return };
-        p.advance(s.before);
-        let mut effects: Vec<Effect> = p.effects().collect();
-        for input in &s.inputs {
-            match input {
-                Input::Elaborated { time, event }
-                | Input::Program { time, event }
-                | Input::Answer { time, event } => p.handle(event, *time),
-                Input::Result { time, id, outcome } => p.result(*id, outcome.clone(), *time),
-                Input::Answered { time, id, choice } => {
-                    // Refused or not, as on board: the same effects.
-                    let _ = p.answer(*id, choice, *time);
-                }
-            }
-            effects.extend(p.effects());
-        }
-        p.advance(s.time);
-        effects.extend(p.effects());
+        let effects = call::play(p, s.before, &s.inputs, s.time);
         let same = p.digest().0[..8] == s.digest;
+        let (before, inputs) = (s.before, &s.inputs);
+        self.keep(
+            s.time,
+            || Call::Record {
+                before,
+                inputs: inputs.clone(),
+            },
+            &effects,
+        );
         self.next = s.number + 1;
         self.step = s.step;
         self.reports.push_back(Report::Step {
@@ -634,6 +660,7 @@ impl Replica {
         p.advance(h.time);
         let effects: Vec<Effect> = p.effects().collect();
         let same = p.digest().0[..16] == h.digest;
+        self.keep(h.time, || Call::Advance, &effects);
         self.timers(h.step, h.time, effects);
         if same {
             self.agree(h.step);

@@ -526,3 +526,109 @@ fn while_a_gap_is_open_the_replica_is_shown_provisional_then_exact_again() {
     assert!(matches!(f.replica.shown(), Some((_, false))));
     f.assert_equal();
 }
+
+/// Replays the calls the replica kept (through their recorded JSON) on a
+/// fresh player, as `petrel replay` does a mirror's recording: every
+/// call's effects and digest are the replica's. Returns how many calls of
+/// each kind (restart, record, advance, restore).
+fn replay_kept_calls(f: &mut Flight) -> [usize; 4] {
+    use crate::mirror::call::{self, Call};
+    use crate::record::layout;
+    let mut player = nets::Player::start(f.project.clone(), 0);
+    let _ = player.effects().count();
+    let mut kinds = [0; 4];
+    let mut seq = 0;
+    while let Some(played) = f.replica.poll_played() {
+        seq += 1;
+        let line = layout::input_json(
+            seq,
+            played.time,
+            &layout::Input::Replica(call::call_json(&played.call)),
+        );
+        let read = layout::input_from(line.to_string().as_bytes());
+        let Some((_, time, layout::Input::Replica(json))) = read else {
+            panic!("call {seq} did not read back: {line}");
+        };
+        let c = call::call_from(&json).expect("a call");
+        assert_eq!(c, played.call, "{line}");
+        kinds[match c {
+            Call::Restart => 0,
+            Call::Record { .. } => 1,
+            Call::Advance => 2,
+            Call::Restore(_) => 3,
+        }] += 1;
+        let effects = call::apply(&mut player, time, &c).expect("the call plays");
+        assert_eq!(effects, played.effects, "call {seq}: {c:?}");
+        assert_eq!(player.digest(), played.digest, "call {seq}: {c:?}");
+    }
+    kinds
+}
+
+fn recording_flight(down: Loss, config: publisher::Config) -> Flight {
+    let mut f = Flight::new(down, Loss::none(), config);
+    f.replica = Replica::new(
+        f.project.clone(),
+        replica::Config {
+            record: true,
+            ..replica::Config::default()
+        },
+    );
+    f
+}
+
+#[test]
+fn the_replicas_calls_replay_to_its_digests_across_retransmissions_and_snapshots() {
+    let config = publisher::Config {
+        ring: 4,
+        ..publisher::Config::default()
+    };
+    let mut down = Loss::random(3, 100);
+    // Ten seconds of silence on the downlink: a snapshot restores.
+    down.bursts.push((5_000_000, 15_000_000));
+    let mut f = recording_flight(down, config);
+    for i in 0..300 {
+        f.play(&Step::Event {
+            pick: i,
+            dt: 100_000,
+        });
+    }
+    f.settle(5);
+    f.assert_equal();
+    let kinds = replay_kept_calls(&mut f);
+    // The start, records, heartbeats, and the snapshot restored.
+    assert_eq!(kinds[0], 1, "{kinds:?}");
+    assert!(kinds[1] > 100, "{kinds:?}");
+    assert!(kinds[2] > 10, "{kinds:?}");
+    assert!(kinds[3] >= 1, "{kinds:?}");
+}
+
+#[test]
+fn a_replica_that_started_with_the_vehicle_records_its_restart() {
+    let mut f = recording_flight(Loss::none(), publisher::Config::default());
+    for i in 0..50 {
+        f.play(&Step::Event {
+            pick: i,
+            dt: 300_000,
+        });
+    }
+    f.settle(2);
+    f.assert_equal();
+    let kinds = replay_kept_calls(&mut f);
+    assert_eq!(kinds[0], 1, "{kinds:?}");
+    assert_eq!(kinds[3], 0, "{kinds:?}");
+}
+
+#[test]
+fn without_recording_the_replica_keeps_no_calls() {
+    let mut f = fly(
+        &(0..20)
+            .map(|i| Step::Event {
+                pick: i,
+                dt: 300_000,
+            })
+            .collect::<Vec<_>>(),
+        Loss::none(),
+        Loss::none(),
+    );
+    assert!(f.replica.poll_played().is_none());
+}

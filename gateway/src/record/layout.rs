@@ -30,6 +30,13 @@ pub const LOCATION: &str = "/vehicle/location";
 pub const LOG: &str = "/log";
 /// The JSON Schema of `foxglove.Log` (Foxglove's well-known name).
 pub const LOG_SCHEMA: &str = r#"{"title":"foxglove.Log","description":"A log message","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"level":{"type":"integer","description":"1 debug, 2 info, 3 warning, 4 error, 5 fatal"},"message":{"type":"string"},"name":{"type":"string"},"file":{"type":"string"},"line":{"type":"integer","minimum":0}}}"#;
+/// The ground mirror's replica: every report (steps played, checks
+/// agreed, gaps, `mirror_resynced`, `mirror_diverged`).
+pub const MIRROR_REPLICA: &str = "/mirror/replica";
+/// The ground mirror's independent check: `mirror_disagreement`.
+pub const MIRROR_CHECK: &str = "/mirror/check";
+/// The operator dialog on the ground: questions shown, answers sent.
+pub const MIRROR_DIALOG: &str = "/mirror/dialog";
 /// Markings of one net: `/petrel/marking/<net>`; the global places are
 /// `/petrel/marking/@globals`.
 pub const MARKING_PREFIX: &str = "/petrel/marking/";
@@ -51,7 +58,7 @@ pub fn petrel_schema(topic: &str) -> (&'static str, &'static str) {
     match topic {
         INPUTS => (
             "petrel.Input",
-            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"input":{"type":"string","enum":["start","frame","tick","result","event"]},"frame":{"type":"integer","description":"index of the frame on /mavlink/raw"},"id":{"type":"integer"},"outcome":{"type":"object"},"event":{"type":"object"}}}"#,
+            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"input":{"type":"string","enum":["start","frame","tick","result","event","answer","replica"]},"replica":{"type":"object","description":"the ground mirror's call on its player","properties":{"call":{"type":"string","enum":["restart","record","advance","restore"]},"before":{"type":"integer"},"inputs":{"type":"array"},"state":{"type":"string","description":"(restore) the player's state, hex"}}},"frame":{"type":"integer","description":"index of the frame on /mavlink/raw"},"id":{"type":"integer"},"outcome":{"type":"object"},"event":{"type":"object"}}}"#,
         ),
         EVENTS => (
             "petrel.Event",
@@ -76,6 +83,18 @@ pub fn petrel_schema(topic: &str) -> (&'static str, &'static str) {
         RECORDER => (
             "petrel.RecorderStatus",
             r#"{"type":"object","properties":{"time_us":{"type":"integer"},"written_steps":{"type":"integer"},"last_seq":{"type":["integer","null"]},"dropped":{"type":"integer","description":"entries dropped because the writer fell behind, since the start"},"dropped_steps":{"type":"integer","description":"of which Supervisor steps"}}}"#,
+        ),
+        MIRROR_REPLICA => (
+            "petrel.MirrorReport",
+            r#"{"type":"object","properties":{"time_us":{"type":"integer","description":"ground time"},"report":{"type":"string","enum":["step","timers","agreed","gap","mirror_resynced","mirror_diverged"]},"step":{"type":"integer","description":"the vehicle's step"},"vehicle_time_us":{"type":"integer"}}}"#,
+        ),
+        MIRROR_CHECK => (
+            "petrel.MirrorDisagreement",
+            r#"{"type":"object","properties":{"time_us":{"type":"integer","description":"ground time"},"event":{"type":"string"},"seen_by":{"type":"string","enum":["ground","vehicle"]}}}"#,
+        ),
+        MIRROR_DIALOG => (
+            "petrel.MirrorDialog",
+            r#"{"type":"object","properties":{"time_us":{"type":"integer","description":"ground time"},"kind":{"type":"string","enum":["question","answer_sent","answer_not_sent"]},"id":{"type":"integer"},"choice":{"type":"string"}}}"#,
         ),
         _ => (
             "petrel.Marking",
@@ -210,6 +229,10 @@ pub enum Input {
         id: u64,
         choice: String,
     },
+    /// A call of the ground mirror's replica on its player, as the JSON
+    /// `mirror::call::call_json` makes (a mirror's recording:
+    /// docs/mirror.md, "The mirror's recording").
+    Replica(Json),
 }
 
 /// The JSON of an input on [`INPUTS`].
@@ -241,6 +264,10 @@ pub fn input_json(seq: u64, time: Micros, input: &Input) -> Json {
             o.insert("id".into(), json!(id));
             o.insert("choice".into(), json!(choice));
         }
+        Input::Replica(call) => {
+            o.insert("input".into(), json!("replica"));
+            o.insert("replica".into(), call.clone());
+        }
     }
     v
 }
@@ -258,6 +285,7 @@ struct InputLine<'a> {
     event: Option<Json>,
     setup: Option<Json>,
     choice: Option<String>,
+    replica: Option<Json>,
 }
 
 /// Reads an input back from its JSON bytes: `(seq, time, input)`.
@@ -280,6 +308,10 @@ pub fn input_with_setup(bytes: &[u8]) -> Option<((u64, Micros, Input), Option<Js
         "answer" => Input::Answer {
             id: line.id?,
             choice: line.choice?,
+        },
+        "replica" => match line.replica? {
+            call @ Json::Object(_) => Input::Replica(call),
+            _ => return None,
         },
         _ => return None,
     };
@@ -321,6 +353,10 @@ mod tests {
                     .category(Category::Mission)
                     .param("component", "camera"),
             ),
+            Input::Replica(
+                json!({"call": "record", "before": 900, "inputs": [{"kind": "answered", "time_us": 990, "id": 5, "choice": "no"}]}),
+            ),
+            Input::Replica(json!({"call": "advance"})),
         ];
         for (i, input) in inputs.iter().enumerate() {
             let text = input_json(i as u64, 1_000 + i as u64, input).to_string();
@@ -340,6 +376,14 @@ mod tests {
             None
         );
         assert_eq!(input_from(b"{\"seq\": 1, "), None);
+        assert_eq!(
+            input_from(br#"{"seq": 1, "time_us": 2, "input": "replica"}"#),
+            None
+        );
+        assert_eq!(
+            input_from(br#"{"seq": 1, "time_us": 2, "input": "replica", "replica": "advance"}"#),
+            None
+        );
     }
 
     #[test]

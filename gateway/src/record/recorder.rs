@@ -112,6 +112,20 @@ pub(super) enum Entry {
         time: Micros,
         bytes: Vec<u8>,
     },
+    /// A frame received that is no Supervisor input (the ground mirror's).
+    Received {
+        time: Micros,
+        bytes: Vec<u8>,
+    },
+    /// A step of the mirror's replica: the ground time it was played at,
+    /// the call (`input: "replica"`), the step, the digest after it.
+    Replica(Box<(Micros, Json, Step, Digest)>),
+    /// A line on one of the mirror's own channels.
+    Mirror {
+        time: Micros,
+        topic: &'static str,
+        body: Json,
+    },
     Program {
         time: Micros,
         program: String,
@@ -165,6 +179,8 @@ type Sink = RecordingFile;
 /// The handle. Its methods never block and never fail the caller.
 pub struct Recorder {
     tx: Option<SyncSender<Entry>>,
+    /// The queue's capacity.
+    capacity: u64,
     dropped: Arc<Dropped>,
     thread: Option<JoinHandle<Result<Report, RecordError>>>,
 }
@@ -174,6 +190,8 @@ pub struct Recorder {
 pub(super) struct Dropped {
     pub(super) entries: AtomicU64,
     pub(super) steps: AtomicU64,
+    /// Entries on the queue (the writer takes them off).
+    pub(super) queued: AtomicU64,
 }
 
 impl Recorder {
@@ -235,6 +253,7 @@ impl Recorder {
             .create(sink)?;
         let dropped = Arc::new(Dropped::default());
         let (tx, rx) = sync_channel(options.queue.max(1));
+        let capacity = options.queue.max(1) as u64;
         let mut writer = Writer::new(mcap, project, options, Arc::clone(&dropped))?;
         let thread = std::thread::Builder::new()
             .name("petrel-recorder".into())
@@ -263,6 +282,7 @@ impl Recorder {
             .map_err(|_| RecordError::Thread)?;
         Ok(Recorder {
             tx: Some(tx),
+            capacity,
             dropped,
             thread: Some(thread),
         })
@@ -271,9 +291,11 @@ impl Recorder {
     fn send(&self, entry: Entry) {
         let Some(tx) = &self.tx else { return };
         match tx.try_send(entry) {
-            Ok(()) => {}
+            Ok(()) => {
+                self.dropped.queued.fetch_add(1, Ordering::Relaxed);
+            }
             Err(TrySendError::Full(e)) | Err(TrySendError::Disconnected(e)) => {
-                if matches!(e, Entry::Step(_)) {
+                if matches!(e, Entry::Step(_) | Entry::Replica(_)) {
                     self.dropped.steps.fetch_add(1, Ordering::Relaxed);
                 }
                 self.dropped.entries.fetch_add(1, Ordering::Relaxed);
@@ -348,6 +370,33 @@ impl Recorder {
             time,
             bytes: bytes.to_vec(),
         });
+    }
+
+    /// A frame received at `time` that feeds no Supervisor (the ground
+    /// mirror's telemetry): on `/mavlink/raw`, referred to by no input.
+    /// When the queue is three quarters full these are dropped (counted)
+    /// first, keeping the rest of it for the replica's steps.
+    pub fn received(&self, time: Micros, bytes: &[u8]) {
+        if self.dropped.queued.load(Ordering::Relaxed) >= self.capacity / 4 * 3 {
+            self.dropped.entries.fetch_add(1, Ordering::Relaxed);
+            return;
+        }
+        self.send(Entry::Received {
+            time,
+            bytes: bytes.to_vec(),
+        });
+    }
+
+    /// A step of the ground mirror's replica (numbered from 1, in order,
+    /// at the vehicle's time), whose input is `call`
+    /// (`mirror::call::call_json`), played at ground time `at`.
+    pub fn replica(&self, at: Micros, call: Json, step: Step, digest: Digest) {
+        self.send(Entry::Replica(Box::new((at, call, step, digest))));
+    }
+
+    /// A line on the ground mirror's channel `topic` (`layout::MIRROR_*`).
+    pub fn mirror(&self, time: Micros, topic: &'static str, body: Json) {
+        self.send(Entry::Mirror { time, topic, body });
     }
 
     /// Program traffic not already in the steps (calls are effects, replies

@@ -57,6 +57,11 @@ pub(super) struct Writer<W: Write + Seek> {
     /// Decoded channels by (sent, system, component, message id).
     decoded: HashMap<(bool, u8, u8, u32), Option<u16>>,
     markings: HashMap<Option<usize>, u16>,
+    /// The ground mirror's channels, by topic.
+    mirror: HashMap<&'static str, u16>,
+    /// Added to times (µs) to make log times: a mirror's replica steps
+    /// are at the vehicle's time and logged at the ground's.
+    shift: i64,
     decoder: Decoder,
     pending: HashMap<u64, Pending>,
     raw_index: u64,
@@ -136,6 +141,8 @@ impl<W: Write + Seek> Writer<W> {
             json_schemas: HashMap::new(),
             decoded: HashMap::new(),
             markings: HashMap::new(),
+            mirror: HashMap::new(),
+            shift: 0,
             decoder: Decoder::default(),
             pending: HashMap::new(),
             raw_index: 0,
@@ -159,7 +166,10 @@ impl<W: Write + Seek> Writer<W> {
         'run: loop {
             loop {
                 match rx.try_recv() {
-                    Ok(entry) => self.entry(entry)?,
+                    Ok(entry) => {
+                        self.dropped.queued.fetch_sub(1, Ordering::Relaxed);
+                        self.entry(entry)?
+                    }
                     Err(TryRecvError::Empty) => break,
                     Err(TryRecvError::Disconnected) => break 'run,
                 }
@@ -214,7 +224,11 @@ impl<W: Write + Seek> Writer<W> {
 
     /// The log time of a Supervisor time.
     fn time_ns(&self, time: Micros) -> u64 {
-        time.saturating_mul(1000)
+        (time as i64)
+            .saturating_add(self.shift)
+            .max(0)
+            .unsigned_abs()
+            .saturating_mul(1000)
             .saturating_add(self.options.clock_offset_ns)
     }
 
@@ -263,6 +277,27 @@ impl<W: Write + Seek> Writer<W> {
                 self.step(input, frame, &step, digest)
             }
             Entry::Sent { time, bytes } => self.frame(time, &bytes, true),
+            Entry::Received { time, bytes } => self.frame(time, &bytes, false),
+            Entry::Replica(b) => {
+                let (at, call, step, digest) = *b;
+                // Logged when the ground played it.
+                self.shift = at as i64 - step.time as i64;
+                let written = self.step(Input::Replica(call), None, &step, digest);
+                self.shift = 0;
+                written
+            }
+            Entry::Mirror { time, topic, body } => {
+                let channel = match self.mirror.get(topic) {
+                    Some(c) => *c,
+                    None => {
+                        let c =
+                            add_json_channel(&mut self.mcap, topic, layout::petrel_schema(topic))?;
+                        self.mirror.insert(topic, c);
+                        c
+                    }
+                };
+                self.write_json(channel, 0, time, &body)
+            }
             Entry::Program {
                 time,
                 program,

@@ -1,3 +1,4 @@
+#![allow(dead_code)] // shared by the mirror test binaries, each using a part
 //! An autopilot's MAVLink routing between two serial ports, in front of the
 //! simulated ArduPlane (which has one port): the companion's port (where
 //! `petrel run` sits) and the ground's (where `petrel mirror` sits, behind a
@@ -48,6 +49,9 @@ pub struct Router {
     pub companion_port: u16,
     pub ground_port: u16,
     stop: Arc<AtomicBool>,
+    /// Everything toward the ground lost while set (the uplink still
+    /// works): a radio that fades one way.
+    muted: Arc<AtomicBool>,
     traffic: Arc<Mutex<Traffic>>,
     thread: Option<JoinHandle<()>>,
 }
@@ -198,6 +202,8 @@ impl Router {
         let stop = Arc::new(AtomicBool::new(false));
         let traffic = Arc::new(Mutex::new(Traffic::default()));
         let (flag, shared) = (stop.clone(), traffic.clone());
+        let muted = Arc::new(AtomicBool::new(false));
+        let mute = muted.clone();
         let mut radio = Radio {
             seed: loss.seed | 1,
             loss,
@@ -209,7 +215,7 @@ impl Router {
                 // Over the radio to the ground, counted.
                 let mut downlink = |ground: &mut Port, bytes: &[u8], tunnel: bool| {
                     let mut t = shared.lock().expect("traffic");
-                    if radio.loses() {
+                    if radio.loses() || mute.load(Ordering::Relaxed) {
                         t.lost += 1;
                         return;
                     }
@@ -280,6 +286,7 @@ impl Router {
             companion_port,
             ground_port,
             stop,
+            muted,
             traffic,
             thread: Some(thread),
         }
@@ -287,6 +294,11 @@ impl Router {
 
     pub fn traffic(&self) -> std::sync::MutexGuard<'_, Traffic> {
         self.traffic.lock().expect("traffic")
+    }
+
+    /// Loses every frame toward the ground while `on` (the uplink works).
+    pub fn mute_downlink(&self, on: bool) {
+        self.muted.store(on, Ordering::Relaxed);
     }
 
     pub fn stop(&mut self) {

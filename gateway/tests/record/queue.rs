@@ -119,3 +119,119 @@ fn a_full_disk_stops_the_recording_not_the_flight() {
     let err = recorder.finish().expect_err("the recording failed");
     assert!(err.to_string().contains("no space left"), "{err}");
 }
+
+/// A sink whose writes wait while its gate is closed, saying when one
+/// waits.
+#[derive(Clone, Default)]
+struct GatedSink {
+    bytes: Arc<Mutex<Cursor<Vec<u8>>>>,
+    /// (closed, a write waiting)
+    gate: Arc<(Mutex<(bool, bool)>, std::sync::Condvar)>,
+}
+
+impl GatedSink {
+    fn close(&self) {
+        self.gate.0.lock().expect("gate").0 = true;
+    }
+    fn open(&self) {
+        self.gate.0.lock().expect("gate").0 = false;
+        self.gate.1.notify_all();
+    }
+    fn waiting(&self) -> bool {
+        self.gate.0.lock().expect("gate").1
+    }
+}
+
+impl Write for GatedSink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let (lock, wake) = &*self.gate;
+        let mut state = lock.lock().expect("gate");
+        while state.0 {
+            state.1 = true;
+            state = wake.wait(state).expect("gate");
+        }
+        state.1 = false;
+        drop(state);
+        self.bytes.lock().expect("sink").write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Seek for GatedSink {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.bytes.lock().expect("sink").seek(pos)
+    }
+}
+
+/// The ground mirror's received frames yield the queue's last quarter to
+/// the replica's steps: a writer that stalls drops the frames, not the
+/// steps.
+#[test]
+fn received_frames_yield_the_queue_to_the_replicas_steps() {
+    use crate::supervisor::Step;
+    let sink = GatedSink::default();
+    let project = flight::project();
+    let recorder = Recorder::with_sink(
+        sink.clone(),
+        project.clone(),
+        Options {
+            queue: 16,
+            flush_every: Duration::from_millis(5),
+            ..Options::default()
+        },
+    )
+    .expect("recorder");
+    let mut player = nets::Player::start(project, 0);
+    let start = Step {
+        seq: 0,
+        time: 0,
+        events: Vec::new(),
+        effects: player.effects().collect(),
+    };
+    recorder.start(&start, &player);
+    // The writer stalls in its next chunk.
+    sink.close();
+    let stalled = std::time::Instant::now() + Duration::from_secs(10);
+    while !sink.waiting() {
+        assert!(
+            std::time::Instant::now() < stalled,
+            "the writer never wrote"
+        );
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    // A HEARTBEAT frame, received again and again.
+    let frame = [
+        0xfd, 9, 0, 0, 0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 1, 3, 0x51, 4, 3, 0x1c, 0x7f,
+    ];
+    for i in 0..100 {
+        recorder.received(i, &frame);
+    }
+    let frames_dropped = recorder.dropped();
+    assert!(frames_dropped >= 100 - 12, "{frames_dropped}");
+    for seq in 1..=4 {
+        let step = Step {
+            seq,
+            time: seq * 1000,
+            events: Vec::new(),
+            effects: Vec::new(),
+        };
+        player.advance(seq * 1000);
+        recorder.replica(
+            seq * 1000 + 7,
+            serde_json::json!({"call": "advance"}),
+            step,
+            player.digest(),
+        );
+    }
+    assert_eq!(recorder.dropped(), frames_dropped, "no step dropped");
+    sink.open();
+    let report = recorder.finish().expect("finished");
+    assert_eq!(report.dropped_steps, 0);
+    assert_eq!(report.steps, 5);
+    let bytes = sink.bytes.lock().expect("sink").get_ref().clone();
+    let rec = read::read(&bytes, true).expect("readable");
+    assert_eq!(rec.inputs.len(), 5);
+    assert_eq!(rec.frame_count() as u64, 100 - frames_dropped);
+}

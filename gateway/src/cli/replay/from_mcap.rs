@@ -134,6 +134,11 @@ pub(crate) fn input<'a>(
             choice: choice.clone(),
         },
         Recorded::Start => return Err(format!("a second start at step {seq}")),
+        Recorded::Replica(_) => {
+            return Err(format!(
+                "step {seq} is a ground mirror's call, not a Supervisor input"
+            ))
+        }
     })
 }
 
@@ -199,6 +204,25 @@ pub fn run(args: Args) -> VerbResult {
                 out.out.flush().map_err(io)?;
                 std::thread::sleep(wait);
             }
+        }
+        if let Recorded::Replica(json) = input {
+            // A ground mirror's recording: the replica's calls on its player.
+            let call = crate::mirror::call::call_from(json).ok_or_else(|| {
+                miette::miette!("{name}: step {seq}: not a call of the replica: {json}")
+            })?;
+            let step = sup
+                .play_with(time, |p| crate::mirror::call::apply(p, time, &call))
+                .map_err(|e| miette::miette!("{name}: step {seq}: {e}"))?;
+            if let crate::mirror::call::Call::Record { inputs, .. } = &call {
+                print_record_inputs(&mut out, &project, inputs).map_err(io)?;
+            }
+            steps += 1;
+            out.effects(&project, &step.effects).map_err(io)?;
+            if args.check_against {
+                difference = compare(&project, &step, &sup.player().digest(), rec.steps.get(seq));
+            }
+            last = time;
+            continue;
         }
         let input = self::input(&rec, *seq, input).map_err(|e| miette::miette!("{name}: {e}"))?;
         if matches!(input, Input::Frame(_)) {
@@ -309,4 +333,40 @@ pub fn run(args: Args) -> VerbResult {
             Ok(Outcome::Success)
         }
     }
+}
+
+/// The inputs of a downlink step record a mirror's replica played, printed
+/// as `petrel mirror` prints them.
+fn print_record_inputs<W: Write>(
+    out: &mut Timeline<W>,
+    project: &nets::Project,
+    inputs: &[crate::mirror::record::Input],
+) -> std::io::Result<()> {
+    use crate::mirror::record::Input as Downlink;
+    for input in inputs {
+        match input {
+            Downlink::Elaborated { time, event }
+            | Downlink::Program { time, event }
+            | Downlink::Answer { time, event } => out.event(project, *time, event, None)?,
+            Downlink::Result { time, id, outcome } => {
+                let (ok, text) = match outcome {
+                    nets::Outcome::Done(_) => (true, "done".to_owned()),
+                    nets::Outcome::Failed(r) => (false, format!("failed: {r}")),
+                };
+                out.input(
+                    *time,
+                    "reply",
+                    json!({"id": id, "ok": ok}),
+                    &format!("REPLY  #{id} {text}"),
+                )?;
+            }
+            Downlink::Answered { time, id, choice } => out.input(
+                *time,
+                "answer",
+                json!({"answer": id, "choice": choice}),
+                &format!("ANSWER #{id} {choice}"),
+            )?,
+        }
+    }
+    Ok(())
 }
