@@ -12,6 +12,8 @@
 mod flight;
 #[path = "mirror/router.rs"]
 mod router;
+#[path = "mirror/wire.rs"]
+mod wire;
 
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -21,14 +23,12 @@ use flight::{
 };
 use router::{Loss, Router, Traffic};
 use sitl_tests::SimState;
+use wire::{check_recording, only_resync_requests, the_recording_checks_out};
 
 /// The scenarios' mission file (DEC reads it).
 pub const MISSION_FILE: &str = "mission.toml";
 
 const MAX_SIM_S: f64 = 420.0;
-const MIRROR_SYSTEM: u8 = 245;
-const MIRROR_COMPONENT: u8 = 190;
-const PAYLOAD_TYPE: u16 = 0xD04D;
 
 fn over(s: &SimState) -> bool {
     (s.landed && !s.armed && !s.reached.is_empty()) || s.crashed
@@ -151,62 +151,6 @@ fn fly_mirrored_with(name: &str, faults: &[&str], loss: Loss, run_args: &[&str])
     }
 }
 
-/// `petrel replay FILE PROJECT --check-against`: (exit code, stderr).
-fn check_recording(file: &std::path::Path) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
-        .arg("replay")
-        .arg(file)
-        .arg(project())
-        .arg("--check-against")
-        .output()
-        .expect("petrel replay runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-/// The mirror's recording replays its replica exactly: every call's
-/// effects and digest. Returns the number of steps replayed.
-fn the_recording_checks_out(name: &str, m: &Mirrored) -> u64 {
-    let (code, err) = check_recording(&m.recording);
-    assert_eq!(
-        code, 0,
-        "{name}: petrel replay --check-against on the mirror's recording\n{err}\n{}",
-        m.mirror_err
-    );
-    let recorded = m
-        .mirror_err
-        .lines()
-        .find_map(|l| {
-            l.strip_prefix("recorded ")?
-                .split(' ')
-                .next()?
-                .parse::<u64>()
-                .ok()
-        })
-        .unwrap_or_else(|| {
-            panic!(
-                "{name}: the mirror did not say what it recorded\n{}",
-                m.mirror_err
-            )
-        });
-    let replayed = err
-        .lines()
-        .find_map(|l| {
-            l.strip_prefix("check: the ")?
-                .split(' ')
-                .next()?
-                .parse::<u64>()
-                .ok()
-        })
-        .unwrap_or_else(|| panic!("{name}: {err}"));
-    // The start and every call of the replica.
-    assert_eq!(replayed, recorded, "{name}: {err}");
-    eprintln!("{name}: the mirror's recording replays and checks out ({replayed} steps)");
-    replayed
-}
-
 /// Rewrites a recording, editing its JSON messages.
 fn rewrite(
     input: &std::path::Path,
@@ -231,64 +175,6 @@ fn rewrite(
     }
     writer.finish().expect("finished");
     edits
-}
-
-/// A uvarint of the documented encoding (docs/mirror.md), read here
-/// independently of the gateway's code.
-fn uvarint(b: &[u8], at: &mut usize) -> Option<u64> {
-    let mut v = 0u64;
-    for i in 0..10 {
-        let byte = *b.get(*at)?;
-        *at += 1;
-        v |= u64::from(byte & 0x7f) << (7 * i);
-        if byte & 0x80 == 0 {
-            return Some(v);
-        }
-    }
-    None
-}
-
-/// Every frame the mirror sent: a MAVLink 2 TUNNEL from the mirror's
-/// (system, component), Petrel's payload type, to the onboard gateway
-/// (vehicle 1, component 191), holding only resync requests (kinds 5
-/// resend and 6 snapshot). Never a HEARTBEAT, never system 255.
-fn only_resync_requests(frames: &[Vec<u8>]) -> usize {
-    for bytes in frames {
-        let f = elaboration::Frame::parse(bytes).expect("the mirror's frames are valid MAVLink");
-        assert_eq!(
-            f.message_id(),
-            385,
-            "the mirror sent message {}",
-            f.message_id()
-        );
-        assert_eq!(
-            (f.system_id(), f.component_id()),
-            (MIRROR_SYSTEM, MIRROR_COMPONENT)
-        );
-        let p = f.payload();
-        assert_eq!(u16::from_le_bytes([p[0], p[1]]), PAYLOAD_TYPE);
-        assert_eq!((p[2], p[3]), (1, 191), "addressed to the onboard gateway");
-        let len = usize::from(p[4]);
-        let mut payload = p[5..].to_vec();
-        payload.resize(128, 0);
-        let payload = &payload[..len];
-        assert_eq!(payload[0], 1, "layout version");
-        let mut at = 1;
-        while at < payload.len() {
-            let kind = payload[at];
-            at += 1;
-            match kind {
-                5 => {
-                    uvarint(payload, &mut at).expect("from");
-                    uvarint(payload, &mut at).expect("count");
-                }
-                6 => at += 4,
-                k => panic!("the mirror sent a record of kind {k}: {payload:?}"),
-            }
-        }
-        assert_eq!(at, payload.len());
-    }
-    frames.len()
 }
 
 fn ended_equal(name: &str, m: &Mirrored) {
@@ -391,7 +277,7 @@ fn ended_equal(name: &str, m: &Mirrored) {
         m.mirror_err
     );
     only_resync_requests(&m.traffic.from_ground);
-    the_recording_checks_out(name, m);
+    the_recording_checks_out(name, &m.recording, &m.mirror_err);
 }
 
 #[test]

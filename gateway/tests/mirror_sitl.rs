@@ -13,6 +13,8 @@
 mod flight;
 #[path = "scenarios/real.rs"]
 mod real;
+#[path = "mirror/wire.rs"]
+mod wire;
 
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -26,6 +28,7 @@ use mavlink::dialects::ardupilotmega::*;
 use mavlink::{MavConnection, MavHeader};
 use real::Truth;
 use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
+use wire::{only_resync_requests, the_recording_checks_out};
 
 /// The mission file DEC reads, in the project folder.
 pub const MISSION_FILE: &str = "mission.toml";
@@ -34,9 +37,6 @@ pub const MISSION_FILE: &str = "mission.toml";
 const INSTANCE: u8 = 9;
 const SPEEDUP: u32 = 10;
 const MAX_SIM_S: f64 = 700.0;
-const MIRROR_SYSTEM: u8 = 245;
-const MIRROR_COMPONENT: u8 = 190;
-const PAYLOAD_TYPE: u16 = 0xD04D;
 /// The ground station ArduPlane watches (`SYSID_MYGCS`'s default).
 const GCS: (u8, u8) = (255, 190);
 
@@ -322,62 +322,6 @@ impl Drop for Ground {
     }
 }
 
-/// A uvarint of the documented encoding (docs/mirror.md), read here
-/// independently of the gateway's code.
-fn uvarint(b: &[u8], at: &mut usize) -> Option<u64> {
-    let mut v = 0u64;
-    for i in 0..10 {
-        let byte = *b.get(*at)?;
-        *at += 1;
-        v |= u64::from(byte & 0x7f) << (7 * i);
-        if byte & 0x80 == 0 {
-            return Some(v);
-        }
-    }
-    None
-}
-
-/// Every frame the mirror sent is a MAVLink 2 TUNNEL of Petrel's payload
-/// type from the mirror to the onboard gateway holding resync requests
-/// only (kinds 5 and 6): never a HEARTBEAT, never system 255.
-fn only_resync_requests(frames: &[Vec<u8>]) {
-    for bytes in frames {
-        let f = Frame::parse(bytes).expect("parsed once already");
-        assert_eq!(
-            f.message_id(),
-            385,
-            "the mirror sent message {}",
-            f.message_id()
-        );
-        assert_eq!(
-            (f.system_id(), f.component_id()),
-            (MIRROR_SYSTEM, MIRROR_COMPONENT)
-        );
-        let p = f.payload();
-        assert_eq!(u16::from_le_bytes([p[0], p[1]]), PAYLOAD_TYPE);
-        assert_eq!((p[2], p[3]), (1, 191), "addressed to the onboard gateway");
-        let len = usize::from(p[4]);
-        let mut payload = p[5..].to_vec();
-        payload.resize(128, 0);
-        let payload = &payload[..len];
-        assert_eq!(payload[0], 1, "layout version");
-        let mut at = 1;
-        while at < payload.len() {
-            let kind = payload[at];
-            at += 1;
-            match kind {
-                5 => {
-                    uvarint(payload, &mut at).expect("from");
-                    uvarint(payload, &mut at).expect("count");
-                }
-                6 => at += 4,
-                k => panic!("the mirror sent a record of kind {k}: {payload:?}"),
-            }
-        }
-        assert_eq!(at, payload.len());
-    }
-}
-
 fn fired(lines: &[serde_json::Value]) -> Vec<String> {
     lines
         .iter()
@@ -415,6 +359,8 @@ fn arduplane_routes_the_downlink_and_its_gcs_failsafe_still_triggers_with_the_mi
             "--duration",
             &format!("{:.0}", max_wall.as_secs_f64() + 20.0),
         ])
+        .arg("--record")
+        .arg(dir.join("mirror.mcap"))
         .arg("--json")
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
@@ -512,10 +458,17 @@ fn arduplane_routes_the_downlink_and_its_gcs_failsafe_still_triggers_with_the_mi
         "no GCS failsafe after the ground station fell silent at {silent_at:.1} s: texts {:?}",
         truth.texts
     );
+    // RTL, which RTL_AUTOLAND 2 turns into the landing sequence (flown in
+    // AUTO) at once: the RTL may last less than one heartbeat.
     let rtl = truth.modes_after(silent_at);
+    let landing = truth
+        .texts
+        .iter()
+        .any(|(t, text)| *t >= silent_at && text.contains("Landing sequence start"));
     assert!(
-        rtl.iter().any(|m| *m == "RTL"),
-        "ArduPlane did not return after the GCS failsafe: modes after {silent_at:.1} s {rtl:?}"
+        rtl.contains(&"RTL") || landing,
+        "ArduPlane did not return after the GCS failsafe: modes after {silent_at:.1} s {rtl:?}, texts {:?}",
+        truth.texts
     );
     assert!(
         truth.down(),
@@ -571,4 +524,6 @@ fn arduplane_routes_the_downlink_and_its_gcs_failsafe_still_triggers_with_the_mi
     );
     // On the wire: resync requests only.
     only_resync_requests(&frames);
+    // The mirror's own recording replays its replica exactly.
+    the_recording_checks_out("mirror_sitl", &dir.join("mirror.mcap"), &mirror_err);
 }

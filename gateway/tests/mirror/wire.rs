@@ -1,0 +1,124 @@
+#![allow(dead_code)] // shared by several test binaries, each using a part
+//! What the mirror tests check on the wire and in the mirror's recording,
+//! read independently of the gateway's code (docs/mirror.md's encoding).
+
+use std::path::Path;
+use std::process::Command;
+
+/// The mirror's own (system, component) and Petrel's TUNNEL payload type.
+pub const MIRROR_SYSTEM: u8 = 245;
+pub const MIRROR_COMPONENT: u8 = 190;
+pub const PAYLOAD_TYPE: u16 = 0xD04D;
+
+/// `petrel replay FILE PROJECT --check-against`: (exit code, stderr).
+pub fn check_recording(file: &Path) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("replay")
+        .arg(file)
+        .arg(super::flight::project())
+        .arg("--check-against")
+        .output()
+        .expect("petrel replay runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// The mirror's recording replays its replica exactly: every call's
+/// effects and digest. Returns the number of steps replayed.
+pub fn the_recording_checks_out(name: &str, recording: &Path, mirror_err: &str) -> u64 {
+    let (code, err) = check_recording(recording);
+    assert_eq!(
+        code, 0,
+        "{name}: petrel replay --check-against on the mirror's recording\n{err}\n{}",
+        mirror_err
+    );
+    let recorded = mirror_err
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("recorded ")?
+                .split(' ')
+                .next()?
+                .parse::<u64>()
+                .ok()
+        })
+        .unwrap_or_else(|| {
+            panic!(
+                "{name}: the mirror did not say what it recorded\n{}",
+                mirror_err
+            )
+        });
+    let replayed = err
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("check: the ")?
+                .split(' ')
+                .next()?
+                .parse::<u64>()
+                .ok()
+        })
+        .unwrap_or_else(|| panic!("{name}: {err}"));
+    // The start and every call of the replica.
+    assert_eq!(replayed, recorded, "{name}: {err}");
+    eprintln!("{name}: the mirror's recording replays and checks out ({replayed} steps)");
+    replayed
+}
+
+/// A uvarint of the documented encoding (docs/mirror.md), read here
+/// independently of the gateway's code.
+pub fn uvarint(b: &[u8], at: &mut usize) -> Option<u64> {
+    let mut v = 0u64;
+    for i in 0..10 {
+        let byte = *b.get(*at)?;
+        *at += 1;
+        v |= u64::from(byte & 0x7f) << (7 * i);
+        if byte & 0x80 == 0 {
+            return Some(v);
+        }
+    }
+    None
+}
+
+/// Every frame the mirror sent: a MAVLink 2 TUNNEL from the mirror's
+/// (system, component), Petrel's payload type, to the onboard gateway
+/// (vehicle 1, component 191), holding only resync requests (kinds 5
+/// resend and 6 snapshot). Never a HEARTBEAT, never system 255.
+pub fn only_resync_requests(frames: &[Vec<u8>]) -> usize {
+    for bytes in frames {
+        let f = elaboration::Frame::parse(bytes).expect("the mirror's frames are valid MAVLink");
+        assert_eq!(
+            f.message_id(),
+            385,
+            "the mirror sent message {}",
+            f.message_id()
+        );
+        assert_eq!(
+            (f.system_id(), f.component_id()),
+            (MIRROR_SYSTEM, MIRROR_COMPONENT)
+        );
+        let p = f.payload();
+        assert_eq!(u16::from_le_bytes([p[0], p[1]]), PAYLOAD_TYPE);
+        assert_eq!((p[2], p[3]), (1, 191), "addressed to the onboard gateway");
+        let len = usize::from(p[4]);
+        let mut payload = p[5..].to_vec();
+        payload.resize(128, 0);
+        let payload = &payload[..len];
+        assert_eq!(payload[0], 1, "layout version");
+        let mut at = 1;
+        while at < payload.len() {
+            let kind = payload[at];
+            at += 1;
+            match kind {
+                5 => {
+                    uvarint(payload, &mut at).expect("from");
+                    uvarint(payload, &mut at).expect("count");
+                }
+                6 => at += 4,
+                k => panic!("the mirror sent a record of kind {k}: {payload:?}"),
+            }
+        }
+        assert_eq!(at, payload.len());
+    }
+    frames.len()
+}
