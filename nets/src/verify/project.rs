@@ -1417,10 +1417,8 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
             for &(n2, t2) in &list[i + 1..] {
                 let a = &project.nets[n1].transitions[t1];
                 let b = &project.nets[n2].transitions[t2];
-                if super::exclusive::intended(a, b) {
-                    continue;
-                }
-                if let Some(&p) = a.flat_inputs.iter().find(|p| b.flat_inputs.contains(p)) {
+                let shared = a.flat_inputs.iter().find(|p| b.flat_inputs.contains(p));
+                if let Some(&p) = shared.filter(|_| !super::exclusive::intended(a, b)) {
                     let text = format!(
                         "conflict on `{e}`: {}.{} and {}.{} share input place {}; {}.{} is declared first and wins",
                         project.nets[n1].name,
