@@ -25,7 +25,8 @@ pub fn siblings(project: &Project, net: NetId, t: TransitionId) -> Vec<(NetId, T
 
 /// Orders the transitions one event triggers (given in declaration order)
 /// as the player tries them: each time, the first declared whose siblings
-/// of higher rank have all been placed. Siblings therefore come highest
+/// of higher rank, and of equal rank declared before it, have all been
+/// placed. Siblings therefore come highest
 /// rank first, ties in declaration order, and without declarations the
 /// order is the declaration order.
 pub fn order(nets: &[Net], waiting: &mut Vec<(NetId, TransitionId)>) {
