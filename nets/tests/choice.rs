@@ -255,3 +255,21 @@ fn the_examples_declarations_keep_the_declaration_order() {
         }
     }
 }
+
+#[test]
+fn a_rank_moves_a_transition_before_its_lower_siblings_and_keeps_the_rest_in_order() {
+    // x (from p, q), z (from q) and y (from p, priority 5): y outranks its
+    // sibling x, which keeps its place before its equal sibling z.
+    let p = project(
+        "name = \"N\"\nplaces = [\"p\", \"q\", \"r\"]\ninitial = [\"p\", \"q\"]\nfinal = [\"r\"]\n\
+         [[transition]]\nname = \"x\"\nfrom = [\"p\", \"q\"]\nto = [\"r\"]\non = \"e\"\n\
+         [[transition]]\nname = \"z\"\nfrom = [\"q\"]\nto = [\"r\"]\non = \"e\"\n\
+         [[transition]]\nname = \"y\"\nfrom = [\"p\"]\nto = []\non = \"e\"\npriority = 5\n",
+    );
+    let names: Vec<&str> = p.triggers["e"]
+        .iter()
+        .map(|&(n, t)| p.nets[n].transitions[t].name.as_str())
+        .collect();
+    assert_eq!(names, ["y", "x", "z"]);
+    assert_eq!(fires(&p, 0), ["N.y", "N.z"]);
+}
