@@ -35,6 +35,7 @@
 
 pub mod action;
 pub mod binary;
+pub mod choice;
 pub mod dot;
 pub mod event;
 pub mod expr;

@@ -10,11 +10,12 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use crate::action::{self, ActionSyntax};
+use crate::choice;
 use crate::event::Category;
 use crate::expr::{self, Context, Expr};
 use crate::model::{
-    Action, Args, Ask, EventDecl, Function, Global, Guard, Limits, Net, NetId, Place, PlaceRef,
-    Program, Project, Transition, ASK_TIMEOUT,
+    Action, Args, Ask, Choice, EventDecl, Function, Global, Guard, Limits, Net, NetId, Place,
+    PlaceRef, Program, Project, Transition, ASK_TIMEOUT,
 };
 use crate::source::{LoadError, Problem, SourceFile, Sources};
 use crate::time::parse_duration;
@@ -109,6 +110,10 @@ struct RawTransition {
     when: Option<Spanned<String>>,
     #[serde(default, rename = "do")]
     actions: Vec<Spanned<String>>,
+    /// `else = true`: the fallback of its siblings.
+    #[serde(rename = "else")]
+    otherwise: Option<Spanned<bool>>,
+    priority: Option<Spanned<i64>>,
 }
 
 /// Loads and checks a project.
@@ -475,6 +480,10 @@ impl Loader {
                 }
             }
         }
+        self.choices(&project, &raw_nets);
+        for waiting in project.triggers.values_mut() {
+            choice::order(&project.nets, waiting);
+        }
         if !nets_complete {
             // References to nets that failed to parse would only add noise;
             // the parse problems are already reported.
@@ -482,6 +491,39 @@ impl Loader {
                 .retain(|p| !p.message.starts_with("unknown net "));
         }
         Some(project)
+    }
+
+    /// A transition's `else` or `priority`: only for one waiting for an
+    /// event, not both.
+    fn choice(&mut self, file: &SourceFile, t: &RawTransition, waits: bool) -> Choice {
+        let choice = match (&t.otherwise, &t.priority) {
+            (Some(e), Some(_)) if *e.get_ref() => {
+                self.problem(file, e.span(), format!("transition `{}` has both `else` and `priority`: an `else` transition is tried after all its siblings, whatever their priority", t.name.get_ref()));
+                return Choice::Ordinary;
+            }
+            (Some(e), _) if *e.get_ref() => (Choice::Else, e.span()),
+            (_, Some(p)) => (Choice::Priority(*p.get_ref()), p.span()),
+            _ => return Choice::Ordinary,
+        };
+        if !waits {
+            self.problem(file, choice.1, format!("immediate transition `{}` cannot have `else` or `priority`: immediate transitions fire one at a time in declaration order (give it `on = \"EVENT\"`)", t.name.get_ref()));
+            return Choice::Ordinary;
+        }
+        choice.0
+    }
+
+    /// Declarations of `else` and `priority` that decide nothing.
+    fn choices(&mut self, project: &Project, raw_nets: &[(SourceFile, RawNet, bool)]) {
+        for (n, t, message) in choice::problems(project) {
+            let (file, raw, _) = &raw_nets[n];
+            let raw = &raw.transitions[t];
+            let span = match (&raw.otherwise, &raw.priority) {
+                (Some(e), _) if *e.get_ref() => e.span(),
+                (_, Some(p)) => p.span(),
+                _ => raw.name.span(),
+            };
+            self.problem(file, span, message);
+        }
     }
 
     fn net_shell(&mut self, file: &SourceFile, raw: &RawNet, active: bool) -> Net {
@@ -660,7 +702,9 @@ impl Loader {
                 .iter()
                 .map(|p| scope.project.flat(net, *p))
                 .collect();
+            let choice = self.choice(file, t, event.is_some());
             out.push(Transition {
+                choice,
                 name: t.name.get_ref().clone(),
                 inputs,
                 outputs,

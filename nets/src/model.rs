@@ -32,8 +32,10 @@ pub struct Project {
     pub events: BTreeMap<String, EventDecl>,
     /// Limits on one input's run to completion.
     pub limits: Limits,
-    /// Event name → the transitions it triggers, in priority order (nets in
-    /// project order, transitions in file order).
+    /// Event name → the transitions it triggers, in the order the player
+    /// tries them: declaration order (nets in project order, transitions in
+    /// file order), except that a transition comes after the siblings that
+    /// outrank it (see [`Choice`]).
     pub triggers: HashMap<String, Vec<(NetId, TransitionId)>>,
     /// Flat place numbering: globals first, then each net's places.
     pub place_offsets: Vec<usize>,
@@ -112,6 +114,48 @@ pub struct Transition {
     /// Flat place indices (see [`Project::place_offsets`]).
     pub flat_inputs: Vec<usize>,
     pub flat_outputs: Vec<usize>,
+    /// Its rank in a choice with its siblings: the transitions waiting for
+    /// the same event that share an input place with it.
+    pub choice: Choice,
+}
+
+/// How a transition ranks among its siblings (the transitions waiting for
+/// the same event that share an input place with it): the player tries a
+/// higher rank first, equal ranks in declaration order, and `petrel check`
+/// takes two siblings of different ranks for an intended choice.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Choice {
+    /// No declaration: priority 0.
+    #[default]
+    Ordinary,
+    /// `priority = N`: tried before its siblings of lower priority.
+    Priority(i64),
+    /// `else = true`: tried after all its siblings, so it takes the event
+    /// only when none of them does.
+    Else,
+}
+
+impl Choice {
+    /// Higher is tried first.
+    pub fn rank(self) -> (bool, i64) {
+        match self {
+            Choice::Ordinary => (true, 0),
+            Choice::Priority(p) => (true, p),
+            Choice::Else => (false, 0),
+        }
+    }
+}
+
+impl Transition {
+    /// Whether `other` waits for the same event and shares an input place.
+    pub fn sibling_of(&self, other: &Transition) -> bool {
+        self.event.is_some()
+            && self.event == other.event
+            && self
+                .flat_inputs
+                .iter()
+                .any(|p| other.flat_inputs.contains(p))
+    }
 }
 
 /// A guard and its source text.

@@ -146,7 +146,7 @@ fn broken_net_files_report_the_exact_problem_and_position() {
         ),
         (
             format!("{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nguard = \"x\"\n"),
-            vec!["n.toml:7:1: unknown field `guard`, expected one of `name`, `description`, `from`, `to`, `on`, `when`, `do`"],
+            vec!["n.toml:7:1: unknown field `guard`, expected one of `name`, `description`, `from`, `to`, `on`, `when`, `do`, `else`, `priority`"],
         ),
         (
             format!("{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nfrom = [\"b\"]\n"),
@@ -352,5 +352,68 @@ fn the_examples_in_docs_nets_md_parse() {
         "{blocks} blocks, {checked} checked"
     );
     assert_eq!(table, 7, "one row per action in the actions table");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// A net with transitions `t` (from `a`, on `wp`, then `t_extra`) and `u`
+/// (from `u_from`, on `u_on`, then `u_extra`).
+fn siblings(t_extra: &str, u_from: &str, u_on: &str, u_extra: &str) -> String {
+    format!(
+        "{HEAD}[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"wp\"\n{t_extra}\
+         [[transition]]\nname = \"u\"\nfrom = [\"{u_from}\"]\nto = [\"b\"]\n{u_on}{u_extra}"
+    )
+}
+
+#[test]
+fn choices_that_decide_nothing_report_the_exact_problem_and_position() {
+    let on = "on = \"wp\"\n";
+    let cases: Vec<(String, Vec<&str>)> = vec![
+        (siblings("", "a", on, "else = true\n"), vec![]),
+        (siblings("priority = -1\n", "a", on, ""), vec![]),
+        (
+            siblings("else = true\n", "b", on, ""),
+            vec!["n.toml:9:8: `else` on transition `t`, but no other transition waiting for `wp` shares an input place with it: there is no choice to fall back from"],
+        ),
+        (
+            siblings("priority = 2\n", "a", "on = \"other\"\n", ""),
+            vec!["n.toml:9:12: a priority on transition `t`, but no other transition waiting for `wp` shares an input place with it: there is no conflict to decide"],
+        ),
+        (
+            siblings("else = true\n", "a", on, "else = true\n"),
+            vec!["n.toml:15:8: `N.t` and `N.u` are both `else` for `wp` on place N.a: one transition at most falls back when no other takes the event (give the other a guard or a priority)"],
+        ),
+        (
+            siblings("priority = 1\n", "a", on, "priority = 1\n"),
+            vec![
+                "n.toml:9:12: `priority = 1` on transition `t` decides nothing: its siblings on `wp` (`N.u`) have the same priority",
+                "n.toml:15:12: `priority = 1` on transition `u` decides nothing: its siblings on `wp` (`N.t`) have the same priority",
+            ],
+        ),
+        (
+            siblings("priority = 0\n", "a", on, ""),
+            vec!["n.toml:9:12: `priority = 0` on transition `t` decides nothing: its siblings on `wp` (`N.u`) have the same priority"],
+        ),
+        (
+            siblings("", "a", "", "else = true\n"),
+            vec!["n.toml:13:8: immediate transition `u` cannot have `else` or `priority`: immediate transitions fire one at a time in declaration order (give it `on = \"EVENT\"`)"],
+        ),
+        (
+            siblings("else = true\npriority = 3\n", "a", on, ""),
+            vec!["n.toml:9:8: transition `t` has both `else` and `priority`: an `else` transition is tried after all its siblings, whatever their priority"],
+        ),
+        (
+            siblings("priority = \"high\"\n", "a", on, ""),
+            vec!["n.toml:9:12: invalid type: string \"high\", expected i64"],
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (i, (net, expected)) in cases.iter().enumerate() {
+        let got = problems(net);
+        if got != *expected {
+            failures.push(format!(
+                "case {i}:\n  expected {expected:#?}\n  got      {got:#?}"
+            ));
+        }
+    }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -6,7 +6,8 @@
 //! standing for the globals it uses, and the arcs. What a P/T net cannot say
 //! travels in `<toolspecific tool="petrel" version="1">`: on the net, its
 //! name and whether it starts active; on a place, whether it is final; on a
-//! transition, its event, guard and actions, as written in the net file.
+//! transition, its event, guard, `else` or priority and actions, as written
+//! in the net file.
 //! [`import_net`] reads such a document back into a net file.
 
 use std::fmt::Write as _;
@@ -15,7 +16,7 @@ use super::pnml::{
     read_document, write_document, ArcNode, Document, NetDoc, Page, PlaceNode, PnmlError, Pos,
     ReferenceNode, ToolSpecific, TransitionNode, PTNET_TYPE,
 };
-use crate::model::{NetId, PlaceRef, Project};
+use crate::model::{Choice, NetId, PlaceRef, Project};
 
 /// The `tool` of Petrel's `<toolspecific>` elements.
 pub const TOOL: &str = "petrel";
@@ -128,6 +129,13 @@ pub fn export_net(project: &Project, n: NetId) -> String {
         }
         if let Some(g) = &t.guard {
             let _ = write!(content, "<guard>{}</guard>", escape(&g.text));
+        }
+        match t.choice {
+            Choice::Ordinary => {}
+            Choice::Priority(p) => {
+                let _ = write!(content, "<priority>{p}</priority>");
+            }
+            Choice::Else => content.push_str("<else/>"),
         }
         for a in &t.action_source {
             let _ = write!(content, "<action>{}</action>", escape(a));
@@ -348,6 +356,19 @@ pub fn import_net(text: &str) -> Result<(String, bool), ImportError> {
                     "guard" => {
                         let _ = writeln!(out, "when = {}", toml_string(&text));
                     }
+                    "else" => {
+                        let _ = writeln!(out, "else = true");
+                    }
+                    // A number as it is; anything else as a string, which
+                    // the loader reports.
+                    "priority" => match text.trim().parse::<i64>() {
+                        Ok(p) => {
+                            let _ = writeln!(out, "priority = {p}");
+                        }
+                        Err(_) => {
+                            let _ = writeln!(out, "priority = {}", toml_string(&text));
+                        }
+                    },
                     "action" => actions.push(text),
                     _ => {}
                 }

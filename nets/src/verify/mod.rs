@@ -18,6 +18,7 @@
 //! it returns).
 
 pub mod alone;
+pub mod exclusive;
 pub mod explore;
 pub mod export;
 pub mod graph;

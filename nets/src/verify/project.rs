@@ -1112,6 +1112,33 @@ fn fired_of(effects: &[Effect]) -> Vec<(NetId, TransitionId)> {
 const LOOP_SEARCHES: usize = 500;
 
 impl Explored {
+    /// Whether the exploration proves that a conflict never arises: it is
+    /// complete, no net emits the event (so it only ever arrives as an
+    /// input, in an explored state) and no explored state marks the input
+    /// places of both transitions with both nets active.
+    fn never_together(&self, w: &Warning) -> bool {
+        let Some((event, pair)) = &w.conflict else {
+            return false;
+        };
+        if !self.space.complete
+            || event == names::NET_FAULT
+            || emitted_events(&self.project).contains(event)
+        {
+            return false;
+        }
+        let enabled = |st: &[u8], (n, t): (NetId, TransitionId)| {
+            self.codec.active(st, n)
+                && self.project.nets[n].transitions[t]
+                    .flat_inputs
+                    .iter()
+                    .all(|&p| self.codec.marked(st, p))
+        };
+        !(0..self.space.store.len() as u32).any(|s| {
+            let st = self.space.store.get(s);
+            enabled(st, pair[0]) && enabled(st, pair[1])
+        })
+    }
+
     /// The verdict for the whole project (`None`) or one net in it, with
     /// the warnings found without exploring if `statics`.
     fn verdict(&self, net: Option<NetId>, statics: bool) -> Report {
@@ -1256,7 +1283,9 @@ impl Explored {
 
         let fired = &self.fired;
         let statics = if statics {
-            static_warnings(project)
+            let mut found = static_warnings(project);
+            found.retain(|w| !self.never_together(w));
+            found
         } else {
             Vec::new()
         };
@@ -1370,13 +1399,16 @@ fn emitted_events(project: &Project) -> BTreeSet<String> {
 pub struct Warning {
     pub text: String,
     pub nets: Vec<NetId>,
+    /// For a conflict: the event and the two transitions.
+    pub conflict: Option<(String, [(NetId, TransitionId); 2])>,
 }
 
 /// Warnings found without exploring: conflicts, events nothing produces,
 /// events nothing consumes.
 pub fn static_warnings(project: &Project) -> Vec<Warning> {
     let mut out = Vec::new();
-    // Conflicts: two transitions waiting for one event share an input place.
+    // Conflicts: two transitions waiting for one event share an input place,
+    // unless their guards exclude each other or they declare their ranks.
     let mut events: Vec<&String> = project.triggers.keys().collect();
     events.sort();
     for e in events {
@@ -1385,7 +1417,8 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
             for &(n2, t2) in &list[i + 1..] {
                 let a = &project.nets[n1].transitions[t1];
                 let b = &project.nets[n2].transitions[t2];
-                if let Some(&p) = a.flat_inputs.iter().find(|p| b.flat_inputs.contains(p)) {
+                let shared = a.flat_inputs.iter().find(|p| b.flat_inputs.contains(p));
+                if let Some(&p) = shared.filter(|_| !super::exclusive::intended(a, b)) {
                     let text = format!(
                         "conflict on `{e}`: {}.{} and {}.{} share input place {}; {}.{} is declared first and wins",
                         project.nets[n1].name,
@@ -1399,6 +1432,7 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
                     out.push(Warning {
                         text,
                         nets: vec![n1, n2],
+                        conflict: Some((e.clone(), [(n1, t1), (n2, t2)])),
                     });
                 }
             }
@@ -1423,6 +1457,7 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
                         net.name, t.name, net.name
                     ),
                     nets: vec![ni],
+                    conflict: None,
                 });
             }
         }
@@ -1442,6 +1477,7 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
             out.push(Warning {
                 text: format!("event `{e}` is emitted but no transition waits for it"),
                 nets,
+                conflict: None,
             });
         }
     }
