@@ -61,6 +61,9 @@ const PARAMS: &[(&str, f64)] = &[
     ("SR0_RC_CHAN", 2.0),
 ];
 
+/// Bytes kept with the time they were read (µs since the UNIX epoch).
+type Stamped = Arc<Mutex<Vec<(u64, Vec<u8>)>>>;
+
 /// A pass-through between the mirror and SERIAL0 that keeps the bytes the
 /// mirror sends. SITL listens first; the mirror connects here.
 struct Tap {
@@ -68,7 +71,7 @@ struct Tap {
     from_mirror: Arc<Mutex<Vec<u8>>>,
     /// What SITL sent the mirror: (µs since the UNIX epoch, bytes), read by
     /// read, for a tlog of the ground's telemetry.
-    to_mirror: Arc<Mutex<Vec<(u64, Vec<u8>)>>>,
+    to_mirror: Stamped,
     stop: Arc<AtomicBool>,
     threads: Vec<std::thread::JoinHandle<()>>,
 }
@@ -99,7 +102,7 @@ impl Tap {
             let pump = |mut from: TcpStream,
                         mut to: TcpStream,
                         keep: Option<Arc<Mutex<Vec<u8>>>>,
-                        stamped: Option<Arc<Mutex<Vec<(u64, Vec<u8>)>>>>| {
+                        stamped: Option<Stamped>| {
                 let stopping = stopping.clone();
                 std::thread::spawn(move || {
                     let _ = from.set_read_timeout(Some(Duration::from_millis(100)));
