@@ -435,14 +435,12 @@ impl Player {
         self.state
             .timers
             .retain(|x| !(x.net == net && x.timer == spec.timer));
-        if self.state.timers.len() != before {
-            if self.records() {
-                self.effects.push(Effect::TimerCancelled {
-                    time: now,
-                    net,
-                    timer: spec.timer,
-                });
-            }
+        if self.state.timers.len() != before && self.records() {
+            self.effects.push(Effect::TimerCancelled {
+                time: now,
+                net,
+                timer: spec.timer,
+            });
         }
         if self.records() {
             self.effects.push(Effect::Answered {
@@ -957,14 +955,12 @@ impl Player {
                     self.state
                         .timers
                         .retain(|x| !(x.net == n && x.timer == *timer));
-                    if self.state.timers.len() != before {
-                        if self.records() {
-                            self.effects.push(Effect::TimerCancelled {
-                                time: now,
-                                net: n,
-                                timer: *timer,
-                            });
-                        }
+                    if self.state.timers.len() != before && self.records() {
+                        self.effects.push(Effect::TimerCancelled {
+                            time: now,
+                            net: n,
+                            timer: *timer,
+                        });
                     }
                 }
                 Action::Call {
