@@ -62,6 +62,10 @@ pub struct Player {
     /// handled, with whether the catastrophic reaction raised them; queued
     /// once the occurrence is over (see [`Player::queue_net_faults`]).
     net_faults: Vec<(Params, bool)>,
+    /// Set by the verifier, which reads only firings and faults: no other
+    /// effect is recorded (its millions of steps would build them for
+    /// nothing). Never set in flight.
+    firings_only: bool,
 }
 
 enum Firing {
@@ -115,6 +119,7 @@ impl Player {
             consumed: vec![0; words],
             changed: false,
             net_faults: Vec::new(),
+            firings_only: false,
         }
     }
 
@@ -181,7 +186,8 @@ impl Player {
     /// The verifier's restore: puts `state` (built by the verifier for
     /// this project, so not checked again) in place of the player's own and
     /// an oracle giving `answers`, keeping the buffers of both, so that
-    /// millions of steps allocate little.
+    /// millions of steps allocate little. From then on only firings and
+    /// faults are recorded.
     pub(crate) fn reset_for_verifier(&mut self, state: &State, answers: &[bool]) {
         let s = &mut self.state;
         s.now = state.now;
@@ -200,6 +206,7 @@ impl Player {
         s.next_timer_seq = state.next_timer_seq;
         self.effects.clear();
         self.changed = false;
+        self.firings_only = true;
         match &mut self.oracle {
             Some(o) => {
                 o.answers.clear();
@@ -210,6 +217,11 @@ impl Player {
             }
             None => self.oracle = Some(Oracle::new(answers.to_vec())),
         }
+    }
+
+    /// Whether effects other than firings and faults are recorded.
+    fn records(&self) -> bool {
+        !self.firings_only
     }
 
     /// The oracle, with the questions it was asked.
@@ -286,15 +298,17 @@ impl Player {
         // A result or `net_fault` from outside would stand for one the
         // player never produced: dropped, recorded.
         if crate::outside::player_own(&project, &event.name).is_some() {
-            self.effects.push(Effect::Dropped {
-                time: now,
-                event: Event {
-                    name: event.name.clone(),
-                    category,
-                    params: event.params.clone(),
-                },
-                reason: DropReason::Reserved,
-            });
+            if self.records() {
+                self.effects.push(Effect::Dropped {
+                    time: now,
+                    event: Event {
+                        name: event.name.clone(),
+                        category,
+                        params: event.params.clone(),
+                    },
+                    reason: DropReason::Reserved,
+                });
+            }
             return;
         }
         // The verifier does not know an external event's parameters.
@@ -306,15 +320,17 @@ impl Player {
             oracle.open(false);
         }
         if let Err(reason) = occurred {
-            self.effects.push(Effect::Dropped {
-                time: now,
-                event: Event {
-                    name: event.name.clone(),
-                    category,
-                    params: event.params.clone(),
-                },
-                reason,
-            });
+            if self.records() {
+                self.effects.push(Effect::Dropped {
+                    time: now,
+                    event: Event {
+                        name: event.name.clone(),
+                        category,
+                        params: event.params.clone(),
+                    },
+                    reason,
+                });
+            }
         }
         let tainted = category == Category::Catastrophic;
         self.immediates(&project, now, tainted);
@@ -338,7 +354,9 @@ impl Player {
             _ => None,
         };
         let Some(pending) = pending else {
-            self.effects.push(Effect::LateResult { time: now, id });
+            if self.records() {
+                self.effects.push(Effect::LateResult { time: now, id });
+            }
             return;
         };
         let (name, params) = match (&pending.kind, outcome) {
@@ -390,12 +408,14 @@ impl Player {
         let now = self.state.now.max(now);
         self.state.now = now;
         let refused = |this: &mut Self, reason| {
-            this.effects.push(Effect::AnswerRefused {
-                time: now,
-                id,
-                choice: choice.to_owned(),
-                reason,
-            });
+            if this.records() {
+                this.effects.push(Effect::AnswerRefused {
+                    time: now,
+                    id,
+                    choice: choice.to_owned(),
+                    reason,
+                });
+            }
             Err(reason)
         };
         let Some(Pending {
@@ -415,19 +435,21 @@ impl Player {
         self.state
             .timers
             .retain(|x| !(x.net == net && x.timer == spec.timer));
-        if self.state.timers.len() != before {
+        if self.state.timers.len() != before && self.records() {
             self.effects.push(Effect::TimerCancelled {
                 time: now,
                 net,
                 timer: spec.timer,
             });
         }
-        self.effects.push(Effect::Answered {
-            time: now,
-            id,
-            net,
-            choice: choice.to_owned(),
-        });
+        if self.records() {
+            self.effects.push(Effect::Answered {
+                time: now,
+                id,
+                net,
+                choice: choice.to_owned(),
+            });
+        }
         let params = Params::from([("choice".to_owned(), Value::Str(choice.to_owned()))]);
         self.push_result(
             &project,
@@ -534,19 +556,23 @@ impl Player {
                     due.push(self.state.timers.remove(0));
                 }
                 for t in &due {
-                    self.effects.push(Effect::Dropped {
-                        time,
-                        event: timer_event(project, t),
-                        reason: DropReason::Overflow,
-                    });
+                    if self.records() {
+                        self.effects.push(Effect::Dropped {
+                            time,
+                            event: timer_event(project, t),
+                            reason: DropReason::Overflow,
+                        });
+                    }
                 }
                 continue;
             }
-            self.effects.push(Effect::TimerExpired {
-                time,
-                net: timer.net,
-                timer: timer.timer,
-            });
+            if self.records() {
+                self.effects.push(Effect::TimerExpired {
+                    time,
+                    net: timer.net,
+                    timer: timer.timer,
+                });
+            }
             self.question_timed_out(project, timer.net, timer.timer, time);
             self.state.push(Queued {
                 event: timer_event(project, &timer),
@@ -565,17 +591,21 @@ impl Player {
                     time: now,
                     fault: Fault::Overflow { steps: steps - 1 },
                 });
-                self.effects.push(Effect::Dropped {
-                    time: now,
-                    event: q.event,
-                    reason: DropReason::Overflow,
-                });
-                while let Some(q) = self.state.pop() {
+                if self.records() {
                     self.effects.push(Effect::Dropped {
                         time: now,
                         event: q.event,
                         reason: DropReason::Overflow,
                     });
+                }
+                while let Some(q) = self.state.pop() {
+                    if self.records() {
+                        self.effects.push(Effect::Dropped {
+                            time: now,
+                            event: q.event,
+                            reason: DropReason::Overflow,
+                        });
+                    }
                 }
                 return;
             }
@@ -588,11 +618,13 @@ impl Player {
                 q.target,
                 now,
             ) {
-                self.effects.push(Effect::Dropped {
-                    time: now,
-                    event: q.event,
-                    reason,
-                });
+                if self.records() {
+                    self.effects.push(Effect::Dropped {
+                        time: now,
+                        event: q.event,
+                        reason,
+                    });
+                }
             }
             self.immediates(project, now, category == Category::Catastrophic);
         }
@@ -686,12 +718,14 @@ impl Player {
                     if let Firing::Fired = self.fire(project, n, t, params, now, tainted) {
                         if tainted && !self.state.lockout {
                             self.state.lockout = true;
-                            self.effects.push(Effect::Lockout {
-                                time: now,
-                                event: name.to_owned(),
-                                net: n,
-                                transition: t,
-                            });
+                            if self.records() {
+                                self.effects.push(Effect::Lockout {
+                                    time: now,
+                                    event: name.to_owned(),
+                                    net: n,
+                                    transition: t,
+                                });
+                            }
                         }
                         self.run_actions(project, n, t, params, now, tainted);
                     }
@@ -862,12 +896,14 @@ impl Player {
             match action {
                 Action::Activate(m) => {
                     if self.state.active[*m] {
-                        self.effects.push(Effect::Ignored {
-                            time: now,
-                            net: *m,
-                            action: "activate",
-                            by: n,
-                        });
+                        if self.records() {
+                            self.effects.push(Effect::Ignored {
+                                time: now,
+                                net: *m,
+                                action: "activate",
+                                by: n,
+                            });
+                        }
                     } else {
                         self.activate(project, *m, now);
                     }
@@ -876,12 +912,14 @@ impl Player {
                     if self.state.active[*m] {
                         self.deactivate(project, *m, now);
                     } else {
-                        self.effects.push(Effect::Ignored {
-                            time: now,
-                            net: *m,
-                            action: "deactivate",
-                            by: n,
-                        });
+                        if self.records() {
+                            self.effects.push(Effect::Ignored {
+                                time: now,
+                                net: *m,
+                                action: "deactivate",
+                                by: n,
+                            });
+                        }
                     }
                 }
                 Action::Emit { event, args } => {
@@ -897,11 +935,13 @@ impl Player {
                         category,
                         params: eval(args),
                     };
-                    self.effects.push(Effect::Emitted {
-                        time: now,
-                        net: n,
-                        event: event.clone(),
-                    });
+                    if self.records() {
+                        self.effects.push(Effect::Emitted {
+                            time: now,
+                            net: n,
+                            event: event.clone(),
+                        });
+                    }
                     self.state.push(Queued {
                         event,
                         target: None,
@@ -915,7 +955,7 @@ impl Player {
                     self.state
                         .timers
                         .retain(|x| !(x.net == n && x.timer == *timer));
-                    if self.state.timers.len() != before {
+                    if self.state.timers.len() != before && self.records() {
                         self.effects.push(Effect::TimerCancelled {
                             time: now,
                             net: n,
@@ -940,14 +980,16 @@ impl Player {
                             catastrophic: tainted,
                         },
                     );
-                    self.effects.push(Effect::Call {
-                        time: now,
-                        id,
-                        net: n,
-                        program: *program,
-                        function: *function,
-                        args: eval(args),
-                    });
+                    if self.records() {
+                        self.effects.push(Effect::Call {
+                            time: now,
+                            id,
+                            net: n,
+                            program: *program,
+                            function: *function,
+                            args: eval(args),
+                        });
+                    }
                 }
                 Action::Ask {
                     ask,
@@ -964,13 +1006,15 @@ impl Player {
                             catastrophic: tainted,
                         },
                     );
-                    self.effects.push(Effect::Command {
-                        time: now,
-                        id,
-                        net: n,
-                        verb: verb.clone(),
-                        args: eval(args),
-                    });
+                    if self.records() {
+                        self.effects.push(Effect::Command {
+                            time: now,
+                            id,
+                            net: n,
+                            verb: verb.clone(),
+                            args: eval(args),
+                        });
+                    }
                 }
             }
         }
@@ -1000,13 +1044,15 @@ impl Player {
                 catastrophic: tainted,
             },
         );
-        self.effects.push(Effect::TimerStarted {
-            time: now,
-            net: n,
-            timer,
-            deadline,
-            restarted,
-        });
+        if self.records() {
+            self.effects.push(Effect::TimerStarted {
+                time: now,
+                net: n,
+                timer,
+                deadline,
+                restarted,
+            });
+        }
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -1032,11 +1078,13 @@ impl Player {
             .map(|(id, _)| *id)
         {
             self.state.pending.remove(&old);
-            self.effects.push(Effect::Forgotten {
-                time: now,
-                id: old,
-                net: n,
-            });
+            if self.records() {
+                self.effects.push(Effect::Forgotten {
+                    time: now,
+                    id: old,
+                    net: n,
+                });
+            }
         }
         let id = self.take_id();
         self.state.pending.insert(
@@ -1048,15 +1096,17 @@ impl Player {
             },
         );
         let spec = &project.nets[n].asks[ask];
-        self.effects.push(Effect::Ask {
-            time: now,
-            id,
-            net: n,
-            ask,
-            question: question.to_owned(),
-            choices: spec.choices.clone(),
-            deadline: now.saturating_add(after),
-        });
+        if self.records() {
+            self.effects.push(Effect::Ask {
+                time: now,
+                id,
+                net: n,
+                ask,
+                question: question.to_owned(),
+                choices: spec.choices.clone(),
+                deadline: now.saturating_add(after),
+            });
+        }
         self.start_timer(n, spec.timer, after, now, tainted);
     }
 
@@ -1073,7 +1123,9 @@ impl Player {
         });
         if let Some(id) = id {
             self.state.pending.remove(&id);
-            self.effects.push(Effect::Unanswered { time, id, net });
+            if self.records() {
+                self.effects.push(Effect::Unanswered { time, id, net });
+            }
         }
     }
 
@@ -1094,7 +1146,9 @@ impl Player {
             self.state.set(offset + i, place.initial);
         }
         self.changed = true;
-        self.effects.push(Effect::Activated { time: now, net: m });
+        if self.records() {
+            self.effects.push(Effect::Activated { time: now, net: m });
+        }
         self.push_marking(now, Some(m));
     }
 
@@ -1108,42 +1162,44 @@ impl Player {
         }
         self.forget_work(m, now);
         self.changed = true;
-        self.effects.push(Effect::Deactivated { time: now, net: m });
+        if self.records() {
+            self.effects.push(Effect::Deactivated { time: now, net: m });
+        }
         self.push_marking(now, Some(m));
     }
 
     /// Cancels net `m`'s timers, forgets its pending calls and commands, and
     /// drops the results and expiries already queued for it.
     fn forget_work(&mut self, m: NetId, now: Micros) {
-        let mut cancelled = Vec::new();
+        // In place, in timer then id order (no list of what goes per call).
+        let records = self.records();
+        let effects = &mut self.effects;
         self.state.timers.retain(|x| {
-            if x.net == m {
-                cancelled.push(x.timer);
-                false
-            } else {
-                true
+            if x.net != m {
+                return true;
             }
+            if records {
+                effects.push(Effect::TimerCancelled {
+                    time: now,
+                    net: m,
+                    timer: x.timer,
+                });
+            }
+            false
         });
-        for timer in cancelled {
-            self.effects.push(Effect::TimerCancelled {
-                time: now,
-                net: m,
-                timer,
-            });
-        }
-        let forgotten: Vec<u64> = self
-            .state
-            .pending
-            .iter()
-            .filter(|(_, p)| p.net == m)
-            .map(|(id, _)| *id)
-            .collect();
-        for id in forgotten {
-            self.state.pending.remove(&id);
-            self.effects.push(Effect::Forgotten {
-                time: now,
-                id,
-                net: m,
+        if self.state.pending.values().any(|p| p.net == m) {
+            self.state.pending.retain(|&id, p| {
+                if p.net != m {
+                    return true;
+                }
+                if records {
+                    effects.push(Effect::Forgotten {
+                        time: now,
+                        id,
+                        net: m,
+                    });
+                }
+                false
             });
         }
         // Results and timer expiries already queued for it are dropped now,
@@ -1155,11 +1211,13 @@ impl Player {
             let mut kept = std::collections::VecDeque::with_capacity(queue.len());
             for q in queue.drain(..) {
                 if q.target == Some(m) {
-                    self.effects.push(Effect::Dropped {
-                        time: now,
-                        event: q.event,
-                        reason: DropReason::NetInactive,
-                    });
+                    if records {
+                        self.effects.push(Effect::Dropped {
+                            time: now,
+                            event: q.event,
+                            reason: DropReason::NetInactive,
+                        });
+                    }
                 } else {
                     kept.push_back(q);
                 }
@@ -1220,6 +1278,9 @@ impl Player {
     }
 
     fn push_marking(&mut self, now: Micros, net: Option<NetId>) {
+        if !self.records() {
+            return;
+        }
         let (offset, len) = match net {
             Some(n) => (
                 self.project.place_offsets[n],

@@ -151,6 +151,14 @@ impl Oracle {
         if !self.open {
             return None;
         }
+        // The common argument `$p`: read by every evaluation, alone (what
+        // the general case below comes to, without its lists).
+        if let Expr::Param { name, .. } = argument {
+            if params.contains_key(name.as_str()) || self.carries(name) {
+                return None;
+            }
+            return Some(name.clone());
+        }
         let always = Reads::of(argument).always().unwrap_or_default();
         // In the order evaluation reads them: the first absent one is the
         // error flight reports.

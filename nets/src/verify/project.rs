@@ -288,7 +288,8 @@ struct Explorer {
     /// Per call (net, program, function) and command (net, verb) the
     /// project's actions make: what is known of its result.
     calls: FastMap<(NetId, usize, usize), Known>,
-    commands: Vec<(NetId, String, Known)>,
+    /// By verb, then net.
+    commands: FastMap<String, Vec<(NetId, Known)>>,
     /// The search's labels, numbered in merge order, and their keys.
     labels: Mutex<LabelTable>,
 }
@@ -400,7 +401,7 @@ impl Explorer {
             project,
             externals,
             calls: FastMap::default(),
-            commands: Vec::new(),
+            commands: FastMap::default(),
             labels: Mutex::new(LabelTable::default()),
         };
         // What is known of every result the nets' actions can await.
@@ -429,12 +430,9 @@ impl Explorer {
                     }
                     PendingKind::Question { .. } => {}
                     PendingKind::Command { verb } => {
-                        if !explorer
-                            .commands
-                            .iter()
-                            .any(|(m, v, _)| *m == n && *v == verb)
-                        {
-                            explorer.commands.push((n, verb, known));
+                        let by_net = explorer.commands.entry(verb).or_default();
+                        if !by_net.iter().any(|(m, _)| *m == n) {
+                            by_net.push((n, known));
                         }
                     }
                 }
@@ -511,9 +509,9 @@ impl Explorer {
             }
             PendingKind::Command { verb } => self
                 .commands
-                .iter()
-                .find(|(n, v, _)| *n == pending.net && v == verb)
-                .map(|(_, _, k)| k),
+                .get(verb.as_str())
+                .and_then(|by_net| by_net.iter().find(|(n, _)| *n == pending.net))
+                .map(|(_, k)| k),
             PendingKind::Question { .. } => None,
         };
         match found {
@@ -727,7 +725,7 @@ impl Explorer {
             None => {
                 // A state the explorer built itself always fits its project.
                 let mut player = Player::restore(self.project.clone(), concrete.clone()).ok()?;
-                player.set_oracle(Some(Oracle::new(answers.to_vec())));
+                player.reset_for_verifier(concrete, answers);
                 slot.insert(player)
             }
         };
