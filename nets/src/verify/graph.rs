@@ -530,7 +530,10 @@ fn search(
     is_target: impl Fn(u32) -> bool,
     allowed: impl Fn(u32) -> bool,
 ) -> Option<Vec<u32>> {
-    let mut parent: HashMap<u32, u32> = HashMap::new();
+    // the parent of each node reached (u32::MAX: not reached), in a vector
+    // over all nodes (a search may cover millions of them)
+    const NONE: u32 = u32::MAX;
+    let mut parent: Vec<u32> = vec![NONE; g.node_count()];
     let mut queue = VecDeque::from([from]);
     let mut out = Vec::new();
     while let Some(v) = queue.pop_front() {
@@ -541,14 +544,14 @@ fn search(
                 let mut path = vec![w, v];
                 let mut n = v;
                 while n != from {
-                    n = parent[&n];
+                    n = parent[n as usize];
                     path.push(n);
                 }
                 path.reverse();
                 return Some(path);
             }
-            if w != from && allowed(w) && !parent.contains_key(&w) {
-                parent.insert(w, v);
+            if w != from && allowed(w) && parent[w as usize] == NONE {
+                parent[w as usize] = v;
                 queue.push_back(w);
             }
         }
