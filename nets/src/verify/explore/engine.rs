@@ -568,12 +568,11 @@ fn worker<S: Semantics>(
                 }
             }
             sh.barrier.wait();
-            for from in 0..n {
+            for (from, answers) in replies.iter_mut().enumerate() {
                 if from == me {
                     continue;
                 }
                 let mut inbox = std::mem::take(&mut *lock(&sh.outboxes[from * n + me]));
-                let mut answers = std::mem::take(&mut replies[from]);
                 answers.clear();
                 for part in inbox.chunks(BATCH * mail_record) {
                     if !store_batch(
@@ -585,7 +584,7 @@ fn worker<S: Semantics>(
                         mail_record,
                         me,
                         Source::Mail {
-                            replies: sh.keep_arcs.then_some(&mut answers),
+                            replies: sh.keep_arcs.then_some(&mut *answers),
                         },
                         level,
                     ) {
@@ -597,9 +596,8 @@ fn worker<S: Semantics>(
                 inbox.clear();
                 *lock(&sh.outboxes[from * n + me]) = inbox;
                 if sh.keep_arcs {
-                    std::mem::swap(&mut *lock(&sh.replies[me * n + from]), &mut answers);
+                    std::mem::swap(&mut *lock(&sh.replies[me * n + from]), answers);
                 }
-                replies[from] = answers;
             }
         }
         sh.total.fetch_add(u64::from(store.len() - hi), Relaxed);
