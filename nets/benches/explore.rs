@@ -7,6 +7,11 @@
 //! Before the timings, `main` prints the bytes stored per state and checks
 //! the state counts.
 //!
+//! `explore_and_loops_*`: the whole analysis of `petrel check --pnml`
+//! (exploration keeping its arcs, then the loops over them), beside
+//! `bits_one_thread` / `bits_two_threads_by_hash` (exploration alone, as
+//! `--no-loops`) in the same run.
+//!
 //! Run: `cargo bench -p nets --bench explore`
 
 use std::path::{Path, PathBuf};
@@ -58,6 +63,20 @@ fn main() {
                 x.summary.stored_bytes as f64 / x.summary.states as f64,
                 x.summary.stored_bytes
             );
+            let kept = explore(
+                &net,
+                &Options {
+                    threads,
+                    keep_arcs: true,
+                    ..Options::default()
+                },
+            );
+            println!(
+                "{name}: {} threads, arcs kept: {:.1} bytes per state more ({} bytes)",
+                threads,
+                kept.summary.arc_bytes as f64 / kept.summary.states as f64,
+                kept.summary.arc_bytes
+            );
         }
     }
     divan::main();
@@ -103,4 +122,31 @@ fn reference_baseline(bencher: Bencher, net: (&str, u64)) {
         let r = explore_reference(&pt, usize::MAX);
         assert_eq!(r.map(|r| r.states), Some(net.1));
     });
+}
+
+fn bench_with_loops(bencher: Bencher, name: &str, states: u64, threads: usize) {
+    let Some(net) = load(name) else { return };
+    bencher.counter(ItemsCount::new(states)).bench(|| {
+        let x = explore(
+            &net,
+            &Options {
+                threads,
+                keep_arcs: true,
+                ..Options::default()
+            },
+        );
+        assert_eq!(x.summary.states, states);
+        x.loops(5).cyclic_components
+    });
+}
+
+/// Exploration keeping its arcs, then the loops (as `petrel check`).
+#[divan::bench(args = NETS, sample_count = 10, sample_size = 1)]
+fn explore_and_loops_one_thread(bencher: Bencher, net: (&str, u64)) {
+    bench_with_loops(bencher, net.0, net.1, 1);
+}
+
+#[divan::bench(args = NETS, sample_count = 10, sample_size = 1)]
+fn explore_and_loops_two_threads(bencher: Bencher, net: (&str, u64)) {
+    bench_with_loops(bencher, net.0, net.1, 2);
 }

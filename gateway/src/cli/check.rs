@@ -45,7 +45,8 @@ pub struct Args {
     /// How many loops (cyclic strongly connected components) to list.
     #[arg(long, value_name = "N", default_value_t = 5)]
     pub loops: usize,
-    /// Skip the loop analysis (it costs about one more exploration).
+    /// Skip the loop analysis (it keeps the reachability graph's arcs: about
+    /// 4 bytes per arc and per marking more).
     #[arg(long)]
     pub no_loops: bool,
 }
@@ -94,6 +95,9 @@ pub fn run(args: Args) -> VerbResult {
         } else {
             None
         },
+        // the loop analysis reads the successors found by the exploration
+        // instead of firing every transition again
+        keep_arcs: !args.no_loops,
         ..Options::default()
     };
     let x = explore(&net, &options);

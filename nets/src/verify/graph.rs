@@ -286,6 +286,217 @@ pub fn strongly_connected_components(g: &impl Successors) -> Sccs {
     }
 }
 
+/// A graph over dense node numbers whose successor lists can be borrowed
+/// (explicit edges, e.g. kept by an exploration).
+pub trait Adjacency {
+    /// Nodes are numbered `0..nodes()`.
+    fn nodes(&self) -> usize;
+    /// The successors of `node` (duplicates allowed).
+    fn targets(&self, node: u32) -> &[u32];
+}
+
+impl<L> Adjacency for Csr<L> {
+    fn nodes(&self) -> usize {
+        self.offsets.len() - 1
+    }
+    fn targets(&self, node: u32) -> &[u32] {
+        &self.targets[self.offsets[node as usize]..self.offsets[node as usize + 1]]
+    }
+}
+
+/// Backward sweeps over all nodes before giving up on finding the
+/// component of the root that way (see
+/// [`strongly_connected_components_from`]).
+const MAX_SWEEPS: usize = 6;
+
+/// Strongly connected components of a graph whose nodes are all reachable
+/// from `root` (a reachability graph from its initial state), as
+/// [`strongly_connected_components`] finds them, in a cheaper way when the
+/// root's component is large.
+///
+/// The root's component is then exactly the set of nodes from which the
+/// root can be reached: it is found first by sweeps over the nodes (a node
+/// joins when one of its successors has joined; sweeps alternate between
+/// increasing and decreasing numbers, on a bitset that stays in cache,
+/// until one changes nothing), then the others' components by Pearce's
+/// algorithm restricted to them (no edge leaves them for the root's
+/// component). If the sweeps have not settled after a few rounds, Pearce's
+/// algorithm runs on the whole graph. Components are numbered in reverse
+/// topological order, as by [`strongly_connected_components`], but the
+/// numbers may differ.
+pub fn strongly_connected_components_from(g: &impl Adjacency, root: u32) -> Sccs {
+    let n = g.nodes();
+    if n == 0 || root as usize >= n {
+        return pearce(g, None);
+    }
+    let words = n.div_ceil(64);
+    let mut reach = vec![0u64; words];
+    let bit = |r: &[u64], v: u32| (r[(v >> 6) as usize] >> (v & 63)) & 1 == 1;
+    reach[(root >> 6) as usize] |= 1 << (root & 63);
+    // nodes not known to reach the root, in increasing order
+    let mut rest: Vec<u32> = Vec::new();
+    let mut settled = false;
+    for sweep in 0..MAX_SWEEPS {
+        let mut changed = false;
+        let mut join = |v: u32, reach: &mut [u64]| {
+            if g.targets(v).iter().any(|&w| bit(reach, w)) {
+                reach[(v >> 6) as usize] |= 1 << (v & 63);
+                changed = true;
+                true
+            } else {
+                false
+            }
+        };
+        if sweep == 0 {
+            for v in 0..n as u32 {
+                if !bit(&reach, v) && !join(v, &mut reach) {
+                    rest.push(v);
+                }
+            }
+        } else if sweep % 2 == 1 {
+            for &v in rest.iter().rev() {
+                join(v, &mut reach);
+            }
+        } else {
+            for &v in rest.iter() {
+                join(v, &mut reach);
+            }
+        }
+        if changed {
+            rest.retain(|&v| !bit(&reach, v));
+        }
+        if !changed || rest.is_empty() {
+            settled = true;
+            break;
+        }
+    }
+    if !settled {
+        return pearce(g, None);
+    }
+    drop(rest);
+    pearce(g, Some((root, &reach)))
+}
+
+/// Strongly connected components by Pearce's space-efficient variant of
+/// Tarjan's algorithm ("A space-efficient algorithm for finding strongly
+/// connected components", 2016), iterative: one 32-bit number and one bit
+/// per node, plus the depth of the search. With `settled = (root, set)`,
+/// `set` (a bitset) is the root's component, and no node outside it
+/// reaches it.
+fn pearce(g: &impl Adjacency, settled: Option<(u32, &[u64])>) -> Sccs {
+    let n = g.nodes();
+    let top = n as u32;
+    // 0: not visited; below `index`: being visited (Tarjan's low link);
+    // above `c`: the component, numbered down from `n`
+    let mut rindex = vec![0u32; n];
+    let mut root = vec![0u64; n.div_ceil(64)];
+    let mut sizes: Vec<u32> = Vec::new();
+    let mut cyclic: Vec<bool> = Vec::new();
+    // the settled component (numbers `top`) comes last: every other node
+    // is reachable from it
+    let mut last: Option<(u32, bool)> = None;
+    if let Some((r, set)) = settled {
+        let mut size = 0u32;
+        for (w, &bits) in set.iter().enumerate() {
+            let mut b = bits;
+            while b != 0 {
+                let v = w * 64 + b.trailing_zeros() as usize;
+                b &= b - 1;
+                rindex[v] = top;
+                size += 1;
+            }
+        }
+        last = Some((size, size > 1 || g.targets(r).contains(&r)));
+    }
+    let base = if last.is_some() { top - 1 } else { top };
+    let mut c = base;
+    let mut index = 1u32;
+    let mut stack: Vec<u32> = Vec::new();
+    // frames: node, its successors still to look at, whether it has an
+    // edge to itself
+    let mut calls: Vec<(u32, &[u32], bool)> = Vec::new();
+    let is_root = |root: &[u64], v: u32| (root[(v >> 6) as usize] >> (v & 63)) & 1 == 1;
+    let set_root = |root: &mut [u64], v: u32, on: bool| {
+        let (w, m) = ((v >> 6) as usize, 1u64 << (v & 63));
+        if on {
+            root[w] |= m;
+        } else {
+            root[w] &= !m;
+        }
+    };
+    for start in 0..top {
+        if rindex[start as usize] != 0 {
+            continue;
+        }
+        rindex[start as usize] = index;
+        index += 1;
+        set_root(&mut root, start, true);
+        calls.push((start, g.targets(start), false));
+        while let Some(frame) = calls.last_mut() {
+            let v = frame.0;
+            if let Some((&w, rest)) = frame.1.split_first() {
+                frame.1 = rest;
+                if w == v {
+                    frame.2 = true;
+                } else if rindex[w as usize] == 0 {
+                    rindex[w as usize] = index;
+                    index += 1;
+                    set_root(&mut root, w, true);
+                    calls.push((w, g.targets(w), false));
+                } else if rindex[w as usize] < rindex[v as usize] {
+                    rindex[v as usize] = rindex[w as usize];
+                    set_root(&mut root, v, false);
+                }
+                continue;
+            }
+            let self_loop = frame.2;
+            calls.pop();
+            if is_root(&root, v) {
+                index -= 1;
+                let mut size = 1u32;
+                while let Some(&w) = stack.last() {
+                    if rindex[v as usize] > rindex[w as usize] {
+                        break;
+                    }
+                    stack.pop();
+                    rindex[w as usize] = c;
+                    index -= 1;
+                    size += 1;
+                }
+                rindex[v as usize] = c;
+                c -= 1;
+                sizes.push(size);
+                cyclic.push(size > 1 || self_loop);
+            } else {
+                stack.push(v);
+            }
+            if let Some(&(u, _, _)) = calls.last() {
+                if rindex[v as usize] < rindex[u as usize] {
+                    rindex[u as usize] = rindex[v as usize];
+                    set_root(&mut root, u, false);
+                }
+            }
+        }
+    }
+    let others = sizes.len() as u32;
+    for r in &mut rindex {
+        *r = if *r == top && last.is_some() {
+            others
+        } else {
+            base - *r
+        };
+    }
+    if let Some((size, has_cycle)) = last {
+        sizes.push(size);
+        cyclic.push(has_cycle);
+    }
+    Sccs {
+        component: rindex,
+        sizes,
+        cyclic,
+    }
+}
+
 /// A shortest path (nodes, `from` first) from `from` to a node satisfying
 /// `is_target`, visiting only `allowed` nodes after `from`.
 pub fn shortest_path(
@@ -319,7 +530,10 @@ fn search(
     is_target: impl Fn(u32) -> bool,
     allowed: impl Fn(u32) -> bool,
 ) -> Option<Vec<u32>> {
-    let mut parent: HashMap<u32, u32> = HashMap::new();
+    // the parent of each node reached (u32::MAX: not reached), in a vector
+    // over all nodes (a search may cover millions of them)
+    const NONE: u32 = u32::MAX;
+    let mut parent: Vec<u32> = vec![NONE; g.node_count()];
     let mut queue = VecDeque::from([from]);
     let mut out = Vec::new();
     while let Some(v) = queue.pop_front() {
@@ -330,14 +544,14 @@ fn search(
                 let mut path = vec![w, v];
                 let mut n = v;
                 while n != from {
-                    n = parent[&n];
+                    n = parent[n as usize];
                     path.push(n);
                 }
                 path.reverse();
                 return Some(path);
             }
-            if w != from && allowed(w) && !parent.contains_key(&w) {
-                parent.insert(w, v);
+            if w != from && allowed(w) && parent[w as usize] == NONE {
+                parent[w as usize] = v;
                 queue.push_back(w);
             }
         }
@@ -387,6 +601,95 @@ mod tests {
             shortest_cycle(&g, 5, |_| true).map(|c| c.len()),
             Some(n as usize)
         );
+    }
+
+    /// A random graph of `n` nodes, all reachable from node 0 (a random
+    /// tree from 0 plus `extra` random edges, some self-loops).
+    fn random_graph(n: u32, extra: u32, seed: u64) -> Csr<()> {
+        let mut x = seed;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n as usize];
+        for v in 1..n {
+            let parent = (next() % u64::from(v)) as u32;
+            lists[parent as usize].push(v);
+        }
+        for _ in 0..extra {
+            let a = (next() % u64::from(n)) as u32;
+            let b = (next() % u64::from(n)) as u32;
+            lists[a as usize].push(b);
+        }
+        let mut g = Csr::default();
+        for l in lists {
+            g.push_node(l.into_iter().map(|t| ((), t)));
+        }
+        g
+    }
+
+    /// Same partition into components, same sizes and cycles, and numbers
+    /// in reverse topological order.
+    fn same_components(g: &Csr<()>, a: &Sccs, b: &Sccs) {
+        let n = Adjacency::nodes(g);
+        assert_eq!(a.count(), b.count());
+        let mut map = vec![u32::MAX; a.count()];
+        for v in 0..n {
+            let (ca, cb) = (a.component[v] as usize, b.component[v]);
+            if map[ca] == u32::MAX {
+                map[ca] = cb;
+            }
+            assert_eq!(map[ca], cb, "node {v}");
+            assert_eq!(a.sizes[ca], b.sizes[cb as usize]);
+            assert_eq!(a.cyclic[ca], b.cyclic[cb as usize]);
+        }
+        for v in 0..n as u32 {
+            for &w in Adjacency::targets(g, v) {
+                assert!(b.component[v as usize] >= b.component[w as usize]);
+            }
+        }
+    }
+
+    #[test]
+    fn pearce_and_sweeps_agree_with_tarjan() {
+        for (n, extra, seed) in [
+            (1, 0, 1),
+            (1, 1, 2),
+            (2, 1, 3),
+            (50, 20, 4),
+            (50, 80, 5),
+            (300, 150, 6),
+            (300, 600, 7),
+            (2000, 1500, 8),
+            (2000, 4000, 9),
+        ] {
+            let g = random_graph(n, extra, seed);
+            let tarjan = strongly_connected_components(&g);
+            same_components(&g, &tarjan, &pearce(&g, None));
+            same_components(&g, &tarjan, &strongly_connected_components_from(&g, 0));
+        }
+        // a ring walked against the sweeps: 0 -> 1 -> ... -> n-1 -> 0 in
+        // a zig-zag numbering, so that each sweep adds few nodes (Pearce's
+        // algorithm then takes over)
+        let n = 64u32;
+        let order: Vec<u32> = (0..n)
+            .map(|i| if i % 2 == 0 { i / 2 } else { n - 1 - i / 2 })
+            .collect();
+        let mut lists = vec![Vec::new(); n as usize];
+        for i in 0..n as usize {
+            lists[order[i] as usize].push(order[(i + 1) % n as usize]);
+        }
+        lists[5].push(40);
+        let mut g = Csr::default();
+        for l in lists {
+            g.push_node(l.into_iter().map(|t| ((), t)));
+        }
+        let tarjan = strongly_connected_components(&g);
+        let from = strongly_connected_components_from(&g, order[0]);
+        same_components(&g, &tarjan, &from);
+        assert_eq!(from.sizes, vec![n]);
     }
 
     #[test]

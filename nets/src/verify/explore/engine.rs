@@ -13,6 +13,7 @@
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
 use std::sync::{Barrier, Mutex, MutexGuard};
 
+use super::edges::{Edges, PENDING};
 use super::semantics::{load_words, mix, push_words, to_words, Semantics, Stop};
 use super::store::{Inserted, Store};
 
@@ -113,6 +114,10 @@ pub struct Run<S> {
     /// For each partition, where each breadth-first level starts (markings
     /// are stored level after level).
     pub levels: Vec<Vec<u32>>,
+    /// For each partition, the successors of its markings (dense node
+    /// numbers, see [`Run::dense`]), when asked for and complete; else
+    /// empty.
+    pub arcs: Vec<Edges>,
 }
 
 impl<S: Semantics> Run<S> {
@@ -146,6 +151,17 @@ impl<S: Semantics> Run<S> {
         })
     }
 
+    /// Where each partition's markings start in the dense numbering (all
+    /// partitions one after the other), and the total at the end.
+    pub fn offsets(&self) -> Vec<u32> {
+        let mut offsets = vec![0u32];
+        for s in &self.stores {
+            let last = offsets.last().copied().unwrap_or(0);
+            offsets.push(last + s.len());
+        }
+        offsets
+    }
+
     /// The id of a stored marking with (mixed) hash `h`.
     pub fn lookup_hashed(&self, m: &[u8], h: u64) -> Option<u32> {
         let p = self.partitioner.of(m, h);
@@ -167,8 +183,12 @@ struct Shared<'a> {
     n: usize,
     partitioner: &'a Partitioner,
     barrier: Barrier,
-    /// outboxes[from * n + to]: records (marking words, hash).
+    /// outboxes[from * n + to]: records (marking words, hash, and with
+    /// `keep_arcs` the sender's slot for its id).
     outboxes: Vec<Mutex<Vec<u8>>>,
+    /// replies[from * n + to]: (slot, id) for the markings `to` sent.
+    replies: Vec<Mutex<Vec<(u32, u32)>>>,
+    keep_arcs: bool,
     /// The smallest level at which some thread asked to stop.
     stop_level: AtomicU32,
     total: AtomicU64,
@@ -178,7 +198,7 @@ struct Shared<'a> {
     limit: u64,
 }
 
-fn lock(m: &Mutex<Vec<u8>>) -> MutexGuard<'_, Vec<u8>> {
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
@@ -213,12 +233,15 @@ impl Found {
 /// Explores from `initial` on `threads` partitions. Stops at `limit`
 /// markings: exactly on one thread, after the level that passes it on more
 /// (each partition also stops at `limit`).
+/// With `keep_arcs`, the successors of every marking are kept too
+/// ([`Run::arcs`]).
 pub fn run<S: Semantics>(
     sem: S,
     initial: &[u8],
     partitioner: Partitioner,
     limit: u32,
     progress: Option<&(dyn Fn(u64) + Sync)>,
+    keep_arcs: bool,
 ) -> Run<S> {
     let n = partitioner.threads();
     let limit = limit.clamp(1, MAX_PER_PARTITION);
@@ -231,13 +254,15 @@ pub fn run<S: Semantics>(
         partitioner: &partitioner,
         barrier: Barrier::new(n),
         outboxes: (0..n * n).map(|_| Mutex::new(Vec::new())).collect(),
+        replies: (0..n * n).map(|_| Mutex::new(Vec::new())).collect(),
+        keep_arcs,
         stop_level: AtomicU32::new(u32::MAX),
         total: AtomicU64::new(1),
         stored: AtomicU64::new(1),
         progress,
         limit: u64::from(limit),
     };
-    let mut found: Vec<(Store, Found)> = if n == 1 {
+    let mut found: Vec<(Store, Found, Edges)> = if n == 1 {
         let store = stores
             .pop()
             .unwrap_or_else(|| Store::new(sem.width(), limit));
@@ -283,10 +308,12 @@ pub fn run<S: Semantics>(
         full: false,
         fired: Vec::new(),
         levels: Vec::with_capacity(n),
+        arcs: Vec::new(),
     };
     let mut dead_at: Option<(u32, u32)> = None;
     let mut unsafe_at: Option<(u32, u32)> = None;
-    for (part, (store, f)) in found.drain(..).enumerate() {
+    let mut arcs = Vec::with_capacity(n);
+    for (part, (store, f, a)) in found.drain(..).enumerate() {
         run.edges += f.edges;
         if run.fired.len() < f.fired.len() {
             run.fired.resize(f.fired.len(), false);
@@ -310,6 +337,24 @@ pub fn run<S: Semantics>(
         }
         run.stores.push(store);
         run.levels.push(f.levels);
+        arcs.push(a);
+    }
+    let whole = run.stop.is_none() && !run.full;
+    if keep_arcs
+        && whole
+        && arcs
+            .iter()
+            .zip(&run.stores)
+            .all(|(a, s)| a.complete(s.len()))
+    {
+        let offsets = run.offsets();
+        for a in &mut arcs {
+            a.renumber(|id| {
+                let (p, l) = split_id(id);
+                offsets[p] + l
+            });
+        }
+        run.arcs = arcs;
     }
     run.first_dead = dead_at.map(|(_, id)| id);
     if run.first_unsafe.is_none() {
@@ -322,14 +367,33 @@ pub fn run<S: Semantics>(
 /// loaded first, all together (independent loads overlap), then stored.
 const BATCH: usize = 512;
 
-/// Parses a batch record (marking padded to whole words, hash): the stored
-/// marking and its hash.
+/// Parses a record (marking padded to whole words, hash, and in mail with
+/// kept arcs the sender's slot): the stored marking, its hash, the slot.
 #[inline]
-fn parse_record(r: &[u8], width: usize) -> (&[u8], u64) {
-    let at = r.len() - 8;
+fn parse_record(r: &[u8], width: usize, words: usize) -> (&[u8], u64, u32) {
+    let at = words * 8;
     let mut h = [0u8; 8];
-    h.copy_from_slice(&r[at..]);
-    (&r[..width], u64::from_le_bytes(h))
+    h.copy_from_slice(&r[at..at + 8]);
+    let mut s = [0u8; 4];
+    if let Some(b) = r.get(at + 8..at + 12) {
+        s.copy_from_slice(b);
+    }
+    (&r[..width], u64::from_le_bytes(h), u32::from_le_bytes(s))
+}
+
+/// Where a batch comes from.
+enum Source<'a> {
+    /// This thread's own expansions: successors of other partitions go to
+    /// `outs`; with `arcs`, every successor takes the next slot.
+    Own {
+        outs: &'a mut [Vec<u8>],
+        arcs: Option<&'a mut Edges>,
+    },
+    /// Another thread's mail (all for this partition); with `replies`, each
+    /// stored or found id goes back with the sender's slot.
+    Mail {
+        replies: Option<&'a mut Vec<(u32, u32)>>,
+    },
 }
 
 /// Stores the successors in `batch` that belong to partition `me` and moves
@@ -341,12 +405,13 @@ fn store_batch<S: Semantics>(
     store: &mut Store,
     f: &mut Found,
     batch: &[u8],
-    width: usize,
+    record: usize,
     me: usize,
-    outs: &mut [Vec<u8>],
+    mut source: Source,
     level: u32,
 ) -> bool {
-    let record = sem.words() * 8 + 8;
+    let width = sem.width();
+    let words = sem.words();
     let count = batch.len() / record;
     let at = |i: usize| &batch[i * record..(i + 1) * record];
     let part = |r: &[u8], h: u64| partitioner.of(r, h);
@@ -355,41 +420,68 @@ fn store_batch<S: Semantics>(
     const D: usize = 8;
     for i in 0..count + 2 * D {
         if i < count {
-            let (m, h) = parse_record(at(i), width);
+            let (m, h, _) = parse_record(at(i), width, words);
             if part(m, h) == me {
                 store.prefetch_slot(h);
             }
         }
         if i >= D && i - D < count {
-            let (m, h) = parse_record(at(i - D), width);
+            let (m, h, _) = parse_record(at(i - D), width, words);
             if part(m, h) == me {
                 store.prefetch_record(h);
             }
         }
         if i >= 2 * D {
             let r = at(i - 2 * D);
-            let (m, h) = parse_record(r, width);
+            let (m, h, slot) = parse_record(r, width, words);
             let p = part(m, h);
             if p == me {
-                match store.insert(m, h) {
-                    Inserted::New(index) => f.stored(sem, m, level + 1, index),
-                    Inserted::Old(_) => {}
+                let local = match store.insert(m, h) {
+                    Inserted::New(index) => {
+                        f.stored(sem, m, level + 1, index);
+                        index
+                    }
+                    Inserted::Old(index) => index,
                     Inserted::Full => return false,
+                };
+                let id = state_id(me, local);
+                match &mut source {
+                    Source::Own {
+                        arcs: Some(arcs), ..
+                    } => {
+                        arcs.push(id);
+                    }
+                    Source::Mail {
+                        replies: Some(replies),
+                    } => replies.push((slot, id)),
+                    _ => {}
                 }
-            } else {
+            } else if let Source::Own { outs, arcs } = &mut source {
                 outs[p].extend_from_slice(r);
+                if let Some(arcs) = arcs {
+                    let slot = arcs.push(PENDING);
+                    outs[p].extend_from_slice(&slot.to_le_bytes());
+                }
             }
         }
     }
     true
 }
 
-fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (Store, Found) {
+fn worker<S: Semantics>(
+    me: usize,
+    sem: &S,
+    sh: &Shared,
+    mut store: Store,
+) -> (Store, Found, Edges) {
     let n = sh.n;
-    let width = sem.width();
     let words = sem.words();
     let record = words * 8 + 8;
+    // a record in the mail also carries the sender's slot when arcs are kept
+    let mail_record = record + if sh.keep_arcs { 4 } else { 0 };
     let mut f = Found::default();
+    let mut arcs = Edges::default();
+    let mut replies: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
     let mut cur = vec![0u64; words];
     let mut child: Vec<u64> = Vec::with_capacity(words);
     let mut outs: Vec<Vec<u8>> = vec![Vec::new(); n];
@@ -431,6 +523,9 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
                     break;
                 }
             }
+            if let (true, Ok(k)) = (sh.keep_arcs, result) {
+                arcs.node(k);
+            }
             index += 1;
             expanded += 1;
             if batch.len() >= BATCH * record || index == hi {
@@ -440,9 +535,12 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
                     &mut store,
                     &mut f,
                     &batch,
-                    width,
+                    record,
                     me,
-                    &mut outs,
+                    Source::Own {
+                        outs: &mut outs,
+                        arcs: sh.keep_arcs.then_some(&mut arcs),
+                    },
                     level,
                 );
                 batch.clear();
@@ -470,21 +568,24 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
                 }
             }
             sh.barrier.wait();
-            for from in 0..n {
+            for (from, answers) in replies.iter_mut().enumerate() {
                 if from == me {
                     continue;
                 }
                 let mut inbox = std::mem::take(&mut *lock(&sh.outboxes[from * n + me]));
-                for part in inbox.chunks(BATCH * record) {
+                answers.clear();
+                for part in inbox.chunks(BATCH * mail_record) {
                     if !store_batch(
                         sem,
                         sh.partitioner,
                         &mut store,
                         &mut f,
                         part,
-                        width,
+                        mail_record,
                         me,
-                        &mut outs,
+                        Source::Mail {
+                            replies: sh.keep_arcs.then_some(&mut *answers),
+                        },
                         level,
                     ) {
                         f.full = true;
@@ -494,11 +595,25 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
                 }
                 inbox.clear();
                 *lock(&sh.outboxes[from * n + me]) = inbox;
+                if sh.keep_arcs {
+                    std::mem::swap(&mut *lock(&sh.replies[me * n + from]), answers);
+                }
             }
         }
         sh.total.fetch_add(u64::from(store.len() - hi), Relaxed);
         if n > 1 {
             sh.barrier.wait();
+            if sh.keep_arcs {
+                // the ids of the markings this thread sent, stored by their
+                // partitions' threads before the barrier
+                for from in 0..n {
+                    if from != me {
+                        for &(slot, id) in lock(&sh.replies[from * n + me]).iter() {
+                            arcs.answer(slot, id);
+                        }
+                    }
+                }
+            }
         }
         let total = sh.total.load(Relaxed);
         if sh.stop_level.load(Relaxed) <= level || total == prev_total {
@@ -515,5 +630,5 @@ fn worker<S: Semantics>(me: usize, sem: &S, sh: &Shared, mut store: Store) -> (S
     // where the markings found by the last level expanded start
     f.levels.push(hi);
     f.fired = fired;
-    (store, f)
+    (store, f, arcs)
 }

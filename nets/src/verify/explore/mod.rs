@@ -19,13 +19,14 @@
 //! rebuilt from parent links and loops found by strongly connected
 //! components over successors regenerated on demand ([`Exploration::graph`]).
 
+mod edges;
 mod engine;
 mod semantics;
 mod store;
 
 use std::cell::RefCell;
 
-use super::graph::{self, Successors};
+use super::graph::{self, Adjacency, Sccs, Successors};
 use super::ptnet::PtNet;
 use engine::{run, split_id, state_id, Partitioner, Run, MAX_PER_PARTITION, MAX_THREADS};
 use semantics::{load_words, mix, push_words, to_bytes, to_words, Bits, Counts, Semantics, Stop};
@@ -50,6 +51,10 @@ pub struct Options<'a> {
     /// hash. Default false: on an idle machine hashing balances the threads
     /// better and wins (BENCHMARKS.md).
     pub partition_by_places: bool,
+    /// Keep the successors of every marking as they are found (4 bytes per
+    /// arc and per marking) so that [`Exploration::loops`] need not fire
+    /// every transition again. Default false: `loops` then recomputes them.
+    pub keep_arcs: bool,
 }
 
 impl Default for Options<'_> {
@@ -60,6 +65,7 @@ impl Default for Options<'_> {
             progress: None,
             parallel_from: u64::from(SAMPLE),
             partition_by_places: false,
+            keep_arcs: false,
         }
     }
 }
@@ -101,6 +107,8 @@ pub struct Summary {
     pub threads: usize,
     /// Memory holding the stored markings and hash tables.
     pub stored_bytes: u64,
+    /// Memory holding the kept successors ([`Options::keep_arcs`]).
+    pub arc_bytes: u64,
     /// Transitions that fire in no reachable marking.
     pub never_fired: Vec<usize>,
 }
@@ -240,13 +248,13 @@ fn partition_places(r: &Run<Bits>, marked: &[u64], threads: usize) -> Vec<u32> {
 }
 
 /// Explores up to [`SAMPLE`] markings on one thread.
-fn sample(net: &PtNet, initial: &[u32], threads: usize) -> Sample {
+fn sample(net: &PtNet, initial: &[u32], threads: usize, keep_arcs: bool) -> Sample {
     let zero = vec![0u64; net.places.len()];
     let mut freq = zero.clone();
     if initial.iter().all(|&c| c <= 1) {
         let sem = Bits::new(net, &zero);
         let m = sem.encode(initial);
-        let r = run(sem, &m, Partitioner::by_hash(1), SAMPLE, None);
+        let r = run(sem, &m, Partitioner::by_hash(1), SAMPLE, None, keep_arcs);
         frequencies(&r, &mut freq);
         let partition_places = if threads > 1 {
             partition_places(&r, &freq, threads)
@@ -267,7 +275,7 @@ fn sample(net: &PtNet, initial: &[u32], threads: usize) -> Sample {
             complete: None,
         };
         if let Some(m) = sem.encode(initial) {
-            let r = run(sem, &m, Partitioner::by_hash(1), SAMPLE, None);
+            let r = run(sem, &m, Partitioner::by_hash(1), SAMPLE, None, keep_arcs);
             frequencies(&r, &mut freq);
             let complete = !r.full && r.stop.is_none();
             s.complete = complete.then_some(Space::C32(r));
@@ -284,10 +292,18 @@ fn counts_run<const W: usize>(
     threads: usize,
     limit: u32,
     progress: Option<&(dyn Fn(u64) + Sync)>,
+    keep_arcs: bool,
 ) -> Option<Run<Counts<W>>> {
     let sem = Counts::<W>::new(net, freq);
     let m = sem.encode(initial)?;
-    Some(run(sem, &m, Partitioner::by_hash(threads), limit, progress))
+    Some(run(
+        sem,
+        &m,
+        Partitioner::by_hash(threads),
+        limit,
+        progress,
+        keep_arcs,
+    ))
 }
 
 /// Explores the reachable markings of `net`.
@@ -299,7 +315,7 @@ pub fn explore<'n>(net: &'n PtNet, options: &Options) -> Exploration<'n> {
         frequencies: freq,
         partition_places,
         complete: small,
-    } = sample(net, &initial, threads);
+    } = sample(net, &initial, threads, options.keep_arcs);
     if let Some(space) = small {
         let states = on_space!(&space, r => r.states());
         if states <= options.max_states && (threads == 1 || states <= options.parallel_from) {
@@ -307,6 +323,7 @@ pub fn explore<'n>(net: &'n PtNet, options: &Options) -> Exploration<'n> {
         }
     }
     let progress = options.progress;
+    let keep = options.keep_arcs;
     let mut space = None;
     if initial.iter().all(|&c| c <= 1) {
         let sem = Bits::new(net, &freq);
@@ -316,25 +333,37 @@ pub fn explore<'n>(net: &'n PtNet, options: &Options) -> Exploration<'n> {
         } else {
             Partitioner::by_hash(threads)
         };
-        let r = run(sem, &m, partitioner, per_partition, progress);
+        let r = run(sem, &m, partitioner, per_partition, progress, keep);
         if r.stop != Some(Stop::Unsafe) {
             space = Some(Space::Bits(r));
         }
     }
     let space = match space {
         Some(s) => s,
-        None => match counts_run::<1>(net, &freq, &initial, threads, per_partition, progress) {
+        None => match counts_run::<1>(net, &freq, &initial, threads, per_partition, progress, keep)
+        {
             Some(r) if r.stop != Some(Stop::Overflow) => Space::C8(r),
-            _ => match counts_run::<2>(net, &freq, &initial, threads, per_partition, progress) {
-                Some(r) if r.stop != Some(Stop::Overflow) => Space::C16(r),
-                _ => {
-                    match counts_run::<4>(net, &freq, &initial, threads, per_partition, progress) {
-                        Some(r) => Space::C32(r),
-                        // u32 counts always hold the initial marking
-                        None => unreachable_run(net, &freq, threads),
+            _ => {
+                match counts_run::<2>(net, &freq, &initial, threads, per_partition, progress, keep)
+                {
+                    Some(r) if r.stop != Some(Stop::Overflow) => Space::C16(r),
+                    _ => {
+                        match counts_run::<4>(
+                            net,
+                            &freq,
+                            &initial,
+                            threads,
+                            per_partition,
+                            progress,
+                            keep,
+                        ) {
+                            Some(r) => Space::C32(r),
+                            // u32 counts always hold the initial marking
+                            None => unreachable_run(net, &freq, threads),
+                        }
                     }
                 }
-            },
+            }
         },
     };
     Exploration::new(net, space, threads)
@@ -360,7 +389,7 @@ impl<'n> Exploration<'n> {
 fn unreachable_run(net: &PtNet, freq: &[u64], threads: usize) -> Space {
     let sem = Counts::<4>::new(net, freq);
     let m = vec![0u8; sem.width()];
-    let mut r = run(sem, &m, Partitioner::by_hash(threads), 1, None);
+    let mut r = run(sem, &m, Partitioner::by_hash(threads), 1, None, false);
     r.stop = Some(Stop::Overflow);
     Space::C32(r)
 }
@@ -387,6 +416,7 @@ fn summarize<S: Semantics>(
         engine,
         threads,
         stored_bytes: r.stores.iter().map(|s| s.bytes()).sum(),
+        arc_bytes: r.arcs.iter().map(|a| a.bytes()).sum(),
         never_fired: (0..transitions)
             .filter(|&t| !r.fired.get(t).copied().unwrap_or(false))
             .collect(),
@@ -522,9 +552,84 @@ impl<S: Semantics> Successors for Graph<'_, S> {
     }
 }
 
+/// The reachability graph over the successors kept by the exploration
+/// ([`Options::keep_arcs`]).
+struct Kept<'r> {
+    arcs: &'r [edges::Edges],
+    offsets: Vec<u32>,
+}
+
+impl Kept<'_> {
+    #[inline]
+    fn of(&self, node: u32) -> &[u32] {
+        if self.arcs.len() == 1 {
+            return self.arcs[0].of(node);
+        }
+        let p = self.offsets.partition_point(|&o| o <= node) - 1;
+        self.arcs[p].of(node - self.offsets[p])
+    }
+}
+
+impl Adjacency for Kept<'_> {
+    fn nodes(&self) -> usize {
+        self.offsets.last().copied().unwrap_or(0) as usize
+    }
+
+    fn targets(&self, node: u32) -> &[u32] {
+        self.of(node)
+    }
+}
+
+impl Successors for Kept<'_> {
+    fn node_count(&self) -> usize {
+        self.offsets.last().copied().unwrap_or(0) as usize
+    }
+
+    fn successors(&self, node: u32, out: &mut Vec<u32>) {
+        out.extend_from_slice(self.of(node));
+    }
+}
+
+/// The state id of dense node `node` (partitions numbered one after the
+/// other from `offsets`).
+fn id_of(offsets: &[u32], node: u32) -> u32 {
+    let p = offsets.partition_point(|&o| o <= node) - 1;
+    state_id(p, node - offsets[p])
+}
+
 fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize) -> Loops {
-    let g = Graph::new(r);
-    let sccs = graph::strongly_connected_components(&g);
+    if r.arcs.is_empty() {
+        let g = Graph::new(r);
+        let sccs = graph::strongly_connected_components(&g);
+        loops_in(r, &g, &sccs, max_listed)
+    } else {
+        let kept = Kept {
+            arcs: &r.arcs,
+            offsets: r.offsets(),
+        };
+        let initial = r
+            .level_ids(0)
+            .next()
+            .map_or(0, |id| dense_of(&kept.offsets, id));
+        let sccs = graph::strongly_connected_components_from(&kept, initial);
+        loops_in(r, &kept, &sccs, max_listed)
+    }
+}
+
+/// The dense number of state id `id`.
+fn dense_of(offsets: &[u32], id: u32) -> u32 {
+    let (p, l) = split_id(id);
+    offsets[p] + l
+}
+
+/// The loops of `g`, the reachability graph of `r` in dense numbering,
+/// whose strongly connected components are `sccs`.
+fn loops_in<S: Semantics>(
+    r: &Run<S>,
+    g: &impl Successors,
+    sccs: &Sccs,
+    max_listed: usize,
+) -> Loops {
     let cyclic_components = sccs.cyclic.iter().filter(|&&c| c).count() as u64;
     let largest = sccs
         .sizes
@@ -534,33 +639,39 @@ fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize) -> Loops {
         .map(|(&s, _)| s)
         .max()
         .unwrap_or(0);
-    // The first-reached node of each cyclic component (smallest depth).
-    let n = g.node_count();
-    let depth: Vec<u32> = (0..n as u32).map(|v| r.level(g.id(v)) as u32).collect();
-    let mut best: Vec<Option<(u32, u32)>> = vec![None; sccs.count()];
-    for v in 0..n as u32 {
-        let c = sccs.component[v as usize] as usize;
-        if sccs.cyclic[c] && best[c].is_none_or(|(d, _)| depth[v as usize] < d) {
-            best[c] = Some((depth[v as usize], v));
+    // The first-reached node of each cyclic component (smallest depth, then
+    // smallest number), for the first `max_listed` components in that
+    // order: markings level by level, in increasing numbers in each.
+    let offsets = r.offsets();
+    let dense = |id: u32| dense_of(&offsets, id);
+    let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
+    let mut seen = vec![false; sccs.count()];
+    let mut entries: Vec<(usize, u32)> = Vec::new();
+    'levels: for k in 0..depths {
+        if entries.len() >= max_listed || entries.len() as u64 == cyclic_components {
+            break;
+        }
+        for id in r.level_ids(k) {
+            let v = dense(id);
+            let c = sccs.component[v as usize] as usize;
+            if sccs.cyclic[c] && !seen[c] {
+                seen[c] = true;
+                entries.push((c, v));
+                if entries.len() >= max_listed {
+                    break 'levels;
+                }
+            }
         }
     }
-    let mut entries: Vec<(u32, u32, usize)> = best
-        .iter()
-        .enumerate()
-        .filter_map(|(c, b)| b.map(|(d, v)| (d, v, c)))
-        .collect();
-    entries.sort_unstable();
-    entries.truncate(max_listed);
-    let entries: Vec<(usize, u32)> = entries.into_iter().map(|(_, v, c)| (c, v)).collect();
     let listed = entries
         .into_iter()
         .map(|(c, v)| {
-            let prefix = firing_sequence(r, &chain_to(r, g.id(v)));
+            let prefix = firing_sequence(r, &chain_to(r, id_of(&offsets, v)));
             let cycle_nodes =
-                graph::shortest_cycle(&g, v, |w| sccs.component[w as usize] as usize == c)
+                graph::shortest_cycle(g, v, |w| sccs.component[w as usize] as usize == c)
                     .unwrap_or_default();
-            let mut ids: Vec<u32> = cycle_nodes.iter().map(|&w| g.id(w)).collect();
-            ids.push(g.id(v));
+            let mut ids: Vec<u32> = cycle_nodes.iter().map(|&w| id_of(&offsets, w)).collect();
+            ids.push(id_of(&offsets, v));
             Loop {
                 states: sccs.sizes[c],
                 prefix,

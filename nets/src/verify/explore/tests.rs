@@ -121,3 +121,47 @@ fn transitions_that_never_fire_are_listed() {
     let e = explore(&net, &Options::default());
     assert_eq!(e.names(&e.summary.never_fired), vec!["stuck", "heavy"]);
 }
+
+/// The loops found over kept arcs are those found by firing again, on one
+/// thread and on several.
+fn same_loops_with_kept_arcs(net: &PtNet) {
+    let again = explore(net, &Options::default()).loops(10);
+    for threads in [1, 2, 3] {
+        let e = explore(
+            net,
+            &Options {
+                threads,
+                parallel_from: 0,
+                keep_arcs: true,
+                ..Options::default()
+            },
+        );
+        assert!(on_space!(&e.space, r => !r.arcs.is_empty()), "arcs kept");
+        assert_eq!(e.loops(10), again, "threads {threads}");
+    }
+}
+
+#[test]
+fn kept_arcs_give_the_same_loops() {
+    same_loops_with_kept_arcs(&ring(5));
+    let mut net = ring(4);
+    let p = net.add_place("side", 0);
+    net.add_transition("out", &[(1, 1)], &[(p, 1)]);
+    net.add_transition("back", &[(p, 1)], &[(2, 1)]);
+    net.add_transition("stay", &[(p, 1)], &[(p, 1)]);
+    same_loops_with_kept_arcs(&net);
+    // a net whose initial marking is left for good: several components
+    let mut net = PtNet::new("chain");
+    let a = net.add_place("a", 2);
+    let b = net.add_place("b", 0);
+    let c = net.add_place("c", 0);
+    net.add_transition("ab", &[(a, 1)], &[(b, 1)]);
+    net.add_transition("bc", &[(b, 1)], &[(c, 1)]);
+    net.add_transition("cb", &[(c, 1)], &[(b, 1)]);
+    same_loops_with_kept_arcs(&net);
+    // ... one of them a single marking with a loop to itself
+    net.add_transition("idle", &[(a, 2)], &[(a, 2)]);
+    same_loops_with_kept_arcs(&net);
+    let e = explore(&net, &Options::default());
+    assert_eq!(e.loops(10).cyclic_components, 3);
+}
