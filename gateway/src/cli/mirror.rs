@@ -264,6 +264,12 @@ async fn mirror(setup: Setup) -> VerbResult {
     let mut elaborated = Vec::new();
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
         .map_err(|e| miette::miette!("cannot watch for signals: {e}"))?;
+    // Ticks on their own schedule: a sleep made anew at each turn of the
+    // loop never ends while frames come faster than TICK (telemetry at
+    // 50 Hz, or any rate at 10x), and then no request was ever retried
+    // before the first downlink packet.
+    let mut ticks = tokio::time::interval(clock.wall(TICK).max(Duration::from_millis(1)));
+    ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     loop {
         let until_stop = async {
             match stop_at {
@@ -322,7 +328,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                     }
                 }
             }
-            _ = tokio::time::sleep(clock.wall(TICK)) => {
+            _ = ticks.tick() => {
                 let now = clock.now();
                 elaborator.tick(now);
                 replica.tick(now);

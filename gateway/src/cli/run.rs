@@ -809,6 +809,10 @@ impl Gateway {
         }
         // A mission upload under way gets a bounded time to finish.
         let grace = Instant::now() + UPLOAD_GRACE;
+        // An interval, not a sleep made anew per turn: frames every few ms
+        // would starve the commander's retries and timeouts.
+        let mut ticks = tokio::time::interval(Duration::from_millis(20));
+        ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         while gw.commander.busy() && Instant::now() < grace {
             tokio::select! {
                 Some(rx) = frames.recv() => {
@@ -816,7 +820,7 @@ impl Gateway {
                         gw.commander.message(rx.time_us, &rx.header, message);
                     }
                 }
-                _ = tokio::time::sleep(Duration::from_millis(20)) => gw.commander.tick(gw.now()),
+                _ = ticks.tick() => gw.commander.tick(gw.now()),
             }
             gw.pump().await;
             gw.settle();
