@@ -23,7 +23,7 @@ use flight::{
 };
 use router::{Loss, Router, Traffic};
 use sitl_tests::SimState;
-use wire::{check_recording, only_resync_requests, the_recording_checks_out};
+use wire::{check_recording, fired, only_resync_requests, the_recording_checks_out};
 
 /// The scenarios' mission file (DEC reads it).
 pub const MISSION_FILE: &str = "mission.toml";
@@ -48,15 +48,6 @@ struct Mirrored {
 impl Mirrored {
     fn mirror_lines(&self, kind: &str) -> Vec<&serde_json::Value> {
         self.mirror.iter().filter(|l| l["mirror"] == kind).collect()
-    }
-
-    /// (time, net, transition) of every firing in a timeline.
-    fn fired(lines: &[serde_json::Value]) -> Vec<String> {
-        lines
-            .iter()
-            .filter(|l| l["effect"] == "fired")
-            .map(|l| format!("{} {} {}", l["t"], l["net"], l["transition"]))
-            .collect()
     }
 }
 
@@ -285,8 +276,8 @@ fn the_mirror_agrees_with_the_vehicle_over_the_nominal_mission() {
     let m = fly_mirrored("nominal", &[], Loss::default());
     ended_equal("nominal", &m);
     // Its firings are the vehicle's, from the moment it synced.
-    let run = Mirrored::fired(&m.run);
-    let mirror = Mirrored::fired(&m.mirror);
+    let run = fired(&m.run);
+    let mirror = fired(&m.mirror);
     assert!(mirror.len() > 10, "{mirror:?}");
     assert!(
         run.ends_with(&mirror),

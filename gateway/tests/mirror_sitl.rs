@@ -28,7 +28,7 @@ use mavlink::dialects::ardupilotmega::*;
 use mavlink::{MavConnection, MavHeader};
 use real::Truth;
 use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
-use wire::{only_resync_requests, the_recording_checks_out};
+use wire::{fired, only_resync_requests, the_recording_checks_out};
 
 /// The mission file DEC reads, in the project folder.
 pub const MISSION_FILE: &str = "mission.toml";
@@ -323,14 +323,6 @@ impl Drop for Ground {
             let _ = t.join();
         }
     }
-}
-
-fn fired(lines: &[serde_json::Value]) -> Vec<String> {
-    lines
-        .iter()
-        .filter(|l| l["effect"] == "fired")
-        .map(|l| format!("{} {} {}", l["t"], l["net"], l["transition"]))
-        .collect()
 }
 
 #[test]

@@ -122,3 +122,12 @@ pub fn only_resync_requests(frames: &[Vec<u8>]) -> usize {
     }
     frames.len()
 }
+
+/// (time, net, transition) of every firing in a timeline.
+pub fn fired(lines: &[serde_json::Value]) -> Vec<String> {
+    lines
+        .iter()
+        .filter(|l| l["effect"] == "fired")
+        .map(|l| format!("{} {} {}", l["t"], l["net"], l["transition"]))
+        .collect()
+}

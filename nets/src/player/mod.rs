@@ -224,6 +224,22 @@ impl Player {
         !self.firings_only
     }
 
+    /// An outside event dropped, with the category it was handled under
+    /// (recorded unless only firings are).
+    fn drop_outside(&mut self, now: Micros, event: &Event, category: Category, reason: DropReason) {
+        if self.records() {
+            self.effects.push(Effect::Dropped {
+                time: now,
+                event: Event {
+                    name: event.name.clone(),
+                    category,
+                    params: event.params.clone(),
+                },
+                reason,
+            });
+        }
+    }
+
     /// The oracle, with the questions it was asked.
     pub fn oracle(&self) -> Option<&Oracle> {
         self.oracle.as_ref()
@@ -298,17 +314,7 @@ impl Player {
         // A result or `net_fault` from outside would stand for one the
         // player never produced: dropped, recorded.
         if crate::outside::player_own(&project, &event.name).is_some() {
-            if self.records() {
-                self.effects.push(Effect::Dropped {
-                    time: now,
-                    event: Event {
-                        name: event.name.clone(),
-                        category,
-                        params: event.params.clone(),
-                    },
-                    reason: DropReason::Reserved,
-                });
-            }
+            self.drop_outside(now, event, category, DropReason::Reserved);
             return;
         }
         // The verifier does not know an external event's parameters.
@@ -320,17 +326,7 @@ impl Player {
             oracle.open(false);
         }
         if let Err(reason) = occurred {
-            if self.records() {
-                self.effects.push(Effect::Dropped {
-                    time: now,
-                    event: Event {
-                        name: event.name.clone(),
-                        category,
-                        params: event.params.clone(),
-                    },
-                    reason,
-                });
-            }
+            self.drop_outside(now, event, category, reason);
         }
         let tainted = category == Category::Catastrophic;
         self.immediates(&project, now, tainted);
