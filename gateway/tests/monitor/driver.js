@@ -31,6 +31,10 @@ async function live(page, seen) {
   seen.turned_red = red.id;
   seen.fill = red.fill;
   seen.unmarked_fill = await page.$eval("#nets g.place:not(.marked) circle", (c) => getComputedStyle(c).fill);
+  // The log's rows and the marking come in separate frames: wait (bounded)
+  // for the log to show more than at first rather than reading it once.
+  await page.waitForFunction((n) => document.querySelectorAll("#log .row").length > n, seen.log_first,
+    { timeout: 30000 }).catch(() => {});
   seen.log_later = await page.$$eval("#log .row", (els) => els.length);
   seen.log_kinds = await page.$$eval("#log .row", (els) => [...new Set(els.map((e) => e.dataset.kind))]);
   seen.strip_mode = await page.$eval("#v-mode b", (b) => b.textContent);
