@@ -14,7 +14,10 @@ const FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", 
 async function live(page, seen) {
   await page.goto(url);
   await page.waitForFunction(() => document.querySelectorAll("#nets g.net").length > 0 &&
-    document.querySelector("#connection").textContent === "connected", null, { timeout: 30000 });
+    document.querySelector("#connection").textContent === "connected" &&
+    document.querySelectorAll("#nets g.place.marked").length > 0, null, { timeout: 30000 });
+  // (The marking is painted every 250 ms: waiting for a first marked place
+  // keeps the initial paint from passing for a place that turned red.)
   seen.ids = await page.$$eval("#nets g.place, #nets g.transition", (els) => els.map((e) => e.id));
   seen.nets = await page.$$eval("#nets g.net", (els) => els.map((e) => e.dataset.net));
   seen.globals = await page.$$eval("#globals .chip", (els) => els.map((e) => e.textContent));
@@ -31,8 +34,8 @@ async function live(page, seen) {
   seen.turned_red = red.id;
   seen.fill = red.fill;
   seen.unmarked_fill = await page.$eval("#nets g.place:not(.marked) circle", (c) => getComputedStyle(c).fill);
-  // The log's rows and the marking come in separate frames: wait (bounded)
-  // for the log to show more than at first rather than reading it once.
+  // The log is written when a frame arrives, the marking painted up to
+  // 250 ms later: wait (bounded) for the log rather than reading it once.
   await page.waitForFunction((n) => document.querySelectorAll("#log .row").length > n, seen.log_first,
     { timeout: 30000 }).catch(() => {});
   seen.log_later = await page.$$eval("#log .row", (els) => els.length);
