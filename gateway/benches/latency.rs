@@ -9,172 +9,15 @@
 //! the number of trials, 10,000 by default). The pymavlink side is skipped,
 //! saying so, when pymavlink is not installed.
 
+#[path = "support/autopilot.rs"]
+mod autopilot;
+
 use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use elaboration::Frame;
-use mavlink::dialects::ardupilotmega::*;
-use mavlink::{MavHeader, MavlinkVersion};
-
-const AUTOPILOT: MavHeader = MavHeader {
-    system_id: 1,
-    component_id: 1,
-    sequence: 0,
-};
-
-fn encode(seq: u8, message: &MavMessage) -> Vec<u8> {
-    let mut out = Vec::new();
-    let header = MavHeader {
-        sequence: seq,
-        ..AUTOPILOT
-    };
-    if let Err(e) = mavlink::write_versioned_msg(&mut out, MavlinkVersion::V2, header, message) {
-        panic!("cannot encode {message:?}: {e}");
-    }
-    out
-}
-
-fn heartbeat() -> MavMessage {
-    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-        custom_mode: 4,
-        mavtype: MavType::MAV_TYPE_QUADROTOR,
-        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-        base_mode: MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED,
-        system_status: MavState::MAV_STATE_ACTIVE,
-        mavlink_version: 3,
-    })
-}
-
-fn sys_status(remaining: i8) -> MavMessage {
-    MavMessage::SYS_STATUS(SYS_STATUS_DATA {
-        battery_remaining: remaining,
-        voltage_battery: 11_800,
-        ..SYS_STATUS_DATA::default()
-    })
-}
-
-/// The scripted autopilot's side of one reactor (petrel or the script).
-struct Autopilot {
-    socket: UdpSocket,
-    seq: u8,
-}
-
-impl Autopilot {
-    fn send(&mut self, message: &MavMessage) {
-        self.seq = self.seq.wrapping_add(1);
-        let bytes = encode(self.seq, message);
-        let _ = self.socket.send(&bytes);
-    }
-
-    /// Waits for an RTL COMMAND_LONG, acking every command on the way.
-    fn wait_rtl(&mut self, deadline: Instant) -> Option<Instant> {
-        let mut buf = [0u8; 2048];
-        while Instant::now() < deadline {
-            let Ok(n) = self.socket.recv(&mut buf) else {
-                continue;
-            };
-            let arrived = Instant::now();
-            let mut at = 0;
-            let mut rtl = false;
-            while at < n {
-                let Ok(frame) = Frame::parse(&buf[at..n]) else {
-                    break;
-                };
-                at += frame.bytes().len();
-                if let Ok(MavMessage::COMMAND_LONG(c)) = frame.decode() {
-                    self.send(&MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
-                        command: c.command,
-                        result: MavResult::MAV_RESULT_ACCEPTED,
-                        progress: 0,
-                        result_param2: 0,
-                        target_system: frame.system_id(),
-                        target_component: frame.component_id(),
-                    }));
-                    rtl |= c.command == MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH;
-                }
-            }
-            if rtl {
-                return Some(arrived);
-            }
-        }
-        None
-    }
-}
-
-struct Stats {
-    name: &'static str,
-    micros: Vec<f64>,
-    lost: usize,
-}
-
-impl Stats {
-    fn pct(&self, p: f64) -> f64 {
-        let i = ((self.micros.len() as f64 - 1.0) * p).round() as usize;
-        self.micros[i.min(self.micros.len() - 1)]
-    }
-}
-
-/// Runs the trials against a reactor listening on `port`.
-fn trials(name: &'static str, port: u16, n: usize) -> Option<Stats> {
-    let socket = UdpSocket::bind("127.0.0.1:0").ok()?;
-    socket.connect(("127.0.0.1", port)).ok()?;
-    socket
-        .set_read_timeout(Some(Duration::from_millis(50)))
-        .ok()?;
-    let mut ap = Autopilot { socket, seq: 0 };
-    // Let the reactor hear the autopilot (and take its identity) first.
-    let start = Instant::now();
-    while start.elapsed() < Duration::from_secs(3) {
-        ap.send(&heartbeat());
-        ap.send(&sys_status(90));
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    let mut drain = [0u8; 2048];
-    // Reads what is waiting, without waiting for more.
-    let drain_for = |ap: &mut Autopilot, buf: &mut [u8], t: Duration| {
-        let until = Instant::now() + t;
-        let _ = ap.socket.set_nonblocking(true);
-        while Instant::now() < until && ap.socket.recv(buf).is_ok() {}
-        let _ = ap.socket.set_nonblocking(false);
-    };
-    drain_for(&mut ap, &mut drain, Duration::from_millis(100));
-    // Each reactor gets at most this long, whatever happens.
-    let give_up = Instant::now() + Duration::from_secs(90);
-    let mut micros = Vec::with_capacity(n);
-    let mut lost = 0;
-    let mut last_hb = Instant::now();
-    for trial in 0..n {
-        if trial % 1000 == 0 {
-            eprintln!("{name}: trial {trial}, {lost} lost");
-        }
-        if last_hb.elapsed() > Duration::from_millis(500) {
-            ap.send(&heartbeat());
-            last_hb = Instant::now();
-        }
-        let sent = Instant::now();
-        ap.send(&sys_status(20));
-        match ap.wait_rtl(sent + Duration::from_secs(1)) {
-            Some(arrived) => micros.push((arrived - sent).as_secs_f64() * 1e6),
-            None => lost += 1,
-        }
-        // Re-arm the rule.
-        ap.send(&sys_status(90));
-        std::thread::sleep(Duration::from_micros(300));
-        drain_for(&mut ap, &mut drain, Duration::from_millis(2));
-        if lost > 20 {
-            eprintln!("{name}: more than 20 trials lost; stopping");
-            break;
-        }
-        if Instant::now() > give_up {
-            eprintln!("{name}: out of time after {trial} trials; stopping");
-            break;
-        }
-    }
-    micros.sort_by(f64::total_cmp);
-    (!micros.is_empty()).then_some(Stats { name, micros, lost })
-}
+use autopilot::trials;
 
 /// `(battery_low events, rtl commands)` in a recording that replays with
 /// no difference.
@@ -245,7 +88,12 @@ fn main() {
         Ok(child) => {
             let mut guard = Killed(child);
             std::thread::sleep(Duration::from_millis(500));
-            results.extend(trials("petrel run (recording on)", port, n));
+            results.extend(trials(
+                "petrel run (recording on)",
+                port,
+                n,
+                Duration::from_secs(90),
+            ));
             // Stop it cleanly, then find the rule's events and the net's
             // commands in its recording (replayed and checked against it).
             let pid = guard.0.id().to_string();
@@ -271,7 +119,12 @@ fn main() {
         if let Ok(child) = script {
             let _guard = Killed(child);
             std::thread::sleep(Duration::from_millis(1500));
-            results.extend(trials("pymavlink script (baseline)", port, n));
+            results.extend(trials(
+                "pymavlink script (baseline)",
+                port,
+                n,
+                Duration::from_secs(90),
+            ));
         }
     } else {
         eprintln!(

@@ -10,6 +10,8 @@
 //!
 //! Run: `cargo bench -p gateway --bench memory` (Linux).
 
+#[path = "support/proc.rs"]
+mod proc;
 #[path = "support/telemetry.rs"]
 #[allow(dead_code)]
 mod telemetry;
@@ -20,18 +22,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// VmRSS and VmHWM of a process, in kB.
-fn rss_kb(pid: u32) -> Option<(u64, u64)> {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
-    let field = |name: &str| {
-        status
-            .lines()
-            .find(|l| l.starts_with(name))
-            .and_then(|l| l.split_whitespace().nth(1))
-            .and_then(|v| v.parse().ok())
-    };
-    Some((field("VmRSS:")?, field("VmHWM:")?))
-}
+use proc::rss_kb;
 
 fn mb(kb: u64) -> f64 {
     kb as f64 / 1024.0
