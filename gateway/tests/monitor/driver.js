@@ -1,5 +1,7 @@
 // Drives Debian's chromium with playwright-core for gateway/tests/monitor.rs.
 // Usage: node driver.js live|view URL OUT_DIR [SECONDS_AT...]
+//        node driver.js mirror|mirror-read-only URL OUT_DIR [CHOICE]
+//        (gateway/tests/monitor_mirror.rs: the mirror's page)
 // Prints one JSON object with what it saw; the Rust test judges it.
 // The browser is closed on every path (and dies with this process: it is
 // launched over a pipe).
@@ -91,6 +93,60 @@ async function view(page, seen) {
   await page.screenshot({ path: path.join(out, "monitor-view-played.png") });
 }
 
+// The mirror's page: the replica agreeing, a question counting down; with
+// a CHOICE, its button clicked and the question seen answered.
+async function mirror(page, seen, readOnly) {
+  const name = readOnly ? "monitor-mirror-read-only" : "monitor-mirror";
+  await page.goto(url);
+  await page.waitForFunction(() => document.querySelector("#connection").textContent === "connected" &&
+    !document.querySelector("#mirror").hidden, null, { timeout: 30000 });
+  seen.mode = await page.$eval("#mode", (e) => e.textContent);
+  await page.waitForFunction(() => document.querySelector("#agreement").className === "exact" &&
+    /last agreed step \d+/.test(document.querySelector("#agreement-detail").textContent), null, { timeout: 60000 });
+  seen.agreement = await page.$eval("#agreement", (e) => ({ state: e.className, text: e.textContent }));
+  const q = await page.waitForSelector(".question.open", { timeout: 90000 });
+  seen.question_id = Number(await q.getAttribute("data-id"));
+  // The answer desk's verdict comes apart from the frames: wait for it.
+  await page.waitForFunction(() => {
+    const el = document.querySelector(".question.open");
+    const b = el && el.querySelector("button");
+    return el && b && (!b.hidden || el.querySelector(".status").textContent !== "");
+  }, null, { timeout: 10000 });
+  const read = () => page.$eval(".question.open", (el) => ({
+    text: el.querySelector(".ask b").textContent,
+    head: el.querySelector(".ask small").textContent,
+    left: el.querySelector(".left").textContent,
+    buttons: [...el.querySelectorAll("button")].filter((b) => !b.hidden && b.offsetParent !== null).map((b) => b.textContent),
+    status: el.querySelector(".status").textContent,
+  }));
+  seen.question = await read();
+  await page.screenshot({ path: path.join(out, name + ".png") });
+  // The countdown runs on the vehicle's time: a moment later, less left.
+  await page.waitForFunction((l) => document.querySelector(".question.open .left").textContent !== l,
+    seen.question.left, { timeout: 15000 }).catch(() => {});
+  seen.question_later = await read();
+  seen.disagreements = await page.$eval("#disagreements", (e) => e.textContent);
+  // The radio fades (the test mutes the downlink when told): the page
+  // says the vehicle is silent, then exact again once repaired.
+  const signal = process.env.MONITOR_MUTE_SIGNAL;
+  if (signal) {
+    require("fs").writeFileSync(signal, "mute");
+    await page.waitForSelector("#agreement.silent, #agreement.provisional, #agreement.diverged", { timeout: 30000 });
+    seen.faded = await page.$eval("#agreement", (e) => ({ state: e.className, text: e.textContent }));
+    await page.screenshot({ path: path.join(out, name + "-silent.png") });
+    await page.waitForFunction(() => document.querySelector("#agreement").className === "exact", null, { timeout: 60000 });
+    seen.repaired = await page.$eval("#agreement", (e) => ({ state: e.className, text: e.textContent }));
+  }
+  const choice = rest[0];
+  if (readOnly || !choice) return;
+  await page.click(".question.open button[data-choice='" + choice + "']");
+  const id = seen.question_id;
+  await page.waitForSelector("#done-" + id, { timeout: 60000 });
+  seen.closed = await page.$eval("#done-" + id, (el) => ({ fate: el.dataset.fate, status: el.querySelector(".status").textContent }));
+  seen.log_answer = await page.$$eval("#log .row[data-kind='answer']", (els) => els.map((e) => e.textContent));
+  await page.screenshot({ path: path.join(out, name + "-answered.png") });
+}
+
 (async () => {
   const seen = { errors: [] };
   const browser = await chromium.launch({
@@ -102,7 +158,9 @@ async function view(page, seen) {
   try {
     const page = await browser.newPage({ viewport: { width: 1600, height: 1000 } });
     page.on("pageerror", (e) => seen.errors.push(String(e)));
-    if (mode === "live") await live(page, seen); else await view(page, seen);
+    if (mode === "live") await live(page, seen);
+    else if (mode.startsWith("mirror")) await mirror(page, seen, mode === "mirror-read-only");
+    else await view(page, seen);
   } catch (e) {
     seen.failure = String(e && e.stack || e);
   } finally {
