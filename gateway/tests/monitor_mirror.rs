@@ -6,7 +6,12 @@
 //! browser clicks an answer, which the vehicle receives (delivered, the
 //! net fires its branch) and the page shows answered. Without the key, a
 //! second mirror's page shows the next question without buttons and says
-//! why.
+//! why. Between the two, the radio fades: the downlink lost while the
+//! operator answers the second question (the page says the vehicle is
+//! silent), then the uplink lost while the downlink is back (the answer's
+//! record missing, not asked again: provisional), then both back (exact
+//! again); the vehicle got both answers. Requests
+//! the page never makes (a plain form POST, another origin's) are refused.
 //!
 //! Needs node, playwright-core and chromium as `tests/monitor.rs` does:
 //! skipped with the reason without them, failed under `CI=true`.
@@ -208,7 +213,7 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
         &speed,
         "--no-record",
         "--duration",
-        "240",
+        "600",
         "--json",
         "--downlink",
         "--unchecked",
@@ -225,7 +230,7 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
             "--time-scale",
             &speed,
             "--duration",
-            "240",
+            "600",
             "--no-record",
             "--http",
             "127.0.0.1:0",
@@ -240,7 +245,34 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
     // browser answers it.
     let a = mirror(Some(&operator));
     let url = a.url();
-    let seen = drive(&tools, &["mirror", &url, &shots, "yes"], &[]);
+    let signals = dir.path().join("signals");
+    std::fs::create_dir_all(&signals).expect("a folder");
+    let seen = std::thread::scope(|s| {
+        let page = s.spawn(|| {
+            let signals = signals.to_string_lossy().to_string();
+            drive(
+                &tools,
+                &["mirror", &url, &shots, "yes"],
+                &[("MONITOR_SIGNALS", &signals)],
+            )
+        });
+        // The radio fades as the page asks, once it has seen each stage:
+        // (signal, downlink works, uplink works).
+        let until = Instant::now() + Duration::from_secs(300);
+        for (signal, down, up) in [
+            ("fade", false, true),
+            ("downlink", true, false),
+            ("uplink", true, true),
+        ] {
+            while !signals.join(signal).exists() && !page.is_finished() && Instant::now() < until {
+                std::thread::sleep(Duration::from_millis(50));
+            }
+            router.mute_downlink(!down);
+            router.mute_uplink(!up);
+        }
+        page.join()
+            .unwrap_or_else(|_| panic!("the driver's thread"))
+    });
     assert_eq!(seen["mode"], "MIRROR");
     assert_eq!(seen["agreement"]["state"], "exact", "{}", seen["agreement"]);
     let id = seen["question_id"]
@@ -257,6 +289,23 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
     assert!(
         first <= 300.0 && later < first,
         "the countdown runs: {first} then {later}"
+    );
+    // What the page never sends is refused; the vehicle gets none of it
+    // (below: one answer delivered, one signed frame up).
+    let forged = &seen["forged"];
+    assert_eq!(forged["simple"], 403, "{forged}");
+    assert!(
+        forged["cross_origin"]
+            .as_str()
+            .is_some_and(|s| s.starts_with("blocked")),
+        "{forged}"
+    );
+    assert_eq!(forged["not_offered"]["sent"], false, "{forged}");
+    assert!(
+        forged["not_offered"]["error"]
+            .as_str()
+            .is_some_and(|e| e.contains("is not a choice")),
+        "{forged}"
     );
     let closed = &seen["closed"];
     assert_eq!(closed["fate"], "answered", "{closed}");
@@ -278,38 +327,53 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
         "{said:?} not said\n{}",
         a.stderr()
     );
+    // The radio faded: silent, then provisional, said on the banner in
+    // turn, then exact again.
+    let banner = |state: &str, says: &str| {
+        assert!(
+            seen[state]["text"]
+                .as_str()
+                .is_some_and(|t| t.contains(says)),
+            "{state}: {}\n{}",
+            seen[state],
+            a.stderr()
+        );
+    };
+    banner("silent", "nothing heard from the vehicle");
+    banner("provisional", "lost on the radio");
+    assert_eq!(seen["repaired"]["state"], "exact", "{}", seen["repaired"]);
+    assert!(
+        seen["repaired"]["text"]
+            .as_str()
+            .is_some_and(|t| t.contains("resynced by")),
+        "{}\n{}",
+        seen["repaired"],
+        a.stderr()
+    );
+    // The second answer went up while the page saw nothing of the vehicle.
+    let second = seen["second_id"].as_u64().unwrap_or(0);
+    assert!(
+        seen["second_sent"]
+            .as_str()
+            .is_some_and(|t| t.contains("sent, signed")),
+        "{}",
+        seen["second_sent"]
+    );
+    assert!(
+        seen["second_closed"] == "answered" || seen["second_closed"] == "closed",
+        "the second question no longer pending once repaired: {}",
+        seen["second_closed"]
+    );
     let (_, a_err) = a.stop();
 
     // 2. Without the key: the next question, read-only, saying why.
     let b = mirror(None);
     let url = b.url();
-    let signal = dir.path().join("mute-now");
-    let seen = std::thread::scope(|s| {
-        let page = s.spawn(|| {
-            let signal = signal.to_string_lossy().to_string();
-            drive(
-                &tools,
-                &["mirror-read-only", &url, &shots],
-                &[("MONITOR_MUTE_SIGNAL", &signal)],
-            )
-        });
-        // The radio fades for 5 s once the page has shown the question.
-        let until = Instant::now() + Duration::from_secs(200);
-        while !signal.exists() && !page.is_finished() && Instant::now() < until {
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        if signal.exists() {
-            router.mute_downlink(true);
-            std::thread::sleep(Duration::from_secs(5));
-            router.mute_downlink(false);
-        }
-        page.join()
-            .unwrap_or_else(|_| panic!("the driver's thread"))
-    });
+    let seen = drive(&tools, &["mirror-read-only", &url, &shots], &[]);
     let (_, b_err) = b.stop();
     let q = &seen["question"];
-    let second = seen["question_id"].as_u64().unwrap_or(0);
-    assert!(second > id, "a later question: #{second} after #{id}");
+    let third = seen["question_id"].as_u64().unwrap_or(0);
+    assert!(third > second, "a later question: #{third} after #{second}");
     assert_eq!(strings(&q["buttons"]), Vec::<String>::new(), "{q}\n{b_err}");
     assert!(
         q["status"]
@@ -318,23 +382,6 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
         "{q}"
     );
     assert!(left(q) > 0.0, "{q}");
-    // The downlink muted: said on the banner, then exact again.
-    assert!(
-        seen["faded"]["text"]
-            .as_str()
-            .is_some_and(|t| t.contains("nothing heard from the vehicle")),
-        "{}",
-        seen["faded"]
-    );
-    assert_eq!(seen["repaired"]["state"], "exact", "{}", seen["repaired"]);
-    assert!(
-        seen["repaired"]["text"]
-            .as_str()
-            .is_some_and(|t| t.contains("resynced by")),
-        "{}\n{b_err}",
-        seen["repaired"]
-    );
-
     // On board: the page's answer delivered, and the net took its branch.
     let (run_out, run_err) = run.stop();
     sim.stop();
@@ -343,7 +390,7 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
         .find(|l| l.starts_with("operator answers: "))
         .unwrap_or_else(|| panic!("run did not count the answers\n{run_err}"));
     assert_eq!(
-        counts, "operator answers: 1 delivered, rejected: none",
+        counts, "operator answers: 2 delivered, rejected: none",
         "\n{run_err}\n{a_err}"
     );
     let lines = flight::timeline(&run_out.join("\n"));
@@ -352,9 +399,16 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
         .find(|l| l["effect"] == "answered" && l["id"] == id)
         .unwrap_or_else(|| panic!("question #{id} not answered on board\n{run_err}"));
     assert_eq!(answered["choice"], "yes");
-    assert!(lines
+    let answered = lines
         .iter()
-        .any(|l| l["effect"] == "fired" && l["net"] == "Q" && l["transition"] == "yes"));
+        .find(|l| l["effect"] == "answered" && l["id"] == second)
+        .unwrap_or_else(|| panic!("question #{second} not answered on board\n{run_err}"));
+    assert_eq!(answered["choice"], "no");
+    for branch in ["yes", "no"] {
+        assert!(lines
+            .iter()
+            .any(|l| l["effect"] == "fired" && l["net"] == "Q" && l["transition"] == branch));
+    }
     // Nothing went up but requests and the one signed answer.
     let answers = router
         .traffic()
@@ -362,6 +416,6 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
         .iter()
         .filter(|b| b.first() == Some(&0xfd) && b.get(2).is_some_and(|flags| flags & 1 == 1))
         .count();
-    assert_eq!(answers, 1, "one signed frame went up");
+    assert_eq!(answers, 2, "two signed frames went up: the two answers");
     drop(router);
 }

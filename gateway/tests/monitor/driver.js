@@ -126,25 +126,58 @@ async function mirror(page, seen, readOnly) {
     seen.question.left, { timeout: 15000 }).catch(() => {});
   seen.question_later = await read();
   seen.disagreements = await page.$eval("#disagreements", (e) => e.textContent);
-  // The radio fades (the test mutes the downlink when told): the page
-  // says the vehicle is silent, then exact again once repaired.
-  const signal = process.env.MONITOR_MUTE_SIGNAL;
-  if (signal) {
-    require("fs").writeFileSync(signal, "mute");
-    await page.waitForSelector("#agreement.silent, #agreement.provisional, #agreement.diverged", { timeout: 30000 });
-    seen.faded = await page.$eval("#agreement", (e) => ({ state: e.className, text: e.textContent }));
-    await page.screenshot({ path: path.join(out, name + "-silent.png") });
-    await page.waitForFunction(() => document.querySelector("#agreement").className === "exact", null, { timeout: 60000 });
-    seen.repaired = await page.$eval("#agreement", (e) => ({ state: e.className, text: e.textContent }));
-  }
   const choice = rest[0];
   if (readOnly || !choice) return;
+  // Requests the page would never make are refused: a simple POST (what
+  // any site's form can send), one from another origin (localhost is not
+  // 127.0.0.1), and a choice the question does not offer.
+  seen.forged = await page.evaluate(async (id) => {
+    const json = { "Content-Type": "application/json", "X-Petrel-Answer": "1" };
+    const body = JSON.stringify({ id: id, choice: "no" });
+    const other = location.href.replace("127.0.0.1", "localhost") + "answer";
+    const out = {};
+    out.simple = await fetch("answer", { method: "POST", body }).then((r) => r.status).catch((e) => String(e));
+    out.cross_origin = await fetch(other, { method: "POST", headers: json, body }).then((r) => r.status).catch((e) => "blocked: " + e.name);
+    out.no_cors = await fetch(other, { method: "POST", mode: "no-cors", body }).then((r) => r.type).catch((e) => "blocked: " + e.name);
+    out.not_offered = await fetch("answer", { method: "POST", headers: json, body: JSON.stringify({ id: id, choice: "maybe" }) })
+      .then((r) => r.json());
+    return out;
+  }, seen.question_id);
   await page.click(".question.open button[data-choice='" + choice + "']");
   const id = seen.question_id;
   await page.waitForSelector("#done-" + id, { timeout: 60000 });
   seen.closed = await page.$eval("#done-" + id, (el) => ({ fate: el.dataset.fate, status: el.querySelector(".status").textContent }));
   seen.log_answer = await page.$$eval("#log .row[data-kind='answer']", (els) => els.map((e) => e.textContent));
   await page.screenshot({ path: path.join(out, name + "-answered.png") });
+  // The radio fades, as the test makes it when told (files in
+  // MONITOR_SIGNALS): the downlink lost (the page says the vehicle is
+  // silent) while the next question is answered; then the downlink back
+  // and the uplink lost (the answer's record missing, not asked again:
+  // provisional); then both back (exact again).
+  const signals = process.env.MONITOR_SIGNALS;
+  if (!signals) return;
+  const tell = (what) => require("fs").writeFileSync(path.join(signals, what), what);
+  const banner = () => page.$eval("#agreement", (e) => ({ state: e.className, text: e.textContent }));
+  const until = async (state, timeout) => {
+    await page.waitForFunction((s) => document.querySelector("#agreement").className === s, state, { timeout });
+    seen[state] = await banner();
+    await page.screenshot({ path: path.join(out, name + "-" + state + ".png") });
+  };
+  const next = await page.waitForSelector(".question.open", { timeout: 90000 });
+  const second = Number(await next.getAttribute("data-id"));
+  seen.second_id = second;
+  tell("fade");
+  await until("silent", 30000);
+  await page.click("#q-" + second + " button[data-choice='no']");
+  await page.waitForFunction((id) => document.querySelector("#q-" + id).dataset.fate === "sent", second, { timeout: 10000 });
+  seen.second_sent = await page.$eval("#q-" + second + " .status", (e) => e.textContent);
+  await page.waitForTimeout(1000);
+  tell("downlink");
+  await until("provisional", 30000);
+  tell("uplink");
+  await page.waitForFunction(() => document.querySelector("#agreement").className === "exact", null, { timeout: 60000 });
+  seen.repaired = await banner();
+  seen.second_closed = await page.$eval("#done-" + second, (el) => el.dataset.fate).catch(() => null);
 }
 
 (async () => {

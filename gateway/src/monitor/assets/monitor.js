@@ -356,7 +356,7 @@ function mirror(m) {
       break;
     case "provisional":
       state = "PROVISIONAL";
-      detail = "records " + (m.gap ? m.gap.from + "–" + (m.gap.to - 1) : "") + " lost on the radio: advanced by the ground's own telemetry until repaired · last agreed " + agreed;
+      detail = (!m.gap ? "records" : m.gap.to - m.gap.from > 1 ? "records " + m.gap.from + "–" + (m.gap.to - 1) : "record " + m.gap.from) + " lost on the radio: advanced by the ground's own telemetry until repaired · last agreed " + agreed;
       break;
     case "diverged":
       state = "DIVERGED";
