@@ -219,7 +219,7 @@ async fn mirror(setup: Setup) -> VerbResult {
     };
     // The page: fed at the end of each turn of the loop, answers from it
     // taken as those typed on stdin (`answer`).
-    let (page, mut page_answers) = match setup.http {
+    let (mut page, mut page_answers) = match setup.http {
         None => (None, None),
         Some(address) => {
             let answering = match &setup.operator {
@@ -239,8 +239,6 @@ async fn mirror(setup: Setup) -> VerbResult {
             (Some(page), answers)
         }
     };
-    let mut page_reports = Vec::new();
-    let mut page_disagreements = Vec::new();
     let mut calls = 0u64;
     let mut replica = Replica::new(
         setup.project.clone(),
@@ -324,7 +322,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                 if let Some(rec) = &recorder {
                     rec.received(now, &rx.bytes);
                 }
-                if let Some(page) = &page {
+                if let Some(page) = &mut page {
                     page.frame(now, &rx.bytes);
                 }
                 if let Some(MavMessage::HEARTBEAT(hb)) = &rx.message {
@@ -467,8 +465,8 @@ async fn mirror(setup: Setup) -> VerbResult {
             if let Some(rec) = &recorder {
                 rec.mirror(now, layout::MIRROR_REPLICA, report_json(&report, now));
             }
-            if page.is_some() {
-                page_reports.push(report.clone());
+            if let Some(page) = &mut page {
+                page.report(&report);
             }
             print_report(&mut out, &setup.project, &report, now);
         }
@@ -489,8 +487,8 @@ async fn mirror(setup: Setup) -> VerbResult {
         let ground_known = last_seq.and_then(|(_, at)| replica.vehicle_time(at));
         check.advance(replica.exact_time(), ground_known);
         while let Some(d) = check.poll() {
-            if page.is_some() {
-                page_disagreements.push(d.clone());
+            if let Some(page) = &mut page {
+                page.disagreement(&d);
             }
             let event = d.event();
             tracing::warn!("{event}");
@@ -542,11 +540,6 @@ async fn mirror(setup: Setup) -> VerbResult {
                 }
             }
         }
-        if let Some(page) = &page {
-            page.settle(now, &page_reports, &page_disagreements, &replica, &dialog);
-            page_reports.clear();
-            page_disagreements.clear();
-        }
         // Requests wait in the replica until there is someone to ask: the
         // onboard gateway, else the vehicle's companion.
         if let Some(to) = onboard.or(vehicle.map(|v| (v, 191))) {
@@ -561,6 +554,10 @@ async fn mirror(setup: Setup) -> VerbResult {
                     Err(e) => tracing::warn!("uplink: {e}"),
                 }
             }
+        }
+        // The page last, off the path from a packet to its request.
+        if let Some(page) = &mut page {
+            page.settle(now, &replica, &dialog);
         }
         let _ = out.out.flush();
     }

@@ -177,7 +177,7 @@ impl Board {
                 let i = Some(self.push(
                     step.time,
                     None,
-                    json!({"kind": "result", "id": id, "of": of, "ok": done, "detail": detail}),
+                    json!({"kind": "result", "id": id, "of": of, "ok": done, "detail": detail, "fired": []}),
                 ));
                 self.attach(i, &step.effects);
             }
@@ -189,7 +189,7 @@ impl Board {
                 let i = Some(self.push(
                     step.time,
                     None,
-                    json!({"kind": "answer", "id": id, "choice": choice}),
+                    json!({"kind": "answer", "id": id, "choice": choice, "fired": []}),
                 ));
                 self.attach(i, &step.effects);
             }

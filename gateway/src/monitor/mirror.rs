@@ -385,11 +385,16 @@ impl Mirror {
 }
 
 /// `petrel mirror --http`: the board fed from the mirror's loop, once per
-/// turn of it, and served with the answer desk. Locks the board briefly,
-/// never waits for a browser (`live.rs`).
+/// turn of it after the turn's requests are sent, and served with the
+/// answer desk. What the turn brought is kept until then (the frames,
+/// reports and disagreements of one turn); the board is locked briefly,
+/// never waiting for a browser (`live.rs`).
 pub struct Page {
     feed: Feed,
     pub server: Server,
+    frames: Vec<(Micros, Vec<u8>)>,
+    reports: Vec<Report>,
+    disagreements: Vec<Disagreement>,
 }
 
 impl Page {
@@ -419,31 +424,41 @@ impl Page {
         feed.start(&start, &player);
         let (desk, answers) = Desk::new(answering);
         let server = Server::start_mirror(address, live, desk)?;
-        Ok((Page { feed, server }, answers))
+        let page = Page {
+            feed,
+            server,
+            frames: Vec::new(),
+            reports: Vec::new(),
+            disagreements: Vec::new(),
+        };
+        Ok((page, answers))
     }
 
-    /// A frame the ground received at `now`: the vehicle strip and map.
-    pub fn frame(&self, now: Micros, bytes: &[u8]) {
+    /// A frame the ground received at `now` (for the vehicle strip and map).
+    pub fn frame(&mut self, now: Micros, bytes: &[u8]) {
+        self.frames.push((now, bytes.to_vec()));
+    }
+
+    /// A report of the replica.
+    pub fn report(&mut self, report: &Report) {
+        self.reports.push(report.clone());
+    }
+
+    /// A disagreement of the independent check.
+    pub fn disagreement(&mut self, d: &Disagreement) {
+        self.disagreements.push(d.clone());
+    }
+
+    /// The end of a turn of the mirror's loop at ground time `now`: what
+    /// it brought, the replica and the dialog as they stand, on the board.
+    pub fn settle(&mut self, now: Micros, replica: &Replica, dialog: &Dialog) {
+        let shown = replica.shown();
+        let (frames, reports, disagreements) = (&self.frames, &self.reports, &self.disagreements);
         self.feed.update(|b| {
             b.vehicle.changed = false;
-            b.vehicle.frame(now, bytes);
-            b.vehicle.now = now;
-        });
-    }
-
-    /// One turn of the mirror's loop at ground time `now`: the replica's
-    /// reports and the check's disagreements since the last, the replica
-    /// and the dialog as they stand.
-    pub fn settle(
-        &self,
-        now: Micros,
-        reports: &[Report],
-        disagreements: &[Disagreement],
-        replica: &Replica,
-        dialog: &Dialog,
-    ) {
-        let shown = replica.shown();
-        self.feed.update(|b| {
+            for (t, bytes) in frames {
+                b.vehicle.frame(*t, bytes);
+            }
             if let Some((player, _)) = shown {
                 for r in reports {
                     played(b, r, player);
@@ -469,6 +484,9 @@ impl Page {
             }
         });
         self.feed.publish();
+        self.frames.clear();
+        self.reports.clear();
+        self.disagreements.clear();
     }
 
     /// The operator's answer to `id` from the page or the CLI: `sent`, what
@@ -609,6 +627,59 @@ mod tests {
         });
         mirror.questions(dialog);
         dialog.pending().map(|q| q.id).next().unwrap_or(u64::MAX)
+    }
+
+    #[test]
+    fn the_replicas_steps_go_on_the_board_as_runs_do() {
+        let project = asking();
+        let mut player = nets::Player::start(project.clone(), 0);
+        let _ = player.effects().count();
+        let mut board = Board::new(project.clone(), &player, 0, 100);
+        let reached = nets::Event::new("reached");
+        player.handle(&reached, 2_000_000);
+        let effects: Vec<Effect> = player.effects().collect();
+        let id = effects
+            .iter()
+            .find_map(|e| match e {
+                Effect::Ask { id, .. } => Some(*id),
+                _ => None,
+            })
+            .unwrap_or(u64::MAX);
+        let step = Report::Step {
+            number: 0,
+            step: 12,
+            time: 2_000_000,
+            inputs: vec![RecordInput::Elaborated {
+                time: 2_000_000,
+                event: reached,
+            }],
+            effects,
+        };
+        played(&mut board, &step, &player);
+        let _ = player.answer(id, "yes", 3_000_000);
+        let answered = Report::Step {
+            number: 1,
+            step: 13,
+            time: 3_000_000,
+            inputs: vec![RecordInput::Answered {
+                time: 3_000_000,
+                id,
+                choice: "yes".into(),
+            }],
+            effects: player.effects().collect(),
+        };
+        played(&mut board, &answered, &player);
+        let log: Vec<&Json> = board.log().iter().map(|e| &e.json).collect();
+        let kinds: Vec<&str> = log.iter().filter_map(|e| e["kind"].as_str()).collect();
+        assert_eq!(kinds, ["event", "question", "answer"], "{log:?}");
+        assert_eq!(log[0]["name"], "reached");
+        assert_eq!(log[0]["fired"], json!(["Q.ask"]), "its firing on it");
+        assert_eq!(log[1]["question"], "Go on?");
+        assert_eq!(log[2]["choice"], "yes");
+        assert_eq!(log[2]["fired"], json!(["Q.yes"]));
+        assert_eq!(board.marking.seq, 13, "the vehicle's step");
+        let c = project.flat(0, nets::model::PlaceRef::Local(2));
+        assert!(board.marking.marked(c), "the marking after the answer");
     }
 
     #[test]
