@@ -39,7 +39,7 @@ pub const MISSION_FILE: &str = "mission.toml";
 /// Simulated seconds per wall second.
 const SPEED: f64 = 5.0;
 
-/// A net that asks `go` ("Go on?", yes or no, 300 s to answer) 20 s after
+/// A net that asks `go` ("Go on?", yes or no, 600 s to answer) 20 s after
 /// the start, and again 60 s after each answer or timeout.
 fn asking_project(dir: &Path) {
     std::fs::write(
@@ -51,7 +51,7 @@ fn asking_project(dir: &Path) {
         "name = \"Q\"\nplaces = [\"init\", \"waiting\", \"asking\"]\ninitial = [\"init\"]\n\
          [[transition]]\nname = \"begin\"\nfrom = [\"init\"]\nto = [\"waiting\"]\ndo = [\"timer next after 20s\"]\n\
          [[transition]]\nname = \"ask\"\nfrom = [\"waiting\"]\nto = [\"asking\"]\non = \"next\"\n\
-         do = ['ask go \"Go on?\" {choices: [yes, no]} timeout 300s']\n",
+         do = ['ask go \"Go on?\" {choices: [yes, no]} timeout 600s']\n",
     );
     for (name, on) in [
         ("yes", "go.yes"),
@@ -213,7 +213,7 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
         &speed,
         "--no-record",
         "--duration",
-        "600",
+        "1500",
         "--json",
         "--downlink",
         "--unchecked",
@@ -230,7 +230,7 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
             "--time-scale",
             &speed,
             "--duration",
-            "600",
+            "1500",
             "--no-record",
             "--http",
             "127.0.0.1:0",
@@ -287,7 +287,7 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
     assert_eq!(strings(&q["buttons"]), ["yes", "no"], "{q}");
     let (first, later) = (left(q), left(&seen["question_later"]));
     assert!(
-        first <= 300.0 && later < first,
+        first <= 600.0 && later < first,
         "the countdown runs: {first} then {later}"
     );
     // What the page never sends is refused; the vehicle gets none of it
