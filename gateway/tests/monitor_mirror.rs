@@ -6,7 +6,10 @@
 //! browser clicks an answer, which the vehicle receives (delivered, the
 //! net fires its branch) and the page shows answered. Without the key, a
 //! second mirror's page shows the next question without buttons and says
-//! why. Between the two, the radio fades: the downlink lost while the
+//! why; that mirror plays a project whose question differs from the
+//! vehicle's, so its replica diverges when the net asks (the uplink lost,
+//! it stays so until the vehicle's periodic snapshot). Between the two
+//! mirrors, the radio fades: the downlink lost while the
 //! operator answers the second question (the page says the vehicle is
 //! silent), then the uplink lost while the downlink is back (the answer's
 //! record missing, not asked again: provisional), then both back (exact
@@ -39,9 +42,11 @@ pub const MISSION_FILE: &str = "mission.toml";
 /// Simulated seconds per wall second.
 const SPEED: f64 = 5.0;
 
-/// A net that asks `go` ("Go on?", yes or no, 600 s to answer) 20 s after
-/// the start, and again 60 s after each answer or timeout.
-fn asking_project(dir: &Path) {
+/// A net that asks `go` ("Go on?", yes or no, `timeout` s to answer) 20 s
+/// after the start, and again 60 s after `yes` or a timeout, 150 s after
+/// `no`.
+fn asking_project(dir: &Path, timeout: u32) {
+    std::fs::create_dir_all(dir).expect("a folder");
     std::fs::write(
         dir.join("project.toml"),
         "name = \"asking\"\n[[net]]\nfile = \"q.toml\"\nactive = true\n",
@@ -50,16 +55,18 @@ fn asking_project(dir: &Path) {
     let mut net = String::from(
         "name = \"Q\"\nplaces = [\"init\", \"waiting\", \"asking\"]\ninitial = [\"init\"]\n\
          [[transition]]\nname = \"begin\"\nfrom = [\"init\"]\nto = [\"waiting\"]\ndo = [\"timer next after 20s\"]\n\
-         [[transition]]\nname = \"ask\"\nfrom = [\"waiting\"]\nto = [\"asking\"]\non = \"next\"\n\
-         do = ['ask go \"Go on?\" {choices: [yes, no]} timeout 600s']\n",
+         [[transition]]\nname = \"ask\"\nfrom = [\"waiting\"]\nto = [\"asking\"]\non = \"next\"\n",
     );
-    for (name, on) in [
-        ("yes", "go.yes"),
-        ("no", "go.no"),
-        ("unanswered", "go.timeout"),
+    net.push_str(&format!(
+        "do = ['ask go \"Go on?\" {{choices: [yes, no]}} timeout {timeout}s']\n"
+    ));
+    for (name, on, after) in [
+        ("yes", "go.yes", 60),
+        ("no", "go.no", 150),
+        ("unanswered", "go.timeout", 60),
     ] {
         net.push_str(&format!(
-            "[[transition]]\nname = \"{name}\"\nfrom = [\"asking\"]\nto = [\"waiting\"]\non = \"{on}\"\ndo = [\"timer next after 60s\"]\n"
+            "[[transition]]\nname = \"{name}\"\nfrom = [\"asking\"]\nto = [\"waiting\"]\non = \"{on}\"\ndo = [\"timer next after {after}s\"]\n"
         ));
     }
     std::fs::write(dir.join("q.toml"), net).expect("write");
@@ -189,7 +196,12 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
     std::fs::create_dir_all(&shots).unwrap_or_else(|e| panic!("{e}"));
     let shots = shots.to_string_lossy().to_string();
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    asking_project(dir.path());
+    asking_project(dir.path(), 600);
+    // The same project but for the question's timeout: a replica of the
+    // vehicle on it diverges when the net asks.
+    let other = dir.path().join("other");
+    asking_project(&other, 601);
+    let other = other.to_str().expect("utf-8").to_owned();
     let operator = key(dir.path());
     let (project, operator) = (
         dir.path().to_str().expect("utf-8").to_owned(),
@@ -220,11 +232,11 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
         "--operator-key",
         &operator,
     ]);
-    let mirror = |key: Option<&str>| {
+    let mirror = |project: &str, key: Option<&str>| {
         let ground = format!("tcpout:127.0.0.1:{}", router.ground_port);
         let mut args = vec![
             "mirror",
-            &project,
+            project,
             "--mavlink",
             &ground,
             "--time-scale",
@@ -243,7 +255,7 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
 
     // 1. With the key: the replica agrees, the question counts down, the
     // browser answers it.
-    let a = mirror(Some(&operator));
+    let a = mirror(&project, Some(&operator));
     let url = a.url();
     let signals = dir.path().join("signals");
     std::fs::create_dir_all(&signals).expect("a folder");
@@ -367,9 +379,29 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
     let (_, a_err) = a.stop();
 
     // 2. Without the key: the next question, read-only, saying why.
-    let b = mirror(None);
+    let b = mirror(&other, None);
     let url = b.url();
-    let seen = drive(&tools, &["mirror-read-only", &url, &shots], &[]);
+    let signals = dir.path().join("signals-b");
+    std::fs::create_dir_all(&signals).expect("a folder");
+    let seen = std::thread::scope(|s| {
+        let page = s.spawn(|| {
+            let signals = signals.to_string_lossy().to_string();
+            drive(
+                &tools,
+                &["mirror-read-only", &url, &shots],
+                &[("MONITOR_SIGNALS", &signals)],
+            )
+        });
+        let until = Instant::now() + Duration::from_secs(300);
+        for (signal, up) in [("uplink-lost", false), ("uplink", true)] {
+            while !signals.join(signal).exists() && !page.is_finished() && Instant::now() < until {
+                std::thread::sleep(Duration::from_millis(50));
+            }
+            router.mute_uplink(!up);
+        }
+        page.join()
+            .unwrap_or_else(|_| panic!("the driver's thread"))
+    });
     let (_, b_err) = b.stop();
     let q = &seen["question"];
     let third = seen["question_id"].as_u64().unwrap_or(0);
@@ -382,6 +414,16 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
         "{q}"
     );
     assert!(left(q) > 0.0, "{q}");
+    // On another project, the replica diverged when the net asked; the
+    // vehicle's periodic snapshot made it exact again.
+    assert!(
+        seen["diverged"]["text"]
+            .as_str()
+            .is_some_and(|t| t.contains("digest differs")),
+        "{}\n{b_err}",
+        seen["diverged"]
+    );
+    assert_eq!(seen["repaired"]["state"], "exact", "{}", seen["repaired"]);
     // On board: the page's answer delivered, and the net took its branch.
     let (run_out, run_err) = run.stop();
     sim.stop();

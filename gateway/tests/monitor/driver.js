@@ -97,6 +97,16 @@ async function view(page, seen) {
 // a CHOICE, its button clicked and the question seen answered.
 async function mirror(page, seen, readOnly) {
   const name = readOnly ? "monitor-mirror-read-only" : "monitor-mirror";
+  // The radio's state is the test's, changed when told (files in
+  // MONITOR_SIGNALS); the page must show each stage.
+  const signals = process.env.MONITOR_SIGNALS;
+  const tell = (what) => require("fs").writeFileSync(path.join(signals, what), what);
+  const banner = () => page.$eval("#agreement", (e) => ({ state: e.className, text: e.textContent }));
+  const until = async (state, timeout) => {
+    await page.waitForFunction((s) => document.querySelector("#agreement").className === s, state, { timeout });
+    seen[state] = await banner();
+    await page.screenshot({ path: path.join(out, name + "-" + state + ".png") });
+  };
   await page.goto(url);
   await page.waitForFunction(() => document.querySelector("#connection").textContent === "connected" &&
     !document.querySelector("#mirror").hidden, null, { timeout: 30000 });
@@ -104,6 +114,10 @@ async function mirror(page, seen, readOnly) {
   await page.waitForFunction(() => document.querySelector("#agreement").className === "exact" &&
     /last agreed step \d+/.test(document.querySelector("#agreement-detail").textContent), null, { timeout: 60000 });
   seen.agreement = await page.$eval("#agreement", (e) => ({ state: e.className, text: e.textContent }));
+  // Read-only, on a project whose ask differs from the vehicle's: the
+  // uplink lost before the question, the replica diverges when it asks
+  // and cannot ask for a snapshot (the periodic one repairs it).
+  if (readOnly && signals) tell("uplink-lost");
   const q = await page.waitForSelector(".question.open", { timeout: 90000 });
   seen.question_id = Number(await q.getAttribute("data-id"));
   // The answer desk's verdict comes apart from the frames: wait for it.
@@ -126,6 +140,12 @@ async function mirror(page, seen, readOnly) {
     seen.question.left, { timeout: 15000 }).catch(() => {});
   seen.question_later = await read();
   seen.disagreements = await page.$eval("#disagreements", (e) => e.textContent);
+  if (readOnly && signals) {
+    await until("diverged", 30000);
+    tell("uplink");
+    await page.waitForFunction(() => document.querySelector("#agreement").className === "exact", null, { timeout: 60000 });
+    seen.repaired = await banner();
+  }
   const choice = rest[0];
   if (readOnly || !choice) return;
   // Requests the page would never make are refused: a simple POST (what
@@ -154,15 +174,7 @@ async function mirror(page, seen, readOnly) {
   // silent) while the next question is answered; then the downlink back
   // and the uplink lost (the answer's record missing, not asked again:
   // provisional); then both back (exact again).
-  const signals = process.env.MONITOR_SIGNALS;
   if (!signals) return;
-  const tell = (what) => require("fs").writeFileSync(path.join(signals, what), what);
-  const banner = () => page.$eval("#agreement", (e) => ({ state: e.className, text: e.textContent }));
-  const until = async (state, timeout) => {
-    await page.waitForFunction((s) => document.querySelector("#agreement").className === s, state, { timeout });
-    seen[state] = await banner();
-    await page.screenshot({ path: path.join(out, name + "-" + state + ".png") });
-  };
   const next = await page.waitForSelector(".question.open", { timeout: 90000 });
   const second = Number(await next.getAttribute("data-id"));
   seen.second_id = second;
