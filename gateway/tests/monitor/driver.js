@@ -101,19 +101,24 @@ async function mirror(page, seen, readOnly) {
   // MONITOR_SIGNALS); the page must show each stage.
   const signals = process.env.MONITOR_SIGNALS;
   const tell = (what) => require("fs").writeFileSync(path.join(signals, what), what);
-  const banner = () => page.$eval("#agreement", (e) => ({ state: e.className, text: e.textContent }));
+  // The banner in a state, read in the same instant (it may change the
+  // next: a loaded machine's mirror hears nothing for a moment).
+  const banner = async (state, timeout, also) => {
+    const h = await page.waitForFunction(([s, re]) => {
+      const e = document.querySelector("#agreement");
+      return e.className === s && (!re || new RegExp(re).test(e.textContent)) && { state: e.className, text: e.textContent };
+    }, [state, also || null], { timeout });
+    return h.jsonValue();
+  };
   const until = async (state, timeout) => {
-    await page.waitForFunction((s) => document.querySelector("#agreement").className === s, state, { timeout });
-    seen[state] = await banner();
+    seen[state] = await banner(state, timeout);
     await page.screenshot({ path: path.join(out, name + "-" + state + ".png") });
   };
   await page.goto(url);
   await page.waitForFunction(() => document.querySelector("#connection").textContent === "connected" &&
     !document.querySelector("#mirror").hidden, null, { timeout: 30000 });
   seen.mode = await page.$eval("#mode", (e) => e.textContent);
-  await page.waitForFunction(() => document.querySelector("#agreement").className === "exact" &&
-    /last agreed step \d+/.test(document.querySelector("#agreement-detail").textContent), null, { timeout: 60000 });
-  seen.agreement = await page.$eval("#agreement", (e) => ({ state: e.className, text: e.textContent }));
+  seen.agreement = await banner("exact", 60000, "last agreed step \\d+");
   // Read-only, on a project whose ask differs from the vehicle's: the
   // uplink lost before the question, the replica diverges when it asks
   // and cannot ask for a snapshot (the periodic one repairs it).
@@ -143,8 +148,7 @@ async function mirror(page, seen, readOnly) {
   if (readOnly && signals) {
     await until("diverged", 30000);
     tell("uplink");
-    await page.waitForFunction(() => document.querySelector("#agreement").className === "exact", null, { timeout: 60000 });
-    seen.repaired = await banner();
+    seen.repaired = await banner("exact", 60000);
   }
   const choice = rest[0];
   if (readOnly || !choice) return;
@@ -187,8 +191,7 @@ async function mirror(page, seen, readOnly) {
   tell("downlink");
   await until("provisional", 30000);
   tell("uplink");
-  await page.waitForFunction(() => document.querySelector("#agreement").className === "exact", null, { timeout: 60000 });
-  seen.repaired = await banner();
+  seen.repaired = await banner("exact", 60000);
   seen.second_closed = await page.$eval("#done-" + second, (el) => el.dataset.fate).catch(() => null);
 }
 
