@@ -836,6 +836,38 @@ mod tests {
     }
 
     #[test]
+    fn questions_closed_are_forgotten_past_the_last_few() {
+        let project = asking();
+        let mut player = nets::Player::start(project.clone(), 0);
+        let _ = player.effects().count();
+        let (mut m, mut dialog) = (Mirror::new(Ok(())), Dialog::new());
+        let mut t = 0;
+        for _ in 0..100 {
+            t += 1_000_000;
+            let id = asked(&mut m, &mut dialog, &mut player, t);
+            t += 1_000_000;
+            let _ = player.answer(id, "no", t);
+            let effects: Vec<Effect> = player.effects().collect();
+            for e in &effects {
+                dialog.observe(&project, e);
+            }
+            m.report(&Report::Step {
+                number: 0,
+                step: 2,
+                time: t,
+                inputs: Vec::new(),
+                effects,
+            });
+            m.questions(&dialog);
+        }
+        assert_eq!(m.questions.len(), CLOSED, "what the page keeps");
+        let v = m.json();
+        assert_eq!(v["closed"].as_array().map(Vec::len), Some(CLOSED));
+        assert_eq!(v["closed"][0]["fate"], "answered");
+        assert_eq!(v["questions"], json!([]));
+    }
+
+    #[test]
     fn disagreements_carry_both_sides_and_are_bounded() {
         let mut m = Mirror::new(Ok(()));
         for i in 0..(DISAGREEMENTS as u64 + 5) {
