@@ -228,7 +228,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                     "no operator key in this mirror (petrel mirror --operator-key FILE)".to_owned(),
                 ),
             };
-            let (page, answers) = crate::monitor::mirror::Page::start(
+            let (page, answers) = crate::monitor::mirror_page::Page::start(
                 address,
                 setup.project.clone(),
                 &setup.dir,
