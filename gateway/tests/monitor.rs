@@ -15,66 +15,21 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use serde_json::Value as Json;
 
-const PETREL: &str = env!("CARGO_BIN_EXE_petrel");
+#[path = "monitor/browser.rs"]
+mod browser;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+use browser::{drive, repo, require, Reaped};
+
+const PETREL: &str = env!("CARGO_BIN_EXE_petrel");
 
 fn example() -> PathBuf {
     repo().join("examples/uav-flight-test")
-}
-
-/// A child killed and waited for when dropped, whatever happened.
-struct Reaped(Child);
-
-impl Drop for Reaped {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// node, playwright-core's folder and chromium, or why not.
-fn browser_tools() -> Result<(PathBuf, PathBuf, PathBuf), String> {
-    let chromium = PathBuf::from(std::env::var("CHROMIUM").unwrap_or("/usr/bin/chromium".into()));
-    if !chromium.exists() {
-        return Err(format!("no chromium at {}", chromium.display()));
-    }
-    let node = Command::new("node").arg("--version").output();
-    if !node.is_ok_and(|o| o.status.success()) {
-        return Err("no node on PATH".into());
-    }
-    let core = std::env::var("PETREL_PLAYWRIGHT_CORE")
-        .map(PathBuf::from)
-        .unwrap_or_else(|_| repo().join("target/browser-tools/node_modules/playwright-core"));
-    if !core.join("package.json").exists() {
-        return Err(format!(
-            "no playwright-core at {} (npm install --prefix target/browser-tools playwright-core)",
-            core.display()
-        ));
-    }
-    Ok((PathBuf::from("node"), core, chromium))
-}
-
-/// Skips (returns None) with the reason, or fails under CI.
-fn require() -> Option<(PathBuf, PathBuf, PathBuf)> {
-    match browser_tools() {
-        Ok(t) => Some(t),
-        Err(why) if std::env::var("CI").as_deref() == Ok("true") => {
-            panic!("CI=true but the browser tests cannot run: {why}")
-        }
-        Err(why) => {
-            eprintln!("skipped: {why}");
-            None
-        }
-    }
 }
 
 /// Spawns petrel with stderr read line by line on a thread.
@@ -117,48 +72,6 @@ fn url(rx: &mpsc::Receiver<String>, prefix: &str, limit: Duration) -> String {
         "petrel never said `{prefix}`; it said:\n{}",
         said.join("\n")
     )
-}
-
-/// Runs the driver; its JSON.
-fn drive(tools: &(PathBuf, PathBuf, PathBuf), args: &[&str], env: &[(&str, &str)]) -> Json {
-    let (node, core, chromium) = tools;
-    let mut cmd = Command::new(node);
-    cmd.arg(repo().join("gateway/tests/monitor/driver.js"))
-        .args(args)
-        .env("PLAYWRIGHT_CORE", core)
-        .env("CHROMIUM", chromium)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit());
-    for (k, v) in env {
-        cmd.env(k, v);
-    }
-    let child = cmd
-        .spawn()
-        .unwrap_or_else(|e| panic!("cannot start node: {e}"));
-    let mut child = Reaped(child);
-    // Bounded: the driver's own waits add up to well under this.
-    let until = Instant::now() + Duration::from_secs(400);
-    loop {
-        if let Ok(Some(_)) = child.0.try_wait() {
-            break;
-        }
-        assert!(Instant::now() < until, "the browser driver hung");
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    let mut out = String::new();
-    if let Some(mut s) = child.0.stdout.take() {
-        use std::io::Read;
-        let _ = s.read_to_string(&mut out);
-    }
-    let seen: Json = serde_json::from_str(out.trim())
-        .unwrap_or_else(|e| panic!("the driver printed no JSON ({e}): {out}"));
-    assert!(
-        seen["failure"].is_null(),
-        "in the browser: {}",
-        seen["failure"]
-    );
-    assert_eq!(seen["errors"], serde_json::json!([]), "the page threw");
-    seen
 }
 
 /// An id fragment as `nets::svg` makes it.
@@ -287,8 +200,18 @@ fn the_flight_live_in_the_browser_then_its_recording_scrubbed() {
     let Some(tools) = require() else { return };
     let ex = read_example();
     let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("monitor");
-    let _ = std::fs::remove_dir_all(&shots);
     std::fs::create_dir_all(&shots).unwrap_or_else(|e| panic!("{e}"));
+    // This test's own screenshots of an earlier run (the view's are named by
+    // their instants); the mirror's test keeps its own beside them.
+    for entry in std::fs::read_dir(&shots).into_iter().flatten().flatten() {
+        let name = entry.file_name().to_string_lossy().to_string();
+        if ["monitor-live", "monitor-view", "monitor-zoom"]
+            .iter()
+            .any(|p| name.starts_with(p))
+        {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let mcap = dir.path().join("flight.mcap");
     let mcap_s = mcap.to_string_lossy().to_string();

@@ -73,6 +73,13 @@ pub struct Args {
     /// Do not record.
     #[arg(long)]
     pub no_record: bool,
+    /// Serve the web monitor (docs/monitor.md, "On the mirror") on
+    /// ADDRESS:PORT, or on 127.0.0.1:PORT given a port alone: the replica's
+    /// nets, its agreement with the vehicle, the disagreements, and the
+    /// questions with answer buttons (with --operator-key; read-only
+    /// without).
+    #[arg(long, value_name = "ADDRESS:PORT")]
+    pub http: Option<String>,
 }
 
 /// How often the replica and the ground's elaboration are ticked.
@@ -115,6 +122,10 @@ pub fn run(args: Args) -> VerbResult {
             Some(crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
         }
     };
+    let http = match &args.http {
+        Some(a) => Some(crate::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?),
+        None => None,
+    };
     let record = if args.no_record {
         None
     } else {
@@ -140,6 +151,8 @@ pub fn run(args: Args) -> VerbResult {
         operator,
         record,
         layers,
+        http,
+        dir: args.project.clone(),
     }));
     // The operator's stdin is read on a blocking thread that no abort
     // stops: waiting for it would hold the mirror until the next line.
@@ -161,6 +174,10 @@ struct Setup {
     record: Option<PathBuf>,
     /// The profile's layers, recorded with the start.
     layers: crate::profile::Layers,
+    /// Serve the web monitor here.
+    http: Option<std::net::SocketAddr>,
+    /// The project's folder (the page shows the nets' files).
+    dir: PathBuf,
 }
 
 async fn mirror(setup: Setup) -> VerbResult {
@@ -198,6 +215,28 @@ async fn mirror(setup: Setup) -> VerbResult {
             rec.start(&start, &player);
             say!("recording to {}", path.display());
             Some(rec)
+        }
+    };
+    // The page: fed at the end of each turn of the loop, answers from it
+    // taken as those typed on stdin (`answer`).
+    let (mut page, mut page_answers) = match setup.http {
+        None => (None, None),
+        Some(address) => {
+            let answering = match &setup.operator {
+                Some(_) => Ok(()),
+                None => Err(
+                    "no operator key in this mirror (petrel mirror --operator-key FILE)".to_owned(),
+                ),
+            };
+            let (page, answers) = crate::monitor::mirror_page::Page::start(
+                address,
+                setup.project.clone(),
+                &setup.dir,
+                answering,
+            )
+            .map_err(|e| miette::miette!("cannot serve the monitor on {address}: {e}"))?;
+            say!("monitor: http://{}/", page.server.address);
+            (Some(page), answers)
         }
     };
     let mut calls = 0u64;
@@ -283,6 +322,9 @@ async fn mirror(setup: Setup) -> VerbResult {
                 if let Some(rec) = &recorder {
                     rec.received(now, &rx.bytes);
                 }
+                if let Some(page) = &mut page {
+                    page.frame(now, &rx.bytes);
+                }
                 if let Some(MavMessage::HEARTBEAT(hb)) = &rx.message {
                     if vehicle.is_none() && hb.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID {
                         vehicle = Some(rx.header.system_id as u8);
@@ -341,28 +383,37 @@ async fn mirror(setup: Setup) -> VerbResult {
                     [choice] if pending.len() == 1 => Some((pending[0], choice)),
                     _ => None,
                 };
-                match picked.map(|(id, choice)| (dialog.answer(id, choice), id, choice)) {
+                match picked {
                     None => say!("answer as `ID CHOICE` (pending: {pending:?})"),
-                    Some((Err(e), _, _)) => say!("not sent: {e}"),
-                    Some((Ok(_), id, choice)) => {
-                        match (onboard.or(vehicle.map(|v| (v, 191))), signer.as_mut()) {
-                            (Some(to), Some(signer)) => {
-                                let now = clock.now();
-                                match uplink.send_answer(to, id, choice, signer).await {
-                                    Ok(bytes) => {
-                                        say!("answer #{id} {choice} sent (signed)");
-                                        if let Some(rec) = &recorder {
-                                            rec.sent(now, &bytes);
-                                            rec.mirror(now, layout::MIRROR_DIALOG, json!({"time_us": now, "kind": "answer_sent", "id": id, "choice": choice}));
-                                        }
-                                    }
-                                    Err(e) => say!("answer #{id} not sent: {e}"),
-                                }
-                            }
-                            _ => say!("answer #{id} not sent: no vehicle heard yet"),
+                    Some((id, choice)) => {
+                        let to = onboard.or(vehicle.map(|v| (v, 191)));
+                        let sent = answer(&dialog, id, choice, to, signer.as_mut(), &uplink, clock.now(), recorder.as_ref()).await;
+                        match &sent {
+                            Ok(said) | Err(said) => say!("{said}"),
+                        }
+                        if let Some(page) = &page {
+                            page.answered(id, choice, &sent);
                         }
                     }
                 }
+            }
+            Some(request) = async {
+                match &mut page_answers {
+                    Some(answers) => answers.recv().await,
+                    None => std::future::pending().await,
+                }
+            } => {
+                // The page's answer: the same path as one typed on stdin.
+                let crate::monitor::answer::Request { id, choice, reply } = request;
+                let to = onboard.or(vehicle.map(|v| (v, 191)));
+                let sent = answer(&dialog, id, &choice, to, signer.as_mut(), &uplink, clock.now(), recorder.as_ref()).await;
+                match &sent {
+                    Ok(said) | Err(said) => say!("{said} (from the page)"),
+                }
+                if let Some(page) = &page {
+                    page.answered(id, &choice, &sent);
+                }
+                let _ = reply.send(sent);
             }
             _ = tokio::signal::ctrl_c() => break,
             _ = term.recv() => break,
@@ -414,6 +465,9 @@ async fn mirror(setup: Setup) -> VerbResult {
             if let Some(rec) = &recorder {
                 rec.mirror(now, layout::MIRROR_REPLICA, report_json(&report, now));
             }
+            if let Some(page) = &mut page {
+                page.report(&report);
+            }
             print_report(&mut out, &setup.project, &report, now);
         }
         while let Some(played) = replica.poll_played() {
@@ -433,6 +487,9 @@ async fn mirror(setup: Setup) -> VerbResult {
         let ground_known = last_seq.and_then(|(_, at)| replica.vehicle_time(at));
         check.advance(replica.exact_time(), ground_known);
         while let Some(d) = check.poll() {
+            if let Some(page) = &mut page {
+                page.disagreement(&d);
+            }
             let event = d.event();
             tracing::warn!("{event}");
             if let Some(rec) = &recorder {
@@ -498,6 +555,10 @@ async fn mirror(setup: Setup) -> VerbResult {
                 }
             }
         }
+        // The page last, off the path from a packet to its request.
+        if let Some(page) = &mut page {
+            page.settle(now, &replica, &dialog);
+        }
         let _ = out.out.flush();
     }
     reader_task.abort();
@@ -551,6 +612,42 @@ async fn mirror(setup: Setup) -> VerbResult {
     } else {
         super::Outcome::Success
     })
+}
+
+/// The operator's answer `choice` to question `id`, typed on stdin or
+/// clicked in the page: checked by the dialog, sent up to `to` signed
+/// with the operator key, recorded; what to say, or why it was not sent.
+#[allow(clippy::too_many_arguments)]
+async fn answer(
+    dialog: &Dialog,
+    id: u64,
+    choice: &str,
+    to: Option<(u8, u8)>,
+    signer: Option<&mut crate::link::signing::Signer>,
+    uplink: &UplinkWriter,
+    now: Micros,
+    recorder: Option<&Recorder>,
+) -> Result<String, String> {
+    dialog
+        .answer(id, choice)
+        .map_err(|e| format!("not sent: {e}"))?;
+    let (Some(to), Some(signer)) = (to, signer) else {
+        return Err(format!("answer #{id} not sent: no vehicle heard yet"));
+    };
+    match uplink.send_answer(to, id, choice, signer).await {
+        Ok(bytes) => {
+            if let Some(rec) = recorder {
+                rec.sent(now, &bytes);
+                rec.mirror(
+                    now,
+                    layout::MIRROR_DIALOG,
+                    json!({"time_us": now, "kind": "answer_sent", "id": id, "choice": choice}),
+                );
+            }
+            Ok(format!("answer #{id} {choice} sent (signed)"))
+        }
+        Err(e) => Err(format!("answer #{id} not sent: {e}")),
+    }
 }
 
 /// A report as recorded on `/mirror/replica`; `now` is the ground's time.

@@ -91,6 +91,8 @@ pub struct Board {
     requests: HashMap<u64, String>,
     request_order: VecDeque<u64>,
     pub vehicle: Vehicle,
+    /// The mirror's panel (`petrel mirror` only).
+    pub mirror: Option<super::mirror::Mirror>,
 }
 
 impl Board {
@@ -121,6 +123,7 @@ impl Board {
             } else {
                 TRACK_LIVE
             }),
+            mirror: None,
         };
         board.read_marking(player, origin);
         board
@@ -148,11 +151,20 @@ impl Board {
 
     /// One step of the supervisor, `player` as it stands right after it.
     pub fn step(&mut self, input: &Input, step: &Step, player: &Player) {
-        self.marking_changed = false;
         self.vehicle.changed = false;
+        if let Input::Frame(bytes) = input {
+            self.vehicle.frame(step.time, bytes);
+        }
+        self.played(input, step, player);
+        self.vehicle.now = step.time;
+    }
+
+    /// One step of a player, logged and its marking read; the vehicle
+    /// strip untouched (the mirror feeds it the ground's own frames).
+    pub fn played(&mut self, input: &Input, step: &Step, player: &Player) {
+        self.marking_changed = false;
         match input {
-            Input::Frame(bytes) => self.vehicle.frame(step.time, bytes),
-            Input::Tick => {}
+            Input::Frame(_) | Input::Tick => {}
             Input::Result { id, outcome } => {
                 let of = self.requests.remove(id);
                 let (done, detail) = match outcome {
@@ -165,7 +177,7 @@ impl Board {
                 let i = Some(self.push(
                     step.time,
                     None,
-                    json!({"kind": "result", "id": id, "of": of, "ok": done, "detail": detail}),
+                    json!({"kind": "result", "id": id, "of": of, "ok": done, "detail": detail, "fired": []}),
                 ));
                 self.attach(i, &step.effects);
             }
@@ -177,7 +189,7 @@ impl Board {
                 let i = Some(self.push(
                     step.time,
                     None,
-                    json!({"kind": "answer", "id": id, "choice": choice}),
+                    json!({"kind": "answer", "id": id, "choice": choice, "fired": []}),
                 ));
                 self.attach(i, &step.effects);
             }
@@ -192,13 +204,19 @@ impl Board {
             let i = self.event(e.time_us, &e.event, "vehicle");
             self.attach(i, effects);
         }
-        self.vehicle.now = step.time;
         let touched = !step.effects.is_empty() || !step.events.is_empty();
         if touched {
             self.read_marking(player, step.time);
         }
         self.marking.seq = step.seq;
         self.marking.time = step.time;
+    }
+
+    /// Shows `player` as it stands at `time` (the mirror's replica
+    /// restored from a snapshot, or advanced provisionally).
+    pub fn show(&mut self, player: &Player, time: Micros) {
+        self.read_marking(player, time);
+        self.marking.time = time;
     }
 
     fn event(&mut self, time: Micros, event: &Event, source: &str) -> Option<usize> {

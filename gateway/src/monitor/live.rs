@@ -86,6 +86,9 @@ impl Live {
             .collect::<Vec<_>>()
             .into();
         frame["track_reset"] = json!(reset);
+        if let Some(m) = &board.mirror {
+            frame["mirror"] = m.json();
+        }
         cursor.track = v.track_added;
         cursor.sent = true;
         frame
@@ -112,6 +115,11 @@ impl Feed {
     /// One step, `player` as it stands now.
     pub fn step(&self, input: &Input, step: &Step, player: &Player) {
         self.live.lock().step(input, step, player);
+    }
+
+    /// Changes the board otherwise (the mirror's panel and replica).
+    pub fn update(&self, change: impl FnOnce(&mut Board)) {
+        change(&mut self.live.lock());
     }
 
     /// Tells the browsers' tasks that the board changed.

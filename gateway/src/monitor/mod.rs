@@ -9,7 +9,8 @@
 //! frames), the page's fixed part (`page.rs`: the nets' SVG from
 //! `nets::svg` and their definitions), the live board shared with the
 //! server (`live.rs`), a recording's index (`history.rs`), the axum server
-//! (`server.rs`) and the page's assets (`assets/`, built into the binary:
+//! (`server.rs`), the mirror's panel, its board and its answer desk
+//! (`mirror.rs`, `mirror_page.rs`, `answer.rs`, for `petrel mirror --http`) and the page's assets (`assets/`, built into the binary:
 //! no npm, no CDN, no outside fonts).
 //!
 //! It never calls into the player or the commander: the gateway's loop
@@ -17,9 +18,12 @@
 //! player's state. A browser never slows the loop: frames are coalesced to
 //! at most 30 a second per browser, and nothing queues per browser.
 
+pub mod answer;
 pub mod board;
 pub mod history;
 pub mod live;
+pub mod mirror;
+pub mod mirror_page;
 pub mod page;
 pub mod server;
 pub mod vehicle;

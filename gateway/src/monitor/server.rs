@@ -1,6 +1,7 @@
 //! The web server: a thin axum router over a board owned elsewhere (the
 //! live one, or a recording's index). Read-only: GET routes and a
-//! WebSocket that sends frames. It runs on its own thread and runtime, so
+//! WebSocket that sends frames; the mirror's page adds its answer desk
+//! (`answer.rs`), the only route that changes anything. It runs on its own thread and runtime, so
 //! serving pages never takes the gateway loop's thread.
 
 use std::net::SocketAddr;
@@ -164,6 +165,22 @@ pub struct Server {
 impl Server {
     /// Serves `source` on `address` (bound before this returns).
     pub fn start(address: SocketAddr, source: Source) -> std::io::Result<Server> {
+        Server::serve(address, router(source))
+    }
+
+    /// Serves the mirror's live board with its answer desk.
+    pub fn start_mirror(
+        address: SocketAddr,
+        live: Arc<Live>,
+        desk: super::answer::Desk,
+    ) -> std::io::Result<Server> {
+        Server::serve(
+            address,
+            router(Source::Live(live)).merge(super::answer::routes(desk)),
+        )
+    }
+
+    fn serve(address: SocketAddr, app: Router) -> std::io::Result<Server> {
         let listener = std::net::TcpListener::bind(address)?;
         listener.set_nonblocking(true)?;
         let address = listener.local_addr()?;
@@ -182,10 +199,12 @@ impl Server {
                             return;
                         }
                     };
-                    let serve =
-                        axum::serve(listener, router(source)).with_graceful_shutdown(async move {
-                            let _ = stopped.await;
-                        });
+                    // The peer's address: the answer desk takes answers
+                    // from this computer only.
+                    let app = app.into_make_service_with_connect_info::<SocketAddr>();
+                    let serve = axum::serve(listener, app).with_graceful_shutdown(async move {
+                        let _ = stopped.await;
+                    });
                     if let Err(e) = serve.await {
                         tracing::warn!("monitor: {e}");
                     }

@@ -52,6 +52,9 @@ pub struct Router {
     /// Everything toward the ground lost while set (the uplink still
     /// works): a radio that fades one way.
     muted: Arc<AtomicBool>,
+    /// Everything from the ground lost while set (still kept in
+    /// `Traffic::from_ground`).
+    up_muted: Arc<AtomicBool>,
     traffic: Arc<Mutex<Traffic>>,
     thread: Option<JoinHandle<()>>,
 }
@@ -204,6 +207,8 @@ impl Router {
         let (flag, shared) = (stop.clone(), traffic.clone());
         let muted = Arc::new(AtomicBool::new(false));
         let mute = muted.clone();
+        let up_muted = Arc::new(AtomicBool::new(false));
+        let up_mute = up_muted.clone();
         let mut radio = Radio {
             seed: loss.seed | 1,
             loss,
@@ -261,7 +266,7 @@ impl Router {
                         .expect("traffic")
                         .from_ground
                         .push(bytes.clone());
-                    if radio.loses() {
+                    if radio.loses() || up_mute.load(Ordering::Relaxed) {
                         shared.lock().expect("traffic").lost += 1;
                         continue;
                     }
@@ -287,6 +292,7 @@ impl Router {
             ground_port,
             stop,
             muted,
+            up_muted,
             traffic,
             thread: Some(thread),
         }
@@ -299,6 +305,11 @@ impl Router {
     /// Loses every frame toward the ground while `on` (the uplink works).
     pub fn mute_downlink(&self, on: bool) {
         self.muted.store(on, Ordering::Relaxed);
+    }
+
+    /// Loses every frame from the ground while `on` (the downlink works).
+    pub fn mute_uplink(&self, on: bool) {
+        self.up_muted.store(on, Ordering::Relaxed);
     }
 
     pub fn stop(&mut self) {

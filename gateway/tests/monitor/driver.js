@@ -1,5 +1,7 @@
 // Drives Debian's chromium with playwright-core for gateway/tests/monitor.rs.
 // Usage: node driver.js live|view URL OUT_DIR [SECONDS_AT...]
+//        node driver.js mirror|mirror-read-only URL OUT_DIR [CHOICE]
+//        (gateway/tests/monitor_mirror.rs: the mirror's page)
 // Prints one JSON object with what it saw; the Rust test judges it.
 // The browser is closed on every path (and dies with this process: it is
 // launched over a pipe).
@@ -94,6 +96,108 @@ async function view(page, seen) {
   await page.screenshot({ path: path.join(out, "monitor-view-played.png") });
 }
 
+// The mirror's page: the replica agreeing, a question counting down; with
+// a CHOICE, its button clicked and the question seen answered.
+async function mirror(page, seen, readOnly) {
+  const name = readOnly ? "monitor-mirror-read-only" : "monitor-mirror";
+  // The radio's state is the test's, changed when told (files in
+  // MONITOR_SIGNALS); the page must show each stage.
+  const signals = process.env.MONITOR_SIGNALS;
+  const tell = (what) => require("fs").writeFileSync(path.join(signals, what), what);
+  // The banner in a state, read in the same instant (it may change the
+  // next: a loaded machine's mirror hears nothing for a moment).
+  const banner = async (state, timeout, also) => {
+    const h = await page.waitForFunction(([s, re]) => {
+      const e = document.querySelector("#agreement");
+      return e.className === s && (!re || new RegExp(re).test(e.textContent)) && { state: e.className, text: e.textContent };
+    }, [state, also || null], { timeout });
+    return h.jsonValue();
+  };
+  const until = async (state, timeout) => {
+    seen[state] = await banner(state, timeout);
+    await page.screenshot({ path: path.join(out, name + "-" + state + ".png") });
+  };
+  await page.goto(url);
+  await page.waitForFunction(() => document.querySelector("#connection").textContent === "connected" &&
+    !document.querySelector("#mirror").hidden, null, { timeout: 30000 });
+  seen.mode = await page.$eval("#mode", (e) => e.textContent);
+  seen.agreement = await banner("exact", 60000, "last agreed step \\d+");
+  // Read-only, on a project whose ask differs from the vehicle's: the
+  // uplink lost before the question, the replica diverges when it asks
+  // and cannot ask for a snapshot (the periodic one repairs it).
+  if (readOnly && signals) tell("uplink-lost");
+  const q = await page.waitForSelector(".question.open", { timeout: 90000 });
+  seen.question_id = Number(await q.getAttribute("data-id"));
+  // The answer desk's verdict comes apart from the frames: wait for it.
+  await page.waitForFunction(() => {
+    const el = document.querySelector(".question.open");
+    const b = el && el.querySelector("button");
+    return el && b && (!b.hidden || el.querySelector(".status").textContent !== "");
+  }, null, { timeout: 10000 });
+  const read = () => page.$eval(".question.open", (el) => ({
+    text: el.querySelector(".ask b").textContent,
+    head: el.querySelector(".ask small").textContent,
+    left: el.querySelector(".left").textContent,
+    buttons: [...el.querySelectorAll("button")].filter((b) => !b.hidden && b.offsetParent !== null).map((b) => b.textContent),
+    status: el.querySelector(".status").textContent,
+  }));
+  seen.question = await read();
+  await page.screenshot({ path: path.join(out, name + ".png") });
+  // The countdown runs on the vehicle's time: a moment later, less left.
+  await page.waitForFunction((l) => document.querySelector(".question.open .left").textContent !== l,
+    seen.question.left, { timeout: 15000 }).catch(() => {});
+  seen.question_later = await read();
+  seen.disagreements = await page.$eval("#disagreements", (e) => e.textContent);
+  if (readOnly && signals) {
+    await until("diverged", 30000);
+    tell("uplink");
+    seen.repaired = await banner("exact", 60000);
+  }
+  const choice = rest[0];
+  if (readOnly || !choice) return;
+  // Requests the page would never make are refused: a simple POST (what
+  // any site's form can send), one from another origin (localhost is not
+  // 127.0.0.1), and a choice the question does not offer.
+  seen.forged = await page.evaluate(async (id) => {
+    const json = { "Content-Type": "application/json", "X-Petrel-Answer": "1" };
+    const body = JSON.stringify({ id: id, choice: "no" });
+    const other = location.href.replace("127.0.0.1", "localhost") + "answer";
+    const out = {};
+    out.simple = await fetch("answer", { method: "POST", body }).then((r) => r.status).catch((e) => String(e));
+    out.cross_origin = await fetch(other, { method: "POST", headers: json, body }).then((r) => r.status).catch((e) => "blocked: " + e.name);
+    out.no_cors = await fetch(other, { method: "POST", mode: "no-cors", body }).then((r) => r.type).catch((e) => "blocked: " + e.name);
+    out.not_offered = await fetch("answer", { method: "POST", headers: json, body: JSON.stringify({ id: id, choice: "maybe" }) })
+      .then((r) => r.json());
+    return out;
+  }, seen.question_id);
+  await page.click(".question.open button[data-choice='" + choice + "']");
+  const id = seen.question_id;
+  await page.waitForSelector("#done-" + id, { timeout: 60000 });
+  seen.closed = await page.$eval("#done-" + id, (el) => ({ fate: el.dataset.fate, status: el.querySelector(".status").textContent }));
+  seen.log_answer = await page.$$eval("#log .row[data-kind='answer']", (els) => els.map((e) => e.textContent));
+  await page.screenshot({ path: path.join(out, name + "-answered.png") });
+  // The radio fades, as the test makes it when told (files in
+  // MONITOR_SIGNALS): the downlink lost (the page says the vehicle is
+  // silent) while the next question is answered; then the downlink back
+  // and the uplink lost (the answer's record missing, not asked again:
+  // provisional); then both back (exact again).
+  if (!signals) return;
+  const next = await page.waitForSelector(".question.open", { timeout: 90000 });
+  const second = Number(await next.getAttribute("data-id"));
+  seen.second_id = second;
+  tell("fade");
+  await until("silent", 30000);
+  await page.click("#q-" + second + " button[data-choice='no']");
+  await page.waitForFunction((id) => document.querySelector("#q-" + id).dataset.fate === "sent", second, { timeout: 10000 });
+  seen.second_sent = await page.$eval("#q-" + second + " .status", (e) => e.textContent);
+  await page.waitForTimeout(1000);
+  tell("downlink");
+  await until("provisional", 30000);
+  tell("uplink");
+  seen.repaired = await banner("exact", 60000);
+  seen.second_closed = await page.$eval("#done-" + second, (el) => el.dataset.fate).catch(() => null);
+}
+
 (async () => {
   const seen = { errors: [] };
   const browser = await chromium.launch({
@@ -105,7 +209,9 @@ async function view(page, seen) {
   try {
     const page = await browser.newPage({ viewport: { width: 1600, height: 1000 } });
     page.on("pageerror", (e) => seen.errors.push(String(e)));
-    if (mode === "live") await live(page, seen); else await view(page, seen);
+    if (mode === "live") await live(page, seen);
+    else if (mode.startsWith("mirror")) await mirror(page, seen, mode === "mirror-read-only");
+    else await view(page, seen);
   } catch (e) {
     seen.failure = String(e && e.stack || e);
   } finally {

@@ -36,7 +36,7 @@ function build() {
   $("project").textContent = page.name;
   document.title = page.name + " — Petrel monitor";
   const live = page.mode === "live";
-  $("mode").textContent = live ? "LIVE" : "RECORDING";
+  $("mode").textContent = page.mirror ? "MIRROR" : (live ? "LIVE" : "RECORDING");
   $("mode").className = "badge" + (live ? "" : " view");
   const globals = $("globals");
   globals.innerHTML = page.globals.length ? '<span class="muted">global places:</span>' : "";
@@ -86,6 +86,7 @@ function build() {
     for (const t of n.transitions) byId[t.id] = { kind: "transition", flat: t.flat, def: t, net: i };
   }
   if (!live) timeline();
+  if (page.mirror) mirrorBuild();
 }
 
 function card(i) {
@@ -206,6 +207,7 @@ function apply(f) {
   track = track.concat(f.track || []);
   map(f.vehicle);
   log(f.log || [], f.log_reset, f.log_gap);
+  if (f.mirror) mirror(f.mirror);
   if (page.mode !== "live") position(f.time_us);
 }
 
@@ -326,6 +328,132 @@ function log(entries, reset, gap) {
   for (const e of entries) { box.prepend(row(e)); logRows++; }
   while (box.childElementCount > 500) box.lastElementChild.remove();
   $("log-count").textContent = "(" + logRows + ")";
+}
+
+// ---- the mirror: agreement, questions, the independent check ---------
+
+let answering = { can: false, why: null };   // from GET /answer
+const asking = {};         // question id -> an answer in flight (its status text)
+
+function mirrorBuild() {
+  $("mirror").hidden = false;
+  $("disagreements-panel").hidden = false;
+  fetch("answer").then((r) => r.json()).then((a) => { answering = a; })
+    .catch(() => { answering = { can: false, why: "cannot ask the mirror whether answers are taken" }; });
+}
+
+function mirror(m) {
+  // The banner: the replica against the vehicle, readable across a room.
+  const a = $("agreement");
+  a.className = m.agreement;
+  let state = "", detail = "";
+  const agreed = m.agreed === null ? "none yet" : "step " + m.agreed + (m.digest ? " · digest " + m.digest : "");
+  switch (m.agreement) {
+    case "exact":
+      state = "REPLICA EXACT";
+      detail = "agrees with the vehicle · last agreed " + agreed +
+        (m.resynced && m.resynced.how !== "start" ? " · resynced by " + m.resynced.how + " after " + m.resynced.after_s.toFixed(1) + " s" : "");
+      break;
+    case "provisional":
+      state = "PROVISIONAL";
+      detail = (!m.gap ? "records" : m.gap.to - m.gap.from > 1 ? "records " + m.gap.from + "–" + (m.gap.to - 1) : "record " + m.gap.from) + " lost on the radio: advanced by the ground's own telemetry until repaired · last agreed " + agreed;
+      break;
+    case "diverged":
+      state = "DIVERGED";
+      detail = (m.diverged ? "at step " + m.diverged.step + ": " + m.diverged.reason : "") + " · last agreed " + agreed + " · resyncing";
+      break;
+    default:
+      state = "WAITING";
+      detail = "for the vehicle's gateway (petrel run --downlink)";
+  }
+  // Nothing heard for a while: what is shown is as of the last record.
+  if (m.silent_s !== null && m.silent_s > 3 && m.agreement !== "waiting") {
+    a.className = m.agreement === "exact" ? "silent" : m.agreement;
+    const silent = "nothing heard from the vehicle for " + m.silent_s.toFixed(0) + " s · shown as of step " + (m.step === null ? "–" : m.step);
+    if (m.agreement === "exact") { state = "NO DOWNLINK"; detail = silent + " · last agreed " + agreed; } else detail = silent + " · " + detail;
+  }
+  $("agreement-state").textContent = state;
+  $("agreement-detail").textContent = detail + (m.vehicle_t === null ? "" : " · vehicle t = " + m.vehicle_t.toFixed(1) + " s");
+  questions(m);
+  const box = $("disagreements");
+  const key = JSON.stringify(m.disagreements);
+  if (box.dataset.key !== key) {
+    box.dataset.key = key;
+    box.innerHTML = m.disagreements.length ? m.disagreements.map((d) =>
+      '<div class="disagreement"><b>' + esc(d.event) + "</b> seen by the " + esc(d.seen_by) + " only at " + d.t.toFixed(1) +
+      " s (window ±" + d.window_s + " s)" +
+      '<div class="side"><span>' + esc(d.seen_by) + "</span><code>" + esc(d.t.toFixed(2) + " s" + params(d.params)) + "</code></div>" +
+      '<div class="side"><span>' + esc(d.other) + "</span><code>" + (d.other_t === null ? "none within the window" :
+        "nearest at " + esc(d.other_t.toFixed(2) + " s" + params(d.other_params))) + "</code></div></div>").join("")
+      : '<span class="muted">the ground\'s telemetry agrees with the vehicle\'s events</span>';
+  }
+  $("disagreement-count").textContent = "(" + m.disagreements_total + " disagreements)";
+}
+
+function questions(m) {
+  const box = $("questions");
+  const open = new Set(m.questions.map((q) => "q-" + q.id));
+  for (const el of [...box.querySelectorAll(".question.open")]) if (!open.has(el.id)) el.remove();
+  for (const q of m.questions) {
+    let el = $("q-" + q.id);
+    if (!el) {
+      el = document.createElement("div");
+      el.className = "question open";
+      el.id = "q-" + q.id;
+      el.dataset.id = q.id;
+      el.innerHTML = '<div class="ask"><small></small><b></b></div><div class="left"></div><div class="choices"></div><div class="status"></div>';
+      el.querySelector("small").textContent = "question #" + q.id + " from " + q.net + " · deadline t = " + q.deadline.toFixed(1) + " s (vehicle)";
+      el.querySelector("b").textContent = q.question;
+      const choices = el.querySelector(".choices");
+      for (const c of q.choices) {
+        const b = document.createElement("button");
+        b.textContent = c;
+        b.dataset.choice = c;
+        b.onclick = () => answer(q.id, c);
+        choices.appendChild(b);
+      }
+      box.prepend(el);
+    }
+    const left = el.querySelector(".left");
+    left.textContent = q.left === null ? "–" : Math.ceil(q.left) + " s";
+    left.classList.toggle("urgent", q.left !== null && q.left <= 10);
+    const can = answering.can && q.fate === "pending" && !asking[q.id];
+    el.querySelectorAll("button").forEach((b) => { b.hidden = !answering.can; b.disabled = !can; });
+    const status = el.querySelector(".status");
+    let said = "", bad = false;
+    if (!answering.can) said = answering.why ? "read-only: " + answering.why : "";
+    else if (asking[q.id]) { said = asking[q.id].text; bad = asking[q.id].bad; }
+    else if (q.fate === "sent") said = "“" + q.choice + "” sent, signed — waiting for the vehicle";
+    if (q.not_sent && !asking[q.id]) { said = q.not_sent; bad = true; }
+    status.textContent = said;
+    status.classList.toggle("bad", bad);
+    el.dataset.fate = q.fate;
+  }
+  // The last questions closed, and what became of them.
+  const closed = m.closed.map((q) => {
+    const what = { answered: "ANSWERED “" + q.choice + "”", timed_out: "TIMED OUT", closed: "closed",
+      refused: "refused on board: “" + q.choice + "” " + q.reason }[q.fate] || q.fate;
+    return '<div class="question closed ' + q.fate + '" id="done-' + q.id + '" data-id="' + q.id + '" data-fate="' + q.fate + '">' +
+      '<div class="ask"><small>question #' + q.id + " from " + esc(q.net) + "</small><b>" + esc(q.question) + '</b></div><div class="status">' + esc(what) + "</div></div>";
+  }).join("");
+  let done = $("closed-questions");
+  if (!done) { done = document.createElement("div"); done.id = "closed-questions"; box.appendChild(done); }
+  if (done.dataset.key !== closed) { done.dataset.key = closed; done.innerHTML = closed; }
+}
+
+// The answer goes to the mirror, which sends it as one typed on its stdin.
+function answer(id, choice) {
+  asking[id] = { text: "sending “" + choice + "”…", bad: false };
+  if (frame && frame.mirror) questions(frame.mirror);
+  fetch("answer", {
+    method: "POST",
+    headers: { "Content-Type": "application/json", "X-Petrel-Answer": "1" },
+    body: JSON.stringify({ id: id, choice: choice }),
+  }).then((r) => r.json()).then((r) => {
+    delete asking[id];
+    if (!r.sent) asking[id] = { text: r.error, bad: true };
+    setTimeout(() => { if (asking[id] && asking[id].bad) delete asking[id]; }, 5000);
+  }).catch((e) => { asking[id] = { text: "not sent: " + e, bad: true }; });
 }
 
 // ---- one net alone, zoomable and pannable -------------------------------

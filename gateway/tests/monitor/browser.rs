@@ -1,0 +1,102 @@
+#![allow(dead_code)] // shared by the browser test binaries, each using a part
+//! The browser tests' tools (tests/monitor.rs, tests/monitor_mirror.rs):
+//! node, playwright-core and Debian's chromium found or the test skipped
+//! (failed under `CI=true`), and `monitor/driver.js` run.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use serde_json::Value as Json;
+
+pub fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// A child killed and waited for when dropped, whatever happened.
+pub struct Reaped(pub Child);
+
+impl Drop for Reaped {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// node, playwright-core's folder and chromium, or why not.
+fn browser_tools() -> Result<(PathBuf, PathBuf, PathBuf), String> {
+    let chromium = PathBuf::from(std::env::var("CHROMIUM").unwrap_or("/usr/bin/chromium".into()));
+    if !chromium.exists() {
+        return Err(format!("no chromium at {}", chromium.display()));
+    }
+    let node = Command::new("node").arg("--version").output();
+    if !node.is_ok_and(|o| o.status.success()) {
+        return Err("no node on PATH".into());
+    }
+    let core = std::env::var("PETREL_PLAYWRIGHT_CORE")
+        .map(PathBuf::from)
+        .unwrap_or_else(|_| repo().join("target/browser-tools/node_modules/playwright-core"));
+    if !core.join("package.json").exists() {
+        return Err(format!(
+            "no playwright-core at {} (npm install --prefix target/browser-tools playwright-core)",
+            core.display()
+        ));
+    }
+    Ok((PathBuf::from("node"), core, chromium))
+}
+
+/// Skips (returns None) with the reason, or fails under CI.
+pub fn require() -> Option<(PathBuf, PathBuf, PathBuf)> {
+    match browser_tools() {
+        Ok(t) => Some(t),
+        Err(why) if std::env::var("CI").as_deref() == Ok("true") => {
+            panic!("CI=true but the browser tests cannot run: {why}")
+        }
+        Err(why) => {
+            eprintln!("skipped: {why}");
+            None
+        }
+    }
+}
+
+/// Runs the driver; its JSON.
+pub fn drive(tools: &(PathBuf, PathBuf, PathBuf), args: &[&str], env: &[(&str, &str)]) -> Json {
+    let (node, core, chromium) = tools;
+    let mut cmd = Command::new(node);
+    cmd.arg(repo().join("gateway/tests/monitor/driver.js"))
+        .args(args)
+        .env("PLAYWRIGHT_CORE", core)
+        .env("CHROMIUM", chromium)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit());
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let child = cmd
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot start node: {e}"));
+    let mut child = Reaped(child);
+    // Bounded: the driver's own waits add up to well under this.
+    let until = Instant::now() + Duration::from_secs(400);
+    loop {
+        if let Ok(Some(_)) = child.0.try_wait() {
+            break;
+        }
+        assert!(Instant::now() < until, "the browser driver hung");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let mut out = String::new();
+    if let Some(mut s) = child.0.stdout.take() {
+        use std::io::Read;
+        let _ = s.read_to_string(&mut out);
+    }
+    let seen: Json = serde_json::from_str(out.trim())
+        .unwrap_or_else(|e| panic!("the driver printed no JSON ({e}): {out}"));
+    assert!(
+        seen["failure"].is_null(),
+        "in the browser: {}",
+        seen["failure"]
+    );
+    assert_eq!(seen["errors"], serde_json::json!([]), "the page threw");
+    seen
+}
