@@ -29,6 +29,7 @@ macro_rules! say_part {
 
 mod cli;
 mod clock;
+mod edit;
 mod link;
 mod mirror;
 mod monitor;
