@@ -15,5 +15,10 @@
 //! background check (`session.rs`) and the routes (`server.rs`).
 
 pub mod draft;
+pub mod locate;
 pub mod op;
 pub mod positions;
+pub mod replay;
+pub mod server;
+pub mod session;
+pub mod sketch;

@@ -37,11 +37,11 @@ impl Source {
     }
 }
 
-const INDEX: &str = include_str!("assets/index.html");
-const SCRIPT: &str = include_str!("assets/monitor.js");
-const STYLE: &str = include_str!("assets/monitor.css");
+pub(crate) const INDEX: &str = include_str!("assets/index.html");
+pub(crate) const SCRIPT: &str = include_str!("assets/monitor.js");
+pub(crate) const STYLE: &str = include_str!("assets/monitor.css");
 
-fn asset(kind: &'static str, body: &'static str) -> Response {
+pub(crate) fn asset(kind: &'static str, body: &'static str) -> Response {
     ([(header::CONTENT_TYPE, kind)], body).into_response()
 }
 
@@ -164,6 +164,11 @@ pub struct Server {
 impl Server {
     /// Serves `source` on `address` (bound before this returns).
     pub fn start(address: SocketAddr, source: Source) -> std::io::Result<Server> {
+        Server::serve(address, router(source))
+    }
+
+    /// Serves `router` on `address` (`petrel edit`'s routes).
+    pub fn serve(address: SocketAddr, router: Router) -> std::io::Result<Server> {
         let listener = std::net::TcpListener::bind(address)?;
         listener.set_nonblocking(true)?;
         let address = listener.local_addr()?;
@@ -182,10 +187,9 @@ impl Server {
                             return;
                         }
                     };
-                    let serve =
-                        axum::serve(listener, router(source)).with_graceful_shutdown(async move {
-                            let _ = stopped.await;
-                        });
+                    let serve = axum::serve(listener, router).with_graceful_shutdown(async move {
+                        let _ = stopped.await;
+                    });
                     if let Err(e) = serve.await {
                         tracing::warn!("monitor: {e}");
                     }
