@@ -20,15 +20,24 @@ pub struct Moment {
     pub active: Vec<String>,
 }
 
-/// The transitions a step's label says it fired.
+/// The transitions a step's label says it fired (`… → A.t, B.u`), and the
+/// one a fault stopped (`… ✗ A.t would put a second token in …`).
 pub fn fired(label: &str) -> Vec<String> {
-    let Some((_, tail)) = label.rsplit_once(" → ") else {
-        return Vec::new();
-    };
-    tail.split(", ")
-        .map(|s| s.split_whitespace().next().unwrap_or("").to_owned())
-        .filter(|s| s.contains('.'))
-        .collect()
+    let mut out: Vec<String> = Vec::new();
+    if let Some((_, tail)) = label.rsplit_once(" → ") {
+        out.extend(
+            tail.split(", ")
+                .map(|s| s.split_whitespace().next().unwrap_or("").to_owned()),
+        );
+    }
+    for (_, tail) in label
+        .match_indices("✗ ")
+        .map(|(i, m)| (i, &label[i + m.len()..]))
+    {
+        out.push(tail.split_whitespace().next().unwrap_or("").to_owned());
+    }
+    out.retain(|s| s.contains('.'));
+    out
 }
 
 /// The moments of a counterexample: the start, then one per step.
@@ -141,6 +150,10 @@ mod tests {
             vec!["A.go", "B.step"]
         );
         assert_eq!(fired("x (nothing fired)"), Vec::<String>::new());
+        assert_eq!(
+            fired("y ✗ A.go would put a second token in A.on"),
+            vec!["A.go"]
+        );
         let m = replay(&project, &["x → A.go".into(), "y → B.step".into()]);
         assert_eq!(m.len(), 3);
         assert_eq!(m[0].marked, vec!["@g", "A.idle"]);

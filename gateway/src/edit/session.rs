@@ -295,14 +295,16 @@ impl Session {
             s.check = Check::Failed("cannot find the petrel binary to run the check".into());
             return;
         };
-        let child = Command::new(exe)
+        let mut command = Command::new(exe);
+        command
             .arg("check")
             .arg("--json")
             .arg(&self.dir)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn();
+            .stderr(Stdio::piped());
+        die_with_parent(&mut command);
+        let child = command.spawn();
         let mut child = match child {
             Ok(c) => c,
             Err(e) => {
@@ -445,6 +447,26 @@ impl Drop for Session {
         }
     }
 }
+
+/// The check dies with the editor, however it ends (a kill included):
+/// SIGKILL when the thread that started it exits (the server's, or the
+/// main thread, both living as long as the editor).
+#[cfg(target_os = "linux")]
+fn die_with_parent(command: &mut Command) {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: between fork and exec the closure only calls prctl(2), which
+    // is async-signal-safe, takes plain integers and touches no memory of
+    // the parent.
+    unsafe {
+        command.pre_exec(|| {
+            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL);
+            Ok(())
+        });
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn die_with_parent(_command: &mut Command) {}
 
 enum Loaded {
     Problems(nets::source::LoadError),
