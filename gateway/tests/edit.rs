@@ -323,3 +323,139 @@ fn a_transition_added_in_the_page_is_written_checked_and_its_counterexample_step
     assert!(now.contains("to = [\"proceeding\", \"p1\"]\n"), "{now}");
     assert_eq!(check(dir), Some(1), "a fresh petrel check fails too");
 }
+
+/// One HTTP/1.1 request to the editor: (status, body as JSON).
+fn http(url: &str, method: &str, path: &str, body: &str) -> (u16, Json) {
+    use std::io::{Read, Write};
+    let host = url
+        .trim_start_matches("http://")
+        .trim_end_matches('/')
+        .to_owned();
+    let mut s = std::net::TcpStream::connect(&host).unwrap_or_else(|e| panic!("{host}: {e}"));
+    let _ = s.set_read_timeout(Some(Duration::from_secs(30)));
+    let request = format!(
+        "{method} {path} HTTP/1.1\r\nHost: {host}\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    );
+    s.write_all(request.as_bytes())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut answer = String::new();
+    let _ = s.read_to_string(&mut answer);
+    let status = answer
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let json = answer
+        .split_once("\r\n\r\n")
+        .and_then(|(_, b)| serde_json::from_str(b.trim()).ok())
+        .unwrap_or(Json::Null);
+    (status, json)
+}
+
+/// Without a browser: the editor's routes refuse bad edits, refuse to
+/// overwrite a file changed on disk (keeping that change), write again
+/// after a reload, and generate the programs' stubs; bad input exits 2.
+#[test]
+fn the_editor_never_overwrites_a_file_changed_on_disk() {
+    let tmp = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let dir = tmp.path();
+    copy_example(dir);
+    let (editor, url) = edit(dir);
+    let add = r#"{"op":"add_place","net":"COMMUNICATION","name":"spare"}"#;
+
+    let (status, a) = http(
+        &url,
+        "POST",
+        "/edit",
+        r#"{"op":"add_place","net":"NOPE","name":"x"}"#,
+    );
+    assert_eq!(
+        (status, a["error"].as_str()),
+        (400, Some("no net named `NOPE`"))
+    );
+    let (status, a) = http(
+        &url,
+        "POST",
+        "/edit",
+        r#"{"op":"delete_place","net":"COMMUNICATION","name":"proceeding"}"#,
+    );
+    assert_eq!(status, 400);
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .contains("is used by link_lost"),
+        "{a}"
+    );
+    let (status, a) = http(&url, "POST", "/edit", "{\"op\": ");
+    assert_eq!(status, 400, "{a}");
+    assert_eq!(
+        read(&dir.join("communication.toml")),
+        read(&example().join("communication.toml"))
+    );
+
+    // Someone else writes the file: the edit is refused, their text kept.
+    let theirs = format!("{}# theirs\n", read(&example().join("communication.toml")));
+    std::fs::write(dir.join("communication.toml"), &theirs).unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = http(&url, "POST", "/edit", add);
+    assert_eq!((status, a["conflict"].as_bool()), (409, Some(true)), "{a}");
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .contains("changed on disk"),
+        "{a}"
+    );
+    assert_eq!(read(&dir.join("communication.toml")), theirs);
+    // Reloaded: the edit is made on their text.
+    assert_eq!(http(&url, "POST", "/reload", "{}").0, 200);
+    let (status, a) = http(&url, "POST", "/edit", add);
+    assert_eq!(status, 200, "{a}");
+    let now = read(&dir.join("communication.toml"));
+    assert_eq!(
+        now,
+        theirs.replace(
+            "places = [\"proceeding\"]",
+            "places = [\"proceeding\", \"spare\"]"
+        )
+    );
+    let leftovers: Vec<_> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .filter_map(Result::ok)
+        .filter(|e| e.file_name().to_string_lossy().contains("petrel-edit"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    assert_eq!(page["name"], "uav-flight-test");
+    assert_eq!(page["loads"], true, "{}", page["problems"]);
+
+    // The programs' stubs, as `petrel stubs` writes them.
+    let (status, a) = http(&url, "POST", "/stubs", r#"{"lang":"python","out":"stubs"}"#);
+    assert_eq!(status, 200, "{a}");
+    let files: Vec<String> = strings(&a["files"]);
+    assert!(
+        !files.is_empty() && files.iter().all(|f| Path::new(f).exists()),
+        "{files:?}"
+    );
+    let (status, a) = http(&url, "POST", "/stubs", r#"{"lang":"python","out":"stubs"}"#);
+    assert_eq!(status, 400, "not overwritten without force: {a}");
+    drop(editor);
+
+    // Bad input: exit 2, with the reason.
+    let out = Command::new(PETREL)
+        .args(["edit", "--http", "127.0.0.1:0"])
+        .arg(dir.join("nowhere"))
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not a Petrel project"));
+    let help = Command::new(PETREL)
+        .arg("--help")
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        String::from_utf8_lossy(&help.stdout).contains("edit "),
+        "petrel --help lists edit"
+    );
+}

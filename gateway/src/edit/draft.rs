@@ -33,6 +33,8 @@ impl NetText {
 /// The project as edited.
 #[derive(Debug, Clone)]
 pub struct Draft {
+    /// project.toml's `name` (empty when it has none).
+    pub name: String,
     pub nets: Vec<NetText>,
     /// project.toml's global places, without `@`.
     pub globals: Vec<String>,
@@ -237,6 +239,11 @@ impl Draft {
             })
             .collect::<Result<Vec<_>, EditError>>()?;
         Ok(Draft {
+            name: p
+                .get("name")
+                .and_then(Item::as_str)
+                .unwrap_or("")
+                .to_owned(),
             nets,
             globals,
             positions: Positions::parse(layout)?,

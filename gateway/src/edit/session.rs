@@ -372,11 +372,17 @@ impl Session {
     /// What the page shows, and its version.
     pub fn page(&self) -> Json {
         let s = self.lock();
-        let name = self
-            .dir
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let name = s
+            .draft
+            .as_ref()
+            .map(|d| d.name.clone())
+            .filter(|n| !n.is_empty())
+            .unwrap_or_else(|| {
+                self.dir
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default()
+            });
         let nets: Vec<Json> = s
             .draft
             .as_ref()

@@ -24,8 +24,8 @@ async function emptySpot(page) {
     const p = await (await fetch("page.json")).json();
     const n = p.nets.find((x) => x.name === net);
     const nodes = n.places.concat(n.transitions);
-    for (let y = 20; y < n.height; y += 10) {
-      for (let x = 20; x < n.width; x += 10) {
+    for (let y = 50; y < n.height; y += 10) {
+      for (let x = 40; x < n.width; x += 10) {
         if (nodes.every((m) => Math.hypot(m.x - x, m.y - y) > 45)) return { x, y };
       }
     }

@@ -322,7 +322,9 @@ async function pointerDown(ev, net, svg) {
   if (ev.button !== 0) return;
   const g = ev.target.closest("g.place, g.transition");
   const arc = ev.target.closest(".arc-hit");
-  const at = svgPoint(svg, ev);
+  const xy = svgPoint(svg, ev);
+  // Not under the net's edge: room for a node's label above it.
+  const at = [Math.max(24, xy[0]), Math.max(40, xy[1])];
   ev.preventDefault();
   const node = g ? { net, kind: g.dataset.kind, name: g.dataset.name } : null;
   switch (ED.tool) {
@@ -369,7 +371,7 @@ function dragMove(ev) {
   const dx = at[0] - d.start[0], dy = at[1] - d.start[1];
   if (!d.moved && Math.hypot(dx, dy) < 4) return;
   d.moved = true;
-  d.at = [Math.max(20, d.from[0] + dx), Math.max(20, d.from[1] + dy)];
+  d.at = [Math.max(24, d.from[0] + dx), Math.max(40, d.from[1] + dy)];
   const n = netOf(d.net);
   const div = document.querySelector('#nets .net[data-net="' + CSS.escape(d.net) + '"] .drawing');
   div.innerHTML = netSvg(n);
