@@ -326,6 +326,17 @@ fn a_transition_added_in_the_page_is_written_checked_and_its_counterexample_step
 
 /// One HTTP/1.1 request to the editor: (status, body as JSON).
 fn http(url: &str, method: &str, path: &str, body: &str) -> (u16, Json) {
+    http_with(url, method, path, body, "application/json", None)
+}
+
+fn http_with(
+    url: &str,
+    method: &str,
+    path: &str,
+    body: &str,
+    kind: &str,
+    origin: Option<&str>,
+) -> (u16, Json) {
     use std::io::{Read, Write};
     let host = url
         .trim_start_matches("http://")
@@ -334,7 +345,8 @@ fn http(url: &str, method: &str, path: &str, body: &str) -> (u16, Json) {
     let mut s = std::net::TcpStream::connect(&host).unwrap_or_else(|e| panic!("{host}: {e}"));
     let _ = s.set_read_timeout(Some(Duration::from_secs(30)));
     let request = format!(
-        "{method} {path} HTTP/1.1\r\nHost: {host}\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        "{method} {path} HTTP/1.1\r\nHost: {host}\r\nContent-Type: {kind}\r\n{}Content-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        origin.map(|o| format!("Origin: {o}\r\n")).unwrap_or_default(),
         body.len()
     );
     s.write_all(request.as_bytes())
@@ -390,6 +402,19 @@ fn the_editor_never_overwrites_a_file_changed_on_disk() {
     );
     let (status, a) = http(&url, "POST", "/edit", "{\"op\": ");
     assert_eq!(status, 400, "{a}");
+    // Another site's page cannot post an edit (a form's text/plain body,
+    // or a foreign origin).
+    let (status, _) = http_with(&url, "POST", "/edit", add, "text/plain", None);
+    assert_eq!(status, 403);
+    let (status, _) = http_with(
+        &url,
+        "POST",
+        "/edit",
+        add,
+        "application/json",
+        Some("http://evil.example"),
+    );
+    assert_eq!(status, 403);
     assert_eq!(
         read(&dir.join("communication.toml")),
         read(&example().join("communication.toml"))

@@ -6,7 +6,7 @@
 use std::sync::Arc;
 
 use axum::extract::State;
-use axum::http::{header, StatusCode};
+use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::Router;
@@ -35,7 +35,32 @@ fn refused(status: StatusCode, error: String, conflict: bool) -> Response {
     )
 }
 
-async fn edit(State(session): State<Arc<Session>>, body: String) -> Response {
+/// A request another site's page could not have sent: JSON (a
+/// cross-origin JSON POST needs a preflight, which this server never
+/// grants) and, when the browser names its origin, this page's.
+fn from_the_page(headers: &HeaderMap) -> bool {
+    let text = |h: header::HeaderName| headers.get(h).and_then(|v| v.to_str().ok());
+    let json = text(header::CONTENT_TYPE).is_some_and(|t| t.starts_with("application/json"));
+    let same = match (text(header::ORIGIN), text(header::HOST)) {
+        (None, _) => true,
+        (Some(origin), Some(host)) => origin.strip_prefix("http://").is_some_and(|o| o == host),
+        (Some(_), None) => false,
+    };
+    json && same
+}
+
+fn foreign() -> Response {
+    refused(
+        StatusCode::FORBIDDEN,
+        "only the editor's page may change the project (a JSON request from its own origin)".into(),
+        false,
+    )
+}
+
+async fn edit(State(session): State<Arc<Session>>, headers: HeaderMap, body: String) -> Response {
+    if !from_the_page(&headers) {
+        return foreign();
+    }
     let op: Op = match serde_json::from_str(&body) {
         Ok(op) => op,
         Err(e) => return refused(StatusCode::BAD_REQUEST, format!("not an edit: {e}"), false),
@@ -48,7 +73,10 @@ async fn edit(State(session): State<Arc<Session>>, body: String) -> Response {
     }
 }
 
-async fn stubs(State(session): State<Arc<Session>>, body: String) -> Response {
+async fn stubs(State(session): State<Arc<Session>>, headers: HeaderMap, body: String) -> Response {
+    if !from_the_page(&headers) {
+        return foreign();
+    }
     let ask: Json = serde_json::from_str(&body).unwrap_or_default();
     let lang = ask["lang"].as_str().unwrap_or("python");
     let out = ask["out"].as_str().unwrap_or("stubs");
@@ -96,10 +124,15 @@ pub fn router(session: Arc<Session>) -> Router {
         .route("/edit", post(edit))
         .route(
             "/reload",
-            post(|State(s): State<Arc<Session>>| async move {
-                s.reload();
-                answer(StatusCode::OK, json!({"ok": true}))
-            }),
+            post(
+                |State(s): State<Arc<Session>>, headers: HeaderMap| async move {
+                    if !from_the_page(&headers) {
+                        return foreign();
+                    }
+                    s.reload();
+                    answer(StatusCode::OK, json!({"ok": true}))
+                },
+            ),
         )
         .route("/stubs", post(stubs))
         .with_state(session)

@@ -163,6 +163,13 @@ function netSvg(n) {
     const pk = "place:" + a.place, tk = "transition:" + a.transition;
     const moved = ED.drag && ED.drag.net === n.name && ED.drag.moved && (ED.drag.kind + ":" + ED.drag.name === pk || ED.drag.kind + ":" + ED.drag.name === tk);
     let pts = moved ? (a.input ? [pos[pk], pos[tk]] : [pos[tk], pos[pk]]) : a.points.map((p) => p.slice());
+    // A straight arc with one back the other way (a place tested and
+    // kept): each drawn a little to its side, not on top of the other.
+    if (pts.length === 2 && n.arcs.some((b) => b.place === a.place && b.transition === a.transition && b.input !== a.input)) {
+      const dx = pts[1][0] - pts[0][0], dy = pts[1][1] - pts[0][1], len = Math.max(Math.hypot(dx, dy), 1e-9);
+      const ox = -dy / len * 5, oy = dx / len * 5;
+      pts = pts.map((p) => [p[0] + ox, p[1] + oy]);
+    }
     if (pts.length >= 2) {
       const rFrom = a.input ? RADIUS + 1 : BAR_W / 2 + 1, rTo = a.input ? BAR_W / 2 + 1 : RADIUS + 1;
       pts[pts.length - 1] = trim(pts[pts.length - 2], pts[pts.length - 1], rTo);
