@@ -324,6 +324,31 @@ fn a_transition_added_in_the_page_is_written_checked_and_its_counterexample_step
     assert_eq!(check(dir), Some(1), "a fresh petrel check fails too");
 }
 
+/// The children of process `pid` (Linux: /proc/PID/task/*/children).
+fn children(pid: u32) -> Vec<u32> {
+    let mut out = Vec::new();
+    for task in std::fs::read_dir(format!("/proc/{pid}/task"))
+        .into_iter()
+        .flatten()
+        .flatten()
+    {
+        let text = std::fs::read_to_string(task.path().join("children")).unwrap_or_default();
+        out.extend(
+            text.split_whitespace()
+                .filter_map(|p| p.parse::<u32>().ok()),
+        );
+    }
+    out
+}
+
+/// Whether process `pid` runs (a zombie does not).
+fn alive(pid: u32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .ok()
+        .and_then(|s| s.rsplit_once(") ").map(|(_, rest)| !rest.starts_with('Z')))
+        .unwrap_or(false)
+}
+
 /// One HTTP/1.1 request to the editor: (status, body as JSON).
 fn http(url: &str, method: &str, path: &str, body: &str) -> (u16, Json) {
     http_with(url, method, path, body, "application/json", None)
@@ -454,6 +479,10 @@ fn the_editor_never_overwrites_a_file_changed_on_disk() {
     let (_, page) = http(&url, "GET", "/page.json", "");
     assert_eq!(page["name"], "uav-flight-test");
     assert_eq!(page["loads"], true, "{}", page["problems"]);
+    // Each edit started a check and killed the one before: one runs.
+    assert_eq!(page["check"]["state"], "running", "{}", page["check"]);
+    let checks = children(editor.0.id());
+    assert_eq!(checks.len(), 1, "one petrel check at a time: {checks:?}");
 
     // The programs' stubs, as `petrel stubs` writes them.
     let (status, a) = http(&url, "POST", "/stubs", r#"{"lang":"python","out":"stubs"}"#);
@@ -465,7 +494,16 @@ fn the_editor_never_overwrites_a_file_changed_on_disk() {
     );
     let (status, a) = http(&url, "POST", "/stubs", r#"{"lang":"python","out":"stubs"}"#);
     assert_eq!(status, 400, "not overwritten without force: {a}");
+    // The editor killed: its check dies with it.
     drop(editor);
+    let until = Instant::now() + Duration::from_secs(10);
+    while checks.iter().any(|pid| alive(*pid)) {
+        assert!(
+            Instant::now() < until,
+            "petrel check {checks:?} outlived the editor"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
 
     // Bad input: exit 2, with the reason.
     let out = Command::new(PETREL)

@@ -217,8 +217,13 @@ impl Session {
             }
         }
         for (file, text) in &writes {
-            write_atomic(&self.dir.join(file), text)
-                .map_err(|e| Refusal::Io(format!("cannot write {file}: {e}")))?;
+            if let Err(e) = write_atomic(&self.dir.join(file), text) {
+                // Some files may be written, others not: the disk is the
+                // truth, read again.
+                drop(s);
+                self.reload();
+                return Err(Refusal::Io(format!("cannot write {file}: {e}")));
+            }
             s.read.insert(file.clone(), Some(text.clone()));
         }
         s.draft = Some(next);
@@ -531,4 +536,56 @@ fn counterexample(report: &Json) -> (String, Option<Vec<String>>) {
         }
     }
     (String::new(), None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_atomic_write_replaces_the_file_keeps_its_mode_and_leaves_nothing() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let path = dir.path().join("a.toml");
+        std::fs::write(&path, "old").unwrap_or_else(|e| panic!("{e}"));
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o640))
+            .unwrap_or_else(|e| panic!("{e}"));
+        write_atomic(&path, "new").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(std::fs::read_to_string(&path).ok().as_deref(), Some("new"));
+        let mode = std::fs::metadata(&path)
+            .map(|m| m.permissions().mode() & 0o777)
+            .ok();
+        assert_eq!(mode, Some(0o640));
+        let names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .filter_map(Result::ok)
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, vec!["a.toml"]);
+        // A folder that does not exist: an error, no panic.
+        assert!(write_atomic(&dir.path().join("no/such/b.toml"), "x").is_err());
+    }
+
+    #[test]
+    fn the_counterexample_shown_is_the_projects_first_then_a_nets() {
+        let r = json!({"unsafe_example": null, "deadlock_example": ["a → N.t"], "livelocks": [],
+                       "nets": {"N": {"unsafe_example": ["b"]}}});
+        assert_eq!(
+            counterexample(&r),
+            (
+                "the project: a deadlock".into(),
+                Some(vec!["a → N.t".into()])
+            )
+        );
+        let r = json!({"unsafe_example": null, "deadlock_example": null, "livelocks": [],
+                       "nets": {"N": {"unsafe_example": null, "deadlock_example": null, "livelocks": [["x", "y"]]}}});
+        assert_eq!(
+            counterexample(&r),
+            (
+                "net N: a livelock".into(),
+                Some(vec!["x".into(), "y".into()])
+            )
+        );
+        assert_eq!(counterexample(&json!({"livelocks": []})).1, None);
+    }
 }
