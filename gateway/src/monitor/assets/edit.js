@@ -61,8 +61,8 @@ function editorFrame() {
     '<select id="stubs-lang"><option value="python">Python</option><option value="rust">Rust</option></select> ' +
     'into <input id="stubs-out" value="stubs" size="10"> <label><input type="checkbox" id="stubs-force"> overwrite</label> ' +
     '<button id="stubs-go">Generate</button><div id="stubs-result" class="muted"></div></div>';
-  $("cx-prev").onclick = () => showStep(ED.step - 1);
-  $("cx-next").onclick = () => showStep(ED.step + 1);
+  $("cx-prev").onclick = () => { showStep(ED.step - 1); reveal(); };
+  $("cx-next").onclick = () => { showStep(ED.step + 1); reveal(); };
   $("stubs-go").onclick = stubs;
   document.addEventListener("keydown", (ev) => {
     if (ev.target.closest("input, textarea, select")) return;
@@ -291,6 +291,13 @@ function showStep(i) {
   $("cx-prev").disabled = ED.step === 0;
   $("cx-next").disabled = ED.step === m.length - 1;
   paintMoment(m[ED.step]);
+}
+
+// The step's first fired transition brought into view (on a click only:
+// a redraw never scrolls the page under a person's hands).
+function reveal() {
+  const el = document.querySelector("#nets g.transition.fired");
+  if (el) el.scrollIntoView({ block: "nearest", inline: "nearest" });
 }
 
 function paintMoment(m) {
