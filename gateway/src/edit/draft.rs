@@ -53,7 +53,7 @@ pub struct Applied {
 fn parse(file: &str, text: &str) -> Result<DocumentMut, EditError> {
     text.parse::<DocumentMut>().map_err(|e| EditError::Shape {
         file: file.to_owned(),
-        what: e.to_string().trim().replace('\n', " "),
+        what: e.to_string().trim_end().to_owned(),
     })
 }
 
