@@ -468,7 +468,12 @@ function select(e) {
     '<div class="row2"><label>do</label><textarea id="f-do" rows="3" placeholder="one action a line">' + esc(n.do.join("\n")) + "</textarea></div>" +
     '<div class="row2"><label></label><button id="f-apply">apply</button> <button id="f-delete" class="danger">delete transition</button></div>' +
     '<div class="row2"><label>from</label><span id="f-from">' + chips(n.from, true) + "</span></div>" +
-    '<div class="row2"><label>to</label><span id="f-to">' + chips(n.to, false) + "</span></div>" + problemsHtml;
+    '<div class="row2"><label>to</label><span id="f-to">' + chips(n.to, false) + "</span></div>" +
+    '<div class="row2"><label>arc</label><select id="f-arc-place">' +
+    netOf(e.net).places.filter((p) => !p.global).map((p) => p.name).concat(page.globals.map((g) => "@" + g))
+      .map((p) => '<option value="' + attr(p) + '">' + esc(p) + "</option>").join("") +
+    '</select><span><button id="f-arc-from" title="an input arc from this place">+ from</button>' +
+    '<button id="f-arc-to" title="an output arc to this place">+ to</button></span></div>' + problemsHtml;
   $("f-apply").onclick = async () => {
     // Read at once: the form is drawn again after each edit.
     let name = n.name;
@@ -485,6 +490,10 @@ function select(e) {
     if (a.ok) { $("element-form").dataset.key = ""; select({ ...e, name }); }
   };
   $("f-delete").onclick = () => remove(e);
+  // Arcs to any place, global ones the net does not use yet included.
+  const arc = (input) => edit({ op: "add_arc", net: e.net, transition: n.name, place: $("f-arc-place").value, input });
+  $("f-arc-from").onclick = () => arc(true);
+  $("f-arc-to").onclick = () => arc(false);
   form.querySelectorAll("a[data-place]").forEach((x) => {
     x.onclick = (ev) => { ev.preventDefault(); edit({ op: "delete_arc", net: e.net, transition: n.name, place: x.dataset.place, input: x.dataset.input === "true" }); };
   });
