@@ -29,6 +29,7 @@ macro_rules! say_part {
 
 mod cli;
 mod clock;
+mod edit;
 mod link;
 mod mirror;
 mod monitor;
@@ -73,6 +74,8 @@ enum Verb {
     Replay(cli::replay::Args),
     /// Show a recorded flight in the monitor's page: scrub, step, play.
     View(cli::view::Args),
+    /// Edit a project's nets in the monitor's page: each change written back, loaded and checked.
+    Edit(cli::edit::Args),
     /// Copy a recording cut short (no summary, a torn last chunk) into a clean, indexed MCAP.
     Recover(cli::recover::Args),
     /// Fly the paper's UAV mission on a simulated ArduPlane with DEC, live.
@@ -116,6 +119,7 @@ fn main() -> ExitCode {
         Verb::Export(args) => cli::export::run(args),
         Verb::Replay(args) => cli::replay::run(args),
         Verb::View(args) => cli::view::run(args),
+        Verb::Edit(args) => cli::edit::run(args),
         Verb::Recover(args) => cli::recover::run(args),
         Verb::Demo(args) => cli::demo::run(args),
     };

@@ -74,13 +74,37 @@ pub struct Layout {
     pub crossings_before: usize,
 }
 
+/// A net's structure, all a layout depends on: which of its own places are
+/// initially marked, and each transition's input and output places
+/// (`PlaceRef::Global(g)` for global place `g`). A net being edited is laid
+/// out from this even while it does not load.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Shape {
+    /// One entry per local place: initially marked.
+    pub initial: Vec<bool>,
+    /// One entry per transition: (inputs, outputs).
+    pub transitions: Vec<(Vec<PlaceRef>, Vec<PlaceRef>)>,
+}
+
 /// Lays out net `net` of `project`.
 pub fn layout(project: &Project, net: NetId) -> Layout {
     let n = &project.nets[net];
+    layout_shape(&Shape {
+        initial: n.places.iter().map(|p| p.initial).collect(),
+        transitions: n
+            .transitions
+            .iter()
+            .map(|t| (t.inputs.to_vec(), t.outputs.to_vec()))
+            .collect(),
+    })
+}
+
+/// Lays out a net given by its structure alone.
+pub fn layout_shape(shape: &Shape) -> Layout {
     // Nodes: local places, globals used, transitions.
-    let mut places: Vec<PlaceRef> = (0..n.places.len()).map(PlaceRef::Local).collect();
-    for t in &n.transitions {
-        for p in t.inputs.iter().chain(&t.outputs) {
+    let mut places: Vec<PlaceRef> = (0..shape.initial.len()).map(PlaceRef::Local).collect();
+    for (inputs, outputs) in &shape.transitions {
+        for p in inputs.iter().chain(outputs) {
             if matches!(p, PlaceRef::Global(_)) && !places.contains(p) {
                 places.push(*p);
             }
@@ -89,21 +113,21 @@ pub fn layout(project: &Project, net: NetId) -> Layout {
     let index_of = |p: &PlaceRef| places.iter().position(|q| q == p).unwrap_or(0);
     let mut nodes: Vec<Node> = places.iter().copied().map(Node::Place).collect();
     let first_transition = nodes.len();
-    nodes.extend((0..n.transitions.len()).map(Node::Transition));
+    nodes.extend((0..shape.transitions.len()).map(Node::Transition));
     let real = nodes.len();
     // Arcs of the net: (from, to, input).
     let mut arcs: Vec<(usize, usize, bool)> = Vec::new();
-    for (ti, t) in n.transitions.iter().enumerate() {
+    for (ti, (inputs, outputs)) in shape.transitions.iter().enumerate() {
         let tn = first_transition + ti;
-        for p in &t.inputs {
+        for p in inputs {
             arcs.push((index_of(p), tn, true));
         }
-        for p in &t.outputs {
+        for p in outputs {
             arcs.push((tn, index_of(p), false));
         }
     }
     let back = back_arcs(real, &arcs, |i| match nodes[i] {
-        Node::Place(PlaceRef::Local(p)) => n.places[p].initial,
+        Node::Place(PlaceRef::Local(p)) => shape.initial.get(p).copied().unwrap_or(false),
         _ => false,
     });
     // The acyclic orientation, and layers by longest path.

@@ -6,6 +6,7 @@ pub mod check;
 pub mod check_project;
 pub mod demo;
 pub mod draw;
+pub mod edit;
 pub mod events;
 pub mod export;
 pub mod mirror;

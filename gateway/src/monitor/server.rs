@@ -38,11 +38,11 @@ impl Source {
     }
 }
 
-const INDEX: &str = include_str!("assets/index.html");
-const SCRIPT: &str = include_str!("assets/monitor.js");
-const STYLE: &str = include_str!("assets/monitor.css");
+pub(crate) const INDEX: &str = include_str!("assets/index.html");
+pub(crate) const SCRIPT: &str = include_str!("assets/monitor.js");
+pub(crate) const STYLE: &str = include_str!("assets/monitor.css");
 
-fn asset(kind: &'static str, body: &'static str) -> Response {
+pub(crate) fn asset(kind: &'static str, body: &'static str) -> Response {
     ([(header::CONTENT_TYPE, kind)], body).into_response()
 }
 
@@ -180,7 +180,8 @@ impl Server {
         )
     }
 
-    fn serve(address: SocketAddr, app: Router) -> std::io::Result<Server> {
+    /// Serves `app` on `address` (also `petrel edit`'s routes).
+    pub fn serve(address: SocketAddr, app: Router) -> std::io::Result<Server> {
         let listener = std::net::TcpListener::bind(address)?;
         listener.set_nonblocking(true)?;
         let address = listener.local_addr()?;

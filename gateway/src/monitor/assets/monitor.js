@@ -568,5 +568,10 @@ function connect() {
 $("zoom-close").onclick = unzoom;
 document.addEventListener("keydown", (ev) => { if (ev.key === "Escape") unzoom(); });
 setInterval(() => { if (frame) { paint(document); if (!$("zoom").hidden) paint($("zoom-view")); } }, 250);
-fetch("page.json").then((r) => r.json()).then((p) => { page = p; build(); connect(); })
+fetch("page.json").then((r) => r.json()).then((p) => {
+  page = p;
+  // `petrel edit`: the editor (edit.js, fetched only then) draws the page.
+  if (p.mode === "edit") { const s = document.createElement("script"); s.src = "edit.js"; document.head.appendChild(s); return; }
+  build(); connect();
+})
   .catch((e) => { document.body.innerHTML = "<p>cannot load the page: " + esc(e) + "</p>"; });

@@ -1,0 +1,47 @@
+//! `petrel edit PROJECT`: the monitor's page in editing mode (EdiPet's
+//! other half; docs/monitor.md, "Editing"). Serves until stopped.
+//!
+//! Exit status: 0 when stopped, 2 for bad input (no project, a
+//! project.toml that is not TOML, an address that cannot be served).
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use super::{Outcome, VerbResult};
+use crate::edit::server::router;
+use crate::edit::session::Session;
+use crate::monitor::Server;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The project folder (holding project.toml).
+    pub project: PathBuf,
+    /// Serve the page on ADDR:PORT, or 127.0.0.1:PORT given a port
+    /// [default: 127.0.0.1:8091, else a free port on 127.0.0.1].
+    #[arg(long, value_name = "ADDR:PORT")]
+    pub http: Option<String>,
+}
+
+pub fn run(args: Args) -> VerbResult {
+    let address: SocketAddr = match &args.http {
+        Some(a) => crate::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?,
+        None => {
+            let port = if std::net::TcpListener::bind("127.0.0.1:8091").is_ok() {
+                8091
+            } else {
+                0
+            };
+            SocketAddr::from(([127, 0, 0, 1], port))
+        }
+    };
+    let session = Session::open(&args.project).map_err(|e| miette::miette!("{e}"))?;
+    let server = Server::serve(address, router(session))
+        .map_err(|e| miette::miette!("cannot serve the page on {address}: {e}"))?;
+    say!(
+        "edit: http://{}/ (editing {}; every change is written at once; Ctrl-C stops)",
+        server.address,
+        args.project.display()
+    );
+    server.wait();
+    Ok(Outcome::Success)
+}

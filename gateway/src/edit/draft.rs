@@ -1,0 +1,629 @@
+//! The edit core, sans I/O: a project's net files as `toml_edit`
+//! documents and its layout file, and [`Draft::apply`], which makes one
+//! edit or refuses it with nothing changed. Only what an edit concerns is
+//! touched: every other byte of a net file (comments, order, quoting,
+//! blank lines) is written back as it was read.
+//!
+//! The draft keeps the nets' structure whole — every arc names a place of
+//! the net or a declared global, names are unique and well formed — but
+//! not what the loader checks beyond it (events, guards, actions, a
+//! transition without input): such an edit is made, and the loader's
+//! verdict shown on the element (docs/monitor.md, "Editing").
+
+use toml_edit::{value, Array, ArrayOfTables, DocumentMut, Item, Table, Value};
+
+use super::op::{valid_name, EditError, Kind, Op};
+use super::positions::Positions;
+
+/// One net file being edited.
+#[derive(Debug, Clone)]
+pub struct NetText {
+    /// Relative to the project folder, as project.toml names it.
+    pub file: String,
+    pub doc: DocumentMut,
+}
+
+impl NetText {
+    /// The net's `name` (empty when it has none).
+    pub fn name(&self) -> &str {
+        self.doc.get("name").and_then(Item::as_str).unwrap_or("")
+    }
+}
+
+/// The project as edited.
+#[derive(Debug, Clone)]
+pub struct Draft {
+    /// project.toml's `name` (empty when it has none).
+    pub name: String,
+    pub nets: Vec<NetText>,
+    /// project.toml's global places, without `@`.
+    pub globals: Vec<String>,
+    pub positions: Positions,
+}
+
+/// What an edit changed, to be written back.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Applied {
+    /// The net file (an index into [`Draft::nets`]).
+    pub net_file: Option<usize>,
+    /// The layout file.
+    pub layout: bool,
+}
+
+fn parse(file: &str, text: &str) -> Result<DocumentMut, EditError> {
+    text.parse::<DocumentMut>().map_err(|e| EditError::Shape {
+        file: file.to_owned(),
+        what: e.to_string().trim_end().to_owned(),
+    })
+}
+
+/// The strings of `table[key]` (an array; anything else reads as empty).
+pub fn strings(table: &Table, key: &str) -> Vec<String> {
+    table
+        .get(key)
+        .and_then(Item::as_array)
+        .map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_str().map(str::to_owned))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// The transitions of a net file (none when it has no `[[transition]]`).
+pub fn transitions(doc: &DocumentMut) -> Vec<&Table> {
+    doc.get("transition")
+        .and_then(Item::as_array_of_tables)
+        .map(|a| a.iter().collect())
+        .unwrap_or_default()
+}
+
+fn transition_name(t: &Table) -> &str {
+    t.get("name").and_then(Item::as_str).unwrap_or("")
+}
+
+/// `table[key]` as an array, created empty at the end of the table when
+/// absent (or replaced when it is not an array).
+fn list_mut<'a>(table: &'a mut Table, key: &str) -> Option<&'a mut Array> {
+    if table.get(key).and_then(Item::as_array).is_none() {
+        table.insert(key, value(Array::new()));
+    }
+    table.get_mut(key).and_then(Item::as_array_mut)
+}
+
+/// Appends `name`, laid out as the array already is (one a line, or
+/// inline).
+fn push(array: &mut Array, name: &str) {
+    let decor = array.iter().last().map(|v| v.decor().clone());
+    array.push(name);
+    // One a line: the new line indented as the last (a comment before the
+    // last element stays its own).
+    let indent = decor
+        .as_ref()
+        .and_then(|d| d.prefix().and_then(|p| p.as_str()))
+        .and_then(|p| p.rfind('\n').map(|i| p[i..].to_owned()));
+    if let (Some(indent), Some(last)) = (indent, array.iter_mut().last()) {
+        last.decor_mut().set_prefix(indent);
+    }
+}
+
+/// Replaces every `from` in the array by `to`, keeping each value's
+/// surroundings; true if one was.
+fn rename_in(array: &mut Array, from: &str, to: &str) -> bool {
+    let mut any = false;
+    for v in array.iter_mut() {
+        if v.as_str() == Some(from) {
+            set_keeping_decor(v, Value::from(to));
+            any = true;
+        }
+    }
+    any
+}
+
+fn set_keeping_decor(v: &mut Value, new: Value) {
+    let decor = v.decor().clone();
+    *v = new;
+    *v.decor_mut() = decor;
+}
+
+/// Removes every `name` from the array; true if one was. The first
+/// element's surroundings stay with the array's new first element.
+fn remove_from(array: &mut Array, name: &str) -> bool {
+    let mut any = false;
+    loop {
+        let found = array.iter().position(|v| v.as_str() == Some(name));
+        let Some(i) = found else { break };
+        let first_decor = if i == 0 && array.len() > 1 {
+            array.get(0).map(|v| v.decor().clone())
+        } else {
+            None
+        };
+        array.remove(i);
+        if let Some(decor) = first_decor {
+            if let Some(v) = array.get_mut(0) {
+                *v.decor_mut() = decor;
+            }
+        }
+        any = true;
+    }
+    any
+}
+
+/// Sets `table[key]` to a string (removed when empty), keeping the key's
+/// place and surroundings; true if it changed.
+fn set_text(table: &mut Table, key: &str, text: &str) -> bool {
+    let text = text.trim();
+    let now = table.get(key).and_then(Item::as_str);
+    if now == Some(text) || (now.is_none() && text.is_empty() && !table.contains_key(key)) {
+        return false;
+    }
+    if text.is_empty() {
+        table.remove(key);
+        return true;
+    }
+    match table.get_mut(key).and_then(Item::as_value_mut) {
+        Some(v) => set_keeping_decor(v, Value::from(text)),
+        None => {
+            table.insert(key, value(text));
+        }
+    }
+    true
+}
+
+/// Sets `table[key]` to a list of strings (removed when empty), one a
+/// line if the list was written so; true if it changed.
+fn set_list(table: &mut Table, key: &str, items: &[String]) -> bool {
+    let items: Vec<&str> = items
+        .iter()
+        .map(|s| s.trim())
+        .filter(|s| !s.is_empty())
+        .collect();
+    let now = strings(table, key);
+    if now.iter().map(String::as_str).eq(items.iter().copied())
+        && (table.contains_key(key) || items.is_empty())
+    {
+        return false;
+    }
+    if items.is_empty() {
+        table.remove(key);
+        return true;
+    }
+    let old = table.get(key).and_then(Item::as_array);
+    let line_prefix = old.and_then(|a| {
+        a.iter()
+            .filter_map(|v| v.decor().prefix().and_then(|p| p.as_str()))
+            .find_map(|p| p.rfind('\n').map(|i| p[i..].to_owned()))
+    });
+    let mut array = Array::new();
+    for s in &items {
+        array.push(*s);
+    }
+    if let Some(prefix) = &line_prefix {
+        for v in array.iter_mut() {
+            v.decor_mut().set_prefix(prefix.as_str());
+        }
+        array.set_trailing_comma(true);
+        array.set_trailing("\n");
+    }
+    match table.get_mut(key).and_then(Item::as_value_mut) {
+        Some(v) => set_keeping_decor(v, Value::Array(array)),
+        None => {
+            table.insert(key, value(array));
+        }
+    }
+    true
+}
+
+impl Draft {
+    /// A draft of the project whose project.toml is `project` and whose net
+    /// files are `nets` (`(file, text)` in project.toml's order), with the
+    /// layout file's text `layout` (empty when there is none).
+    pub fn parse(
+        project: &str,
+        nets: &[(String, String)],
+        layout: &str,
+    ) -> Result<Draft, EditError> {
+        let p = parse(nets::load::PROJECT_FILE, project)?;
+        let globals = p
+            .get("globals")
+            .and_then(Item::as_table)
+            .map(|t| t.iter().map(|(k, _)| k.to_owned()).collect())
+            .unwrap_or_default();
+        let nets = nets
+            .iter()
+            .map(|(file, text)| {
+                Ok(NetText {
+                    file: file.clone(),
+                    doc: parse(file, text)?,
+                })
+            })
+            .collect::<Result<Vec<_>, EditError>>()?;
+        Ok(Draft {
+            name: p
+                .get("name")
+                .and_then(Item::as_str)
+                .unwrap_or("")
+                .to_owned(),
+            nets,
+            globals,
+            positions: Positions::parse(layout)?,
+        })
+    }
+
+    /// The net files project.toml lists, in its order.
+    pub fn net_files(project: &str) -> Result<Vec<String>, EditError> {
+        let p = parse(nets::load::PROJECT_FILE, project)?;
+        Ok(p.get("net")
+            .and_then(Item::as_array_of_tables)
+            .map(|a| {
+                a.iter()
+                    .filter_map(|t| t.get("file").and_then(Item::as_str).map(str::to_owned))
+                    .collect()
+            })
+            .unwrap_or_default())
+    }
+
+    /// The index of the net named `name`.
+    pub fn net(&self, name: &str) -> Result<usize, EditError> {
+        self.nets
+            .iter()
+            .position(|n| n.name() == name)
+            .ok_or_else(|| EditError::UnknownNet(name.to_owned()))
+    }
+
+    fn unknown(net: &str, kind: Kind, name: &str) -> EditError {
+        EditError::Unknown {
+            net: net.to_owned(),
+            kind: kind.word(),
+            name: name.to_owned(),
+        }
+    }
+
+    fn check_new_name(&self, n: usize, kind: Kind, name: &str) -> Result<(), EditError> {
+        if !valid_name(name) {
+            return Err(EditError::BadName {
+                kind: kind.word(),
+                name: name.to_owned(),
+            });
+        }
+        let taken = match kind {
+            Kind::Place => strings(self.nets[n].doc.as_table(), "places")
+                .iter()
+                .any(|p| p == name),
+            Kind::Transition => transitions(&self.nets[n].doc)
+                .iter()
+                .any(|t| transition_name(t) == name),
+        };
+        if taken {
+            return Err(EditError::Duplicate {
+                net: self.nets[n].name().to_owned(),
+                kind: kind.word(),
+                name: name.to_owned(),
+            });
+        }
+        Ok(())
+    }
+
+    /// The place `name` of net `n` (its own, or a declared global `@g`).
+    fn check_place(&self, n: usize, name: &str) -> Result<(), EditError> {
+        if let Some(g) = name.strip_prefix('@') {
+            return if self.globals.iter().any(|x| x == g) {
+                Ok(())
+            } else {
+                Err(EditError::UnknownGlobal(g.to_owned()))
+            };
+        }
+        if strings(self.nets[n].doc.as_table(), "places")
+            .iter()
+            .any(|p| p == name)
+        {
+            Ok(())
+        } else {
+            Err(Self::unknown(self.nets[n].name(), Kind::Place, name))
+        }
+    }
+
+    /// A local place (not `@global`) of net `n`.
+    fn check_local(&self, n: usize, name: &str) -> Result<(), EditError> {
+        if name.starts_with('@') {
+            return Err(EditError::GlobalPlace(name.to_owned()));
+        }
+        self.check_place(n, name)
+    }
+
+    fn transition_index(&self, n: usize, name: &str) -> Result<usize, EditError> {
+        transitions(&self.nets[n].doc)
+            .iter()
+            .position(|t| transition_name(t) == name)
+            .ok_or_else(|| Self::unknown(self.nets[n].name(), Kind::Transition, name))
+    }
+
+    fn transition_mut(&mut self, n: usize, i: usize) -> Option<&mut Table> {
+        self.nets[n]
+            .doc
+            .get_mut("transition")
+            .and_then(Item::as_array_of_tables_mut)
+            .and_then(|a| a.get_mut(i))
+    }
+
+    fn transitions_mut(&mut self, n: usize) -> impl Iterator<Item = &mut Table> {
+        self.nets[n]
+            .doc
+            .get_mut("transition")
+            .and_then(Item::as_array_of_tables_mut)
+            .into_iter()
+            .flat_map(|a| a.iter_mut())
+    }
+
+    /// Makes the edit, or refuses it with nothing changed.
+    pub fn apply(&mut self, op: &Op) -> Result<Applied, EditError> {
+        let n = self.net(op.net())?;
+        let net_name = self.nets[n].name().to_owned();
+        let file_name = self.nets[n].file.clone();
+        let file = Applied {
+            net_file: Some(n),
+            layout: false,
+        };
+        let both = Applied {
+            net_file: Some(n),
+            layout: true,
+        };
+        match op {
+            Op::AddPlace { name, at, .. } => {
+                self.check_new_name(n, Kind::Place, name)?;
+                if let Some(at) = at {
+                    if !at.0.is_finite() || !at.1.is_finite() {
+                        return Err(EditError::BadPosition);
+                    }
+                }
+                let places = list_mut(self.nets[n].doc.as_table_mut(), "places")
+                    .ok_or_else(|| shape(&file_name, "`places` is not a list"))?;
+                push(places, name);
+                match at {
+                    Some(at) => {
+                        self.positions.set(&net_name, Kind::Place, name, *at)?;
+                        Ok(both)
+                    }
+                    None => Ok(file),
+                }
+            }
+            Op::RenamePlace { name, to, .. } => {
+                self.check_local(n, name)?;
+                if to.starts_with('@') {
+                    return Err(EditError::GlobalPlace(to.clone()));
+                }
+                self.check_new_name(n, Kind::Place, to)?;
+                let root = self.nets[n].doc.as_table_mut();
+                for key in ["places", "initial", "final"] {
+                    if let Some(a) = root.get_mut(key).and_then(Item::as_array_mut) {
+                        rename_in(a, name, to);
+                    }
+                }
+                for t in self.transitions_mut(n) {
+                    for key in ["from", "to"] {
+                        if let Some(a) = t.get_mut(key).and_then(Item::as_array_mut) {
+                            rename_in(a, name, to);
+                        }
+                    }
+                }
+                let layout = self.positions.rename(&net_name, Kind::Place, name, to);
+                Ok(Applied {
+                    net_file: Some(n),
+                    layout,
+                })
+            }
+            Op::DeletePlace { name, .. } => {
+                self.check_local(n, name)?;
+                let users: Vec<String> = transitions(&self.nets[n].doc)
+                    .iter()
+                    .filter(|t| {
+                        strings(t, "from")
+                            .iter()
+                            .chain(&strings(t, "to"))
+                            .any(|p| p == name)
+                    })
+                    .map(|t| transition_name(t).to_owned())
+                    .collect();
+                if !users.is_empty() {
+                    return Err(EditError::PlaceInUse {
+                        net: net_name,
+                        place: name.clone(),
+                        transitions: users,
+                    });
+                }
+                let root = self.nets[n].doc.as_table_mut();
+                for key in ["places", "initial", "final"] {
+                    if let Some(a) = root.get_mut(key).and_then(Item::as_array_mut) {
+                        remove_from(a, name);
+                    }
+                }
+                let layout = self.positions.remove(&net_name, Kind::Place, name);
+                Ok(Applied {
+                    net_file: Some(n),
+                    layout,
+                })
+            }
+            Op::SetPlace {
+                name,
+                initial,
+                is_final,
+                ..
+            } => {
+                self.check_local(n, name)?;
+                let mut changed = false;
+                for (key, want) in [("initial", initial), ("final", is_final)] {
+                    let Some(want) = want else { continue };
+                    let root = self.nets[n].doc.as_table_mut();
+                    let has = strings(root, key).iter().any(|p| p == name);
+                    if has == *want {
+                        continue;
+                    }
+                    changed = true;
+                    if *want {
+                        let a =
+                            list_mut(root, key).ok_or_else(|| shape(&file_name, "not a list"))?;
+                        push(a, name);
+                    } else if let Some(a) = root.get_mut(key).and_then(Item::as_array_mut) {
+                        remove_from(a, name);
+                    }
+                }
+                Ok(if changed { file } else { Applied::default() })
+            }
+            Op::AddTransition { name, at, .. } => {
+                self.check_new_name(n, Kind::Transition, name)?;
+                if let Some(at) = at {
+                    if !at.0.is_finite() || !at.1.is_finite() {
+                        return Err(EditError::BadPosition);
+                    }
+                }
+                let mut t = Table::new();
+                t.insert("name", value(name.as_str()));
+                t.insert("from", value(Array::new()));
+                t.insert("to", value(Array::new()));
+                t.decor_mut().set_prefix("\n");
+                let root = self.nets[n].doc.as_table_mut();
+                if !root.get("transition").is_some_and(Item::is_array_of_tables) {
+                    root.insert("transition", Item::ArrayOfTables(ArrayOfTables::new()));
+                }
+                let aot = root
+                    .get_mut("transition")
+                    .and_then(Item::as_array_of_tables_mut)
+                    .ok_or_else(|| {
+                        shape(&file_name, "`transition` is not [[transition]] tables")
+                    })?;
+                aot.push(t);
+                match at {
+                    Some(at) => {
+                        self.positions.set(&net_name, Kind::Transition, name, *at)?;
+                        Ok(both)
+                    }
+                    None => Ok(file),
+                }
+            }
+            Op::RenameTransition { name, to, .. } => {
+                let i = self.transition_index(n, name)?;
+                self.check_new_name(n, Kind::Transition, to)?;
+                if let Some(t) = self.transition_mut(n, i) {
+                    set_text(t, "name", to);
+                }
+                let layout = self.positions.rename(&net_name, Kind::Transition, name, to);
+                Ok(Applied {
+                    net_file: Some(n),
+                    layout,
+                })
+            }
+            Op::DeleteTransition { name, .. } => {
+                let i = self.transition_index(n, name)?;
+                if let Some(a) = self.nets[n]
+                    .doc
+                    .get_mut("transition")
+                    .and_then(Item::as_array_of_tables_mut)
+                {
+                    a.remove(i);
+                }
+                let layout = self.positions.remove(&net_name, Kind::Transition, name);
+                Ok(Applied {
+                    net_file: Some(n),
+                    layout,
+                })
+            }
+            Op::SetTransition {
+                name,
+                on,
+                when,
+                actions,
+                ..
+            } => {
+                let i = self.transition_index(n, name)?;
+                let Some(t) = self.transition_mut(n, i) else {
+                    return Err(Self::unknown(&net_name, Kind::Transition, name));
+                };
+                let a = set_text(t, "on", on);
+                let b = set_text(t, "when", when);
+                let c = set_list(t, "do", actions);
+                Ok(if a || b || c {
+                    file
+                } else {
+                    Applied::default()
+                })
+            }
+            Op::AddArc {
+                transition,
+                place,
+                input,
+                ..
+            } => {
+                let i = self.transition_index(n, transition)?;
+                self.check_place(n, place)?;
+                let key = if *input { "from" } else { "to" };
+                let Some(t) = self.transition_mut(n, i) else {
+                    return Err(Self::unknown(&net_name, Kind::Transition, transition));
+                };
+                if strings(t, key).iter().any(|p| p == place) {
+                    return Err(EditError::DuplicateArc {
+                        net: net_name,
+                        transition: transition.clone(),
+                        place: place.clone(),
+                        input: *input,
+                    });
+                }
+                let a = list_mut(t, key).ok_or_else(|| shape(&file_name, "not a list"))?;
+                push(a, place);
+                Ok(file)
+            }
+            Op::DeleteArc {
+                transition,
+                place,
+                input,
+                ..
+            } => {
+                let i = self.transition_index(n, transition)?;
+                let key = if *input { "from" } else { "to" };
+                let removed = self
+                    .transition_mut(n, i)
+                    .and_then(|t| t.get_mut(key))
+                    .and_then(Item::as_array_mut)
+                    .is_some_and(|a| remove_from(a, place));
+                if !removed {
+                    return Err(EditError::UnknownArc {
+                        net: net_name,
+                        transition: transition.clone(),
+                        place: place.clone(),
+                        input: *input,
+                    });
+                }
+                Ok(file)
+            }
+            Op::Move {
+                kind, name, x, y, ..
+            } => {
+                match kind {
+                    Kind::Place => self.check_place(n, name)?,
+                    Kind::Transition => {
+                        self.transition_index(n, name)?;
+                    }
+                }
+                self.positions.set(&net_name, *kind, name, (*x, *y))?;
+                Ok(Applied {
+                    net_file: None,
+                    layout: true,
+                })
+            }
+            Op::Relayout { .. } => Ok(Applied {
+                net_file: None,
+                layout: self.positions.clear(&net_name),
+            }),
+        }
+    }
+}
+
+fn shape(file: &str, what: &str) -> EditError {
+    EditError::Shape {
+        file: file.to_owned(),
+        what: what.to_owned(),
+    }
+}
+
+#[cfg(test)]
+#[path = "draft_tests.rs"]
+mod tests;

@@ -1,0 +1,784 @@
+//! The edit core: each edit changes what it concerns and nothing else
+//! (byte for byte on a commented file), and bad edits are refused with
+//! nothing changed.
+
+use super::*;
+use crate::edit::op::Op;
+
+const PROJECT: &str = "name = \"p\"\n[[net]]\nfile = \"a.toml\"\nactive = true\n\n[globals]\ng = false\n\n[events]\nx = {}\ny = {}\n";
+
+const A: &str = r#"# The net A: a comment at the top.
+name = "A"
+places = [
+  "idle",   # waiting
+  "busy",
+]
+initial = ["idle"]   # one token
+final = []
+
+# Start working.
+[[transition]]
+name = "go"
+from = ["idle"]
+to = ["busy"]
+on = 'x'      # the event
+do = ["emit y"]
+
+# Done.
+[[transition]]
+name = "done"
+from = ["busy"]
+to = ["idle", "@g"]
+on = "y"
+"#;
+
+fn draft() -> Draft {
+    Draft::parse(PROJECT, &[("a.toml".into(), A.into())], "").unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn text(d: &Draft) -> String {
+    d.nets[0].doc.to_string()
+}
+
+fn ok(d: &mut Draft, op: Op) -> Applied {
+    d.apply(&op).unwrap_or_else(|e| panic!("{op:?}: {e}"))
+}
+
+fn refused(d: &mut Draft, op: Op) -> EditError {
+    let before = text(d);
+    let layout = d.positions.text();
+    let e = match d.apply(&op) {
+        Ok(a) => panic!("{op:?} was made: {a:?}\n{}", text(d)),
+        Err(e) => e,
+    };
+    assert_eq!(text(d), before, "{op:?} refused but changed the file");
+    assert_eq!(
+        d.positions.text(),
+        layout,
+        "{op:?} refused but changed the layout"
+    );
+    e
+}
+
+/// The draft's files load (the loader is the judge of the result).
+fn loads(d: &Draft) -> Result<nets::Project, String> {
+    let a = text(d);
+    nets::load(&[("project.toml", PROJECT), ("a.toml", a.as_str())]).map_err(|e| e.to_string())
+}
+
+fn s(x: &str) -> String {
+    x.to_owned()
+}
+
+#[test]
+fn the_unedited_file_is_written_back_byte_for_byte() {
+    assert_eq!(text(&draft()), A);
+    assert!(loads(&draft()).is_ok());
+    assert_eq!(Draft::net_files(PROJECT).ok(), Some(vec![s("a.toml")]));
+}
+
+#[test]
+fn a_transition_is_appended_after_the_others_and_the_rest_is_unchanged() {
+    let mut d = draft();
+    let a = ok(
+        &mut d,
+        Op::AddTransition {
+            net: s("A"),
+            name: s("rest"),
+            at: Some((300.0, 90.0)),
+        },
+    );
+    assert_eq!(
+        a,
+        Applied {
+            net_file: Some(0),
+            layout: true
+        }
+    );
+    ok(
+        &mut d,
+        Op::AddArc {
+            net: s("A"),
+            transition: s("rest"),
+            place: s("busy"),
+            input: true,
+        },
+    );
+    ok(
+        &mut d,
+        Op::AddArc {
+            net: s("A"),
+            transition: s("rest"),
+            place: s("idle"),
+            input: false,
+        },
+    );
+    ok(
+        &mut d,
+        Op::SetTransition {
+            net: s("A"),
+            name: s("rest"),
+            on: s("x"),
+            when: s(""),
+            actions: vec![],
+        },
+    );
+    let out = text(&d);
+    assert_eq!(
+        out,
+        format!("{A}\n[[transition]]\nname = \"rest\"\nfrom = [\"busy\"]\nto = [\"idle\"]\non = \"x\"\n")
+    );
+    assert_eq!(
+        d.positions.get("A", Kind::Transition, "rest"),
+        Some((300.0, 90.0))
+    );
+    let p = loads(&d).unwrap_or_else(|e| panic!("{e}\n{out}"));
+    assert_eq!(p.nets[0].transitions.len(), 3);
+}
+
+#[test]
+fn a_place_joins_a_list_written_one_a_line() {
+    let mut d = draft();
+    let a = ok(
+        &mut d,
+        Op::AddPlace {
+            net: s("A"),
+            name: s("spare"),
+            at: None,
+        },
+    );
+    assert_eq!(
+        a,
+        Applied {
+            net_file: Some(0),
+            layout: false
+        }
+    );
+    assert_eq!(
+        text(&d),
+        A.replace("  \"busy\",\n]", "  \"busy\",\n  \"spare\",\n]")
+    );
+    ok(
+        &mut d,
+        Op::SetPlace {
+            net: s("A"),
+            name: s("spare"),
+            initial: None,
+            is_final: Some(true),
+        },
+    );
+    assert!(text(&d).contains("final = [\"spare\"]\n"), "{}", text(&d));
+    ok(
+        &mut d,
+        Op::SetPlace {
+            net: s("A"),
+            name: s("spare"),
+            initial: None,
+            is_final: Some(false),
+        },
+    );
+    assert!(text(&d).contains("final = []\n"));
+    // Nothing to change: nothing written.
+    let a = ok(
+        &mut d,
+        Op::SetPlace {
+            net: s("A"),
+            name: s("idle"),
+            initial: Some(true),
+            is_final: None,
+        },
+    );
+    assert_eq!(a, Applied::default());
+    assert!(loads(&d).is_ok());
+}
+
+#[test]
+fn renaming_a_place_renames_it_everywhere_and_only_there() {
+    let mut d = draft();
+    d.positions
+        .set("A", Kind::Place, "idle", (1.0, 2.0))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let a = ok(
+        &mut d,
+        Op::RenamePlace {
+            net: s("A"),
+            name: s("idle"),
+            to: s("waiting"),
+        },
+    );
+    assert_eq!(
+        a,
+        Applied {
+            net_file: Some(0),
+            layout: true
+        }
+    );
+    assert_eq!(text(&d), A.replace("\"idle\"", "\"waiting\""));
+    assert_eq!(
+        d.positions.get("A", Kind::Place, "waiting"),
+        Some((1.0, 2.0))
+    );
+    assert!(loads(&d).is_ok());
+}
+
+#[test]
+fn renaming_a_transition_keeps_its_comment_and_place() {
+    let mut d = draft();
+    ok(
+        &mut d,
+        Op::RenameTransition {
+            net: s("A"),
+            name: s("go"),
+            to: s("start"),
+        },
+    );
+    assert_eq!(text(&d), A.replace("name = \"go\"", "name = \"start\""));
+}
+
+#[test]
+fn setting_a_transition_changes_only_the_keys_that_differ() {
+    let mut d = draft();
+    // Same event, a guard added, actions removed.
+    ok(
+        &mut d,
+        Op::SetTransition {
+            net: s("A"),
+            name: s("go"),
+            on: s("x"),
+            when: s("true"),
+            actions: vec![],
+        },
+    );
+    let want = A.replace(
+        "on = 'x'      # the event\ndo = [\"emit y\"]\n",
+        "on = 'x'      # the event\nwhen = \"true\"\n",
+    );
+    assert_eq!(text(&d), want);
+    // The event changed: its comment stays.
+    ok(
+        &mut d,
+        Op::SetTransition {
+            net: s("A"),
+            name: s("go"),
+            on: s("y"),
+            when: s("true"),
+            actions: vec![s("emit x"), s(" "), s("emit y")],
+        },
+    );
+    assert!(
+        text(&d).contains(
+            "on = \"y\"      # the event\nwhen = \"true\"\ndo = [\"emit x\", \"emit y\"]\n"
+        ),
+        "{}",
+        text(&d)
+    );
+    // Immediate: `on` removed.
+    ok(
+        &mut d,
+        Op::SetTransition {
+            net: s("A"),
+            name: s("done"),
+            on: s(""),
+            when: s(""),
+            actions: vec![],
+        },
+    );
+    assert!(!text(&d).contains("on = \"y\"\n"), "{}", text(&d));
+    // Unchanged: nothing to write.
+    let a = ok(
+        &mut d,
+        Op::SetTransition {
+            net: s("A"),
+            name: s("done"),
+            on: s(""),
+            when: s(""),
+            actions: vec![],
+        },
+    );
+    assert_eq!(a, Applied::default());
+}
+
+#[test]
+fn actions_written_one_a_line_stay_so() {
+    let a = A.replace("do = [\"emit y\"]", "do = [\n  \"emit y\",\n]");
+    let mut d = Draft::parse(PROJECT, &[("a.toml".into(), a.clone())], "")
+        .unwrap_or_else(|e| panic!("{e}"));
+    ok(
+        &mut d,
+        Op::SetTransition {
+            net: s("A"),
+            name: s("go"),
+            on: s("x"),
+            when: s(""),
+            actions: vec![s("emit y"), s("emit x")],
+        },
+    );
+    assert_eq!(
+        text(&d),
+        a.replace("  \"emit y\",\n]", "  \"emit y\",\n  \"emit x\",\n]")
+    );
+}
+
+#[test]
+fn deleting_a_transition_removes_its_table_and_its_comment() {
+    let mut d = draft();
+    ok(
+        &mut d,
+        Op::DeleteTransition {
+            net: s("A"),
+            name: s("done"),
+        },
+    );
+    let cut = A.find("\n# Done.").unwrap_or(A.len());
+    assert_eq!(text(&d), &A[..cut]);
+    ok(
+        &mut d,
+        Op::DeleteTransition {
+            net: s("A"),
+            name: s("go"),
+        },
+    );
+    assert!(!text(&d).contains("[[transition]]"));
+    assert!(text(&d).starts_with("# The net A: a comment at the top.\nname = \"A\"\n"));
+}
+
+#[test]
+fn arcs_are_added_and_deleted_on_either_side() {
+    let mut d = draft();
+    ok(
+        &mut d,
+        Op::AddArc {
+            net: s("A"),
+            transition: s("go"),
+            place: s("@g"),
+            input: false,
+        },
+    );
+    assert!(text(&d).contains("to = [\"busy\", \"@g\"]\n"));
+    ok(
+        &mut d,
+        Op::DeleteArc {
+            net: s("A"),
+            transition: s("done"),
+            place: s("idle"),
+            input: false,
+        },
+    );
+    assert!(text(&d).contains("to = [\"@g\"]\n"), "{}", text(&d));
+    ok(
+        &mut d,
+        Op::DeleteArc {
+            net: s("A"),
+            transition: s("go"),
+            place: s("idle"),
+            input: true,
+        },
+    );
+    assert!(text(&d).contains("from = []\n"));
+    // The loader, not the draft, says a transition needs an input.
+    let e = loads(&d).err().unwrap_or_default();
+    assert!(e.contains("a.toml"), "{e}");
+}
+
+#[test]
+fn a_place_in_use_is_not_deleted_and_a_free_one_is() {
+    let mut d = draft();
+    let e = refused(
+        &mut d,
+        Op::DeletePlace {
+            net: s("A"),
+            name: s("busy"),
+        },
+    );
+    assert_eq!(
+        e.to_string(),
+        "place A.busy is used by go, done: delete those arcs first"
+    );
+    ok(
+        &mut d,
+        Op::AddPlace {
+            net: s("A"),
+            name: s("spare"),
+            at: Some((5.0, 6.0)),
+        },
+    );
+    ok(
+        &mut d,
+        Op::SetPlace {
+            net: s("A"),
+            name: s("spare"),
+            initial: Some(true),
+            is_final: None,
+        },
+    );
+    let a = ok(
+        &mut d,
+        Op::DeletePlace {
+            net: s("A"),
+            name: s("spare"),
+        },
+    );
+    assert_eq!(
+        a,
+        Applied {
+            net_file: Some(0),
+            layout: true
+        }
+    );
+    assert_eq!(text(&d), A);
+    assert_eq!(d.positions.get("A", Kind::Place, "spare"), None);
+}
+
+#[test]
+fn moves_touch_the_layout_only() {
+    let mut d = draft();
+    let a = ok(
+        &mut d,
+        Op::Move {
+            net: s("A"),
+            kind: Kind::Transition,
+            name: s("go"),
+            x: 10.0,
+            y: 20.0,
+        },
+    );
+    assert_eq!(
+        a,
+        Applied {
+            net_file: None,
+            layout: true
+        }
+    );
+    ok(
+        &mut d,
+        Op::Move {
+            net: s("A"),
+            kind: Kind::Place,
+            name: s("@g"),
+            x: 1.0,
+            y: 2.0,
+        },
+    );
+    assert_eq!(text(&d), A);
+    assert_eq!(
+        d.positions.get("A", Kind::Transition, "go"),
+        Some((10.0, 20.0))
+    );
+    let a = ok(&mut d, Op::Relayout { net: s("A") });
+    assert_eq!(
+        a,
+        Applied {
+            net_file: None,
+            layout: true
+        }
+    );
+    assert_eq!(d.positions.get("A", Kind::Transition, "go"), None);
+    assert_eq!(ok(&mut d, Op::Relayout { net: s("A") }), Applied::default());
+}
+
+#[test]
+fn bad_edits_are_refused_with_nothing_changed() {
+    let mut d = draft();
+    let cases: Vec<(Op, &str)> = vec![
+        (
+            Op::AddPlace {
+                net: s("B"),
+                name: s("x"),
+                at: None,
+            },
+            "no net named `B`",
+        ),
+        (
+            Op::AddPlace {
+                net: s("A"),
+                name: s("idle"),
+                at: None,
+            },
+            "net A already has a place `idle`",
+        ),
+        (
+            Op::AddPlace {
+                net: s("A"),
+                name: s("2x"),
+                at: None,
+            },
+            "invalid place name `2x`",
+        ),
+        (
+            Op::AddPlace {
+                net: s("A"),
+                name: s(""),
+                at: None,
+            },
+            "invalid place name ``",
+        ),
+        (
+            Op::AddPlace {
+                net: s("A"),
+                name: s("a b"),
+                at: None,
+            },
+            "invalid place name `a b`",
+        ),
+        (
+            Op::AddPlace {
+                net: s("A"),
+                name: s("ok"),
+                at: Some((f64::INFINITY, 0.0)),
+            },
+            "a position must be two finite numbers",
+        ),
+        (
+            Op::RenamePlace {
+                net: s("A"),
+                name: s("nope"),
+                to: s("x"),
+            },
+            "net A has no place `nope`",
+        ),
+        (
+            Op::RenamePlace {
+                net: s("A"),
+                name: s("idle"),
+                to: s("busy"),
+            },
+            "net A already has a place `busy`",
+        ),
+        (
+            Op::RenamePlace {
+                net: s("A"),
+                name: s("@g"),
+                to: s("h"),
+            },
+            "global place `@g` belongs to project.toml",
+        ),
+        (
+            Op::RenamePlace {
+                net: s("A"),
+                name: s("idle"),
+                to: s("@h"),
+            },
+            "global place `@h` belongs to project.toml",
+        ),
+        (
+            Op::DeletePlace {
+                net: s("A"),
+                name: s("nope"),
+            },
+            "net A has no place `nope`",
+        ),
+        (
+            Op::DeletePlace {
+                net: s("A"),
+                name: s("@g"),
+            },
+            "global place `@g`",
+        ),
+        (
+            Op::SetPlace {
+                net: s("A"),
+                name: s("nope"),
+                initial: Some(true),
+                is_final: None,
+            },
+            "net A has no place `nope`",
+        ),
+        (
+            Op::AddTransition {
+                net: s("A"),
+                name: s("go"),
+                at: None,
+            },
+            "net A already has a transition `go`",
+        ),
+        (
+            Op::AddTransition {
+                net: s("A"),
+                name: s("x-y"),
+                at: None,
+            },
+            "invalid transition name `x-y`",
+        ),
+        (
+            Op::RenameTransition {
+                net: s("A"),
+                name: s("nope"),
+                to: s("x"),
+            },
+            "net A has no transition `nope`",
+        ),
+        (
+            Op::RenameTransition {
+                net: s("A"),
+                name: s("go"),
+                to: s("done"),
+            },
+            "net A already has a transition `done`",
+        ),
+        (
+            Op::DeleteTransition {
+                net: s("A"),
+                name: s("nope"),
+            },
+            "net A has no transition `nope`",
+        ),
+        (
+            Op::SetTransition {
+                net: s("A"),
+                name: s("nope"),
+                on: s(""),
+                when: s(""),
+                actions: vec![],
+            },
+            "net A has no transition `nope`",
+        ),
+        (
+            Op::AddArc {
+                net: s("A"),
+                transition: s("go"),
+                place: s("nope"),
+                input: true,
+            },
+            "net A has no place `nope`",
+        ),
+        (
+            Op::AddArc {
+                net: s("A"),
+                transition: s("go"),
+                place: s("@h"),
+                input: true,
+            },
+            "no global place `@h`",
+        ),
+        (
+            Op::AddArc {
+                net: s("A"),
+                transition: s("nope"),
+                place: s("idle"),
+                input: true,
+            },
+            "net A has no transition `nope`",
+        ),
+        (
+            Op::AddArc {
+                net: s("A"),
+                transition: s("go"),
+                place: s("idle"),
+                input: true,
+            },
+            "A.go already has an input arc from idle",
+        ),
+        (
+            Op::AddArc {
+                net: s("A"),
+                transition: s("done"),
+                place: s("@g"),
+                input: false,
+            },
+            "A.done already has an output arc to @g",
+        ),
+        (
+            Op::DeleteArc {
+                net: s("A"),
+                transition: s("go"),
+                place: s("busy"),
+                input: true,
+            },
+            "A.go has no input arc from busy",
+        ),
+        (
+            Op::DeleteArc {
+                net: s("A"),
+                transition: s("go"),
+                place: s("idle"),
+                input: false,
+            },
+            "A.go has no output arc to idle",
+        ),
+        (
+            Op::Move {
+                net: s("A"),
+                kind: Kind::Place,
+                name: s("go"),
+                x: 0.0,
+                y: 0.0,
+            },
+            "net A has no place `go`",
+        ),
+        (
+            Op::Move {
+                net: s("A"),
+                kind: Kind::Transition,
+                name: s("idle"),
+                x: 0.0,
+                y: 0.0,
+            },
+            "net A has no transition `idle`",
+        ),
+        (
+            Op::Move {
+                net: s("A"),
+                kind: Kind::Place,
+                name: s("idle"),
+                x: f64::NAN,
+                y: 0.0,
+            },
+            "a position must be two finite numbers",
+        ),
+        (Op::Relayout { net: s("Z") }, "no net named `Z`"),
+    ];
+    for (op, want) in cases {
+        let e = refused(&mut d, op.clone());
+        assert!(
+            e.to_string().starts_with(want),
+            "{op:?}: {e} (wanted {want})"
+        );
+    }
+    assert_eq!(text(&d), A);
+}
+
+#[test]
+fn ops_come_from_the_page_as_json() {
+    let op: Op = serde_json::from_str(
+        r#"{"op":"add_arc","net":"A","transition":"go","place":"@g","input":false}"#,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        op,
+        Op::AddArc {
+            net: s("A"),
+            transition: s("go"),
+            place: s("@g"),
+            input: false
+        }
+    );
+    let op: Op = serde_json::from_str(r#"{"op":"set_place","net":"A","name":"idle","final":true}"#)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        op,
+        Op::SetPlace {
+            net: s("A"),
+            name: s("idle"),
+            initial: None,
+            is_final: Some(true)
+        }
+    );
+    let op: Op = serde_json::from_str(
+        r#"{"op":"move","net":"A","kind":"place","name":"idle","x":1,"y":2.5}"#,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(op.net(), "A");
+    assert!(serde_json::from_str::<Op>(r#"{"op":"explode","net":"A"}"#).is_err());
+    assert!(
+        serde_json::from_str::<Op>(r#"{"op":"add_place","net":"A","name":"x","extra":1}"#).is_err()
+    );
+}
+
+#[test]
+fn a_file_that_is_not_toml_is_reported_with_its_name() {
+    let e = Draft::parse(PROJECT, &[("a.toml".into(), "name = \n".into())], "");
+    match e {
+        Err(EditError::Shape { file, .. }) => assert_eq!(file, "a.toml"),
+        other => panic!("{other:?}"),
+    }
+}

@@ -1,0 +1,187 @@
+//! The edits the page asks for, and why one is refused.
+
+use serde::Deserialize;
+
+/// A node of a net: a place or a transition.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kind {
+    Place,
+    Transition,
+}
+
+impl Kind {
+    pub fn word(self) -> &'static str {
+        match self {
+            Kind::Place => "place",
+            Kind::Transition => "transition",
+        }
+    }
+}
+
+/// One edit of a project, as the page sends it (`{"op": "add_place", …}`).
+/// Nets are named by their `name`; places and transitions by theirs
+/// (global places as `@name`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "op", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Op {
+    /// A new place, drawn at `at` if given (else laid out automatically).
+    AddPlace {
+        net: String,
+        name: String,
+        #[serde(default)]
+        at: Option<(f64, f64)>,
+    },
+    RenamePlace {
+        net: String,
+        name: String,
+        to: String,
+    },
+    /// Refused while a transition's arc uses the place.
+    DeletePlace {
+        net: String,
+        name: String,
+    },
+    /// Whether the place is in `initial` / `final` (absent: unchanged).
+    SetPlace {
+        net: String,
+        name: String,
+        #[serde(default)]
+        initial: Option<bool>,
+        #[serde(default, rename = "final")]
+        is_final: Option<bool>,
+    },
+    /// A new transition without arcs, drawn at `at` if given.
+    AddTransition {
+        net: String,
+        name: String,
+        #[serde(default)]
+        at: Option<(f64, f64)>,
+    },
+    RenameTransition {
+        net: String,
+        name: String,
+        to: String,
+    },
+    DeleteTransition {
+        net: String,
+        name: String,
+    },
+    /// The transition's event (`on`; empty: immediate), guard (`when`;
+    /// empty: none) and actions (`do`; empty: none).
+    SetTransition {
+        net: String,
+        name: String,
+        on: String,
+        when: String,
+        #[serde(rename = "do")]
+        actions: Vec<String>,
+    },
+    /// An arc between `place` and `transition`: an input (place to
+    /// transition, `from`) or an output (`to`).
+    AddArc {
+        net: String,
+        transition: String,
+        place: String,
+        input: bool,
+    },
+    DeleteArc {
+        net: String,
+        transition: String,
+        place: String,
+        input: bool,
+    },
+    /// Where a node is drawn (the layout file only).
+    Move {
+        net: String,
+        kind: Kind,
+        name: String,
+        x: f64,
+        y: f64,
+    },
+    /// Forget the net's stored positions: all of it laid out automatically.
+    Relayout {
+        net: String,
+    },
+}
+
+impl Op {
+    /// The net the edit concerns.
+    pub fn net(&self) -> &str {
+        match self {
+            Op::AddPlace { net, .. }
+            | Op::RenamePlace { net, .. }
+            | Op::DeletePlace { net, .. }
+            | Op::SetPlace { net, .. }
+            | Op::AddTransition { net, .. }
+            | Op::RenameTransition { net, .. }
+            | Op::DeleteTransition { net, .. }
+            | Op::SetTransition { net, .. }
+            | Op::AddArc { net, .. }
+            | Op::DeleteArc { net, .. }
+            | Op::Move { net, .. }
+            | Op::Relayout { net } => net,
+        }
+    }
+}
+
+/// Why an edit was refused; nothing was changed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EditError {
+    #[error("no net named `{0}`")]
+    UnknownNet(String),
+    #[error("net {net} has no {kind} `{name}`")]
+    Unknown {
+        net: String,
+        kind: &'static str,
+        name: String,
+    },
+    #[error("net {net} already has a {kind} `{name}`")]
+    Duplicate {
+        net: String,
+        kind: &'static str,
+        name: String,
+    },
+    #[error(
+        "invalid {kind} name `{name}`: use letters, digits and `_`, starting with a letter or `_`"
+    )]
+    BadName { kind: &'static str, name: String },
+    #[error("no global place `@{0}` in project.toml's [globals]")]
+    UnknownGlobal(String),
+    #[error("global place `{0}` belongs to project.toml: rename or delete it there")]
+    GlobalPlace(String),
+    #[error("place {net}.{place} is used by {}: delete those arcs first", .transitions.join(", "))]
+    PlaceInUse {
+        net: String,
+        place: String,
+        transitions: Vec<String>,
+    },
+    #[error("{net}.{transition} already has an {} arc {}", if *.input { "input" } else { "output" }, if *.input { format!("from {}", .place) } else { format!("to {}", .place) })]
+    DuplicateArc {
+        net: String,
+        transition: String,
+        place: String,
+        input: bool,
+    },
+    #[error("{net}.{transition} has no {} arc {}", if *.input { "input" } else { "output" }, if *.input { format!("from {}", .place) } else { format!("to {}", .place) })]
+    UnknownArc {
+        net: String,
+        transition: String,
+        place: String,
+        input: bool,
+    },
+    #[error("a position must be two finite numbers")]
+    BadPosition,
+    #[error("{file}: {what}")]
+    Shape { file: String, what: String },
+}
+
+/// Names of nets, places and transitions: letters, digits and `_`,
+/// starting with a letter or `_` (as the loader wants them).
+pub fn valid_name(name: &str) -> bool {
+    let mut chars = name.chars();
+    chars
+        .next()
+        .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}

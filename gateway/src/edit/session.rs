@@ -1,0 +1,591 @@
+//! A project being edited: its files as read, the draft, each edit written
+//! back safely, the project loaded again, and `petrel check` run in the
+//! background on it.
+//!
+//! Writes are atomic (a temporary file beside the target, then a rename)
+//! and refused when the file on disk is no longer the text the draft was
+//! read from (someone else wrote it): the page says so and offers to
+//! reload; nothing of theirs is overwritten. An edit after which the
+//! project no longer loads is still written (a person adding a
+//! transition, then its arcs, passes through such states) and shown with
+//! the loader's problems on their elements.
+//!
+//! The check is a child `petrel check --json` on the folder; an edit of a
+//! net kills the one still running (the newer draft supersedes it) and
+//! starts another. The page never waits for it.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use nets::Project;
+use serde_json::{json, Value as Json};
+
+use super::draft::Draft;
+use super::locate::{locate, Element};
+use super::op::{EditError, Op};
+use super::positions;
+use super::replay::{replay, Moment};
+use super::sketch::sketch;
+
+/// Why an edit was not made.
+#[derive(Debug, thiserror::Error)]
+pub enum Refusal {
+    #[error("{0}")]
+    Edit(#[from] EditError),
+    #[error("{0} changed on disk since it was loaded: reload to edit it (your edit was not made; nothing was overwritten)")]
+    Conflict(String),
+    #[error("{0}")]
+    Io(String),
+}
+
+/// One load problem, and the element it concerns.
+#[derive(Debug, Clone, serde::Serialize)]
+struct Problem {
+    file: String,
+    line: usize,
+    col: usize,
+    message: String,
+    #[serde(flatten)]
+    element: Element,
+}
+
+/// The background check's state.
+#[derive(Debug, Clone, Default)]
+enum Check {
+    /// Not run: the project does not load.
+    #[default]
+    None,
+    Running,
+    Done {
+        holds: bool,
+        report: Json,
+        /// The counterexample shown, and its moments.
+        title: String,
+        moments: Vec<Moment>,
+    },
+    Failed(String),
+}
+
+struct State {
+    /// The text each file had when read or last written (None: absent).
+    read: BTreeMap<String, Option<String>>,
+    draft: Option<Draft>,
+    /// Why there is no draft (a file that is not TOML, a missing file).
+    broken: Option<String>,
+    project: Option<Arc<Project>>,
+    problems: Vec<Problem>,
+    check: Check,
+    /// Bumped by each check started: a finished check of an older one is
+    /// dropped.
+    generation: u64,
+    child: Option<Child>,
+    /// Bumped whenever what the page shows changes.
+    version: u64,
+}
+
+/// A project being edited.
+pub struct Session {
+    pub dir: PathBuf,
+    state: Mutex<State>,
+    /// Runs `petrel check`: this binary.
+    checker: Option<PathBuf>,
+}
+
+fn read_file(dir: &Path, file: &str) -> Result<Option<String>, String> {
+    match std::fs::read_to_string(dir.join(file)) {
+        Ok(t) => Ok(Some(t)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(format!("cannot read {}: {e}", dir.join(file).display())),
+    }
+}
+
+/// Writes `text` to `path` atomically: a temporary file in the same
+/// folder, synced, then renamed over it (keeping its permissions).
+pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
+    use std::io::Write;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.petrel-edit-{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(text.as_bytes())?;
+        f.sync_all()?;
+        if let Ok(meta) = std::fs::metadata(path) {
+            std::fs::set_permissions(&tmp, meta.permissions())?;
+        }
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+impl Session {
+    /// Opens the project in `dir`: an error when it has no project.toml or
+    /// that file is not TOML.
+    pub fn open(dir: &Path) -> Result<Arc<Session>, String> {
+        let project = read_file(dir, nets::load::PROJECT_FILE)?.ok_or_else(|| {
+            format!(
+                "{} is not a Petrel project: it holds no {}",
+                dir.display(),
+                nets::load::PROJECT_FILE
+            )
+        })?;
+        Draft::net_files(&project).map_err(|e| e.to_string())?;
+        let session = Arc::new(Session {
+            dir: dir.to_path_buf(),
+            state: Mutex::new(State {
+                read: BTreeMap::new(),
+                draft: None,
+                broken: None,
+                project: None,
+                problems: Vec::new(),
+                check: Check::None,
+                generation: 0,
+                child: None,
+                version: 0,
+            }),
+            checker: std::env::current_exe().ok(),
+        });
+        session.reload();
+        Ok(session)
+    }
+
+    fn lock(&self) -> MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Reads every file again (the draft's unwritten nothing: each edit is
+    /// written as it is made), loads and checks.
+    pub fn reload(self: &Arc<Self>) {
+        let mut s = self.lock();
+        s.read.clear();
+        s.draft = None;
+        s.broken = None;
+        let result = (|| -> Result<Draft, String> {
+            let project = read_file(&self.dir, nets::load::PROJECT_FILE)?
+                .ok_or_else(|| "project.toml is gone".to_owned())?;
+            s.read
+                .insert(nets::load::PROJECT_FILE.into(), Some(project.clone()));
+            let mut nets_read = Vec::new();
+            for file in Draft::net_files(&project).map_err(|e| e.to_string())? {
+                let text = read_file(&self.dir, &file)?
+                    .ok_or_else(|| format!("{file}: no such file (project.toml lists it)"))?;
+                s.read.insert(file.clone(), Some(text.clone()));
+                nets_read.push((file, text));
+            }
+            let layout = read_file(&self.dir, positions::FILE)?;
+            s.read.insert(positions::FILE.into(), layout.clone());
+            Draft::parse(&project, &nets_read, layout.as_deref().unwrap_or(""))
+                .map_err(|e| e.to_string())
+        })();
+        match result {
+            Ok(d) => s.draft = Some(d),
+            Err(e) => s.broken = Some(e),
+        }
+        self.load_and_check(&mut s);
+    }
+
+    /// Makes one edit and writes it back.
+    pub fn apply(self: &Arc<Self>, op: &Op) -> Result<(), Refusal> {
+        let mut s = self.lock();
+        let Some(draft) = &s.draft else {
+            return Err(Refusal::Io(
+                s.broken.clone().unwrap_or_else(|| "nothing to edit".into()),
+            ));
+        };
+        let mut next = draft.clone();
+        let applied = next.apply(op)?;
+        let mut writes: Vec<(String, String)> = Vec::new();
+        if let Some(n) = applied.net_file {
+            writes.push((next.nets[n].file.clone(), next.nets[n].doc.to_string()));
+        }
+        if applied.layout {
+            writes.push((positions::FILE.to_owned(), next.positions.text()));
+        }
+        // Refused if any file to write is not what it was when read.
+        for (file, _) in &writes {
+            let on_disk = read_file(&self.dir, file).map_err(Refusal::Io)?;
+            if s.read.get(file) != Some(&on_disk) {
+                return Err(Refusal::Conflict(file.clone()));
+            }
+        }
+        for (file, text) in &writes {
+            if let Err(e) = write_atomic(&self.dir.join(file), text) {
+                // Some files may be written, others not: the disk is the
+                // truth, read again.
+                drop(s);
+                self.reload();
+                return Err(Refusal::Io(format!("cannot write {file}: {e}")));
+            }
+            s.read.insert(file.clone(), Some(text.clone()));
+        }
+        s.draft = Some(next);
+        s.version += 1;
+        // A move changes no net: nothing to load or check again.
+        if applied.net_file.is_some() {
+            self.load_and_check(&mut s);
+        }
+        Ok(())
+    }
+
+    /// Loads the project as `petrel check` does, keeps its problems, and
+    /// starts the check (killing one still running).
+    fn load_and_check(self: &Arc<Self>, s: &mut State) {
+        s.version += 1;
+        s.generation += 1;
+        if let Some(mut child) = s.child.take() {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+        s.problems.clear();
+        s.project = None;
+        s.check = Check::None;
+        if s.draft.is_none() {
+            return;
+        }
+        match load(&self.dir) {
+            Ok(project) => s.project = Some(project),
+            Err(Loaded::Problems(e)) => {
+                s.problems = e
+                    .problems
+                    .iter()
+                    .map(|p| {
+                        let (line, col) = p.line_col();
+                        let element = s
+                            .draft
+                            .as_ref()
+                            .and_then(|d| d.nets.iter().find(|n| n.file == p.file.name))
+                            .map_or(
+                                Element {
+                                    net: None,
+                                    kind: None,
+                                    name: None,
+                                },
+                                |n| locate(n.name(), &p.file.text, p.span.start),
+                            );
+                        Problem {
+                            file: p.file.name.clone(),
+                            line,
+                            col,
+                            message: p.message.clone(),
+                            element,
+                        }
+                    })
+                    .collect();
+                return;
+            }
+            Err(Loaded::Other(e)) => {
+                s.problems = vec![Problem {
+                    file: nets::load::PROJECT_FILE.into(),
+                    line: 1,
+                    col: 1,
+                    message: e,
+                    element: Element {
+                        net: None,
+                        kind: None,
+                        name: None,
+                    },
+                }];
+                return;
+            }
+        }
+        let Some(exe) = &self.checker else {
+            s.check = Check::Failed("cannot find the petrel binary to run the check".into());
+            return;
+        };
+        let mut command = Command::new(exe);
+        command
+            .arg("check")
+            .arg("--json")
+            .arg(&self.dir)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
+        die_with_parent(&mut command);
+        let child = command.spawn();
+        let mut child = match child {
+            Ok(c) => c,
+            Err(e) => {
+                s.check = Check::Failed(format!("cannot start petrel check: {e}"));
+                return;
+            }
+        };
+        let (Some(mut out), Some(mut err)) = (child.stdout.take(), child.stderr.take()) else {
+            let _ = child.kill();
+            let _ = child.wait();
+            return;
+        };
+        s.check = Check::Running;
+        s.child = Some(child);
+        let generation = s.generation;
+        let session = Arc::clone(self);
+        let spawned = std::thread::Builder::new()
+            .name("petrel-edit-check".into())
+            .spawn(move || {
+                use std::io::Read;
+                let mut text = String::new();
+                let mut errors = String::new();
+                let _ = out.read_to_string(&mut text);
+                let _ = err.read_to_string(&mut errors);
+                session.checked(generation, &text, &errors);
+            });
+        if let Err(e) = spawned {
+            s.check = Check::Failed(format!("cannot start the check's thread: {e}"));
+        }
+    }
+
+    /// A check finished (its output read to the end).
+    fn checked(&self, generation: u64, out: &str, errors: &str) {
+        let mut s = self.lock();
+        if s.generation != generation {
+            return; // superseded (and killed)
+        }
+        if let Some(mut child) = s.child.take() {
+            let _ = child.wait();
+        }
+        s.version += 1;
+        let Ok(report) = serde_json::from_str::<Json>(out.trim()) else {
+            let why = errors.trim();
+            s.check = Check::Failed(if why.is_empty() {
+                "petrel check gave no report".into()
+            } else {
+                why.lines().take(20).collect::<Vec<_>>().join("\n")
+            });
+            return;
+        };
+        let holds = report["holds"].as_bool().unwrap_or(false);
+        let (title, steps) = counterexample(&report);
+        let moments = match (&s.project, &steps) {
+            (Some(p), Some(steps)) => replay(p, steps),
+            _ => Vec::new(),
+        };
+        s.check = Check::Done {
+            holds,
+            report,
+            title,
+            moments,
+        };
+    }
+
+    /// What the page shows, and its version.
+    pub fn page(&self) -> Json {
+        let s = self.lock();
+        let name = s
+            .draft
+            .as_ref()
+            .map(|d| d.name.clone())
+            .filter(|n| !n.is_empty())
+            .unwrap_or_else(|| {
+                self.dir
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default()
+            });
+        let nets: Vec<Json> = s
+            .draft
+            .as_ref()
+            .map(|d| (0..d.nets.len()).map(|n| sketch(d, n)).collect())
+            .unwrap_or_default();
+        let events: Vec<String> = s
+            .project
+            .as_ref()
+            .map(|p| {
+                let mut e: Vec<String> = p.events.keys().cloned().collect();
+                e.sort();
+                e
+            })
+            .unwrap_or_default();
+        let check = match &s.check {
+            Check::None => json!({"state": "none"}),
+            Check::Running => json!({"state": "running"}),
+            Check::Failed(why) => json!({"state": "failed", "why": why}),
+            Check::Done {
+                holds,
+                report,
+                title,
+                moments,
+            } => json!({"state": "done", "holds": holds, "states": report["states"],
+                        "seconds": report["seconds"], "warnings": report["warnings"],
+                        "title": title, "moments": moments}),
+        };
+        json!({"mode": "edit", "name": name, "dir": self.dir.display().to_string(),
+               "version": s.version, "nets": nets, "broken": s.broken,
+               "globals": s.draft.as_ref().map(|d| d.globals.clone()).unwrap_or_default(),
+               "events": events, "loads": s.project.is_some(), "problems": s.problems,
+               "check": check, "petrel": env!("CARGO_PKG_VERSION")})
+    }
+
+    pub fn version(&self) -> u64 {
+        self.lock().version
+    }
+
+    /// Generates the programs' skeletons (as `petrel stubs`) in `out`
+    /// (relative to the project folder).
+    pub fn stubs(&self, lang: &str, out: &str, force: bool) -> Result<Vec<String>, String> {
+        let lang = match lang {
+            "python" => crate::programs::stubs::Lang::Python,
+            "rust" => crate::programs::stubs::Lang::Rust,
+            other => return Err(format!("no stubs in `{other}`: python or rust")),
+        };
+        let project = self
+            .lock()
+            .project
+            .clone()
+            .ok_or_else(|| "the project does not load: fix its problems first".to_owned())?;
+        let out = self.dir.join(if out.trim().is_empty() {
+            "stubs"
+        } else {
+            out.trim()
+        });
+        let written = crate::cli::stubs::write(&self.dir, &project, lang, &out, force)?;
+        Ok(written.iter().map(|p| p.display().to_string()).collect())
+    }
+}
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        let mut s = self.lock();
+        if let Some(mut child) = s.child.take() {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+/// The check dies with the editor, however it ends (a kill included):
+/// SIGKILL when the thread that started it exits (the server's, or the
+/// main thread, both living as long as the editor).
+#[cfg(target_os = "linux")]
+fn die_with_parent(command: &mut Command) {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: between fork and exec the closure only calls prctl(2), which
+    // is async-signal-safe, takes plain integers and touches no memory of
+    // the parent.
+    unsafe {
+        command.pre_exec(|| {
+            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL);
+            Ok(())
+        });
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn die_with_parent(_command: &mut Command) {}
+
+enum Loaded {
+    Problems(nets::source::LoadError),
+    Other(String),
+}
+
+/// Loads the project knowing its elaboration profile's events, as `petrel
+/// check` does.
+fn load(dir: &Path) -> Result<Arc<Project>, Loaded> {
+    let setting = crate::project::gateway_setting(dir, "profile")
+        .map_err(|e| Loaded::Other(format!("{e}")))?;
+    let layers = crate::profile::Layers::pick(None, Some((dir, setting.as_deref())), "ardupilot")
+        .map_err(|e| Loaded::Other(format!("{e}")))?;
+    let profile = layers.load().ok_or_else(|| {
+        Loaded::Other("the elaboration profile does not load (see the terminal)".into())
+    })?;
+    nets::load_with(
+        &crate::project::Folder(dir.to_path_buf()),
+        &profile.catalog(),
+    )
+    .map(Arc::new)
+    .map_err(Loaded::Problems)
+}
+
+/// The counterexample to show from a check's report: the project's double
+/// token, deadlock or livelock, else the first net's.
+fn counterexample(report: &Json) -> (String, Option<Vec<String>>) {
+    let steps = |v: &Json| -> Option<Vec<String>> {
+        v.as_array().map(|a| {
+            a.iter()
+                .filter_map(|s| s.as_str().map(str::to_owned))
+                .collect()
+        })
+    };
+    let pick = |r: &Json, whose: &str| -> Option<(String, Vec<String>)> {
+        if let Some(s) = steps(&r["unsafe_example"]) {
+            return Some((format!("{whose}: a double token"), s));
+        }
+        if let Some(s) = steps(&r["deadlock_example"]) {
+            return Some((format!("{whose}: a deadlock"), s));
+        }
+        r["livelocks"]
+            .as_array()
+            .and_then(|l| l.first())
+            .and_then(steps)
+            .map(|s| (format!("{whose}: a livelock"), s))
+    };
+    if let Some((t, s)) = pick(report, "the project") {
+        return (t, Some(s));
+    }
+    if let Some(nets) = report["nets"].as_object() {
+        for (name, r) in nets {
+            if let Some((t, s)) = pick(r, &format!("net {name}")) {
+                return (t, Some(s));
+            }
+        }
+    }
+    (String::new(), None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_atomic_write_replaces_the_file_keeps_its_mode_and_leaves_nothing() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let path = dir.path().join("a.toml");
+        std::fs::write(&path, "old").unwrap_or_else(|e| panic!("{e}"));
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o640))
+            .unwrap_or_else(|e| panic!("{e}"));
+        write_atomic(&path, "new").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(std::fs::read_to_string(&path).ok().as_deref(), Some("new"));
+        let mode = std::fs::metadata(&path)
+            .map(|m| m.permissions().mode() & 0o777)
+            .ok();
+        assert_eq!(mode, Some(0o640));
+        let names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .filter_map(Result::ok)
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, vec!["a.toml"]);
+        // A folder that does not exist: an error, no panic.
+        assert!(write_atomic(&dir.path().join("no/such/b.toml"), "x").is_err());
+    }
+
+    #[test]
+    fn the_counterexample_shown_is_the_projects_first_then_a_nets() {
+        let r = json!({"unsafe_example": null, "deadlock_example": ["a → N.t"], "livelocks": [],
+                       "nets": {"N": {"unsafe_example": ["b"]}}});
+        assert_eq!(
+            counterexample(&r),
+            (
+                "the project: a deadlock".into(),
+                Some(vec!["a → N.t".into()])
+            )
+        );
+        let r = json!({"unsafe_example": null, "deadlock_example": null, "livelocks": [],
+                       "nets": {"N": {"unsafe_example": null, "deadlock_example": null, "livelocks": [["x", "y"]]}}});
+        assert_eq!(
+            counterexample(&r),
+            (
+                "net N: a livelock".into(),
+                Some(vec!["x".into(), "y".into()])
+            )
+        );
+        assert_eq!(counterexample(&json!({"livelocks": []})).1, None);
+    }
+}

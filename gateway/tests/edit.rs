@@ -1,0 +1,524 @@
+//! The editor in a real browser (docs/monitor.md, "Editing"): Debian's
+//! chromium, headless, driven by playwright-core (`tests/edit/driver.js`).
+//! The flight-test example is copied to a temporary folder and `petrel
+//! edit` serves it; through the page (real clicks and typing) a transition
+//! is added to COMMUNICATION — first without arcs, the loader's problem
+//! shown on it — then named, given its event and arcs, and its place
+//! dragged: the net's TOML on disk must be the original with exactly that
+//! transition appended, the other files untouched, the position in
+//! layout.toml, and a fresh `petrel check` of the copy must hold. Then a
+//! place and an arc that let the new transition put a second token in it:
+//! the page's check fails, its counterexample is stepped through to the
+//! double token, and a fresh `petrel check` fails too.
+//!
+//! Needs node, playwright-core and /usr/bin/chromium as tests/monitor.rs
+//! does: skipped with the reason without them, failed under `CI=true`.
+//! Screenshots go to `target/tmp/monitor/edit-*.png`.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use serde_json::Value as Json;
+
+const PETREL: &str = env!("CARGO_BIN_EXE_petrel");
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn example() -> PathBuf {
+    repo().join("examples/uav-flight-test")
+}
+
+/// A child killed and waited for when dropped, whatever happened.
+struct Reaped(Child);
+
+impl Drop for Reaped {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// node, playwright-core's folder and chromium, or why not.
+fn browser_tools() -> Result<(PathBuf, PathBuf, PathBuf), String> {
+    let chromium = PathBuf::from(std::env::var("CHROMIUM").unwrap_or("/usr/bin/chromium".into()));
+    if !chromium.exists() {
+        return Err(format!("no chromium at {}", chromium.display()));
+    }
+    let node = Command::new("node").arg("--version").output();
+    if !node.is_ok_and(|o| o.status.success()) {
+        return Err("no node on PATH".into());
+    }
+    let core = std::env::var("PETREL_PLAYWRIGHT_CORE")
+        .map(PathBuf::from)
+        .unwrap_or_else(|_| repo().join("target/browser-tools/node_modules/playwright-core"));
+    if !core.join("package.json").exists() {
+        return Err(format!(
+            "no playwright-core at {} (npm install --prefix target/browser-tools playwright-core)",
+            core.display()
+        ));
+    }
+    Ok((PathBuf::from("node"), core, chromium))
+}
+
+/// Skips (returns None) with the reason, or fails under CI.
+fn require() -> Option<(PathBuf, PathBuf, PathBuf)> {
+    match browser_tools() {
+        Ok(t) => Some(t),
+        Err(why) if std::env::var("CI").as_deref() == Ok("true") => {
+            panic!("CI=true but the browser tests cannot run: {why}")
+        }
+        Err(why) => {
+            eprintln!("skipped: {why}");
+            None
+        }
+    }
+}
+
+/// `petrel edit DIR` on a free port; the child and the page's URL.
+fn edit(dir: &Path) -> (Reaped, String) {
+    let mut child = Command::new(PETREL)
+        .args(["edit", "--http", "127.0.0.1:0"])
+        .arg(dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot start petrel: {e}"));
+    let err = child.stderr.take().unwrap_or_else(|| panic!("no stderr"));
+    let child = Reaped(child);
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let until = Instant::now() + Duration::from_secs(30);
+    let mut said = Vec::new();
+    while let Some(left) = until.checked_duration_since(Instant::now()) {
+        match rx.recv_timeout(left) {
+            Ok(line) => {
+                if let Some(rest) = line.strip_prefix("edit: ") {
+                    let url = rest.split_whitespace().next().unwrap_or("").to_owned();
+                    return (child, url);
+                }
+                said.push(line);
+            }
+            Err(_) => break,
+        }
+    }
+    panic!(
+        "petrel edit never gave its address; it said:\n{}",
+        said.join("\n")
+    )
+}
+
+/// Runs the driver; its JSON.
+fn drive(tools: &(PathBuf, PathBuf, PathBuf), mode: &str, url: &str, shots: &Path) -> Json {
+    let (node, core, chromium) = tools;
+    let child = Command::new(node)
+        .arg(repo().join("gateway/tests/edit/driver.js"))
+        .args([mode, url])
+        .arg(shots)
+        .env("PLAYWRIGHT_CORE", core)
+        .env("CHROMIUM", chromium)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot start node: {e}"));
+    let mut child = Reaped(child);
+    // Bounded: the driver's own waits (a check of the example included)
+    // add up to well under this.
+    let until = Instant::now() + Duration::from_secs(600);
+    loop {
+        if let Ok(Some(_)) = child.0.try_wait() {
+            break;
+        }
+        assert!(Instant::now() < until, "the browser driver hung");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let mut out = String::new();
+    if let Some(mut s) = child.0.stdout.take() {
+        use std::io::Read;
+        let _ = s.read_to_string(&mut out);
+    }
+    let seen: Json = serde_json::from_str(out.trim())
+        .unwrap_or_else(|e| panic!("the driver printed no JSON ({e}): {out}"));
+    assert!(
+        seen["failure"].is_null(),
+        "in the browser: {}",
+        seen["failure"]
+    );
+    assert_eq!(seen["errors"], serde_json::json!([]), "the page threw");
+    seen
+}
+
+/// A fresh `petrel check` of the folder: its exit status.
+fn check(dir: &Path) -> Option<i32> {
+    let out = Command::new(PETREL)
+        .args(["check", "--json"])
+        .arg(dir)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run petrel check: {e}"));
+    out.status.code()
+}
+
+fn copy_example(to: &Path) {
+    for entry in std::fs::read_dir(example()).unwrap_or_else(|e| panic!("{e}")) {
+        let entry = entry.unwrap_or_else(|e| panic!("{e}"));
+        if entry.path().is_file() {
+            std::fs::copy(entry.path(), to.join(entry.file_name()))
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+    }
+}
+
+fn read(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn strings(v: &Json) -> Vec<String> {
+    v.as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|s| s.as_str().map(str::to_owned))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+#[test]
+fn a_transition_added_in_the_page_is_written_checked_and_its_counterexample_stepped() {
+    let Some(tools) = require() else { return };
+    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("monitor");
+    std::fs::create_dir_all(&shots).unwrap_or_else(|e| panic!("{e}"));
+    let tmp = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let dir = tmp.path();
+    copy_example(dir);
+    let original = read(&example().join("communication.toml"));
+
+    let (editor, url) = edit(dir);
+    let seen = drive(&tools, "add", &url, &shots);
+    // Every net of the example drawn.
+    assert_eq!(
+        seen["nets"].as_array().map(Vec::len),
+        Some(8),
+        "{}",
+        seen["nets"]
+    );
+    assert!(strings(&seen["ids"]).contains(&"t-COMMUNICATION-gcs_lost".to_owned()));
+    // The transition without input: the loader's problem on it.
+    let rows = strings(&seen["error_rows"]).join("\n");
+    assert!(
+        rows.contains("COMMUNICATION.t1") && rows.contains("no input place"),
+        "{rows}"
+    );
+    assert!(
+        seen["error_title"]
+            .as_str()
+            .unwrap_or("")
+            .contains("no input place"),
+        "{}",
+        seen["error_title"]
+    );
+    assert!(
+        seen["error_form"]
+            .as_str()
+            .unwrap_or("")
+            .contains("communication.toml:"),
+        "{}",
+        seen["error_form"]
+    );
+    assert_eq!(seen["problems_after"], 0, "the finished transition loads");
+    assert_eq!(seen["check"]["state"], "holds", "{}", seen["check"]);
+
+    // On disk: the original, the transition appended, nothing else.
+    let now = read(&dir.join("communication.toml"));
+    assert_eq!(
+        now,
+        format!("{original}\n[[transition]]\nname = \"rc_back\"\nfrom = [\"proceeding\"]\nto = [\"proceeding\"]\non = \"link_degraded\"\n")
+    );
+    for entry in std::fs::read_dir(example()).unwrap_or_else(|e| panic!("{e}")) {
+        let path = entry.unwrap_or_else(|e| panic!("{e}")).path();
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        if path.is_file() && name != "communication.toml" {
+            assert_eq!(read(&dir.join(&name)), read(&path), "{name} changed");
+        }
+    }
+    // The dragged place and the transition put where clicked: layout.toml.
+    let layout: toml::Table = read(&dir.join("layout.toml"))
+        .parse()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        layout["COMMUNICATION"]["places"]
+            .get("proceeding")
+            .is_some(),
+        "{layout}"
+    );
+    assert!(
+        layout["COMMUNICATION"]["transitions"]
+            .get("rc_back")
+            .is_some(),
+        "{layout}"
+    );
+    assert_eq!(
+        check(dir),
+        Some(0),
+        "a fresh petrel check of the edited copy"
+    );
+
+    // A second token possible in a new place: the check fails.
+    let seen = drive(&tools, "break", &url, &shots);
+    drop(editor);
+    assert_eq!(seen["check"]["state"], "violated", "{}", seen["check"]);
+    assert!(
+        seen["title"]
+            .as_str()
+            .unwrap_or("")
+            .contains("double token"),
+        "{}",
+        seen["title"]
+    );
+    let steps = seen["steps"].as_array().cloned().unwrap_or_default();
+    assert!(
+        steps.len() >= 3,
+        "the start and two firings at least: {steps:?}"
+    );
+    let p1 = "p-COMMUNICATION-p1".to_owned();
+    let first = &steps[0];
+    let last = &steps[steps.len() - 1];
+    assert!(
+        strings(&first["marked"]).contains(&"p-COMMUNICATION-proceeding".to_owned()),
+        "{first}"
+    );
+    assert!(!strings(&first["marked"]).contains(&p1), "{first}");
+    assert!(strings(&last["marked"]).contains(&p1), "{last}");
+    assert!(
+        strings(&last["fired"]).contains(&"t-COMMUNICATION-rc_back".to_owned()),
+        "{last}"
+    );
+    assert!(
+        last["label"]
+            .as_str()
+            .unwrap_or("")
+            .contains("COMMUNICATION.rc_back"),
+        "{last}"
+    );
+    assert_eq!(last["p1_fill"], "rgb(224, 0, 0)", "a marked place is red");
+    assert_ne!(first["p1_fill"], last["p1_fill"]);
+    assert_eq!(
+        seen["back"],
+        format!("step {} / {}", steps.len() - 2, steps.len() - 1)
+    );
+    let now = read(&dir.join("communication.toml"));
+    assert!(now.contains("places = [\"proceeding\", \"p1\"]\n"), "{now}");
+    assert!(now.contains("to = [\"proceeding\", \"p1\"]\n"), "{now}");
+    assert_eq!(check(dir), Some(1), "a fresh petrel check fails too");
+}
+
+/// The children of process `pid` (Linux: /proc/PID/task/*/children).
+fn children(pid: u32) -> Vec<u32> {
+    let mut out = Vec::new();
+    for task in std::fs::read_dir(format!("/proc/{pid}/task"))
+        .into_iter()
+        .flatten()
+        .flatten()
+    {
+        let text = std::fs::read_to_string(task.path().join("children")).unwrap_or_default();
+        out.extend(
+            text.split_whitespace()
+                .filter_map(|p| p.parse::<u32>().ok()),
+        );
+    }
+    out
+}
+
+/// Whether process `pid` runs (a zombie does not).
+fn alive(pid: u32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .ok()
+        .and_then(|s| s.rsplit_once(") ").map(|(_, rest)| !rest.starts_with('Z')))
+        .unwrap_or(false)
+}
+
+/// One HTTP/1.1 request to the editor: (status, body as JSON).
+fn http(url: &str, method: &str, path: &str, body: &str) -> (u16, Json) {
+    http_with(url, method, path, body, "application/json", None)
+}
+
+fn http_with(
+    url: &str,
+    method: &str,
+    path: &str,
+    body: &str,
+    kind: &str,
+    origin: Option<&str>,
+) -> (u16, Json) {
+    use std::io::{Read, Write};
+    let host = url
+        .trim_start_matches("http://")
+        .trim_end_matches('/')
+        .to_owned();
+    let mut s = std::net::TcpStream::connect(&host).unwrap_or_else(|e| panic!("{host}: {e}"));
+    let _ = s.set_read_timeout(Some(Duration::from_secs(30)));
+    let request = format!(
+        "{method} {path} HTTP/1.1\r\nHost: {host}\r\nContent-Type: {kind}\r\n{}Content-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        origin.map(|o| format!("Origin: {o}\r\n")).unwrap_or_default(),
+        body.len()
+    );
+    s.write_all(request.as_bytes())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut answer = String::new();
+    let _ = s.read_to_string(&mut answer);
+    let status = answer
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let json = answer
+        .split_once("\r\n\r\n")
+        .and_then(|(_, b)| serde_json::from_str(b.trim()).ok())
+        .unwrap_or(Json::Null);
+    (status, json)
+}
+
+/// Without a browser: the editor's routes refuse bad edits, refuse to
+/// overwrite a file changed on disk (keeping that change), write again
+/// after a reload, and generate the programs' stubs; bad input exits 2.
+#[test]
+fn the_editor_never_overwrites_a_file_changed_on_disk() {
+    let tmp = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let dir = tmp.path();
+    copy_example(dir);
+    let (editor, url) = edit(dir);
+    let add = r#"{"op":"add_place","net":"COMMUNICATION","name":"spare"}"#;
+
+    let (status, a) = http(
+        &url,
+        "POST",
+        "/edit",
+        r#"{"op":"add_place","net":"NOPE","name":"x"}"#,
+    );
+    assert_eq!(
+        (status, a["error"].as_str()),
+        (400, Some("no net named `NOPE`"))
+    );
+    let (status, a) = http(
+        &url,
+        "POST",
+        "/edit",
+        r#"{"op":"delete_place","net":"COMMUNICATION","name":"proceeding"}"#,
+    );
+    assert_eq!(status, 400);
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .contains("is used by link_lost"),
+        "{a}"
+    );
+    let (status, a) = http(&url, "POST", "/edit", "{\"op\": ");
+    assert_eq!(status, 400, "{a}");
+    // Another site's page cannot post an edit (a form's text/plain body,
+    // or a foreign origin).
+    let (status, _) = http_with(&url, "POST", "/edit", add, "text/plain", None);
+    assert_eq!(status, 403);
+    let (status, _) = http_with(
+        &url,
+        "POST",
+        "/edit",
+        add,
+        "application/json",
+        Some("http://evil.example"),
+    );
+    assert_eq!(status, 403);
+    assert_eq!(
+        read(&dir.join("communication.toml")),
+        read(&example().join("communication.toml"))
+    );
+
+    // Someone else writes the file: the edit is refused, their text kept.
+    let theirs = format!("{}# theirs\n", read(&example().join("communication.toml")));
+    std::fs::write(dir.join("communication.toml"), &theirs).unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = http(&url, "POST", "/edit", add);
+    assert_eq!((status, a["conflict"].as_bool()), (409, Some(true)), "{a}");
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .contains("changed on disk"),
+        "{a}"
+    );
+    assert_eq!(read(&dir.join("communication.toml")), theirs);
+    // Reloaded: the edit is made on their text.
+    assert_eq!(http(&url, "POST", "/reload", "{}").0, 200);
+    let (status, a) = http(&url, "POST", "/edit", add);
+    assert_eq!(status, 200, "{a}");
+    let now = read(&dir.join("communication.toml"));
+    assert_eq!(
+        now,
+        theirs.replace(
+            "places = [\"proceeding\"]",
+            "places = [\"proceeding\", \"spare\"]"
+        )
+    );
+    let leftovers: Vec<_> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .filter_map(Result::ok)
+        .filter(|e| e.file_name().to_string_lossy().contains("petrel-edit"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    assert_eq!(page["name"], "uav-flight-test");
+    assert_eq!(page["loads"], true, "{}", page["problems"]);
+    // Each edit started a check and killed the one before: one runs.
+    assert_eq!(page["check"]["state"], "running", "{}", page["check"]);
+    let checks = children(editor.0.id());
+    assert_eq!(checks.len(), 1, "one petrel check at a time: {checks:?}");
+
+    // The programs' stubs, as `petrel stubs` writes them.
+    let (status, a) = http(&url, "POST", "/stubs", r#"{"lang":"python","out":"stubs"}"#);
+    assert_eq!(status, 200, "{a}");
+    let files: Vec<String> = strings(&a["files"]);
+    assert!(
+        !files.is_empty() && files.iter().all(|f| Path::new(f).exists()),
+        "{files:?}"
+    );
+    let (status, a) = http(&url, "POST", "/stubs", r#"{"lang":"python","out":"stubs"}"#);
+    assert_eq!(status, 400, "not overwritten without force: {a}");
+    // The editor killed: its check dies with it.
+    drop(editor);
+    let until = Instant::now() + Duration::from_secs(10);
+    while checks.iter().any(|pid| alive(*pid)) {
+        assert!(
+            Instant::now() < until,
+            "petrel check {checks:?} outlived the editor"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+
+    // Bad input: exit 2, with the reason.
+    let out = Command::new(PETREL)
+        .args(["edit", "--http", "127.0.0.1:0"])
+        .arg(dir.join("nowhere"))
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not a Petrel project"));
+    let help = Command::new(PETREL)
+        .arg("--help")
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        String::from_utf8_lossy(&help.stdout).contains("edit "),
+        "petrel --help lists edit"
+    );
+}
