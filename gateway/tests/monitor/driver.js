@@ -47,7 +47,12 @@ async function live(page, seen) {
   await page.screenshot({ path: path.join(out, "monitor-live.png") });
   // Click a transition: its definition; open its net alone.
   const t = process.env.MONITOR_CLICK_TRANSITION;
-  await page.click("#nets [id='" + t + "'] rect", { force: true });
+  // The click is dispatched on the bar itself: a click at its position
+  // could land elsewhere when the nets' headers (the marked places' names,
+  // changing as the flight goes on) move the drawing meanwhile.
+  await page.dispatchEvent("#nets [id='" + t + "'] rect", "click");
+  await page.waitForFunction((t) => document.querySelector("#nets [id='" + t + "']").classList.contains("selected"),
+    t, { timeout: 10000 }).catch(() => {});
   seen.definition = await page.$eval("#def-body", (d) => d.textContent);
   const net = process.env.MONITOR_ZOOM_NET;
   await page.click("#nets .net[data-net='" + net + "'] .net-head");
