@@ -333,3 +333,52 @@ fn a_resource_names_places_of_a_template() {
     assert!(with("places = [\"MOVE.nowhere\"]")[0].contains("net `MOVE` has no place `nowhere`"));
     assert!(with("places = [\"inside\"]")[0].contains("write TEMPLATE.place"));
 }
+
+fn check(project: Project) -> nets::verify::project::Report {
+    let options = nets::verify::project::Options {
+        each_net: false,
+        ..Default::default()
+    };
+    nets::verify::project::check(&Arc::new(project), &options).project
+}
+
+#[test]
+fn the_verifier_proves_the_bottleneck_is_never_held_by_both_robots() {
+    let report = check((*fixture()).clone());
+    assert!(report.complete && report.safe, "{report:?}");
+    assert_eq!(report.exclusion, []);
+}
+
+#[test]
+fn the_verifier_shows_two_robots_in_the_bottleneck_step_by_step() {
+    let mut files = fixture_files();
+    let unguarded = files["move.toml"]
+        .replace(
+            "from = [\"waiting\", \"@bottleneck_free\"]",
+            "from = [\"waiting\"]",
+        )
+        .replace(
+            "to = [\"through\", \"@bottleneck_free\"]",
+            "to = [\"through\"]",
+        );
+    files.insert("move.toml".to_owned(), unguarded);
+    let project = nets::load(&files).unwrap_or_else(|e| panic!("{e:?}"));
+    let report = check(project);
+    assert!(!report.holds());
+    let [violation] = report.exclusion.as_slice() else {
+        panic!("one violation: {:?}", report.exclusion)
+    };
+    assert_eq!(violation.resource, "bottleneck");
+    assert_eq!(violation.vehicles, ["R1", "R2"]);
+    assert_eq!(violation.example.len(), 2, "{:?}", violation.example);
+    assert!(
+        violation.example[0].contains("at_gate@R1"),
+        "{:?}",
+        violation.example
+    );
+    assert!(
+        violation.example[1].contains("at_gate@R2"),
+        "{:?}",
+        violation.example
+    );
+}
