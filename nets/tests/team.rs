@@ -382,3 +382,14 @@ fn the_verifier_shows_two_robots_in_the_bottleneck_step_by_step() {
         violation.example
     );
 }
+
+#[test]
+fn one_vehicles_catastrophic_event_locks_the_whole_team_out_for_now() {
+    // Documented in docs/nets.md: the lockout is the player's, not a
+    // vehicle's (issue 16 leaves the choice open).
+    let mut player = Player::start(fixture(), 0);
+    player.handle(&Event::new("engine_failure@R2"), S);
+    assert!(player.locked_out());
+    player.handle(&Event::new("at_gate@R1"), 2 * S);
+    assert!(marked(&player, "MOVE@R1", "outside"));
+}
