@@ -75,7 +75,7 @@ pub fn refusal(project: &Project, name: &str) -> Option<Refusal> {
 
 /// Whether the project declares `name`, or the base of a vehicle's event
 /// (`at_gate` of `at_gate@R1`).
-fn declared(project: &Project, name: &str) -> bool {
+pub fn declared(project: &Project, name: &str) -> bool {
     project.events.contains_key(name)
         || project
             .vehicle_event(name)

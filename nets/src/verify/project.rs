@@ -1482,7 +1482,7 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
     for (ni, net) in project.nets.iter().enumerate() {
         for t in &net.transitions {
             let Some(e) = &t.event else { continue };
-            let produced = project.events.contains_key(e)
+            let produced = crate::outside::declared(project, e)
                 || emitted.contains(e)
                 || net.timers.contains(e)
                 || e == names::NET_FAULT
