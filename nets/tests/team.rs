@@ -406,3 +406,17 @@ fn one_vehicles_catastrophic_event_locks_the_whole_team_out_for_now() {
     player.handle(&Event::new("at_gate@R1"), 2 * S);
     assert!(marked(&player, "MOVE@R1", "outside"));
 }
+
+#[test]
+fn the_fixtures_script_plays_the_robots_in_turn() {
+    let text = std::fs::read_to_string(format!("{FIXTURE}/turns.jsonl")).expect("fixture");
+    let lines = nets::script::parse(&text).unwrap_or_else(|e| panic!("{e:?}"));
+    let project = fixture();
+    nets::script::check(&project, &lines).unwrap_or_else(|e| panic!("{e:?}"));
+    let mut player = Player::start(project, 0);
+    for line in &lines {
+        nets::script::play_line(&mut player, line).unwrap_or_else(|e| panic!("{e:?}"));
+    }
+    assert!(marked(&player, "MOVE@R1", "through"));
+    assert!(marked(&player, "MOVE@R2", "inside"));
+}
