@@ -413,3 +413,20 @@ impl Project {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_qualification_is_the_last_at_after_a_name() {
+        assert_eq!(
+            split_vehicle("engine_failure@R2"),
+            ("engine_failure", Some("R2"))
+        );
+        assert_eq!(split_vehicle("DEC.replan.done"), ("DEC.replan.done", None));
+        // A global place is written `@name`: not a qualification.
+        assert_eq!(split_vehicle("@bottleneck"), ("@bottleneck", None));
+        assert_eq!(qualify("MOVE", "R1"), "MOVE@R1");
+    }
+}

@@ -420,3 +420,30 @@ fn the_fixtures_script_plays_the_robots_in_turn() {
     assert!(marked(&player, "MOVE@R1", "through"));
     assert!(marked(&player, "MOVE@R2", "inside"));
 }
+
+#[test]
+fn a_team_net_names_the_instance_it_activates() {
+    let watch = std::fs::read_to_string(format!("{FIXTURE}/watch.toml")).expect("fixture");
+    let bare = problems_with(
+        "watch.toml",
+        &watch.replace("\"command mode @R1 {mode: HOLD}\"", "\"deactivate MOVE\""),
+    );
+    assert_eq!(
+        bare,
+        ["watch.toml:12:19: unknown net `MOVE`: `MOVE` is instantiated per vehicle, name the instance (`MOVE@VEHICLE`)"]
+    );
+    let mut files = fixture_files();
+    files.insert(
+        "watch.toml".to_owned(),
+        watch.replace(
+            "\"command mode @R1 {mode: HOLD}\"",
+            "\"deactivate MOVE@R1\"",
+        ),
+    );
+    let project = nets::load(&files).unwrap_or_else(|e| panic!("{e:?}"));
+    let mut player = Player::start(Arc::new(project), 0);
+    player.handle(&Event::new("obstacle@R2"), S);
+    let project = Arc::clone(player.project());
+    assert!(!player.is_active(net(&project, "MOVE@R1")));
+    assert!(player.is_active(net(&project, "MOVE@R2")));
+}
