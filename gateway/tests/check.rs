@@ -439,3 +439,52 @@ fn each_net_is_checked_alone_too() {
     );
     assert!(out.contains(&format!("  warning: {relies}\n")), "{out}");
 }
+
+/// The two-robot fixture of `nets` with its bottleneck left unguarded, in a
+/// scratch folder.
+fn unguarded_team() -> PathBuf {
+    let from = Path::new(env!("CARGO_MANIFEST_DIR")).join("../nets/tests/fixtures/team");
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("check-team-unguarded");
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    for f in ["project.toml", "move.toml", "watch.toml"] {
+        let text = std::fs::read_to_string(from.join(f)).expect("fixture");
+        let text = text
+            .replace(
+                "from = [\"waiting\", \"@bottleneck_free\"]",
+                "from = [\"waiting\"]",
+            )
+            .replace(
+                "to = [\"through\", \"@bottleneck_free\"]",
+                "to = [\"through\"]",
+            );
+        std::fs::write(dir.join(f), text).expect("scratch file");
+    }
+    dir
+}
+
+#[test]
+fn a_team_project_reports_two_vehicles_in_a_shared_resource_step_by_step() {
+    let team = Path::new(env!("CARGO_MANIFEST_DIR")).join("../nets/tests/fixtures/team");
+    let (code, out, err) = petrel(&["check", team.to_str().unwrap()]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(!out.contains("mutual exclusion"), "{out}");
+
+    let dir = unguarded_team();
+    let (code, out, err) = petrel(&["check", dir.to_str().unwrap()]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(
+        out.contains(
+            "  mutual exclusion FAILED: `bottleneck` held by R1 and R2 at once, reached by:\n\
+             \x20      1. at_gate@R1 → MOVE@R1.arrive, MOVE@R1.enter\n\
+             \x20      2. at_gate@R2 → MOVE@R2.arrive, MOVE@R2.enter\n"
+        ),
+        "{out}"
+    );
+    let (_, out, _) = petrel(&["check", dir.to_str().unwrap(), "--json"]);
+    let report = json_of(&out);
+    assert_eq!(
+        report["exclusion"][0]["vehicles"],
+        serde_json::json!(["R1", "R2"]),
+        "{report}"
+    );
+}

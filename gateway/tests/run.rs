@@ -253,6 +253,27 @@ async fn run_refuses_a_project_that_fails_check_unless_unchecked() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+#[tokio::test]
+async fn run_refuses_a_team_project_it_cannot_run_yet() {
+    let team = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../nets/tests/fixtures/team");
+    let out = petrel()
+        .args([
+            "run",
+            team.to_str().expect("utf-8"),
+            "--mavlink",
+            "udpin:127.0.0.1:0",
+            "--duration",
+            "0.3",
+            "--no-record",
+        ])
+        .output()
+        .await
+        .expect("petrel runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_ne!(out.status.code(), Some(0), "{err}");
+    assert!(err.contains("does not run a team yet"), "{err}");
+}
+
 /// A profile layer named in `[gateway]`, beside project.toml, and a clock
 /// running faster than the wall: the layer's event starts a net timer whose
 /// command comes exactly its duration later on the gateway's clock; the

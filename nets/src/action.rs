@@ -8,6 +8,7 @@
 //! cancel NAME
 //! call PROGRAM.FUNCTION {key: value, ...}
 //! command VERB {key: value, ...}
+//! command VERB @VEHICLE {key: value, ...}   (a team net commanding one vehicle)
 //! ask NAME "QUESTION" {choices: [CHOICE, ...]} timeout DURATION
 //! ```
 //!
@@ -40,6 +41,8 @@ pub enum ActionSyntax {
     Command {
         verb: Name,
         args: Vec<(String, Expr)>,
+        /// `command VERB @VEHICLE {..}`: the vehicle a team net commands.
+        vehicle: Option<Name>,
     },
     /// `ask NAME "QUESTION" {choices: [..]} timeout DURATION`.
     Ask {
@@ -117,12 +120,27 @@ pub fn parse(text: &str) -> Result<ActionSyntax, SyntaxError> {
                 args: args(&mut p)?,
             }
         }
-        "command" => ActionSyntax::Command {
-            verb: p
+        "command" => {
+            let verb = p
                 .name()
-                .ok_or_else(|| p.error("expected a verb after `command`"))?,
-            args: args(&mut p)?,
-        },
+                .ok_or_else(|| p.error("expected a verb after `command`"))?;
+            p.skip_ws();
+            let vehicle = if p.text[p.pos..].starts_with('@') {
+                p.pos += 1;
+                let after = p.pos;
+                match p.name() {
+                    Some(v) if v.1 == after => Some(v),
+                    _ => return Err(p.error("expected a vehicle name after `@`")),
+                }
+            } else {
+                None
+            };
+            ActionSyntax::Command {
+                verb,
+                args: args(&mut p)?,
+                vehicle,
+            }
+        }
         "ask" => ask(&mut p)?,
         other => {
             return Err(SyntaxError {
@@ -253,7 +271,7 @@ mod tests {
             ("DEC", "next_waypoint")
         );
         assert_eq!(args[0].0, "index");
-        let ActionSyntax::Command { verb, args } = parse("command mode {mode: AUTO}").unwrap()
+        let ActionSyntax::Command { verb, args, .. } = parse("command mode {mode: AUTO}").unwrap()
         else {
             panic!("not a command")
         };
@@ -279,6 +297,29 @@ mod tests {
             panic!("not an emit")
         };
         assert_eq!((event.0.as_str(), args.len()), ("replanned", 0));
+    }
+
+    #[test]
+    fn a_command_names_its_vehicle_after_the_verb() {
+        let ActionSyntax::Command {
+            verb,
+            args,
+            vehicle,
+        } = parse("command goto @R2 {lat: 1}").unwrap()
+        else {
+            panic!("not a command")
+        };
+        assert_eq!(verb.0, "goto");
+        assert_eq!(vehicle, Some(("R2".into(), 14)));
+        assert_eq!(args.len(), 1);
+        let Ok(ActionSyntax::Command { vehicle, .. }) = parse("command rtl @R1") else {
+            panic!("not a command")
+        };
+        assert_eq!(vehicle, Some(("R1".into(), 13)));
+        assert_eq!(
+            parse("command rtl @ R1").map(|_| ()).unwrap_err().message,
+            "expected a vehicle name after `@`"
+        );
     }
 
     #[test]

@@ -14,8 +14,9 @@ use crate::choice;
 use crate::event::Category;
 use crate::expr::{self, Context, Expr};
 use crate::model::{
-    Action, Args, Ask, Choice, EventDecl, Function, Global, Guard, Limits, Net, NetId, Place,
-    PlaceRef, Program, Project, Transition, ASK_TIMEOUT,
+    qualify, split_vehicle, Action, Args, Ask, Choice, EventDecl, Exclusive, Function, Global,
+    Guard, Limits, Net, NetId, Place, PlaceRef, Program, Project, Transition, Vehicle, VehicleId,
+    ASK_TIMEOUT,
 };
 use crate::source::{LoadError, Problem, SourceFile, Sources};
 use crate::time::parse_duration;
@@ -42,9 +43,34 @@ struct RawProject {
     #[serde(default)]
     events: BTreeMap<Spanned<String>, Spanned<toml::Value>>,
     limits: Option<RawLimits>,
+    /// The team: `[[vehicle]]`.
+    #[serde(default, rename = "vehicle")]
+    vehicles: Vec<RawVehicle>,
+    /// Shared resources whose mutual exclusion is declared: `[[exclusive]]`.
+    #[serde(default)]
+    exclusive: Vec<RawExclusive>,
     /// Settings of the gateway (link, recording…): read by the gateway.
     #[allow(dead_code)]
     gateway: Option<toml::Table>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawVehicle {
+    name: Spanned<String>,
+    system: Spanned<i64>,
+    component: Option<Spanned<i64>>,
+    /// Its elaboration profile: interpreted by the gateway.
+    profile: Option<String>,
+    /// Its link: interpreted by the gateway.
+    link: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawExclusive {
+    name: Spanned<String>,
+    places: Spanned<Vec<Spanned<String>>>,
 }
 
 #[derive(Deserialize)]
@@ -94,6 +120,9 @@ struct RawNet {
     finals: Vec<Spanned<String>>,
     #[serde(default, rename = "transition")]
     transitions: Vec<RawTransition>,
+    /// A template: one instance per vehicle named (`["R1", "R2"]`), or per
+    /// vehicle of the team (`"all"`).
+    vehicles: Option<Spanned<toml::Value>>,
 }
 
 #[derive(Deserialize)]
@@ -170,10 +199,23 @@ fn list(names: &[String]) -> String {
     }
 }
 
+/// One net of the project before compiling: a net file, once, or a
+/// template's instance for one vehicle.
+struct Unit {
+    /// Index in the parsed net files.
+    raw: usize,
+    vehicle: Option<VehicleId>,
+    /// The first (or only) unit of its file: the one whose problems are
+    /// reported.
+    first: bool,
+}
+
 /// Context for checking one net.
 struct NetScope<'a> {
     file: &'a SourceFile,
     net_names: &'a HashMap<String, NetId>,
+    /// Each template's instances: (vehicle, net).
+    templates: &'a HashMap<String, Vec<(VehicleId, NetId)>>,
     global_names: &'a HashMap<String, usize>,
     programs: &'a [Program],
     project: &'a Project,
@@ -266,6 +308,8 @@ impl Loader {
             .enumerate()
             .map(|(i, g)| (g.name.clone(), i))
             .collect();
+
+        let vehicles = self.vehicles(&pfile, &raw.vehicles);
 
         // Programs.
         let mut programs = Vec::new();
@@ -402,10 +446,36 @@ impl Loader {
             );
         }
 
+        // A template becomes one instance per vehicle, `NAME@VEHICLE`.
+        let mut units: Vec<Unit> = Vec::new();
+        for (i, (file, net, _)) in raw_nets.iter().enumerate() {
+            match &net.vehicles {
+                None => units.push(Unit {
+                    raw: i,
+                    vehicle: None,
+                    first: true,
+                }),
+                Some(list) => {
+                    for (k, v) in self
+                        .template_vehicles(file, list, &vehicles)
+                        .into_iter()
+                        .enumerate()
+                    {
+                        units.push(Unit {
+                            raw: i,
+                            vehicle: Some(v),
+                            first: k == 0,
+                        });
+                    }
+                }
+            }
+        }
+        let mut templates: HashMap<String, Vec<(VehicleId, NetId)>> = HashMap::new();
         let mut net_names: HashMap<String, NetId> = HashMap::new();
+        let mut first_seen: HashMap<String, usize> = HashMap::new();
         for (i, (file, net, _)) in raw_nets.iter().enumerate() {
             self.name_check(file, &net.name, "net");
-            if let Some(&first) = net_names.get(net.name.get_ref()) {
+            if let Some(&first) = first_seen.get(net.name.get_ref()) {
                 let (ffile, fnet, _) = &raw_nets[first];
                 let (l, c) = ffile.line_col(fnet.name.span().start);
                 self.problem(
@@ -418,7 +488,22 @@ impl Loader {
                     ),
                 );
             } else {
-                net_names.insert(net.name.get_ref().clone(), i);
+                first_seen.insert(net.name.get_ref().clone(), i);
+            }
+        }
+        for (id, unit) in units.iter().enumerate() {
+            let name = raw_nets[unit.raw].1.name.get_ref();
+            if first_seen.get(name) != Some(&unit.raw) {
+                continue;
+            }
+            match unit.vehicle {
+                None => {
+                    net_names.insert(name.clone(), id);
+                }
+                Some(v) => {
+                    net_names.insert(qualify(name, &vehicles[v].name), id);
+                    templates.entry(name.clone()).or_default().push((v, id));
+                }
             }
         }
 
@@ -439,9 +524,21 @@ impl Loader {
             triggers: HashMap::new(),
             place_offsets: Vec::new(),
             place_count: 0,
+            vehicles,
+            exclusive: Vec::new(),
         };
-        for (file, raw_net, active) in &raw_nets {
-            let net = self.net_shell(file, raw_net, *active);
+        for unit in &units {
+            let (file, raw_net, active) = &raw_nets[unit.raw];
+            let before = self.problems.len();
+            let mut net = self.net_shell(file, raw_net, *active);
+            if !unit.first {
+                // Its template's problems are reported once.
+                self.problems.truncate(before);
+            }
+            if let Some(v) = unit.vehicle {
+                net.name = qualify(&net.name, &project.vehicles[v].name);
+                net.vehicle = Some(v);
+            }
             project.nets.push(net);
         }
         let mut offset = project.globals.len();
@@ -452,17 +549,22 @@ impl Loader {
         project.place_count = offset;
 
         let mut transitions = Vec::new();
-        for (i, (file, raw_net, _)) in raw_nets.iter().enumerate() {
+        for (i, unit) in units.iter().enumerate() {
+            let (file, raw_net, _) = &raw_nets[unit.raw];
             let scope = NetScope {
                 file,
                 net_names: &net_names,
+                templates: &templates,
                 global_names: &global_names,
                 programs: &project.programs,
                 project: &project,
                 catalog,
             };
-            let _ = nets_complete;
+            let before = self.problems.len();
             transitions.push(self.transitions(&scope, i, raw_net));
+            if !unit.first {
+                self.problems.truncate(before);
+            }
         }
         for (i, ts) in transitions.into_iter().enumerate() {
             project.nets[i].immediate = ts
@@ -480,7 +582,13 @@ impl Loader {
                 }
             }
         }
-        self.choices(&project, &raw_nets);
+        let firsts: Vec<bool> = units.iter().map(|u| u.first).collect();
+        let sources: Vec<(&SourceFile, &RawNet)> = units
+            .iter()
+            .map(|u| (&raw_nets[u.raw].0, &raw_nets[u.raw].1))
+            .collect();
+        self.choices(&project, &sources, &firsts);
+        project.exclusive = self.exclusive(&pfile, &raw.exclusive, &project, &templates);
         for waiting in project.triggers.values_mut() {
             choice::order(&project.nets, waiting);
         }
@@ -491,6 +599,256 @@ impl Loader {
                 .retain(|p| !p.message.starts_with("unknown net "));
         }
         Some(project)
+    }
+
+    /// The team declared by `[[vehicle]]`: names and MAVLink ids unique.
+    fn vehicles(&mut self, file: &SourceFile, raw: &[RawVehicle]) -> Vec<Vehicle> {
+        let mut out: Vec<Vehicle> = Vec::new();
+        let mut spans: Vec<Range<usize>> = Vec::new();
+        for v in raw {
+            self.name_check(file, &v.name, "vehicle");
+            let id =
+                |this: &mut Self, n: &Spanned<i64>, what: &str| match u8::try_from(*n.get_ref()) {
+                    Ok(x) if x > 0 => x,
+                    _ => {
+                        this.problem(
+                            file,
+                            n.span(),
+                            format!(
+                                "vehicle `{}`: MAVLink {what} id {} is out of range (1 to 255)",
+                                v.name.get_ref(),
+                                n.get_ref()
+                            ),
+                        );
+                        0
+                    }
+                };
+            let system = id(self, &v.system, "system");
+            let component = match &v.component {
+                Some(c) => id(self, c, "component"),
+                None => 1,
+            };
+            if let Some(k) = out.iter().position(|w| w.name == *v.name.get_ref()) {
+                let (l, c) = file.line_col(spans[k].start);
+                self.problem(
+                    file,
+                    v.name.span(),
+                    format!(
+                        "duplicate vehicle `{}` (first declared at {}:{l}:{c})",
+                        v.name.get_ref(),
+                        file.name
+                    ),
+                );
+            } else if let Some(w) = out
+                .iter()
+                .find(|w| system != 0 && w.system == system && w.component == component)
+            {
+                self.problem(file, v.system.span(), format!("vehicle `{}` has the MAVLink system id {system} (component {component}) of vehicle `{}`: each vehicle needs its own", v.name.get_ref(), w.name));
+            }
+            spans.push(v.name.span());
+            out.push(Vehicle {
+                name: v.name.get_ref().clone(),
+                system,
+                component,
+                profile: v.profile.clone(),
+                link: v.link.clone(),
+            });
+        }
+        out
+    }
+
+    /// The vehicles a template is instantiated for, in team order.
+    fn template_vehicles(
+        &mut self,
+        file: &SourceFile,
+        list: &Spanned<toml::Value>,
+        vehicles: &[Vehicle],
+    ) -> Vec<VehicleId> {
+        let span = list.span();
+        if vehicles.is_empty() {
+            self.problem(file, span, "`vehicles`: the project declares no vehicle (add [[vehicle]] tables with name and system to project.toml)");
+            return Vec::new();
+        }
+        let names: Vec<&str> = vehicles.iter().map(|v| v.name.as_str()).collect();
+        match list.get_ref() {
+            toml::Value::String(all) if all == "all" => (0..vehicles.len()).collect(),
+            toml::Value::Array(items) => {
+                let mut out: Vec<VehicleId> = Vec::new();
+                for item in items {
+                    let Some(name) = item.as_str() else {
+                        self.problem(
+                            file,
+                            span.clone(),
+                            "`vehicles`: expected vehicle names (strings)",
+                        );
+                        continue;
+                    };
+                    match names.iter().position(|n| *n == name) {
+                        Some(v) if out.contains(&v) => self.problem(
+                            file,
+                            span.clone(),
+                            format!("`vehicles` lists `{name}` twice"),
+                        ),
+                        Some(v) => out.push(v),
+                        None => self.problem(
+                            file,
+                            span.clone(),
+                            format!(
+                                "unknown vehicle `{name}` in `vehicles` (the team: {})",
+                                names.join(", ")
+                            ),
+                        ),
+                    }
+                }
+                if items.is_empty() {
+                    self.problem(
+                        file,
+                        span,
+                        "`vehicles` is empty: name at least one vehicle, or write \"all\"",
+                    );
+                }
+                out.sort_unstable();
+                out
+            }
+            _ => {
+                self.problem(
+                    file,
+                    span,
+                    "`vehicles`: expected a list of vehicle names or \"all\"",
+                );
+                Vec::new()
+            }
+        }
+    }
+
+    /// The shared resources of `[[exclusive]]`: places `TEMPLATE.place`
+    /// of instances.
+    fn exclusive(
+        &mut self,
+        file: &SourceFile,
+        raw: &[RawExclusive],
+        project: &Project,
+        templates: &HashMap<String, Vec<(VehicleId, NetId)>>,
+    ) -> Vec<Exclusive> {
+        let mut out: Vec<Exclusive> = Vec::new();
+        for r in raw {
+            self.name_check(file, &r.name, "resource");
+            if out.iter().any(|e| e.name == *r.name.get_ref()) {
+                self.problem(
+                    file,
+                    r.name.span(),
+                    format!("duplicate resource `{}`", r.name.get_ref()),
+                );
+            }
+            if r.places.get_ref().is_empty() {
+                self.problem(
+                    file,
+                    r.places.span(),
+                    format!("resource `{}` has no places", r.name.get_ref()),
+                );
+            }
+            let mut held: Vec<(VehicleId, Vec<usize>)> = Vec::new();
+            for place in r.places.get_ref() {
+                let Some((template, name)) = place.get_ref().split_once('.') else {
+                    self.problem(file, place.span(), format!("resource place `{}`: write TEMPLATE.place, a place of a net instantiated per vehicle", place.get_ref()));
+                    continue;
+                };
+                let Some(instances) = templates.get(template) else {
+                    let hint = if project.net(template).is_some() {
+                        " (it has no `vehicles`: a team net's places are no vehicle's)"
+                    } else {
+                        ""
+                    };
+                    self.problem(file, place.span(), format!("resource place `{}`: `{template}` is not a net instantiated per vehicle{hint}", place.get_ref()));
+                    continue;
+                };
+                for &(v, n) in instances {
+                    let Some(p) = project.nets[n].places.iter().position(|q| q.name == name) else {
+                        self.problem(
+                            file,
+                            place.span(),
+                            format!(
+                                "resource place `{}`: net `{template}` has no place `{name}`",
+                                place.get_ref()
+                            ),
+                        );
+                        break;
+                    };
+                    let flat = project.flat(n, PlaceRef::Local(p));
+                    match held.iter_mut().find(|(w, _)| *w == v) {
+                        Some((_, places)) if !places.contains(&flat) => places.push(flat),
+                        Some(_) => {}
+                        None => held.push((v, vec![flat])),
+                    }
+                }
+            }
+            held.sort();
+            out.push(Exclusive {
+                name: r.name.get_ref().clone(),
+                places: r
+                    .places
+                    .get_ref()
+                    .iter()
+                    .map(|p| p.get_ref().clone())
+                    .collect(),
+                held,
+            });
+        }
+        out
+    }
+
+    /// The event a transition of net `net` waits for, as the player
+    /// delivers it: in a template's instance, a vehicle event is that
+    /// vehicle's (`E@VEHICLE`); the net's own timers, its questions'
+    /// answers and the results of its calls and commands stay as written.
+    /// In a team net, `E@VEHICLE` must name a vehicle of the team.
+    fn vehicle_event(
+        &mut self,
+        scope: &NetScope,
+        net: NetId,
+        text: &str,
+        span: Range<usize>,
+        what: &str,
+    ) -> Option<String> {
+        let (base, vehicle) = split_vehicle(text);
+        if !is_event_name(base) || vehicle.is_some_and(|v| !is_name(v)) {
+            self.problem(scope.file, span, format!("invalid event name `{text}`"));
+            return None;
+        }
+        let project = scope.project;
+        match (project.nets[net].vehicle, vehicle) {
+            (Some(_), Some(_)) => {
+                self.problem(scope.file, span, format!("`{text}` in a net instantiated per vehicle: an instance's events are its own vehicle's, write `{base}` (only a team net, without `vehicles`, names a vehicle)"));
+                None
+            }
+            (Some(v), None) => {
+                let own = crate::outside::own_timer(project, net, text)
+                    || project.nets[net].asks.iter().any(|a| {
+                        text.split_once('.').is_some_and(|(q, c)| {
+                            a.name == q && (c == ASK_TIMEOUT || a.choices.iter().any(|x| x == c))
+                        })
+                    })
+                    || crate::outside::player_own(project, text).is_some();
+                Some(if own && what == "on" {
+                    text.to_owned()
+                } else {
+                    qualify(text, &project.vehicles[v].name)
+                })
+            }
+            (None, Some(v)) if project.vehicle(v).is_none() => {
+                let team: Vec<String> = project.vehicles.iter().map(|v| v.name.clone()).collect();
+                self.problem(
+                    scope.file,
+                    span,
+                    format!(
+                        "`{text}`: `@{v}` names no vehicle (the team: {})",
+                        list(&team)
+                    ),
+                );
+                None
+            }
+            _ => Some(text.to_owned()),
+        }
     }
 
     /// A transition's `else` or `priority`: only for one waiting for an
@@ -513,9 +871,12 @@ impl Loader {
     }
 
     /// Declarations of `else` and `priority` that decide nothing.
-    fn choices(&mut self, project: &Project, raw_nets: &[(SourceFile, RawNet, bool)]) {
+    fn choices(&mut self, project: &Project, nets: &[(&SourceFile, &RawNet)], firsts: &[bool]) {
         for (n, t, message) in choice::problems(project) {
-            let (file, raw, _) = &raw_nets[n];
+            if !firsts[n] {
+                continue;
+            }
+            let (file, raw) = nets[n];
             let raw = &raw.transitions[t];
             let span = match (&raw.otherwise, &raw.priority) {
                 (Some(e), _) if *e.get_ref() => e.span(),
@@ -600,6 +961,7 @@ impl Loader {
             file: file.name.clone(),
             places,
             transitions: Vec::new(),
+            vehicle: None,
             active_at_start: active,
             timers,
             asks,
@@ -640,19 +1002,11 @@ impl Loader {
                 );
             }
             let event = match &t.on {
-                Some(on) if !is_event_name(on.get_ref()) => {
-                    self.problem(
-                        file,
-                        on.span(),
-                        format!("invalid event name `{}`", on.get_ref()),
-                    );
-                    None
-                }
-                Some(on) => Some(on.get_ref().clone()),
+                Some(on) => self.vehicle_event(scope, net, on.get_ref(), on.span(), "on"),
                 None => None,
             };
             let known_params: Option<Vec<String>> = event.as_deref().and_then(|e| {
-                if scope.project.nets[net].timers.iter().any(|t| t == e)
+                if crate::outside::own_timer(scope.project, net, e)
                     && !scope.project.events.contains_key(e)
                 {
                     Some(Vec::new())
@@ -843,8 +1197,24 @@ impl Loader {
         };
         Some(match syntax {
             ActionSyntax::Activate(n) | ActionSyntax::Deactivate(n) => {
-                let Some(&id) = scope.net_names.get(&n.0) else {
-                    self.problem(file, name_span(&n), format!("unknown net `{}`", n.0));
+                // In an instance, a template's name is its own vehicle's
+                // instance; a team net names the instance (`MOVE@R1`).
+                let own = scope.project.nets[net].vehicle.and_then(|v| {
+                    scope
+                        .templates
+                        .get(&n.0)
+                        .and_then(|i| i.iter().find(|(w, _)| *w == v).map(|(_, id)| *id))
+                });
+                let Some(id) = own.or_else(|| scope.net_names.get(&n.0).copied()) else {
+                    let hint = if scope.templates.contains_key(&n.0) {
+                        format!(
+                            ": `{}` is instantiated per vehicle, name the instance (`{}@VEHICLE`)",
+                            n.0, n.0
+                        )
+                    } else {
+                        String::new()
+                    };
+                    self.problem(file, name_span(&n), format!("unknown net `{}`{hint}", n.0));
                     return None;
                 };
                 if text.get_ref().trim_start().starts_with("activate") {
@@ -854,18 +1224,12 @@ impl Loader {
                 }
             }
             ActionSyntax::Emit { event, args } => {
-                if !is_event_name(&event.0) {
-                    self.problem(
-                        file,
-                        name_span(&event),
-                        format!("invalid event name `{}`", event.0),
-                    );
-                    return None;
-                }
+                let emitted =
+                    self.vehicle_event(scope, net, &event.0, name_span(&event), "emit")?;
                 if let Some(params) = scope
                     .project
                     .events
-                    .get(&event.0)
+                    .get(split_vehicle(&event.0).0)
                     .and_then(|d| d.params.as_ref())
                 {
                     for (k, _) in &args {
@@ -884,7 +1248,7 @@ impl Loader {
                 }
                 check_args(self, &args);
                 Action::Emit {
-                    event: event.0,
+                    event: emitted,
                     args,
                 }
             }
@@ -988,7 +1352,44 @@ impl Loader {
                     args,
                 }
             }
-            ActionSyntax::Command { verb, args } => {
+            ActionSyntax::Command {
+                verb,
+                args,
+                vehicle,
+            } => {
+                let team: Vec<String> = scope
+                    .project
+                    .vehicles
+                    .iter()
+                    .map(|v| v.name.clone())
+                    .collect();
+                let vehicle = match (scope.project.nets[net].vehicle, vehicle) {
+                    (Some(_), Some(named)) => {
+                        self.problem(file, name_span(&named), format!("`@{}`: an instance commands its own vehicle only (a team net, without `vehicles`, commands a named one)", named.0));
+                        return None;
+                    }
+                    (Some(own), None) => Some(own),
+                    (None, Some(named)) => match scope.project.vehicle(&named.0) {
+                        Some(v) => Some(v),
+                        None => {
+                            self.problem(
+                                file,
+                                name_span(&named),
+                                format!(
+                                    "`@{}` names no vehicle (the team: {})",
+                                    named.0,
+                                    list(&team)
+                                ),
+                            );
+                            return None;
+                        }
+                    },
+                    (None, None) if !team.is_empty() => {
+                        self.problem(file, name_span(&verb), format!("command `{}` in a team net: name the vehicle (`command {} @{} ...`)", verb.0, verb.0, team[0]));
+                        return None;
+                    }
+                    (None, None) => None,
+                };
                 let Some(v) = verbs::verb(&verb.0) else {
                     let names: Vec<String> =
                         verbs::VERBS.iter().map(|v| v.name.to_owned()).collect();
@@ -1033,7 +1434,11 @@ impl Loader {
                     }
                 }
                 check_args(self, &args);
-                Action::Command { verb: verb.0, args }
+                Action::Command {
+                    verb: verb.0,
+                    args,
+                    vehicle,
+                }
             }
             ActionSyntax::Ask {
                 name,

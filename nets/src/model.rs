@@ -12,6 +12,27 @@ use crate::time::Micros;
 pub type NetId = usize;
 /// Index of a transition within its net (file order).
 pub type TransitionId = usize;
+/// Index of a vehicle in [`Project::vehicles`] (project.toml order).
+pub type VehicleId = usize;
+
+/// The separator of a vehicle qualification: `engine_failure@R2`,
+/// `MOVE@R1`.
+pub const VEHICLE_MARK: char = '@';
+
+/// Splits a vehicle-qualified name (`engine_failure@R2`) into its base and
+/// vehicle; an unqualified name has no vehicle. Global places are written
+/// with a leading `@` (`@bottleneck`): that is not a qualification.
+pub fn split_vehicle(name: &str) -> (&str, Option<&str>) {
+    match name.rsplit_once(VEHICLE_MARK) {
+        Some((base, vehicle)) if !base.is_empty() => (base, Some(vehicle)),
+        _ => (name, None),
+    }
+}
+
+/// `NAME@VEHICLE`.
+pub fn qualify(name: &str, vehicle: &str) -> String {
+    format!("{name}{VEHICLE_MARK}{vehicle}")
+}
 
 /// A place an arc touches: one of the net's own, or a global place.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -40,6 +61,50 @@ pub struct Project {
     /// Flat place numbering: globals first, then each net's places.
     pub place_offsets: Vec<usize>,
     pub place_count: usize,
+    /// The team (`[[vehicle]]` in project.toml); empty for a project that
+    /// supervises one implicit vehicle.
+    pub vehicles: Vec<Vehicle>,
+    /// The shared resources whose mutual exclusion is declared
+    /// (`[[exclusive]]`).
+    pub exclusive: Vec<Exclusive>,
+}
+
+/// One vehicle of the team.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Vehicle {
+    pub name: String,
+    /// Its MAVLink system id.
+    pub system: u8,
+    /// Its MAVLink component id (1, the autopilot, unless declared).
+    pub component: u8,
+    /// Its elaboration profile, as written: the gateway interprets it.
+    pub profile: Option<String>,
+    /// Its link, as written: the gateway interprets it.
+    pub link: Option<String>,
+}
+
+/// A shared resource: places of vehicle instances that must never hold
+/// tokens of two different vehicles at once.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Exclusive {
+    pub name: String,
+    /// The places as declared (`TEMPLATE.place`).
+    pub places: Vec<String>,
+    /// For each vehicle holding some: the flat indices of its instances'
+    /// places in the resource.
+    pub held: Vec<(VehicleId, Vec<usize>)>,
+}
+
+impl Exclusive {
+    /// The vehicles holding the resource in a marking (`marked(flat)`), in
+    /// vehicle order: more than one is a violation.
+    pub fn holders(&self, marked: impl Fn(usize) -> bool) -> Vec<VehicleId> {
+        self.held
+            .iter()
+            .filter(|(_, places)| places.iter().any(|&p| marked(p)))
+            .map(|(v, _)| *v)
+            .collect()
+    }
 }
 
 /// A global place, declared in project.toml and shared by every net.
@@ -52,7 +117,12 @@ pub struct Global {
 /// One net.
 #[derive(Debug, Clone)]
 pub struct Net {
+    /// Its name: the file's `name`, and for an instance of a template
+    /// `NAME@VEHICLE`.
     pub name: String,
+    /// For an instance of a template: its vehicle. `None` for a team net
+    /// (or in a project without vehicles).
+    pub vehicle: Option<VehicleId>,
     /// The file it came from, relative to the project folder.
     pub file: String,
     pub places: Vec<Place>,
@@ -189,6 +259,9 @@ pub enum Action {
     Command {
         verb: String,
         args: Args,
+        /// The vehicle commanded: an instance's own, or the one a team net
+        /// names (`command rtl @R2`); `None` in a project without vehicles.
+        vehicle: Option<VehicleId>,
     },
     /// Ask the operator question `ask` of the net (index into
     /// [`Net::asks`]), with `question` shown, answered within `after`.
@@ -280,15 +353,36 @@ impl Project {
         }
     }
 
-    /// The category the project gives an event, if it declares one.
+    /// The category the project gives an event, if it declares one. A
+    /// vehicle's event (`engine_failure@R2`) has its base event's.
     pub fn declared_category(&self, event: &str) -> Option<Category> {
-        self.events.get(event).and_then(|d| d.category)
+        self.events
+            .get(event)
+            .or_else(|| self.events.get(self.vehicle_event(event)?.0))
+            .and_then(|d| d.category)
+    }
+
+    /// The vehicle named so.
+    pub fn vehicle(&self, name: &str) -> Option<VehicleId> {
+        self.vehicles.iter().position(|v| v.name == name)
+    }
+
+    /// A vehicle's event `BASE@VEHICLE` of a vehicle of the team: its base
+    /// and vehicle.
+    pub fn vehicle_event<'a>(&self, event: &'a str) -> Option<(&'a str, VehicleId)> {
+        match split_vehicle(event) {
+            (base, Some(v)) => Some((base, self.vehicle(v)?)),
+            _ => None,
+        }
     }
 
     /// The parameters an event is known to carry, if known.
     pub fn event_params(&self, event: &str) -> Option<Vec<String>> {
         if let Some(params) = self.events.get(event).and_then(|d| d.params.clone()) {
             return Some(params);
+        }
+        if let Some((base, _)) = self.vehicle_event(event) {
+            return self.event_params(base);
         }
         match event {
             names::COMMAND_OK => return Some(vec!["verb".into()]),
@@ -317,5 +411,22 @@ impl Project {
             names::FAILED => Some(vec!["reason".into()]),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_qualification_is_the_last_at_after_a_name() {
+        assert_eq!(
+            split_vehicle("engine_failure@R2"),
+            ("engine_failure", Some("R2"))
+        );
+        assert_eq!(split_vehicle("DEC.replan.done"), ("DEC.replan.done", None));
+        // A global place is written `@name`: not a qualification.
+        assert_eq!(split_vehicle("@bottleneck"), ("@bottleneck", None));
+        assert_eq!(qualify("MOVE", "R1"), "MOVE@R1");
     }
 }

@@ -69,8 +69,17 @@ pub fn player_own(project: &Project, name: &str) -> Option<Refusal> {
 /// own events, and the events only the nets emit.
 pub fn refusal(project: &Project, name: &str) -> Option<Refusal> {
     player_own(project, name).or_else(|| {
-        (!project.events.contains_key(name) && emitted(project, name)).then_some(Refusal::Emitted)
+        (!declared(project, name) && emitted(project, name)).then_some(Refusal::Emitted)
     })
+}
+
+/// Whether the project declares `name`, or the base of a vehicle's event
+/// (`at_gate` of `at_gate@R1`).
+pub fn declared(project: &Project, name: &str) -> bool {
+    project.events.contains_key(name)
+        || project
+            .vehicle_event(name)
+            .is_some_and(|(base, _)| project.events.contains_key(base))
 }
 
 /// Whether transition-trigger `name` in net `net` is one of that net's own

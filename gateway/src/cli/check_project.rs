@@ -111,7 +111,7 @@ fn write_out(text: &str) -> Result<(), miette::Report> {
 
 /// One report as the JSON object the issue defines.
 pub fn report_json(r: &Report, seconds: f64) -> Value {
-    json!({
+    let mut out = json!({
         "states": r.states,
         "edges": r.edges,
         "dead_markings": r.dead_markings,
@@ -125,7 +125,19 @@ pub fn report_json(r: &Report, seconds: f64) -> Value {
         "warnings": r.warnings,
         "complete": r.complete,
         "seconds": seconds,
-    })
+    });
+    // Teams only (docs/nets.md, "Teams of vehicles"): a shared resource two
+    // vehicles hold at once.
+    if !r.exclusion.is_empty() {
+        out["exclusion"] = json!(r
+            .exclusion
+            .iter()
+            .map(
+                |x| json!({ "resource": x.resource, "vehicles": x.vehicles, "example": x.example })
+            )
+            .collect::<Vec<_>>());
+    }
+    out
 }
 
 fn verdict(ok: bool) -> &'static str {
@@ -180,6 +192,14 @@ fn section(out: &mut String, title: &str, r: &Report, loops: bool) {
     ));
     for l in &r.livelocks {
         sequence(out, l);
+    }
+    for x in &r.exclusion {
+        out.push_str(&format!(
+            "  mutual exclusion FAILED: `{}` held by {} at once, reached by:\n",
+            x.resource,
+            x.vehicles.join(" and ")
+        ));
+        sequence(out, &x.example);
     }
     if loops && !r.loops.is_empty() {
         out.push_str(&format!("  loops (information): {}\n", r.loops.len()));

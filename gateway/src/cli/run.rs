@@ -189,6 +189,14 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         return Ok(Err(Outcome::BadInput));
     };
     let (project, files) = crate::project::load_read(&args.project, &profile.catalog())?;
+    if !project.vehicles.is_empty() {
+        // A team's commands name their vehicle: sent down one link to one
+        // autopilot they would all reach the wrong vehicle.
+        return Err(miette::miette!(
+            "{}: the project declares a team ([[vehicle]]): `petrel run` supervises one vehicle and does not run a team yet (docs/nets.md, \"Teams of vehicles\"); `petrel check` verifies it",
+            args.project.display()
+        ));
+    }
     if !args.unchecked {
         let inputs = crate::preflight::Inputs {
             files: &files,

@@ -4,7 +4,7 @@
 use smallvec::SmallVec;
 
 use crate::event::Event;
-use crate::model::{NetId, TransitionId};
+use crate::model::{NetId, TransitionId, VehicleId};
 use crate::time::Micros;
 use crate::value::Params;
 
@@ -77,6 +77,9 @@ pub enum Effect {
         program: usize,
         function: usize,
         args: Params,
+        /// The vehicle the call is for: the calling instance's (`None` for
+        /// a team net or a project without vehicles).
+        vehicle: Option<VehicleId>,
     },
     /// Command the vehicle. Its result comes back through
     /// [`crate::Player::result`] with the same id.
@@ -86,6 +89,10 @@ pub enum Effect {
         net: NetId,
         verb: String,
         args: Params,
+        /// The vehicle commanded: the commanding instance's, or the one a
+        /// team net names (`command rtl @R2`); `None` in a project without
+        /// vehicles (its one implicit vehicle).
+        vehicle: Option<VehicleId>,
     },
     /// Ask the operator a question. The answer comes back through
     /// [`crate::Player::answer`] with the same id before `deadline`, or the

@@ -984,6 +984,7 @@ impl Player {
                             program: *program,
                             function: *function,
                             args: eval(args),
+                            vehicle: project.nets[n].vehicle,
                         });
                     }
                 }
@@ -992,7 +993,11 @@ impl Player {
                     question,
                     after,
                 } => self.ask(project, n, *ask, question, *after, now, tainted),
-                Action::Command { verb, args } => {
+                Action::Command {
+                    verb,
+                    args,
+                    vehicle,
+                } => {
                     let id = self.take_id();
                     self.state.pending.insert(
                         id,
@@ -1009,6 +1014,7 @@ impl Player {
                             net: n,
                             verb: verb.clone(),
                             args: eval(args),
+                            vehicle: *vehicle,
                         });
                     }
                 }

@@ -6,7 +6,7 @@ use serde_json::{json, Map, Value as Json};
 
 use super::effect::{Effect, Fault};
 use super::flat_place_name;
-use crate::model::{NetId, Project};
+use crate::model::{NetId, Project, VehicleId};
 use crate::time::seconds;
 use crate::value::{fmt_params, Params};
 
@@ -114,30 +114,32 @@ pub fn effect_json(project: &Project, effect: &Effect) -> Json {
             program,
             function,
             args,
+            vehicle,
             ..
         } => {
             let p = &project.programs[*program];
-            (
-                "call",
-                json!({
-                    "id": id,
-                    "net": net_name(project, *net),
-                    "program": p.name,
-                    "function": p.functions[*function].name,
-                    "args": params_json(args),
-                }),
-            )
+            let mut body = json!({
+                "id": id,
+                "net": net_name(project, *net),
+                "program": p.name,
+                "function": p.functions[*function].name,
+                "args": params_json(args),
+            });
+            with_vehicle(&mut body, project, *vehicle);
+            ("call", body)
         }
         Effect::Command {
             id,
             net,
             verb,
             args,
+            vehicle,
             ..
-        } => (
-            "command",
-            json!({ "id": id, "net": net_name(project, *net), "verb": verb, "args": params_json(args) }),
-        ),
+        } => {
+            let mut body = json!({ "id": id, "net": net_name(project, *net), "verb": verb, "args": params_json(args) });
+            with_vehicle(&mut body, project, *vehicle);
+            ("command", body)
+        }
         Effect::Forgotten { id, net, .. } => (
             "forgotten",
             json!({ "id": id, "net": net_name(project, *net) }),
@@ -336,14 +338,16 @@ pub fn effect_text(project: &Project, effect: &Effect) -> String {
             program,
             function,
             args,
+            vehicle,
             ..
         } => {
             let p = &project.programs[*program];
             format!(
-                "call   #{id} {}.{}{} by {}",
+                "call   #{id} {}.{}{}{} by {}",
                 p.name,
                 p.functions[*function].name,
                 P(args),
+                for_vehicle(project, *vehicle),
                 net_name(project, *net)
             )
         }
@@ -352,11 +356,13 @@ pub fn effect_text(project: &Project, effect: &Effect) -> String {
             net,
             verb,
             args,
+            vehicle,
             ..
         } => {
             format!(
-                "cmd    #{id} {verb}{} by {}",
+                "cmd    #{id} {verb}{}{} by {}",
                 P(args),
+                for_vehicle(project, *vehicle),
                 net_name(project, *net)
             )
         }
@@ -452,5 +458,31 @@ fn fault_text(project: &Project, fault: &Fault) -> String {
         Fault::Overflow { steps } => {
             format!("overflow: {steps} events in one run to completion; the rest were dropped")
         }
+    }
+}
+
+/// Adds `"vehicle": NAME` to an effect's JSON body when it has a vehicle
+/// (a single-vehicle project's output is unchanged).
+fn with_vehicle(body: &mut Json, project: &Project, vehicle: Option<VehicleId>) {
+    if let (Some(v), Some(map)) = (vehicle, body.as_object_mut()) {
+        let name = project
+            .vehicles
+            .get(v)
+            .map_or_else(|| v.to_string(), |v| v.name.clone());
+        map.insert("vehicle".into(), Json::String(name));
+    }
+}
+
+/// ` @VEHICLE` in the text rendering, or nothing.
+fn for_vehicle(project: &Project, vehicle: Option<VehicleId>) -> String {
+    match vehicle {
+        Some(v) => format!(
+            " @{}",
+            project
+                .vehicles
+                .get(v)
+                .map_or_else(|| v.to_string(), |v| v.name.clone())
+        ),
+        None => String::new(),
     }
 }

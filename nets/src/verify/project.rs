@@ -123,12 +123,29 @@ pub struct Report {
     pub warnings: Vec<String>,
     /// False when the state limit stopped the exploration.
     pub complete: bool,
+    /// Declared shared resources (`[[exclusive]]`) held by two vehicles
+    /// at once in a reachable state (the whole project's report only).
+    pub exclusion: Vec<Exclusion>,
+}
+
+/// A shared resource held by several vehicles at once, and a shortest
+/// sequence of steps there (each names its vehicle: `at_gate@R1`, a timer
+/// of `MOVE@R2`…).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Exclusion {
+    pub resource: String,
+    pub vehicles: Vec<String>,
+    pub example: Vec<String>,
 }
 
 impl Report {
     /// Whether every property holds (warnings and loops aside).
     pub fn holds(&self) -> bool {
-        self.safe && self.dead_markings == 0 && self.livelocks.is_empty() && self.complete
+        self.safe
+            && self.dead_markings == 0
+            && self.livelocks.is_empty()
+            && self.complete
+            && self.exclusion.is_empty()
     }
 }
 
@@ -1329,7 +1346,31 @@ impl Explored {
             p.push(labels[l as usize].text.clone());
             p
         };
+        // Each declared resource: the first state (breadth-first, so the
+        // shortest example) where two vehicles hold it.
+        let exclusion = if net.is_none() {
+            project
+                .exclusive
+                .iter()
+                .filter_map(|r| {
+                    (0..n as u32).find_map(|s| {
+                        let holders = r.holders(|p| codec.marked(key(s), p));
+                        (holders.len() > 1).then(|| Exclusion {
+                            resource: r.name.clone(),
+                            vehicles: holders
+                                .iter()
+                                .map(|&v| project.vehicles[v].name.clone())
+                                .collect(),
+                            example: path(s),
+                        })
+                    })
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         Report {
+            exclusion,
             states,
             edges,
             dead_markings,
@@ -1441,7 +1482,7 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
     for (ni, net) in project.nets.iter().enumerate() {
         for t in &net.transitions {
             let Some(e) = &t.event else { continue };
-            let produced = project.events.contains_key(e)
+            let produced = crate::outside::declared(project, e)
                 || emitted.contains(e)
                 || net.timers.contains(e)
                 || e == names::NET_FAULT
