@@ -262,6 +262,9 @@ async fn mirror(setup: Setup) -> VerbResult {
     let mut sent = 0u64;
     let mut ground_events = 0u64;
     let mut elaborated = Vec::new();
+    // The gap open: its first missing record and when it was seen (vehicle
+    // time), for the detection time once that record comes.
+    let mut gap_seen: Option<(u64, Micros)> = None;
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
         .map_err(|e| miette::miette!("cannot watch for signals: {e}"))?;
     // Ticks on their own schedule: a sleep made anew at each turn of the
@@ -388,6 +391,25 @@ async fn mirror(setup: Setup) -> VerbResult {
             {
                 check.unknown_before(t);
             }
+            match &report {
+                Report::Gap { from, .. } => {
+                    gap_seen = replica.vehicle_time(now).map(|t| (*from, t));
+                }
+                // The first missing record sent again: the radio lost it
+                // when it was sent, at its step's time.
+                Report::Step { number, time, .. }
+                    if gap_seen.is_some_and(|(n, _)| n == *number) =>
+                {
+                    if let (Some((_, seen)), true) = (gap_seen.take(), out.json) {
+                        let _ = writeln!(
+                            out.out,
+                            "{}",
+                            json!({"mirror": "gap_detected", "record": number, "ground_t": now as f64 / 1e6, "sent_t": *time as f64 / 1e6, "detected_after_s": seen.saturating_sub(*time) as f64 / 1e6})
+                        );
+                    }
+                }
+                _ => {}
+            }
             if let Report::Step { inputs, .. } = &report {
                 for input in inputs {
                     if let Input::Elaborated { time, event } = input {
@@ -483,6 +505,12 @@ async fn mirror(setup: Setup) -> VerbResult {
                 }
             }
         }
+        // A ground event the vehicle has not reported: a heartbeat asked
+        // for at the end of its window proves the vehicle's records
+        // complete through it, so the check judges it then.
+        while let Some(at) = check.poll_heartbeat_wanted(replica.vehicle_time(now)) {
+            replica.ask_heartbeat(at);
+        }
         // Requests wait in the replica until there is someone to ask: the
         // onboard gateway, else the vehicle's companion.
         if let Some(to) = onboard.or(vehicle.map(|v| (v, 191))) {
@@ -505,8 +533,10 @@ async fn mirror(setup: Setup) -> VerbResult {
         t.abort();
     }
     say!(
-        "independent check: {} events matched, {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames), {} link events not compared",
+        "independent check: {} events matched (the vehicle at most {:.2} s after the ground, the ground at most {:.2} s after the vehicle), {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames), {} link events not compared",
         check.counts.matched,
+        check.counts.vehicle_late_max as f64 / 1e6,
+        check.counts.ground_late_max as f64 / 1e6,
         check.counts.ground_only,
         check.counts.vehicle_only,
         check.counts.unjudged,
@@ -514,7 +544,7 @@ async fn mirror(setup: Setup) -> VerbResult {
     );
     let c = &replica.counts;
     say!(
-        "mirror stopped after {:.1} s: {} downlink packets ({} refused), {} records, {} checks agreed, {} gaps, {} resends and {} snapshots asked, {} snapshots restored, {} divergences; {} requests sent; {} ground events",
+        "mirror stopped after {:.1} s: {} downlink packets ({} refused), {} records, {} checks agreed, {} gaps, {} resends, {} snapshots and {} heartbeats asked, {} snapshots restored, {} divergences; {} requests sent; {} ground events",
         origin.elapsed().as_secs_f64(),
         c.packets,
         c.refused,
@@ -523,6 +553,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         c.gaps,
         c.resends_asked,
         c.snapshots_asked,
+        c.heartbeats_asked,
         c.snapshots_restored,
         c.diverged,
         sent,

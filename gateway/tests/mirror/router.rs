@@ -40,6 +40,8 @@ pub struct Traffic {
     pub to_ground_bytes: (u64, u64),
     /// Frames the radio lost, both ways.
     pub lost: u64,
+    /// Frames delivered to the companion's port.
+    pub to_companion: u64,
     /// (wall seconds since start, bytes, Petrel's TUNNEL) of every frame
     /// delivered to the ground.
     pub delivered: Vec<(f64, usize, bool)>,
@@ -232,6 +234,7 @@ impl Router {
                 };
                 for bytes in vehicle.read() {
                     idle = false;
+                    shared.lock().expect("traffic").to_companion += 1;
                     companion.write(&bytes);
                     downlink(&mut ground, &bytes, false);
                 }
@@ -271,6 +274,7 @@ impl Router {
                     match tunnel_target(&f) {
                         Some((VEHICLE, c)) if c != 1 => {
                             if companion.heard.contains(&(VEHICLE, c)) {
+                                shared.lock().expect("traffic").to_companion += 1;
                                 companion.write(&bytes);
                             }
                         }
