@@ -43,6 +43,8 @@ struct Mirrored {
     state: SimState,
     /// The mirror's own recording.
     recording: std::path::PathBuf,
+    /// When (simulated s) the router forgot its routes.
+    forgot_at: Option<f64>,
 }
 
 impl Mirrored {
@@ -61,6 +63,18 @@ fn fly_mirrored(name: &str, faults: &[&str], loss: Loss) -> Mirrored {
 
 /// A flight whose `petrel run` gets `run_args` besides the usual ones.
 fn fly_mirrored_with(name: &str, faults: &[&str], loss: Loss, run_args: &[&str]) -> Mirrored {
+    fly_mirrored_full(name, faults, loss, run_args, None)
+}
+
+/// A flight in which the router forgets its routes (an autopilot's
+/// reboot) once `forget_at` wall seconds have passed.
+fn fly_mirrored_full(
+    name: &str,
+    faults: &[&str],
+    loss: Loss,
+    run_args: &[&str],
+    forget_at: Option<f64>,
+) -> Mirrored {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = scratch(&format!("mirror-{name}"));
     let sim = start_sim(faults);
@@ -101,10 +115,15 @@ fn fly_mirrored_with(name: &str, faults: &[&str], loss: Loss, run_args: &[&str])
     let dec = Dec::start(&programs);
     let started = Instant::now();
     let mut finished_at: Option<f64> = None;
+    let mut forgot_at = None;
     let mut state;
     loop {
         std::thread::sleep(Duration::from_millis(100));
         state = sim.state();
+        if forgot_at.is_none() && forget_at.is_some_and(|t| started.elapsed().as_secs_f64() >= t) {
+            router.forget_routes();
+            forgot_at = Some(state.time_s);
+        }
         if finished_at.is_none() && over(&state) {
             finished_at = Some(state.time_s);
         }
@@ -132,6 +151,7 @@ fn fly_mirrored_with(name: &str, faults: &[&str], loss: Loss, run_args: &[&str])
     let _ = std::fs::write(dir.join("mirror.jsonl"), &mirror_out);
     let _ = std::fs::write(dir.join("mirror.err"), &mirror_err);
     Mirrored {
+        forgot_at,
         run: timeline(&run_out),
         run_err,
         mirror: timeline(&mirror_out),
@@ -513,6 +533,49 @@ fn low_battery_at_ten_percent_loss_and_a_burst() {
             seed: 22,
             bursts: vec![(8.0, 11.0)],
         },
+    );
+}
+
+#[test]
+fn after_an_autopilot_reboot_the_mirror_is_heard_again_and_resyncs() {
+    // The routes forgotten 6 wall seconds in (60 simulated s, in flight):
+    // the records to the mirror go nowhere until the mirror speaks.
+    let m = fly_mirrored_full("reboot", &[], Loss::default(), &[], Some(6.0));
+    ended_equal("reboot", &m);
+    let forgot = m.forgot_at.expect("the routes were forgotten");
+    // The mirror hailed the vehicle (a heartbeat request, `8 heartbeat? 0`).
+    let hails = m
+        .traffic
+        .from_ground
+        .iter()
+        .filter(|f| {
+            let f = elaboration::Frame::parse(f).expect("a frame");
+            // MAVLink 2 drops the payload's trailing zeros.
+            let mut p = f.payload().to_vec();
+            p.resize(8, 0);
+            p[5..8] == [1, 8, 0]
+        })
+        .count();
+    assert!(hails >= 1, "the mirror never hailed the silent downlink");
+    // Records lost meanwhile: a gap, repaired.
+    assert!(!m.mirror_lines("gap").is_empty());
+    assert!(resync_times(&m).len() >= m.mirror_lines("gap").len());
+    // And the replica agreed with the vehicle long after: the mirror was
+    // heard again (ground_t is the mirror's clock, started before the
+    // simulator; the flight lasts well over 60 s after the reboot).
+    let last = m
+        .mirror_lines("agreed")
+        .last()
+        .and_then(|l| l["ground_t"].as_f64())
+        .expect("agreements");
+    assert!(
+        last > forgot + 60.0,
+        "the last agreement at {last:.0} s, the routes forgotten at {forgot:.0} s"
+    );
+    eprintln!(
+        "reboot: routes forgotten at {forgot:.0} s, {hails} hails, {} gaps, resync times {:?}",
+        m.mirror_lines("gap").len(),
+        resync_times(&m)
     );
 }
 

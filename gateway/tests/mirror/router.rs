@@ -54,6 +54,8 @@ pub struct Router {
     /// Everything toward the ground lost while set (the uplink still
     /// works): a radio that fades one way.
     muted: Arc<AtomicBool>,
+    /// Set: the routes learned are forgotten (an autopilot that rebooted).
+    forget: Arc<AtomicBool>,
     traffic: Arc<Mutex<Traffic>>,
     thread: Option<JoinHandle<()>>,
 }
@@ -206,6 +208,8 @@ impl Router {
         let (flag, shared) = (stop.clone(), traffic.clone());
         let muted = Arc::new(AtomicBool::new(false));
         let mute = muted.clone();
+        let forget = Arc::new(AtomicBool::new(false));
+        let forgetting = forget.clone();
         let mut radio = Radio {
             seed: loss.seed | 1,
             loss,
@@ -214,6 +218,10 @@ impl Router {
         let thread = std::thread::spawn(move || {
             while !flag.load(Ordering::Relaxed) {
                 let mut idle = true;
+                if forgetting.swap(false, Ordering::Relaxed) {
+                    ground.heard.clear();
+                    companion.heard.clear();
+                }
                 // Over the radio to the ground, counted.
                 let mut downlink = |ground: &mut Port, bytes: &[u8], tunnel: bool| {
                     let mut t = shared.lock().expect("traffic");
@@ -291,6 +299,7 @@ impl Router {
             ground_port,
             stop,
             muted,
+            forget,
             traffic,
             thread: Some(thread),
         }
@@ -303,6 +312,13 @@ impl Router {
     /// Loses every frame toward the ground while `on` (the uplink works).
     pub fn mute_downlink(&self, on: bool) {
         self.muted.store(on, Ordering::Relaxed);
+    }
+
+    /// Forgets every route learned, as an autopilot does when it reboots:
+    /// the downlink to the mirror goes nowhere until the mirror is heard
+    /// again.
+    pub fn forget_routes(&self) {
+        self.forget.store(true, Ordering::Relaxed);
     }
 
     pub fn stop(&mut self) {
