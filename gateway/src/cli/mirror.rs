@@ -77,6 +77,9 @@ pub struct Args {
 
 /// How often the replica and the ground's elaboration are ticked.
 const TICK: Micros = 100_000;
+/// Said once when nothing comes on the link after this (wall time), and
+/// when the vehicle is heard but no downlink record after twice this.
+const SILENCE_WARNING: Duration = Duration::from_secs(5);
 
 pub fn run(args: Args) -> VerbResult {
     let gateway = crate::project::gateway_table(&args.project)?;
@@ -265,6 +268,8 @@ async fn mirror(setup: Setup) -> VerbResult {
     // The gap open: its first missing record and when it was seen (vehicle
     // time), for the detection time once that record comes.
     let mut gap_seen: Option<(u64, Micros)> = None;
+    // Said once: nothing heard; the vehicle heard but not its downlink.
+    let (mut heard_any, mut said_silent, mut said_no_downlink) = (false, false, false);
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
         .map_err(|e| miette::miette!("cannot watch for signals: {e}"))?;
     // Ticks on their own schedule: a sleep made anew at each turn of the
@@ -282,6 +287,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         };
         tokio::select! {
             Some(rx) = frames.recv() => {
+                heard_any = true;
                 let now = clock.now();
                 if let Some(rec) = &recorder {
                     rec.received(now, &rx.bytes);
@@ -448,6 +454,28 @@ async fn mirror(setup: Setup) -> VerbResult {
                     effects: played.effects,
                 };
                 rec.replica(now, call_json(&played.call), step, played.digest);
+            }
+        }
+        // Nothing tells a new user why the mirror stays blank otherwise.
+        if !said_silent && !heard_any && origin.elapsed() >= SILENCE_WARNING {
+            said_silent = true;
+            say!(
+                "petrel mirror: nothing heard on {} after {} s. Check the address, and that mavlink-router or MAVProxy (--out) sends the ground's telemetry there (docs/mirror.md, \"Deploying it\").",
+                setup.address,
+                SILENCE_WARNING.as_secs()
+            );
+        }
+        if !said_no_downlink
+            && replica.counts.packets == 0
+            && origin.elapsed() >= 2 * SILENCE_WARNING
+        {
+            if let Some(v) = vehicle {
+                said_no_downlink = true;
+                say!(
+                    "petrel mirror: the vehicle (system {v}) is heard but no downlink record after {} s. Is `petrel run --downlink` running on board, and does the autopilot route to this mirror (system {})? (docs/mirror.md, \"Addressing\")",
+                    2 * SILENCE_WARNING.as_secs(),
+                    setup.system
+                );
             }
         }
         // The ground's view reaches the last autopilot frame heard (not the
