@@ -226,8 +226,8 @@ pub struct Replica {
     diverged: bool,
     /// The replica advanced by the ground's own events while a gap is open.
     provisional: Option<Player>,
-    /// Vehicle time minus ground time: the largest of the recent
-    /// heartbeats' (the least delayed), kept with their ground time.
+    /// Vehicle time minus ground time: the median of the recent
+    /// heartbeats', kept with their ground time.
     offset: Option<i128>,
     offsets: VecDeque<(Micros, i128)>,
     /// When (ground time) the last downlink packet came, and the last
@@ -296,9 +296,15 @@ impl Replica {
 
     /// The vehicle's time at ground time `now`, estimated from the recent
     /// heartbeats: each one's time minus the ground's when it came is the
-    /// clocks' difference less its delay on the way, so the largest of the
-    /// last [`OFFSET_SPAN`] is the least delayed (a heartbeat held up by
-    /// the radio, or by a busy ground, does not move the time base).
+    /// clocks' difference less its delay on the way, and the median of the
+    /// last [`OFFSET_SPAN`] is taken. The delay is kept in: the ground's
+    /// telemetry comes the same way as the heartbeats (the autopilot's
+    /// ground port, its queue, the radio), so a ground event maps to about
+    /// when the vehicle heard the same frame. The median, not the last,
+    /// so that one heartbeat held up (by the radio, by a busy ground) does
+    /// not move the time base; not the least delayed, which would leave
+    /// the ground port's usual queue in every ground event's time (on
+    /// ArduPlane SITL, 2 s of it).
     pub fn vehicle_time(&self, now: Micros) -> Option<Micros> {
         self.offset.map(|o| (now as i128 + o).max(0) as Micros)
     }
@@ -470,7 +476,9 @@ impl Replica {
         self.offsets
             .retain(|(at, _)| now.saturating_sub(*at) < OFFSET_SPAN);
         self.offsets.push_back((now, offset));
-        self.offset = self.offsets.iter().map(|(_, o)| *o).max();
+        let mut recent: Vec<i128> = self.offsets.iter().map(|(_, o)| *o).collect();
+        recent.sort_unstable();
+        self.offset = recent.get(recent.len() / 2).copied();
         self.known = self.known.max(h.next);
         self.oldest = h.oldest;
         if self.player.is_some() && self.next < h.next {

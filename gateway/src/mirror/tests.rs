@@ -557,7 +557,7 @@ fn a_heartbeat_asked_for_comes_when_the_vehicles_time_reaches_it() {
 }
 
 #[test]
-fn the_time_base_is_the_least_delayed_heartbeat() {
+fn the_time_base_is_the_median_of_the_recent_heartbeats() {
     let (project, _) = example();
     let mut r = Replica::new(project, replica::Config::default());
     let heartbeat = |time: Micros| {
@@ -570,14 +570,26 @@ fn the_time_base_is_the_least_delayed_heartbeat() {
             digest: [0; 16],
         })])
     };
-    // Vehicle time 10 s at ground time 4 s, on time (0.1 s on the way);
-    // the next one a second later held up 0.7 s by a busy radio.
-    r.receive(4_100_000, &heartbeat(10_000_000));
-    r.receive(5_800_000, &heartbeat(11_000_000));
-    assert_eq!(r.vehicle_time(6_100_000), Some(12_000_000));
-    // Ten seconds on, the on-time heartbeat no longer counts.
-    r.receive(16_400_000, &heartbeat(22_000_000));
-    assert_eq!(r.vehicle_time(17_400_000), Some(23_000_000));
+    // Vehicle time 10, 11, 12 s at ground time 4.1, 5.1, 6.1 s (0.1 s on
+    // the way); the next one held up 0.7 s by a busy radio: the time base
+    // does not move.
+    for i in 0..3 {
+        r.receive(
+            4_100_000 + i * 1_000_000,
+            &heartbeat(10_000_000 + i * 1_000_000),
+        );
+    }
+    r.receive(7_800_000, &heartbeat(13_000_000));
+    assert_eq!(r.vehicle_time(8_100_000), Some(14_000_000));
+    // The way gets slower for good (a queue on the ground's port): the
+    // time base follows once most of the last 10 s say so.
+    for i in 0..8 {
+        r.receive(
+            8_600_000 + i * 1_000_000,
+            &heartbeat(14_000_000 + i * 1_000_000),
+        );
+    }
+    assert_eq!(r.vehicle_time(16_600_000), Some(22_000_000));
 }
 
 proptest! {
