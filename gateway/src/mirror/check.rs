@@ -88,7 +88,9 @@ impl Disagreement {
             .param(who, nets::Value::Map(self.params.clone()));
         if let Some((t, p)) = &self.other {
             e = e
-                .param(format!("{other}_t"), *t as f64 / 1e6)
+                // Not `ground_t`: `petrel mirror --json` gives the ground's
+                // clock that name.
+                .param(format!("{other}_event_t"), *t as f64 / 1e6)
                 .param(other, nets::Value::Map(p.clone()));
         }
         e
@@ -455,6 +457,7 @@ mod tests {
             .find(|d| d.seen_by == Side::Vehicle)
             .expect("vehicle only");
         assert_eq!(v.other.as_ref().map(|o| o.0), Some(1_000_000));
+        assert_eq!(v.event().params["ground_event_t"], nets::Value::Float(1.0));
     }
 
     #[test]
