@@ -303,8 +303,7 @@ impl Replica {
     /// when the vehicle heard the same frame. The median, not the last,
     /// so that one heartbeat held up (by the radio, by a busy ground) does
     /// not move the time base; not the least delayed, which would leave
-    /// the ground port's usual queue in every ground event's time (on
-    /// ArduPlane SITL, 2 s of it).
+    /// the ground port's usual queue in every ground event's time.
     pub fn vehicle_time(&self, now: Micros) -> Option<Micros> {
         self.offset.map(|o| (now as i128 + o).max(0) as Micros)
     }
