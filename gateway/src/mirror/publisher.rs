@@ -63,6 +63,9 @@ pub struct Counts {
 /// Heartbeats asked for ahead (`8 heartbeat?`), kept at most: the ground
 /// asks one per event it saw and the vehicle has not reported yet.
 pub const HEARTBEATS_ASKED: usize = 16;
+/// Heartbeats asked for are sent this far apart at least (vehicle time),
+/// whoever asks and however often: four a second, 200 B/s at most.
+pub const HEARTBEAT_ASKED_GAP: Micros = 250_000;
 
 /// The onboard publisher.
 pub struct Publisher {
@@ -84,6 +87,8 @@ pub struct Publisher {
     /// Vehicle times the ground asked a heartbeat at (at most
     /// [`HEARTBEATS_ASKED`], the earliest kept).
     heartbeats_asked: BTreeSet<Micros>,
+    /// When the last heartbeat asked for went (vehicle time).
+    asked_sent_at: Option<Micros>,
     pub counts: Counts,
 }
 
@@ -105,6 +110,7 @@ impl Publisher {
             snapshots: 0,
             snapshot_asked: false,
             heartbeats_asked: BTreeSet::new(),
+            asked_sent_at: None,
             counts: Counts::default(),
         }
     }
@@ -238,13 +244,18 @@ impl Publisher {
         // A heartbeat the ground asked for, once the player's time reaches
         // it: the ground then knows every record before that time.
         let time = player.state().now;
-        let asked = self.heartbeats_asked.first().is_some_and(|at| *at <= time);
-        if asked {
+        let due = now >= self.next_heartbeat;
+        let asked = self.heartbeats_asked.first().is_some_and(|at| *at <= time)
+            && self
+                .asked_sent_at
+                .is_none_or(|t| time.saturating_sub(t) >= HEARTBEAT_ASKED_GAP);
+        if due || asked {
+            // Whichever heartbeat goes answers every request up to now.
             self.heartbeats_asked.retain(|at| *at > time);
-        }
-        if now >= self.next_heartbeat || asked {
-            if now >= self.next_heartbeat {
+            if due {
                 self.next_heartbeat = now.saturating_add(self.config.heartbeat_every);
+            } else {
+                self.asked_sent_at = Some(time);
             }
             let mut digest = [0u8; 16];
             digest.copy_from_slice(&player.digest().0[..16]);

@@ -557,6 +557,27 @@ fn a_heartbeat_asked_for_comes_when_the_vehicles_time_reaches_it() {
 }
 
 #[test]
+fn heartbeats_asked_for_are_paced_however_often_the_ground_asks() {
+    let mut f = Flight::new(Loss::none(), Loss::none(), publisher::Config::default());
+    f.settle(2);
+    let heartbeats = f.publisher.counts.heartbeats;
+    // A ground asking for a heartbeat at once, at every tick for 2 s.
+    let ask = record::packet(&[Record::SendHeartbeat { at: 0 }]);
+    for _ in 0..20 {
+        f.publisher.receive(&ask);
+        f.now += 100_000;
+        f.feed(Input::Tick);
+        f.exchange();
+    }
+    // Two periodic ones, and the asked ones 250 ms apart at least.
+    let sent = f.publisher.counts.heartbeats - heartbeats;
+    let most = 2 + 2_000_000 / publisher::HEARTBEAT_ASKED_GAP;
+    assert!((3..=most).contains(&sent), "{sent} heartbeats in 2 s");
+    f.settle(2);
+    f.assert_equal();
+}
+
+#[test]
 fn the_time_base_is_the_median_of_the_recent_heartbeats() {
     let (project, _) = example();
     let mut r = Replica::new(project, replica::Config::default());
