@@ -50,7 +50,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     outcome: outcome.clone(),
                 })
             }
-            ScriptInput::Advance => None,
+            // The nominal script asks the operator nothing.
+            ScriptInput::Answer { .. } | ScriptInput::Advance => None,
         };
         script::play_line(&mut player, line)?;
         let _ = player.effects().count();
@@ -75,10 +76,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
         if step == lines.len() / 2 {
-            // The ground asks for records again and for a snapshot.
+            // The ground asks for records again, for a snapshot and for a
+            // heartbeat once the vehicle's time is a second on.
             let ask = record::packet(&[
                 Record::Resend { from: 2, count: 4 },
                 Record::SendSnapshot { session: 7 },
+                Record::SendHeartbeat {
+                    at: line.time + 1_000_000,
+                },
             ]);
             packets.push(ask.clone());
             publisher.receive(&ask);
@@ -105,7 +110,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Record::Heartbeat(_) => "heartbeat",
             Record::Fragment(_) => "fragment",
             Record::Chunk(_) => "chunk",
-            Record::Resend { .. } | Record::SendSnapshot { .. } => "uplink",
+            Record::Resend { .. }
+            | Record::SendSnapshot { .. }
+            | Record::SendHeartbeat { .. } => "uplink",
             Record::Answer { .. } => "answer",
         };
         kept.entry(kind).or_insert_with(|| p.clone());

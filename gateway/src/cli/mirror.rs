@@ -84,6 +84,9 @@ pub struct Args {
 
 /// How often the replica and the ground's elaboration are ticked.
 const TICK: Micros = 100_000;
+/// Said once when nothing comes on the link after this (wall time), and
+/// when the vehicle is heard but no downlink record after twice this.
+const SILENCE_WARNING: Duration = Duration::from_secs(5);
 
 pub fn run(args: Args) -> VerbResult {
     let gateway = crate::project::gateway_table(&args.project)?;
@@ -301,6 +304,11 @@ async fn mirror(setup: Setup) -> VerbResult {
     let mut sent = 0u64;
     let mut ground_events = 0u64;
     let mut elaborated = Vec::new();
+    // The gap open: its first missing record and when it was seen (vehicle
+    // time), for the detection time once that record comes.
+    let mut gap_seen: Option<(u64, Micros)> = None;
+    // Said once: nothing heard; the vehicle heard but not its downlink.
+    let (mut heard_any, mut said_silent, mut said_no_downlink) = (false, false, false);
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
         .map_err(|e| miette::miette!("cannot watch for signals: {e}"))?;
     // Ticks on their own schedule: a sleep made anew at each turn of the
@@ -318,6 +326,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         };
         tokio::select! {
             Some(rx) = frames.recv() => {
+                heard_any = true;
                 let now = clock.now();
                 if let Some(rec) = &recorder {
                     rec.received(now, &rx.bytes);
@@ -439,6 +448,25 @@ async fn mirror(setup: Setup) -> VerbResult {
             {
                 check.unknown_before(t);
             }
+            match &report {
+                Report::Gap { from, .. } => {
+                    gap_seen = replica.vehicle_time(now).map(|t| (*from, t));
+                }
+                // The first missing record sent again: the radio lost it
+                // when it was sent, at its step's time.
+                Report::Step { number, time, .. }
+                    if gap_seen.is_some_and(|(n, _)| n == *number) =>
+                {
+                    if let (Some((_, seen)), true) = (gap_seen.take(), out.json) {
+                        let _ = writeln!(
+                            out.out,
+                            "{}",
+                            json!({"mirror": "gap_detected", "record": number, "ground_t": now as f64 / 1e6, "sent_t": *time as f64 / 1e6, "detected_after_s": seen.saturating_sub(*time) as f64 / 1e6})
+                        );
+                    }
+                }
+                _ => {}
+            }
             if let Report::Step { inputs, .. } = &report {
                 for input in inputs {
                     if let Input::Elaborated { time, event } = input {
@@ -480,6 +508,28 @@ async fn mirror(setup: Setup) -> VerbResult {
                     effects: played.effects,
                 };
                 rec.replica(now, call_json(&played.call), step, played.digest);
+            }
+        }
+        // Nothing tells a new user why the mirror stays blank otherwise.
+        if !said_silent && !heard_any && origin.elapsed() >= SILENCE_WARNING {
+            said_silent = true;
+            say!(
+                "petrel mirror: nothing heard on {} after {} s. Check the address, and that mavlink-router or MAVProxy (--out) sends the ground's telemetry there (docs/mirror.md, \"Deploying it\").",
+                setup.address,
+                SILENCE_WARNING.as_secs()
+            );
+        }
+        if !said_no_downlink
+            && replica.counts.packets == 0
+            && origin.elapsed() >= 2 * SILENCE_WARNING
+        {
+            if let Some(v) = vehicle {
+                said_no_downlink = true;
+                say!(
+                    "petrel mirror: the vehicle (system {v}) is heard but no downlink record after {} s. Is `petrel run --downlink` running on board, and does the autopilot route to this mirror (system {})? (docs/mirror.md, \"Addressing\")",
+                    2 * SILENCE_WARNING.as_secs(),
+                    setup.system
+                );
             }
         }
         // The ground's view reaches the last autopilot frame heard (not the
@@ -540,6 +590,12 @@ async fn mirror(setup: Setup) -> VerbResult {
                 }
             }
         }
+        // A ground event the vehicle has not reported: a heartbeat asked
+        // for at the end of its window proves the vehicle's records
+        // complete through it, so the check judges it then.
+        while let Some(at) = check.poll_heartbeat_wanted(replica.vehicle_time(now)) {
+            replica.ask_heartbeat(at);
+        }
         // Requests wait in the replica until there is someone to ask: the
         // onboard gateway, else the vehicle's companion.
         if let Some(to) = onboard.or(vehicle.map(|v| (v, 191))) {
@@ -566,8 +622,10 @@ async fn mirror(setup: Setup) -> VerbResult {
         t.abort();
     }
     say!(
-        "independent check: {} events matched, {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames), {} link events not compared",
+        "independent check: {} events matched (the vehicle at most {:.2} s after the ground, the ground at most {:.2} s after the vehicle), {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames), {} link events not compared",
         check.counts.matched,
+        check.counts.vehicle_late_max as f64 / 1e6,
+        check.counts.ground_late_max as f64 / 1e6,
         check.counts.ground_only,
         check.counts.vehicle_only,
         check.counts.unjudged,
@@ -575,7 +633,7 @@ async fn mirror(setup: Setup) -> VerbResult {
     );
     let c = &replica.counts;
     say!(
-        "mirror stopped after {:.1} s: {} downlink packets ({} refused), {} records, {} checks agreed, {} gaps, {} resends and {} snapshots asked, {} snapshots restored, {} divergences; {} requests sent; {} ground events",
+        "mirror stopped after {:.1} s: {} downlink packets ({} refused), {} records, {} checks agreed, {} gaps, {} resends, {} snapshots and {} heartbeats asked, {} snapshots restored, {} divergences; {} requests sent; {} ground events",
         origin.elapsed().as_secs_f64(),
         c.packets,
         c.refused,
@@ -584,6 +642,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         c.gaps,
         c.resends_asked,
         c.snapshots_asked,
+        c.heartbeats_asked,
         c.snapshots_restored,
         c.diverged,
         sent,

@@ -9,18 +9,42 @@
 //! every record through that time (a record the radio lost is not a missing
 //! event), the ground's once its elaboration has seen that time.
 //!
-//! The window (docs/mirror.md, "The independent check"): both sides run
-//! the same rules with the same debounces (`for`) on the same messages, so
-//! an event differs in time by the radio's latency plus one telemetry
-//! period on each side (4 Hz asked by the gateway): 2 s covers both with a
-//! margin, for every rule.
+//! The window is not the same both ways (docs/mirror.md, "The independent
+//! check"): both sides run the same rules with the same debounces on the
+//! same autopilot's messages, but the vehicle receives every message its
+//! rules read at 4 Hz (the gateway asks them so) while the ground gets the
+//! ground station's rates, 1 Hz or less for some. So the ground may see an
+//! event up to a ground period after the vehicle ([`Window::ground_late`]),
+//! and the vehicle after the ground only by a vehicle period, a tick of each
+//! side's timers and the jitter of the radio ([`Window::vehicle_late`]).
+//! The first bounds how soon "the ground saw none" is said, the second how
+//! soon "the vehicle reported none": the mirror asks the vehicle for a
+//! heartbeat at that time ([`Check::poll_heartbeat_wanted`]), whose
+//! arrival proves the vehicle's records complete through it.
 
 use std::collections::VecDeque;
 
 use nets::{Category, Event, Micros, Params};
 
-/// Two seconds of vehicle time, for every rule.
-pub const WINDOW: Micros = 2_000_000;
+/// How far apart in vehicle time the two sides may see one event.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Window {
+    /// The vehicle may see an event this long after the ground: its
+    /// telemetry period (4 Hz, 0.25 s), one tick of its timers (`for`,
+    /// `age()`: 0.1 s), and the jitter of the radio and of the ground's
+    /// time base (the rest).
+    pub vehicle_late: Micros,
+    /// The ground may see an event this long after the vehicle: a ground
+    /// station's telemetry period (1 Hz, or 0.5 Hz for some groups) and the
+    /// same tick and jitter.
+    pub ground_late: Micros,
+}
+
+/// The window for every rule (docs/mirror.md, "The independent check").
+pub const WINDOW: Window = Window {
+    vehicle_late: 1_000_000,
+    ground_late: 2_000_000,
+};
 
 /// A ground event within this after the ground lost frames may come from
 /// the loss itself (rules on a component's silence wait up to 15 s, the
@@ -43,6 +67,7 @@ pub struct Disagreement {
     pub time: Micros,
     /// Its parameters as that side elaborated them.
     pub params: Params,
+    /// How long the other side was given to see it.
     pub window: Micros,
     /// The other side's nearest event of that name, if any: (time, params).
     pub other: Option<(Micros, Params)>,
@@ -63,7 +88,9 @@ impl Disagreement {
             .param(who, nets::Value::Map(self.params.clone()));
         if let Some((t, p)) = &self.other {
             e = e
-                .param(format!("{other}_t"), *t as f64 / 1e6)
+                // Not `ground_t`: `petrel mirror --json` gives the ground's
+                // clock that name.
+                .param(format!("{other}_event_t"), *t as f64 / 1e6)
                 .param(other, nets::Value::Map(p.clone()));
         }
         e
@@ -88,12 +115,17 @@ pub struct Counts {
     /// Events not judged: seen by one side while the ground was losing the
     /// vehicle's frames, or by the ground before the replica's snapshot.
     pub unjudged: u64,
+    /// The longest the vehicle saw a matched event after the ground, and
+    /// the ground after the vehicle (vehicle time): the margins the window
+    /// left.
+    pub vehicle_late_max: Micros,
+    pub ground_late_max: Micros,
 }
 
 /// The independent check.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct Check {
-    window: Micros,
+    window: Window,
     ground: VecDeque<Seen>,
     vehicle: VecDeque<Seen>,
     /// Every event seen on each side lately, matched or not, as evidence.
@@ -104,15 +136,48 @@ pub struct Check {
     /// The vehicle's events before this time are unknown (the replica was
     /// restored from a snapshot taken then).
     known_from: Micros,
+    /// Ground events not matched when seen (their time and name): if still
+    /// unmatched half a window later, a heartbeat is asked for at the end
+    /// of their window.
+    wanted: VecDeque<(Micros, String)>,
     pub counts: Counts,
 }
 
 impl Check {
-    pub fn new(window: Micros) -> Check {
+    pub fn new(window: Window) -> Check {
         Check {
             window,
-            ..Check::default()
+            ground: VecDeque::new(),
+            vehicle: VecDeque::new(),
+            recent: VecDeque::new(),
+            reports: VecDeque::new(),
+            lost: VecDeque::new(),
+            known_from: 0,
+            wanted: VecDeque::new(),
+            counts: Counts::default(),
         }
+    }
+
+    /// A vehicle time a heartbeat is wanted at, `now` being the vehicle's
+    /// time: a ground event the vehicle has not reported is judged once a
+    /// heartbeat past its window arrives (the periodic one comes up to a
+    /// second later). Asked for only when the vehicle's event has not come
+    /// half a window after the ground's (it usually comes at once), in
+    /// time for the request to reach the vehicle before the window ends.
+    pub fn poll_heartbeat_wanted(&mut self, now: Option<Micros>) -> Option<Micros> {
+        let late = self.window.vehicle_late;
+        let now = now?;
+        while let Some((time, name)) = self.wanted.front() {
+            if time.saturating_add(late / 2) > now {
+                return None;
+            }
+            let (time, name) = (*time, name.clone());
+            self.wanted.pop_front();
+            if self.ground.iter().any(|g| g.time == time && g.name == name) {
+                return Some(time.saturating_add(late) + 1);
+            }
+        }
+        None
     }
 
     /// The ground lost autopilot frames (a gap in their sequence numbers)
@@ -145,11 +210,11 @@ impl Check {
     fn earliest(&self, time: Micros) -> Micros {
         let mut earliest = time;
         for (a, b) in self.lost.iter().rev() {
-            if *b + self.window >= earliest && *a < earliest {
+            if *b + self.window.ground_late >= earliest && *a < earliest {
                 earliest = *a;
             }
         }
-        earliest.saturating_sub(self.window)
+        earliest.saturating_sub(self.window.ground_late)
     }
 
     /// An event the vehicle published (elaborated on board), at its time.
@@ -180,11 +245,11 @@ impl Check {
         while self.recent.len() > 256 {
             self.recent.pop_front();
         }
-        let window = self.window;
+        let late = self.window.vehicle_late;
         // A ground event is seen late when the frames before it were lost:
         // it matches a vehicle event from the start of those losses on.
         let matches = |ground: Micros, vehicle: Micros, earliest: Micros| {
-            vehicle <= ground.saturating_add(window) && vehicle >= earliest
+            vehicle <= ground.saturating_add(late) && vehicle >= earliest
         };
         let earliest_here = self.earliest(time);
         let earliest: Vec<Micros> = match side {
@@ -203,12 +268,27 @@ impl Check {
                 }
         });
         if let Some(i) = found {
-            other.remove(i);
+            let o = other.remove(i).expect("found");
             self.counts.matched += 1;
+            let (ground, vehicle) = match side {
+                Side::Ground => (time, o.time),
+                Side::Vehicle => (o.time, time),
+            };
+            let c = &mut self.counts;
+            c.vehicle_late_max = c.vehicle_late_max.max(vehicle.saturating_sub(ground));
+            c.ground_late_max = c.ground_late_max.max(ground.saturating_sub(vehicle));
             return;
         }
         match side {
-            Side::Ground => self.ground.push_back(seen),
+            Side::Ground => {
+                // Judged once the vehicle's records are known complete
+                // past the window: a heartbeat asked for then.
+                self.wanted.push_back((time, seen.name.clone()));
+                while self.wanted.len() > 64 {
+                    self.wanted.pop_front();
+                }
+                self.ground.push_back(seen);
+            }
             Side::Vehicle => self.vehicle.push_back(seen),
         }
     }
@@ -217,12 +297,15 @@ impl Check {
     /// through which the replica holds every record, `ground_known` the
     /// vehicle time the ground's elaboration has reached.
     pub fn advance(&mut self, vehicle_known: Option<Micros>, ground_known: Option<Micros>) {
-        let window = self.window;
+        let Window {
+            vehicle_late,
+            ground_late,
+        } = self.window;
         if let Some(v) = vehicle_known {
             while self
                 .ground
                 .front()
-                .is_some_and(|g| g.time.saturating_add(window) < v)
+                .is_some_and(|g| g.time.saturating_add(vehicle_late) < v)
             {
                 let g = self.ground.pop_front().expect("checked");
                 if self.losing(g.time.saturating_sub(SILENCE), g.time) {
@@ -236,7 +319,7 @@ impl Check {
                     seen_by: Side::Ground,
                     time: g.time,
                     params: g.params,
-                    window,
+                    window: vehicle_late,
                     other,
                 });
             }
@@ -245,10 +328,13 @@ impl Check {
             while self
                 .vehicle
                 .front()
-                .is_some_and(|v| v.time.saturating_add(window) < gk)
+                .is_some_and(|v| v.time.saturating_add(ground_late) < gk)
             {
                 let v = self.vehicle.pop_front().expect("checked");
-                if self.losing(v.time.saturating_sub(window), v.time.saturating_add(window)) {
+                if self.losing(
+                    v.time.saturating_sub(ground_late),
+                    v.time.saturating_add(ground_late),
+                ) {
                     self.counts.unjudged += 1;
                     continue;
                 }
@@ -259,7 +345,7 @@ impl Check {
                     seen_by: Side::Vehicle,
                     time: v.time,
                     params: v.params,
-                    window,
+                    window: ground_late,
                     other,
                 });
             }
@@ -307,18 +393,54 @@ mod tests {
     fn an_engine_failure_the_vehicle_missed_is_reported_once_its_records_are_complete() {
         let mut c = Check::new(WINDOW);
         c.ground(52_900_000, &ev("engine_failure", Category::Catastrophic));
-        // The replica's records only reach 54 s: not yet judged.
-        c.advance(Some(54_000_000), Some(55_000_000));
+        // Still unmatched half a window later: a heartbeat is wanted just
+        // past the vehicle's window.
+        assert_eq!(c.poll_heartbeat_wanted(Some(53_300_000)), None);
+        assert_eq!(c.poll_heartbeat_wanted(Some(53_400_000)), Some(53_900_001));
+        assert_eq!(c.poll_heartbeat_wanted(Some(53_400_000)), None);
+        // The replica's records only reach 53.9 s: not yet judged.
+        c.advance(Some(53_900_000), Some(55_000_000));
         assert_eq!(c.poll(), None);
-        c.advance(Some(55_000_000), Some(55_000_000));
+        c.advance(Some(53_900_001), Some(55_000_000));
         let d = c.poll().expect("a disagreement");
         assert_eq!(d.seen_by, Side::Ground);
         assert_eq!(d.event, "engine_failure");
         assert_eq!(d.time, 52_900_000);
+        assert_eq!(d.window, WINDOW.vehicle_late);
         let e = d.event();
         assert_eq!(e.name, "mirror_disagreement");
         assert_eq!(e.params["seen_by"], nets::Value::Str("ground".into()));
         assert_eq!(c.poll(), None);
+    }
+
+    #[test]
+    fn the_window_is_longer_for_the_ground_than_for_the_vehicle() {
+        // The ground 1.8 s after the vehicle (a slow ground stream): one
+        // event, and no heartbeat wanted (the vehicle's came first).
+        let mut c = Check::new(WINDOW);
+        c.vehicle(10_000_000, &ev("disarmed", Category::Nominal));
+        c.ground(11_800_000, &ev("disarmed", Category::Nominal));
+        assert_eq!(c.poll_heartbeat_wanted(Some(20_000_000)), None);
+        c.advance(Some(30_000_000), Some(30_000_000));
+        assert_eq!(c.poll(), None);
+        assert_eq!(c.counts.ground_late_max, 1_800_000);
+        // The vehicle 0.9 s after the ground: one event.
+        c.ground(40_000_000, &ev("takeoff", Category::Mission));
+        c.vehicle(40_300_000, &ev("takeoff", Category::Mission));
+        // Matched before half the window: no heartbeat asked for.
+        assert_eq!(c.poll_heartbeat_wanted(Some(41_000_000)), None);
+        c.ground(40_000_000, &ev("takeoff", Category::Mission));
+        c.vehicle(40_900_000, &ev("takeoff", Category::Mission));
+        c.advance(Some(60_000_000), Some(60_000_000));
+        assert_eq!(c.poll(), None);
+        assert_eq!(c.counts.vehicle_late_max, 900_000);
+        assert_eq!(c.counts.matched, 3);
+        // The vehicle 1.5 s after the ground: two events, one each side.
+        c.ground(70_000_000, &ev("landed", Category::Mission));
+        c.vehicle(71_500_000, &ev("landed", Category::Mission));
+        c.advance(Some(90_000_000), Some(90_000_000));
+        let sides: Vec<Side> = std::iter::from_fn(|| c.poll()).map(|d| d.seen_by).collect();
+        assert_eq!(sides, [Side::Ground, Side::Vehicle]);
     }
 
     #[test]
@@ -335,6 +457,7 @@ mod tests {
             .find(|d| d.seen_by == Side::Vehicle)
             .expect("vehicle only");
         assert_eq!(v.other.as_ref().map(|o| o.0), Some(1_000_000));
+        assert_eq!(v.event().params["ground_event_t"], nets::Value::Float(1.0));
     }
 
     #[test]

@@ -8,7 +8,7 @@
 //!
 //! It never decides anything for the player: it only reads it.
 
-use std::collections::VecDeque;
+use std::collections::{BTreeSet, VecDeque};
 
 use nets::binary::Writer;
 use nets::player::{snapshot, Digest};
@@ -60,6 +60,13 @@ pub struct Counts {
     pub refused: u64,
 }
 
+/// Heartbeats asked for ahead (`8 heartbeat?`), kept at most: the ground
+/// asks one per event it saw and the vehicle has not reported yet.
+pub const HEARTBEATS_ASKED: usize = 16;
+/// Heartbeats asked for are sent this far apart at least (vehicle time),
+/// whoever asks and however often: four a second, 200 B/s at most.
+pub const HEARTBEAT_ASKED_GAP: Micros = 250_000;
+
 /// The onboard publisher.
 pub struct Publisher {
     config: Config,
@@ -77,6 +84,11 @@ pub struct Publisher {
     snapshots: u64,
     /// A snapshot was asked for and not yet queued.
     snapshot_asked: bool,
+    /// Vehicle times the ground asked a heartbeat at (at most
+    /// [`HEARTBEATS_ASKED`], the earliest kept).
+    heartbeats_asked: BTreeSet<Micros>,
+    /// When the last heartbeat asked for went (vehicle time).
+    asked_sent_at: Option<Micros>,
     pub counts: Counts,
 }
 
@@ -97,6 +109,8 @@ impl Publisher {
             next_heartbeat: now,
             snapshots: 0,
             snapshot_asked: false,
+            heartbeats_asked: BTreeSet::new(),
+            asked_sent_at: None,
             counts: Counts::default(),
         }
     }
@@ -205,6 +219,12 @@ impl Publisher {
                 Record::SendSnapshot { session } if session == self.session || session == 0 => {
                     self.snapshot_asked = true;
                 }
+                Record::SendHeartbeat { at } => {
+                    self.heartbeats_asked.insert(at);
+                    while self.heartbeats_asked.len() > HEARTBEATS_ASKED {
+                        self.heartbeats_asked.pop_last();
+                    }
+                }
                 _ => self.counts.refused += 1,
             }
         }
@@ -221,8 +241,22 @@ impl Publisher {
     /// Lets time pass: the heartbeat and the periodic snapshot when due.
     /// `step` is the supervisor's last step, `player` the player after it.
     pub fn tick(&mut self, now: Micros, step: u64, player: &Player) {
-        if now >= self.next_heartbeat {
-            self.next_heartbeat = now.saturating_add(self.config.heartbeat_every);
+        // A heartbeat the ground asked for, once the player's time reaches
+        // it: the ground then knows every record before that time.
+        let time = player.state().now;
+        let due = now >= self.next_heartbeat;
+        let asked = self.heartbeats_asked.first().is_some_and(|at| *at <= time)
+            && self
+                .asked_sent_at
+                .is_none_or(|t| time.saturating_sub(t) >= HEARTBEAT_ASKED_GAP);
+        if due || asked {
+            // Whichever heartbeat goes answers every request up to now.
+            self.heartbeats_asked.retain(|at| *at > time);
+            if due {
+                self.next_heartbeat = now.saturating_add(self.config.heartbeat_every);
+            } else {
+                self.asked_sent_at = Some(time);
+            }
             let mut digest = [0u8; 16];
             digest.copy_from_slice(&player.digest().0[..16]);
             self.fresh.push_back(Record::Heartbeat(Heartbeat {

@@ -20,6 +20,8 @@
 //!   6 snapshot?  u32 LE session                               (uplink)
 //!   7 answer     uvarint id, str choice                       (uplink, only in
 //!                a MAVLink 2 signed TUNNEL: `mirror::dialog`)
+//!   8 heartbeat? uvarint time                                 (uplink: a heartbeat
+//!                once the vehicle's time reaches `time`)
 //! input   = u8:0 ivarint dt, event               an event the elaboration produced
 //!         | u8:1 ivarint dt, uvarint id, outcome a call's or command's outcome
 //!         | u8:2 ivarint dt, event               a program's event
@@ -56,6 +58,11 @@ pub enum Record {
     /// Uplink: send a snapshot of session `session` now.
     SendSnapshot {
         session: u32,
+    },
+    /// Uplink: send a heartbeat once the vehicle's time reaches `at` (the
+    /// independent check's proof that no event came before it).
+    SendHeartbeat {
+        at: Micros,
     },
     /// Uplink, signed only: the operator's answer to question `id`.
     Answer {
@@ -161,6 +168,7 @@ const CHUNK: u8 = 4;
 const RESEND: u8 = 5;
 const SEND_SNAPSHOT: u8 = 6;
 const ANSWER: u8 = 7;
+const SEND_HEARTBEAT: u8 = 8;
 
 /// Why a packet does not decode.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -216,6 +224,10 @@ pub fn encode(record: &Record, w: &mut Writer) {
         Record::SendSnapshot { session } => {
             w.u8(SEND_SNAPSHOT);
             w.raw(&session.to_le_bytes());
+        }
+        Record::SendHeartbeat { at } => {
+            w.u8(SEND_HEARTBEAT);
+            w.uvarint(*at);
         }
         Record::Answer { id, choice } => {
             w.u8(ANSWER);
@@ -397,6 +409,7 @@ fn decode_one(r: &mut Reader) -> Result<Record, PacketError> {
             id: r.uvarint()?,
             choice: r.str()?,
         },
+        SEND_HEARTBEAT => Record::SendHeartbeat { at: r.uvarint()? },
         k => return Err(PacketError::Kind(k)),
     })
 }
@@ -592,6 +605,7 @@ mod tests {
                 })),
             (any::<u64>(), any::<u64>()).prop_map(|(from, count)| Record::Resend { from, count }),
             any::<u32>().prop_map(|session| Record::SendSnapshot { session }),
+            any::<u64>().prop_map(|at| Record::SendHeartbeat { at }),
         ]
     }
 

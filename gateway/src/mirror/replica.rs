@@ -26,6 +26,9 @@ use nets::{Effect, Event, Micros, Player, Project};
 use super::call::{self, Call, Played};
 use super::record::{self, Chunk, Fragment, Heartbeat, Input, Record, Snapshot, StepRecord};
 
+/// How far back (ground time) the heartbeats that set the time base go.
+pub const OFFSET_SPAN: Micros = 10_000_000;
+
 /// How the replica waits and asks.
 #[derive(Debug, Clone)]
 pub struct Config {
@@ -35,8 +38,14 @@ pub struct Config {
     /// (the link works, the records do not come) is a divergence. A link
     /// that is down brings no heartbeat: that is a loss, not a divergence.
     pub give_up_after: u32,
-    /// While nothing is heard, a snapshot request this often.
+    /// While nothing is heard, a snapshot request this often; and while
+    /// the downlink is silent after it was heard, a heartbeat request.
     pub hello_every: Micros,
+    /// The downlink is silent when nothing came for this long (ground
+    /// time): three heartbeats missed. An autopilot that rebooted has lost
+    /// its routes, and forwards the records to the mirror again only once
+    /// it hears the mirror (docs/mirror.md, "Addressing").
+    pub silent_after: Micros,
     /// Records held while waiting for an earlier one, at most.
     pub hold_max: usize,
     /// Records asked for in one request, at most.
@@ -52,6 +61,7 @@ impl Default for Config {
             retry_after: 1_500_000,
             give_up_after: 30,
             hello_every: 5_000_000,
+            silent_after: 3_000_000,
             hold_max: 1024,
             resend_max: 32,
             record: false,
@@ -170,6 +180,9 @@ pub struct Counts {
     pub gaps: u64,
     pub resends_asked: u64,
     pub snapshots_asked: u64,
+    /// Heartbeats asked for: by the independent check, and while the
+    /// downlink was silent.
+    pub heartbeats_asked: u64,
     pub snapshots_restored: u64,
     /// Snapshots that failed their digest or did not fit the project.
     pub snapshots_refused: u64,
@@ -213,8 +226,14 @@ pub struct Replica {
     diverged: bool,
     /// The replica advanced by the ground's own events while a gap is open.
     provisional: Option<Player>,
-    /// Vehicle time minus ground time at the last heartbeat.
+    /// Vehicle time minus ground time: the median of the recent
+    /// heartbeats', kept with their ground time.
     offset: Option<i128>,
+    offsets: VecDeque<(Micros, i128)>,
+    /// When (ground time) the last downlink packet came, and the last
+    /// request sent while it was silent.
+    heard_at: Option<Micros>,
+    hailed_at: Option<Micros>,
     now: Micros,
     reports: VecDeque<Report>,
     uplink: VecDeque<Uplink>,
@@ -246,6 +265,9 @@ impl Replica {
             diverged: false,
             provisional: None,
             offset: None,
+            offsets: VecDeque::new(),
+            heard_at: None,
+            hailed_at: None,
             now: 0,
             reports: VecDeque::new(),
             uplink: VecDeque::new(),
@@ -272,8 +294,16 @@ impl Replica {
             .flatten()
     }
 
-    /// The vehicle's time at ground time `now`, estimated from the last
-    /// heartbeat.
+    /// The vehicle's time at ground time `now`, estimated from the recent
+    /// heartbeats: each one's time minus the ground's when it came is the
+    /// clocks' difference less its delay on the way, and the median of the
+    /// last [`OFFSET_SPAN`] is taken. The delay is kept in: the ground's
+    /// telemetry comes the same way as the heartbeats (the autopilot's
+    /// ground port, its queue, the radio), so a ground event maps to about
+    /// when the vehicle heard the same frame. The median, not the last,
+    /// so that one heartbeat held up (by the radio, by a busy ground) does
+    /// not move the time base; not the least delayed, which would leave
+    /// the ground port's usual queue in every ground event's time.
     pub fn vehicle_time(&self, now: Micros) -> Option<Micros> {
         self.offset.map(|o| (now as i128 + o).max(0) as Micros)
     }
@@ -325,10 +355,26 @@ impl Replica {
         self.uplink.pop_front()
     }
 
+    /// Asks the vehicle for a heartbeat once its time reaches `at`: the
+    /// independent check judges a ground event the vehicle did not report
+    /// once the vehicle's records are known complete past it (without it,
+    /// the periodic heartbeat comes up to a second later). Only while in
+    /// step with a session heard.
+    pub fn ask_heartbeat(&mut self, at: Micros) {
+        if self.session.is_none() || self.gap_since.is_some() || self.diverged {
+            return;
+        }
+        self.counts.heartbeats_asked += 1;
+        self.uplink
+            .push_back(Uplink(record::packet(&[Record::SendHeartbeat { at }])));
+    }
+
     /// A downlink packet received at ground time `now`.
     pub fn receive(&mut self, now: Micros, packet: &[u8]) {
         self.now = self.now.max(now);
         self.counts.packets += 1;
+        self.heard_at = Some(self.now);
+        self.hailed_at = None;
         let records = match record::decode_packet(packet) {
             Ok(r) => r,
             Err(e) => {
@@ -350,7 +396,10 @@ impl Replica {
                 }
                 Record::Chunk(c) => self.chunk(c),
                 // Uplink records heard back (a shared link): not ours.
-                Record::Resend { .. } | Record::SendSnapshot { .. } | Record::Answer { .. } => {}
+                Record::Resend { .. }
+                | Record::SendSnapshot { .. }
+                | Record::SendHeartbeat { .. }
+                | Record::Answer { .. } => {}
             }
         }
         self.play_held();
@@ -358,10 +407,39 @@ impl Replica {
         self.ask();
     }
 
-    /// Lets ground time pass: requests retried, a gap too long reported.
+    /// Lets ground time pass: requests retried, a gap too long reported,
+    /// a silent downlink hailed.
     pub fn tick(&mut self, now: Micros) {
         self.now = self.now.max(now);
         self.ask();
+        self.hail();
+    }
+
+    /// The downlink heard once and silent since `silent_after`: the
+    /// vehicle's gateway stopped, the radio is down, or the autopilot
+    /// rebooted and forgot the route to the mirror, which it learns again
+    /// from any frame the mirror sends. So the mirror speaks: a heartbeat
+    /// request (cheap; what is missing is asked for when the records come
+    /// back), every `hello_every` while the silence lasts.
+    fn hail(&mut self) {
+        let Some(heard) = self.heard_at else { return };
+        if self.now.saturating_sub(heard) < self.config.silent_after {
+            return;
+        }
+        if self
+            .hailed_at
+            .is_some_and(|t| self.now.saturating_sub(t) < self.config.hello_every)
+        {
+            return;
+        }
+        self.hailed_at = Some(self.now);
+        self.counts.heartbeats_asked += 1;
+        tracing::debug!(
+            now = self.now,
+            "the downlink is silent: hailing the vehicle"
+        );
+        self.uplink
+            .push_back(Uplink(record::packet(&[Record::SendHeartbeat { at: 0 }])));
     }
 
     /// An event the ground's own elaboration produced: it advances the
@@ -392,7 +470,14 @@ impl Replica {
         } else if self.session != Some(h.session) {
             self.new_session(h.session, h.next == 0);
         }
-        self.offset = Some(h.time as i128 - self.now as i128);
+        let offset = h.time as i128 - self.now as i128;
+        let now = self.now;
+        self.offsets
+            .retain(|(at, _)| now.saturating_sub(*at) < OFFSET_SPAN);
+        self.offsets.push_back((now, offset));
+        let mut recent: Vec<i128> = self.offsets.iter().map(|(_, o)| *o).collect();
+        recent.sort_unstable();
+        self.offset = recent.get(recent.len() / 2).copied();
         self.known = self.known.max(h.next);
         self.oldest = h.oldest;
         if self.player.is_some() && self.next < h.next {
@@ -408,6 +493,8 @@ impl Replica {
     /// record yet, its player is at its start, which the replica can build.
     fn new_session(&mut self, session: u32, from_start: bool) {
         self.session = Some(session);
+        // Another run: another clock.
+        self.offsets.clear();
         self.held.clear();
         self.fragments.clear();
         self.chunks = None;

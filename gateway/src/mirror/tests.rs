@@ -98,6 +98,9 @@ struct Flight {
     hidden_at: Option<u64>,
     uplink: Vec<Vec<u8>>,
     downlink_bytes: u64,
+    /// The autopilot rebooted and forgot the route to the mirror: the
+    /// downlink goes nowhere until the mirror sends something.
+    route_lost: bool,
 }
 
 impl Flight {
@@ -118,6 +121,7 @@ impl Flight {
             hidden_at: None,
             uplink: Vec::new(),
             downlink_bytes: 0,
+            route_lost: false,
         };
         f.exchange();
         f
@@ -191,7 +195,7 @@ impl Flight {
             .tick(self.now, self.supervisor.seq(), self.supervisor.player());
         while let Some(p) = self.publisher.poll_transmit() {
             self.downlink_bytes += p.len() as u64;
-            if !self.down.drops(self.now) {
+            if !self.down.drops(self.now) && !self.route_lost {
                 self.replica.receive(self.now, &p);
             }
         }
@@ -199,6 +203,8 @@ impl Flight {
         while let Some(u) = self.replica.poll_transmit() {
             self.uplink.push(u.bytes().to_vec());
             if !self.up.drops(self.now) {
+                // Heard: the autopilot learns the way to the mirror.
+                self.route_lost = false;
                 self.publisher.receive(u.bytes());
             }
         }
@@ -260,7 +266,12 @@ fn only_requests(uplink: &[Vec<u8>]) {
         let records = record::decode_packet(p).expect("uplink decodes");
         for r in records {
             assert!(
-                matches!(r, Record::Resend { .. } | Record::SendSnapshot { .. }),
+                matches!(
+                    r,
+                    Record::Resend { .. }
+                        | Record::SendSnapshot { .. }
+                        | Record::SendHeartbeat { .. }
+                ),
                 "{r:?}"
             );
         }
@@ -460,6 +471,146 @@ fn the_downlink_stays_small_when_nothing_happens() {
     let per_s = f.downlink_bytes as f64 / 120.0;
     assert!(per_s < 60.0, "{per_s} B/s");
     f.assert_equal();
+}
+
+#[test]
+fn after_an_autopilot_reboot_the_mirror_speaks_when_the_downlink_falls_silent() {
+    let mut f = Flight::new(Loss::none(), Loss::none(), publisher::Config::default());
+    f.settle(10);
+    // In step, nothing to ask: the mirror says nothing.
+    assert!(f.uplink.is_empty(), "{:?}", f.uplink);
+    // The autopilot reboots: its routes are gone, the records go nowhere.
+    f.route_lost = true;
+    let lost_at = f.now;
+    for i in 0..60 {
+        f.play(&Step::Event {
+            pick: i,
+            dt: 100_000,
+        });
+        if !f.route_lost {
+            break;
+        }
+    }
+    assert!(
+        !f.route_lost,
+        "the mirror never spoke: the route stays lost"
+    );
+    let silent = f.now - lost_at;
+    let config = replica::Config::default();
+    assert!(
+        silent >= config.silent_after && silent <= config.silent_after + 200_000,
+        "spoke after {silent} µs of silence"
+    );
+    // One heartbeat request, and the records flow again.
+    assert_eq!(f.uplink.len(), 1, "{:?}", f.uplink);
+    assert_eq!(
+        record::decode_packet(&f.uplink[0]),
+        Ok(vec![Record::SendHeartbeat { at: 0 }])
+    );
+    f.settle(5);
+    f.assert_equal();
+    assert!(f.diverged().is_empty(), "{:?}", f.diverged());
+    only_requests(&f.uplink);
+}
+
+#[test]
+fn a_silent_downlink_is_hailed_every_few_seconds_never_more() {
+    let mut f = Flight::new(Loss::none(), Loss::none(), publisher::Config::default());
+    f.settle(3);
+    // The radio is down both ways for a minute.
+    f.down.bursts.push((f.now, f.now + 60_000_000));
+    f.up.bursts.push((f.now, f.now + 60_000_000));
+    for _ in 0..600 {
+        f.now += 100_000;
+        f.feed(Input::Tick);
+        f.exchange();
+    }
+    // A request after 3 s of silence, then one every 5 s.
+    let config = replica::Config::default();
+    let expected = (60_000_000 - config.silent_after) / config.hello_every + 1;
+    assert_eq!(f.uplink.len() as u64, expected, "{:?}", f.uplink);
+    f.settle(5);
+    f.assert_equal();
+}
+
+#[test]
+fn a_heartbeat_asked_for_comes_when_the_vehicles_time_reaches_it() {
+    let mut f = Flight::new(Loss::none(), Loss::none(), publisher::Config::default());
+    f.settle(2);
+    let heartbeats = f.publisher.counts.heartbeats;
+    // Between two periodic heartbeats (every second, the last at 2.0 s).
+    let at = f.now + 400_000;
+    f.replica.ask_heartbeat(at);
+    while f.now < at {
+        f.exchange();
+        assert!(f.replica.exact_time() < Some(at));
+        f.now += 100_000;
+        f.feed(Input::Tick);
+    }
+    f.exchange();
+    assert_eq!(f.publisher.counts.heartbeats, heartbeats + 1);
+    assert_eq!(f.replica.exact_time(), Some(at));
+    assert_eq!(f.replica.counts.heartbeats_asked, 1);
+    f.settle(2);
+    f.assert_equal();
+    only_requests(&f.uplink);
+}
+
+#[test]
+fn heartbeats_asked_for_are_paced_however_often_the_ground_asks() {
+    let mut f = Flight::new(Loss::none(), Loss::none(), publisher::Config::default());
+    f.settle(2);
+    let heartbeats = f.publisher.counts.heartbeats;
+    // A ground asking for a heartbeat at once, at every tick for 2 s.
+    let ask = record::packet(&[Record::SendHeartbeat { at: 0 }]);
+    for _ in 0..20 {
+        f.publisher.receive(&ask);
+        f.now += 100_000;
+        f.feed(Input::Tick);
+        f.exchange();
+    }
+    // Two periodic ones, and the asked ones 250 ms apart at least.
+    let sent = f.publisher.counts.heartbeats - heartbeats;
+    let most = 2 + 2_000_000 / publisher::HEARTBEAT_ASKED_GAP;
+    assert!((3..=most).contains(&sent), "{sent} heartbeats in 2 s");
+    f.settle(2);
+    f.assert_equal();
+}
+
+#[test]
+fn the_time_base_is_the_median_of_the_recent_heartbeats() {
+    let (project, _) = example();
+    let mut r = Replica::new(project, replica::Config::default());
+    let heartbeat = |time: Micros| {
+        record::packet(&[Record::Heartbeat(record::Heartbeat {
+            session: 1,
+            step: 0,
+            time,
+            next: 0,
+            oldest: 0,
+            digest: [0; 16],
+        })])
+    };
+    // Vehicle time 10, 11, 12 s at ground time 4.1, 5.1, 6.1 s (0.1 s on
+    // the way); the next one held up 0.7 s by a busy radio: the time base
+    // does not move.
+    for i in 0..3 {
+        r.receive(
+            4_100_000 + i * 1_000_000,
+            &heartbeat(10_000_000 + i * 1_000_000),
+        );
+    }
+    r.receive(7_800_000, &heartbeat(13_000_000));
+    assert_eq!(r.vehicle_time(8_100_000), Some(14_000_000));
+    // The way gets slower for good (a queue on the ground's port): the
+    // time base follows once most of the last 10 s say so.
+    for i in 0..8 {
+        r.receive(
+            8_600_000 + i * 1_000_000,
+            &heartbeat(14_000_000 + i * 1_000_000),
+        );
+    }
+    assert_eq!(r.vehicle_time(16_600_000), Some(22_000_000));
 }
 
 proptest! {

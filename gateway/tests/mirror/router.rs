@@ -40,6 +40,8 @@ pub struct Traffic {
     pub to_ground_bytes: (u64, u64),
     /// Frames the radio lost, both ways.
     pub lost: u64,
+    /// Frames delivered to the companion's port.
+    pub to_companion: u64,
     /// (wall seconds since start, bytes, Petrel's TUNNEL) of every frame
     /// delivered to the ground.
     pub delivered: Vec<(f64, usize, bool)>,
@@ -55,6 +57,8 @@ pub struct Router {
     /// Everything from the ground lost while set (still kept in
     /// `Traffic::from_ground`).
     up_muted: Arc<AtomicBool>,
+    /// Set: the routes learned are forgotten (an autopilot that rebooted).
+    forget: Arc<AtomicBool>,
     traffic: Arc<Mutex<Traffic>>,
     thread: Option<JoinHandle<()>>,
 }
@@ -209,6 +213,8 @@ impl Router {
         let mute = muted.clone();
         let up_muted = Arc::new(AtomicBool::new(false));
         let up_mute = up_muted.clone();
+        let forget = Arc::new(AtomicBool::new(false));
+        let forgetting = forget.clone();
         let mut radio = Radio {
             seed: loss.seed | 1,
             loss,
@@ -217,6 +223,10 @@ impl Router {
         let thread = std::thread::spawn(move || {
             while !flag.load(Ordering::Relaxed) {
                 let mut idle = true;
+                if forgetting.swap(false, Ordering::Relaxed) {
+                    ground.heard.clear();
+                    companion.heard.clear();
+                }
                 // Over the radio to the ground, counted.
                 let mut downlink = |ground: &mut Port, bytes: &[u8], tunnel: bool| {
                     let mut t = shared.lock().expect("traffic");
@@ -237,6 +247,7 @@ impl Router {
                 };
                 for bytes in vehicle.read() {
                     idle = false;
+                    shared.lock().expect("traffic").to_companion += 1;
                     companion.write(&bytes);
                     downlink(&mut ground, &bytes, false);
                 }
@@ -276,6 +287,7 @@ impl Router {
                     match tunnel_target(&f) {
                         Some((VEHICLE, c)) if c != 1 => {
                             if companion.heard.contains(&(VEHICLE, c)) {
+                                shared.lock().expect("traffic").to_companion += 1;
                                 companion.write(&bytes);
                             }
                         }
@@ -293,6 +305,7 @@ impl Router {
             stop,
             muted,
             up_muted,
+            forget,
             traffic,
             thread: Some(thread),
         }
@@ -310,6 +323,13 @@ impl Router {
     /// Loses every frame from the ground while `on` (the downlink works).
     pub fn mute_uplink(&self, on: bool) {
         self.up_muted.store(on, Ordering::Relaxed);
+    }
+
+    /// Forgets every route learned, as an autopilot does when it reboots:
+    /// the downlink to the mirror goes nowhere until the mirror is heard
+    /// again.
+    pub fn forget_routes(&self) {
+        self.forget.store(true, Ordering::Relaxed);
     }
 
     pub fn stop(&mut self) {

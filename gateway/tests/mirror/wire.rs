@@ -83,7 +83,7 @@ pub fn uvarint(b: &[u8], at: &mut usize) -> Option<u64> {
 /// Every frame the mirror sent: a MAVLink 2 TUNNEL from the mirror's
 /// (system, component), Petrel's payload type, to the onboard gateway
 /// (vehicle 1, component 191), holding only resync requests (kinds 5
-/// resend and 6 snapshot). Never a HEARTBEAT, never system 255.
+/// resend, 6 snapshot, 8 heartbeat). Never a HEARTBEAT, never system 255.
 pub fn only_resync_requests(frames: &[Vec<u8>]) -> usize {
     for bytes in frames {
         let f = elaboration::Frame::parse(bytes).expect("the mirror's frames are valid MAVLink");
@@ -115,6 +115,9 @@ pub fn only_resync_requests(frames: &[Vec<u8>]) -> usize {
                     uvarint(payload, &mut at).expect("count");
                 }
                 6 => at += 4,
+                8 => {
+                    uvarint(payload, &mut at).expect("at");
+                }
                 k => panic!("the mirror sent a record of kind {k}: {payload:?}"),
             }
         }
