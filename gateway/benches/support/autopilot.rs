@@ -155,7 +155,7 @@ pub fn trials_on(
     drain_for(&mut ap, &mut drain, Duration::from_millis(100));
     // Each reactor gets at most this long, whatever happens.
     let give_up = Instant::now() + limit;
-    let mut micros = Vec::with_capacity(n);
+    let mut micros = Vec::with_capacity(n.min(1 << 20));
     let mut lost = 0;
     let mut last_hb = Instant::now();
     for trial in 0..n {
