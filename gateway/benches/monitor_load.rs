@@ -3,12 +3,16 @@
 //! telemetry frames a second — 10,000 player steps a second — for 60 s,
 //! while the latency benchmark's scripted autopilot times its low-battery
 //! SYS_STATUS to RTL reaction (`latency.rs`, the same project) over the same
-//! UDP link. Twice, in the same run: with no browser, then with two
-//! browsers on the page (two Debian chromium processes driven by
-//! playwright-core, `benches/monitor/browsers.js`; the second one's CPU
-//! throttled 20 times: a slow browser). Both runs print the reaction's
-//! p50/p99/max, the gateway's resident memory every 10 s, what the recorder
-//! kept, and with browsers what each page received.
+//! UDP link. Three times, in the same run: with no browser; with two
+//! WebSocket readers in this process reading the page's `/ws` as a browser
+//! does (one takes every frame at once, one reads a frame every 2 s: a slow
+//! browser) — the gateway's cost of serving, without a browser's rendering
+//! on the same two cores; then with two real browsers on the page (two
+//! Debian chromium processes driven by playwright-core,
+//! `benches/monitor/browsers.js`; the second one's CPU throttled 20 times).
+//! Each run prints the reaction's p50/p99/max, the gateway's resident
+//! memory every 10 s, what the recorder kept, and what the readers
+//! received.
 //!
 //! The browsers run at `nice 19` (the page is for a ground laptop, not for
 //! the companion computer's cores; on this 2-core machine they would
@@ -179,6 +183,53 @@ fn browsers(
     }
 }
 
+/// How the page is read during a run.
+#[derive(Clone, Copy)]
+enum Readers<'a> {
+    None,
+    /// Two WebSocket readers in this process: one fast, one slow.
+    Sockets,
+    /// Two chromium processes (node, playwright-core, chromium).
+    Browsers(&'a (PathBuf, PathBuf)),
+}
+
+/// One reader of `/ws` until `stop`, sleeping `pause` after each frame:
+/// (frames, bytes) received.
+fn socket_reader(
+    url: &str,
+    pause: Duration,
+    stop: Arc<AtomicBool>,
+) -> Option<std::thread::JoinHandle<(u64, u64)>> {
+    let ws_url = format!("{}ws", url.replacen("http://", "ws://", 1));
+    let (mut ws, _) = tungstenite::connect(ws_url.as_str())
+        .map_err(|e| eprintln!("cannot open {ws_url}: {e}"))
+        .ok()?;
+    if let tungstenite::stream::MaybeTlsStream::Plain(s) = ws.get_ref() {
+        let _ = s.set_read_timeout(Some(Duration::from_millis(500)));
+    }
+    Some(std::thread::spawn(move || {
+        let (mut frames, mut bytes) = (0u64, 0u64);
+        while !stop.load(Ordering::Relaxed) {
+            match ws.read() {
+                Ok(tungstenite::Message::Text(t)) => {
+                    frames += 1;
+                    bytes += t.len() as u64;
+                    std::thread::sleep(pause);
+                }
+                Ok(_) => {}
+                Err(tungstenite::Error::Io(e))
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                    ) => {}
+                Err(_) => break,
+            }
+        }
+        let _ = ws.close(None);
+        (frames, bytes)
+    }))
+}
+
 struct Phase {
     stats: Stats,
     /// (seconds into the load, RSS kB)
@@ -191,7 +242,7 @@ struct Phase {
 /// One run of `petrel run` under the load, with browsers or without.
 fn phase(
     name: &'static str,
-    tools: Option<&(PathBuf, PathBuf)>,
+    readers: Readers,
     seconds: u64,
     rate: u64,
     scratch: &Path,
@@ -242,9 +293,17 @@ fn phase(
     let stop = Arc::new(AtomicBool::new(false));
     let sent = Arc::new(AtomicU64::new(0));
     let feed = feeder(&ap, rate, stop.clone(), sent.clone())?;
-    let pages = match tools {
-        Some(t) => Some(browsers(t, &url)?),
-        None => None,
+    let pages = match readers {
+        Readers::Browsers(t) => Some(browsers(t, &url)?),
+        _ => None,
+    };
+    let reading = Arc::new(AtomicBool::new(false));
+    let sockets = match readers {
+        Readers::Sockets => vec![
+            socket_reader(&url, Duration::ZERO, reading.clone())?,
+            socket_reader(&url, Duration::from_secs(2), reading.clone())?,
+        ],
+        _ => Vec::new(),
     };
     // Memory every 10 s of the load, on its own thread.
     let sampling = Arc::new(AtomicBool::new(false));
@@ -275,6 +334,13 @@ fn phase(
         drop(child);
         line
     });
+    reading.store(true, Ordering::Relaxed);
+    let read: Vec<(u64, u64)> = sockets.into_iter().filter_map(|h| h.join().ok()).collect();
+    let pages = if read.is_empty() {
+        pages
+    } else {
+        Some(format!("frames and bytes, fast reader then slow: {read:?}"))
+    };
     let _ = Command::new("kill")
         .args(["-TERM", &pid.to_string()])
         .status();
@@ -309,10 +375,22 @@ fn main() {
     };
     println!("{rate} frames/s for {seconds} s, recording on, the page served");
     let mut phases = Vec::new();
-    phases.extend(phase("no browser", None, seconds, rate, &scratch).map(|p| ("no browser", p)));
+    phases.extend(
+        phase("no browser", Readers::None, seconds, rate, &scratch).map(|p| ("no browser", p)),
+    );
+    phases.extend(
+        phase("two sockets", Readers::Sockets, seconds, rate, &scratch).map(|p| ("two sockets", p)),
+    );
     if let Some(t) = &tools {
         phases.extend(
-            phase("two browsers", Some(t), seconds, rate, &scratch).map(|p| ("two browsers", p)),
+            phase(
+                "two browsers",
+                Readers::Browsers(t),
+                seconds,
+                rate,
+                &scratch,
+            )
+            .map(|p| ("two browsers", p)),
         );
     }
     let _ = std::fs::remove_dir_all(&scratch);
@@ -357,15 +435,17 @@ fn main() {
             let _ = writeln!(out, "{name}: petrel: {line}");
         }
         if let Some(pages) = &p.pages {
-            let _ = writeln!(out, "{name}: the pages received {pages}");
+            let _ = writeln!(out, "{name}: the readers received {pages}");
         }
     }
-    if let [(_, a), (_, b)] = &phases[..] {
-        let _ = writeln!(
-            out,
-            "two browsers / no browser: p50 {:.2}, p99 {:.2}",
-            b.stats.pct(0.5) / a.stats.pct(0.5),
-            b.stats.pct(0.99) / a.stats.pct(0.99)
-        );
+    if let [(_, a), rest @ ..] = &phases[..] {
+        for (name, b) in rest {
+            let _ = writeln!(
+                out,
+                "{name} / no browser: p50 {:.2}, p99 {:.2}",
+                b.stats.pct(0.5) / a.stats.pct(0.5),
+                b.stats.pct(0.99) / a.stats.pct(0.99)
+            );
+        }
     }
 }
