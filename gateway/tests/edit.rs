@@ -17,66 +17,21 @@
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use serde_json::Value as Json;
 
-const PETREL: &str = env!("CARGO_BIN_EXE_petrel");
+#[path = "monitor/browser.rs"]
+mod browser;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
+use browser::{repo, require, Reaped};
+
+const PETREL: &str = env!("CARGO_BIN_EXE_petrel");
 
 fn example() -> PathBuf {
     repo().join("examples/uav-flight-test")
-}
-
-/// A child killed and waited for when dropped, whatever happened.
-struct Reaped(Child);
-
-impl Drop for Reaped {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// node, playwright-core's folder and chromium, or why not.
-fn browser_tools() -> Result<(PathBuf, PathBuf, PathBuf), String> {
-    let chromium = PathBuf::from(std::env::var("CHROMIUM").unwrap_or("/usr/bin/chromium".into()));
-    if !chromium.exists() {
-        return Err(format!("no chromium at {}", chromium.display()));
-    }
-    let node = Command::new("node").arg("--version").output();
-    if !node.is_ok_and(|o| o.status.success()) {
-        return Err("no node on PATH".into());
-    }
-    let core = std::env::var("PETREL_PLAYWRIGHT_CORE")
-        .map(PathBuf::from)
-        .unwrap_or_else(|_| repo().join("target/browser-tools/node_modules/playwright-core"));
-    if !core.join("package.json").exists() {
-        return Err(format!(
-            "no playwright-core at {} (npm install --prefix target/browser-tools playwright-core)",
-            core.display()
-        ));
-    }
-    Ok((PathBuf::from("node"), core, chromium))
-}
-
-/// Skips (returns None) with the reason, or fails under CI.
-fn require() -> Option<(PathBuf, PathBuf, PathBuf)> {
-    match browser_tools() {
-        Ok(t) => Some(t),
-        Err(why) if std::env::var("CI").as_deref() == Ok("true") => {
-            panic!("CI=true but the browser tests cannot run: {why}")
-        }
-        Err(why) => {
-            eprintln!("skipped: {why}");
-            None
-        }
-    }
 }
 
 /// `petrel edit DIR` on a free port; the child and the page's URL.

@@ -1,5 +1,5 @@
 #![allow(dead_code)] // shared by the browser test binaries, each using a part
-//! The browser tests' tools (tests/monitor.rs, tests/monitor_mirror.rs):
+//! The browser tests' tools (tests/monitor.rs, tests/monitor_mirror.rs, tests/edit.rs):
 //! node, playwright-core and Debian's chromium found or the test skipped
 //! (failed under `CI=true`), and `monitor/driver.js` run.
 
