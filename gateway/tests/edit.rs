@@ -73,44 +73,17 @@ fn edit(dir: &Path) -> (Reaped, String) {
     )
 }
 
-/// Runs the driver; its JSON.
+/// Runs the editor's driver; its JSON. Bounded: the driver's own waits
+/// (a check of the example included) add up to well under 600 s.
 fn drive(tools: &(PathBuf, PathBuf, PathBuf), mode: &str, url: &str, shots: &Path) -> Json {
-    let (node, core, chromium) = tools;
-    let child = Command::new(node)
-        .arg(repo().join("gateway/tests/edit/driver.js"))
-        .args([mode, url])
-        .arg(shots)
-        .env("PLAYWRIGHT_CORE", core)
-        .env("CHROMIUM", chromium)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .unwrap_or_else(|e| panic!("cannot start node: {e}"));
-    let mut child = Reaped(child);
-    // Bounded: the driver's own waits (a check of the example included)
-    // add up to well under this.
-    let until = Instant::now() + Duration::from_secs(600);
-    loop {
-        if let Ok(Some(_)) = child.0.try_wait() {
-            break;
-        }
-        assert!(Instant::now() < until, "the browser driver hung");
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    let mut out = String::new();
-    if let Some(mut s) = child.0.stdout.take() {
-        use std::io::Read;
-        let _ = s.read_to_string(&mut out);
-    }
-    let seen: Json = serde_json::from_str(out.trim())
-        .unwrap_or_else(|e| panic!("the driver printed no JSON ({e}): {out}"));
-    assert!(
-        seen["failure"].is_null(),
-        "in the browser: {}",
-        seen["failure"]
-    );
-    assert_eq!(seen["errors"], serde_json::json!([]), "the page threw");
-    seen
+    let shots = shots.to_string_lossy();
+    browser::drive_script(
+        tools,
+        "gateway/tests/edit/driver.js",
+        &[mode, url, &shots],
+        &[],
+        Duration::from_secs(600),
+    )
 }
 
 /// A fresh `petrel check` of the folder: its exit status.

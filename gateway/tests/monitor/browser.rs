@@ -59,11 +59,29 @@ pub fn require() -> Option<(PathBuf, PathBuf, PathBuf)> {
     }
 }
 
-/// Runs the driver; its JSON.
+/// Runs the monitor's driver; its JSON.
 pub fn drive(tools: &(PathBuf, PathBuf, PathBuf), args: &[&str], env: &[(&str, &str)]) -> Json {
+    drive_script(
+        tools,
+        "gateway/tests/monitor/driver.js",
+        args,
+        env,
+        Duration::from_secs(400),
+    )
+}
+
+/// Runs a driver script (a path from the repository's root) for at most
+/// `limit`; its JSON, which must report no failure and no page error.
+pub fn drive_script(
+    tools: &(PathBuf, PathBuf, PathBuf),
+    script: &str,
+    args: &[&str],
+    env: &[(&str, &str)],
+    limit: Duration,
+) -> Json {
     let (node, core, chromium) = tools;
     let mut cmd = Command::new(node);
-    cmd.arg(repo().join("gateway/tests/monitor/driver.js"))
+    cmd.arg(repo().join(script))
         .args(args)
         .env("PLAYWRIGHT_CORE", core)
         .env("CHROMIUM", chromium)
@@ -77,7 +95,7 @@ pub fn drive(tools: &(PathBuf, PathBuf, PathBuf), args: &[&str], env: &[(&str, &
         .unwrap_or_else(|e| panic!("cannot start node: {e}"));
     let mut child = Reaped(child);
     // Bounded: the driver's own waits add up to well under this.
-    let until = Instant::now() + Duration::from_secs(400);
+    let until = Instant::now() + limit;
     loop {
         if let Ok(Some(_)) = child.0.try_wait() {
             break;
