@@ -14,10 +14,11 @@
 //! thread of this process. `PETREL_BENCH_RUNS` sets the runs per figure
 //! (median; default 3).
 
+#[path = "support/busy.rs"]
+mod busy;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 fn root() -> PathBuf {
@@ -265,18 +266,5 @@ fn main() {
         return;
     }
     set("idle");
-    let stop = Arc::new(AtomicBool::new(false));
-    let spinner = {
-        let stop = stop.clone();
-        std::thread::spawn(move || {
-            let mut x = 0u64;
-            while !stop.load(Ordering::Relaxed) {
-                x = x.wrapping_mul(6364136223846793005).wrapping_add(1);
-                std::hint::black_box(x);
-            }
-        })
-    };
-    set("the other core busy (a spinning thread)");
-    stop.store(true, Ordering::Relaxed);
-    let _ = spinner.join();
+    busy::with_a_core_busy(|| set("the other core busy (a spinning thread)"));
 }

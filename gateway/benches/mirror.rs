@@ -21,14 +21,14 @@
 //! Once idle, then with the other core kept busy by a spinning thread of
 //! this process. Run: `cargo bench -p gateway --bench mirror`.
 
+#[path = "support/busy.rs"]
+mod busy;
 #[path = "../tests/scenarios/flight.rs"]
 mod flight;
 #[path = "../tests/mirror/router.rs"]
 mod router;
 
 use std::process::{Command, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use flight::{free_port, petrel_run, project, scratch, start_sim, stop, Dec, Killed, SPEED};
@@ -168,18 +168,5 @@ fn main() {
         return;
     }
     report("idle");
-    let stop = Arc::new(AtomicBool::new(false));
-    let spinner = {
-        let stop = stop.clone();
-        std::thread::spawn(move || {
-            let mut x = 0u64;
-            while !stop.load(Ordering::Relaxed) {
-                x = x.wrapping_mul(6364136223846793005).wrapping_add(1);
-                std::hint::black_box(x);
-            }
-        })
-    };
-    report("the other core busy (a spinning thread)");
-    stop.store(true, Ordering::Relaxed);
-    let _ = spinner.join();
+    busy::with_a_core_busy(|| report("the other core busy (a spinning thread)"));
 }
