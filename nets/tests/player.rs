@@ -1270,6 +1270,7 @@ fn the_digest_layout_covers_the_lockout_calls_queues_and_every_value_kind() {
         timers: Vec::new(),
         queue,
         lockout: true,
+        locked: Vec::new(),
         pending: [(
             7,
             Pending {
@@ -1342,6 +1343,18 @@ fn the_digest_layout_covers_the_lockout_calls_queues_and_every_value_kind() {
     x.extend(8u64.to_le_bytes()); // next id
     x.extend(0u64.to_le_bytes()); // next timer seq
     assert_eq!(nets::player::canonical_bytes(&state), x);
+    // Vehicles locked out one by one (a team's): the lockout byte says so
+    // (2 | team) and their ids follow; the rest is unchanged.
+    let mut team = state.clone();
+    team.locked = vec![0, 2];
+    let at = b"petrel.player.state".len() + 1 + 8;
+    let mut y = x[..at].to_vec();
+    y.push(3);
+    y.extend(2u32.to_le_bytes());
+    y.extend(0u32.to_le_bytes());
+    y.extend(2u32.to_le_bytes());
+    y.extend(&x[at + 1..]);
+    assert_eq!(nets::player::canonical_bytes(&team), y);
 }
 
 #[test]

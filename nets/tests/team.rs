@@ -392,19 +392,137 @@ fn the_verifier_shows_two_robots_in_the_bottleneck_step_by_step() {
     );
 }
 
-#[test]
-fn one_vehicles_catastrophic_event_locks_the_whole_team_out_for_now() {
-    // Documented in docs/nets.md: the lockout is the player's, not a
-    // vehicle's (issue 16 leaves the choice open).
+/// The fixture with WATCH reacting to `event` (a catastrophic event)
+/// instead of R2's obstacle.
+fn with_watch_on(event: &str) -> Arc<Project> {
     let mut files = fixture_files();
-    let watch = files["watch.toml"].replace("obstacle@R2", "engine_failure@R2");
+    let watch = files["watch.toml"].replace("obstacle@R2", event);
     files.insert("watch.toml".to_owned(), watch);
-    let project = nets::load(&files).unwrap_or_else(|e| panic!("{e:?}"));
-    let mut player = Player::start(Arc::new(project), 0);
+    Arc::new(nets::load(&files).unwrap_or_else(|e| panic!("{e:?}")))
+}
+
+#[test]
+fn one_vehicles_catastrophic_event_locks_out_that_vehicle_only() {
+    // docs/nets.md, "The catastrophic lockout in a team".
+    let mut player = Player::start(with_watch_on("engine_failure@R2"), 0);
+    // R2 enters the bottleneck (its `stuck` timer runs), R1 waits for it.
+    player.handle(&Event::new("at_gate@R2"), S);
+    player.handle(&Event::new("at_gate@R1"), 2 * S);
+    player.effects().for_each(drop);
+    player.handle(&Event::new("engine_failure@R2"), 3 * S);
+    let project = Arc::clone(player.project());
+    let lockouts: Vec<Effect> = player
+        .effects()
+        .filter(|e| matches!(e, Effect::Lockout { .. }))
+        .collect();
+    let [lockout] = lockouts.as_slice() else {
+        panic!("one lockout: {lockouts:?}")
+    };
+    assert!(
+        matches!(lockout, Effect::Lockout { vehicle: Some(1), event, .. } if event == "engine_failure@R2"),
+        "{lockout:?}"
+    );
+    let json = nets::player::effect_json(&project, lockout).to_string();
+    assert!(json.contains(r#""vehicle":"R2""#), "{json}");
+    let text = nets::player::effect_text(&project, lockout);
+    assert!(text.contains("LOCKOUT @R2"), "{text}");
+    assert!(!player.locked_out(), "the team goes on");
+    assert!(player.vehicle_locked_out(1));
+    assert!(!player.vehicle_locked_out(0));
+    // R2's other events are dropped, its own non-catastrophic timer too:
+    // it stays in the bottleneck, and R1 waits (the nets say so).
+    player.handle(&Event::new("through@R2"), 4 * S);
+    let dropped: Vec<String> = player
+        .effects()
+        .filter_map(|e| match e {
+            Effect::Dropped { event, reason, .. } => {
+                Some(format!("{} {}", event.name, reason.as_str()))
+            }
+            _ => None,
+        })
+        .collect();
+    assert_eq!(dropped, ["through@R2 lockout"]);
+    player.advance(120 * S);
+    assert!(marked(&player, "MOVE@R2", "inside"));
+    assert!(marked(&player, "MOVE@R1", "waiting"));
+    // R1's own events are still handled: a second robot's obstacle is heard.
+    let mut player = Player::start(with_watch_on("engine_failure@R2"), 0);
     player.handle(&Event::new("engine_failure@R2"), S);
+    player.handle(&Event::new("at_gate@R1"), 2 * S);
+    assert!(marked(&player, "MOVE@R1", "inside"));
+}
+
+#[test]
+fn a_catastrophic_event_of_no_vehicle_locks_the_whole_team_out() {
+    let mut player = Player::start(with_watch_on("engine_failure"), 0);
+    player.handle(&Event::new("engine_failure"), S);
     assert!(player.locked_out());
+    assert!(player.vehicle_locked_out(0) && player.vehicle_locked_out(1));
     player.handle(&Event::new("at_gate@R1"), 2 * S);
     assert!(marked(&player, "MOVE@R1", "outside"));
+}
+
+#[test]
+fn a_vehicles_lockout_survives_snapshot_and_changes_the_digest() {
+    let project = with_watch_on("engine_failure@R2");
+    let mut locked = Player::start(Arc::clone(&project), 0);
+    locked.handle(&Event::new("engine_failure@R2"), S);
+    let a = locked.snapshot();
+    assert_eq!(a.locked, [1]);
+    assert!(!a.lockout);
+    // The same state but for the lockout: another digest.
+    let mut b = a.clone();
+    b.locked.clear();
+    let free = Player::restore(Arc::clone(&project), b).unwrap_or_else(|e| panic!("{e}"));
+    assert_ne!(locked.digest(), free.digest());
+    let bytes = nets::player::snapshot::encode(&a);
+    let back = nets::player::snapshot::decode(&bytes).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(back, a);
+    let restored = Player::restore(Arc::clone(&project), back).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(restored.digest(), locked.digest());
+    assert!(restored.vehicle_locked_out(1));
+    // A vehicle the project does not have is refused, not believed.
+    let mut bad = a.clone();
+    bad.locked = vec![7];
+    assert!(Player::restore(project, bad).is_err());
+    // A list out of order is corrupt.
+    let mut unordered = a;
+    unordered.locked = vec![1, 0];
+    let bytes = nets::player::snapshot::encode(&unordered);
+    assert!(nets::player::snapshot::decode(&bytes).is_err());
+}
+
+#[test]
+fn the_verifier_knows_a_locked_out_robot_blocks_the_bottleneck() {
+    // R2 locked out inside the bottleneck never leaves it (its `through`
+    // and its `stuck` timer are dropped): R1 waits for ever, a dead marking
+    // of MOVE@R1 the verifier finds, reached through R2's failure.
+    let project = Arc::new((*with_watch_on("engine_failure@R2")).clone());
+    let options = nets::verify::project::Options {
+        each_net: true,
+        ..Default::default()
+    };
+    let report = nets::verify::project::check(&project, &options);
+    let (_, r1) = report
+        .nets
+        .iter()
+        .find(|(name, _)| name == "MOVE@R1")
+        .expect("MOVE@R1's verdict");
+    assert!(r1.dead_markings > 0, "{r1:?}");
+    let example = r1.deadlock_example.clone().unwrap_or_default();
+    assert!(
+        example.iter().any(|s| s.contains("engine_failure@R2")),
+        "{example:?}"
+    );
+    // Under a team-wide lockout R1 would be stuck outside already (two
+    // steps: R2 enters, fails); locked out alone, R2 stops R1 only once R1
+    // has come to the gate: three steps, R1's own among them.
+    assert_eq!(example.len(), 3, "{example:?}");
+    assert!(
+        example.iter().any(|s| s.contains("at_gate@R1")),
+        "{example:?}"
+    );
+    assert!(!report.holds());
 }
 
 #[test]

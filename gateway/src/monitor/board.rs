@@ -34,6 +34,8 @@ pub struct Marking {
     /// Firings so far, per flat transition index.
     pub fired: Vec<u32>,
     pub lockout: bool,
+    /// The vehicles locked out one by one (a team's).
+    pub locked: Vec<usize>,
 }
 
 impl Marking {
@@ -57,6 +59,11 @@ impl Marking {
             "enabled": self.enabled,
             "fired": self.fired,
             "lockout": self.lockout,
+            "locked": self
+                .locked
+                .iter()
+                .filter_map(|&v| project.vehicles.get(v).map(|v| v.name.clone()))
+                .collect::<Vec<_>>(),
         })
     }
 }
@@ -424,12 +431,14 @@ impl Board {
         let changed = self.marking.marking != state.marking
             || self.marking.active != state.active
             || self.marking.enabled != enabled
-            || self.marking.lockout != state.lockout;
+            || self.marking.lockout != state.lockout
+            || self.marking.locked != state.locked;
         self.marking_changed |= changed;
         self.marking.marking.clone_from(&state.marking);
         self.marking.active.clone_from(&state.active);
         self.marking.enabled = enabled;
         self.marking.lockout = state.lockout;
+        self.marking.locked.clone_from(&state.locked);
         self.marking.time = time;
     }
 }

@@ -7,7 +7,9 @@
 //!
 //! ```text
 //! "petrel.player.state" u8:1                      magic and layout version
-//! u64 now, u8 lockout
+//! u64 now, u8 lockout                             0 none, 1 the team's;
+//!     2 | team: u32 n, u32 vehicle × n follow (the vehicles locked out,
+//!     ascending; a state without a vehicle's lockout hashes as before)
 //! u32 words, u64 × words                          marking bitset (flat places)
 //! u32 nets, u8 × nets                             active flags
 //! u32 timers, { u32 net, u32 timer, u64 deadline, u64 seq, u8 catastrophic } × timers
@@ -50,7 +52,15 @@ pub fn canonical_bytes(state: &State) -> Vec<u8> {
     w.0.extend_from_slice(b"petrel.player.state");
     w.u8(1);
     w.u64(state.now);
-    w.u8(state.lockout.into());
+    if state.locked.is_empty() {
+        w.u8(state.lockout.into());
+    } else {
+        w.u8(2 | u8::from(state.lockout));
+        w.u32(state.locked.len());
+        for v in &state.locked {
+            w.u32(*v);
+        }
+    }
     w.u32(state.marking.len());
     for word in &state.marking {
         w.u64(*word);

@@ -137,12 +137,15 @@ pub enum Effect {
     /// issued): recorded and dropped.
     LateResult { time: Micros, id: u64 },
     /// A catastrophic event fired a transition: from now on only
-    /// catastrophic events are handled.
+    /// catastrophic events are handled — of that event's vehicle
+    /// (`vehicle`), or of the whole team (`None`: an event of no vehicle,
+    /// and always in a project without `[[vehicle]]`).
     Lockout {
         time: Micros,
         event: String,
         net: NetId,
         transition: TransitionId,
+        vehicle: Option<VehicleId>,
     },
     /// Something went wrong in the nets; the player carried on.
     Fault { time: Micros, fault: Fault },
@@ -170,7 +173,8 @@ impl AnswerRefusal {
 /// Why an event was dropped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DropReason {
-    /// The catastrophic lockout is on and the event is not catastrophic.
+    /// The catastrophic lockout (the team's or the event's vehicle's) is on
+    /// and the event is not catastrophic.
     Lockout,
     /// A result or timer for a net that is no longer active.
     NetInactive,

@@ -26,7 +26,7 @@ pub use render::{effect_json, effect_text};
 pub use state::{Pending, PendingKind, Queued, State, Timer};
 
 use crate::event::{Category, Event};
-use crate::model::{names, Action, NetId, PlaceRef, Project, TransitionId};
+use crate::model::{names, Action, NetId, PlaceRef, Project, TransitionId, VehicleId};
 use crate::time::Micros;
 use crate::value::{Params, Value};
 
@@ -86,6 +86,7 @@ impl Player {
             timers: Vec::new(),
             queue: Default::default(),
             lockout: false,
+            locked: Vec::new(),
             pending: Default::default(),
             next_id: 1,
             next_timer_seq: 0,
@@ -165,6 +166,9 @@ impl Player {
                 return mismatch(format!("pending id {id} does not fit the project"));
             }
         }
+        if state.locked.iter().any(|&v| v >= project.vehicles.len()) {
+            return mismatch("a vehicle locked out that the project does not have".into());
+        }
         if state
             .queue
             .iter()
@@ -199,6 +203,7 @@ impl Player {
             q.extend(from.iter().cloned());
         }
         s.lockout = state.lockout;
+        s.locked.clone_from(&state.locked);
         if s.pending != state.pending {
             s.pending.clone_from(&state.pending);
         }
@@ -277,9 +282,16 @@ impl Player {
         self.state.timers.first().map(|t| t.deadline)
     }
 
-    /// Whether the catastrophic lockout is on.
+    /// Whether the catastrophic lockout of the whole team (of the one
+    /// vehicle, without `[[vehicle]]`) is on.
     pub fn locked_out(&self) -> bool {
         self.state.lockout
+    }
+
+    /// Whether a vehicle's events are locked out: the team's lockout, or
+    /// one its own catastrophic event started.
+    pub fn vehicle_locked_out(&self, vehicle: VehicleId) -> bool {
+        self.state.locks(Some(vehicle))
     }
 
     /// Whether a net is active.
@@ -626,8 +638,13 @@ impl Player {
         }
     }
 
-    fn drop_reason(&self, category: Category, target: Option<NetId>) -> Option<DropReason> {
-        if self.state.lockout && category != Category::Catastrophic {
+    fn drop_reason(
+        &self,
+        category: Category,
+        target: Option<NetId>,
+        vehicle: Option<VehicleId>,
+    ) -> Option<DropReason> {
+        if category != Category::Catastrophic && self.state.locks(vehicle) {
             Some(DropReason::Lockout)
         } else if target.is_some_and(|t| !self.state.active[t]) {
             Some(DropReason::NetInactive)
@@ -648,7 +665,8 @@ impl Player {
         target: Option<NetId>,
         now: Micros,
     ) -> Result<(), DropReason> {
-        if let Some(reason) = self.drop_reason(category, target) {
+        let vehicle = event_vehicle(project, name, params, target);
+        if let Some(reason) = self.drop_reason(category, target, vehicle) {
             return Err(reason);
         }
         let Some(waiting) = project.triggers.get(name) else {
@@ -712,14 +730,21 @@ impl Player {
                     });
                 if still {
                     if let Firing::Fired = self.fire(project, n, t, params, now, tainted) {
-                        if tainted && !self.state.lockout {
-                            self.state.lockout = true;
+                        if tainted && !self.state.locks(vehicle) {
+                            match vehicle {
+                                None => self.state.lockout = true,
+                                Some(v) => {
+                                    let at = self.state.locked.partition_point(|&x| x < v);
+                                    self.state.locked.insert(at, v);
+                                }
+                            }
                             if self.records() {
                                 self.effects.push(Effect::Lockout {
                                     time: now,
                                     event: name.to_owned(),
                                     net: n,
                                     transition: t,
+                                    vehicle,
                                 });
                             }
                         }
@@ -849,13 +874,17 @@ impl Player {
     /// Queues the `net_fault`s of the occurrence just handled. One raised
     /// while a catastrophic event was being handled is catastrophic only if
     /// the catastrophic reaction is running (a catastrophic transition fired,
-    /// so the lockout is on): a rejected firing alone is not a catastrophic
+    /// so the lockout is on: the team's, or that of the faulty net's
+    /// vehicle, whose event the `net_fault` then is): a rejected firing alone is not a catastrophic
     /// reaction and must not start the lockout through a net that hears
     /// `net_fault`. Otherwise it has its declared category (safety by
     /// default).
     fn queue_net_faults(&mut self, project: &Project) {
         for (params, tainted) in std::mem::take(&mut self.net_faults) {
-            let category = if tainted && self.state.lockout {
+            // The faulty net's vehicle (or the team): its lockout is the
+            // reaction running.
+            let vehicle = event_vehicle(project, names::NET_FAULT, &params, None);
+            let category = if tainted && self.state.locks(vehicle) {
                 Category::Catastrophic
             } else {
                 project
@@ -1332,4 +1361,29 @@ pub fn flat_place_name(project: &Project, p: usize) -> String {
         project.nets[n].name,
         project.nets[n].places[p - project.place_offsets[n]].name
     )
+}
+
+/// The vehicle an occurrence belongs to, whose lockout drops it: a result's
+/// or timer's net's vehicle (`target`), a `net_fault`'s faulty net's, or the
+/// vehicle its name carries (`EVENT@VEHICLE`); `None` for a team event and
+/// in a project without `[[vehicle]]`.
+pub(crate) fn event_vehicle(
+    project: &Project,
+    name: &str,
+    params: &Params,
+    target: Option<NetId>,
+) -> Option<VehicleId> {
+    if project.vehicles.is_empty() {
+        return None;
+    }
+    if let Some(t) = target {
+        return project.nets[t].vehicle;
+    }
+    if name == names::NET_FAULT {
+        return match params.get("net") {
+            Some(Value::Str(net)) => project.vehicle_event(net).map(|(_, v)| v),
+            _ => None,
+        };
+    }
+    project.vehicle_event(name).map(|(_, v)| v)
 }

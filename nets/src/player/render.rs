@@ -193,15 +193,17 @@ pub fn effect_json(project: &Project, effect: &Effect) -> Json {
             event,
             net,
             transition,
+            vehicle,
             ..
-        } => (
-            "lockout",
-            json!({
+        } => {
+            let mut body = json!({
                 "event": event,
                 "net": net_name(project, *net),
                 "transition": transition_name(project, *net, *transition),
-            }),
-        ),
+            });
+            with_vehicle(&mut body, project, *vehicle);
+            ("lockout", body)
+        }
         Effect::Fault { fault, .. } => ("fault", fault_json(project, fault)),
     };
     obj.insert("effect".into(), json!(kind));
@@ -406,12 +408,22 @@ pub fn effect_text(project: &Project, effect: &Effect) -> String {
             event,
             net,
             transition,
+            vehicle,
             ..
-        } => format!(
-            "LOCKOUT catastrophic {event} fired {}.{}: other events are dropped from now on",
-            net_name(project, *net),
-            transition_name(project, *net, *transition)
-        ),
+        } => match vehicle.and_then(|v| project.vehicles.get(v)) {
+            None => format!(
+                "LOCKOUT catastrophic {event} fired {}.{}: other events are dropped from now on",
+                net_name(project, *net),
+                transition_name(project, *net, *transition)
+            ),
+            Some(v) => format!(
+                "LOCKOUT @{} catastrophic {event} fired {}.{}: {}'s other events are dropped from now on",
+                v.name,
+                net_name(project, *net),
+                transition_name(project, *net, *transition),
+                v.name
+            ),
+        },
         Effect::Fault { fault, .. } => format!("FAULT  {}", fault_text(project, fault)),
     }
 }

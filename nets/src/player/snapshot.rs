@@ -9,7 +9,11 @@
 //!
 //! ```text
 //! u8:1                                               version
-//! uvarint now, bool lockout
+//! uvarint now, u8 lockout                           0 none, 1 the team's;
+//!     2 | team: vehicles locked out follow: uvarint n, uvarint vehicle × n,
+//!     ascending (added without a version bump: states without a vehicle's
+//!     lockout encode as before, and an older reader refuses 2 and 3 as
+//!     booleans)
 //! uvarint words, u64 LE × words                      marking bitset (flat places)
 //! uvarint nets, ceil(nets/8) bytes                   active flags, bit i of byte i/8
 //! uvarint timers, { uvarint net, uvarint timer, uvarint deadline, uvarint seq,
@@ -65,13 +69,22 @@ pub fn encode_into(state: &State, w: &mut Writer) {
         timers,
         queue,
         lockout,
+        locked,
         pending,
         next_id,
         next_timer_seq,
     } = state;
     w.u8(SNAPSHOT_VERSION);
     w.uvarint(*now);
-    w.bool(*lockout);
+    if locked.is_empty() {
+        w.bool(*lockout);
+    } else {
+        w.u8(2 | u8::from(*lockout));
+        w.len(locked.len());
+        for v in locked {
+            w.len(*v);
+        }
+    }
     w.len(marking.len());
     for word in marking {
         w.u64_le(*word);
@@ -156,7 +169,25 @@ pub fn decode_from(r: &mut Reader) -> Result<State, SnapshotError> {
         return Err(SnapshotError::Version(version));
     }
     let now = r.uvarint()?;
-    let lockout = r.bool()?;
+    let (lockout, locked) = match r.u8()? {
+        byte @ (0 | 1) => (byte == 1, Vec::new()),
+        byte @ (2 | 3) => {
+            let n = r.count(1)?;
+            if n == 0 {
+                return Err(r.invalid("an empty list of vehicles locked out").into());
+            }
+            let mut locked: Vec<usize> = Vec::with_capacity(n);
+            for _ in 0..n {
+                let v = r.index(usize::MAX)?;
+                if locked.last().is_some_and(|&l| l >= v) {
+                    return Err(r.invalid("vehicles locked out out of order").into());
+                }
+                locked.push(v);
+            }
+            (byte == 3, locked)
+        }
+        _ => return Err(r.invalid("an unknown lockout").into()),
+    };
     let words = r.count(8)?;
     let mut marking = Vec::with_capacity(words);
     for _ in 0..words {
@@ -244,6 +275,7 @@ pub fn decode_from(r: &mut Reader) -> Result<State, SnapshotError> {
         timers,
         queue,
         lockout,
+        locked,
         pending,
         next_id,
         next_timer_seq,

@@ -6,7 +6,7 @@ use std::collections::{BTreeMap, VecDeque};
 use serde::{Deserialize, Serialize};
 
 use crate::event::{Category, Event};
-use crate::model::NetId;
+use crate::model::{NetId, VehicleId};
 use crate::time::Micros;
 
 /// Everything a player holds between two inputs.
@@ -24,8 +24,13 @@ pub struct State {
     /// Queued events, one queue per category (highest priority first). Empty
     /// between inputs: every input runs to completion.
     pub queue: [VecDeque<Queued>; 5],
-    /// The catastrophic lockout.
+    /// The catastrophic lockout of the whole team (of the one vehicle of a
+    /// project without `[[vehicle]]`).
     pub lockout: bool,
+    /// The vehicles locked out one by one: a catastrophic event of theirs
+    /// fired a transition (ascending, each once). Empty without a team.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub locked: Vec<VehicleId>,
     /// Calls, commands and questions awaiting their results, by id.
     pub pending: BTreeMap<u64, Pending>,
     /// The id the next call or command gets.
@@ -83,6 +88,12 @@ pub enum PendingKind {
 }
 
 impl State {
+    /// Whether a non-catastrophic event of `vehicle` (`None`: no vehicle's,
+    /// a team event) is dropped by a lockout: the team's, or its vehicle's.
+    pub fn locks(&self, vehicle: Option<VehicleId>) -> bool {
+        self.lockout || vehicle.is_some_and(|v| self.locked.binary_search(&v).is_ok())
+    }
+
     /// Whether flat place `p` is marked.
     pub fn marked(&self, p: usize) -> bool {
         self.marking[p / 64] & (1 << (p % 64)) != 0

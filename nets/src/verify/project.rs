@@ -288,6 +288,8 @@ struct External {
     waiting: Vec<(NetId, TransitionId)>,
     /// Its category is catastrophic (the lockout does not drop it).
     catastrophic: bool,
+    /// Its vehicle (`EVENT@VEHICLE`), whose own lockout drops it.
+    vehicle: Option<crate::model::VehicleId>,
 }
 
 /// A hash map with a fast fixed hash (what it holds never comes from
@@ -409,6 +411,7 @@ impl Explorer {
                         .cloned()
                         .unwrap_or_default(),
                     catastrophic: category == crate::event::Category::Catastrophic,
+                    vehicle: project.vehicle_event(&event.name).map(|(_, v)| v),
                     event,
                 }
             })
@@ -589,7 +592,7 @@ impl Explorer {
         let mut inputs: Vec<Input> = (0..self.externals.len())
             .filter(|&i| {
                 let x = &self.externals[i];
-                (!state.lockout || x.catastrophic)
+                (x.catastrophic || !state.locks(x.vehicle))
                     && x.waiting.iter().any(|&(n, t)| {
                         state.active[n]
                             && self.project.nets[n].transitions[t]
@@ -954,6 +957,7 @@ fn set_concrete(abs: &Abs, input: &Input, concrete: &mut State) -> u64 {
         .iter_mut()
         .for_each(std::collections::VecDeque::clear);
     concrete.lockout = from.lockout;
+    concrete.locked.clone_from(&from.locked);
     if concrete.pending != from.pending {
         concrete.pending.clone_from(&from.pending);
     }

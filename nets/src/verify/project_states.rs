@@ -13,7 +13,8 @@
 //! open-addressing table of indices (no allocation per state).
 //!
 //! Key layout (little-endian): the marking words (u64 each), one byte per
-//! net (active), the lockout byte, u32 timers then per timer `u32 net, u32
+//! net (active), the lockout byte (1: the team's; 2 | team: then u32
+//! vehicles and the u32 vehicles locked out one by one), u32 timers then per timer `u32 net, u32
 //! timer, u64 duration, u32 rank, u8 catastrophic, u32 group`, u32 pending
 //! then per pending `u32 net, u8 catastrophic` and its kind (`0, u32
 //! program, u32 function` for a call; `1, u32 verb` for a command whose verb
@@ -121,7 +122,15 @@ impl Codec {
             out.extend_from_slice(&w.to_le_bytes());
         }
         out.extend(state.active.iter().map(|&a| u8::from(a)));
-        out.push(u8::from(state.lockout));
+        if state.locked.is_empty() {
+            out.push(u8::from(state.lockout));
+        } else {
+            out.push(2 | u8::from(state.lockout));
+            out.extend_from_slice(&(state.locked.len() as u32).to_le_bytes());
+            for &v in &state.locked {
+                out.extend_from_slice(&(v as u32).to_le_bytes());
+            }
+        }
         // Timers: group and duration, in net and timer order (unique, since
         // restarting replaces), start order renumbered by rank.
         let timers = &mut scratch.timers;
@@ -205,7 +214,14 @@ impl Codec {
         let mut r = Reader { key, at: 0 };
         let marking = (0..self.words).map(|_| r.u64()).collect();
         let active = (0..self.nets).map(|_| r.u8() != 0).collect();
-        let lockout = r.u8() != 0;
+        let byte = r.u8();
+        let lockout = byte & 1 != 0;
+        let locked = if byte & 2 != 0 {
+            let n = r.u32() as usize;
+            (0..n).map(|_| r.u32() as usize).collect()
+        } else {
+            Vec::new()
+        };
         let n = r.u32() as usize;
         let mut timers = Vec::with_capacity(n);
         let mut groups = Vec::with_capacity(n);
@@ -265,6 +281,7 @@ impl Codec {
                 timers,
                 queue: Default::default(),
                 lockout,
+                locked,
                 pending,
                 next_id: count + 1,
                 next_timer_seq,

@@ -186,12 +186,19 @@ function apply(f) {
   frame = f;
   $("clock").textContent = "t = " + seconds(f.t);
   $("step").textContent = "step " + f.seq;
-  $("lockout").hidden = !f.lockout;
+  // The team's lockout, or some vehicles' own (a team project's).
+  const lockedVehicles = f.locked || [];
+  const banner = $("lockout");
+  banner.hidden = !f.lockout && lockedVehicles.length === 0;
+  banner.textContent = f.lockout || lockedVehicles.length === 0
+    ? "CATASTROPHIC LOCKOUT: only catastrophic events are handled"
+    : "CATASTROPHIC LOCKOUT @" + lockedVehicles.join(", @") + ": only catastrophic events of " + lockedVehicles.join(", ") + " are handled";
   page.nets.forEach((n, i) => {
     const div = $("net-" + i);
     const on = !!f.active[i];
+    const vehicle = n.name.includes("@") ? n.name.slice(n.name.lastIndexOf("@") + 1) : null;
     div.classList.toggle("inactive", !on);
-    div.classList.toggle("locked", f.lockout && on);
+    div.classList.toggle("locked", on && (f.lockout || (vehicle !== null && lockedVehicles.includes(vehicle))));
     div.querySelector(".state").textContent = on ? "ACTIVE" : "inactive";
     // The marked places' names, large: the net's state read from afar.
     const names = n.places.filter((p) => !p.global && f.marked.includes(p.flat)).map((p) => p.name);
