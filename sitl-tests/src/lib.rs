@@ -67,6 +67,7 @@ mod camera_sim;
 pub mod clock;
 mod commands;
 mod config;
+pub mod drive;
 pub mod faults;
 pub mod flight;
 pub mod geo;
@@ -77,6 +78,7 @@ pub mod model;
 pub mod modes;
 pub mod params;
 pub mod px4;
+mod rover;
 mod runner;
 pub mod state;
 pub mod streams;
@@ -87,7 +89,7 @@ pub mod wire;
 pub use boot::BootTimeline;
 pub use camera_component::{CameraCommand, CameraComponent, CameraConfig, CameraState};
 pub use camera_sim::{CameraSim, CameraSimError};
-pub use config::SimConfig;
+pub use config::{Firmware, SimConfig};
 pub use faults::{
     Fault, FaultKind, PayloadFailure, Refusal, Schedule, ScheduleError, ScheduledFault, Trigger,
 };
