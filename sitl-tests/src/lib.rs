@@ -97,7 +97,7 @@ pub use geo::Home;
 pub use mission::MissionItem;
 pub use model::Airframe;
 pub use params::Params;
-pub use runner::{Sim, SimError};
+pub use runner::{Fleet, Sim, SimError};
 pub use state::SimState;
 pub use vehicle::{Vehicle, WireFaults, AUTOPILOT};
 
