@@ -1,8 +1,10 @@
 //! The simulated ArduPlane: a vehicle that behaves on the wire as ArduPlane
 //! 4.7 SITL does (checked against a recording of it and against ArduPilot's
 //! own SITL, see the README), for Petrel's end-to-end tests and `petrel
-//! demo`; the payload camera on its own link; the harness for ArduPilot's
-//! real SITL.
+//! demo`; the same core as a ground rover behaving as ArduPilot Rover
+//! ([`SimConfig::rover`], [`Firmware::ArduRover`]); several vehicles on one
+//! link ([`Fleet`]); the payload camera on its own link; the harness for
+//! ArduPilot's real SITL.
 //!
 //! It owns a sans-IO core, [`Vehicle`] (the autopilot, its camera and a
 //! point-mass fixed-wing model: fed `(now, header, message)` and
@@ -40,8 +42,13 @@
 //! - [`Sim::start`], [`Sim::local_addr`], [`Sim::client_address`],
 //!   [`Sim::state`], [`Sim::connected`], [`Sim::inject`],
 //!   [`Sim::inject_for`], [`Sim::clear`], [`Sim::wait_for`], [`Sim::stop`];
-//! - [`SimConfig`] (with [`Home`], [`Airframe`], [`BootTimeline`],
-//!   [`Schedule`]); [`SimState`] and its records;
+//! - [`Fleet::start`] (several vehicles, each its own system id, on one
+//!   socket), [`Fleet::states`], [`Fleet::state`], [`Fleet::inject`],
+//!   [`Fleet::inject_for`], [`Fleet::clear`], [`Fleet::wait_for`],
+//!   [`Fleet::systems`], and the socket's as [`Sim`]'s;
+//! - [`SimConfig`] (with [`Firmware`], [`Home`], [`Airframe`],
+//!   [`BootTimeline`], [`Schedule`]; [`SimConfig::rover`]); [`SimState`]
+//!   and its records;
 //! - [`Fault`], [`FaultKind`], [`Schedule`] (`--fault` syntax in
 //!   [`faults`]);
 //! - the core [`Vehicle`] (`new`, `handle`, `advance`, `poll_transmit`,
@@ -55,7 +62,8 @@
 //!   `clear`, `wait_for`, `connected`, `stop`): the payload camera on its
 //!   own link, a MAVLink component of the vehicle's system on one of the
 //!   real autopilot's serial ports, around the sans-IO [`CameraComponent`];
-//! - [`wire`]: MAVLink frames on a byte stream (through rust-mavlink).
+//! - [`wire`]: MAVLink frames on a byte stream (through rust-mavlink);
+//! - [`drive`]: the rover's kinematic model.
 
 pub mod ardupilot;
 mod arming;
