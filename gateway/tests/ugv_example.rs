@@ -168,7 +168,13 @@ fn fired(lines: &[Value]) -> Vec<String> {
     lines
         .iter()
         .filter(|l| l["effect"] == "fired")
-        .map(|l| format!("{}.{}", l["net"].as_str().unwrap_or("?"), l["transition"].as_str().unwrap_or("?")))
+        .map(|l| {
+            format!(
+                "{}.{}",
+                l["net"].as_str().unwrap_or("?"),
+                l["transition"].as_str().unwrap_or("?")
+            )
+        })
         .collect()
 }
 
@@ -218,9 +224,18 @@ fn nominal_both_cross_in_turn_and_finish() {
     let lines = play("nominal.jsonl");
     let f = fired(&lines);
     // R2 reached its gate while R1 was inside: it waited, asking again.
-    let busy = f.iter().position(|t| t == "CORRIDOR@R2.busy").expect("R2 waited");
-    let r1_out = f.iter().position(|t| t == "CORRIDOR@R1.leave").expect("R1 out");
-    let r2_in = f.iter().position(|t| t == "CORRIDOR@R2.enter").expect("R2 in");
+    let busy = f
+        .iter()
+        .position(|t| t == "CORRIDOR@R2.busy")
+        .expect("R2 waited");
+    let r1_out = f
+        .iter()
+        .position(|t| t == "CORRIDOR@R1.leave")
+        .expect("R1 out");
+    let r2_in = f
+        .iter()
+        .position(|t| t == "CORRIDOR@R2.enter")
+        .expect("R2 in");
     assert!(busy < r1_out && r1_out < r2_in, "{f:?}");
     assert_eq!(entries_one_at_a_time(&lines), (1, 1));
     let m = markings(&lines);
@@ -246,13 +261,20 @@ fn a_robot_blocked_inside_sends_the_other_round() {
     ];
     let at: Vec<usize> = order
         .iter()
-        .map(|t| f.iter().position(|x| x == t).unwrap_or_else(|| panic!("{t} not in {f:?}")))
+        .map(|t| {
+            f.iter()
+                .position(|x| x == t)
+                .unwrap_or_else(|| panic!("{t} not in {f:?}"))
+        })
         .collect();
     assert!(at.windows(2).all(|w| w[0] < w[1]), "{f:?}");
     // PLN was asked about R1, for the team.
-    assert!(lines.iter().any(|l| l["effect"] == "call"
-        && l["function"] == "replan"
-        && l["args"]["blocked"] == "R1"), "no replan call");
+    assert!(
+        lines.iter().any(|l| l["effect"] == "call"
+            && l["function"] == "replan"
+            && l["args"]["blocked"] == "R1"),
+        "no replan call"
+    );
     // R2 never entered; R1 stays in it, holding it.
     assert_eq!(entries_one_at_a_time(&lines), (1, 0));
     let m = markings(&lines);
@@ -271,7 +293,12 @@ fn a_motor_failure_stops_the_team() {
     let holds: Vec<(&str, &str)> = lines
         .iter()
         .filter(|l| l["effect"] == "command" && l["args"]["mode"] == "HOLD")
-        .map(|l| (l["net"].as_str().unwrap_or("?"), l["vehicle"].as_str().unwrap_or("?")))
+        .map(|l| {
+            (
+                l["net"].as_str().unwrap_or("?"),
+                l["vehicle"].as_str().unwrap_or("?"),
+            )
+        })
         .collect();
     assert_eq!(holds, [("SAFETY@R1", "R1"), ("SYNC", "R2")]);
     let m = markings(&lines);
@@ -282,5 +309,8 @@ fn a_motor_failure_stops_the_team() {
     assert!(lines.iter().any(|l| l["effect"] == "dropped"
         && l["event"] == "mission_item_reached@R2"
         && l["reason"] == "lockout"));
-    assert_eq!(lines.last().map(|l| &l["lockout"]), Some(&Value::Bool(true)));
+    assert_eq!(
+        lines.last().map(|l| &l["lockout"]),
+        Some(&Value::Bool(true))
+    );
 }

@@ -594,4 +594,71 @@ mod tests {
         assert!(!s.engine_running);
         assert!(s.east > 3.0 && s.east < 28.0, "{}", s.east);
     }
+
+    /// What Petrel's elaboration (ArduPilot's built-in profile under the
+    /// ugv-bottleneck example's layer) makes of the frames sent so far:
+    /// (sim seconds, event name).
+    fn elaborated(b: &Bench) -> Vec<(f64, String)> {
+        let layer = include_str!("../../examples/ugv-bottleneck/profile.toml");
+        let base = elaboration::profile::builtin("ardupilot").expect("the built-in profile");
+        let profile =
+            elaboration::Profile::load(&[("ardupilot.toml", base), ("profile.toml", layer)])
+                .expect("the example's profile loads");
+        let mut e = elaboration::Elaborator::new(profile, Default::default());
+        let mut out = Vec::new();
+        for (t, h, m) in &b.got {
+            e.tick(*t);
+            e.message(*t, h, m);
+            while let Some(ev) = e.poll_event() {
+                out.push((ev.time_us as f64 / 1e6, ev.event.name));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn elaboration_hears_a_rover_its_goto_reached_and_its_motor_failure() {
+        let mut b = ready();
+        // Streams as a ground station asks them (ESC telemetry, VFR_HUD…).
+        b.send(MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
+            req_message_rate: 4,
+            target_system: 1,
+            target_component: 1,
+            req_stream_id: MavDataStream::MAV_DATA_STREAM_ALL,
+            start_stop: 1,
+        }));
+        goto(&mut b, 20.0, 0.0);
+        assert!(b.run_until(60.0, |v| !v.state().reached.is_empty()));
+        // Stuck with the motor turning at full throttle: no motor failure.
+        goto(&mut b, 40.0, 0.0);
+        let t = b.v.state().time_s;
+        b.run_to(t + 3.0);
+        b.v.inject(Fault::Stuck);
+        b.run_to(t + 10.0);
+        b.v.clear(crate::FaultKind::Stuck);
+        let before = elaborated(&b);
+        let names: Vec<&str> = before.iter().map(|(_, n)| n.as_str()).collect();
+        for name in ["mode_changed", "armed", "mission_item_reached"] {
+            assert!(names.contains(&name), "no {name} in {before:?}");
+        }
+        assert!(!names.contains(&"engine_failure"), "{before:?}");
+        // The motor fails while driving: engine_failure within 2 s and a
+        // stream period.
+        let failed_at = b.v.state().time_s + 1.0;
+        b.run_to(failed_at);
+        b.v.inject(Fault::EngineFailure);
+        b.run_to(failed_at + 5.0);
+        let after = elaborated(&b);
+        let failure: Vec<f64> = after
+            .iter()
+            .filter(|(_, n)| n == "engine_failure")
+            .map(|(t, _)| *t)
+            .collect();
+        assert_eq!(failure.len(), 1, "{after:?}");
+        assert!(
+            (failed_at + 2.0..failed_at + 3.5).contains(&failure[0]),
+            "failed at {failed_at}, heard at {}",
+            failure[0]
+        );
+    }
 }
