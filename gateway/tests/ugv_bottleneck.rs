@@ -19,6 +19,10 @@ use flight::{free_port, free_udp_port, petrel_run_project, scratch, Running};
 use sitl_tests::geo::{offset, Home};
 use sitl_tests::{BootTimeline, Fault, Fleet, SimConfig, SimState};
 
+/// The shared flight module's DEC reads this (not used here: PLN is
+/// started by the gateway).
+pub const MISSION_FILE: &str = "mission.toml";
+
 /// Simulated seconds per wall second (the simulator's and the gateway's).
 const SPEED: f64 = 10.0;
 
@@ -115,6 +119,9 @@ impl Team {
             self.seen.push(all);
             if ok {
                 return true;
+            }
+            if self.petrel.as_mut().is_none_or(Running::exited) {
+                return false; // it refused the project, or died
             }
             std::thread::sleep(Duration::from_millis(20));
         }
