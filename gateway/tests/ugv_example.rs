@@ -314,3 +314,114 @@ fn a_motor_failure_stops_the_team() {
         Some(&Value::Bool(true))
     );
 }
+
+/// PLN (pln.py) against a stand-in for the gateway's program server: the
+/// hello names every function the nets call, each call is answered for the
+/// robot it carries, the points are where the simulator puts them.
+#[test]
+fn pln_speaks_the_program_protocol() {
+    use std::io::{BufRead, BufReader, Write};
+    if Command::new("python3").arg("--version").output().is_err() {
+        assert_ne!(
+            std::env::var("CI").as_deref(),
+            Ok("true"),
+            "python3 missing (CI=true)"
+        );
+        eprintln!("SKIPPED: python3 not found");
+        return;
+    }
+    let server = std::net::TcpListener::bind("127.0.0.1:0").expect("a port");
+    let port = server.local_addr().expect("its address").port();
+    let mut pln = Command::new("python3")
+        .arg(example().join("pln.py"))
+        .args(["--programs", &format!("tcp:127.0.0.1:{port}")])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("pln.py starts");
+    let (stream, _) = server.accept().expect("PLN connects");
+    stream
+        .set_read_timeout(Some(std::time::Duration::from_secs(10)))
+        .expect("a timeout");
+    let mut lines = BufReader::new(stream.try_clone().expect("a clone")).lines();
+    let mut out = stream;
+    let mut read = move || -> Value {
+        let line = lines.next().expect("a line").expect("read");
+        serde_json::from_str(&line).unwrap_or_else(|e| panic!("{e}: {line}"))
+    };
+    let hello = read();
+    assert_eq!(hello["hello"], "PLN");
+    for f in ["next", "cross", "detour", "replan"] {
+        assert!(
+            hello["functions"]
+                .as_array()
+                .is_some_and(|a| a.iter().any(|x| x == f)),
+            "{f} not served: {hello}"
+        );
+    }
+    writeln!(
+        out,
+        r#"{{"welcome": "PLN", "functions": ["cross", "detour", "next", "replan"]}}"#
+    )
+    .expect("sent");
+    let mut id = 0;
+    let mut call = |function: &str, args: Value, vehicle: Option<&str>| -> Value {
+        id += 1;
+        let mut c = serde_json::json!({"call": id, "function": function, "args": args});
+        if let Some(v) = vehicle {
+            c["vehicle"] = v.into();
+        }
+        writeln!(out, "{c}").expect("sent");
+        let r = read();
+        assert_eq!(r["reply"], id, "{r}");
+        r
+    };
+    let home = sitl_tests::geo::Home::default();
+    let is_at = |r: &Value, n: f64, e: f64| {
+        let (lat, lon) = sitl_tests::geo::location(&home, sitl_tests::geo::V2::new(n, e));
+        (r["params"]["lat"].as_f64().unwrap_or(0.0) - lat).abs() < 2e-7
+            && (r["params"]["lon"].as_f64().unwrap_or(0.0) - lon).abs() < 2e-7
+    };
+    let empty = serde_json::json!({});
+    // R1's route: a leg, the south gate, across to the north gate, two legs, the end.
+    let r = call("next", empty.clone(), Some("R1"));
+    assert_eq!(
+        (&r["event"], &r["params"]["move"]),
+        (&"done".into(), &"leg".into()),
+        "{r}"
+    );
+    assert!(is_at(&r, 15.0, -20.0), "{r}");
+    let r = call("next", empty.clone(), Some("R1"));
+    assert_eq!(r["params"]["move"], "gate");
+    assert!(is_at(&r, 15.0, 0.0), "{r}");
+    // R2 not across yet: R1 blocked means R2 goes round.
+    let r = call("replan", serde_json::json!({"blocked": "R1"}), None);
+    assert_eq!(r["params"]["action"], "detour", "{r}");
+    let r = call("cross", empty.clone(), Some("R1"));
+    assert!(is_at(&r, 45.0, 0.0), "{r}");
+    // R1 across: R2 blocked means nothing to change for R1.
+    let r = call("replan", serde_json::json!({"blocked": "R2"}), None);
+    assert_eq!(r["params"]["action"], "hold", "{r}");
+    for (n, e) in [(55.0, 0.0), (55.0, -20.0)] {
+        let r = call("next", empty.clone(), Some("R1"));
+        assert_eq!(r["params"]["move"], "leg");
+        assert!(is_at(&r, n, e), "{r}");
+    }
+    let r = call("next", empty.clone(), Some("R1"));
+    assert_eq!(r["params"]["move"], "end", "{r}");
+    // R2 sent round: its next moves are the east ring's.
+    let r = call("detour", empty.clone(), Some("R2"));
+    assert_eq!(r["params"]["legs"], 3);
+    let r = call("next", empty.clone(), Some("R2"));
+    assert!(is_at(&r, 45.0, 30.0), "{r}");
+    // A robot the labyrinth does not know: a failure with its reason.
+    let r = call("next", empty, Some("R3"));
+    assert_eq!(r["event"], "failed");
+    assert!(
+        r["params"]["reason"]
+            .as_str()
+            .is_some_and(|s| s.contains("R3")),
+        "{r}"
+    );
+    let _ = pln.kill();
+    let _ = pln.wait();
+}
