@@ -132,7 +132,7 @@ fn without_the_synchronisation_both_robots_can_be_in_the_bottleneck() {
             steps.iter().any(|s| s.contains(&entered)),
             "{entered} not in {steps:?}"
         );
-        let at_gate = format!("mission_item_reached@{robot}");
+        let at_gate = format!("arrived@{robot}");
         assert!(
             steps.iter().any(|s| s.starts_with(&at_gate)),
             "{at_gate} not in {steps:?}"
@@ -307,7 +307,7 @@ fn a_motor_failure_stops_the_team() {
     }
     // The team-wide lockout: R2's events are dropped.
     assert!(lines.iter().any(|l| l["effect"] == "dropped"
-        && l["event"] == "mission_item_reached@R2"
+        && l["event"] == "arrived@R2"
         && l["reason"] == "lockout"));
     assert_eq!(
         lines.last().map(|l| &l["lockout"]),
