@@ -88,6 +88,10 @@ class Planner:
         self.home = home
         self.routes = {v: list(r) for v, r in ROUTES.items()}
         self.step = {v: 0 for v in ROUTES}
+        # Crossed: asked for its next move after a crossing (CORRIDOR asks
+        # `cross` again every 5 s while it waits at its gate: asking is
+        # not crossing).
+        self.crossing = {v: False for v in ROUTES}
         self.crossed = {v: False for v in ROUTES}
         self.detoured = {v: False for v in ROUTES}
         self.last = dict(START)
@@ -105,6 +109,10 @@ class Planner:
 
     def next(self, v):
         v = self.vehicle(v)
+        if self.crossing[v]:
+            self.crossing[v] = False
+            self.crossed[v] = True
+            self.last[v] = CROSSINGS[v][1]
         route = self.routes[v]
         i = self.step[v]
         if i >= len(route):
@@ -119,8 +127,7 @@ class Planner:
     def cross(self, v):
         v = self.vehicle(v)
         name, point = CROSSINGS[v]
-        self.crossed[v] = True
-        self.last[v] = point
+        self.crossing[v] = True
         lat, lon = self.latlon(point)
         return {"name": name, "lat": lat, "lon": lon}
 
@@ -130,6 +137,7 @@ class Planner:
         self.routes[v] = list(legs)
         self.step[v] = 0
         self.detoured[v] = True
+        self.crossing[v] = False
         return {"legs": len(legs)}
 
     def replan(self, blocked):

@@ -396,16 +396,22 @@ fn pln_speaks_the_program_protocol() {
     // R2 not across yet: R1 blocked means R2 goes round.
     let r = call("replan", serde_json::json!({"blocked": "R1"}), None);
     assert_eq!(r["params"]["action"], "detour", "{r}");
-    let r = call("cross", empty.clone(), Some("R1"));
-    assert!(is_at(&r, 45.0, 0.0), "{r}");
-    // R1 across: R2 blocked means nothing to change for R1.
+    // Asking for the crossing (again and again while the bottleneck is
+    // busy) is not crossing: R1 still has it ahead.
+    for _ in 0..2 {
+        let r = call("cross", empty.clone(), Some("R1"));
+        assert!(is_at(&r, 45.0, 0.0), "{r}");
+    }
     let r = call("replan", serde_json::json!({"blocked": "R2"}), None);
-    assert_eq!(r["params"]["action"], "hold", "{r}");
+    assert_eq!(r["params"]["action"], "detour", "{r}");
     for (n, e) in [(55.0, 0.0), (55.0, -20.0)] {
         let r = call("next", empty.clone(), Some("R1"));
         assert_eq!(r["params"]["move"], "leg");
         assert!(is_at(&r, n, e), "{r}");
     }
+    // R1 across: R2 blocked means nothing to change for R1.
+    let r = call("replan", serde_json::json!({"blocked": "R2"}), None);
+    assert_eq!(r["params"]["action"], "hold", "{r}");
     let r = call("next", empty.clone(), Some("R1"));
     assert_eq!(r["params"]["move"], "end", "{r}");
     // R2 sent round: its next moves are the east ring's.
