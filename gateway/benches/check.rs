@@ -4,7 +4,9 @@
 //!    threads (whole process: wall and CPU time, peak memory, states/s),
 //!    beside, in the same run, the P/T explorer's `petrel check --pnml` on
 //!    the Model Checking Contest's ParamProductionCell-PT-3 (1,465,206
-//!    states) with `--no-loops`, on one and two threads.
+//!    states) with `--no-loops`, on one and two threads; and the team
+//!    project `examples/ugv-bottleneck` (two robots, seven nets) on one
+//!    and two threads, beside the single-vehicle project.
 //! 2. `petrel run examples/uav-flight-test` from process start to its first
 //!    frame on the link (sent once the link is open and it heard the
 //!    autopilot, which this bench plays), with the pre-flight check
@@ -224,6 +226,15 @@ fn set(label: &str) {
     };
     let p1 = print_check("project check, 1 thread", &project("1"));
     let p2 = print_check("project check, 2 threads", &project("2"));
+    let team = |t: &'static str| vec!["check", "examples/ugv-bottleneck", "--json", "--threads", t];
+    let t1 = print_check("team project ugv-bottleneck, 1 thread", &team("1"));
+    let _ = print_check("team project ugv-bottleneck, 2 threads", &team("2"));
+    if let (Some(t1), Some(p1)) = (t1, p1) {
+        println!(
+            "\nteam states/s over project states/s, 1 thread: {:.3}",
+            t1 / p1
+        );
+    }
     let (q1, q2) = if root().join(pnml).is_file() {
         (
             print_check(

@@ -58,6 +58,10 @@ impl Vehicle {
             }
             let elevation = self.origin().alt_amsl;
             for (sev, text) in texts(phase, elevation) {
+                // A rover has no airspeed sensor.
+                if self.is_rover() && text.starts_with("Airspeed") {
+                    continue;
+                }
                 let sev = if sev == 4 {
                     MavSeverity::MAV_SEVERITY_WARNING
                 } else {

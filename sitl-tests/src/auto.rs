@@ -211,7 +211,7 @@ impl Vehicle {
         }
     }
 
-    fn reached(&mut self, seq: u16) {
+    pub(crate) fn reached(&mut self, seq: u16) {
         self.last_reached = seq;
         self.send(MavMessage::MISSION_ITEM_REACHED(
             MISSION_ITEM_REACHED_DATA { seq },
@@ -224,7 +224,7 @@ impl Vehicle {
     }
 
     /// Runs DO command `seq` (a navigation command is skipped).
-    fn run_do(&mut self, seq: u16) {
+    pub(crate) fn run_do(&mut self, seq: u16) {
         let Some(it) = self.item(seq).cloned() else {
             return;
         };

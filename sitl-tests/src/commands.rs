@@ -114,6 +114,11 @@ impl Vehicle {
 
     fn autopilot_command(&mut self, command: u32, p: [f32; 7], int: Option<IntArgs>) -> MavResult {
         use MavResult::*;
+        if self.is_rover() {
+            if let Some(result) = self.rover_command(command, p, int) {
+                return result;
+            }
+        }
         match command {
             cmd::COMPONENT_ARM_DISARM => {
                 if p[0] == 1.0 {
@@ -280,6 +285,75 @@ impl Vehicle {
             }
             _ => MAV_RESULT_UNSUPPORTED,
         }
+    }
+
+    /// The commands a rover answers otherwise than ArduPlane (its modes,
+    /// its GUIDED, no take-off or landing); `None`: as ArduPlane.
+    fn rover_command(
+        &mut self,
+        command: u32,
+        p: [f32; 7],
+        int: Option<IntArgs>,
+    ) -> Option<MavResult> {
+        use MavResult::*;
+        let ok = |b: bool| {
+            if b {
+                MAV_RESULT_ACCEPTED
+            } else {
+                MAV_RESULT_FAILED
+            }
+        };
+        Some(match command {
+            cmd::DO_SET_MODE => {
+                if (p[0] as u32) & 1 == 0 {
+                    return Some(MAV_RESULT_UNSUPPORTED);
+                }
+                ok(self.rover_set_mode(p[1] as u32))
+            }
+            cmd::NAV_RETURN_TO_LAUNCH => ok(self.rover_set_mode(modes::rover::RTL)),
+            cmd::MISSION_START => ok(self.rover_set_mode(modes::rover::AUTO)),
+            cmd::NAV_TAKEOFF | cmd::DO_LAND_START | cmd::NAV_LOITER_UNLIM => MAV_RESULT_UNSUPPORTED,
+            cmd::DO_CHANGE_SPEED => ok(self.rover_change_speed(p[1])),
+            cmd::DO_SET_MISSION_CURRENT => {
+                let seq = p[0];
+                if !(0.0..65535.0).contains(&seq) || seq as usize >= self.mission.len() {
+                    return Some(MAV_RESULT_DENIED);
+                }
+                if !self.rover_set_current(seq as u16) {
+                    return Some(MAV_RESULT_FAILED);
+                }
+                let mc = self.mission_current();
+                self.send(mc);
+                MAV_RESULT_ACCEPTED
+            }
+            cmd::DO_REPOSITION => {
+                let (lat, lon) = match int {
+                    Some(a) => (a.x as f64 / 1e7, a.y as f64 / 1e7),
+                    None => (p[4] as f64, p[5] as f64),
+                };
+                if !lat.is_finite()
+                    || !lon.is_finite()
+                    || !(-90.0..=90.0).contains(&lat)
+                    || !(-180.0..=180.0).contains(&lon)
+                    || (lat == 0.0 && lon == 0.0)
+                {
+                    return Some(MAV_RESULT_DENIED);
+                }
+                let change_mode = p[1].is_finite() && (p[1] as i32) & 1 != 0;
+                if self.fl.mode != modes::rover::GUIDED
+                    && !(change_mode && self.rover_set_mode(modes::rover::GUIDED))
+                {
+                    return Some(MAV_RESULT_FAILED);
+                }
+                if p[0].is_finite() && p[0] > 0.0 {
+                    self.rv.speed = Some(p[0] as f64);
+                }
+                let to = crate::geo::offset(self.origin(), lat, lon);
+                self.rover_goto(to);
+                MAV_RESULT_ACCEPTED
+            }
+            _ => return None,
+        })
     }
 
     fn mode_command(&mut self, mode: u32) -> MavResult {

@@ -5,6 +5,18 @@ use crate::faults::Schedule;
 use crate::geo::Home;
 use crate::model::Airframe;
 
+/// Which ArduPilot firmware the simulated autopilot behaves as on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Firmware {
+    /// ArduPlane 4.7: a fixed-wing aircraft (HEARTBEAT type FIXED_WING).
+    #[default]
+    ArduPlane,
+    /// ArduPilot Rover: a ground rover (HEARTBEAT type GROUND_ROVER), its
+    /// modes and navigation (`crate::rover`), a kinematic model
+    /// (`crate::drive`).
+    ArduRover,
+}
+
 /// Everything the simulation is started with. The vehicle core reads all
 /// but `listen` and `speedup`, which are the runner's.
 #[derive(Debug, Clone, PartialEq)]
@@ -13,6 +25,8 @@ pub struct SimConfig {
     /// SITL's TCP port) or `udpin:IP:PORT` (replies go to the last sender).
     /// Port 0 picks a free port (see `Sim::local_addr`).
     pub listen: String,
+    /// The firmware the vehicle behaves as.
+    pub firmware: Firmware,
     /// Sim time = speedup × wall time (1 for a demo, 10–100 for tests).
     pub speedup: f64,
     pub home: Home,
@@ -54,6 +68,7 @@ impl Default for SimConfig {
     fn default() -> Self {
         SimConfig {
             listen: "tcpin:127.0.0.1:0".to_owned(),
+            firmware: Firmware::ArduPlane,
             speedup: 1.0,
             home: Home::default(),
             wind: (0.0, 0.0),
@@ -69,6 +84,24 @@ impl Default for SimConfig {
             params: Vec::new(),
             step_us: 20_000,
             unix_boot_us: 1_795_238_459_000_000,
+        }
+    }
+}
+
+impl SimConfig {
+    /// A ground rover with system id `system_id`: ArduPilot Rover on the
+    /// wire, no camera, no EFI, no boot servo burst, its own airframe and
+    /// parameters; parked at `home`.
+    pub fn rover(system_id: u8, home: Home) -> SimConfig {
+        SimConfig {
+            firmware: Firmware::ArduRover,
+            system_id,
+            home,
+            camera: false,
+            efi: false,
+            boot_servo_burst: false,
+            airframe: Airframe::rover(),
+            ..SimConfig::default()
         }
     }
 }

@@ -8,7 +8,7 @@
 //!   KIND      engine_failure | payload_failure | gps_loss | battery_drain
 //!             | battery | link_loss | emergency
 //!             | reboot | refuse_commands | refuse_command | garbage
-//!             | duplicate | reorder
+//!             | duplicate | reorder | stuck
 //!   VALUE     payload_failure=silent|critical (default silent)
 //!             battery_drain=FACTOR             (default 10: ten times faster)
 //!             battery=PERCENT                  (sets the remaining charge; required)
@@ -27,7 +27,7 @@
 //! Examples: `engine_failure@90s`, `link_loss@60s:10s`,
 //! `payload_failure=critical@wp3`, `battery=20@120s`, `gps_loss@wp2:15s`,
 //! `reboot@300s`, `refuse_commands@wp3:5s`, `garbage=2000@40s`,
-//! `duplicate@50s:10s`, `reorder@70s:10s`.
+//! `duplicate@50s:10s`, `reorder@70s:10s`, `stuck@wp2:30s`.
 //!
 //! The link faults (`garbage`, `duplicate`, `reorder`, and `link_loss`)
 //! act on the vehicle's side of the link: what it sends is corrupted,
@@ -123,6 +123,11 @@ pub enum Fault {
     Duplicate,
     /// The frames the vehicle sends go out swapped two by two.
     Reorder,
+    /// The vehicle cannot move (a rover's wheels blocked, bogged down):
+    /// it stays where it is whatever it is told, its motor running and the
+    /// autopilot asking for full throttle; nothing on the wire says so
+    /// but the position that no longer changes. A plane ignores it.
+    Stuck,
 }
 
 /// The kind of a fault, to clear it.
@@ -141,6 +146,7 @@ pub enum FaultKind {
     Garbage,
     Duplicate,
     Reorder,
+    Stuck,
 }
 
 impl Fault {
@@ -159,6 +165,7 @@ impl Fault {
             Fault::Garbage { .. } => FaultKind::Garbage,
             Fault::Duplicate => FaultKind::Duplicate,
             Fault::Reorder => FaultKind::Reorder,
+            Fault::Stuck => FaultKind::Stuck,
         }
     }
 }
@@ -182,6 +189,7 @@ impl fmt::Display for Fault {
             Fault::Garbage { bytes } => write!(f, "garbage={bytes}"),
             Fault::Duplicate => write!(f, "duplicate"),
             Fault::Reorder => write!(f, "reorder"),
+            Fault::Stuck => write!(f, "stuck"),
         }
     }
 }
@@ -314,9 +322,11 @@ impl FromStr for ScheduledFault {
             },
             ("duplicate", None) => Fault::Duplicate,
             ("reorder", None) => Fault::Reorder,
-            ("engine_failure" | "gps_loss" | "link_loss" | "duplicate" | "reorder", Some(_)) => {
-                return Err(err("this fault takes no value"))
-            }
+            ("stuck", None) => Fault::Stuck,
+            (
+                "engine_failure" | "gps_loss" | "link_loss" | "duplicate" | "reorder" | "stuck",
+                Some(_),
+            ) => return Err(err("this fault takes no value")),
             _ => return Err(err("unknown fault kind")),
         };
         let (at, duration) = match when.split_once(':') {
@@ -360,6 +370,7 @@ mod tests {
             "duplicate@50s:10s",
             "reorder@70:10",
             "refuse_command=failed@wp4",
+            "stuck@wp2:30s",
         ])
         .unwrap();
         let e = &s.entries;
@@ -394,6 +405,10 @@ mod tests {
         assert_eq!(e[13].fault, Fault::Duplicate);
         assert_eq!(e[14].fault, Fault::Reorder);
         assert_eq!(e[15].fault, Fault::RefuseCommand(Refusal::Failed));
+        assert_eq!(
+            (&e[16].fault, e[16].when, e[16].duration),
+            (&Fault::Stuck, Trigger::Reached(2), Some(30.0))
+        );
         // Each prints as it parses.
         for entry in e {
             let text = entry.fault.to_string();

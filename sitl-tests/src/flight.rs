@@ -216,6 +216,9 @@ impl Vehicle {
 
     /// HEARTBEAT.system_status as ArduPlane reports it.
     pub(crate) fn system_status(&self) -> MavState {
+        if self.is_rover() {
+            return self.rover_status();
+        }
         if self.fl.mode == modes::INITIALISING {
             MavState::MAV_STATE_CALIBRATING
         } else if self.has_fault(crate::faults::FaultKind::Emergency) || self.fl.crashed {
@@ -232,6 +235,9 @@ impl Vehicle {
     /// Switches mode (already checked as settable). Sends the extra
     /// HEARTBEAT ArduPilot sends on a mode change.
     pub(crate) fn enter_mode(&mut self, mode: u32) {
+        if self.is_rover() {
+            return self.rover_enter_mode(mode);
+        }
         let old = self.fl.mode;
         self.fl.mode = mode;
         let here = self.ac.pos;

@@ -1,8 +1,10 @@
 //! The simulated ArduPlane: a vehicle that behaves on the wire as ArduPlane
 //! 4.7 SITL does (checked against a recording of it and against ArduPilot's
 //! own SITL, see the README), for Petrel's end-to-end tests and `petrel
-//! demo`; the payload camera on its own link; the harness for ArduPilot's
-//! real SITL.
+//! demo`; the same core as a ground rover behaving as ArduPilot Rover
+//! ([`SimConfig::rover`], [`Firmware::ArduRover`]); several vehicles on one
+//! link ([`Fleet`]); the payload camera on its own link; the harness for
+//! ArduPilot's real SITL.
 //!
 //! It owns a sans-IO core, [`Vehicle`] (the autopilot, its camera and a
 //! point-mass fixed-wing model: fed `(now, header, message)` and
@@ -40,8 +42,13 @@
 //! - [`Sim::start`], [`Sim::local_addr`], [`Sim::client_address`],
 //!   [`Sim::state`], [`Sim::connected`], [`Sim::inject`],
 //!   [`Sim::inject_for`], [`Sim::clear`], [`Sim::wait_for`], [`Sim::stop`];
-//! - [`SimConfig`] (with [`Home`], [`Airframe`], [`BootTimeline`],
-//!   [`Schedule`]); [`SimState`] and its records;
+//! - [`Fleet::start`] (several vehicles, each its own system id, on one
+//!   socket), [`Fleet::states`], [`Fleet::state`], [`Fleet::inject`],
+//!   [`Fleet::inject_for`], [`Fleet::clear`], [`Fleet::wait_for`],
+//!   [`Fleet::systems`], and the socket's as [`Sim`]'s;
+//! - [`SimConfig`] (with [`Firmware`], [`Home`], [`Airframe`],
+//!   [`BootTimeline`], [`Schedule`]; [`SimConfig::rover`]); [`SimState`]
+//!   and its records;
 //! - [`Fault`], [`FaultKind`], [`Schedule`] (`--fault` syntax in
 //!   [`faults`]);
 //! - the core [`Vehicle`] (`new`, `handle`, `advance`, `poll_transmit`,
@@ -55,7 +62,8 @@
 //!   `clear`, `wait_for`, `connected`, `stop`): the payload camera on its
 //!   own link, a MAVLink component of the vehicle's system on one of the
 //!   real autopilot's serial ports, around the sans-IO [`CameraComponent`];
-//! - [`wire`]: MAVLink frames on a byte stream (through rust-mavlink).
+//! - [`wire`]: MAVLink frames on a byte stream (through rust-mavlink);
+//! - [`drive`]: the rover's kinematic model.
 
 pub mod ardupilot;
 mod arming;
@@ -67,6 +75,7 @@ mod camera_sim;
 pub mod clock;
 mod commands;
 mod config;
+pub mod drive;
 pub mod faults;
 pub mod flight;
 pub mod geo;
@@ -77,6 +86,7 @@ pub mod model;
 pub mod modes;
 pub mod params;
 pub mod px4;
+mod rover;
 mod runner;
 pub mod state;
 pub mod streams;
@@ -87,7 +97,7 @@ pub mod wire;
 pub use boot::BootTimeline;
 pub use camera_component::{CameraCommand, CameraComponent, CameraConfig, CameraState};
 pub use camera_sim::{CameraSim, CameraSimError};
-pub use config::SimConfig;
+pub use config::{Firmware, SimConfig};
 pub use faults::{
     Fault, FaultKind, PayloadFailure, Refusal, Schedule, ScheduleError, ScheduledFault, Trigger,
 };
@@ -95,7 +105,7 @@ pub use geo::Home;
 pub use mission::MissionItem;
 pub use model::Airframe;
 pub use params::Params;
-pub use runner::{Sim, SimError};
+pub use runner::{Fleet, Sim, SimError};
 pub use state::SimState;
 pub use vehicle::{Vehicle, WireFaults, AUTOPILOT};
 

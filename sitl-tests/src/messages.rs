@@ -47,6 +47,29 @@ impl Vehicle {
             // ArduPilot acks SET_MODE with COMMAND_ACK command 11, which
             // rust-mavlink's MAV_CMD cannot carry: the mode changes, no ack.
             MavMessage::SET_MODE(m)
+                if self.is_rover()
+                    && self.for_us(m.target_system)
+                    && m.base_mode.bits() & 1 != 0 =>
+            {
+                self.rover_set_mode(m.custom_mode);
+            }
+            // Rover: a position target in GUIDED (no ack, as ArduPilot).
+            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(t)
+                if self.is_rover()
+                    && self.for_us(t.target_system)
+                    && Self::for_autopilot(t.target_component)
+                    && self.fl.mode == crate::modes::rover::GUIDED
+                    && t.type_mask.bits() & 0b111 == 0
+                    && !(t.lat_int == 0 && t.lon_int == 0) =>
+            {
+                let to = crate::geo::offset(
+                    self.origin(),
+                    t.lat_int as f64 / 1e7,
+                    t.lon_int as f64 / 1e7,
+                );
+                self.rover_goto(to);
+            }
+            MavMessage::SET_MODE(m)
                 if self.for_us(m.target_system)
                     && m.base_mode.bits() & 1 != 0
                     && self.ready()
@@ -161,7 +184,17 @@ impl Vehicle {
                 }
             }
             MavMessage::MISSION_SET_CURRENT(m)
-                if self.for_us(m.target_system)
+                if self.is_rover()
+                    && self.for_us(m.target_system)
+                    && Self::for_autopilot(m.target_component)
+                    && self.rover_set_current(m.seq) =>
+            {
+                let mc = self.mission_current();
+                self.send(mc);
+            }
+            MavMessage::MISSION_SET_CURRENT(m)
+                if !self.is_rover()
+                    && self.for_us(m.target_system)
                     && Self::for_autopilot(m.target_component)
                     && self.auto_set_current(m.seq) =>
             {
@@ -264,7 +297,15 @@ impl Vehicle {
             self.auto.started = false;
         }
         self.auto.complete = false;
-        if self.auto.running {
+        if self.auto.running && self.is_rover() {
+            // Rover restarts the current command from the new mission.
+            self.text(
+                MavSeverity::MAV_SEVERITY_CRITICAL,
+                "Auto mission changed, restarted command",
+            );
+            let at = self.auto.current.max(1);
+            self.rover_restart_at(at);
+        } else if self.auto.running {
             // The current command reloads from the new mission.
             if len <= 1 {
                 self.auto.running = false;

@@ -90,6 +90,19 @@ impl Default for Airframe {
 }
 
 impl Airframe {
+    /// A small electric rover (the ground vehicle of [`crate::Firmware::ArduRover`]):
+    /// only the battery and the motor's figures are read (a 5 Ah 3-cell
+    /// battery, 10 A at full throttle, 8000 rpm).
+    pub fn rover() -> Airframe {
+        Airframe {
+            battery_capacity_mah: 5000.0,
+            full_throttle_current: 10.0,
+            idle_rpm: 0.0,
+            max_rpm: 8000.0,
+            ..Airframe::default()
+        }
+    }
+
     /// Specific excess power at full throttle, as a rate of energy height
     /// (m/s): the climb at full throttle plus the glide sink at the
     /// reference airspeed.

@@ -92,9 +92,104 @@ pub fn base_mode(mode: u32, armed: bool) -> MavModeFlag {
     MavModeFlag::from_bits_truncate(bits | 1)
 }
 
+/// ArduPilot Rover's modes: the numbers of `Mode::Number` (Rover/mode.h),
+/// their names as the dialect's ROVER_MODE has them, and the HEARTBEAT
+/// `base_mode` Rover derives from them (`GCS_MAVLINK_Rover::base_mode`,
+/// Rover/GCS_Mavlink.cpp).
+pub mod rover {
+    use mavlink::dialects::ardupilotmega::{MavModeFlag, RoverMode};
+    use num_traits::FromPrimitive;
+
+    pub const MANUAL: u32 = 0;
+    pub const ACRO: u32 = 1;
+    pub const STEERING: u32 = 3;
+    pub const HOLD: u32 = 4;
+    pub const LOITER: u32 = 5;
+    pub const FOLLOW: u32 = 6;
+    pub const SIMPLE: u32 = 7;
+    pub const AUTO: u32 = 10;
+    pub const RTL: u32 = 11;
+    pub const SMART_RTL: u32 = 12;
+    pub const GUIDED: u32 = 15;
+    pub const INITIALISING: u32 = 16;
+
+    /// The mode's name without the dialect's `ROVER_MODE_` prefix (`HOLD`,
+    /// `SMART_RTL`, `INITIALIZING`), as Petrel's elaboration names it;
+    /// `MODE_<n>` when unknown.
+    pub fn name(mode: u32) -> String {
+        match RoverMode::from_u32(mode) {
+            Some(m) => format!("{m:?}")
+                .trim_start_matches("ROVER_MODE_")
+                .to_owned(),
+            None => format!("MODE_{mode}"),
+        }
+    }
+
+    /// A mode one may ask for (whether it can be entered now is the
+    /// mode's own check: a mission for AUTO, home for RTL…).
+    pub fn settable(mode: u32) -> bool {
+        matches!(
+            mode,
+            MANUAL
+                | ACRO
+                | STEERING
+                | HOLD
+                | LOITER
+                | FOLLOW
+                | SIMPLE
+                | AUTO
+                | RTL
+                | SMART_RTL
+                | GUIDED
+        )
+    }
+
+    /// Rover's `is_autopilot_mode()`: the modes that navigate by
+    /// themselves (NAV_CONTROLLER_OUTPUT is sent in these only).
+    pub fn is_autopilot(mode: u32) -> bool {
+        matches!(mode, AUTO | GUIDED | RTL | SMART_RTL | LOITER | FOLLOW)
+    }
+
+    /// Rover's `has_manual_input()`: the pilot's sticks drive.
+    pub fn has_manual_input(mode: u32) -> bool {
+        matches!(mode, MANUAL | ACRO | STEERING | SIMPLE)
+    }
+
+    /// HEARTBEAT.base_mode as Rover computes it: CUSTOM_MODE_ENABLED,
+    /// MANUAL_INPUT_ENABLED in the manual modes, GUIDED_ENABLED in the
+    /// autopilot modes (stick mixing off, STICK_MIXING's default),
+    /// SAFETY_ARMED when armed and not initialising.
+    pub fn base_mode(mode: u32, armed: bool) -> MavModeFlag {
+        let mut bits: u8 = 1;
+        if has_manual_input(mode) {
+            bits |= 64;
+        }
+        if is_autopilot(mode) {
+            bits |= 8;
+        }
+        if mode != INITIALISING && armed {
+            bits |= 128;
+        }
+        MavModeFlag::from_bits_truncate(bits)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rover_modes_as_rover_numbers_and_flags_them() {
+        assert_eq!(rover::name(rover::HOLD), "HOLD");
+        assert_eq!(rover::name(rover::SMART_RTL), "SMART_RTL");
+        assert_eq!(rover::name(rover::GUIDED), "GUIDED");
+        assert_eq!(rover::name(2), "MODE_2");
+        assert!(rover::settable(rover::STEERING) && !rover::settable(rover::INITIALISING));
+        assert_eq!(rover::base_mode(rover::MANUAL, false).bits(), 65);
+        assert_eq!(rover::base_mode(rover::HOLD, true).bits(), 129);
+        assert_eq!(rover::base_mode(rover::AUTO, true).bits(), 137);
+        assert_eq!(rover::base_mode(rover::INITIALISING, true).bits(), 1);
+    }
 
     #[test]
     fn base_mode_matches_the_recording() {

@@ -72,18 +72,71 @@ const TABLE: &[(&str, f32, MavParamType)] = &[
     ("MAV1_ADSB", 0.0, INT16),
 ];
 
+/// The ground rover's table (ArduPilot Rover's names; the defaults are
+/// Rover's where the model reads them as Rover does, the model's own
+/// otherwise): the shared entries (system id, arming, battery, mission,
+/// statistics, stream rates) and the driving ones.
+const ROVER_TABLE: &[(&str, f32, MavParamType)] = &[
+    ("SYSID_THISMAV", 1.0, INT16),
+    ("ARMING_CHECK", 1.0, INT32),
+    // m/s: the speed in AUTO, GUIDED and RTL (Rover's default).
+    ("CRUISE_SPEED", 2.0, REAL),
+    ("CRUISE_THROTTLE", 50.0, INT8),
+    // m/s², m/s² and deg/s: the model's limits (Rover's attitude
+    // controller's names); ATC_DECEL_MAX 0 brakes at ATC_ACCEL_MAX.
+    ("ATC_ACCEL_MAX", 1.0, REAL),
+    ("ATC_DECEL_MAX", 0.0, REAL),
+    ("ATC_STR_RAT_MAX", 120.0, REAL),
+    // m: a waypoint is reached within it (Rover's default).
+    ("WP_RADIUS", 2.0, REAL),
+    ("WP_SPEED", 0.0, REAL),
+    ("RTL_SPEED", 0.0, REAL),
+    // 0 HOLD: at the mission's end the rover stops, still in AUTO.
+    ("MIS_DONE_BEHAVE", 0.0, INT8),
+    ("BATT_CAPACITY", 5000.0, INT32),
+    ("BATT_LOW_MAH", 0.0, REAL),
+    ("BATT_CRT_MAH", 0.0, REAL),
+    ("BATT_FS_LOW_ACT", 0.0, INT8),
+    ("BATT_FS_CRT_ACT", 0.0, INT8),
+    ("MIS_TOTAL", 0.0, INT16),
+    ("STAT_RUNTIME", 0.0, INT32),
+    ("MAV1_RAW_SENS", 0.0, INT16),
+    ("MAV1_EXT_STAT", 0.0, INT16),
+    ("MAV1_RC_CHAN", 0.0, INT16),
+    ("MAV1_RAW_CTRL", 0.0, INT16),
+    ("MAV1_POSITION", 0.0, INT16),
+    ("MAV1_EXTRA1", 0.0, INT16),
+    ("MAV1_EXTRA2", 0.0, INT16),
+    ("MAV1_EXTRA3", 0.0, INT16),
+    ("MAV1_PARAMS", 0.0, INT16),
+    ("MAV1_ADSB", 0.0, INT16),
+];
+
+fn table(t: &[(&'static str, f32, MavParamType)]) -> Params {
+    Params {
+        list: t
+            .iter()
+            .map(|&(name, value, kind)| Param { name, value, kind })
+            .collect(),
+    }
+}
+
 impl Default for Params {
     fn default() -> Self {
-        Params {
-            list: TABLE
-                .iter()
-                .map(|&(name, value, kind)| Param { name, value, kind })
-                .collect(),
-        }
+        table(TABLE)
     }
 }
 
 impl Params {
+    /// The table of a firmware: ArduPlane's ([`Params::default`]) or the
+    /// rover's.
+    pub fn of(firmware: crate::config::Firmware) -> Params {
+        match firmware {
+            crate::config::Firmware::ArduPlane => table(TABLE),
+            crate::config::Firmware::ArduRover => table(ROVER_TABLE),
+        }
+    }
+
     /// The value of a parameter (0 for an unknown name: the table is ours).
     pub fn get(&self, name: &str) -> f64 {
         self.list

@@ -43,7 +43,13 @@ impl Vehicle {
         (self.now / 1000) as u32
     }
 
+    /// No navigation outputs (NAV_CONTROLLER_OUTPUT,
+    /// POSITION_TARGET_GLOBAL_INT) in this mode: ArduPlane's MANUAL, a
+    /// rover's modes that are not autopilot modes.
     fn manual_mode(&self) -> bool {
+        if self.is_rover() {
+            return !modes::rover::is_autopilot(self.fl.mode);
+        }
         self.fl.mode == modes::MANUAL || self.fl.mode == modes::INITIALISING
     }
 
@@ -134,9 +140,17 @@ impl Vehicle {
     pub(crate) fn send_heartbeat(&mut self) {
         let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
             custom_mode: self.fl.mode,
-            mavtype: MavType::MAV_TYPE_FIXED_WING,
+            mavtype: if self.is_rover() {
+                MavType::MAV_TYPE_GROUND_ROVER
+            } else {
+                MavType::MAV_TYPE_FIXED_WING
+            },
             autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-            base_mode: modes::base_mode(self.fl.mode, self.fl.armed),
+            base_mode: if self.is_rover() {
+                modes::rover::base_mode(self.fl.mode, self.fl.armed)
+            } else {
+                modes::base_mode(self.fl.mode, self.fl.armed)
+            },
             system_status: self.system_status(),
             mavlink_version: 3,
         });

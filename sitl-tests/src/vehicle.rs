@@ -49,6 +49,8 @@ pub struct Vehicle {
     pub(crate) home_set: bool,
     pub(crate) mission: Vec<MissionItem>,
     pub(crate) auto: crate::auto::AutoState,
+    /// The rover's navigation (a plane does not use it).
+    pub(crate) rv: crate::rover::RoverNav,
     pub(crate) uploads: Uploads,
     pub(crate) streams: Streams,
     pub(crate) camera: Camera,
@@ -109,7 +111,7 @@ pub struct WireFaults {
 impl Vehicle {
     /// A vehicle just powered on (sim time 0), parked at `cfg.home`.
     pub fn new(cfg: SimConfig) -> Vehicle {
-        let mut params = Params::default();
+        let mut params = Params::of(cfg.firmware);
         for (name, value) in &cfg.params {
             if !params.set(name, *value) {
                 tracing::warn!(%name, "unknown parameter in SimConfig::params, ignored");
@@ -147,6 +149,7 @@ impl Vehicle {
             home_set: false,
             mission: Vec::new(),
             auto: Default::default(),
+            rv: Default::default(),
             uploads: Uploads::default(),
             streams,
             camera: Camera::default(),
@@ -298,6 +301,7 @@ impl Vehicle {
         if in_flight {
             fresh.fl = std::mem::take(&mut self.fl);
             fresh.auto = std::mem::take(&mut self.auto);
+            fresh.rv = std::mem::take(&mut self.rv);
             fresh.home_pos = self.home_pos;
             fresh.home_set = self.home_set;
             fresh.watchdog = true;
@@ -348,7 +352,7 @@ impl Vehicle {
         s.time_s = self.t_s();
         s.armed = self.fl.armed;
         s.custom_mode = self.fl.mode;
-        s.mode = crate::modes::name(self.fl.mode);
+        s.mode = self.mode_name();
         s.system_status = self.system_status() as u8;
         s.lat = lat;
         s.lon = lon;
@@ -526,6 +530,13 @@ impl Vehicle {
         self.boot_tick();
         self.fault_tick();
         self.timers_tick();
+        if self.is_rover() {
+            self.rover_step();
+            for r in self.uploads.tick(self.now) {
+                self.mission_reply(r);
+            }
+            return;
+        }
         let ctrl = self.control();
         let dt = self.cfg.step_us as f64 / 1e6;
         let limit = self.roll_limit();
@@ -666,7 +677,8 @@ impl Vehicle {
             Fault::RefuseCommands(_)
             | Fault::RefuseCommand(_)
             | Fault::Duplicate
-            | Fault::Reorder => {}
+            | Fault::Reorder
+            | Fault::Stuck => {}
         }
         self.active.retain(|(f, _)| f.kind() != fault.kind());
         self.active.push((fault, until));
@@ -692,7 +704,8 @@ impl Vehicle {
             | Fault::RefuseCommand(_)
             | Fault::Garbage { .. }
             | Fault::Duplicate
-            | Fault::Reorder => {}
+            | Fault::Reorder
+            | Fault::Stuck => {}
         }
     }
 }
