@@ -3,6 +3,10 @@
 //! vehicle, its calls to the software programs, and their results come back
 //! to it. Prints the timeline as it happens (`--json`: JSON lines).
 //!
+//! A team project (`[[vehicle]]`) is supervised whole: each vehicle's link
+//! opened once however many share it, one elaborator and one commander per
+//! vehicle, one player (docs/multi-vehicle.md, "A team").
+//!
 //! It refuses a project that fails `petrel check` unless `--unchecked`.
 //! SIGINT and SIGTERM stop it cleanly: programs are stopped, and a mission
 //! upload under way is given a bounded time to finish.
@@ -31,6 +35,7 @@ use crate::record::recorder::{Options as RecordOptions, Recorder};
 use crate::supervisor::{Input, Step, Supervisor};
 use crate::vehicle::commander::Commander;
 use crate::vehicle::config::VehicleConfig;
+use crate::vehicle::crew::{Crew, Member};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -189,14 +194,6 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         return Ok(Err(Outcome::BadInput));
     };
     let (project, files) = crate::project::load_read(&args.project, &profile.catalog())?;
-    if !project.vehicles.is_empty() {
-        // A team's commands name their vehicle: sent down one link to one
-        // autopilot they would all reach the wrong vehicle.
-        return Err(miette::miette!(
-            "{}: the project declares a team ([[vehicle]]): `petrel run` supervises one vehicle and does not run a team yet (docs/nets.md, \"Teams of vehicles\"); `petrel check` verifies it",
-            args.project.display()
-        ));
-    }
     if !args.unchecked {
         let inputs = crate::preflight::Inputs {
             files: &files,
@@ -330,10 +327,14 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     }))
 }
 
-/// Persists the link's signing timestamp; a failure is said, once per
-/// attempt, and supervision goes on.
-fn persist_timestamp(file: &std::path::Path, writer: &LinkWriter) {
-    if let Some(ts) = writer.signing_timestamp() {
+/// Persists the links' signing timestamp (the latest any used); a failure
+/// is said, once per attempt, and supervision goes on.
+fn persist_timestamps(file: &std::path::Path, writers: &[LinkWriter]) {
+    if let Some(ts) = writers
+        .iter()
+        .filter_map(LinkWriter::signing_timestamp)
+        .max()
+    {
         if let Err(e) = crate::link::signing::write_timestamp(file, ts) {
             tracing::warn!(
                 "cannot persist the signing timestamp to {}: {e}",
@@ -434,9 +435,11 @@ struct Gateway {
     clock: Clock,
     project: Arc<Project>,
     supervisor: Supervisor,
-    commander: Commander,
+    /// One commander per vehicle, each on its link.
+    crew: Crew,
     programs: Option<Programs>,
-    writer: LinkWriter,
+    /// One writer per link (`team::links` order).
+    writers: Vec<LinkWriter>,
     recorder: Option<Recorder>,
     downlink: Option<Downlink>,
     /// Judges the operator's answers (`None`: no `--operator-key`, every
@@ -590,18 +593,33 @@ impl Gateway {
         // Said once if the vehicle stays silent this long after the link
         // opens (below).
         let silent_until = Instant::now() + SILENCE_WARNING;
-        let (mut reader, writer) = Link::open(&setup.address, clock.clone())
-            .await
-            .map_err(|e| miette::miette!("{e}"))?;
-        // One vehicle: the configured one, else the first autopilot heard.
-        reader.supervise(setup.vehicle.system);
-        let rejections = reader.rejections();
-        if let Some(signing) = &setup.signing {
-            use crate::link::signing::{read_timestamp, Signer, Verifier};
-            let persisted = read_timestamp(&signing.timestamp_file);
-            writer.sign(Signer::new(signing.key.clone(), signing.link_id, persisted));
-            reader.verify(Verifier::new(signing.key.clone(), signing.require));
+        // Each link once, however many vehicles share it.
+        let links = crate::team::links(&setup.project, &setup.address);
+        let team = !setup.project.vehicles.is_empty();
+        let mut readers = Vec::new();
+        let mut writers = Vec::new();
+        for (address, on) in &links {
+            let (mut reader, writer) = Link::open(address, clock.clone())
+                .await
+                .map_err(|e| miette::miette!("{e}"))?;
+            if team {
+                // The team's vehicles on this link; every other vehicle dropped.
+                let systems = on.iter().map(|&v| setup.project.vehicles[v].system);
+                reader.supervise_team(systems.collect());
+            } else {
+                // One vehicle: the configured one, else the first autopilot heard.
+                reader.supervise(setup.vehicle.system);
+            }
+            if let Some(signing) = &setup.signing {
+                use crate::link::signing::{read_timestamp, Signer, Verifier};
+                let persisted = read_timestamp(&signing.timestamp_file);
+                writer.sign(Signer::new(signing.key.clone(), signing.link_id, persisted));
+                reader.verify(Verifier::new(signing.key.clone(), signing.require));
+            }
+            readers.push(reader);
+            writers.push(writer);
         }
+        let rejections: Vec<_> = readers.iter().map(LinkReader::rejections).collect();
         // Which autopilot, when the profile follows it: the frames read
         // meanwhile are fed once the supervisor runs, none lost.
         // Signals are watched from here on: a stop (systemd's SIGTERM)
@@ -616,13 +634,18 @@ impl Gateway {
                     .max(Duration::from_secs(1));
                 let announce = (
                     setup
-                        .vehicle
-                        .system
+                        .project
+                        .vehicles
+                        .first()
+                        .map(|v| v.system)
+                        .or(setup.vehicle.system)
                         .unwrap_or(crate::vehicle::commander::ANNOUNCE_SYSTEM),
                     setup.vehicle.own_component(),
                 );
+                // The first link: the first vehicle's (all of them, but one
+                // vehicle's own profile set, follow the autopilot heard).
                 let (early, heard, stopped) =
-                    identify(&mut reader, &writer, announce, limit, &mut signals).await;
+                    identify(&mut readers[0], &writers[0], announce, limit, &mut signals).await;
                 told_early |= stopped;
                 adopt(&mut setup, &choice, heard)?;
                 early
@@ -637,6 +660,15 @@ impl Gateway {
                 .map_err(|e| miette::miette!("{e}"))?;
             (Some(p), i)
         };
+        // Each vehicle's elaboration: its profile and ids (one lane without
+        // a team).
+        let lanes = crate::team::lanes(
+            &setup.project,
+            &setup.dir,
+            &setup.profile,
+            crate::team::family(&setup.layers.layers),
+            &elaboration_config(&setup.vehicle),
+        )?;
         // The recording is created once the link and the program server
         // are open: a start that fails leaves no empty recording behind.
         let recorder = match &setup.record {
@@ -646,7 +678,7 @@ impl Gateway {
                     clock_offset_ns: unix_ns,
                     profile: setup.layers.name.clone(),
                     profile_layers: setup.layers.layers.clone(),
-                    config: elaboration_config(&setup.vehicle),
+                    config: lanes[0].config.clone(),
                     ..RecordOptions::default()
                 };
                 let rec = Recorder::create(path, setup.project.clone(), options)
@@ -655,25 +687,42 @@ impl Gateway {
                 Some(rec)
             }
         };
-        let messages: Vec<(u32, f32)> = setup
-            .profile
-            .telemetry()
+        // One commander per vehicle, on its link, asking its autopilot for
+        // what its profile reads.
+        let configs = crate::team::commanders(&setup.project, &setup.vehicle);
+        let members = configs
             .into_iter()
-            .filter(|&id| id != 0) // HEARTBEAT always comes
-            .map(|id| (id, TELEMETRY_HZ))
+            .zip(&lanes)
+            .enumerate()
+            .map(|(v, (config, lane))| {
+                let messages: Vec<(u32, f32)> = lane
+                    .profile
+                    .telemetry()
+                    .into_iter()
+                    .filter(|&id| id != 0) // HEARTBEAT always comes
+                    .map(|id| (id, TELEMETRY_HZ))
+                    .collect();
+                let mut commander = Commander::new(config);
+                commander.request_streams(&messages, 0);
+                let link = links
+                    .iter()
+                    .position(|(_, on)| on.contains(&v))
+                    .unwrap_or(0);
+                Member {
+                    name: lane.vehicle.clone(),
+                    link,
+                    commander,
+                }
+            })
             .collect();
-        let config = elaboration_config(&setup.vehicle);
-        let mut commander = Commander::new(setup.vehicle);
-        commander.request_streams(&messages, 0);
-        let (supervisor, start) =
-            Supervisor::start(setup.project.clone(), setup.profile, config, 0);
+        let (supervisor, start) = Supervisor::start_lanes(setup.project.clone(), lanes, 0);
         let mut gw = Gateway {
             clock,
             project: setup.project,
             supervisor,
-            commander,
+            crew: Crew::new(members),
             programs,
-            writer,
+            writers,
             recorder,
             downlink: setup.downlink.map(|mirror| Downlink {
                 publisher: Publisher::new(session(), PublisherConfig::default(), 0),
@@ -707,40 +756,57 @@ impl Gateway {
         gw.pump().await;
         gw.settle();
         for rx in early {
-            gw.frame(rx);
+            gw.frame(0, rx);
             gw.pump().await;
             gw.settle();
         }
         let stop_at = setup.duration.map(|d| origin + d);
         let stop = setup.stop.clone();
         let (frames_tx, mut frames) = mpsc::channel(1024);
-        // The reader runs on its own task so that a frame is never lost to
-        // a select! that picked another branch.
-        let reader_task = tokio::spawn(async move {
-            loop {
-                match reader.recv().await {
-                    Ok(rx) => {
-                        while let Some(notice) = reader.poll_notice() {
-                            say!("{notice}");
-                        }
-                        if frames_tx.send(rx).await.is_err() {
-                            break;
+        // Each reader runs on its own task so that a frame is never lost to
+        // a select! that picked another branch; frames come with their link.
+        let several = readers.len() > 1;
+        let reader_tasks: Vec<_> = readers
+            .into_iter()
+            .zip(links.iter().map(|(a, _)| a.clone()))
+            .enumerate()
+            .map(|(link, (mut reader, address))| {
+                let frames_tx = frames_tx.clone();
+                tokio::spawn(async move {
+                    loop {
+                        match reader.recv().await {
+                            Ok(rx) => {
+                                while let Some(notice) = reader.poll_notice() {
+                                    if several {
+                                        say!("{address}: {notice}");
+                                    } else {
+                                        say!("{notice}");
+                                    }
+                                }
+                                if frames_tx.send((link, rx)).await.is_err() {
+                                    break;
+                                }
+                            }
+                            Err(e) => {
+                                // Never spin on a link that keeps failing.
+                                tracing::warn!("{e}");
+                                tokio::time::sleep(Duration::from_millis(200)).await;
+                            }
                         }
                     }
-                    Err(e) => {
-                        // Never spin on a link that keeps failing.
-                        tracing::warn!("{e}");
-                        tokio::time::sleep(Duration::from_millis(200)).await;
-                    }
-                }
-            }
-        });
+                })
+            })
+            .collect();
+        drop(frames_tx);
         let mut next_tick = TICK;
         let mut refused = false;
         // Said once when the vehicle stays silent: nothing else tells a
         // user that the address, the router or the autopilot is wrong.
-        let mut said_silent = false;
-        let mut reporter = crate::link::rejections::Reporter::default();
+        let mut said_silent = vec![false; gw.crew.members().len()];
+        let mut reporters: Vec<_> = rejections
+            .iter()
+            .map(|_| crate::link::rejections::Reporter::default())
+            .collect();
         let timestamp_file = setup.signing.as_ref().map(|s| s.timestamp_file.clone());
         let mut persisted_at = Instant::now();
         loop {
@@ -748,30 +814,41 @@ impl Gateway {
                 break;
             }
             // Frames the signature checks dropped reach the nets as an event.
-            if let Some(event) = reporter.poll(&rejections, &gw.project, gw.now()) {
-                let now = gw.now();
-                gw.feed(now, Owned::Event(event));
+            for (reporter, rejections) in reporters.iter_mut().zip(&rejections) {
+                if let Some(event) = reporter.poll(rejections, &gw.project, gw.now()) {
+                    let now = gw.now();
+                    gw.feed(now, Owned::Event(event));
+                }
             }
             if let Some(file) = &timestamp_file {
                 if persisted_at.elapsed() >= TIMESTAMP_PERSIST {
                     persisted_at = Instant::now();
-                    persist_timestamp(file, &gw.writer);
+                    persist_timestamps(file, &gw.writers);
                 }
             }
-            if !said_silent && !gw.commander.heard() && Instant::now() >= silent_until {
-                said_silent = true;
-                let (system, component) = gw.commander.sender();
-                say!(
-                    "petrel: no vehicle heard on {} after {} s; petrel sends its HEARTBEAT there as system {system}, component {component}. Check the address, that the router or autopilot sends telemetry to it, and the vehicle's system id.",
-                    setup.address,
-                    SILENCE_WARNING.as_secs()
-                );
+            if Instant::now() >= silent_until {
+                for (said, m) in said_silent.iter_mut().zip(gw.crew.members()) {
+                    if *said || m.commander.heard() {
+                        continue;
+                    }
+                    *said = true;
+                    let (system, component) = m.commander.sender();
+                    let vehicle = match &m.name {
+                        Some(name) => format!("vehicle {name} not"),
+                        None => "no vehicle".to_owned(),
+                    };
+                    say!(
+                        "petrel: {vehicle} heard on {} after {} s; petrel sends its HEARTBEAT there as system {system}, component {component}. Check the address, that the router or autopilot sends telemetry to it, and the vehicle's system id.",
+                        links[m.link].0,
+                        SILENCE_WARNING.as_secs()
+                    );
+                }
             }
             let now = gw.now();
             let deadline = [
                 Some(next_tick),
                 gw.supervisor.next_deadline(),
-                gw.commander.next_deadline(),
+                gw.crew.next_deadline(),
             ]
             .into_iter()
             .flatten()
@@ -791,11 +868,11 @@ impl Gateway {
                 }
             };
             tokio::select! {
-                Some(rx) = frames.recv() => gw.frame(rx),
+                Some((link, rx)) = frames.recv() => gw.frame(link, rx),
                 Some(input) = inputs.recv() => gw.program_input(input),
                 _ = sleep => {
                     let now = gw.now();
-                    gw.commander.tick(now);
+                    gw.crew.tick(now);
                     if now >= next_tick {
                         next_tick = now - now % TICK + TICK;
                     }
@@ -808,8 +885,14 @@ impl Gateway {
             gw.pump().await;
             gw.settle();
             gw.publish().await;
-            if let Some(verdict) = gw.commander.poll_parameters() {
-                if !parameters_fit(&verdict, gw.commander.armed()) {
+            if let Some((v, verdict)) = gw.crew.poll_parameters() {
+                let member = &gw.crew.members()[v];
+                let prefix = member
+                    .name
+                    .as_ref()
+                    .map(|n| format!("vehicle {n}: "))
+                    .unwrap_or_default();
+                if !parameters_fit(&prefix, &verdict, member.commander.armed()) {
                     refused = true;
                     break;
                 }
@@ -821,24 +904,32 @@ impl Gateway {
         // would starve the commander's retries and timeouts.
         let mut ticks = tokio::time::interval(Duration::from_millis(20));
         ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-        while gw.commander.busy() && Instant::now() < grace {
+        while gw.crew.busy() && Instant::now() < grace {
             tokio::select! {
-                Some(rx) = frames.recv() => {
+                Some((link, rx)) = frames.recv() => {
                     if let Some(message) = &rx.message {
-                        gw.commander.message(rx.time_us, &rx.header, message);
+                        gw.crew.message(link, rx.time_us, &rx.header, message);
                     }
                 }
-                _ = ticks.tick() => gw.commander.tick(gw.now()),
+                _ = ticks.tick() => gw.crew.tick(gw.now()),
             }
             gw.pump().await;
             gw.settle();
         }
-        reader_task.abort();
-        if let Some(file) = &timestamp_file {
-            persist_timestamp(file, &gw.writer);
+        for task in reader_tasks {
+            task.abort();
         }
-        if let Some(summary) = rejections.summary() {
-            say!("signatures: {summary}");
+        if let Some(file) = &timestamp_file {
+            persist_timestamps(file, &gw.writers);
+        }
+        for (rejections, (address, _)) in rejections.iter().zip(&links) {
+            if let Some(summary) = rejections.summary() {
+                if several {
+                    say!("signatures on {address}: {summary}");
+                } else {
+                    say!("signatures: {summary}");
+                }
+            }
         }
         if let Some(gate) = &gw.answers {
             let rejected: Vec<String> = gate
@@ -900,13 +991,16 @@ impl Gateway {
         })
     }
 
-    /// A frame from the link: to the commander, then to the supervisor.
-    fn frame(&mut self, rx: Received) {
+    /// A frame from link `link`: to the commanders on that link, then to
+    /// the supervisor.
+    fn frame(&mut self, link: usize, rx: Received) {
         self.frames += 1;
-        self.uplink(&rx.bytes);
+        if self.crew.members().first().map(|m| m.link) == Some(link) {
+            self.uplink(&rx.bytes);
+        }
         if let Some(message) = &rx.message {
             self.follow_vehicle_time(&rx.header, message);
-            self.commander.message(rx.time_us, &rx.header, message);
+            self.crew.message(link, rx.time_us, &rx.header, message);
         }
         self.feed(rx.time_us, Owned::Frame(rx.bytes));
     }
@@ -915,7 +1009,8 @@ impl Gateway {
     /// (`clock::Clock::sync`); at scale 1 this does nothing.
     fn follow_vehicle_time(&self, header: &mavlink::MavHeader, message: &MavMessage) {
         if self.clock.scale() == 1.0
-            || self.commander.target() != Some((header.system_id as u8, header.component_id))
+            || self.crew.first().and_then(Commander::target)
+                != Some((header.system_id as u8, header.component_id))
         {
             return;
         }
@@ -931,9 +1026,15 @@ impl Gateway {
     fn effect(&mut self, effect: &Effect) {
         let now = self.now();
         match effect {
-            Effect::Command { id, verb, args, .. } => self.commander.command(*id, verb, args, now),
+            Effect::Command {
+                id,
+                verb,
+                args,
+                vehicle,
+                ..
+            } => self.crew.command(*id, *vehicle, verb, args, now),
             Effect::Forgotten { id, .. } => {
-                self.commander.forget(*id);
+                self.crew.forget(*id);
                 if let Some(p) = &self.programs {
                     p.effect(effect);
                 }
@@ -947,15 +1048,18 @@ impl Gateway {
         }
     }
 
-    /// Sends what the commander has to send (each frame recorded as sent)
-    /// and hands its outcomes to the player, until it has nothing more.
+    /// Sends what the commanders have to send, each on its vehicle's link
+    /// (each frame recorded as sent), and hands their outcomes to the
+    /// player, until they have nothing more.
     async fn pump(&mut self) {
         loop {
             let mut busy = false;
-            while let Some(message) = self.commander.poll_transmit() {
+            while let Some(t) = self.crew.poll_transmit() {
                 busy = true;
-                let from = self.commander.sender();
-                match self.writer.send(from, &message).await {
+                let Some(writer) = self.writers.get(t.link) else {
+                    continue;
+                };
+                match writer.send(t.from, &t.message).await {
                     Ok(bytes) => {
                         if let (Some(rec), false) = (&self.recorder, bytes.is_empty()) {
                             rec.sent(self.clock.now(), &bytes);
@@ -968,7 +1072,7 @@ impl Gateway {
                     }
                 }
             }
-            if let Some((id, outcome)) = self.commander.poll_outcome() {
+            if let Some((id, outcome)) = self.crew.poll_outcome() {
                 busy = true;
                 let now = self.now();
                 self.feed(now, Owned::Result { id, outcome });
@@ -981,7 +1085,8 @@ impl Gateway {
 
     /// A frame from the mirror (a resync request) goes to the publisher.
     fn uplink(&mut self, bytes: &[u8]) {
-        let (Some(d), Some(me)) = (&mut self.downlink, self.commander.identity()) else {
+        let me = self.crew.first().and_then(Commander::identity);
+        let (Some(d), Some(me)) = (&mut self.downlink, me) else {
             return;
         };
         let Ok(frame) = elaboration::Frame::parse(bytes) else {
@@ -1030,7 +1135,10 @@ impl Gateway {
     /// the publisher has, sent (and recorded as sent).
     async fn publish(&mut self) {
         let now = self.now();
-        let (Some(d), Some(me)) = (&mut self.downlink, self.commander.identity()) else {
+        let me = self.crew.first().and_then(Commander::identity);
+        let link = self.crew.members().first().map_or(0, |m| m.link);
+        let (Some(d), Some(me), Some(writer)) = (&mut self.downlink, me, self.writers.get(link))
+        else {
             return;
         };
         d.publisher
@@ -1042,7 +1150,7 @@ impl Gateway {
                 target_component: 0,
                 payload,
             };
-            match self.writer.send_data(me, &tunnel).await {
+            match writer.send_data(me, &tunnel).await {
                 Ok(bytes) => {
                     if let (Some(rec), false) = (&self.recorder, bytes.is_empty()) {
                         rec.sent(self.clock.now(), &bytes);
@@ -1167,28 +1275,33 @@ fn adopt(
 
 /// Reports the check of `[gateway.parameters]`; false when the gateway must
 /// refuse to go on: a parameter is wrong or unreadable and the vehicle is
-/// not armed. An armed vehicle is never abandoned: the misfit is reported
+/// not armed. An armed vehicle is never abandoned (`vehicle`: `vehicle R2: `
+/// in a team, else empty): the misfit is reported
 /// and supervision goes on.
-fn parameters_fit(verdict: &crate::vehicle::parameters::Verdict, armed: Option<bool>) -> bool {
+fn parameters_fit(
+    vehicle: &str,
+    verdict: &crate::vehicle::parameters::Verdict,
+    armed: Option<bool>,
+) -> bool {
     if verdict.holds() {
         let read: Vec<String> = verdict
             .read
             .iter()
             .map(|(name, value)| format!("{name} = {value}"))
             .collect();
-        say!("autopilot parameters checked: {}", read.join(", "));
+        say!("{vehicle}autopilot parameters checked: {}", read.join(", "));
         return true;
     }
     let misfits: Vec<String> = verdict.misfits.iter().map(|m| format!("  {m}")).collect();
     if armed == Some(true) {
         say!(
-            "warning: the vehicle's parameters do not fit the project ([gateway.parameters] in project.toml), but it is armed: supervision goes on\n{}",
+            "warning: {vehicle}the vehicle's parameters do not fit the project ([gateway.parameters] in project.toml), but it is armed: supervision goes on\n{}",
             misfits.join("\n")
         );
         return true;
     }
     say!(
-        "refused: the vehicle's parameters do not fit the project ([gateway.parameters] in project.toml); set them on the autopilot and start again:\n{}",
+        "refused: {vehicle}the vehicle's parameters do not fit the project ([gateway.parameters] in project.toml); set them on the autopilot and start again:\n{}",
         misfits.join("\n")
     );
     false
