@@ -366,8 +366,9 @@ fn replay_agrees(dir: &Path, project: &Path) -> Timeline {
 }
 
 /// What both scripted cases assert of the commands the vehicles received:
-/// each armed once, by its own gateway identity, on its own link; the land
-/// command to R2 only, after both armed; nothing to anyone else.
+/// each armed once, by its own gateway identity, on its own link, and asked
+/// for its telemetry; the land command to R2 only, after both armed;
+/// nothing to anyone else.
 fn commands_routed(received: &[Received], link_of: impl Fn(u8) -> usize) {
     assert!(!received.is_empty(), "no command reached the vehicles");
     for r in received {
@@ -382,7 +383,19 @@ fn commands_routed(received: &[Received], link_of: impl Fn(u8) -> usize) {
             .count()
     };
     assert_eq!((arms(1), arms(2)), (1, 1), "{received:?}");
-    let landing: Vec<_> = received.iter().filter(|r| !is_arm(r)).collect();
+    let landing: Vec<_> = received
+        .iter()
+        .filter(|r| r.command == MavCmd::MAV_CMD_NAV_LAND)
+        .collect();
+    // Each commander asked its own autopilot for the telemetry it reads.
+    for t in [1, 2] {
+        assert!(
+            received
+                .iter()
+                .any(|r| r.target == t && r.command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL),
+            "no telemetry request to vehicle {t}: {received:?}"
+        );
+    }
     assert!(!landing.is_empty(), "no land command: {received:?}");
     let last_arm = received
         .iter()
