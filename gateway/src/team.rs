@@ -49,7 +49,8 @@ pub fn lanes(
         .map(|v| {
             let profile = match &v.profile {
                 None => base.clone(),
-                Some(choice) => Layers::choose(choice, Some(dir), family)?
+                Some(choice) => Layers::choose(choice, Some(dir), family)
+                    .map_err(|e| miette::miette!("vehicle {}: {e}", v.name))?
                     .load()
                     .ok_or_else(|| {
                         miette::miette!("vehicle {}: its profile {choice} does not load", v.name)
@@ -210,8 +211,12 @@ mod tests {
         // A profile file that is not there is a clear error naming the vehicle.
         let p = team("[[vehicle]]\nname = \"R1\"\nsystem = 1\nprofile = \"missing.toml\"\n");
         let e = super::lanes(&p, Path::new("/nonexistent"), &base, "ardupilot", &config)
-            .err()
-            .expect("refused");
+            .expect_err("refused");
+        assert!(
+            e.to_string()
+                .starts_with("vehicle R1: cannot read the profile"),
+            "{e}"
+        );
         assert!(e.to_string().contains("missing.toml"), "{e}");
         // Without a team: one unqualified lane with the given config.
         let single = super::lanes(&team_free(), Path::new("."), &base, "ardupilot", &config)

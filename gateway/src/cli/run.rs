@@ -194,6 +194,16 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         return Ok(Err(Outcome::BadInput));
     };
     let (project, files) = crate::project::load_read(&args.project, &profile.catalog())?;
+    // A team's vehicles' own profiles load, or the run is refused here,
+    // before any link opens (`run` builds the lanes again once the
+    // autopilot is known).
+    crate::team::lanes(
+        &project,
+        &args.project,
+        &profile,
+        crate::team::family(&layers.layers),
+        &elaboration_config(&vehicle),
+    )?;
     if !args.unchecked {
         let inputs = crate::preflight::Inputs {
             files: &files,
