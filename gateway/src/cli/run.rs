@@ -188,6 +188,11 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         return Ok(Err(Outcome::BadInput));
     };
     let (project, files) = crate::project::load_read(&args.project, &profile.catalog())?;
+    if !project.vehicles.is_empty() && vehicle.system.is_some() {
+        say!(
+            "warning: [gateway] system_id is not used by a team project: each [[vehicle]] names its system"
+        );
+    }
     // A team's vehicles' own profiles load, or the run is refused here,
     // before any link opens (`run` builds the lanes again once the
     // autopilot is known).
