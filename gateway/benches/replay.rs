@@ -6,6 +6,11 @@
 //! frames in memory with rust-mavlink (the floor of any replay), and
 //! pymavlink reading the file (the usual tool for the job).
 //!
+//! Then the cost of a team: the synthetic hour (vehicle 1's telemetry)
+//! replayed with a two-vehicle team project (`tests/fixtures/team-scripted`:
+//! one elaborator per vehicle, events qualified) beside its single-vehicle
+//! twin (`benches/team/one`: the same net, one elaborator), same run.
+//!
 //! Run: `cargo bench -p gateway --bench replay`.
 
 #[path = "support/telemetry.rs"]
@@ -142,6 +147,17 @@ fn main() {
                 replay.as_secs_f64() / d.as_secs_f64()
             );
         }
+    }
+    let hour = scratch.join("hour.tlog");
+    let one = root.join("gateway/benches/team/one");
+    let two = root.join("gateway/tests/fixtures/team-scripted");
+    if let (Some(single), Some(team)) = (petrel_replay(&hour, &one), petrel_replay(&hour, &two)) {
+        println!(
+            "team of two (2 elaborators) {:.1} ms, one vehicle {:.1} ms on the synthetic hour: {:.2}x",
+            team.as_secs_f64() * 1e3,
+            single.as_secs_f64() * 1e3,
+            team.as_secs_f64() / single.as_secs_f64()
+        );
     }
     let _ = std::fs::remove_dir_all(&scratch);
 }

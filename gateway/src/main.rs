@@ -39,6 +39,7 @@ mod programs;
 mod project;
 mod record;
 mod supervisor;
+mod team;
 mod vehicle;
 
 #[derive(Parser)]

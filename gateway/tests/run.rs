@@ -253,8 +253,10 @@ async fn run_refuses_a_project_that_fails_check_unless_unchecked() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A team runs (gateway/tests/team.rs), but a vehicle whose `profile` does
+/// not load is refused before any link opens, naming the vehicle.
 #[tokio::test]
-async fn run_refuses_a_team_project_it_cannot_run_yet() {
+async fn run_refuses_a_team_vehicle_whose_profile_does_not_load() {
     let team = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../nets/tests/fixtures/team");
     let out = petrel()
         .args([
@@ -265,13 +267,17 @@ async fn run_refuses_a_team_project_it_cannot_run_yet() {
             "--duration",
             "0.3",
             "--no-record",
+            "--unchecked",
         ])
         .output()
         .await
         .expect("petrel runs");
     let err = String::from_utf8_lossy(&out.stderr);
-    assert_ne!(out.status.code(), Some(0), "{err}");
-    assert!(err.contains("does not run a team yet"), "{err}");
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("vehicle R1: cannot read the profile") && err.contains("ardupilot-rover"),
+        "{err}"
+    );
 }
 
 /// A profile layer named in `[gateway]`, beside project.toml, and a clock

@@ -103,7 +103,15 @@ pub fn run(args: Args) -> VerbResult {
         compid: args.compid,
         ..elaboration::Config::default()
     };
-    let (mut sup, start) = Supervisor::start(project.clone(), profile, config, origin);
+    // A team elaborates each vehicle's telemetry apart (its system from
+    // project.toml), as `run` did.
+    let family = if args.profile.as_deref() == Some("px4") {
+        "px4"
+    } else {
+        "ardupilot"
+    };
+    let lanes = crate::team::lanes(&project, &args.project, &profile, family, &config)?;
+    let (mut sup, start) = Supervisor::start_lanes(project.clone(), lanes, origin);
     out.effects(&project, &start.effects).map_err(io)?;
     let progress = std::io::stderr().is_terminal() && !args.json;
     let wall = Instant::now();

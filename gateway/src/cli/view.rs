@@ -87,12 +87,11 @@ fn index(args: &Args, dir: &std::path::Path) -> Result<Option<History>, miette::
     let from_mcap::Opened {
         rec,
         origin,
-        profile,
-        config,
+        lanes,
         project,
         ..
     } = opened;
-    let (mut sup, start) = Supervisor::start(project.clone(), profile, config, origin);
+    let (mut sup, start) = Supervisor::start_lanes(project.clone(), lanes, origin);
     let mut builder = Builder::new(project.clone(), &start, sup.player(), origin);
     // The recorded digests tell whether this is the project that flew.
     let mut difference = compare(&project, &start, &sup.player().digest(), rec.steps.get(&0));

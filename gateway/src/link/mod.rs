@@ -184,6 +184,13 @@ impl LinkReader {
         self.vehicles = Some(Vehicles::new(system));
     }
 
+    /// From now on, delivers only the frames of the team's `systems` (its
+    /// vehicles on this link) and of systems that are no vehicle; other
+    /// vehicles' frames are dropped ([`Vehicles::team`]).
+    pub fn supervise_team(&mut self, systems: Vec<u8>) {
+        self.vehicles = Some(Vehicles::team(systems));
+    }
+
     /// The vehicles heard, when [`Self::supervise`] was called.
     pub fn vehicles(&self) -> Option<&Vehicles> {
         self.vehicles.as_ref()

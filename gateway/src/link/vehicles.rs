@@ -9,6 +9,11 @@
 //! vehicle. Systems that are no vehicle (a ground station, a SiK radio's
 //! system 51) pass: elaboration watches them too.
 //!
+//! A team (`[[vehicle]]`, docs/multi-vehicle.md) keeps every system of
+//! its vehicles on this link ([`Vehicles::team`]) and drops every other
+//! vehicle's, a team vehicle declared on another link included (it would be
+//! heard twice).
+//!
 //! Sans-IO: fed each frame's sender and, for a HEARTBEAT, its content;
 //! says whether to keep the frame. What it decides is told once, as
 //! [`Notice`]s for the gateway's log.
@@ -54,6 +59,11 @@ pub enum Notice {
     /// Another vehicle: its frames are dropped. `supervised` is the system
     /// id followed instead.
     Ignored { vehicle: Vehicle, supervised: u8 },
+    /// A vehicle of the team is heard on this link.
+    Member(Vehicle),
+    /// A vehicle that is no vehicle of the team on this link: its frames
+    /// are dropped.
+    Outside(Vehicle),
 }
 
 impl fmt::Display for Notice {
@@ -71,6 +81,11 @@ impl fmt::Display for Notice {
                 f,
                 "ignoring {vehicle}: this gateway supervises vehicle {supervised} only"
             ),
+            Notice::Member(v) => write!(f, "supervising {v}: a vehicle of the team ([[vehicle]])"),
+            Notice::Outside(v) => write!(
+                f,
+                "ignoring {v}: no vehicle of the team on this link ([[vehicle]] system and link)"
+            ),
         }
     }
 }
@@ -80,6 +95,10 @@ impl fmt::Display for Notice {
 pub struct Vehicles {
     /// The configured system id, if any.
     configured: Option<u8>,
+    /// A team's systems on this link (empty: one vehicle, `configured`).
+    team: Vec<u8>,
+    /// The team's vehicles heard, by system id.
+    members: BTreeMap<u8, Vehicle>,
     /// The supervised vehicle's autopilot, once heard.
     supervised: Option<Vehicle>,
     /// Other vehicles, by system id.
@@ -106,6 +125,20 @@ impl Vehicles {
             configured: system,
             ..Vehicles::default()
         }
+    }
+
+    /// Supervises the team's `systems` (those of its vehicles on this link):
+    /// every other vehicle's frames are dropped.
+    pub fn team(systems: Vec<u8>) -> Vehicles {
+        Vehicles {
+            team: systems,
+            ..Vehicles::default()
+        }
+    }
+
+    /// The team's vehicles heard so far, by system id.
+    pub fn members(&self) -> impl Iterator<Item = &Vehicle> {
+        self.members.values()
     }
 
     /// The supervised system id: configured, or locked on.
@@ -152,6 +185,9 @@ impl Vehicles {
     }
 
     fn autopilot_heard(&mut self, vehicle: Vehicle) {
+        if !self.team.is_empty() {
+            return self.team_autopilot_heard(vehicle);
+        }
         let supervised = match self.supervised() {
             Some(s) => s,
             None => {
@@ -171,6 +207,20 @@ impl Vehicles {
                 vehicle,
                 supervised,
             });
+        }
+    }
+}
+
+impl Vehicles {
+    fn team_autopilot_heard(&mut self, vehicle: Vehicle) {
+        let (known, notice) = if self.team.contains(&vehicle.system) {
+            (&mut self.members, Notice::Member(vehicle))
+        } else {
+            (&mut self.ignored, Notice::Outside(vehicle))
+        };
+        if let Entry::Vacant(entry) = known.entry(vehicle.system) {
+            entry.insert(vehicle);
+            self.notices.push_back(notice);
         }
     }
 }
@@ -281,5 +331,32 @@ mod tests {
         }
         assert_eq!(v.ignored().count(), 255);
         assert_eq!(notices(&mut v).len(), 256);
+    }
+
+    #[test]
+    fn a_team_keeps_its_vehicles_and_drops_the_others_told_once() {
+        let mut v = Vehicles::team(vec![1, 3]);
+        assert!(v.admit(1, 1, Some(&copter())));
+        assert!(v.admit(3, 1, Some(&copter())));
+        // Vehicle 2 (outside the team, or a team vehicle on another link).
+        assert!(!v.admit(2, 1, Some(&copter())));
+        assert!(!v.admit(2, 1, None));
+        assert!(!v.admit(2, 191, Some(&companion())));
+        // The team's other components, a ground station, a radio pass.
+        assert!(v.admit(1, 100, None));
+        assert!(v.admit(3, 1, Some(&copter())));
+        assert!(v.admit(255, 190, Some(&gcs())));
+        assert!(v.admit(51, 68, None));
+        assert_eq!(v.dropped(), 3);
+        let told = notices(&mut v);
+        assert_eq!(told.len(), 3, "{told:?}");
+        assert!(matches!(told[0], Notice::Member(vehicle) if vehicle.system == 1));
+        assert!(matches!(told[1], Notice::Member(vehicle) if vehicle.system == 3));
+        assert!(matches!(told[2], Notice::Outside(vehicle) if vehicle.system == 2));
+        assert_eq!(
+            told[2].to_string(),
+            "ignoring vehicle 2 (ARDUPILOTMEGA QUADROTOR, autopilot component 1): no vehicle of the team on this link ([[vehicle]] system and link)"
+        );
+        assert_eq!(v.members().map(|v| v.system).collect::<Vec<_>>(), [1, 3]);
     }
 }

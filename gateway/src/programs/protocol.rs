@@ -155,9 +155,14 @@ pub fn welcome(program: &str, called: &[&str]) -> String {
     json!({"welcome": program, "functions": called}).to_string()
 }
 
-/// `{"call": id, "function": "…", "args": {…}}`
-pub fn call(id: u64, function: &str, args: &Params) -> String {
-    json!({"call": id, "function": function, "args": json_params(args)}).to_string()
+/// `{"call": id, "function": "…", "args": {…}}`, with `"vehicle": "R1"`
+/// when the call is for a vehicle of a team (absent without a team).
+pub fn call(id: u64, function: &str, args: &Params, vehicle: Option<&str>) -> String {
+    let mut line = json!({"call": id, "function": function, "args": json_params(args)});
+    if let (Some(v), Some(map)) = (vehicle, line.as_object_mut()) {
+        map.insert("vehicle".into(), json!(v));
+    }
+    line.to_string()
 }
 
 /// `{"error": "…", "line": N}`
@@ -279,12 +284,19 @@ mod tests {
     #[test]
     fn outgoing_lines_are_single_line_json() {
         let args = Params::from([("failed".into(), Value::Str("cam\n1".into()))]);
-        let line = call(7, "replan", &args);
+        let line = call(7, "replan", &args, None);
         assert!(!line.contains('\n'));
         let v: serde_json::Value = serde_json::from_str(&line).expect("json");
         assert_eq!(
             v,
             json!({"call": 7, "function": "replan", "args": {"failed": "cam\n1"}})
+        );
+        // A team's call names its vehicle; without a team there is no key.
+        let v: serde_json::Value =
+            serde_json::from_str(&call(8, "replan", &args, Some("R2"))).expect("json");
+        assert_eq!(
+            v,
+            json!({"call": 8, "function": "replan", "args": {"failed": "cam\n1"}, "vehicle": "R2"})
         );
         let v: serde_json::Value = serde_json::from_str(&error("bad", 3)).expect("json");
         assert_eq!(v, json!({"error": "bad", "line": 3}));

@@ -84,6 +84,7 @@ enum Command {
         program: usize,
         function: usize,
         args: Params,
+        vehicle: Option<String>,
     },
     Forget(u64),
 }
@@ -100,6 +101,8 @@ pub struct Programs {
     stop: watch::Sender<bool>,
     task: JoinHandle<()>,
     address: Address,
+    /// The team's vehicle names, by `VehicleId` (empty without a team).
+    vehicles: Vec<String>,
 }
 
 impl Programs {
@@ -110,6 +113,7 @@ impl Programs {
         project_dir: &Path,
         config: Config,
     ) -> Result<(Programs, mpsc::Receiver<ProgramInput>), ProgramsError> {
+        let vehicles = project.vehicles.iter().map(|v| v.name.clone()).collect();
         let mut roster = Roster::new(project)?;
         roster.token = config.token.clone();
         if let (Address::Tcp(a), None) = (&config.address, &roster.token) {
@@ -184,6 +188,7 @@ impl Programs {
                 stop: stop_tx,
                 task,
                 address: address.clone(),
+                vehicles,
             },
             inputs,
         ))
@@ -199,11 +204,25 @@ impl Programs {
     /// `Effect::Call`). Never blocks; the outcome comes back as
     /// [`ProgramInput::Outcome`].
     pub fn call(&self, id: u64, program: usize, function: usize, args: Params) {
+        self.call_for(id, program, function, args, None);
+    }
+
+    /// [`Self::call`] for a vehicle of a team: the call's line names it
+    /// (`"vehicle": "R1"`, docs/programs.md).
+    pub fn call_for(
+        &self,
+        id: u64,
+        program: usize,
+        function: usize,
+        args: Params,
+        vehicle: Option<String>,
+    ) {
         let _ = self.commands.send(Command::Call {
             id,
             program,
             function,
             args,
+            vehicle,
         });
     }
 
@@ -223,9 +242,11 @@ impl Programs {
                 program,
                 function,
                 args,
+                vehicle,
                 ..
             } => {
-                self.call(*id, *program, *function, args.clone());
+                let vehicle = vehicle.and_then(|v| self.vehicles.get(v)).cloned();
+                self.call_for(*id, *program, *function, args.clone(), vehicle);
                 true
             }
             nets::Effect::Forgotten { id, .. } => {
@@ -302,6 +323,7 @@ struct Waiting {
     program: usize,
     function: usize,
     args: Params,
+    vehicle: Option<String>,
     deadline: Instant,
 }
 
@@ -331,8 +353,8 @@ impl Switchboard {
             tokio::select! {
                 _ = stopped(&mut stop) => break,
                 command = commands.recv() => match command {
-                    Some(Command::Call { id, program, function, args }) => {
-                        self.call(id, program, function, args).await
+                    Some(Command::Call { id, program, function, args, vehicle }) => {
+                        self.call(id, program, function, args, vehicle).await
                     }
                     Some(Command::Forget(id)) => self.forget(id),
                     None => break,
@@ -429,7 +451,13 @@ impl Switchboard {
                     self.waiting = rest;
                     if let Some(c) = self.connections.get_mut(&conn) {
                         for w in ready {
-                            c.session.call(w.id, w.function, &w.args, now);
+                            c.session.call_for(
+                                w.id,
+                                w.function,
+                                &w.args,
+                                w.vehicle.as_deref(),
+                                now,
+                            );
                         }
                     }
                 }
@@ -511,7 +539,14 @@ impl Switchboard {
         .await;
     }
 
-    async fn call(&mut self, id: u64, program: usize, function: usize, args: Params) {
+    async fn call(
+        &mut self,
+        id: u64,
+        program: usize,
+        function: usize,
+        args: Params,
+        vehicle: Option<String>,
+    ) {
         let known = self
             .roster
             .project
@@ -524,7 +559,9 @@ impl Switchboard {
         let slot = &self.slots[program];
         if let Some(conn) = slot.connection {
             if let Some(c) = self.connections.get_mut(&conn) {
-                if c.session.call(id, function, &args, Instant::now()) {
+                if c.session
+                    .call_for(id, function, &args, vehicle.as_deref(), Instant::now())
+                {
                     return self.drain(conn).await;
                 }
             }
@@ -536,6 +573,7 @@ impl Switchboard {
                 program,
                 function,
                 args,
+                vehicle,
                 deadline,
             });
             return;

@@ -378,6 +378,18 @@ impl Session {
     /// Sends a call. False if the session is not ready (no hello yet, or
     /// closed): the caller fails it.
     pub fn call(&mut self, id: u64, function: usize, args: &Params, now: Instant) -> bool {
+        self.call_for(id, function, args, None, now)
+    }
+
+    /// [`Self::call`] for a vehicle of a team: the line carries its name.
+    pub fn call_for(
+        &mut self,
+        id: u64,
+        function: usize,
+        args: &Params,
+        vehicle: Option<&str>,
+        now: Instant,
+    ) -> bool {
         let State::Ready(program) = self.state else {
             return false;
         };
@@ -387,6 +399,7 @@ impl Session {
             id,
             roster.function_name(program, function),
             args,
+            vehicle,
         )));
         self.pending.insert(
             id,

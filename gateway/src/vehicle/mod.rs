@@ -41,6 +41,7 @@
 
 pub mod commander;
 pub mod config;
+pub mod crew;
 pub mod mission;
 pub mod modes;
 pub mod parameters;

@@ -454,3 +454,43 @@ async fn listening_beyond_loopback_without_a_token_is_refused() {
     };
     assert!(e.to_string().contains("no token"), "{e}");
 }
+
+/// In a team, a call carries the vehicle it is for (an instance's); the
+/// reply is matched by id alone.
+#[tokio::test]
+async fn a_teams_calls_name_their_vehicle() {
+    let team = "[[vehicle]]\nname = \"R1\"\nsystem = 1\n\n[[vehicle]]\nname = \"R2\"\nsystem = 2\n";
+    let settings = format!("{}{team}", fixture_program("never", "5s", ALL));
+    let mut h = Harness::start(&settings, FUNCTIONS).await;
+    let reply = Value::Map(params(&[("value", Value::Int(7))]));
+    let call = |id, vehicle| nets::Effect::Call {
+        time: 0,
+        id,
+        net: 0,
+        program: 0,
+        function: ECHO,
+        args: params(&[("reply", reply.clone())]),
+        vehicle,
+    };
+    assert!(h.programs.effect(&call(1, Some(1))));
+    assert_eq!(
+        h.outcome(1).await,
+        Outcome::Done(params(&[("value", Value::Int(7))]))
+    );
+    assert!(h.programs.effect(&call(2, None)));
+    assert_eq!(
+        h.outcome(2).await,
+        Outcome::Done(params(&[("value", Value::Int(7))]))
+    );
+    let out = h.lines(Direction::Out);
+    assert_eq!(
+        out[1],
+        "{\"call\":1,\"function\":\"echo\",\"args\":{\"reply\":{\"value\":7}},\"vehicle\":\"R2\"}"
+    );
+    // A team net's call is no vehicle's: no key.
+    assert_eq!(
+        out[2],
+        "{\"call\":2,\"function\":\"echo\",\"args\":{\"reply\":{\"value\":7}}}"
+    );
+    h.programs.shutdown().await;
+}

@@ -22,8 +22,9 @@ pub(crate) struct Opened {
     pub rec: read::Recording,
     /// The time of the player's start (step 0).
     pub origin: nets::Micros,
-    pub profile: elaboration::Profile,
-    pub config: elaboration::Config,
+    /// The elaboration lanes the flight ran with: one, or one per vehicle
+    /// of a team (`team::lanes`, as `run` builds them).
+    pub lanes: Vec<crate::supervisor::Lane>,
     pub project: std::sync::Arc<nets::Project>,
     /// How long reading the file took.
     pub reading: Duration,
@@ -97,12 +98,22 @@ pub(crate) fn open(
     let Some(profile) = profile else {
         return Ok(None);
     };
-    let project = crate::project::load_with(project, &profile.catalog())?;
+    let dir = project;
+    let project = crate::project::load_with(dir, &profile.catalog())?;
+    let family = if setup.layers.is_empty() {
+        if setup.profile == "px4" {
+            "px4"
+        } else {
+            "ardupilot"
+        }
+    } else {
+        crate::team::family(&setup.layers)
+    };
+    let lanes = crate::team::lanes(&project, dir, &profile, family, &config)?;
     Ok(Some(Opened {
         rec,
         origin,
-        profile,
-        config,
+        lanes,
         project,
         reading,
     }))
@@ -147,8 +158,7 @@ pub fn run(args: Args) -> VerbResult {
     let Some(Opened {
         rec,
         origin,
-        profile,
-        config,
+        lanes,
         project,
         reading,
     }) = open(
@@ -166,7 +176,7 @@ pub fn run(args: Args) -> VerbResult {
         json: args.json,
         origin,
     };
-    let (mut sup, start) = Supervisor::start(project.clone(), profile, config, origin);
+    let (mut sup, start) = Supervisor::start_lanes(project.clone(), lanes, origin);
     out.effects(&project, &start.effects).map_err(io)?;
     let mut difference = None;
     if args.check_against {

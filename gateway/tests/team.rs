@@ -1,0 +1,740 @@
+//! One `petrel run` supervising a team of vehicles (docs/multi-vehicle.md,
+//! "A team"; docs/nets.md, "Teams of vehicles").
+//!
+//! The scripted tests need nothing: copters scripted on loopback UDP
+//! (HEARTBEATs changing mode after 1.5 s, armed once told to, every
+//! COMMAND_LONG answered by the vehicle it targets), first both behind one
+//! link (a router) with a third vehicle that is no vehicle of the team,
+//! then each on its own link. The project (`fixtures/team-scripted`): an
+//! ARM template arms each vehicle when it changes mode; a team net lands
+//! R2, and only R2, once both are armed. Asserted: every event is tagged
+//! with the vehicle whose system sent it, the outsider's frames are
+//! dropped and told once, every command went to the vehicle it names on
+//! that vehicle's link as that vehicle's component 191, the land command
+//! only after both armed, the commands' effects name their vehicle, and
+//! the recording replays with `--check-against`, its events qualified.
+//!
+//! The real test flies two ArduCopter SITLs behind MAVProxy (one link):
+//! a TAKEOFF template guides, arms and takes off each; once both are
+//! airborne the team net sends R2 home (RTL). It needs the SITL binaries
+//! (`../shared/ardupilot-sitl`) and `mavproxy.py`: without them it prints
+//! why and passes, except under `CI=true`, where it fails.
+
+use std::net::{SocketAddr, UdpSocket};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use elaboration::TlogReader;
+use mavlink::dialects::ardupilotmega::{
+    MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavResult, MavState, MavType, COMMAND_ACK_DATA,
+    HEARTBEAT_DATA,
+};
+use mavlink::{MavHeader, MavlinkVersion};
+use serde_json::Value;
+use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+}
+
+/// A free UDP port on 127.0.0.1 (bound to port 0, then released).
+fn free_udp_port() -> u16 {
+    let socket = UdpSocket::bind("127.0.0.1:0").expect("bind a UDP port");
+    socket.local_addr().expect("its address").port()
+}
+
+/// A child process stopped with SIGTERM (then killed) and reaped on drop,
+/// even when the test panics.
+struct Process {
+    name: &'static str,
+    child: Option<Child>,
+}
+
+impl Process {
+    fn spawn(name: &'static str, command: &mut Command) -> Process {
+        let child = command
+            .stdin(Stdio::null())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot start {name}: {e}"));
+        Process {
+            name,
+            child: Some(child),
+        }
+    }
+
+    fn running(&mut self) -> bool {
+        self.child
+            .as_mut()
+            .is_some_and(|c| matches!(c.try_wait(), Ok(None)))
+    }
+
+    /// SIGTERM, up to 5 s to exit, then SIGKILL; always reaped.
+    fn stop(&mut self) {
+        let Some(mut child) = self.child.take() else {
+            return;
+        };
+        if let Ok(pid) = i32::try_from(child.id()) {
+            // SAFETY: a signal to our own child, not yet reaped.
+            unsafe { libc::kill(pid, libc::SIGTERM) };
+        }
+        let until = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < until {
+            if !matches!(child.try_wait(), Ok(None)) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        eprintln!("{} ignored SIGTERM: killed", self.name);
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+}
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// `petrel run PROJECT --mavlink ADDRESS`, timeline to `dir/petrel.jsonl`,
+/// log to `dir/petrel.err`, recording to `dir/petrel.mcap`.
+fn petrel(project: &Path, address: &str, dir: &Path, time_scale: u32, limit: Duration) -> Process {
+    let file = |ext: &str| dir.join(format!("petrel.{ext}"));
+    Process::spawn(
+        "petrel",
+        Command::new(env!("CARGO_BIN_EXE_petrel"))
+            .arg("run")
+            .arg(project)
+            .args(["--mavlink", address, "--json"])
+            .args(["--time-scale", &time_scale.to_string()])
+            .args(["--duration", &limit.as_secs_f64().to_string()])
+            .arg("--record")
+            .arg(file("mcap"))
+            .stdout(std::fs::File::create(file("jsonl")).expect("timeline file"))
+            .stderr(std::fs::File::create(file("err")).expect("log file")),
+    )
+}
+
+/// The gateway's timeline (JSON lines) and log.
+struct Timeline {
+    lines: Vec<Value>,
+    log: String,
+}
+
+impl Timeline {
+    fn read(dir: &Path) -> Timeline {
+        Timeline::parse(
+            &std::fs::read_to_string(dir.join("petrel.jsonl")).unwrap_or_default(),
+            std::fs::read_to_string(dir.join("petrel.err")).unwrap_or_default(),
+        )
+    }
+
+    fn parse(text: &str, log: String) -> Timeline {
+        let lines = text
+            .lines()
+            .filter_map(|l| serde_json::from_str(l).ok())
+            .collect();
+        Timeline { lines, log }
+    }
+
+    /// Elaborated events: (name, sysid).
+    fn events(&self) -> Vec<(String, i64)> {
+        self.lines
+            .iter()
+            .filter(|l| l["input"] == "event")
+            .map(|l| {
+                (
+                    l["event"].as_str().unwrap_or("?").to_owned(),
+                    l["sysid"].as_i64().unwrap_or(-1),
+                )
+            })
+            .collect()
+    }
+
+    fn fired(&self, net: &str, transition: &str) -> bool {
+        self.lines
+            .iter()
+            .any(|l| l["effect"] == "fired" && l["net"] == net && l["transition"] == transition)
+    }
+
+    /// The command effects: (verb, vehicle).
+    fn commands(&self) -> Vec<(String, String)> {
+        self.lines
+            .iter()
+            .filter(|l| l["effect"] == "command")
+            .map(|l| {
+                (
+                    l["verb"].as_str().unwrap_or("?").to_owned(),
+                    l["vehicle"].as_str().unwrap_or("?").to_owned(),
+                )
+            })
+            .collect()
+    }
+
+    /// Log lines containing `text`.
+    fn told(&self, text: &str) -> usize {
+        self.log.lines().filter(|l| l.contains(text)).count()
+    }
+
+    /// The timeline without markings, for failure messages.
+    fn decisions(&self) -> String {
+        let mut out = String::new();
+        for l in self.lines.iter().filter(|l| l["effect"] != "marking") {
+            out.push_str(&l.to_string());
+            out.push('\n');
+        }
+        format!("{out}{}", self.log)
+    }
+
+    /// Every event is qualified with the vehicle whose system sent it
+    /// (`R1` system 1, `R2` system 2); a ground station's are no vehicle's.
+    fn tagged_by_vehicle(&self) {
+        let events = self.events();
+        for system in [1, 2] {
+            assert!(
+                events.iter().any(|(_, s)| *s == system),
+                "no event of vehicle {system}\n{}",
+                self.decisions()
+            );
+        }
+        for (name, system) in &events {
+            let expected = match system {
+                1 => "@R1",
+                2 => "@R2",
+                _ => panic!("an event of system {system}: {name}"),
+            };
+            assert!(name.ends_with(expected), "{name} from system {system}");
+        }
+    }
+}
+
+/// A frame from (`system`, `component`).
+fn frame(system: u8, component: u8, sequence: u8, message: &MavMessage) -> Vec<u8> {
+    let header = MavHeader {
+        system_id: u32::from(system),
+        component_id: component,
+        sequence,
+    };
+    elaboration::frame::serialize(header, MavlinkVersion::V2, message)
+}
+
+/// A copter autopilot's HEARTBEAT in ArduCopter mode `custom_mode`.
+fn copter_heartbeat(custom_mode: u32, armed: bool) -> MavMessage {
+    let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+    if armed {
+        base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+    }
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode,
+        mavtype: MavType::MAV_TYPE_QUADROTOR,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode,
+        system_status: MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    })
+}
+
+/// A command the scripted vehicles received.
+#[derive(Debug, Clone, Copy)]
+struct Received {
+    /// The scripted link it came in on.
+    link: usize,
+    at: Instant,
+    sender: (u8, u8),
+    target: u8,
+    command: MavCmd,
+    param1: f32,
+}
+
+/// One scripted link: a socket speaking for `systems` to the gateway's
+/// `to`. A system on several links is one vehicle heard on each.
+struct ScriptedLink {
+    socket: UdpSocket,
+    to: SocketAddr,
+    systems: Vec<u8>,
+}
+
+/// Flies the scripted vehicles until `done` or `limit`: HEARTBEATs at
+/// 10 Hz (STABILIZE, then after 1.5 s AUTO for vehicles 1 and 3, LOITER
+/// for 2), armed once an arm command reached them; each COMMAND_LONG
+/// answered ACCEPTED by its target, on the link it came in on, when that
+/// link carries the target.
+fn fly(links: &[ScriptedLink], limit: Duration, mut done: impl FnMut() -> bool) -> Vec<Received> {
+    let started = Instant::now();
+    for l in links {
+        l.socket
+            .set_read_timeout(Some(Duration::from_millis(5)))
+            .expect("timeout");
+    }
+    let mut received = Vec::new();
+    let mut seq = [0u8; 256];
+    let mut armed = [false; 256];
+    let mut next_heartbeat = Instant::now();
+    let mut next_check = Instant::now();
+    let mut buf = [0u8; 600];
+    while started.elapsed() < limit {
+        if Instant::now() >= next_check {
+            next_check += Duration::from_millis(250);
+            if done() {
+                break;
+            }
+        }
+        if Instant::now() >= next_heartbeat {
+            next_heartbeat += Duration::from_millis(100);
+            let later = started.elapsed() > Duration::from_millis(1500);
+            for l in links {
+                for &system in &l.systems {
+                    let mode = match (later, system) {
+                        (false, _) => 0,
+                        (true, 2) => 5,
+                        (true, _) => 3,
+                    };
+                    let s = usize::from(system);
+                    seq[s] = seq[s].wrapping_add(1);
+                    let hb = copter_heartbeat(mode, armed[s]);
+                    let _ = l.socket.send_to(&frame(system, 1, seq[s], &hb), l.to);
+                }
+            }
+        }
+        for (i, l) in links.iter().enumerate() {
+            let Ok((n, from)) = l.socket.recv_from(&mut buf) else {
+                continue;
+            };
+            let Ok(f) = elaboration::Frame::parse(&buf[..n]) else {
+                continue;
+            };
+            let sender = (f.system_id(), f.component_id());
+            let Ok(MavMessage::COMMAND_LONG(c)) = f.decode() else {
+                continue;
+            };
+            received.push(Received {
+                link: i,
+                at: Instant::now(),
+                sender,
+                target: c.target_system,
+                command: c.command,
+                param1: c.param1,
+            });
+            if !l.systems.contains(&c.target_system) {
+                continue;
+            }
+            let t = usize::from(c.target_system);
+            if c.command == MavCmd::MAV_CMD_COMPONENT_ARM_DISARM {
+                armed[t] = c.param1 == 1.0;
+            }
+            seq[t] = seq[t].wrapping_add(1);
+            let ack = MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+                command: c.command,
+                result: MavResult::MAV_RESULT_ACCEPTED,
+                progress: 0,
+                result_param2: 0,
+                target_system: sender.0,
+                target_component: sender.1,
+            });
+            let _ = l
+                .socket
+                .send_to(&frame(c.target_system, 1, seq[t], &ack), from);
+        }
+    }
+    received
+}
+
+fn is_arm(r: &Received) -> bool {
+    r.command == MavCmd::MAV_CMD_COMPONENT_ARM_DISARM && r.param1 == 1.0
+}
+
+/// `petrel replay RECORDING PROJECT --check-against --json`: its timeline,
+/// after asserting it agrees with the flight step for step.
+fn replay_agrees(dir: &Path, project: &Path) -> Timeline {
+    let replay = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("replay")
+        .arg(dir.join("petrel.mcap"))
+        .arg(project)
+        .args(["--check-against", "--json"])
+        .output()
+        .expect("petrel replay");
+    let stderr = String::from_utf8_lossy(&replay.stderr).into_owned();
+    assert!(
+        replay.status.success(),
+        "the team's recording does not replay:\n{stderr}"
+    );
+    assert!(stderr.contains("match the recording"), "{stderr}");
+    Timeline::parse(&String::from_utf8_lossy(&replay.stdout), stderr)
+}
+
+/// What both scripted cases assert of the commands the vehicles received:
+/// each armed once, by its own gateway identity, on its own link, and asked
+/// for its telemetry; the land command to R2 only, after both armed;
+/// nothing to anyone else.
+fn commands_routed(received: &[Received], link_of: impl Fn(u8) -> usize) {
+    assert!(!received.is_empty(), "no command reached the vehicles");
+    for r in received {
+        assert_eq!(r.sender, (r.target, 191), "as its own vehicle: {r:?}");
+        assert!(matches!(r.target, 1 | 2), "a command to an outsider: {r:?}");
+        assert_eq!(r.link, link_of(r.target), "on its vehicle's link: {r:?}");
+    }
+    let arms = |t: u8| {
+        received
+            .iter()
+            .filter(|r| is_arm(r) && r.target == t)
+            .count()
+    };
+    assert_eq!((arms(1), arms(2)), (1, 1), "{received:?}");
+    let landing: Vec<_> = received
+        .iter()
+        .filter(|r| r.command == MavCmd::MAV_CMD_NAV_LAND)
+        .collect();
+    // Each commander asked its own autopilot for the telemetry it reads.
+    for t in [1, 2] {
+        assert!(
+            received
+                .iter()
+                .any(|r| r.target == t && r.command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL),
+            "no telemetry request to vehicle {t}: {received:?}"
+        );
+    }
+    assert!(!landing.is_empty(), "no land command: {received:?}");
+    let last_arm = received
+        .iter()
+        .filter(|r| is_arm(r))
+        .map(|r| r.at)
+        .max()
+        .expect("arms");
+    for r in &landing {
+        assert_eq!(r.target, 2, "only R2 is told to land: {r:?}");
+        assert!(r.at > last_arm, "land before both armed: {r:?}");
+    }
+}
+
+/// The gateway's own view: instances armed their vehicles, the team net
+/// landed R2, the effects name their vehicle; the recording agrees.
+fn supervised(dir: &Path, project: &Path) -> Timeline {
+    let t = Timeline::read(dir);
+    t.tagged_by_vehicle();
+    for net in ["ARM@R1", "ARM@R2"] {
+        assert!(t.fired(net, "arm_ok"), "{net}:\n{}", t.decisions());
+    }
+    assert!(t.fired("TEAM", "land_r2") && t.fired("TEAM", "r2_landing"));
+    let commands = t.commands();
+    assert_eq!(
+        commands,
+        [
+            ("arm".to_owned(), "R1".to_owned()),
+            ("arm".to_owned(), "R2".to_owned()),
+            ("land".to_owned(), "R2".to_owned())
+        ],
+        "{}",
+        t.decisions()
+    );
+    let replayed = replay_agrees(dir, project);
+    replayed.tagged_by_vehicle();
+    assert_eq!(replayed.events().len(), t.events().len());
+    t
+}
+
+#[test]
+fn a_team_on_one_link_each_vehicle_hears_and_is_commanded_alone() {
+    let started = Instant::now();
+    let tmp = tempfile::tempdir().expect("scratch folder");
+    let dir = tmp.path();
+    let project = fixture("team-scripted");
+    let port = free_udp_port();
+    let limit = Duration::from_secs(20);
+    let mut gw = petrel(&project, &format!("udpin:127.0.0.1:{port}"), dir, 1, limit);
+    std::thread::sleep(Duration::from_millis(300));
+    // The "router": one socket for R1, R2 and vehicle 3, no vehicle of the team.
+    let links = [ScriptedLink {
+        socket: UdpSocket::bind("127.0.0.1:0").expect("bind"),
+        to: SocketAddr::from(([127, 0, 0, 1], port)),
+        systems: vec![1, 2, 3],
+    }];
+    let received = fly(&links, limit, || {
+        Timeline::read(dir).fired("TEAM", "r2_landing")
+    });
+    gw.stop();
+    eprintln!(
+        "one link: {:.1} s of wall time, {} commands",
+        started.elapsed().as_secs_f64(),
+        received.len()
+    );
+    let t = supervised(dir, &project);
+    commands_routed(&received, |_| 0);
+    assert_eq!(t.told("supervising vehicle 1 ("), 1, "{}", t.log);
+    assert_eq!(t.told("supervising vehicle 2 ("), 1, "{}", t.log);
+    assert_eq!(
+        t.told("ignoring vehicle 3 (ARDUPILOTMEGA QUADROTOR, autopilot component 1): no vehicle of the team"),
+        1,
+        "{}",
+        t.log
+    );
+}
+
+#[test]
+fn a_team_on_two_links_each_vehicle_is_commanded_on_its_own() {
+    let started = Instant::now();
+    let tmp = tempfile::tempdir().expect("scratch folder");
+    let dir = tmp.path();
+    let (port_a, port_b) = (free_udp_port(), free_udp_port());
+    // The fixture with R2 on a link of its own.
+    let project = dir.join("project");
+    std::fs::create_dir(&project).expect("project folder");
+    for file in ["arm.toml", "team.toml"] {
+        std::fs::copy(fixture("team-scripted").join(file), project.join(file)).expect("copied");
+    }
+    let text = std::fs::read_to_string(fixture("team-scripted/project.toml")).expect("project");
+    let text = text.replace(
+        "system = 2\n",
+        &format!("system = 2\nlink = \"udpin:127.0.0.1:{port_b}\"\n"),
+    );
+    std::fs::write(project.join("project.toml"), text).expect("written");
+    let limit = Duration::from_secs(20);
+    let mut gw = petrel(
+        &project,
+        &format!("udpin:127.0.0.1:{port_a}"),
+        dir,
+        1,
+        limit,
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    // R2 is heard on link A too (a radio both hear): there it is dropped.
+    let links = [
+        ScriptedLink {
+            socket: UdpSocket::bind("127.0.0.1:0").expect("bind"),
+            to: SocketAddr::from(([127, 0, 0, 1], port_a)),
+            systems: vec![1, 2],
+        },
+        ScriptedLink {
+            socket: UdpSocket::bind("127.0.0.1:0").expect("bind"),
+            to: SocketAddr::from(([127, 0, 0, 1], port_b)),
+            systems: vec![2],
+        },
+    ];
+    let received = fly(&links, limit, || {
+        Timeline::read(dir).fired("TEAM", "r2_landing")
+    });
+    gw.stop();
+    eprintln!(
+        "two links: {:.1} s of wall time, {} commands",
+        started.elapsed().as_secs_f64(),
+        received.len()
+    );
+    let t = supervised(dir, &project);
+    commands_routed(&received, |system| usize::from(system == 2));
+    assert_eq!(
+        t.told(&format!(
+            "udpin:127.0.0.1:{port_a}: ignoring vehicle 2 (ARDUPILOTMEGA QUADROTOR, autopilot component 1): no vehicle of the team on this link"
+        )),
+        1,
+        "{}",
+        t.log
+    );
+    assert_eq!(
+        t.told(&format!(
+            "udpin:127.0.0.1:{port_b}: supervising vehicle 2 ("
+        )),
+        1,
+        "{}",
+        t.log
+    );
+}
+
+/// SITL's --speedup, and the gateway's --time-scale.
+const SPEEDUP: u32 = 5;
+/// Wall-clock bound on the flight (boot, EKF, both takeoffs, RTL).
+const LIMIT: Duration = Duration::from_secs(180);
+
+/// `mavproxy.py` on the PATH, or why not (a failure under CI=true).
+fn mavproxy(test: &str) -> Option<PathBuf> {
+    let found = std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|p| p.join("mavproxy.py"))
+            .find(|p| p.is_file())
+    });
+    match found {
+        Some(p) => Some(p),
+        None if ardupilot::in_ci() => panic!("{test}: MAVProxy (mavproxy.py) is required in CI"),
+        None => {
+            eprintln!("skipped {test}: mavproxy.py is not on the PATH (pip install MAVProxy)");
+            None
+        }
+    }
+}
+
+/// What MAVProxy printed, for failure messages.
+fn mavproxy_log(dir: &Path) -> String {
+    let read = |f: &str| std::fs::read_to_string(dir.join(f)).unwrap_or_default();
+    format!("{}{}", read("mavproxy.out"), read("mavproxy.err"))
+}
+
+/// What the router saw, from MAVProxy's tlog.
+#[derive(Default)]
+struct Router {
+    /// (time µs, sender system, sender component, target system, command, param1)
+    commands: Vec<(u64, u8, u8, u8, MavCmd, f32)>,
+    /// First HEARTBEAT with the armed flag, per vehicle (index = sysid).
+    first_armed: [Option<u64>; 3],
+    /// Highest relative altitude (m), per vehicle.
+    max_alt: [f32; 3],
+}
+
+impl Router {
+    fn read(path: &Path) -> Router {
+        let bytes = std::fs::read(path).unwrap_or_default();
+        let mut r = Router::default();
+        for record in TlogReader::new(&bytes) {
+            let (sys, comp) = (record.frame.system_id(), record.frame.component_id());
+            let Ok(message) = record.frame.decode() else {
+                continue;
+            };
+            let t = record.time_us;
+            match message {
+                MavMessage::COMMAND_LONG(c) => {
+                    r.commands
+                        .push((t, sys, comp, c.target_system, c.command, c.param1))
+                }
+                MavMessage::COMMAND_INT(c) => {
+                    r.commands
+                        .push((t, sys, comp, c.target_system, c.command, c.param1))
+                }
+                MavMessage::HEARTBEAT(hb) if comp == 1 && (1..=2).contains(&sys) => {
+                    let v = sys as usize;
+                    if hb
+                        .base_mode
+                        .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
+                        && r.first_armed[v].is_none()
+                    {
+                        r.first_armed[v] = Some(t);
+                    }
+                }
+                MavMessage::GLOBAL_POSITION_INT(p) if comp == 1 && (1..=2).contains(&sys) => {
+                    let v = sys as usize;
+                    r.max_alt[v] = r.max_alt[v].max(p.relative_alt as f32 / 1000.0);
+                }
+                _ => {}
+            }
+        }
+        r
+    }
+}
+
+#[test]
+fn two_real_copters_take_off_under_one_petrel_and_r2_alone_is_sent_home() {
+    let test = "two_real_copters_take_off_under_one_petrel_and_r2_alone_is_sent_home";
+    let Some(copter) = ardupilot::require(Firmware::Copter, test) else {
+        return;
+    };
+    let Some(mavproxy) = mavproxy(test) else {
+        return;
+    };
+    let started = Instant::now();
+    let tmp = tempfile::tempdir().expect("scratch folder");
+    let dir = tmp.path();
+    let options = |instance, sysid, east: f64| Options {
+        instance,
+        speedup: SPEEDUP,
+        sysid: Some(sysid),
+        home: (-35.363261, 149.165230 + east, 584.0, 353.0),
+        ..Options::default()
+    };
+    let sitl1 = Sitl::start(&copter, &options(8, 1, 0.0), &dir.join("sitl1")).expect("SITL 1");
+    let sitl2 = Sitl::start(&copter, &options(9, 2, 0.001), &dir.join("sitl2")).expect("SITL 2");
+    let project = fixture("team-copters");
+    let port = free_udp_port();
+    let mut gw = petrel(
+        &project,
+        &format!("udpin:127.0.0.1:{port}"),
+        dir,
+        SPEEDUP,
+        LIMIT,
+    );
+    let router_log = dir.join("router.tlog");
+    let mut router = Process::spawn(
+        "MAVProxy",
+        Command::new(&mavproxy)
+            .arg(format!("--master=tcp:127.0.0.1:{}", sitl1.port(0)))
+            .arg(format!("--master=tcp:127.0.0.1:{}", sitl2.port(0)))
+            .arg(format!("--out=udp:127.0.0.1:{port}"))
+            .args(["--streamrate=-1", "--daemon", "--non-interactive"])
+            .arg("--state-basedir")
+            .arg(dir.join("mavproxy"))
+            .arg("--logfile")
+            .arg(&router_log)
+            .stdout(std::fs::File::create(dir.join("mavproxy.out")).expect("log file"))
+            .stderr(std::fs::File::create(dir.join("mavproxy.err")).expect("log file")),
+    );
+    let flew = loop {
+        if Timeline::read(dir).fired("TEAM", "r2_going_home") {
+            // Time for RTL to show in the router's log.
+            std::thread::sleep(Duration::from_secs(2));
+            break true;
+        }
+        if started.elapsed() > LIMIT || !gw.running() || !router.running() {
+            break false;
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    gw.stop();
+    router.stop();
+    drop((sitl1, sitl2));
+    let t = Timeline::read(dir);
+    let routed = Router::read(&router_log);
+    eprintln!(
+        "{test}: {:.1} s of wall time; climbed to {:.1} m (R1) and {:.1} m (R2); {} commands through the router",
+        started.elapsed().as_secs_f64(),
+        routed.max_alt[1],
+        routed.max_alt[2],
+        routed.commands.len()
+    );
+    assert!(
+        flew,
+        "the team never got both airborne and R2 home within {LIMIT:?}\n{}\nMAVProxy:\n{}",
+        t.decisions(),
+        mavproxy_log(dir)
+    );
+    t.tagged_by_vehicle();
+    for net in ["TAKEOFF@R1", "TAKEOFF@R2"] {
+        assert!(
+            t.fired(net, "airborne") || t.fired(net, "airborne_late"),
+            "{net}"
+        );
+    }
+    // The router's view: every command Petrel sent (component 191) went to
+    // the system it speaks as; both were told to arm and armed after it;
+    // RTL (NAV_RETURN_TO_LAUNCH) went to vehicle 2 only.
+    let ours: Vec<_> = routed.commands.iter().filter(|c| c.2 == 191).collect();
+    for c in &ours {
+        assert_eq!(
+            c.1, c.3,
+            "Petrel commanded another vehicle as this one: {c:?}"
+        );
+    }
+    for v in [1u8, 2] {
+        let arm = ours
+            .iter()
+            .find(|c| c.3 == v && c.4 == MavCmd::MAV_CMD_COMPONENT_ARM_DISARM && c.5 == 1.0)
+            .unwrap_or_else(|| panic!("no arm command to vehicle {v}"));
+        let armed = routed.first_armed[usize::from(v)].expect("armed");
+        assert!(armed > arm.0, "vehicle {v} armed before it was told to");
+        assert!(routed.max_alt[usize::from(v)] > 3.0, "vehicle {v} climbed");
+    }
+    let rtl: Vec<_> = t
+        .commands()
+        .into_iter()
+        .filter(|(verb, _)| verb == "rtl")
+        .collect();
+    assert_eq!(rtl, [("rtl".to_owned(), "R2".to_owned())]);
+    let home: Vec<u8> = ours
+        .iter()
+        .filter(|c| c.4 == MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH)
+        .map(|c| c.3)
+        .collect();
+    assert!(
+        !home.is_empty() && home.iter().all(|&v| v == 2),
+        "RTL to R2 only: {ours:?}"
+    );
+    let replayed = replay_agrees(dir, &project);
+    replayed.tagged_by_vehicle();
+}
