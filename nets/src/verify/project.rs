@@ -406,9 +406,6 @@ fn explore_reduced(project: &Arc<Project>, options: &Options) -> (Explored, Redu
         }
         None => explored,
     };
-    if options.partial_order && project.vehicles.is_empty() {
-        notes.push("partial-order reduction not used: the project has no team".to_owned());
-    }
     let reduction = Reduction {
         symmetry: explored.symmetry.as_ref().map_or_else(Vec::new, |sym| {
             sym.classes
