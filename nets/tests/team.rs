@@ -372,17 +372,7 @@ fn the_verifier_shows_two_robots_in_the_bottleneck_step_by_step() {
         );
     files.insert("move.toml".to_owned(), unguarded);
     let project = nets::load(&files).unwrap_or_else(|e| panic!("{e:?}"));
-    // Unreduced, the example is a shortest one (partial-order reduction
-    // keeps examples real, not shortest: tests/team_reduction.rs).
-    let report = nets::verify::project::check(
-        &Arc::new(project),
-        &nets::verify::project::Options {
-            each_net: false,
-            partial_order: false,
-            ..Default::default()
-        },
-    )
-    .project;
+    let report = check(project);
     assert!(!report.holds());
     let [violation] = report.exclusion.as_slice() else {
         panic!("one violation: {:?}", report.exclusion)

@@ -210,6 +210,10 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
     let (explored, reduction) = explore_reduced(project, options);
     let mut whole = explored.verdict(None, true);
     whole.reduction = reduction;
+    let mut walker = explored.partial_order.then(|| Walker::new(project));
+    if let Some(walker) = &mut walker {
+        walker.shorten_report(project, &mut whole);
+    }
     if options.compare_unreduced && (whole.reduction.group > 1 || whole.reduction.partial_order) {
         let plain = Explorer::new(project.clone(), false, false).run(
             options.max_states,
@@ -229,10 +233,11 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
     }
     let mut nets: Vec<(String, Report)> = (0..project.nets.len())
         .map(|n| {
-            (
-                project.nets[n].name.clone(),
-                explored.verdict(Some(n), true),
-            )
+            let mut r = explored.verdict(Some(n), true);
+            if let Some(walker) = &mut walker {
+                walker.shorten_report(project, &mut r);
+            }
+            (project.nets[n].name.clone(), r)
         })
         .collect();
     if !options.alone {
@@ -289,44 +294,119 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
 /// Returns the marked flat places of each state the whole sequence reaches,
 /// or the first step that does not replay.
 pub fn replay(project: &Arc<Project>, steps: &[String]) -> Result<Vec<Vec<usize>>, String> {
-    let explorer = Explorer::new(project.clone(), false, false);
-    let mut player = Player::start(project.clone(), T);
-    player.set_oracle(Some(Oracle::default()));
-    let mut initial = Vec::new();
-    explorer.codec.encode(
-        player.state(),
-        0,
-        T,
-        None,
-        &|p| explorer.relevant(p),
-        &mut Scratch::default(),
-        &mut initial,
-    );
-    let mut worker = levels::Explore::worker(&explorer);
-    let mut frontier: Vec<Vec<u8>> = vec![initial];
-    for (i, step) in steps.iter().enumerate() {
-        let mut next: Vec<Vec<u8>> = Vec::new();
-        for key in &frontier {
-            for (local, target) in levels::expand_one(&explorer, &mut worker, key) {
-                if worker.labels[local as usize].1.text == *step && !next.contains(&target) {
-                    next.push(target);
-                }
-            }
-        }
-        if next.is_empty() {
-            return Err(format!("step {} does not replay: {step}", i + 1));
-        }
-        frontier = next;
-    }
+    let mut walker = Walker::new(project);
+    let frontier = walker.walk(steps)?;
     Ok(frontier
         .iter()
         .map(|key| {
             (0..project.place_count)
-                .filter(|&p| explorer.codec.marked(key, p))
+                .filter(|&p| walker.explorer.codec.marked(key, p))
                 .collect()
         })
         .collect())
 }
+
+/// Walks sequences of step texts on the unreduced explorer.
+struct Walker {
+    explorer: Explorer,
+    worker: Worker,
+    initial: Vec<u8>,
+}
+
+impl Walker {
+    fn new(project: &Arc<Project>) -> Walker {
+        let explorer = Explorer::new(project.clone(), false, false);
+        let mut player = Player::start(project.clone(), T);
+        player.set_oracle(Some(Oracle::default()));
+        let mut initial = Vec::new();
+        explorer.codec.encode(
+            player.state(),
+            0,
+            T,
+            None,
+            &|p| explorer.relevant(p),
+            &mut Scratch::default(),
+            &mut initial,
+        );
+        let worker = levels::Explore::worker(&explorer);
+        Walker {
+            explorer,
+            worker,
+            initial,
+        }
+    }
+
+    /// The keys of the states `steps` reach from the initial state, or the
+    /// first step that does not replay.
+    fn walk(&mut self, steps: &[String]) -> Result<Vec<Vec<u8>>, String> {
+        let mut frontier: Vec<Vec<u8>> = vec![self.initial.clone()];
+        for (i, step) in steps.iter().enumerate() {
+            let mut next: Vec<Vec<u8>> = Vec::new();
+            for key in &frontier {
+                for (local, target) in levels::expand_one(&self.explorer, &mut self.worker, key) {
+                    if self.worker.labels[local as usize].1.text == *step && !next.contains(&target)
+                    {
+                        next.push(target);
+                    }
+                }
+            }
+            if next.is_empty() {
+                return Err(format!("step {} does not replay: {step}", i + 1));
+            }
+            frontier = next;
+        }
+        Ok(frontier)
+    }
+
+    /// `path` with steps left out, one at a time from the first, as long
+    /// as what is left still replays and `keeps` its end states.
+    fn shorten(&mut self, path: &mut Vec<String>, keeps: &dyn Fn(&Codec, &[Vec<u8>]) -> bool) {
+        if path.len() > MAX_SHORTENED {
+            return;
+        }
+        let mut i = 0;
+        while i < path.len() {
+            let mut shorter = path.clone();
+            shorter.remove(i);
+            match self.walk(&shorter) {
+                Ok(ends) if keeps(&self.explorer.codec, &ends) => *path = shorter,
+                _ => i += 1,
+            }
+        }
+    }
+
+    /// A report's examples shortened (a reduced search may take
+    /// independent steps first): each still replays and shows the same
+    /// violation — the same dead state, the same last step, two holders of
+    /// the same resource.
+    fn shorten_report(&mut self, project: &Project, r: &mut Report) {
+        if let Some(path) = &mut r.deadlock_example {
+            if let Ok(dead) = self.walk(path) {
+                self.shorten(path, &|_, ends| ends.iter().any(|e| dead.contains(e)));
+            }
+        }
+        let replays = |_: &Codec, _: &[Vec<u8>]| true;
+        if let Some(path) = &mut r.unsafe_example {
+            self.shorten(path, &replays);
+        }
+        for path in &mut r.livelocks {
+            self.shorten(path, &replays);
+        }
+        for x in &mut r.exclusion {
+            let Some(resource) = project.exclusive.iter().find(|e| e.name == x.resource) else {
+                continue;
+            };
+            self.shorten(&mut x.example, &|codec, ends| {
+                ends.iter()
+                    .any(|e| resource.holders(|p| codec.marked(e, p)).len() > 1)
+            });
+        }
+    }
+}
+
+/// The longest example [`Walker::shorten`] tries to shorten (each try
+/// replays the whole example).
+const MAX_SHORTENED: usize = 64;
 
 /// The dead states of the whole project's exploration with `options`
 /// (with symmetry, one per orbit), each as its marked flat places: what
