@@ -137,7 +137,11 @@ fn main() {
         "peak MB"
     );
     for (i, (name, _, _, _)) in CONFIGS.iter().enumerate() {
-        let unreduced = run(i, true).project.reduction.unreduced_states;
+        let report = run(i, true).project;
+        for note in &report.reduction.notes {
+            println!("  ({name}: {note})");
+        }
+        let unreduced = report.reduction.unreduced_states;
         let out = std::process::Command::new(&exe)
             .env(CHILD, i.to_string())
             .output()
@@ -188,16 +192,35 @@ fn with_a_core_busy(measure: impl FnOnce()) {
     let _ = spinner.join();
 }
 
-#[divan::bench(args = [0, 1, 2, 3, 4, 5, 6, 7, 8], sample_count = 10)]
-fn idle(bencher: Bencher, config: usize) {
-    let (_, name, symmetry, partial_order) = CONFIGS[config];
+/// The configurations' short names, for divan.
+const NAMES: [&str; 9] = [
+    "1 robot",
+    "2 whole",
+    "2 symmetry",
+    "2 partial order",
+    "2 both",
+    "4 whole",
+    "4 symmetry",
+    "4 partial order",
+    "4 both",
+];
+
+fn config(name: &str) -> (&'static str, bool, bool) {
+    let i = NAMES.iter().position(|n| *n == name).unwrap_or(0);
+    let (_, fixture, symmetry, partial_order) = CONFIGS[i];
+    (fixture, symmetry, partial_order)
+}
+
+#[divan::bench(args = NAMES, sample_count = 10)]
+fn idle(bencher: Bencher, config_name: &str) {
+    let (name, symmetry, partial_order) = config(config_name);
     let project = fixture(name);
     bencher.bench(|| check(&project, &options(symmetry, partial_order, false)));
 }
 
-#[divan::bench(args = [0, 1, 2, 3, 4, 5, 6, 7, 8], sample_count = 10)]
-fn other_core_busy(bencher: Bencher, config: usize) {
-    let (_, name, symmetry, partial_order) = CONFIGS[config];
+#[divan::bench(args = NAMES, sample_count = 10)]
+fn other_core_busy(bencher: Bencher, config_name: &str) {
+    let (name, symmetry, partial_order) = config(config_name);
     let project = fixture(name);
     with_a_core_busy(|| {
         bencher.bench(|| check(&project, &options(symmetry, partial_order, false)));

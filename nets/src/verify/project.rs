@@ -704,7 +704,10 @@ impl Explorer {
             })
             .collect();
         let mut explorer = Explorer {
-            codec: Codec::new(&project),
+            codec: Codec::new(
+                &project,
+                (symmetry || partial_order) && !project.vehicles.is_empty(),
+            ),
             project,
             externals,
             calls: FastMap::default(),
@@ -749,7 +752,8 @@ impl Explorer {
             }
         }
         if symmetry {
-            explorer.symmetry = Some(Symmetry::of(&project)).filter(Symmetry::reduces);
+            explorer.symmetry =
+                Some(Symmetry::of(&project, explorer.codec.order_free())).filter(Symmetry::reduces);
         }
         if partial_order && !project.vehicles.is_empty() {
             let names: Vec<String> = explorer
@@ -757,7 +761,7 @@ impl Explorer {
                 .iter()
                 .map(|x| x.event.name.clone())
                 .collect();
-            let stubborn = Stubborn::new(&project, &names, &|p| explorer.relevant(p));
+            let stubborn = Stubborn::new(&project, &names);
             explorer.stubborn = Some(stubborn);
         }
         explorer

@@ -8,8 +8,9 @@
 //! the immediate transitions its outputs may enable, the transitions the
 //! events it emits trigger, the nets it activates, `net_fault`'s). The
 //! resources are the places, each net's active flag, each timer, each kind
-//! of pending result, the catastrophic lockout, and the order in which
-//! timers start and results are awaited (part of the state key). Two
+//! of pending result and the catastrophic lockout (the order in which
+//! timers start and results are awaited is not: a team's reduced key keeps
+//! none the player cannot tell apart, see `project_states`). Two
 //! classes are dependent when one writes what the other reads or writes.
 //!
 //! In a state, a stubborn set starts from one enabled class and is closed
@@ -52,7 +53,7 @@ pub(super) struct Stubborn {
 }
 
 /// Resources, numbered: places, active flags, timers, pending kinds, then
-/// the lockout and the two orders.
+/// the lockout.
 struct Resources {
     places: usize,
     nets: usize,
@@ -76,14 +77,8 @@ impl Resources {
     fn lockout(&self) -> usize {
         self.places + self.nets + self.timers + self.pending.len()
     }
-    fn timer_order(&self) -> usize {
-        self.lockout() + 1
-    }
-    fn pending_order(&self) -> usize {
-        self.lockout() + 2
-    }
     fn count(&self) -> usize {
-        self.lockout() + 3
+        self.lockout() + 1
     }
 }
 
@@ -113,12 +108,8 @@ struct Footprint {
 
 impl Stubborn {
     /// The classes of `project`: `externals` are the explorer's external
-    /// events, `relevant` says whether anything awaits a kind of result.
-    pub fn new(
-        project: &Project,
-        externals: &[String],
-        relevant: &dyn Fn(&Pending) -> bool,
-    ) -> Stubborn {
+    /// events.
+    pub fn new(project: &Project, externals: &[String]) -> Stubborn {
         // Every class.
         let mut classes: Vec<Class> = (0..externals.len()).map(Class::Event).collect();
         let mut timer_offsets = Vec::with_capacity(project.nets.len());
@@ -161,7 +152,7 @@ impl Stubborn {
         };
         let footprints: Vec<Footprint> = classes
             .iter()
-            .map(|c| footprint(project, externals, relevant, &res, c))
+            .map(|c| footprint(project, externals, &res, c))
             .collect();
         // Timers started in one step expire in their order: a timer's
         // enabling reads every timer a class may start with it.
@@ -328,13 +319,7 @@ fn category(project: &Project, event: &str) -> Category {
 }
 
 /// What a step of class `c` may read and write.
-fn footprint(
-    project: &Project,
-    externals: &[String],
-    relevant: &dyn Fn(&Pending) -> bool,
-    res: &Resources,
-    c: &Class,
-) -> Footprint {
+fn footprint(project: &Project, externals: &[String], res: &Resources, c: &Class) -> Footprint {
     let mut reads = Bits::new(res.count());
     let mut writes = Bits::new(res.count());
     let mut enabling = Bits::new(res.count());
@@ -492,46 +477,20 @@ fn footprint(
                 }
                 Action::Timer { timer, .. } => {
                     writes.set(res.timer(n, *timer));
-                    writes.set(res.timer_order());
                 }
                 Action::Cancel { timer } => writes.set(res.timer(n, *timer)),
                 Action::Call {
                     program, function, ..
                 } => {
-                    issue(
-                        res,
-                        relevant,
-                        &mut writes,
-                        n,
-                        Class::Call(n, *program, *function),
-                        PendingKind::Call {
-                            program: *program,
-                            function: *function,
-                        },
-                    );
+                    issue(res, &mut writes, Class::Call(n, *program, *function));
                 }
                 Action::Command { verb, .. } => {
-                    issue(
-                        res,
-                        relevant,
-                        &mut writes,
-                        n,
-                        Class::Command(n, verb.clone()),
-                        PendingKind::Command { verb: verb.clone() },
-                    );
+                    issue(res, &mut writes, Class::Command(n, verb.clone()));
                 }
                 Action::Ask { ask, .. } => {
                     let timer = project.nets[n].asks[*ask].timer;
                     writes.set(res.timer(n, timer));
-                    writes.set(res.timer_order());
-                    issue(
-                        res,
-                        relevant,
-                        &mut writes,
-                        n,
-                        Class::Question(n, *ask),
-                        PendingKind::Question { ask: *ask },
-                    );
+                    issue(res, &mut writes, Class::Question(n, *ask));
                 }
             }
         }
@@ -543,25 +502,10 @@ fn footprint(
     }
 }
 
-/// A call, command or question issued: its kind is written, and the order
-/// of awaited results when anything awaits it.
-fn issue(
-    res: &Resources,
-    relevant: &dyn Fn(&Pending) -> bool,
-    writes: &mut Bits,
-    net: NetId,
-    class: Class,
-    kind: PendingKind,
-) {
+/// A call, command or question issued: its kind is written (the order of
+/// pending results is not part of a team's reduced key).
+fn issue(res: &Resources, writes: &mut Bits, class: Class) {
     if let Some(r) = res.pending(&class) {
         writes.set(r);
-    }
-    let pending = Pending {
-        net,
-        kind,
-        catastrophic: false,
-    };
-    if relevant(&pending) {
-        writes.set(res.pending_order());
     }
 }

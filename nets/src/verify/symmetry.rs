@@ -62,11 +62,14 @@ pub(super) struct Symmetry {
     moved: Vec<bool>,
     words: usize,
     nets: usize,
+    /// The keys list pending calls in the order of their bytes (see
+    /// [`super::project_states`]).
+    order_free: bool,
 }
 
 impl Symmetry {
     /// The group of `project` (see the module doc).
-    pub fn of(project: &Project) -> Symmetry {
+    pub fn of(project: &Project, order_free: bool) -> Symmetry {
         let n = project.vehicles.len();
         // Classes: vehicles joined by swaps that are automorphisms.
         let mut class: Vec<usize> = (0..n).collect();
@@ -165,6 +168,7 @@ impl Symmetry {
             moved,
             words: project.place_count.div_ceil(64).max(1),
             nets: project.nets.len(),
+            order_free,
         }
     }
 
@@ -247,20 +251,29 @@ impl Symmetry {
             out.extend_from_slice(&group.to_le_bytes());
         }
         at += count * TIMER;
-        // Pending calls and commands: the net renamed, in the same order.
+        // Pending calls and commands: the net renamed, in the same order
+        // (or that of their bytes, as the codec writes them).
         let count = u32_at(key, at) as usize;
         out.extend_from_slice(&key[at..at + 4]);
         at += 4;
+        let mut entries: smallvec::SmallVec<[Vec<u8>; 16]> = smallvec::SmallVec::new();
         for _ in 0..count {
             let net = perm.nets[u32_at(key, at) as usize] as u32;
-            out.extend_from_slice(&net.to_le_bytes());
             let kind_len = match key[at + 5] {
                 0 => 1 + 8,
                 1 | 3 => 1 + 4,
                 _ => 1 + 4 + u32_at(key, at + 6) as usize,
             };
-            out.extend_from_slice(&key[at + 4..at + 5 + kind_len]);
+            let mut e = net.to_le_bytes().to_vec();
+            e.extend_from_slice(&key[at + 4..at + 5 + kind_len]);
+            entries.push(e);
             at += 5 + kind_len;
+        }
+        if self.order_free {
+            entries.sort_unstable();
+        }
+        for e in entries {
+            out.extend_from_slice(&e);
         }
     }
 
@@ -332,11 +345,42 @@ impl Symmetry {
                         .collect(),
                     Some(event) => project.triggers.get(event).cloned().unwrap_or_default(),
                 };
+                // Two transitions fired in either order end alike unless
+                // they share a place (one disables the other, or the second
+                // would put a double token) or one of them starts a timer
+                // (timers of one step expire in start order), emits an event
+                // (handled in order) or (de)activates a net; the order of
+                // their calls and commands is not kept (`order_free`).
+                let ordered = |x: &crate::model::Transition| {
+                    !self.order_free
+                        || x.actions.iter().any(|a| {
+                            matches!(
+                                a,
+                                Action::Timer { .. }
+                                    | Action::Ask { .. }
+                                    | Action::Emit { .. }
+                                    | Action::Activate(_)
+                                    | Action::Deactivate(_)
+                            )
+                        })
+                };
+                let places = |x: &crate::model::Transition| -> Vec<usize> {
+                    x.flat_inputs
+                        .iter()
+                        .chain(&x.flat_outputs)
+                        .copied()
+                        .collect()
+                };
+                let mine = places(t);
                 for (n, u) in rivals {
                     let Some(w) = project.nets[n].vehicle else {
                         continue;
                     };
-                    if w != v && (self.moved[v] || self.moved[w]) && enabled(n, u) {
+                    let rival = &project.nets[n].transitions[u];
+                    let interacts = ordered(t)
+                        || ordered(rival)
+                        || places(rival).iter().any(|p| mine.contains(p));
+                    if w != v && (self.moved[v] || self.moved[w]) && interacts && enabled(n, u) {
                         return Some(format!(
                             "{}.{} and {}.{} were enabled together and the vehicle declared first went first",
                             project.nets[net].name,
