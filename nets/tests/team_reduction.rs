@@ -372,8 +372,10 @@ fn the_reductions_say_what_ran() {
     let plain = check(&p, false, false);
     assert_eq!(plain.reduction.group, 1);
     assert!(!plain.reduction.partial_order);
+    assert!(!plain.reduction.order_free);
     let reduced = check(&p, true, true);
     assert!(reduced.reduction.partial_order);
+    assert!(reduced.reduction.order_free);
     assert_eq!(reduced.reduction.group, 2);
 }
 

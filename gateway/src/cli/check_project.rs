@@ -159,13 +159,14 @@ pub fn report_json(r: &Report, seconds: f64) -> Value {
 /// which is always explored whole).
 fn reduction_json(r: &Report) -> Option<Value> {
     let x = &r.reduction;
-    if x.group <= 1 && !x.partial_order && x.notes.is_empty() {
+    if x.group <= 1 && !x.partial_order && !x.order_free && x.notes.is_empty() {
         return None;
     }
     Some(json!({
         "symmetry": x.symmetry,
         "group": x.group,
         "partial_order": x.partial_order,
+        "order_free": x.order_free,
         "notes": x.notes,
         "unreduced_states": x.unreduced_states,
     }))
@@ -174,7 +175,7 @@ fn reduction_json(r: &Report) -> Option<Value> {
 /// A team's reductions, one line for people (nothing without a team).
 fn reduction_line(out: &mut String, r: &Report) {
     let x = &r.reduction;
-    if x.group <= 1 && !x.partial_order && x.notes.is_empty() {
+    if x.group <= 1 && !x.partial_order && !x.order_free && x.notes.is_empty() {
         return;
     }
     let mut ran = Vec::new();
@@ -189,6 +190,9 @@ fn reduction_line(out: &mut String, r: &Report) {
     }
     if x.partial_order {
         ran.push("partial order (stubborn sets)".to_owned());
+    }
+    if x.order_free {
+        ran.push("states without the orders the player cannot tell apart".to_owned());
     }
     out.push_str(&format!(
         "  reductions       {}\n",

@@ -157,6 +157,11 @@ pub struct Reduction {
     pub group: usize,
     /// Partial-order reduction (stubborn sets) ran.
     pub partial_order: bool,
+    /// States were kept without the orders the player cannot tell apart
+    /// (a timer's start order beside timers of other steps, the issue order
+    /// of pending calls): on for a team whenever a reduction is asked for,
+    /// since the others need it.
+    pub order_free: bool,
     /// Why a reduction asked for did not run.
     pub notes: Vec<String>,
     /// States of the same project explored without reduction, when asked
@@ -499,6 +504,7 @@ fn explore_reduced(project: &Arc<Project>, options: &Options) -> (Explored, Redu
         }),
         group: explored.symmetry.as_ref().map_or(1, |sym| sym.perms.len()),
         partial_order: explored.partial_order,
+        order_free: explored.codec.order_free(),
         notes,
         unreduced_states: None,
     };
