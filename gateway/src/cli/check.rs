@@ -49,6 +49,14 @@ pub struct Args {
     /// 4 bytes per arc and per marking more).
     #[arg(long)]
     pub no_loops: bool,
+    /// A team project: explore every vehicle, not one representative per
+    /// orbit of interchangeable vehicles.
+    #[arg(long, conflicts_with = "pnml")]
+    pub no_symmetry: bool,
+    /// A team project: explore every input in every state, not stubborn
+    /// sets of them (partial-order reduction).
+    #[arg(long, conflicts_with = "pnml")]
+    pub no_por: bool,
 }
 
 /// `--threads`, else the number of cores (at most 16).
@@ -73,6 +81,10 @@ pub fn run(args: Args) -> VerbResult {
             args.json,
             max_states.min(nets::verify::project::MAX_STATES),
             threads(args.threads),
+            super::check_project::Reductions {
+                symmetry: !args.no_symmetry,
+                partial_order: !args.no_por,
+            },
         );
     };
     if args.project.is_some() {

@@ -15,6 +15,14 @@ use serde_json::{json, Value};
 
 use super::{Outcome, VerbResult};
 
+/// The reductions of a team's exploration asked for (`--no-symmetry`,
+/// `--no-por` turn them off).
+#[derive(Debug, Clone, Copy)]
+pub struct Reductions {
+    pub symmetry: bool,
+    pub partial_order: bool,
+}
+
 /// Checks a project with the elaboration profile `profile` (`--profile`;
 /// else the project's `[gateway] profile`, else ArduPilot's); exit 0 when
 /// every property holds, 1 when one does not, 2 for bad input.
@@ -24,6 +32,7 @@ pub fn run(
     as_json: bool,
     max_states: usize,
     threads: usize,
+    reductions: Reductions,
 ) -> VerbResult {
     let setting = match crate::project::gateway_setting(dir, "profile") {
         Ok(s) => s,
@@ -57,6 +66,9 @@ pub fn run(
             each_net: true,
             alone: true,
             threads,
+            symmetry: reductions.symmetry,
+            partial_order: reductions.partial_order,
+            compare_unreduced: false,
             progress: if std::io::stderr().is_terminal() {
                 Some(&report_progress)
             } else {
@@ -87,6 +99,9 @@ pub fn run(
             .collect();
         obj["nets"] = Value::Object(nets);
         obj["holds"] = json!(report.holds());
+        if let Some(reduction) = reduction_json(&report.project) {
+            obj["reduction"] = reduction;
+        }
         write_out(&format!("{obj}\n"))?;
     } else {
         write_out(&human(&name, &report, seconds))?;
@@ -138,6 +153,65 @@ pub fn report_json(r: &Report, seconds: f64) -> Value {
             .collect::<Vec<_>>());
     }
     out
+}
+
+/// A team's reductions, as JSON (`None` for a project without a team,
+/// which is always explored whole).
+fn reduction_json(r: &Report) -> Option<Value> {
+    let x = &r.reduction;
+    if x.group <= 1 && !x.partial_order && !x.order_free && x.notes.is_empty() {
+        return None;
+    }
+    Some(json!({
+        "symmetry": x.symmetry,
+        "group": x.group,
+        "partial_order": x.partial_order,
+        "order_free": x.order_free,
+        "notes": x.notes,
+        "unreduced_states": x.unreduced_states,
+    }))
+}
+
+/// A team's reductions, one line for people (nothing without a team).
+fn reduction_line(out: &mut String, r: &Report) {
+    let x = &r.reduction;
+    if x.group <= 1 && !x.partial_order && !x.order_free && x.notes.is_empty() {
+        return;
+    }
+    let mut ran = Vec::new();
+    if x.group > 1 {
+        let classes: Vec<String> = x.symmetry.iter().map(|c| c.join(", ")).collect();
+        ran.push(format!(
+            "symmetry of {} (a group of {}: {} states are orbits)",
+            classes.join("; "),
+            x.group,
+            r.states
+        ));
+    }
+    if x.partial_order {
+        ran.push("partial order (stubborn sets)".to_owned());
+    }
+    if x.order_free {
+        ran.push("states without the orders the player cannot tell apart".to_owned());
+    }
+    out.push_str(&format!(
+        "  reductions       {}\n",
+        if ran.is_empty() {
+            "none".to_owned()
+        } else {
+            ran.join(", ")
+        }
+    ));
+    if let Some(whole) = x.unreduced_states {
+        out.push_str(&format!(
+            "    {} states unreduced ({:.1}x)\n",
+            whole,
+            whole as f64 / r.states.max(1) as f64
+        ));
+    }
+    for note in &x.notes {
+        out.push_str(&format!("    {note}\n"));
+    }
 }
 
 fn verdict(ok: bool) -> &'static str {
@@ -276,6 +350,7 @@ fn alone_section(out: &mut String, r: &Report) {
 pub fn human(name: &str, report: &ProjectReport, seconds: f64) -> String {
     let mut out = String::new();
     section(&mut out, &format!("project {name}"), &report.project, true);
+    reduction_line(&mut out, &report.project);
     for (i, (net, r)) in report.nets.iter().enumerate() {
         out.push('\n');
         let mut r = r.clone();

@@ -66,6 +66,12 @@ impl<L> Csr<L> {
             .zip(self.targets[a..b].iter().copied())
     }
 
+    /// The number of the first edge leaving `node` (edges are numbered in
+    /// the order they were added).
+    pub fn first_edge(&self, node: u32) -> usize {
+        self.offsets[node as usize]
+    }
+
     /// Number of edges.
     pub fn edge_count(&self) -> usize {
         self.targets.len()

@@ -47,7 +47,8 @@ enum Target {
 struct Chunk {
     /// Successors of each state of the chunk.
     counts: Vec<u32>,
-    edges: Vec<(u32, Target)>,
+    /// Label, target and the symmetry element that made the target's key.
+    edges: Vec<(u32, Target, u8)>,
     bytes: Vec<u8>,
 }
 
@@ -60,12 +61,16 @@ pub(super) struct Successors<'a> {
 
 impl Successors<'_> {
     /// A successor `key` reached by a step labelled `label` (the worker's
-    /// number).
-    pub fn push(&mut self, label: u32, key: &[u8]) {
+    /// number), `key` being the image of the real successor by the element
+    /// `perm` of the symmetry group (0, the identity, without symmetry).
+    /// Whether it was stored already (in this level or before).
+    pub fn push(&mut self, label: u32, key: &[u8], perm: u8) -> bool {
         let h = hash(key);
+        let mut known = true;
         let target = match self.store.lookup(key, h) {
             Some(i) => Target::Known(i),
             None => {
+                known = false;
                 let start = self.chunk.bytes.len();
                 self.chunk.bytes.extend_from_slice(key);
                 Target::New {
@@ -75,8 +80,9 @@ impl Successors<'_> {
                 }
             }
         };
-        self.chunk.edges.push((label, target));
+        self.chunk.edges.push((label, target, perm));
         self.count += 1;
+        known
     }
 }
 
@@ -88,18 +94,24 @@ pub(super) struct Space {
     /// the label of that edge.
     pub parents: Vec<Option<(u32, u32)>>,
     pub graph: Csr<u32>,
+    /// Per edge (in the graph's numbering): the symmetry element that made
+    /// its target's key from the real successor's.
+    pub perms: Vec<u8>,
+    /// Per state: the element of its parent link's edge.
+    pub parent_perms: Vec<u8>,
     /// False when the state limit stopped the exploration (then the states
     /// past the limit are missing).
     pub complete: bool,
 }
 
 impl Space {
-    /// The labels of a shortest path from the initial state to `node`.
-    pub fn path_to(&self, node: u32) -> Vec<u32> {
+    /// The labels of a shortest path to `node`, each with the symmetry
+    /// element its edge's target was canonicalised by.
+    pub fn path_with_perms(&self, node: u32) -> Vec<(u32, u8)> {
         let mut path = Vec::new();
         let mut n = node;
         while let Some((p, l)) = self.parents[n as usize] {
-            path.push(l);
+            path.push((l, self.parent_perms[n as usize]));
             n = p;
         }
         path.reverse();
@@ -123,6 +135,8 @@ pub(super) fn explore<E: Explore>(
         store,
         parents: vec![None],
         graph: Csr::default(),
+        perms: Vec::new(),
+        parent_perms: vec![0],
         complete: true,
     };
     let mut workers: Vec<E::Worker> = (0..threads.max(1)).map(|_| space.worker()).collect();
@@ -136,7 +150,7 @@ pub(super) fn explore<E: Explore>(
             let mut e = chunk.edges.into_iter();
             for count in chunk.counts {
                 edges.clear();
-                for (local, target) in e.by_ref().take(count as usize) {
+                for (local, target, perm) in e.by_ref().take(count as usize) {
                     let label = space.label(&mut workers[w], local);
                     let target = match target {
                         Target::Known(i) => i,
@@ -150,12 +164,14 @@ pub(super) fn explore<E: Explore>(
                                 }
                                 None => {
                                     out.parents.push(Some((node, label)));
+                                    out.parent_perms.push(perm);
                                     out.store.insert(key, hash)
                                 }
                             }
                         }
                     };
                     edges.push((label, target));
+                    out.perms.push(perm);
                 }
                 out.graph.push_node(edges.drain(..));
                 node += 1;
@@ -165,6 +181,31 @@ pub(super) fn explore<E: Explore>(
         level = level.end..out.store.len();
     }
     out
+}
+
+/// The successors of one state, outside a search: each with the worker's
+/// label and its key.
+pub(super) fn expand_one<E: Explore>(
+    space: &E,
+    worker: &mut E::Worker,
+    key: &[u8],
+) -> Vec<(u32, Vec<u8>)> {
+    let store = KeyStore::new();
+    let mut chunk = Chunk::default();
+    let mut out = Successors {
+        store: &store,
+        chunk: &mut chunk,
+        count: 0,
+    };
+    space.expand(worker, key, &mut out);
+    chunk
+        .edges
+        .iter()
+        .filter_map(|(label, target, _)| match target {
+            Target::New { start, end, .. } => Some((*label, chunk.bytes[*start..*end].to_vec())),
+            Target::Known(_) => None,
+        })
+        .collect()
 }
 
 /// The chunks of one level, in order, each with the worker that made it.

@@ -11,7 +11,9 @@
 //! - [`project`]: the project-level verifier (the player's own semantics;
 //!   its states kept as bytes by `project_states`, searched breadth-first
 //!   on several threads by `levels`); [`alone`]: each net explored alone, the
-//!   single-procedure level; [`export`]: Petrel nets as PNML.
+//!   single-procedure level; [`export`]: Petrel nets as PNML. Teams are
+//!   reduced by `symmetry` (one representative per orbit of
+//!   interchangeable vehicles) and `stubborn` (partial-order reduction).
 //!
 //! Pure computation: no file I/O, no clock (the caller times runs).
 //! [`explore`] may use several threads when asked to (scoped, joined before
@@ -28,3 +30,5 @@ pub mod project;
 mod project_states;
 pub mod ptnet;
 pub mod reference;
+mod stubborn;
+mod symmetry;

@@ -46,9 +46,11 @@
 use std::collections::{BTreeSet, HashMap, HashSet, VecDeque};
 use std::sync::{Arc, Mutex};
 
-use super::graph::{self, Csr, Filtered};
+use super::graph::{self, Csr};
 use super::levels;
 use super::project_states::{Abs, Codec, Scratch};
+use super::stubborn::{Class, Stubborn};
+use super::symmetry::Symmetry;
 use crate::event::Event;
 use crate::model::{names, Action, NetId, Project, TransitionId};
 use crate::player::{Effect, Fault, Oracle, Outcome, PendingKind, Player, Question, State};
@@ -77,6 +79,17 @@ pub struct Options<'a> {
     /// Threads exploring (at least one); the report is the same whatever
     /// their number.
     pub threads: usize,
+    /// Explore one representative per orbit of the team's symmetry group
+    /// (vehicles the compiled project treats alike; see
+    /// [`super::symmetry`]). No effect without interchangeable vehicles.
+    pub symmetry: bool,
+    /// Explore stubborn sets of inputs instead of every input (partial-order
+    /// reduction, [`super::stubborn`]); teams only: a project without
+    /// vehicles is explored whole, its figures unchanged.
+    pub partial_order: bool,
+    /// Also explore the whole project without reduction, for the
+    /// unreduced number of states ([`Reduction::unreduced_states`]).
+    pub compare_unreduced: bool,
 }
 
 impl Default for Options<'_> {
@@ -87,6 +100,9 @@ impl Default for Options<'_> {
             alone: true,
             progress: None,
             threads: 1,
+            symmetry: true,
+            partial_order: true,
+            compare_unreduced: false,
         }
     }
 }
@@ -126,6 +142,31 @@ pub struct Report {
     /// Declared shared resources (`[[exclusive]]`) held by two vehicles
     /// at once in a reachable state (the whole project's report only).
     pub exclusion: Vec<Exclusion>,
+    /// The reductions the exploration ran (the whole project's report
+    /// only).
+    pub reduction: Reduction,
+}
+
+/// Which reductions an exploration ran, and what they saved.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Reduction {
+    /// The classes of interchangeable vehicles explored one representative
+    /// per orbit (empty: no symmetry used).
+    pub symmetry: Vec<Vec<String>>,
+    /// The order of the symmetry group (1: none).
+    pub group: usize,
+    /// Partial-order reduction (stubborn sets) ran.
+    pub partial_order: bool,
+    /// States were kept without the orders the player cannot tell apart
+    /// (a timer's start order beside timers of other steps, the issue order
+    /// of pending calls): on for a team whenever a reduction is asked for,
+    /// since the others need it.
+    pub order_free: bool,
+    /// Why a reduction asked for did not run.
+    pub notes: Vec<String>,
+    /// States of the same project explored without reduction, when asked
+    /// ([`Options::compare_unreduced`]).
+    pub unreduced_states: Option<usize>,
 }
 
 /// A shared resource held by several vehicles at once, and a shortest
@@ -171,9 +212,23 @@ impl ProjectReport {
 
 /// Checks a project as a whole and, if asked, each net in it and alone.
 pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
-    let explored =
-        Explorer::new(project.clone()).run(options.max_states, options.threads, options.progress);
+    let (explored, reduction) = explore_reduced(project, options);
     let mut whole = explored.verdict(None, true);
+    whole.reduction = reduction;
+    let mut walker = explored.partial_order.then(|| Walker::new(project));
+    if let Some(walker) = &mut walker {
+        walker.shorten_report(project, &mut whole);
+    }
+    if options.compare_unreduced && (whole.reduction.group > 1 || whole.reduction.partial_order) {
+        let plain = Explorer::new(project.clone(), false, false).run(
+            options.max_states,
+            options.threads,
+            None,
+        );
+        whole.reduction.unreduced_states = Some(plain.space.store.len());
+    } else if options.compare_unreduced {
+        whole.reduction.unreduced_states = Some(whole.states);
+    }
     if !options.each_net {
         return ProjectReport {
             project: whole,
@@ -183,10 +238,11 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
     }
     let mut nets: Vec<(String, Report)> = (0..project.nets.len())
         .map(|n| {
-            (
-                project.nets[n].name.clone(),
-                explored.verdict(Some(n), true),
-            )
+            let mut r = explored.verdict(Some(n), true);
+            if let Some(walker) = &mut walker {
+                walker.shorten_report(project, &mut r);
+            }
+            (project.nets[n].name.clone(), r)
         })
         .collect();
     if !options.alone {
@@ -208,11 +264,18 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
                 report(offset + k);
             }
         };
-        let explored = Explorer::new(copy).run(
+        let explored = Explorer::new(copy, options.symmetry, options.partial_order).run(
             options.max_states,
             options.threads,
             options.progress.map(|_| &progress as &dyn Fn(usize)),
         );
+        let explored =
+            match explored.symmetry_broken() {
+                // The copy's symmetry does not hold for the player: whole.
+                Some(_) => Explorer::new(explored.project.clone(), false, options.partial_order)
+                    .run(options.max_states, options.threads, None),
+                None => explored,
+            };
         done += explored.space.store.len();
         // Static warnings of the copy (events the absent nets emit look
         // produced by nothing) say nothing of the net: left out.
@@ -228,6 +291,224 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
         nets,
         alone,
     }
+}
+
+/// Replays a counterexample (the texts of its steps, as a report gives
+/// them) on the unreduced explorer, from the initial state: each step must
+/// be one the player really takes from a state the previous steps reach.
+/// Returns the marked flat places of each state the whole sequence reaches,
+/// or the first step that does not replay.
+pub fn replay(project: &Arc<Project>, steps: &[String]) -> Result<Vec<Vec<usize>>, String> {
+    let mut walker = Walker::new(project);
+    let frontier = walker.walk(steps)?;
+    Ok(frontier
+        .iter()
+        .map(|key| {
+            (0..project.place_count)
+                .filter(|&p| walker.explorer.codec.marked(key, p))
+                .collect()
+        })
+        .collect())
+}
+
+/// Walks sequences of step texts on the unreduced explorer.
+struct Walker {
+    explorer: Explorer,
+    worker: Worker,
+    initial: Vec<u8>,
+}
+
+impl Walker {
+    fn new(project: &Arc<Project>) -> Walker {
+        let explorer = Explorer::new(project.clone(), false, false);
+        let mut player = Player::start(project.clone(), T);
+        player.set_oracle(Some(Oracle::default()));
+        let mut initial = Vec::new();
+        explorer.codec.encode(
+            player.state(),
+            0,
+            T,
+            None,
+            &|p| explorer.relevant(p),
+            &mut Scratch::default(),
+            &mut initial,
+        );
+        let worker = levels::Explore::worker(&explorer);
+        Walker {
+            explorer,
+            worker,
+            initial,
+        }
+    }
+
+    /// The keys of the states `steps` reach from the initial state, or the
+    /// first step that does not replay.
+    fn walk(&mut self, steps: &[String]) -> Result<Vec<Vec<u8>>, String> {
+        let mut frontier: Vec<Vec<u8>> = vec![self.initial.clone()];
+        for (i, step) in steps.iter().enumerate() {
+            let mut next: Vec<Vec<u8>> = Vec::new();
+            for key in &frontier {
+                for (local, target) in levels::expand_one(&self.explorer, &mut self.worker, key) {
+                    if self.worker.labels[local as usize].1.text == *step && !next.contains(&target)
+                    {
+                        next.push(target);
+                    }
+                }
+            }
+            if next.is_empty() {
+                return Err(format!("step {} does not replay: {step}", i + 1));
+            }
+            frontier = next;
+        }
+        Ok(frontier)
+    }
+
+    /// `path` with steps left out, one at a time from the first, as long
+    /// as what is left still replays and `keeps` its end states.
+    fn shorten(&mut self, path: &mut Vec<String>, keeps: &dyn Fn(&Codec, &[Vec<u8>]) -> bool) {
+        if path.len() > MAX_SHORTENED {
+            return;
+        }
+        let mut i = 0;
+        while i < path.len() {
+            let mut shorter = path.clone();
+            shorter.remove(i);
+            match self.walk(&shorter) {
+                Ok(ends) if keeps(&self.explorer.codec, &ends) => *path = shorter,
+                _ => i += 1,
+            }
+        }
+    }
+
+    /// A report's examples shortened (a reduced search may take
+    /// independent steps first): each still replays and shows the same
+    /// violation — the same dead state, the same last step, two holders of
+    /// the same resource.
+    fn shorten_report(&mut self, project: &Project, r: &mut Report) {
+        if let Some(path) = &mut r.deadlock_example {
+            if let Ok(dead) = self.walk(path) {
+                self.shorten(path, &|_, ends| ends.iter().any(|e| dead.contains(e)));
+            }
+        }
+        let replays = |_: &Codec, _: &[Vec<u8>]| true;
+        if let Some(path) = &mut r.unsafe_example {
+            self.shorten(path, &replays);
+        }
+        for path in &mut r.livelocks {
+            self.shorten(path, &replays);
+        }
+        for x in &mut r.exclusion {
+            let Some(resource) = project.exclusive.iter().find(|e| e.name == x.resource) else {
+                continue;
+            };
+            self.shorten(&mut x.example, &|codec, ends| {
+                ends.iter()
+                    .any(|e| resource.holders(|p| codec.marked(e, p)).len() > 1)
+            });
+        }
+    }
+}
+
+/// The longest example [`Walker::shorten`] tries to shorten (each try
+/// replays the whole example).
+const MAX_SHORTENED: usize = 64;
+
+/// The dead states of the whole project's exploration with `options`
+/// (with symmetry, one per orbit), each as its marked flat places: what
+/// [`Report::dead_markings`] counts.
+pub fn dead_markings(project: &Arc<Project>, options: &Options) -> Vec<Vec<usize>> {
+    let (explored, _) = explore_reduced(project, options);
+    let n = explored.space.store.len();
+    let labels = &explored.labels;
+    let mut live = vec![false; n];
+    let mut queue = VecDeque::new();
+    for s in 0..n as u32 {
+        if explored
+            .space
+            .graph
+            .edges(s)
+            .any(|(l, _)| labels[*l as usize].fires(None))
+        {
+            live[s as usize] = true;
+            queue.push_back(s);
+        }
+    }
+    while let Some(s) = queue.pop_front() {
+        for (_, p) in explored.reverse.edges(s) {
+            if !live[p as usize] {
+                live[p as usize] = true;
+                queue.push_back(p);
+            }
+        }
+    }
+    let finals: Vec<usize> = project
+        .nets
+        .iter()
+        .enumerate()
+        .flat_map(|(ni, nt)| {
+            let offset = project.place_offsets[ni];
+            nt.places
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.is_final)
+                .map(move |(i, _)| offset + i)
+        })
+        .collect();
+    let codec = &explored.codec;
+    (0..n as u32)
+        .filter(|&s| {
+            let key = explored.space.store.get(s);
+            !live[s as usize] && !finals.iter().any(|&p| codec.marked(key, p))
+        })
+        .map(|s| {
+            let key = explored.space.store.get(s);
+            (0..project.place_count)
+                .filter(|&p| codec.marked(key, p))
+                .collect()
+        })
+        .collect()
+}
+
+/// Explores `project` with the reductions `options` asks for; when the
+/// player breaks the symmetry the model has, explores again without it.
+fn explore_reduced(project: &Arc<Project>, options: &Options) -> (Explored, Reduction) {
+    let explored = Explorer::new(project.clone(), options.symmetry, options.partial_order).run(
+        options.max_states,
+        options.threads,
+        options.progress,
+    );
+    let mut notes = Vec::new();
+    let explored = match explored.symmetry_broken() {
+        Some(why) => {
+            notes.push(format!(
+                "symmetry not used: the player's order of vehicles decides a step ({why})"
+            ));
+            Explorer::new(project.clone(), false, options.partial_order).run(
+                options.max_states,
+                options.threads,
+                options.progress,
+            )
+        }
+        None => explored,
+    };
+    let reduction = Reduction {
+        symmetry: explored.symmetry.as_ref().map_or_else(Vec::new, |sym| {
+            sym.classes
+                .iter()
+                .map(|c| {
+                    c.iter()
+                        .map(|&v| project.vehicles[v].name.clone())
+                        .collect()
+                })
+                .collect()
+        }),
+        group: explored.symmetry.as_ref().map_or(1, |sym| sym.perms.len()),
+        partial_order: explored.partial_order,
+        order_free: explored.codec.order_free(),
+        notes,
+        unreduced_states: None,
+    };
+    (explored, reduction)
 }
 
 /// Loops listed in a report, at most (the same loop seen from different
@@ -311,6 +592,13 @@ struct Explorer {
     commands: FastMap<String, Vec<(NetId, Known)>>,
     /// The search's labels, numbered in merge order, and their keys.
     labels: Mutex<LabelTable>,
+    /// The team's symmetry, when it reduces and is asked for.
+    symmetry: Option<Symmetry>,
+    /// Stubborn sets, when asked for (teams only).
+    stubborn: Option<Stubborn>,
+    /// A step whose outcome the player's order of vehicles decided (the
+    /// first found): the symmetry does not hold, the exploration stops.
+    broken: Mutex<Option<String>>,
 }
 
 #[derive(Default)]
@@ -337,6 +625,9 @@ struct Worker {
     /// input starts from.
     player: Option<Player>,
     concrete: Option<State>,
+    /// The canonical key of a successor, and a buffer for its images.
+    canon: Vec<u8>,
+    image: Vec<u8>,
 }
 
 /// An exploration, ready for verdicts.
@@ -349,6 +640,9 @@ struct Explored {
     fired: HashSet<(NetId, TransitionId)>,
     /// Each state's predecessors.
     reverse: Csr<()>,
+    symmetry: Option<Symmetry>,
+    partial_order: bool,
+    broken: Option<String>,
 }
 
 impl levels::Explore for Explorer {
@@ -367,6 +661,8 @@ impl levels::Explore for Explorer {
             this_input_keys: Vec::new(),
             player: None,
             concrete: None,
+            canon: Vec::new(),
+            image: Vec::new(),
         }
     }
 
@@ -396,7 +692,7 @@ impl levels::Explore for Explorer {
 }
 
 impl Explorer {
-    fn new(project: Arc<Project>) -> Explorer {
+    fn new(project: Arc<Project>, symmetry: bool, partial_order: bool) -> Explorer {
         let externals = external_events(&project)
             .into_iter()
             .map(|name| {
@@ -417,12 +713,18 @@ impl Explorer {
             })
             .collect();
         let mut explorer = Explorer {
-            codec: Codec::new(&project),
+            codec: Codec::new(
+                &project,
+                (symmetry || partial_order) && !project.vehicles.is_empty(),
+            ),
             project,
             externals,
             calls: FastMap::default(),
             commands: FastMap::default(),
             labels: Mutex::new(LabelTable::default()),
+            symmetry: None,
+            stubborn: None,
+            broken: Mutex::new(None),
         };
         // What is known of every result the nets' actions can await.
         let project = explorer.project.clone();
@@ -458,6 +760,19 @@ impl Explorer {
                 }
             }
         }
+        if symmetry {
+            explorer.symmetry =
+                Some(Symmetry::of(&project, explorer.codec.order_free())).filter(Symmetry::reduces);
+        }
+        if partial_order && !project.vehicles.is_empty() {
+            let names: Vec<String> = explorer
+                .externals
+                .iter()
+                .map(|x| x.event.name.clone())
+                .collect();
+            let stubborn = Stubborn::new(&project, &names);
+            explorer.stubborn = Some(stubborn);
+        }
         explorer
     }
 
@@ -483,24 +798,33 @@ impl Explorer {
                 }
             }
         };
+        if let Some(sym) = &self.symmetry {
+            // The start-up's immediate transitions, from the initial marking.
+            let mut before = player.state().clone();
+            before.marking.iter_mut().for_each(|w| *w = 0);
+            for (i, g) in self.project.globals.iter().enumerate() {
+                if g.initial {
+                    before.marking[i / 64] |= 1 << (i % 64);
+                }
+            }
+            for (n, net) in self.project.nets.iter().enumerate() {
+                before.active[n] = net.active_at_start;
+                if net.active_at_start {
+                    for (i, p) in net.places.iter().enumerate() {
+                        let f = self.project.place_offsets[n] + i;
+                        if p.initial {
+                            before.marking[f / 64] |= 1 << (f % 64);
+                        }
+                    }
+                }
+            }
+            if let Some(why) = sym.order_decides(&self.project, &before, &effects) {
+                self.note_broken(why);
+            }
+        }
         let space = levels::explore(&self, &initial, max_states, threads, &mut tell);
         let n = space.store.len();
-        let mut reverse_edges: Vec<(u32, u32)> = Vec::with_capacity(space.graph.edge_count());
-        for s in 0..n as u32 {
-            for (_, t) in space.graph.edges(s) {
-                reverse_edges.push((t, s));
-            }
-        }
-        reverse_edges.sort_unstable();
-        let mut reverse = Csr::default();
-        let mut at = 0;
-        for t in 0..n as u32 {
-            let start = at;
-            while at < reverse_edges.len() && reverse_edges[at].0 == t {
-                at += 1;
-            }
-            reverse.push_node(reverse_edges[start..at].iter().map(|&(_, s)| ((), s)));
-        }
+        let reverse = reverse_of(&space.graph, n);
         let labels = self
             .labels
             .into_inner()
@@ -510,6 +834,13 @@ impl Explorer {
         for l in &labels {
             fired.extend(l.fired.iter().copied());
         }
+        if let Some(sym) = &self.symmetry {
+            // What fires in a representative fires in each of its images.
+            let seen: Vec<(NetId, TransitionId)> = fired.iter().copied().collect();
+            for g in &sym.perms {
+                fired.extend(seen.iter().map(|&(n, t)| (g.nets[n], t)));
+            }
+        }
         Explored {
             project: self.project,
             codec: self.codec,
@@ -517,6 +848,9 @@ impl Explorer {
             labels,
             fired,
             reverse,
+            symmetry: self.symmetry,
+            partial_order: self.stubborn.is_some(),
+            broken: self.broken.into_inner().unwrap_or_else(|e| e.into_inner()),
         }
     }
 
@@ -633,13 +967,93 @@ impl Explorer {
         inputs
     }
 
+    /// Records the first step found whose outcome the player's order of
+    /// vehicles decided (the smallest text, whatever the threads).
+    fn note_broken(&self, why: String) {
+        let mut broken = self.broken.lock().unwrap_or_else(|e| e.into_inner());
+        if broken.as_ref().is_none_or(|b| why < *b) {
+            *broken = Some(why);
+        }
+    }
+
+    /// The class of an input, for the stubborn sets.
+    fn class_of(&self, stubborn: &Stubborn, abs: &Abs, input: &Input) -> Option<u32> {
+        match input {
+            Input::Event(i) => stubborn.class(&Class::Event(*i)),
+            Input::Timer(i) => {
+                let t = &abs.state.timers[*i];
+                stubborn.class(&Class::Timer(t.net, t.timer))
+            }
+            Input::Result { id, .. } => abs
+                .state
+                .pending
+                .get(id)
+                .and_then(|p| stubborn.class_of_pending(p)),
+        }
+    }
+
     fn successors(&self, w: &mut Worker, key: &[u8], out: &mut levels::Successors<'_>) {
+        if self.symmetry.is_some() && self.broken.lock().map_or(true, |b| b.is_some()) {
+            return; // the exploration is given up: no need to go on
+        }
         let abs = self.codec.decode(key);
-        for input in self.inputs(&abs) {
+        let inputs = self.inputs(&abs);
+        // The ample set, when the stubborn sets reduce in this state (never
+        // under the lockout, whose catastrophic timers and results have no
+        // class of their own).
+        let ample = self.stubborn.as_ref().and_then(|stubborn| {
+            let catastrophic = abs.state.lockout
+                || abs.state.timers.iter().any(|t| t.catastrophic)
+                || abs.state.pending.values().any(|p| p.catastrophic);
+            if catastrophic {
+                return None;
+            }
+            let classes: Vec<Option<u32>> = inputs
+                .iter()
+                .map(|i| self.class_of(stubborn, &abs, i))
+                .collect();
+            stubborn.ample(&classes)
+        });
+        match ample {
+            None => {
+                for input in &inputs {
+                    self.input_successors(w, key, &abs, input, out);
+                }
+            }
+            Some(ample) => {
+                // The cycle proviso: expand fully when an ample step leads
+                // to a state already stored (or changes nothing).
+                let mut full = false;
+                for (input, _) in inputs.iter().zip(&ample).filter(|(_, a)| **a) {
+                    full |= self.input_successors(w, key, &abs, input, out);
+                }
+                if full {
+                    for (input, _) in inputs.iter().zip(&ample).filter(|(_, a)| !**a) {
+                        self.input_successors(w, key, &abs, input, out);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The successors of the state `key` (decoded: `abs`) by one input;
+    /// whether one of them was stored already or the input changed nothing.
+    fn input_successors(
+        &self,
+        w: &mut Worker,
+        key: &[u8],
+        abs: &Abs,
+        input: &Input,
+        out: &mut levels::Successors<'_>,
+    ) -> bool {
+        let mut known = false;
+        let mut pushed = false;
+        {
+            let input = input.clone();
             w.this_input.clear();
             w.this_input_keys.clear();
             let concrete = w.concrete.get_or_insert_with(|| abs.state.clone());
-            let seq_before = set_concrete(&abs, &input, concrete);
+            let seq_before = set_concrete(abs, &input, concrete);
             let concrete = &*concrete;
             // Every sequence of oracle answers, depth first.
             let mut todo: Vec<Vec<bool>> = vec![Vec::new()];
@@ -663,7 +1077,7 @@ impl Explorer {
                     player.state(),
                     seq_before,
                     T + 1,
-                    Some(&abs),
+                    Some(abs),
                     &|p| self.relevant(p),
                     &mut w.scratch,
                     &mut w.next,
@@ -694,13 +1108,13 @@ impl Explorer {
                     continue; // nothing happened: not an edge
                 }
                 // The step's label, known by what its text says.
-                label_key(&abs, &input, questions, &used, effects, &mut w.label_key);
+                label_key(abs, &input, questions, &used, effects, &mut w.label_key);
                 let local = match w.index.get(&w.label_key) {
                     Some(&l) => l,
                     None => {
                         let l = w.labels.len() as u32;
                         let label = Label {
-                            text: self.describe(&abs, &input, questions, &used, effects),
+                            text: self.describe(abs, &input, questions, &used, effects),
                             fired: fired_of(effects),
                             unsafe_by,
                             livelock,
@@ -723,9 +1137,20 @@ impl Explorer {
                 let start = w.this_input_keys.len();
                 w.this_input_keys.extend_from_slice(&w.next);
                 w.this_input.push((local, start..w.this_input_keys.len()));
-                out.push(local, &w.next);
+                pushed = true;
+                match &self.symmetry {
+                    None => known |= out.push(local, &w.next, 0),
+                    Some(sym) => {
+                        if let Some(why) = sym.order_decides(&self.project, &abs.state, effects) {
+                            self.note_broken(why);
+                        }
+                        let perm = sym.canonical(&w.next, &mut w.canon, &mut w.image);
+                        known |= out.push(local, &w.canon, perm);
+                    }
+                }
             }
         }
+        known || !pushed
     }
 
     /// Runs one input on `concrete` (see [`set_concrete`]) with the oracle's
@@ -1131,15 +1556,24 @@ fn fired_of(effects: &[Effect]) -> Vec<(NetId, TransitionId)> {
 const LOOP_SEARCHES: usize = 500;
 
 impl Explored {
+    /// The step that showed the player breaking the symmetry, if one did
+    /// (then the exploration stopped early and proves nothing).
+    fn symmetry_broken(&self) -> Option<&str> {
+        self.broken.as_deref()
+    }
+
     /// Whether the exploration proves that a conflict never arises: it is
-    /// complete, no net emits the event (so it only ever arrives as an
-    /// input, in an explored state) and no explored state marks the input
-    /// places of both transitions with both nets active.
+    /// complete and not reduced by partial order (which skips states), no
+    /// net emits the event (so it only ever arrives as an input, in an
+    /// explored state) and no explored state (nor, with symmetry, its
+    /// images) marks the input places of both transitions with both nets
+    /// active.
     fn never_together(&self, w: &Warning) -> bool {
         let Some((event, pair)) = &w.conflict else {
             return false;
         };
         if !self.space.complete
+            || self.partial_order
             || event == names::NET_FAULT
             || emitted_events(&self.project).contains(event)
         {
@@ -1152,84 +1586,192 @@ impl Explored {
                     .iter()
                     .all(|&p| self.codec.marked(st, p))
         };
+        let images: Vec<[(NetId, TransitionId); 2]> = match &self.symmetry {
+            None => vec![*pair],
+            Some(sym) => sym
+                .perms
+                .iter()
+                .map(|g| {
+                    [
+                        (g.nets[pair[0].0], pair[0].1),
+                        (g.nets[pair[1].0], pair[1].1),
+                    ]
+                })
+                .collect(),
+        };
         !(0..self.space.store.len() as u32).any(|s| {
             let st = self.space.store.get(s);
-            enabled(st, pair[0]) && enabled(st, pair[1])
+            images
+                .iter()
+                .any(|pair| enabled(st, pair[0]) && enabled(st, pair[1]))
         })
+    }
+
+    /// The symmetry element (index) that maps the representatives' names to
+    /// the real ones at each step of the path to state `s`, and at its end.
+    fn path_perms(&self, s: u32) -> (Vec<(u32, u8)>, u8) {
+        let steps = self.space.path_with_perms(s);
+        let Some(sym) = &self.symmetry else {
+            return (steps.into_iter().map(|(l, _)| (l, 0)).collect(), 0);
+        };
+        let mut sigma = 0u8;
+        let mut out = Vec::with_capacity(steps.len());
+        for (l, perm) in steps {
+            out.push((l, sigma));
+            sigma = sym.compose(sigma, sym.inverse[perm as usize]);
+        }
+        (out, sigma)
+    }
+
+    /// A real path to state `s` (its steps' texts), followed by `last` if
+    /// given; renamed so that the net `m` of the representative is `x`
+    /// (`rename: Some((m, x))`).
+    fn real_path(&self, s: u32, last: Option<u32>, rename: Option<(NetId, NetId)>) -> Vec<String> {
+        let (steps, end) = self.path_perms(s);
+        let text = |l: u32| &self.labels[l as usize].text;
+        let Some(sym) = &self.symmetry else {
+            let mut out: Vec<String> = steps.iter().map(|(l, _)| text(*l).clone()).collect();
+            out.extend(last.map(|l| text(l).clone()));
+            return out;
+        };
+        // Then a last element `h` so that the named net ends where asked.
+        let h = rename
+            .and_then(|(m, x)| {
+                let real = sym.perms[end as usize].nets[m];
+                (0..sym.perms.len()).find(|&h| sym.perms[h].nets[real] == x)
+            })
+            .unwrap_or(0) as u8;
+        let mut out: Vec<String> = steps
+            .iter()
+            .map(|(l, sigma)| sym.rename(sym.compose(h, *sigma), text(*l)))
+            .collect();
+        if let Some(l) = last {
+            out.push(sym.rename(sym.compose(h, end), text(l)));
+        }
+        out
     }
 
     /// The verdict for the whole project (`None`) or one net in it, with
     /// the warnings found without exploring if `statics`.
+    ///
+    /// With symmetry, a net's verdict reads every net of its orbit in each
+    /// representative (nodes `state × orbit member`): the net in the real
+    /// state `g·s` is the member `g⁻¹(net)` in `s`.
     fn verdict(&self, net: Option<NetId>, statics: bool) -> Report {
         let space = &self.space;
-        let g = &space.graph;
         let labels = &self.labels;
         let n = space.store.len();
         let codec = &self.codec;
         let key = |s: u32| space.store.get(s);
         let project = &self.project;
-        let path = |node: u32| -> Vec<String> {
-            space
-                .path_to(node)
-                .iter()
-                .map(|l| labels[*l as usize].text.clone())
-                .collect()
-        };
-        let in_scope = |m: NetId| net.is_none_or(|x| x == m);
 
-        // Live states: those from which a firing step (of the net) is
+        // The nets the verdict is about, per node, and the product graph.
+        let orbit: Vec<Option<NetId>> = match (net, &self.symmetry) {
+            (None, _) => vec![None],
+            (Some(x), None) => vec![Some(x)],
+            (Some(x), Some(sym)) => {
+                let mut members: Vec<NetId> = vec![x];
+                for g in &sym.perms {
+                    if !members.contains(&g.nets[x]) {
+                        members.push(g.nets[x]);
+                    }
+                }
+                members.into_iter().map(Some).collect()
+            }
+        };
+        let k = orbit.len();
+        let nodes = n * k;
+        let state_of = |u: u32| u / k as u32;
+        let net_of = |u: u32| orbit[u as usize % k];
+        let (graph, perms) = if k == 1 {
+            (
+                std::borrow::Cow::Borrowed(&space.graph),
+                std::borrow::Cow::Borrowed(&space.perms[..]),
+            )
+        } else {
+            let sym = self.symmetry.as_ref();
+            let mut g = Csr::default();
+            let mut perms = Vec::new();
+            for s in 0..n as u32 {
+                let first = space.graph.first_edge(s);
+                for i in 0..k {
+                    let mut edges = Vec::new();
+                    for (e, (l, t)) in space.graph.edges(s).enumerate() {
+                        let perm = space.perms[first + e];
+                        let image =
+                            orbit[i].map(|m| sym.map_or(m, |y| y.perms[perm as usize].nets[m]));
+                        let j = orbit.iter().position(|o| *o == image).unwrap_or(i);
+                        edges.push((*l, t * k as u32 + j as u32));
+                        perms.push(perm);
+                    }
+                    g.push_node(edges);
+                }
+            }
+            (std::borrow::Cow::Owned(g), std::borrow::Cow::Owned(perms))
+        };
+        let g: &Csr<u32> = &graph;
+        let reverse = if k == 1 {
+            std::borrow::Cow::Borrowed(&self.reverse)
+        } else {
+            std::borrow::Cow::Owned(reverse_of(g, nodes))
+        };
+        let in_scope_at = |u: u32, m: NetId| net_of(u).is_none_or(|x| x == m);
+
+        // Live nodes: those from which a firing step (of the node's net) is
         // reachable. Also the first unsafe step and the livelocks, in
         // breadth-first order, so their examples are shortest.
-        let reverse = &self.reverse;
-        let mut live = vec![false; n];
+        let mut live = vec![false; nodes];
         let mut queue = VecDeque::new();
         let mut first_unsafe: Option<(u32, u32)> = None;
         let mut livelocks: Vec<(u32, u32)> = Vec::new();
-        for s in 0..n as u32 {
-            for (l, _) in g.edges(s) {
+        for u in 0..nodes as u32 {
+            for (l, _) in g.edges(u) {
                 let label = &labels[*l as usize];
-                if label.fires(net) && !live[s as usize] {
-                    live[s as usize] = true;
-                    queue.push_back(s);
+                if label.fires(net_of(u)) && !live[u as usize] {
+                    live[u as usize] = true;
+                    queue.push_back(u);
                 }
-                if first_unsafe.is_none() && label.unsafe_by.is_some_and(in_scope) {
-                    first_unsafe = Some((s, *l));
+                if first_unsafe.is_none() && label.unsafe_by.is_some_and(|m| in_scope_at(u, m)) {
+                    first_unsafe = Some((u, *l));
                 }
                 if let Some(by) = label.livelock {
-                    if by.is_none_or(in_scope) && livelocks.len() < 10 {
-                        livelocks.push((s, *l));
+                    if by.is_none_or(|m| in_scope_at(u, m)) && livelocks.len() < 10 {
+                        livelocks.push((u, *l));
                     }
                 }
             }
         }
-        while let Some(s) = queue.pop_front() {
-            for (_, p) in reverse.edges(s) {
+        while let Some(u) = queue.pop_front() {
+            for (_, p) in reverse.edges(u) {
                 if !live[p as usize] {
                     live[p as usize] = true;
                     queue.push_back(p);
                 }
             }
         }
-        let finals: Vec<usize> = project
-            .nets
-            .iter()
-            .enumerate()
-            .filter(|(ni, _)| in_scope(*ni))
-            .flat_map(|(ni, nt)| {
-                let offset = project.place_offsets[ni];
-                nt.places
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, p)| p.is_final)
-                    .map(move |(i, _)| offset + i)
-            })
-            .collect();
-        let dead: Vec<u32> = (0..n as u32)
-            .filter(|&s| {
-                let st = key(s);
-                !live[s as usize]
-                    && net.is_none_or(|x| codec.active(st, x))
-                    && !finals.iter().any(|&p| codec.marked(st, p))
+        let finals_of = |scope: Option<NetId>| -> Vec<usize> {
+            project
+                .nets
+                .iter()
+                .enumerate()
+                .filter(|(ni, _)| scope.is_none_or(|x| x == *ni))
+                .flat_map(|(ni, nt)| {
+                    let offset = project.place_offsets[ni];
+                    nt.places
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, p)| p.is_final)
+                        .map(move |(i, _)| offset + i)
+                })
+                .collect()
+        };
+        let finals: Vec<Vec<usize>> = orbit.iter().map(|m| finals_of(*m)).collect();
+        let dead: Vec<u32> = (0..nodes as u32)
+            .filter(|&u| {
+                let st = key(state_of(u));
+                !live[u as usize]
+                    && net_of(u).is_none_or(|x| codec.active(st, x))
+                    && !finals[u as usize % k].iter().any(|&p| codec.marked(st, p))
             })
             .collect();
 
@@ -1238,15 +1780,16 @@ impl Explored {
         let (states, edges, dead_markings) = match net {
             None => (n, g.edge_count(), dead.len()),
             Some(x) => {
-                let offset = project.place_offsets[x];
                 let places = project.nets[x].places.len();
                 let mut ids: HashMap<Vec<u8>, u32> = HashMap::new();
                 let mut buf: Vec<u8> = Vec::with_capacity(places + 1);
-                let view: Vec<u32> = (0..n as u32)
-                    .map(|s| {
-                        let st = key(s);
+                let view: Vec<u32> = (0..nodes as u32)
+                    .map(|u| {
+                        let st = key(state_of(u));
+                        let m = net_of(u).unwrap_or(x);
+                        let offset = project.place_offsets[m];
                         buf.clear();
-                        buf.push(u8::from(codec.active(st, x)));
+                        buf.push(u8::from(codec.active(st, m)));
                         buf.extend((0..places).map(|i| u8::from(codec.marked(st, offset + i))));
                         if let Some(&id) = ids.get(&buf) {
                             return id;
@@ -1257,41 +1800,51 @@ impl Explored {
                     })
                     .collect();
                 let mut moves: Vec<u64> = Vec::new();
-                for s in 0..n as u32 {
-                    for (l, t) in g.edges(s) {
-                        if labels[*l as usize].fires(net) {
+                for u in 0..nodes as u32 {
+                    for (l, t) in g.edges(u) {
+                        if labels[*l as usize].fires(net_of(u)) {
                             moves.push(
-                                u64::from(view[s as usize]) << 32 | u64::from(view[t as usize]),
+                                u64::from(view[u as usize]) << 32 | u64::from(view[t as usize]),
                             );
                         }
                     }
                 }
                 moves.sort_unstable();
                 moves.dedup();
-                let dead_views: HashSet<u32> = dead.iter().map(|&s| view[s as usize]).collect();
+                let dead_views: HashSet<u32> = dead.iter().map(|&u| view[u as usize]).collect();
                 (ids.len(), moves.len(), dead_views.len())
             }
         };
 
-        // Loops of firing steps, each listed once.
-        let firing = Filtered {
-            graph: g,
-            keep: |l: &u32| labels[*l as usize].fires(net),
-        };
+        // Loops of firing steps, each listed once: the firing edges (with
+        // their symmetry elements), their components, a shortest cycle.
+        let mut firing = Csr::default();
+        let mut firing_perms: Vec<u8> = Vec::new();
+        for u in 0..nodes as u32 {
+            let first = g.first_edge(u);
+            let mut out = Vec::new();
+            for (e, (l, t)) in g.edges(u).enumerate() {
+                if labels[*l as usize].fires(net_of(u)) {
+                    out.push((*l, t));
+                    firing_perms.push(perms.get(first + e).copied().unwrap_or(0));
+                }
+            }
+            firing.push_node(out);
+        }
         let sccs = graph::strongly_connected_components(&firing);
         let mut loops = Vec::new();
         let mut loop_keys: HashSet<Vec<String>> = HashSet::new();
         let mut searches = 0;
-        for s in 0..n as u32 {
-            let c = sccs.component[s as usize];
+        for u in 0..nodes as u32 {
+            let c = sccs.component[u as usize];
             if !sccs.cyclic[c as usize] || searches >= LOOP_SEARCHES || loops.len() >= MAX_LOOPS {
                 continue;
             }
             searches += 1;
             if let Some(cycle) =
-                graph::shortest_cycle(&firing, s, |v| sccs.component[v as usize] == c)
+                graph::shortest_cycle(&firing, u, |v| sccs.component[v as usize] == c)
             {
-                let texts = cycle_labels(g, labels, &cycle, net);
+                let texts = self.cycle_labels(&firing, &firing_perms, &cycle);
                 let mut sorted = texts.clone();
                 sorted.sort();
                 if loop_keys.insert(sorted) {
@@ -1317,7 +1870,7 @@ impl Explored {
             .nets
             .iter()
             .enumerate()
-            .filter(|(ni, _)| in_scope(*ni))
+            .filter(|(ni, _)| net.is_none_or(|x| x == *ni))
         {
             for (ti, t) in nt.transitions.iter().enumerate() {
                 if !fired.contains(&(ni, ti)) && space.complete {
@@ -1330,26 +1883,25 @@ impl Explored {
                 "state limit reached after {n} states: the exploration is incomplete"
             ));
         }
-        // The places in scope: every place, or the net's own and the
-        // global places its transitions use.
+        // The places in scope: every place, or the net's own (each member of
+        // its orbit's) and the global places its transitions use.
         let scope: Vec<usize> = match net {
             None => (0..project.place_count).collect(),
-            Some(x) => {
-                let offset = project.place_offsets[x];
-                let mut places: BTreeSet<usize> =
-                    (offset..offset + project.nets[x].places.len()).collect();
-                for t in &project.nets[x].transitions {
-                    places.extend(t.flat_inputs.iter().chain(&t.flat_outputs));
+            Some(_) => {
+                let mut places: BTreeSet<usize> = BTreeSet::new();
+                for x in orbit.iter().flatten() {
+                    let offset = project.place_offsets[*x];
+                    places.extend(offset..offset + project.nets[*x].places.len());
+                    for t in &project.nets[*x].transitions {
+                        places.extend(t.flat_inputs.iter().chain(&t.flat_outputs));
+                    }
                 }
                 places.into_iter().collect()
             }
         };
         let any_tokens = (0..n as u32).any(|s| scope.iter().any(|&p| codec.marked(key(s), p)));
-        let with_step = |(s, l): (u32, u32)| {
-            let mut p = path(s);
-            p.push(labels[l as usize].text.clone());
-            p
-        };
+        let rename_for = |u: u32| net.zip(net_of(u)).map(|(x, m)| (m, x));
+        let with_step = |(u, l): (u32, u32)| self.real_path(state_of(u), Some(l), rename_for(u));
         // Each declared resource: the first state (breadth-first, so the
         // shortest example) where two vehicles hold it.
         let exclusion = if net.is_none() {
@@ -1359,13 +1911,23 @@ impl Explored {
                 .filter_map(|r| {
                     (0..n as u32).find_map(|s| {
                         let holders = r.holders(|p| codec.marked(key(s), p));
-                        (holders.len() > 1).then(|| Exclusion {
-                            resource: r.name.clone(),
-                            vehicles: holders
+                        (holders.len() > 1).then(|| {
+                            let (_, end) = self.path_perms(s);
+                            let mut real: Vec<usize> = holders
                                 .iter()
-                                .map(|&v| project.vehicles[v].name.clone())
-                                .collect(),
-                            example: path(s),
+                                .map(|&v| {
+                                    self.symmetry.as_ref().map_or(v, |sym| sym.vehicle(end, v))
+                                })
+                                .collect();
+                            real.sort_unstable();
+                            Exclusion {
+                                resource: r.name.clone(),
+                                vehicles: real
+                                    .iter()
+                                    .map(|&v| project.vehicles[v].name.clone())
+                                    .collect(),
+                                example: self.real_path(s, None, None),
+                            }
                         })
                     })
                 })
@@ -1380,28 +1942,61 @@ impl Explored {
             dead_markings,
             safe: first_unsafe.is_none(),
             max_tokens: u32::from(any_tokens),
-            deadlock_example: dead.first().map(|&d| path(d)),
+            deadlock_example: dead
+                .first()
+                .map(|&u| self.real_path(state_of(u), None, rename_for(u))),
             unsafe_example: first_unsafe.map(with_step),
             livelocks: livelocks.into_iter().map(with_step).collect(),
             loops,
             warnings,
             complete: space.complete,
+            reduction: Reduction::default(),
         }
+    }
+
+    /// The texts of a cycle's steps (a real path from the cycle's first
+    /// state: with symmetry, each step renamed by the elements before it).
+    fn cycle_labels(&self, firing: &Csr<u32>, perms: &[u8], cycle: &[u32]) -> Vec<String> {
+        let mut out = Vec::new();
+        let mut sigma = 0u8;
+        for (i, &s) in cycle.iter().enumerate() {
+            let next = cycle[(i + 1) % cycle.len()];
+            let first = firing.first_edge(s);
+            if let Some((e, (l, _))) = firing.edges(s).enumerate().find(|(_, (_, t))| *t == next) {
+                let text = &self.labels[*l as usize].text;
+                match &self.symmetry {
+                    None => out.push(text.clone()),
+                    Some(sym) => {
+                        out.push(sym.rename(sigma, text));
+                        let perm = perms.get(first + e).copied().unwrap_or(0);
+                        sigma = sym.compose(sigma, sym.inverse[perm as usize]);
+                    }
+                }
+            }
+        }
+        out
     }
 }
 
-fn cycle_labels(g: &Csr<u32>, labels: &[Label], cycle: &[u32], net: Option<NetId>) -> Vec<String> {
-    let mut out = Vec::new();
-    for (i, &s) in cycle.iter().enumerate() {
-        let next = cycle[(i + 1) % cycle.len()];
-        if let Some((l, _)) = g
-            .edges(s)
-            .find(|(l, t)| *t == next && labels[**l as usize].fires(net))
-        {
-            out.push(labels[*l as usize].text.clone());
+/// The predecessors of each of the `n` nodes of `g`.
+fn reverse_of(g: &Csr<u32>, n: usize) -> Csr<()> {
+    let mut reverse_edges: Vec<(u32, u32)> = Vec::with_capacity(g.edge_count());
+    for s in 0..n as u32 {
+        for (_, t) in g.edges(s) {
+            reverse_edges.push((t, s));
         }
     }
-    out
+    reverse_edges.sort_unstable();
+    let mut reverse = Csr::default();
+    let mut at = 0;
+    for t in 0..n as u32 {
+        let start = at;
+        while at < reverse_edges.len() && reverse_edges[at].0 == t {
+            at += 1;
+        }
+        reverse.push_node(reverse_edges[start..at].iter().map(|&(_, s)| ((), s)));
+    }
+    reverse
 }
 
 /// Events that may come from outside: every event a transition waits for,

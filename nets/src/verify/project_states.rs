@@ -16,7 +16,10 @@
 //! net (active), the lockout byte (1: the team's; 2 | team: then u32
 //! vehicles and the u32 vehicles locked out one by one), u32 timers then per timer `u32 net, u32
 //! timer, u64 duration, u32 rank, u8 catastrophic, u32 group`, u32 pending
-//! then per pending `u32 net, u8 catastrophic` and its kind (`0, u32
+//! then per pending (in id order; for a team's reduced exploration, in the
+//! order of their bytes, and a timer's rank is then its start order within
+//! its group only: orders the player cannot tell apart, which would keep
+//! apart states partial-order reduction must find equal) `u32 net, u8 catastrophic` and its kind (`0, u32
 //! program, u32 function` for a call; `1, u32 verb` for a command whose verb
 //! the project's actions name; `2, u32 length, bytes` for any other). The
 //! marking and the active flags are at fixed offsets: [`Codec::marked`] and
@@ -63,10 +66,14 @@ pub(super) struct Codec {
     /// Every verb the project's actions command, sorted, and their numbers.
     verbs: Vec<String>,
     verb_numbers: std::collections::HashMap<String, u32, foldhash::fast::FixedState>,
+    /// Keep no order the player cannot tell apart (a team's reduced
+    /// exploration): a timer's rank is its start order within its group
+    /// only, and pending calls are listed sorted, not in issue order.
+    order_free: bool,
 }
 
 impl Codec {
-    pub fn new(project: &Project) -> Codec {
+    pub fn new(project: &Project, order_free: bool) -> Codec {
         let mut verbs: Vec<String> = project
             .nets
             .iter()
@@ -88,7 +95,13 @@ impl Codec {
                 .map(|(i, v)| (v.clone(), i as u32))
                 .collect(),
             verbs,
+            order_free,
         }
+    }
+
+    /// Whether keys keep no order the player cannot tell apart.
+    pub fn order_free(&self) -> bool {
+        self.order_free
     }
 
     /// Whether flat place `p` is marked in `key`.
@@ -142,7 +155,7 @@ impl Codec {
                     .timers
                     .iter()
                     .zip(&prev.groups)
-                    .find(|(p, _)| p.seq == t.seq)
+                    .find(|(p, _)| p.net == t.net && p.timer == t.timer)
                     .map_or((FRESH, 0), |(p, g)| (*g, p.deadline)),
                 _ => (FRESH, t.deadline.saturating_sub(step_time.min(t.deadline))),
             };
@@ -157,7 +170,15 @@ impl Codec {
         scratch.groups.clear();
         out.extend_from_slice(&(timers.len() as u32).to_le_bytes());
         for (t, g) in timers.iter() {
-            let rank = scratch.seqs.binary_search(&t.seq).unwrap_or(0) as u32;
+            let rank = if self.order_free {
+                // Only the start order within the group can matter.
+                timers
+                    .iter()
+                    .filter(|(u, h)| h == g && u.seq < t.seq)
+                    .count() as u32
+            } else {
+                scratch.seqs.binary_search(&t.seq).unwrap_or(0) as u32
+            };
             let group = match scratch.groups.iter().find(|(old, _)| old == g) {
                 Some((_, new)) => *new,
                 None => {
@@ -181,31 +202,53 @@ impl Codec {
             }
         }
         out.extend_from_slice(&(kept.len() as u32).to_le_bytes());
-        for p in kept {
-            out.extend_from_slice(&(p.net as u32).to_le_bytes());
-            out.push(u8::from(p.catastrophic));
-            match &p.kind {
-                PendingKind::Call { program, function } => {
-                    out.push(0);
-                    out.extend_from_slice(&(*program as u32).to_le_bytes());
-                    out.extend_from_slice(&(*function as u32).to_le_bytes());
-                }
-                PendingKind::Question { ask } => {
-                    out.push(3);
-                    out.extend_from_slice(&(*ask as u32).to_le_bytes());
-                }
-                PendingKind::Command { verb } => match self.verb_numbers.get(verb.as_str()) {
-                    Some(i) => {
-                        out.push(1);
-                        out.extend_from_slice(&i.to_le_bytes());
-                    }
-                    None => {
-                        out.push(2);
-                        out.extend_from_slice(&(verb.len() as u32).to_le_bytes());
-                        out.extend_from_slice(verb.as_bytes());
-                    }
-                },
+        if self.order_free {
+            // Ids only name results: any order will do, so the order of
+            // the entries' bytes.
+            let mut entries: SmallVec<[Vec<u8>; 16]> = kept
+                .iter()
+                .map(|p| {
+                    let mut e = Vec::new();
+                    self.write_pending(p, &mut e);
+                    e
+                })
+                .collect();
+            entries.sort_unstable();
+            for e in entries {
+                out.extend_from_slice(&e);
             }
+        } else {
+            for p in kept {
+                self.write_pending(p, out);
+            }
+        }
+    }
+
+    /// One pending call, command or question, as a key holds it.
+    fn write_pending(&self, p: &Pending, out: &mut Vec<u8>) {
+        out.extend_from_slice(&(p.net as u32).to_le_bytes());
+        out.push(u8::from(p.catastrophic));
+        match &p.kind {
+            PendingKind::Call { program, function } => {
+                out.push(0);
+                out.extend_from_slice(&(*program as u32).to_le_bytes());
+                out.extend_from_slice(&(*function as u32).to_le_bytes());
+            }
+            PendingKind::Question { ask } => {
+                out.push(3);
+                out.extend_from_slice(&(*ask as u32).to_le_bytes());
+            }
+            PendingKind::Command { verb } => match self.verb_numbers.get(verb.as_str()) {
+                Some(i) => {
+                    out.push(1);
+                    out.extend_from_slice(&i.to_le_bytes());
+                }
+                None => {
+                    out.push(2);
+                    out.extend_from_slice(&(verb.len() as u32).to_le_bytes());
+                    out.extend_from_slice(verb.as_bytes());
+                }
+            },
         }
     }
 

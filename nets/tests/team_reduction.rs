@@ -1,0 +1,463 @@
+//! The team verifier's reductions (symmetry, partial order) against the
+//! unreduced exploration, on small teams built from the team fixture: same
+//! verdicts, same dead markings up to symmetry, counterexamples that replay
+//! on the unreduced player step by step.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
+
+use nets::verify::project::{self, Options, Report};
+use nets::Project;
+use proptest::prelude::*;
+
+const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/team");
+
+fn read(file: &str) -> String {
+    std::fs::read_to_string(format!("{FIXTURE}/{file}")).expect("fixture file")
+}
+
+/// A variant of the team fixture.
+#[derive(Debug, Clone, Copy)]
+struct Variant {
+    vehicles: usize,
+    /// With the team net WATCH, which names R1 and R2 (it breaks their
+    /// symmetry).
+    watch: bool,
+    /// `enter` takes `@bottleneck_free` (else two robots can be inside).
+    guarded: bool,
+    /// `blocked` gives the bottleneck back and goes `through` (else a stuck
+    /// robot keeps it and waits again, and so do the others, for ever: a
+    /// dead marking).
+    blocked_frees: bool,
+    /// `leave` goes back `outside` (a loop) instead of `through`.
+    looping: bool,
+}
+
+const PLAIN: Variant = Variant {
+    vehicles: 2,
+    watch: false,
+    guarded: true,
+    blocked_frees: true,
+    looping: false,
+};
+
+fn files(v: Variant) -> BTreeMap<String, String> {
+    let mut project = read("project.toml");
+    let team: String = (1..=v.vehicles)
+        .map(|i| format!("[[vehicle]]\nname = \"R{i}\"\nsystem = {i}\n\n"))
+        .collect();
+    // The fixture's two vehicles are replaced by the variant's team.
+    let start = project.find("[[vehicle]]").expect("a vehicle");
+    let end = project.find("[programs").expect("programs");
+    project.replace_range(start..end, &team);
+    if !v.watch {
+        project = project.replace("[[net]]\nfile = \"watch.toml\"\nactive = true\n", "");
+    }
+    let mut moves = read("move.toml");
+    if !v.guarded {
+        moves = moves
+            .replace(
+                "from = [\"waiting\", \"@bottleneck_free\"]",
+                "from = [\"waiting\"]",
+            )
+            .replace(
+                "to = [\"through\", \"@bottleneck_free\"]",
+                "to = [\"through\"]",
+            );
+    }
+    if !v.blocked_frees {
+        moves = moves.replace(
+            "from = [\"inside\"]\nto = [\"through\", \"@bottleneck_free\"]\non = \"stuck\"",
+            "from = [\"inside\"]\nto = [\"waiting\"]\non = \"stuck\"",
+        );
+    }
+    if v.looping {
+        moves = moves.replace(
+            "from = [\"inside\"]\nto = [\"through\", \"@bottleneck_free\"]\non = \"through\"",
+            "from = [\"inside\"]\nto = [\"outside\", \"@bottleneck_free\"]\non = \"through\"",
+        );
+    }
+    let mut out = BTreeMap::from([
+        ("project.toml".to_owned(), project),
+        ("move.toml".to_owned(), moves),
+    ]);
+    if v.watch {
+        out.insert("watch.toml".to_owned(), read("watch.toml"));
+    }
+    out
+}
+
+fn load(v: Variant) -> Arc<Project> {
+    match nets::load(&files(v)) {
+        Ok(p) => Arc::new(p),
+        Err(e) => panic!("{v:?}: {e:?}"),
+    }
+}
+
+fn options(symmetry: bool, partial_order: bool) -> Options<'static> {
+    Options {
+        each_net: false,
+        symmetry,
+        partial_order,
+        ..Options::default()
+    }
+}
+
+fn check(p: &Arc<Project>, symmetry: bool, partial_order: bool) -> Report {
+    project::check(p, &options(symmetry, partial_order)).project
+}
+
+/// The names of the marked places of a marking.
+fn named(p: &Project, marked: &[usize]) -> Vec<String> {
+    marked
+        .iter()
+        .map(|&f| nets::player::flat_place_name(p, f))
+        .collect()
+}
+
+/// A marking's names, the same for every renaming of the vehicles: the
+/// smallest sorted list over every permutation of the team's names.
+fn up_to_symmetry(p: &Project, marked: &[usize]) -> Vec<String> {
+    let names: Vec<String> = p.vehicles.iter().map(|v| v.name.clone()).collect();
+    let plain = named(p, marked);
+    let mut best: Option<Vec<String>> = None;
+    for perm in permutations(names.len()) {
+        let mut renamed: Vec<String> = plain
+            .iter()
+            .map(|s| {
+                names.iter().enumerate().fold(s.clone(), |acc, (i, n)| {
+                    acc.replace(&format!("@{n}."), &format!("@#{}.", perm[i]))
+                })
+            })
+            .collect();
+        renamed.sort();
+        if best.as_ref().is_none_or(|b| renamed < *b) {
+            best = Some(renamed);
+        }
+    }
+    best.unwrap_or_default()
+}
+
+fn permutations(n: usize) -> Vec<Vec<usize>> {
+    if n == 0 {
+        return vec![Vec::new()];
+    }
+    let mut out = Vec::new();
+    for p in permutations(n - 1) {
+        for i in 0..=p.len() {
+            let mut q = p.clone();
+            q.insert(i, n - 1);
+            out.push(q);
+        }
+    }
+    out
+}
+
+/// Compares a reduced check with the unreduced one on variant `v`.
+fn same_as_unreduced(v: Variant, symmetry: bool, partial_order: bool) {
+    let p = load(v);
+    let whole = check(&p, false, false);
+    let reduced = check(&p, symmetry, partial_order);
+    let what = format!("{v:?} symmetry {symmetry} partial order {partial_order}");
+    assert!(whole.complete && reduced.complete, "{what}");
+    assert_eq!(whole.holds(), reduced.holds(), "{what}");
+    assert_eq!(whole.safe, reduced.safe, "{what}");
+    assert_eq!(
+        whole.livelocks.is_empty(),
+        reduced.livelocks.is_empty(),
+        "{what}"
+    );
+    assert_eq!(
+        whole.dead_markings == 0,
+        reduced.dead_markings == 0,
+        "{what}"
+    );
+    assert_eq!(whole.loops.is_empty(), reduced.loops.is_empty(), "{what}");
+    let resources =
+        |r: &Report| -> Vec<String> { r.exclusion.iter().map(|x| x.resource.clone()).collect() };
+    assert_eq!(resources(&whole), resources(&reduced), "{what}");
+    assert!(reduced.states <= whole.states, "{what}");
+    // The same transitions can never fire.
+    let never = |r: &Report| -> Vec<String> {
+        r.warnings
+            .iter()
+            .filter(|w| w.contains("can never fire"))
+            .cloned()
+            .collect()
+    };
+    assert_eq!(never(&whole), never(&reduced), "{what}");
+
+    // Dead markings: the reduced ones are real, and every real one is
+    // found up to symmetry.
+    let all: BTreeSet<Vec<String>> = project::dead_markings(&p, &options(false, false))
+        .iter()
+        .map(|m| up_to_symmetry(&p, m))
+        .collect();
+    let found: BTreeSet<Vec<String>> =
+        project::dead_markings(&p, &options(symmetry, partial_order))
+            .iter()
+            .map(|m| up_to_symmetry(&p, m))
+            .collect();
+    assert_eq!(all, found, "{what}");
+
+    // Counterexamples replay on the unreduced player.
+    if let Some(example) = &reduced.deadlock_example {
+        let ends = project::replay(&p, example).unwrap_or_else(|e| panic!("{what}: {e}"));
+        let dead: BTreeSet<Vec<String>> = project::dead_markings(&p, &options(false, false))
+            .iter()
+            .map(|m| named(&p, m))
+            .collect();
+        assert!(
+            ends.iter().any(|m| dead.contains(&named(&p, m))),
+            "{what}: {example:?} ends in no dead marking"
+        );
+    }
+    if let Some(example) = &reduced.unsafe_example {
+        project::replay(&p, example).unwrap_or_else(|e| panic!("{what}: {e}"));
+    }
+    for x in &reduced.exclusion {
+        let ends = project::replay(&p, &x.example).unwrap_or_else(|e| panic!("{what}: {e}"));
+        let resource = &p.exclusive[0];
+        let holders: Vec<String> = ends
+            .iter()
+            .map(|m| resource.holders(|f| m.contains(&f)))
+            .find(|h| h.len() > 1)
+            .unwrap_or_else(|| panic!("{what}: {:?} ends with one holder", x.example))
+            .iter()
+            .map(|&v| p.vehicles[v].name.clone())
+            .collect();
+        assert_eq!(holders, x.vehicles, "{what}");
+    }
+    for cycle in &reduced.loops {
+        assert!(!cycle.is_empty(), "{what}");
+    }
+}
+
+fn every_reduction(v: Variant) {
+    for (symmetry, partial_order) in [(true, false), (false, true), (true, true)] {
+        same_as_unreduced(v, symmetry, partial_order);
+    }
+}
+
+#[test]
+fn two_and_three_interchangeable_robots_check_alike_reduced_or_not() {
+    for vehicles in [2, 3] {
+        every_reduction(Variant { vehicles, ..PLAIN });
+    }
+}
+
+#[test]
+fn a_team_net_naming_a_robot_checks_alike_reduced_or_not() {
+    for vehicles in [2, 3] {
+        every_reduction(Variant {
+            vehicles,
+            watch: true,
+            ..PLAIN
+        });
+    }
+}
+
+#[test]
+fn a_violated_exclusion_is_found_reduced_and_replays() {
+    for vehicles in [2, 3] {
+        for watch in [false, true] {
+            let v = Variant {
+                vehicles,
+                watch,
+                guarded: false,
+                ..PLAIN
+            };
+            assert!(!check(&load(v), false, false).exclusion.is_empty(), "{v:?}");
+            every_reduction(v);
+        }
+    }
+}
+
+#[test]
+fn a_deadlock_is_found_reduced_and_replays() {
+    for vehicles in [2, 3] {
+        let v = Variant {
+            vehicles,
+            blocked_frees: false,
+            ..PLAIN
+        };
+        assert!(check(&load(v), false, false).dead_markings > 0, "{v:?}");
+        every_reduction(v);
+    }
+}
+
+#[test]
+fn a_loop_is_found_reduced() {
+    for vehicles in [2, 3] {
+        let v = Variant {
+            vehicles,
+            looping: true,
+            ..PLAIN
+        };
+        assert!(!check(&load(v), false, false).loops.is_empty(), "{v:?}");
+        every_reduction(v);
+    }
+}
+
+#[test]
+fn two_interchangeable_robots_are_explored_one_per_orbit() {
+    let p = load(PLAIN);
+    let report = project::check(
+        &p,
+        &Options {
+            each_net: false,
+            partial_order: false,
+            compare_unreduced: true,
+            ..Options::default()
+        },
+    )
+    .project;
+    assert_eq!(report.reduction.symmetry, [["R1", "R2"]]);
+    assert_eq!(report.reduction.group, 2);
+    let whole = report.reduction.unreduced_states.expect("compared");
+    // Only the initial state and states where both robots are alike are
+    // their own image: the rest pair up.
+    assert!(
+        report.states < whole && report.states * 2 > whole,
+        "{report:?}"
+    );
+}
+
+#[test]
+fn a_team_net_naming_a_robot_breaks_its_symmetry() {
+    let p = load(Variant {
+        watch: true,
+        ..PLAIN
+    });
+    let report = check(&p, true, false);
+    assert!(
+        report.reduction.symmetry.is_empty(),
+        "{:?}",
+        report.reduction
+    );
+    assert_eq!(report.reduction.group, 1);
+}
+
+#[test]
+fn three_robots_waiting_for_one_bottleneck_are_not_symmetric_for_the_player() {
+    // The player fires immediate transitions first declared first: when R1
+    // leaves with R2 and R3 waiting, R2 always enters. The model is
+    // symmetric, the player is not: the check explores without symmetry
+    // and says why.
+    let p = load(Variant {
+        vehicles: 3,
+        ..PLAIN
+    });
+    let report = check(&p, true, false);
+    assert!(
+        report.reduction.symmetry.is_empty(),
+        "{:?}",
+        report.reduction
+    );
+    assert!(
+        report
+            .reduction
+            .notes
+            .iter()
+            .any(|n| n.contains("MOVE@R") && n.contains(".enter") && n.contains("declared first")),
+        "{:?}",
+        report.reduction.notes
+    );
+    assert_eq!(report.states, check(&p, false, false).states);
+}
+
+#[test]
+fn the_reductions_say_what_ran() {
+    let p = load(PLAIN);
+    let plain = check(&p, false, false);
+    assert_eq!(plain.reduction.group, 1);
+    assert!(!plain.reduction.partial_order);
+    assert!(!plain.reduction.order_free);
+    let reduced = check(&p, true, true);
+    assert!(reduced.reduction.partial_order);
+    assert!(reduced.reduction.order_free);
+    assert_eq!(reduced.reduction.group, 2);
+}
+
+#[test]
+fn a_project_without_a_team_is_explored_whole() {
+    let files: BTreeMap<String, String> = [
+        (
+            "project.toml".to_owned(),
+            "[events]\ngo = \"nominal\"\n[[net]]\nfile = \"n.toml\"\nactive = true\n".to_owned(),
+        ),
+        (
+            "n.toml".to_owned(),
+            "name = \"N\"\nplaces = [\"a\", \"b\"]\ninitial = [\"a\"]\nfinal = [\"b\"]\n[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"go\"\n".to_owned(),
+        ),
+    ]
+    .into();
+    let p = Arc::new(nets::load(&files).unwrap_or_else(|e| panic!("{e:?}")));
+    let report = check(&p, true, true);
+    assert!(!report.reduction.partial_order);
+    assert_eq!(report.reduction.group, 1);
+    assert!(report.reduction.notes.is_empty());
+}
+
+#[test]
+fn each_net_in_its_project_gets_the_same_verdict_reduced() {
+    for v in [
+        PLAIN,
+        Variant {
+            blocked_frees: false,
+            ..PLAIN
+        },
+        Variant {
+            guarded: false,
+            watch: true,
+            ..PLAIN
+        },
+    ] {
+        let p = load(v);
+        let whole = project::check(
+            &p,
+            &Options {
+                alone: false,
+                symmetry: false,
+                partial_order: false,
+                ..Options::default()
+            },
+        );
+        let reduced = project::check(
+            &p,
+            &Options {
+                alone: false,
+                ..Options::default()
+            },
+        );
+        for ((name, a), (_, b)) in whole.nets.iter().zip(&reduced.nets) {
+            assert_eq!(a.holds(), b.holds(), "{v:?} {name}");
+            assert_eq!(a.safe, b.safe, "{v:?} {name}");
+            assert_eq!(a.dead_markings == 0, b.dead_markings == 0, "{v:?} {name}");
+            if let Some(example) = &b.deadlock_example {
+                project::replay(&p, example).unwrap_or_else(|e| panic!("{v:?} {name}: {e}"));
+            }
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_small_teams_check_alike_reduced_or_not(
+        vehicles in 2usize..=3,
+        watch: bool,
+        guarded: bool,
+        blocked_frees: bool,
+        looping: bool,
+        symmetry: bool,
+        partial_order: bool,
+    ) {
+        same_as_unreduced(
+            Variant { vehicles, watch, guarded, blocked_frees, looping },
+            symmetry,
+            partial_order,
+        );
+    }
+}
