@@ -31,6 +31,9 @@ struct Variant {
     blocked_frees: bool,
     /// `leave` goes back `outside` (a loop) instead of `through`.
     looping: bool,
+    /// A robot inside can lose its engine (catastrophic): it goes `down`
+    /// and is locked out, keeping the bottleneck (the others wait for ever).
+    failing: bool,
 }
 
 const PLAIN: Variant = Variant {
@@ -39,6 +42,7 @@ const PLAIN: Variant = Variant {
     guarded: true,
     blocked_frees: true,
     looping: false,
+    failing: false,
 };
 
 fn files(v: Variant) -> BTreeMap<String, String> {
@@ -75,6 +79,15 @@ fn files(v: Variant) -> BTreeMap<String, String> {
         moves = moves.replace(
             "from = [\"inside\"]\nto = [\"through\", \"@bottleneck_free\"]\non = \"through\"",
             "from = [\"inside\"]\nto = [\"outside\", \"@bottleneck_free\"]\non = \"through\"",
+        );
+    }
+    if v.failing {
+        moves = moves.replace(
+            "places = [\"outside\", \"waiting\", \"inside\", \"through\"]",
+            "places = [\"outside\", \"waiting\", \"inside\", \"through\", \"down\"]",
+        );
+        moves.push_str(
+            "\n[[transition]]\nname = \"engine_out\"\nfrom = [\"inside\"]\nto = [\"down\"]\non = \"engine_failure\"\n",
         );
     }
     let mut out = BTreeMap::from([
@@ -243,6 +256,22 @@ fn every_reduction(v: Variant) {
 fn two_and_three_interchangeable_robots_check_alike_reduced_or_not() {
     for vehicles in [2, 3] {
         every_reduction(Variant { vehicles, ..PLAIN });
+    }
+}
+
+#[test]
+fn a_robot_locked_out_by_its_engine_failure_checks_alike_reduced_or_not() {
+    // The lockout is per vehicle: the keys carry who is locked out, renamed
+    // by the symmetry; the failing robot keeps the bottleneck.
+    for vehicles in [2, 3] {
+        let v = Variant {
+            vehicles,
+            failing: true,
+            ..PLAIN
+        };
+        let unreduced = check(&load(v), false, false);
+        assert!(unreduced.dead_markings > 0, "{unreduced:?}");
+        every_reduction(v);
     }
 }
 
@@ -451,11 +480,12 @@ proptest! {
         guarded: bool,
         blocked_frees: bool,
         looping: bool,
+        failing: bool,
         symmetry: bool,
         partial_order: bool,
     ) {
         same_as_unreduced(
-            Variant { vehicles, watch, guarded, blocked_frees, looping },
+            Variant { vehicles, watch, guarded, blocked_frees, looping, failing },
             symmetry,
             partial_order,
         );

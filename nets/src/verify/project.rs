@@ -1003,6 +1003,7 @@ impl Explorer {
         // class of their own).
         let ample = self.stubborn.as_ref().and_then(|stubborn| {
             let catastrophic = abs.state.lockout
+                || !abs.state.locked.is_empty()
                 || abs.state.timers.iter().any(|t| t.catastrophic)
                 || abs.state.pending.values().any(|p| p.catastrophic);
             if catastrophic {

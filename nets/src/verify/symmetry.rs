@@ -217,8 +217,23 @@ impl Symmetry {
             out[start + perm.nets[n]] = a;
         }
         let mut at = marking_bytes + self.nets;
-        out.push(key[at]); // the lockout
+        let lockout = key[at];
+        out.push(lockout); // the team's lockout, and whether vehicles follow
         at += 1;
+        if lockout & 2 != 0 {
+            // The vehicles locked out one by one: renamed, ascending again.
+            let count = u32_at(key, at) as usize;
+            out.extend_from_slice(&key[at..at + 4]);
+            at += 4;
+            let mut locked: smallvec::SmallVec<[u32; 8]> = (0..count)
+                .map(|i| perm.vehicles[u32_at(key, at + 4 * i) as usize] as u32)
+                .collect();
+            locked.sort_unstable();
+            for v in locked {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+            at += 4 * count;
+        }
         // Timers: the net renamed, then back in net and timer order with
         // the groups renumbered by first appearance (as the codec writes).
         let count = u32_at(key, at) as usize;
