@@ -289,6 +289,9 @@ fn a_motor_failure_stops_the_team() {
     let lockout: Vec<&Value> = lines.iter().filter(|l| l["effect"] == "lockout").collect();
     assert_eq!(lockout.len(), 1);
     assert_eq!(lockout[0]["event"], "engine_failure@R1");
+    // The lockout is R1's alone (docs/nets.md, "The catastrophic lockout
+    // in a team").
+    assert_eq!(lockout[0]["vehicle"], "R1");
     // Both robots told to hold: R1 by its SAFETY, R2 by the team net.
     let holds: Vec<(&str, &str)> = lines
         .iter()
@@ -305,14 +308,14 @@ fn a_motor_failure_stops_the_team() {
     for net in ["ROUTE@R1", "ROUTE@R2", "CORRIDOR@R1", "CORRIDOR@R2"] {
         assert!(m[net].is_empty(), "{net}: {:?}", m[net]);
     }
-    // The team-wide lockout: R2's events are dropped.
-    assert!(lines.iter().any(|l| l["effect"] == "dropped"
-        && l["event"] == "arrived@R2"
-        && l["reason"] == "lockout"));
-    assert_eq!(
-        lines.last().map(|l| &l["lockout"]),
-        Some(&Value::Bool(true))
-    );
+    // R2 is not locked out: its events are heard (its nets are ended, so
+    // nothing fires on them), none dropped for a lockout.
+    assert!(!lines
+        .iter()
+        .any(|l| l["effect"] == "dropped" && l["reason"] == "lockout"));
+    let end = lines.last().expect("the closing line");
+    assert_eq!(end["lockout"], Value::Bool(false));
+    assert_eq!(end["locked"], serde_json::json!(["R1"]));
 }
 
 /// PLN (pln.py) against a stand-in for the gateway's program server: the

@@ -129,8 +129,7 @@ pub fn run(args: Args) -> VerbResult {
             return Err(miette::miette!("{}:{e}", args.events.display()));
         }
     }
-    out.end(player.state().now, &player.digest(), player.locked_out())
-        .map_err(io)?;
+    out.end(player.state().now, &player).map_err(io)?;
     out.out.flush().map_err(io)?;
     Ok(Outcome::Success)
 }

@@ -95,19 +95,22 @@ impl<W: Write> Timeline<W> {
         Ok(())
     }
 
-    /// The closing line: the final digest.
-    pub fn end(
-        &mut self,
-        time: Micros,
-        digest: &nets::player::Digest,
-        lockout: bool,
-    ) -> std::io::Result<()> {
+    /// The closing line: the final digest and the lockout (the team's, and
+    /// in a team the vehicles locked out one by one).
+    pub fn end(&mut self, time: Micros, player: &nets::Player) -> std::io::Result<()> {
+        let digest = player.digest();
         if self.json {
-            writeln!(
-                self.out,
-                "{}",
-                json!({"t": self.t(time), "time_us": time, "end": true, "digest": digest.to_string(), "lockout": lockout})
-            )
+            let mut line = json!({"t": self.t(time), "time_us": time, "end": true, "digest": digest.to_string(), "lockout": player.locked_out()});
+            let locked: Vec<&str> = player
+                .state()
+                .locked
+                .iter()
+                .filter_map(|&v| player.project().vehicles.get(v).map(|v| v.name.as_str()))
+                .collect();
+            if !locked.is_empty() {
+                line["locked"] = json!(locked);
+            }
+            writeln!(self.out, "{line}")
         } else {
             let t = self.t(time);
             writeln!(self.out, "{t:>10.3}  end    digest {digest}")
