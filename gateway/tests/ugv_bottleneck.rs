@@ -3,11 +3,9 @@
 //! the gateway from project.toml's `run`) and the real `petrel run`,
 //! asserting on the simulated positions, not only on the marking.
 //!
-//! IGNORED: these wait for the gateway to run a team (`petrel run` refuses
-//! a project with `[[vehicle]]` today: per-vehicle links, events tagged
-//! `@vehicle`, commands routed by system id and `"vehicle"` in program
-//! calls come with that work). The lead wires them then: `cargo test -p
-//! gateway --test ugv_bottleneck -- --ignored`. They need python3.
+//! One `petrel run` supervises both rovers (a team project: events tagged
+//! `@R1`/`@R2`, commands routed by system id, `"vehicle"` in PLN's calls).
+//! They need python3 (PLN), which every machine running the tests has.
 
 #[path = "scenarios/flight.rs"]
 mod flight;
@@ -145,7 +143,6 @@ fn state(all: &[(u8, SimState)], sys: u8) -> &SimState {
 }
 
 #[test]
-#[ignore = "waits for team `petrel run` (the gateway's half of issue 16)"]
 fn both_rovers_cross_in_turn_and_reach_their_goals() {
     let mut team = Team::start("ugv-nominal", &[]);
     let done = team.run_until(Duration::from_secs(60), |all| {
@@ -166,38 +163,60 @@ fn both_rovers_cross_in_turn_and_reach_their_goals() {
 }
 
 #[test]
-#[ignore = "waits for team `petrel run` (the gateway's half of issue 16)"]
 fn a_rover_stuck_in_the_bottleneck_makes_the_other_go_round() {
-    // R1 enters the bottleneck about 20 s in (sim) and stays stuck there.
+    // The first rover into the bottleneck (whichever reaches its gate
+    // first) stays stuck there.
     let mut team = Team::start("ugv-stuck", &[]);
-    let entered = team.run_until(Duration::from_secs(30), |all| in_bottleneck(state(all, 1)));
-    assert!(entered, "R1 never entered");
-    assert!(team.fleet.inject(1, Fault::Stuck));
-    let r1_at = at(state(&team.fleet.states(), 1));
-    // R2 waits at its gate, then PLN sends it round by the east ring.
+    let entered = team.run_until(Duration::from_secs(30), |all| {
+        in_bottleneck(state(all, 1)) || in_bottleneck(state(all, 2))
+    });
+    assert!(entered, "no rover entered the bottleneck");
+    let all = team.fleet.states();
+    let stuck: u8 = if in_bottleneck(state(&all, 1)) { 1 } else { 2 };
+    let other: u8 = 3 - stuck;
+    assert!(team.fleet.inject(stuck, Fault::Stuck));
+    let stuck_at = at(state(&team.fleet.states(), stuck));
+    // The other waits at its gate, then PLN sends it round by its ring (R1
+    // west, east = -30; R2 east, east = 30: pln.py's DETOURS) to its goal.
+    let (goal, ring_side) = if other == 2 {
+        ((5.0, 20.0), 1.0)
+    } else {
+        ((55.0, -20.0), -1.0)
+    };
     let done = team.run_until(Duration::from_secs(60), |all| {
-        near(state(all, 2), 5.0, 20.0) && state(all, 2).mode == "HOLD"
+        near(state(all, other), goal.0, goal.1) && state(all, other).mode == "HOLD"
     });
     let seen = std::mem::take(&mut team.seen);
     let (out, err) = team.stop();
-    assert!(done, "R2 did not finish\n{out}\n{err}");
+    assert!(done, "R{other} did not finish\n{out}\n{err}");
     assert!(
-        seen.iter().any(|all| near(state(all, 2), 45.0, 30.0)),
-        "R2 did not take the east ring"
+        // Snapshots are too sparse to catch the ring's corner itself.
+        seen.iter()
+            .any(|all| at(state(all, other)).1 * ring_side > 25.0),
+        "R{other} did not take its ring"
     );
+    // The other never entered the bottleneck after the stuck one did.
+    let first_inside = seen
+        .iter()
+        .position(|all| in_bottleneck(state(all, stuck)))
+        .expect("the stuck rover inside");
     assert!(
-        !seen.iter().any(|all| in_bottleneck(state(all, 2))),
-        "R2 entered the bottleneck"
+        !seen[first_inside..]
+            .iter()
+            .any(|all| in_bottleneck(state(all, other))),
+        "R{other} entered the bottleneck"
     );
-    // R1 never moved again.
+    // The stuck rover never moved again.
     let last = seen.last().expect("snapshots");
-    let (n, e) = at(state(last, 1));
-    assert!((n - r1_at.0).hypot(e - r1_at.1) < 0.5);
-    assert!(out.contains("SYNC") && out.contains("r1_detour"), "{out}");
+    let (n, e) = at(state(last, stuck));
+    assert!((n - stuck_at.0).hypot(e - stuck_at.1) < 0.5);
+    assert!(
+        out.contains("SYNC") && out.contains(&format!("r{stuck}_detour")),
+        "{out}"
+    );
 }
 
 #[test]
-#[ignore = "waits for team `petrel run` (the gateway's half of issue 16)"]
 fn a_motor_failure_is_catastrophic_and_the_team_holds() {
     let mut team = Team::start("ugv-motor", &[(1, "engine_failure@12s")]);
     let held = team.run_until(Duration::from_secs(30), |all| {

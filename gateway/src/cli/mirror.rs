@@ -660,7 +660,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         }
     }
     if let Some((player, provisional)) = replica.shown() {
-        let _ = out.end(player.state().now, &player);
+        let _ = out.end(player.state().now, player);
         if provisional {
             say!("the replica ends provisional: records were missing at the end");
         }

@@ -150,7 +150,7 @@ pub fn run(args: Args) -> VerbResult {
         say!("\r100.0% {} frames", records.len());
     }
     let player = sup.player();
-    out.end(last, &player).map_err(io)?;
+    out.end(last, player).map_err(io)?;
     out.out.flush().map_err(io)?;
     say!(
         "replayed {} frames ({} bad) in {:.3} s; {events} events; {} commands and calls left unanswered",

@@ -303,7 +303,7 @@ pub fn run(args: Args) -> VerbResult {
         }
     }
     let player = sup.player();
-    out.end(last, &player).map_err(io)?;
+    out.end(last, player).map_err(io)?;
     if let (Some(d), true) = (&difference, args.json) {
         writeln!(
             out.out,

@@ -526,7 +526,7 @@ impl Gateway {
             supervisor.bad_frames,
             player.state().pending.len()
         );
-        let _ = out.end(player.state().now, &player);
+        let _ = out.end(player.state().now, player);
         let _ = out.out.flush();
         Ok(if refused {
             Outcome::Failed
