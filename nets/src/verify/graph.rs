@@ -323,73 +323,130 @@ const SWEEP_BUDGET: usize = 8;
 /// root's component is large.
 ///
 /// The root's component is then exactly the set of nodes from which the
-/// root can be reached: it is found first by sweeps over the nodes (a node
-/// joins when one of its successors has joined; sweeps alternate between
-/// increasing and decreasing numbers, on a bitset that stays in cache,
-/// until one changes nothing), then the others' components by Pearce's
-/// algorithm restricted to them (no edge leaves them for the root's
-/// component). If the sweeps have not settled within their budget
-/// ([`SWEEP_BUDGET`] passes over the whole graph, counted in nodes), Pearce's
-/// algorithm runs on the whole graph. Components are numbered in reverse
-/// topological order, as by [`strongly_connected_components`], but the
-/// numbers may differ.
+/// root can be reached: it is found first by sweeps over the nodes (see
+/// [`reaching`]), then the others' components by Pearce's algorithm
+/// restricted to them (no edge leaves them for the root's component). When
+/// the root's component is small (a net that leaves its initial marking for
+/// good), the last node's component is found the same way if it is
+/// terminal — the nodes it reaches, all of which reach it back — and
+/// Pearce's algorithm runs on the nodes left. If the sweeps have not
+/// settled within their budget ([`SWEEP_BUDGET`]), Pearce's algorithm runs
+/// on the whole graph. Components are numbered in reverse topological
+/// order, as by [`strongly_connected_components`], but the numbers may
+/// differ.
 pub fn strongly_connected_components_from(g: &impl Adjacency, root: u32) -> Sccs {
     let n = g.nodes();
     if n == 0 || root as usize >= n {
-        return pearce(g, None);
+        return pearce(g, None, None);
     }
-    let words = n.div_ceil(64);
-    let mut reach = vec![0u64; words];
-    let bit = |r: &[u64], v: u32| (r[(v >> 6) as usize] >> (v & 63)) & 1 == 1;
-    reach[(root >> 6) as usize] |= 1 << (root & 63);
-    // nodes not known to reach the root, in increasing order
-    let mut rest: Vec<u32> = Vec::new();
-    let mut settled = false;
-    // nodes looked at so far, against the budget
+    let mut reach = vec![0u64; n.div_ceil(64)];
+    set_bit(&mut reach, root);
+    let Some(rest) = reaching(g, &mut reach, (0..n as u32).collect(), n) else {
+        return pearce(g, None, None);
+    };
+    // A root alone (or nearly: a few transient markings before the net
+    // settles into its cycles) leaves Pearce's search the whole graph. The
+    // last node (of the deepest level) is then likely in a terminal
+    // component, found the same way: the nodes it reaches, all of which
+    // reach it back.
+    let terminal = if rest.len() > n / 2 {
+        rest.last()
+            .and_then(|&last| terminal_component(g, last, n).map(|set| (last, set)))
+    } else {
+        None
+    };
+    drop(rest);
+    pearce(
+        g,
+        Some((root, &reach)),
+        terminal.as_ref().map(|(r, set)| (*r, set.as_slice())),
+    )
+}
+
+fn bit(set: &[u64], v: u32) -> bool {
+    (set[(v >> 6) as usize] >> (v & 63)) & 1 == 1
+}
+
+fn set_bit(set: &mut [u64], v: u32) {
+    set[(v >> 6) as usize] |= 1 << (v & 63);
+}
+
+/// Sweeps `candidates` (in increasing order) until every one that reaches
+/// a node of `reach` has joined it: the candidates that do not reach it,
+/// or `None` when the sweeps did not settle within their budget
+/// ([`SWEEP_BUDGET`] times `n` nodes looked at). A candidate joins when one
+/// of its successors has joined; the sweeps alternate between decreasing
+/// and increasing order, on a bitset that stays in cache.
+fn reaching(
+    g: &impl Adjacency,
+    reach: &mut [u64],
+    mut rest: Vec<u32>,
+    n: usize,
+) -> Option<Vec<u32>> {
+    rest.retain(|&v| !bit(reach, v));
     let mut work = 0usize;
-    for sweep in 0.. {
+    for sweep in 0usize.. {
         if work > SWEEP_BUDGET * n {
-            break;
+            return None;
         }
-        work += if sweep == 0 { n } else { rest.len() };
+        work += rest.len();
         let mut changed = false;
         let mut join = |v: u32, reach: &mut [u64]| {
-            if g.targets(v).iter().any(|&w| bit(reach, w)) {
-                reach[(v >> 6) as usize] |= 1 << (v & 63);
+            if !bit(reach, v) && g.targets(v).iter().any(|&w| bit(reach, w)) {
+                set_bit(reach, v);
                 changed = true;
-                true
-            } else {
-                false
             }
         };
-        if sweep == 0 {
-            for v in 0..n as u32 {
-                if !bit(&reach, v) && !join(v, &mut reach) {
-                    rest.push(v);
-                }
-            }
-        } else if sweep % 2 == 1 {
+        if sweep % 2 == 1 {
             for &v in rest.iter().rev() {
-                join(v, &mut reach);
+                join(v, reach);
             }
         } else {
             for &v in rest.iter() {
-                join(v, &mut reach);
+                join(v, reach);
             }
         }
         if changed {
-            rest.retain(|&v| !bit(&reach, v));
+            rest.retain(|&v| !bit(reach, v));
         }
         if !changed || rest.is_empty() {
-            settled = true;
-            break;
+            return Some(rest);
         }
     }
-    if !settled {
-        return pearce(g, None);
+    None
+}
+
+/// The component of `node` as a bitset, if it is terminal (no edge leaves
+/// it): every node `node` reaches reaches it back. `None` when it is not,
+/// or when the sweeps did not settle.
+fn terminal_component(g: &impl Adjacency, node: u32, n: usize) -> Option<Vec<u64>> {
+    let mut seen = vec![0u64; n.div_ceil(64)];
+    set_bit(&mut seen, node);
+    let mut queue = vec![node];
+    let mut head = 0;
+    while let Some(&v) = queue.get(head) {
+        head += 1;
+        for &w in g.targets(v) {
+            if !bit(&seen, w) {
+                set_bit(&mut seen, w);
+                queue.push(w);
+            }
+        }
     }
-    drop(rest);
-    pearce(g, Some((root, &reach)))
+    drop(queue);
+    // the nodes it reaches, in increasing order
+    let mut reached = Vec::new();
+    for (w, &bits) in seen.iter().enumerate() {
+        let mut b = bits;
+        while b != 0 {
+            reached.push((w * 64) as u32 + b.trailing_zeros());
+            b &= b - 1;
+        }
+    }
+    let mut back = vec![0u64; n.div_ceil(64)];
+    set_bit(&mut back, node);
+    let rest = reaching(g, &mut back, reached, n)?;
+    rest.is_empty().then_some(back)
 }
 
 /// Strongly connected components by Pearce's space-efficient variant of
@@ -397,8 +454,13 @@ pub fn strongly_connected_components_from(g: &impl Adjacency, root: u32) -> Sccs
 /// connected components", 2016), iterative: one 32-bit number and one bit
 /// per node, plus the depth of the search. With `settled = (root, set)`,
 /// `set` (a bitset) is the root's component, and no node outside it
-/// reaches it.
-fn pearce(g: &impl Adjacency, settled: Option<(u32, &[u64])>) -> Sccs {
+/// reaches it (numbered last); with `terminal = (node, set)`, `set` is
+/// `node`'s component and no edge leaves it (numbered first).
+fn pearce(
+    g: &impl Adjacency,
+    settled: Option<(u32, &[u64])>,
+    terminal: Option<(u32, &[u64])>,
+) -> Sccs {
     let n = g.nodes();
     let top = n as u32;
     // 0: not visited; below `index`: being visited (Tarjan's low link);
@@ -425,6 +487,22 @@ fn pearce(g: &impl Adjacency, settled: Option<(u32, &[u64])>) -> Sccs {
     }
     let base = if last.is_some() { top - 1 } else { top };
     let mut c = base;
+    // a terminal component, numbered first: no edge leaves it
+    if let Some((r, set)) = terminal {
+        let mut size = 0u32;
+        for (w, &bits) in set.iter().enumerate() {
+            let mut b = bits;
+            while b != 0 {
+                let v = w * 64 + b.trailing_zeros() as usize;
+                b &= b - 1;
+                rindex[v] = c;
+                size += 1;
+            }
+        }
+        c -= 1;
+        sizes.push(size);
+        cyclic.push(size > 1 || g.targets(r).contains(&r));
+    }
     let mut index = 1u32;
     let mut stack: Vec<u32> = Vec::new();
     // frames: node, its successors still to look at, whether it has an
@@ -682,7 +760,7 @@ mod tests {
         ] {
             let g = random_graph(n, extra, seed);
             let tarjan = strongly_connected_components(&g);
-            same_components(&g, &tarjan, &pearce(&g, None));
+            same_components(&g, &tarjan, &pearce(&g, None, None));
             same_components(&g, &tarjan, &strongly_connected_components_from(&g, 0));
         }
         // a ring walked against the sweeps: 0 -> 1 -> ... -> n-1 -> 0 in
@@ -705,6 +783,44 @@ mod tests {
         let from = strongly_connected_components_from(&g, order[0]);
         same_components(&g, &tarjan, &from);
         assert_eq!(from.sizes, vec![n]);
+    }
+
+    #[test]
+    fn a_terminal_component_after_transient_nodes() {
+        // 0 -> 1 -> 2 -> 3 (transient), then a ring 3..n with chords, all
+        // numbered after them: the root's component is the root alone and
+        // the last node's (terminal) holds the rest; then the same with an
+        // exit from the ring to a last node with no successor (the ring is
+        // no longer terminal, the sink is).
+        for exit in [false, true] {
+            let n = 400u32;
+            let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n as usize];
+            for v in 0..3 {
+                lists[v as usize].push(v + 1);
+            }
+            let ring_end = if exit { n - 1 } else { n };
+            for v in 3..ring_end {
+                let next = if v + 1 == ring_end { 3 } else { v + 1 };
+                lists[v as usize].push(next);
+                if v % 7 == 0 {
+                    lists[v as usize].push(3 + (v * 13) % (ring_end - 3));
+                }
+            }
+            if exit {
+                lists[200].push(n - 1);
+            }
+            let mut g = Csr::default();
+            for l in lists {
+                g.push_node(l.into_iter().map(|t| ((), t)));
+            }
+            let tarjan = strongly_connected_components(&g);
+            let from = strongly_connected_components_from(&g, 0);
+            same_components(&g, &tarjan, &from);
+            let ring = from.component[10] as usize;
+            assert_eq!(from.sizes[ring], ring_end - 3);
+            assert!(from.cyclic[ring]);
+            assert_eq!(from.count(), 4 + usize::from(exit));
+        }
     }
 
     #[test]
