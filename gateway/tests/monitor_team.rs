@@ -48,7 +48,9 @@ fn each_rover_its_group_and_marker_and_a_motor_failure_locks_out_its_rover_only(
     let shots = shots.to_string_lossy().to_string();
     let signals = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let address = format!("127.0.0.1:{}", flight::free_port());
-    let mut team = Team::start("monitor-team", &[], &["--http", &address]);
+    // At 4× (not the ugv tests' 10×) the rovers drive for half a minute:
+    // a browser starting on a loaded machine still sees them move.
+    let mut team = Team::start_at("monitor-team", &[], &["--http", &address], 4.0);
     let url = format!("http://{address}/");
     let signals_s = signals.path().to_string_lossy().to_string();
     let (seen, failed) = std::thread::scope(|s| {

@@ -216,7 +216,7 @@ async function team(page, seen) {
     document.querySelectorAll("#nets .group").length > 0, null, { timeout: 30000 });
   seen.groups = await page.$$eval("#nets > .group", (els) => els.map((g) => ({
     id: g.id, vehicle: g.dataset.vehicle || null,
-    nets: [...g.querySelectorAll(".net")].map((n) => n.dataset.net),
+    nets: [...g.querySelectorAll("div.net")].map((n) => n.dataset.net),
     head: g.querySelector(".group-head").textContent,
   })));
   seen.strip_hidden = await page.$eval("#strip", (e) => e.hidden);

@@ -66,6 +66,11 @@ impl Team {
     /// The team with `faults` scheduled (`(system, "engine_failure@12s")`),
     /// `petrel run` given `extra` arguments too.
     pub fn start(name: &str, faults: &[(u8, &str)], extra: &[&str]) -> Team {
+        Team::start_at(name, faults, extra, SPEED)
+    }
+
+    /// The same, `speed` simulated seconds per wall second.
+    pub fn start_at(name: &str, faults: &[(u8, &str)], extra: &[&str], speed: f64) -> Team {
         let mut r1 = rover(1, 0.0, -20.0);
         let mut r2 = rover(2, 60.0, 20.0);
         for (sys, spec) in faults {
@@ -74,7 +79,7 @@ impl Team {
             cfg.faults.entries.extend(parsed.entries);
         }
         let port = free_udp_port();
-        let fleet = Fleet::start(&format!("udpin:127.0.0.1:{port}"), SPEED, vec![r1, r2])
+        let fleet = Fleet::start(&format!("udpin:127.0.0.1:{port}"), speed, vec![r1, r2])
             .expect("the fleet starts");
         let dir = scratch(name);
         let programs = format!("tcp:127.0.0.1:{}", free_port());
@@ -82,7 +87,7 @@ impl Team {
             &project(),
             &fleet.client_address(),
             &programs,
-            SPEED,
+            speed,
             &dir.join("flight.rec"),
             Duration::from_secs(600),
             extra,

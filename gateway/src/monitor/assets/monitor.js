@@ -410,9 +410,10 @@ function map(vs) {
   for (const { v, colour: c, track } of shown) {
     if (track.length > 1) o += '<polyline class="track" data-vehicle="' + esc(v.name || "") + '" fill="none" stroke="' + c + '" stroke-width="2.5" points="' + track.map((p) => X(p) + "," + Y(p)).join(" ") + '"/>';
     if (v.home) o += '<rect x="' + (X(v.home) - 6) + '" y="' + (Y(v.home) - 6) + '" width="12" height="12" fill="' + (team ? c : "#2a2") + '"/><text x="' + (+X(v.home) + 8) + '" y="' + (+Y(v.home) + 4) + '" font-size="11" font-weight="bold">H</text>';
+    // A team's sites are many (a planner's every answer): named on hover.
     for (const p of v.sites || []) {
-      o += '<path d="M ' + X(p) + " " + (Y(p) - 8) + " l 7 12 l -14 0 z\" fill=\"#d00\"><title>" + esc(p[2]) + "</title></path>" +
-        '<text x="' + (+X(p) + 8) + '" y="' + (+Y(p) + 4) + '" font-size="10" fill="#a00">' + esc(p[2]) + "</text>";
+      o += '<path d="M ' + X(p) + " " + (Y(p) - 8) + " l 7 12 l -14 0 z\" fill=\"" + (team ? c : "#d00") + "\"><title>" + esc(p[2]) + "</title></path>" +
+        (team ? "" : '<text x="' + (+X(p) + 8) + '" y="' + (+Y(p) + 4) + '" font-size="10" fill="#a00">' + esc(p[2]) + "</text>");
     }
     for (const p of v.targets || []) o += '<circle cx="' + X(p) + '" cy="' + Y(p) + '" r="7" fill="none" stroke="' + (team ? c : "#c0c") + '" stroke-width="2"><title>' + esc(p[2]) + "</title></circle>";
   }
