@@ -235,4 +235,50 @@ mod tests {
         assert_eq!(history.moment(2_000_000, -1), 1_000_000);
         assert_eq!(history.frame_at(u64::MAX)["time_us"], 40_000_000);
     }
+
+    #[test]
+    fn a_teams_strips_and_tracks_at_any_instant_are_each_vehicles_own() {
+        use super::super::vehicle::tests::{heartbeat, position};
+        let project = super::super::board::tests::team();
+        let mut player = Player::start(project.clone(), 0);
+        let start = Step {
+            seq: 0,
+            time: 0,
+            events: Vec::new(),
+            effects: player.effects().collect(),
+        };
+        let mut builder = Builder::new(project.clone(), &start, &player, 0);
+        let frames = [
+            (1_000_000, heartbeat(1, 15, true)),
+            (1_000_000, heartbeat(2, 4, false)),
+            (2_000_000, position(1, 51.0, -2.0)),
+            (3_000_000, position(2, 52.0, -2.0)),
+            (4_000_000, heartbeat(2, 15, true)),
+            (5_000_000, position(1, 51.001, -2.0)),
+        ];
+        for (i, (time, bytes)) in frames.iter().enumerate() {
+            let input = Input::Frame(bytes);
+            let s = step(&mut player, i as u64 + 1, *time, &input);
+            builder.step(&input, &s, &player);
+        }
+        let history = builder.finish(json!({}));
+        let at = |t: u64| history.frame_at(t)["vehicles"].clone();
+        let v = at(3_500_000);
+        assert_eq!((&v[0]["name"], &v[1]["name"]), (&json!("R1"), &json!("R2")));
+        assert_eq!(v[0]["track"], json!([[51.0, -2.0]]));
+        assert_eq!(v[1]["track"], json!([[52.0, -2.0]]));
+        assert_eq!(
+            (&v[0]["mode"], &v[1]["mode"]),
+            (&json!("GUIDED"), &json!("HOLD"))
+        );
+        let v = at(5_000_000);
+        assert_eq!(v[0]["track"], json!([[51.0, -2.0], [51.001, -2.0]]));
+        assert_eq!(v[1]["mode"], "GUIDED", "R2's strip as changed at 4 s");
+        assert_eq!(v[1]["armed"], true);
+        let v = at(1_500_000);
+        assert_eq!(
+            (&v[0]["track"], &v[0]["position"]),
+            (&json!([]), &Json::Null)
+        );
+    }
 }
