@@ -110,3 +110,99 @@ fn a_motor_failure_is_catastrophic_and_the_team_holds() {
     // The lockout began on R1's motor failure.
     assert!(out.contains("engine_failure@R1"), "{out}");
 }
+
+/// `petrel demo --example ugv-bottleneck`: its exit code, stdout (the live
+/// log and the summary), stderr and its folder (the recording `demo.mcap`);
+/// stopped after `wall` if it has not ended by then.
+fn demo(name: &str, args: &[&str], wall: Duration) -> (Option<i32>, String, String, PathBuf) {
+    let dir = scratch(name);
+    let record = dir.join("demo.mcap");
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .args([
+            "demo",
+            "--example",
+            "ugv-bottleneck",
+            "--no-http",
+            "--record",
+        ])
+        .arg(&record)
+        .args(args)
+        .current_dir(&dir)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("petrel demo starts");
+    let mut running = Running::new(child);
+    let end = Instant::now() + wall;
+    while !running.exited() && Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let (out, err, code) = running.stop();
+    (code, out, err, dir)
+}
+
+#[test]
+fn the_demo_drives_the_blocked_scenario_and_its_recording_replays() {
+    let (code, out, err, dir) = demo(
+        "ugv-demo-blocked",
+        &["--scenario", "blocked", "--speed", "10", "--timeout", "100"],
+        Duration::from_secs(120),
+    );
+    assert_eq!(code, Some(0), "{out}\n{err}");
+    // The first rover in was stuck there; both reached their goals in the
+    // end, never both in the bottleneck (the demo watched the positions).
+    assert!(out.contains("was stuck in the bottleneck"), "{out}");
+    for r in ["R1", "R2"] {
+        assert!(out.contains(&format!("{r}: at its goal")), "{out}");
+    }
+    assert!(out.contains(", 0 with both inside"), "{out}");
+    // SYNC asked PLN to replan, and the other rover was sent round.
+    assert!(out.contains("PLN.replan"), "{out}");
+    assert!(out.contains("PLN.detour"), "{out}");
+    let record = dir.join("demo.mcap");
+    let replay = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("replay")
+        .arg(&record)
+        .arg(project())
+        .arg("--check-against")
+        .output()
+        .expect("petrel replay runs");
+    assert!(
+        replay.status.success(),
+        "{}",
+        String::from_utf8_lossy(&replay.stderr)
+    );
+}
+
+#[test]
+fn the_demo_s_motor_failure_locks_out_that_rover_alone() {
+    let (code, out, err, _) = demo(
+        "ugv-demo-motor",
+        &[
+            "--scenario",
+            "motor-failure",
+            "--speed",
+            "10",
+            "--timeout",
+            "60",
+        ],
+        Duration::from_secs(80),
+    );
+    assert_eq!(code, Some(0), "{out}\n{err}");
+    assert!(out.contains("locked out at the end: R1\n"), "{out}");
+    assert!(out.contains("engine_failure@R1"), "{out}");
+}
+
+#[test]
+fn the_demo_refuses_a_scenario_of_the_other_example() {
+    let (code, out, err, _) = demo(
+        "ugv-demo-payload",
+        &["--scenario", "payload"],
+        Duration::from_secs(20),
+    );
+    assert_eq!(code, Some(2), "{out}\n{err}");
+    assert!(
+        err.contains("ugv-bottleneck has no scenario payload; its scenarios: blocked, nominal, motor-failure"),
+        "{err}"
+    );
+}

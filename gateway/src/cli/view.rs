@@ -20,9 +20,18 @@ use crate::supervisor::Supervisor;
 pub struct Args {
     /// The Petrel recording (.mcap).
     pub file: PathBuf,
-    /// The project folder it flew [default: the example `petrel demo`
-    /// flies, built into the binary].
+    /// The project folder it flew [default: the built-in example
+    /// `--example` names].
     pub project: Option<PathBuf>,
+    /// Without PROJECT: the built-in example the recording flew (`petrel
+    /// demo --example`).
+    #[arg(
+        long,
+        value_enum,
+        default_value = "uav-flight-test",
+        conflicts_with = "project"
+    )]
+    pub example: super::demo::Example,
     /// Elaboration profile [default: the one recorded with the flight].
     #[arg(long)]
     pub profile: Option<String>,
@@ -51,7 +60,7 @@ pub fn run(args: Args) -> VerbResult {
     };
     let (dir, unpacked) = match &args.project {
         Some(d) => (d.clone(), false),
-        None => (super::demo::unpack()?, true),
+        None => (super::demo::unpack(args.example)?, true),
     };
     let opened = Instant::now();
     let history = index(&args, &dir);

@@ -152,6 +152,7 @@ impl Running {
         };
         let _ = Command::new("kill")
             .args(["-TERM", &petrel.id().to_string()])
+            .stderr(std::process::Stdio::null())
             .status();
         let mut stderr = String::new();
         if let Some(mut e) = petrel.stderr.take() {

@@ -310,10 +310,12 @@ impl<L> Adjacency for Csr<L> {
     }
 }
 
-/// Backward sweeps over all nodes before giving up on finding the
-/// component of the root that way (see
-/// [`strongly_connected_components_from`]).
-const MAX_SWEEPS: usize = 6;
+/// The work the sweeps may do before giving up on finding the component
+/// of the root that way (see [`strongly_connected_components_from`]), in
+/// nodes looked at, per node of the graph. A sweep reads its nodes in
+/// order and a bitset that stays in cache; Pearce's search, which follows
+/// the edges, costs several sweeps of the whole graph.
+const SWEEP_BUDGET: usize = 8;
 
 /// Strongly connected components of a graph whose nodes are all reachable
 /// from `root` (a reachability graph from its initial state), as
@@ -326,7 +328,8 @@ const MAX_SWEEPS: usize = 6;
 /// increasing and decreasing numbers, on a bitset that stays in cache,
 /// until one changes nothing), then the others' components by Pearce's
 /// algorithm restricted to them (no edge leaves them for the root's
-/// component). If the sweeps have not settled after a few rounds, Pearce's
+/// component). If the sweeps have not settled within their budget
+/// ([`SWEEP_BUDGET`] passes over the whole graph, counted in nodes), Pearce's
 /// algorithm runs on the whole graph. Components are numbered in reverse
 /// topological order, as by [`strongly_connected_components`], but the
 /// numbers may differ.
@@ -342,7 +345,13 @@ pub fn strongly_connected_components_from(g: &impl Adjacency, root: u32) -> Sccs
     // nodes not known to reach the root, in increasing order
     let mut rest: Vec<u32> = Vec::new();
     let mut settled = false;
-    for sweep in 0..MAX_SWEEPS {
+    // nodes looked at so far, against the budget
+    let mut work = 0usize;
+    for sweep in 0.. {
+        if work > SWEEP_BUDGET * n {
+            break;
+        }
+        work += if sweep == 0 { n } else { rest.len() };
         let mut changed = false;
         let mut join = |v: u32, reach: &mut [u64]| {
             if g.targets(v).iter().any(|&w| bit(reach, w)) {

@@ -17,7 +17,9 @@ pub(super) fn parameters_fit(
             .iter()
             .map(|(name, value)| format!("{name} = {value}"))
             .collect();
-        say!("{vehicle}autopilot parameters checked: {}", read.join(", "));
+        if !read.is_empty() {
+            say!("{vehicle}autopilot parameters checked: {}", read.join(", "));
+        }
         return true;
     }
     let misfits: Vec<String> = verdict.misfits.iter().map(|m| format!("  {m}")).collect();

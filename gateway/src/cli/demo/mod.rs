@@ -1,0 +1,411 @@
+//! `petrel demo`: one of the examples flown end to end on this machine.
+//!
+//! - `uav-flight-test` (the default, [`plane`]): a simulated ArduPlane
+//!   (`sitl-tests`), DEC (`examples/uav-flight-test/dec`) and the onboard
+//!   gateway.
+//! - `ugv-bottleneck` ([`rovers`]): two simulated rovers on one link, PLN
+//!   (the example's Python planner, started by the gateway as the project
+//!   says) and the gateway supervising the team.
+//!
+//! The simulation and the gateway (`petrel run`'s loop) run in one process,
+//! each on its own thread and speaking to the others over loopback sockets
+//! as separate processes would (MAVLink over UDP or TCP, the program
+//! protocol over TCP), so that a ground mirror or a web monitor can join
+//! the same streams later. It prints a readable live log (phases, events,
+//! commands), injects the scenario's failures, records `demo.mcap`, and
+//! ends with a summary.
+
+mod log;
+mod plane;
+mod rovers;
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use serde_json::Value as Json;
+
+use super::{Outcome, VerbResult};
+use log::Log;
+
+mod embedded {
+    include!(concat!(env!("OUT_DIR"), "/examples.rs"));
+}
+
+/// The mission file DEC reads, in the project folder.
+pub const MISSION_FILE: &str = "mission.toml";
+
+/// The examples built into the binary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Example {
+    /// The ProCoSA paper's UAV flight test: an ArduPlane, DEC.
+    #[default]
+    UavFlightTest,
+    /// The paper's UGV lab test: two rovers, one bottleneck, PLN.
+    UgvBottleneck,
+}
+
+impl Example {
+    /// Its folder's name under examples/.
+    pub fn folder(self) -> &'static str {
+        match self {
+            Example::UavFlightTest => "uav-flight-test",
+            Example::UgvBottleneck => "ugv-bottleneck",
+        }
+    }
+
+    fn files(self) -> &'static [(&'static str, &'static str)] {
+        match self {
+            Example::UavFlightTest => embedded::FLIGHT_TEST,
+            Example::UgvBottleneck => embedded::UGV_BOTTLENECK,
+        }
+    }
+
+    /// The scenario flown when none is named.
+    fn default_scenario(self) -> Scenario {
+        match self {
+            Example::UavFlightTest => Scenario::PayloadThenEngine,
+            Example::UgvBottleneck => Scenario::Blocked,
+        }
+    }
+
+    /// The scenarios it has.
+    fn scenarios(self) -> &'static [Scenario] {
+        match self {
+            Example::UavFlightTest => &[
+                Scenario::PayloadThenEngine,
+                Scenario::Nominal,
+                Scenario::Payload,
+                Scenario::Engine,
+                Scenario::Link,
+                Scenario::Battery,
+                Scenario::Cumulative,
+            ],
+            Example::UgvBottleneck => {
+                &[Scenario::Blocked, Scenario::Nominal, Scenario::MotorFailure]
+            }
+        }
+    }
+
+    /// The speed-up when none is given: the plane's flight is watched in
+    /// real time (two minutes); the rovers' crossing takes over five
+    /// minutes of driving at 2 m/s, watched five times faster.
+    fn default_speed(self) -> f64 {
+        match self {
+            Example::UavFlightTest => 1.0,
+            Example::UgvBottleneck => 5.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Scenario {
+    /// (uav) A payload failure at the second operations-area waypoint,
+    /// then an engine failure on the way on: DEC replans, then picks a site.
+    PayloadThenEngine,
+    /// Nothing goes wrong.
+    Nominal,
+    /// (uav) The camera fails: DEC replans without its waypoints.
+    Payload,
+    /// (uav) The engine fails in transit: glide to the nearest emergency
+    /// site.
+    Engine,
+    /// (uav) The radio link is lost for 10 s: the mission goes on.
+    Link,
+    /// (uav) The battery runs low: the vehicle returns.
+    Battery,
+    /// (uav) A payload failure, a link loss, then a low battery.
+    Cumulative,
+    /// (ugv) The first rover into the bottleneck is stuck there for 80 s:
+    /// the other waits at its gate, PLN sends it round.
+    Blocked,
+    /// (ugv) R1's motor fails on its way: R1 is locked out, the team stops.
+    MotorFailure,
+}
+
+impl Scenario {
+    /// The plane's fault schedule (sitl-tests `--fault` syntax).
+    pub fn faults(self) -> &'static [&'static str] {
+        match self {
+            Scenario::PayloadThenEngine => &["payload_failure=critical@38s", "engine_failure@50s"],
+            Scenario::Payload => &["payload_failure@wp3"],
+            Scenario::Engine => &["engine_failure@wp2"],
+            Scenario::Link => &["link_loss@wp3:10s"],
+            Scenario::Battery => &["battery=22@wp4"],
+            Scenario::Cumulative => &["payload_failure@wp3", "link_loss@wp5:10s", "battery=22@wp6"],
+            Scenario::Nominal | Scenario::Blocked | Scenario::MotorFailure => &[],
+        }
+    }
+
+    fn name(self) -> String {
+        use clap::ValueEnum as _;
+        self.to_possible_value()
+            .map_or_else(|| format!("{self:?}"), |v| v.get_name().to_owned())
+    }
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// A project folder [default: the example's, built into the binary].
+    pub project: Option<PathBuf>,
+    /// Which example to fly: its simulated vehicles, its programs and its
+    /// scenarios.
+    #[arg(long, value_enum, default_value = "uav-flight-test")]
+    pub example: Example,
+    /// What goes wrong [default: payload-then-engine for uav-flight-test,
+    /// blocked for ugv-bottleneck].
+    #[arg(long, value_enum)]
+    pub scenario: Option<Scenario>,
+    /// Run the simulation (and the gateway's clock with it) this many times
+    /// faster than real time [default: 1 for uav-flight-test, 5 for
+    /// ugv-bottleneck].
+    #[arg(long)]
+    pub speed: Option<f64>,
+    /// Where to record the flight.
+    #[arg(long, default_value = "demo.mcap")]
+    pub record: PathBuf,
+    /// Give up after this many seconds of wall-clock time.
+    #[arg(long, default_value_t = 170.0)]
+    pub timeout: f64,
+    /// Print the gateway's timeline as JSON lines instead of the live log.
+    #[arg(long)]
+    pub json: bool,
+    /// Explore the example before flying even if the same nets, profile and
+    /// Petrel held before.
+    #[arg(long)]
+    pub recheck: bool,
+    /// Serve the web monitor on ADDR:PORT (or 127.0.0.1:PORT given a port)
+    /// [default: 127.0.0.1:8080, else a free port on 127.0.0.1].
+    #[arg(long, value_name = "ADDR:PORT", conflicts_with = "no_http")]
+    pub http: Option<String>,
+    /// Do not serve the web monitor.
+    #[arg(long)]
+    pub no_http: bool,
+}
+
+/// What `run` settled from the arguments.
+struct Flight<'a> {
+    args: &'a Args,
+    dir: &'a Path,
+    scenario: Scenario,
+    speed: f64,
+}
+
+/// Where `demo` serves the monitor unless told: 127.0.0.1:8080, or any
+/// free port on loopback when 8080 is taken.
+fn default_http() -> String {
+    match std::net::TcpListener::bind("127.0.0.1:8080") {
+        Ok(_) => "127.0.0.1:8080".into(),
+        Err(_) => "127.0.0.1:0".into(),
+    }
+}
+
+/// A free TCP port on 127.0.0.1 (bound, then released).
+fn free_port() -> Result<u16, miette::Report> {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .map_err(|e| miette::miette!("cannot find a free port on 127.0.0.1: {e}"))
+}
+
+/// Writes a built-in example into a fresh folder.
+pub(crate) fn unpack(example: Example) -> Result<PathBuf, miette::Report> {
+    let dir = std::env::temp_dir().join(format!(
+        "petrel-demo-{}-{}",
+        example.folder(),
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&dir)
+        .map_err(|e| miette::miette!("cannot create {}: {e}", dir.display()))?;
+    for (name, text) in example.files() {
+        std::fs::write(dir.join(name), text)
+            .map_err(|e| miette::miette!("cannot write {}: {e}", dir.join(name).display()))?;
+    }
+    Ok(dir)
+}
+
+/// Lines written by the gateway, handed over one by one.
+struct Lines(std::sync::mpsc::Sender<String>, Vec<u8>);
+
+impl Write for Lines {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.1.extend_from_slice(buf);
+        while let Some(end) = self.1.iter().position(|&b| b == b'\n') {
+            let line: Vec<u8> = self.1.drain(..=end).collect();
+            let _ = self
+                .0
+                .send(String::from_utf8_lossy(&line).trim_end().to_owned());
+        }
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+pub fn run(args: Args) -> VerbResult {
+    let speed = args.speed.unwrap_or(args.example.default_speed());
+    if !(speed.is_finite() && speed > 0.0) {
+        return Err(miette::miette!(
+            "--speed must be a positive number, not {speed}"
+        ));
+    }
+    let scenario = args.scenario.unwrap_or(args.example.default_scenario());
+    if !args.example.scenarios().contains(&scenario) {
+        let names: Vec<String> = args.example.scenarios().iter().map(|s| s.name()).collect();
+        say!(
+            "petrel demo: {} has no scenario {}; its scenarios: {}",
+            args.example.folder(),
+            scenario.name(),
+            names.join(", ")
+        );
+        return Ok(Outcome::BadInput);
+    }
+    let (dir, unpacked) = match &args.project {
+        Some(dir) => (dir.clone(), false),
+        None => (unpack(args.example)?, true),
+    };
+    let flight = Flight {
+        args: &args,
+        dir: &dir,
+        scenario,
+        speed,
+    };
+    let outcome = match args.example {
+        Example::UavFlightTest => plane::fly(&flight),
+        Example::UgvBottleneck => rovers::fly(&flight),
+    };
+    if unpacked {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    outcome
+}
+
+/// The onboard gateway (`petrel run`'s own loop) on its thread, its
+/// timeline read line by line.
+struct Gateway {
+    thread: std::thread::JoinHandle<Result<Outcome, String>>,
+    stop: Arc<tokio::sync::Notify>,
+    lines: std::sync::mpsc::Receiver<String>,
+    /// Print the timeline as JSON lines rather than the live log.
+    json: bool,
+    log: Log,
+    /// The team's vehicles (name, system id); empty for one vehicle.
+    vehicles: Vec<(String, u8)>,
+}
+
+impl Gateway {
+    /// Checks the project as `petrel run` does, then starts the gateway on
+    /// `mavlink`, serving programs on `programs`. `Err(outcome)` when the
+    /// check or the project refused to fly.
+    fn start(
+        flight: &Flight,
+        mavlink: String,
+        programs: String,
+    ) -> Result<Result<Gateway, Outcome>, miette::Report> {
+        let args = flight.args;
+        let run_args = super::run::Args {
+            project: flight.dir.to_path_buf(),
+            mavlink: Some(mavlink),
+            profile: None,
+            unchecked: false,
+            recheck: args.recheck,
+            duration: None,
+            time_scale: flight.speed,
+            json: true,
+            record: Some(args.record.clone()),
+            no_record: false,
+            programs: Some(programs),
+            programs_token: None,
+            signing_key: None,
+            require_signed: false,
+            signing_link_id: 0,
+            signing_timestamp: None,
+            downlink: false,
+            mirror_system: None,
+            operator_key: None,
+            http: match (&args.http, args.no_http) {
+                (_, true) => None,
+                (Some(a), false) => Some(a.clone()),
+                (None, false) => Some(default_http()),
+            },
+        };
+        let mut setup = match super::run::prepare(&run_args)? {
+            Ok(setup) => setup,
+            Err(outcome) => return Ok(Err(outcome)),
+        };
+        say!(
+            "petrel demo: {} ({}x real time), scenario {}",
+            setup.project.name,
+            flight.speed,
+            flight.scenario.name()
+        );
+        let vehicles = setup
+            .project
+            .vehicles
+            .iter()
+            .map(|v| (v.name.clone(), v.system))
+            .collect();
+        let (tx, lines) = std::sync::mpsc::channel();
+        setup.out = Box::new(Lines(tx, Vec::new()));
+        let stop = Arc::new(tokio::sync::Notify::new());
+        setup.stop = Some(stop.clone());
+        let thread = std::thread::Builder::new()
+            .name("petrel-gateway".into())
+            .spawn(move || super::run::fly(setup).map_err(|e| format!("{e:?}")))
+            .map_err(|e| miette::miette!("cannot start the gateway: {e}"))?;
+        Ok(Ok(Gateway {
+            thread,
+            stop,
+            lines,
+            json: args.json,
+            log: Log::default(),
+            vehicles,
+        }))
+    }
+
+    /// Shows the lines written so far, waiting up to `wait` for the first.
+    fn show(&mut self, wait: Duration) {
+        while let Ok(line) = self.lines.recv_timeout(wait) {
+            print(self.json, &mut self.log, &line);
+        }
+    }
+
+    /// Whether the gateway stopped by itself (it failed, or its
+    /// `--duration` ran out).
+    fn finished(&self) -> bool {
+        self.thread.is_finished()
+    }
+
+    /// Stops the gateway, shows its last lines; its error if it failed.
+    fn stop(self) -> Result<Log, miette::Report> {
+        let Gateway {
+            thread,
+            stop,
+            lines,
+            json,
+            mut log,
+            ..
+        } = self;
+        stop.notify_one();
+        let result = thread.join();
+        while let Ok(line) = lines.try_recv() {
+            print(json, &mut log, &line);
+        }
+        match result {
+            Ok(Ok(_)) => Ok(log),
+            Ok(Err(e)) => Err(miette::miette!("the gateway stopped: {e}")),
+            Err(_) => Err(miette::miette!("the gateway's thread panicked")),
+        }
+    }
+}
+
+/// One timeline line: as it is (`--json`), or in the live log.
+fn print(json: bool, log: &mut Log, line: &str) {
+    if json {
+        println!("{line}");
+    } else if let Ok(v) = serde_json::from_str::<Json>(line) {
+        log.line(&v);
+    }
+}
