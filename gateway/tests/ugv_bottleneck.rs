@@ -12,10 +12,12 @@ mod flight;
 #[path = "ugv/team.rs"]
 mod team;
 
-use std::time::Duration;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
+use flight::{scratch, Running};
 use sitl_tests::Fault;
-use team::{at, in_bottleneck, near, state, Team};
+use team::{at, in_bottleneck, near, project, state, Team};
 
 /// The shared flight module's DEC reads this (not used here: PLN is
 /// started by the gateway).
