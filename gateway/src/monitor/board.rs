@@ -1,17 +1,19 @@
 //! The board: what the page shows at one instant — each net's activity and
 //! marking, the transitions enabled and how often each has fired, the
 //! catastrophic lockout, the log (events with what they fired or why they
-//! were dropped, commands, calls, results, faults) and the vehicle. Fed the
+//! were dropped, commands, calls, results, faults, each with the vehicle it
+//! is of in a team) and the vehicles. Fed the
 //! supervisor's steps as the gateway (or a replay) makes them; it reads the
 //! player's state and never calls into it.
 
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 
+use nets::model::VehicleId;
 use nets::{Effect, Event, Micros, Outcome, Player, Project};
 use serde_json::{json, Value as Json};
 
-use super::vehicle::Vehicle;
+use super::vehicle::Vehicles;
 use crate::supervisor::{Input, Step};
 
 /// Requests (commands and calls) remembered to name their results; older
@@ -95,9 +97,11 @@ pub struct Board {
     next_entry: u64,
     /// At most this many entries kept (`usize::MAX`: all, for a recording).
     log_cap: usize,
-    requests: HashMap<u64, String>,
+    /// Each request's name and the vehicle it is for.
+    requests: HashMap<u64, (String, Option<VehicleId>)>,
     request_order: VecDeque<u64>,
-    pub vehicle: Vehicle,
+    /// The vehicles' strips and tracks (a team's, or the one vehicle).
+    pub vehicle: Vehicles,
     /// The mirror's panel (`petrel mirror` only).
     pub mirror: Option<super::mirror::Mirror>,
 }
@@ -112,7 +116,7 @@ impl Board {
             n += net.transitions.len();
         }
         let mut board = Board {
-            project,
+            project: project.clone(),
             offsets,
             origin,
             marking: Marking {
@@ -125,11 +129,14 @@ impl Board {
             log_cap,
             requests: HashMap::new(),
             request_order: VecDeque::new(),
-            vehicle: Vehicle::new(if log_cap == usize::MAX {
-                usize::MAX
-            } else {
-                TRACK_LIVE
-            }),
+            vehicle: Vehicles::new(
+                &project,
+                if log_cap == usize::MAX {
+                    usize::MAX
+                } else {
+                    TRACK_LIVE
+                },
+            ),
             mirror: None,
         };
         board.read_marking(player, origin);
@@ -158,7 +165,7 @@ impl Board {
 
     /// One step of the supervisor, `player` as it stands right after it.
     pub fn step(&mut self, input: &Input, step: &Step, player: &Player) {
-        self.vehicle.changed = false;
+        self.vehicle.begin();
         if let Input::Frame(bytes) = input {
             self.vehicle.frame(step.time, bytes);
         }
@@ -173,18 +180,21 @@ impl Board {
         match input {
             Input::Frame(_) | Input::Tick => {}
             Input::Result { id, outcome } => {
-                let of = self.requests.remove(id);
+                let request = self.requests.remove(id);
                 let (done, detail) = match outcome {
                     Outcome::Done(p) => (true, params_json(p)),
                     Outcome::Failed(r) => (false, json!(r)),
                 };
-                if let (true, Some(of)) = (done, &of) {
-                    self.vehicle.answer(of, &detail);
+                if let (true, Some((of, vehicle))) = (done, &request) {
+                    self.vehicle.answer(*vehicle, of, &detail);
                 }
+                let vehicle = self.vehicle_name(request.as_ref().and_then(|r| r.1));
+                let of = request.map(|r| r.0);
                 let i = Some(self.push(
                     step.time,
                     None,
-                    json!({"kind": "result", "id": id, "of": of, "ok": done, "detail": detail, "fired": []}),
+                    json!({"kind": "result", "id": id, "of": of, "ok": done, "detail": detail,
+                           "vehicle": vehicle, "fired": []}),
                 ));
                 self.attach(i, &step.effects);
             }
@@ -231,12 +241,13 @@ impl Board {
             .project
             .declared_category(&event.name)
             .unwrap_or(event.category);
+        let vehicle = self.event_vehicle(event);
         Some(self.push(
             time,
             Some(category),
             json!({"kind": "event", "name": event.name, "category": category.as_str(),
                    "params": params_json(&event.params), "source": source,
-                   "fired": [], "dropped": null}),
+                   "vehicle": vehicle, "fired": [], "dropped": null}),
         ))
     }
 
@@ -282,12 +293,13 @@ impl Board {
                             let category = project
                                 .declared_category(&event.name)
                                 .unwrap_or(event.category);
+                            let vehicle = self.event_vehicle(event);
                             self.push(
                                 time,
                                 Some(category),
                                 json!({"kind": "event", "name": event.name, "category": category.as_str(),
                                        "params": params_json(&event.params), "source": "nets",
-                                       "fired": [], "dropped": reason}),
+                                       "vehicle": vehicle, "fired": [], "dropped": reason}),
                             );
                         }
                     }
@@ -297,14 +309,16 @@ impl Board {
                     net,
                     verb,
                     args,
+                    vehicle,
                     ..
                 } => {
-                    self.remember(*id, verb.clone());
+                    self.remember(*id, verb.clone(), *vehicle);
+                    let name = self.vehicle_name(*vehicle);
                     self.push(
                         time,
                         None,
                         json!({"kind": "command", "id": id, "net": project.nets[*net].name,
-                               "name": verb, "params": params_json(args)}),
+                               "name": verb, "params": params_json(args), "vehicle": name}),
                     );
                 }
                 Effect::Call {
@@ -313,16 +327,18 @@ impl Board {
                     program,
                     function,
                     args,
+                    vehicle,
                     ..
                 } => {
                     let p = &project.programs[*program];
                     let name = format!("{}.{}", p.name, p.functions[*function].name);
-                    self.remember(*id, name.clone());
+                    self.remember(*id, name.clone(), *vehicle);
+                    let vehicle = self.vehicle_name(*vehicle);
                     self.push(
                         time,
                         None,
                         json!({"kind": "call", "id": id, "net": project.nets[*net].name,
-                               "name": name, "params": params_json(args)}),
+                               "name": name, "params": params_json(args), "vehicle": vehicle}),
                     );
                 }
                 Effect::Ask {
@@ -336,12 +352,14 @@ impl Board {
                 } => {
                     let n = &project.nets[*net];
                     let name = n.asks.get(*ask).map(|a| a.name.as_str()).unwrap_or("?");
+                    let vehicle = self.vehicle_name(n.vehicle);
                     self.push(
                         time,
                         None,
                         json!({"kind": "question", "id": id, "net": n.name,
                                "name": format!("{}.{name}", n.name), "question": question,
-                               "choices": choices, "deadline": *deadline as f64 / 1e6}),
+                               "choices": choices, "deadline": *deadline as f64 / 1e6,
+                               "vehicle": vehicle}),
                     );
                 }
                 Effect::Fault { .. }
@@ -381,13 +399,26 @@ impl Board {
         }
     }
 
-    fn remember(&mut self, id: u64, what: String) {
+    /// A vehicle's name, as the page reads it (null: none, or a project
+    /// without a team).
+    fn vehicle_name(&self, vehicle: Option<VehicleId>) -> Json {
+        json!(vehicle
+            .and_then(|v| self.project.vehicles.get(v))
+            .map(|v| v.name.as_str()))
+    }
+
+    /// The vehicle of a team's vehicle event (`engine_failure@R2`).
+    fn event_vehicle(&self, event: &Event) -> Json {
+        self.vehicle_name(self.project.vehicle_event(&event.name).map(|(_, v)| v))
+    }
+
+    fn remember(&mut self, id: u64, what: String, vehicle: Option<VehicleId>) {
         if self.request_order.len() >= REQUESTS {
             if let Some(old) = self.request_order.pop_front() {
                 self.requests.remove(&old);
             }
         }
-        self.requests.insert(id, what);
+        self.requests.insert(id, (what, vehicle));
         self.request_order.push_back(id);
     }
 
@@ -538,5 +569,80 @@ pub(crate) mod tests {
         assert_eq!(last["name"], "x");
         assert_eq!(last["fired"], json!([]));
         assert!(!board.marking_changed);
+    }
+
+    /// A team of two, R1 and R2, each with an instance of A (`x` commands
+    /// `arm`, the catastrophic `boom` stops it) and a team net T.
+    pub(crate) fn team() -> Arc<Project> {
+        let files = [
+            (
+                "project.toml",
+                "[[vehicle]]\nname = \"R1\"\nsystem = 1\n[[vehicle]]\nname = \"R2\"\nsystem = 2\n\
+                 [[net]]\nfile = \"t.toml\"\nactive = true\n[[net]]\nfile = \"a.toml\"\nactive = true\n\
+                 [events]\nx = {}\nboom = \"catastrophic\"\n",
+            ),
+            ("t.toml", "name = \"T\"\nplaces = [\"s\"]\ninitial = [\"s\"]\n"),
+            (
+                "a.toml",
+                "name = \"A\"\nvehicles = \"all\"\nplaces = [\"idle\", \"on\", \"stopped\"]\ninitial = [\"idle\"]\n\
+                 [[transition]]\nname = \"go\"\nfrom = [\"idle\"]\nto = [\"on\"]\non = \"x\"\ndo = [\"command arm\"]\n\
+                 [[transition]]\nname = \"stop\"\nfrom = [\"on\"]\nto = [\"stopped\"]\non = \"boom\"\n",
+            ),
+        ];
+        Arc::new(nets::load(&files).unwrap_or_else(|e| panic!("{e}")))
+    }
+
+    #[test]
+    fn a_teams_log_says_each_entrys_vehicle_and_the_lockout_names_it() {
+        let project = team();
+        let mut player = Player::start(project.clone(), 0);
+        let _ = player.effects().count();
+        let mut board = Board::new(project.clone(), &player, 0, 100);
+        let x = Input::Event(Event::new("x@R2"));
+        let s = step(&mut player, 1, 1_000_000, &x);
+        board.step(&x, &s, &player);
+        let log: Vec<Json> = board.log().iter().map(|e| e.json.clone()).collect();
+        assert_eq!(log[0]["kind"], "event");
+        assert_eq!(log[0]["vehicle"], "R2");
+        assert_eq!(log[0]["fired"], json!(["A@R2.go"]));
+        assert_eq!(log[1]["kind"], "command");
+        assert_eq!(log[1]["net"], "A@R2");
+        assert_eq!(log[1]["vehicle"], "R2");
+        let id = log[1]["id"].as_u64().unwrap_or(0);
+        let done = Input::Result {
+            id,
+            outcome: Outcome::Done(nets::Params::new()),
+        };
+        let s = step(&mut player, 2, 1_500_000, &done);
+        board.step(&done, &s, &player);
+        let last = board
+            .log()
+            .back()
+            .map(|e| e.json.clone())
+            .unwrap_or_default();
+        assert_eq!(
+            (&last["of"], &last["vehicle"]),
+            (&json!("arm"), &json!("R2"))
+        );
+        // R2's catastrophic event locks out R2 alone.
+        let boom = Input::Event(Event::new("boom@R2"));
+        let s = step(&mut player, 3, 2_000_000, &boom);
+        board.step(&boom, &s, &player);
+        let frame = board.marking.json(&project, 0);
+        assert_eq!(frame["locked"], json!(["R2"]));
+        assert_eq!(frame["lockout"], false);
+        // An event of no vehicle (a program's, to the team) has none.
+        let y = Input::Event(Event::new("x"));
+        let s = step(&mut player, 4, 2_500_000, &y);
+        board.step(&y, &s, &player);
+        let last = board
+            .log()
+            .back()
+            .map(|e| e.json.clone())
+            .unwrap_or_default();
+        assert_eq!(
+            (&last["name"], &last["vehicle"]),
+            (&json!("x"), &Json::Null)
+        );
     }
 }

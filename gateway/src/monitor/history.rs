@@ -1,8 +1,8 @@
 //! A recording's index for `petrel view`: built in one pass while the
 //! player replays the recording's own inputs (the replay path), it keeps
 //! what the page shows each time it changes — the marking part at every
-//! step that changed it, the vehicle strip at every change, the whole log
-//! and the track — so that the state at any instant is a few binary
+//! step that changed it, each vehicle's strip at every change, the whole
+//! log and each vehicle's track — so that the state at any instant is a few binary
 //! searches away, never a replay.
 
 use std::sync::Arc;
@@ -11,7 +11,7 @@ use nets::{Micros, Player, Project};
 use serde_json::{json, Value as Json};
 
 use super::board::{seconds, Board, Entry, Marking};
-use super::vehicle::Strip;
+use super::vehicle::{strip_json, Strip, Vehicle};
 use crate::supervisor::{Input, Step};
 
 /// Log entries sent with one instant (the latest up to it).
@@ -27,9 +27,9 @@ pub struct History {
     /// Every step's time, in order (the step at an instant).
     steps: Vec<Micros>,
     keys: Vec<Marking>,
-    strips: Vec<(Micros, Strip)>,
+    /// Per vehicle (team order): the vehicle, its strip at each change.
+    vehicles: Vec<(Vehicle, Vec<(Micros, Strip)>)>,
     log: Vec<Entry>,
-    track: Vec<(Micros, f64, f64)>,
     /// Sorted, deduplicated instants where the nets changed or the log
     /// grew (where stepping stops).
     moments: Vec<Micros>,
@@ -40,7 +40,8 @@ pub struct Builder {
     board: Board,
     steps: Vec<Micros>,
     keys: Vec<Marking>,
-    strips: Vec<(Micros, Strip)>,
+    /// Per vehicle, its strip at each change.
+    strips: Vec<Vec<(Micros, Strip)>>,
 }
 
 impl Builder {
@@ -49,11 +50,12 @@ impl Builder {
         let mut board = Board::new(project, player, origin, usize::MAX);
         board.start(start, player);
         let keys = vec![board.marking.clone()];
+        let strips = vec![Vec::new(); board.vehicle.all.len()];
         Builder {
             board,
             steps: vec![start.time],
             keys,
-            strips: Vec::new(),
+            strips,
         }
     }
 
@@ -64,8 +66,11 @@ impl Builder {
             self.keys.push(self.board.marking.clone());
         }
         if self.board.vehicle.changed {
-            self.strips
-                .push((step.time, self.board.vehicle.strip.clone()));
+            for (v, strips) in self.board.vehicle.all.iter().zip(&mut self.strips) {
+                if v.changed {
+                    strips.push((step.time, v.strip.clone()));
+                }
+            }
         }
     }
 
@@ -81,7 +86,8 @@ impl Builder {
         let start = steps.first().copied().unwrap_or(origin);
         let end = steps.last().copied().unwrap_or(start);
         let log: Vec<Entry> = board.log().iter().cloned().collect();
-        let track = board.vehicle.track.clone();
+        let vehicles: Vec<(Vehicle, Vec<(Micros, Strip)>)> =
+            board.vehicle.all.iter().cloned().zip(strips).collect();
         let mut moments: Vec<Micros> = keys
             .iter()
             .map(|k| k.time)
@@ -119,9 +125,8 @@ impl Builder {
             end,
             steps,
             keys,
-            strips,
+            vehicles,
             log,
-            track,
             moments,
         }
     }
@@ -163,18 +168,24 @@ impl History {
             .collect();
         frame["log"] = json!(entries);
         frame["log_reset"] = json!(true);
-        let s = self.strips.partition_point(|s| s.0 <= at);
-        frame["vehicle"] = match s.checked_sub(1) {
-            Some(i) => self.strips[i].1.json(at),
-            None => Strip::default().json(at),
-        };
-        let k = self.track.partition_point(|p| p.0 <= at);
-        frame["track"] = self.track[..k]
+        let vehicles: Vec<Json> = self
+            .vehicles
             .iter()
-            .map(|&(_, a, b)| json!([a, b]))
-            .collect::<Vec<_>>()
-            .into();
-        frame["track_reset"] = json!(true);
+            .map(|(v, strips)| {
+                let s = strips.partition_point(|s| s.0 <= at);
+                let strip = s.checked_sub(1).map(|i| &strips[i].1);
+                let mut j = strip_json(v, strip.unwrap_or(&Strip::default()), at);
+                let k = v.track.partition_point(|p| p.0 <= at);
+                j["track"] = v.track[..k]
+                    .iter()
+                    .map(|&(_, a, b)| json!([a, b]))
+                    .collect::<Vec<_>>()
+                    .into();
+                j["track_reset"] = json!(true);
+                j
+            })
+            .collect();
+        frame["vehicles"] = json!(vehicles);
         frame
     }
 }
@@ -223,5 +234,51 @@ mod tests {
         assert_eq!(history.moment(2_000_000, 1), 3_000_000);
         assert_eq!(history.moment(2_000_000, -1), 1_000_000);
         assert_eq!(history.frame_at(u64::MAX)["time_us"], 40_000_000);
+    }
+
+    #[test]
+    fn a_teams_strips_and_tracks_at_any_instant_are_each_vehicles_own() {
+        use super::super::vehicle::tests::{heartbeat, position};
+        let project = super::super::board::tests::team();
+        let mut player = Player::start(project.clone(), 0);
+        let start = Step {
+            seq: 0,
+            time: 0,
+            events: Vec::new(),
+            effects: player.effects().collect(),
+        };
+        let mut builder = Builder::new(project.clone(), &start, &player, 0);
+        let frames = [
+            (1_000_000, heartbeat(1, 15, true)),
+            (1_000_000, heartbeat(2, 4, false)),
+            (2_000_000, position(1, 51.0, -2.0)),
+            (3_000_000, position(2, 52.0, -2.0)),
+            (4_000_000, heartbeat(2, 15, true)),
+            (5_000_000, position(1, 51.001, -2.0)),
+        ];
+        for (i, (time, bytes)) in frames.iter().enumerate() {
+            let input = Input::Frame(bytes);
+            let s = step(&mut player, i as u64 + 1, *time, &input);
+            builder.step(&input, &s, &player);
+        }
+        let history = builder.finish(json!({}));
+        let at = |t: u64| history.frame_at(t)["vehicles"].clone();
+        let v = at(3_500_000);
+        assert_eq!((&v[0]["name"], &v[1]["name"]), (&json!("R1"), &json!("R2")));
+        assert_eq!(v[0]["track"], json!([[51.0, -2.0]]));
+        assert_eq!(v[1]["track"], json!([[52.0, -2.0]]));
+        assert_eq!(
+            (&v[0]["mode"], &v[1]["mode"]),
+            (&json!("GUIDED"), &json!("HOLD"))
+        );
+        let v = at(5_000_000);
+        assert_eq!(v[0]["track"], json!([[51.0, -2.0], [51.001, -2.0]]));
+        assert_eq!(v[1]["mode"], "GUIDED", "R2's strip as changed at 4 s");
+        assert_eq!(v[1]["armed"], true);
+        let v = at(1_500_000);
+        assert_eq!(
+            (&v[0]["track"], &v[0]["position"]),
+            (&json!([]), &Json::Null)
+        );
     }
 }

@@ -24,7 +24,8 @@ const LOG_PER_FRAME: usize = 300;
 #[derive(Debug, Default)]
 pub struct Cursor {
     log: u64,
-    track: u64,
+    /// Per vehicle, the track points ever added when last sent.
+    track: Vec<u64>,
     sent: bool,
 }
 
@@ -75,21 +76,34 @@ impl Live {
         frame["log"] = json!(entries);
         frame["log_gap"] = json!(gap && cursor.sent);
         cursor.log = board.next_entry();
-        let v = &board.vehicle;
-        frame["vehicle"] = v.strip.json(v.now);
-        let fresh = (v.track_added.saturating_sub(cursor.track) as usize).min(v.track.len());
-        let reset = !cursor.sent || v.track_added - cursor.track > v.track.len() as u64;
-        let points = if reset { v.track.len() } else { fresh };
-        frame["track"] = v.track[v.track.len() - points..]
+        // Each vehicle's strip, with the track points this browser has not
+        // had (all of them, `track_reset`, when it fell too far behind).
+        let vehicles = &board.vehicle;
+        cursor.track.resize(vehicles.all.len(), 0);
+        let shown: Vec<Json> = vehicles
+            .all
             .iter()
-            .map(|&(_, a, b)| json!([a, b]))
-            .collect::<Vec<_>>()
-            .into();
-        frame["track_reset"] = json!(reset);
+            .zip(&mut cursor.track)
+            .map(|(v, sent)| {
+                let mut j = super::vehicle::strip_json(v, &v.strip, vehicles.now);
+                let fresh = (v.track_added.saturating_sub(*sent) as usize).min(v.track.len());
+                let reset =
+                    !cursor.sent || v.track_added.saturating_sub(*sent) > v.track.len() as u64;
+                let points = if reset { v.track.len() } else { fresh };
+                j["track"] = v.track[v.track.len() - points..]
+                    .iter()
+                    .map(|&(_, a, b)| json!([a, b]))
+                    .collect::<Vec<_>>()
+                    .into();
+                j["track_reset"] = json!(reset);
+                *sent = v.track_added;
+                j
+            })
+            .collect();
+        frame["vehicles"] = json!(shown);
         if let Some(m) = &board.mirror {
             frame["mirror"] = m.json();
         }
-        cursor.track = v.track_added;
         cursor.sent = true;
         frame
     }
@@ -167,5 +181,47 @@ mod tests {
         let again = live.frame(&mut cursor);
         assert_eq!(again["log"], json!([]));
         assert_eq!(again["log_gap"], false);
+    }
+
+    #[test]
+    fn each_team_vehicle_has_its_strip_and_its_track_sent_once() {
+        use super::super::vehicle::tests::{heartbeat, position};
+        let project = super::super::board::tests::team();
+        let mut player = Player::start(project.clone(), 0);
+        let _ = player.effects().count();
+        let board = Board::new(project.clone(), &player, 0, LOG_LIVE);
+        let live = Live::new(board, json!({}));
+        let feed = Feed::new(live.clone());
+        let mut cursor = Cursor::default();
+        let mut seq = 0;
+        let mut feed_frame = |bytes: Vec<u8>, time: u64| {
+            seq += 1;
+            let input = Input::Frame(&bytes);
+            let s = step(&mut player, seq, time, &input);
+            feed.step(&input, &s, &player);
+        };
+        feed_frame(heartbeat(1, 15, true), 1_000_000);
+        feed_frame(heartbeat(2, 4, false), 1_000_000);
+        // Two points each, far apart (a point at least every 15 m).
+        for (i, time) in [(0.0, 2_000_000), (0.001, 3_000_000)] {
+            feed_frame(position(1, 51.0 + i, -2.0), time);
+            feed_frame(position(2, 52.0 + i, -2.0), time);
+        }
+        let first = live.frame(&mut cursor);
+        let vehicles = first["vehicles"].as_array().cloned().unwrap_or_default();
+        assert_eq!(vehicles.len(), 2);
+        assert_eq!(vehicles[0]["name"], "R1");
+        assert_eq!(vehicles[0]["mode"], "GUIDED");
+        assert_eq!(vehicles[1]["mode"], "HOLD");
+        assert_eq!(vehicles[0]["track"], json!([[51.0, -2.0], [51.001, -2.0]]));
+        assert_eq!(vehicles[1]["track"], json!([[52.0, -2.0], [52.001, -2.0]]));
+        assert_eq!(vehicles[1]["track_reset"], true);
+        // Only R2 moves on: R2's new point alone is sent.
+        feed_frame(position(2, 52.002, -2.0), 4_000_000);
+        let next = live.frame(&mut cursor);
+        assert_eq!(next["vehicles"][0]["track"], json!([]));
+        assert_eq!(next["vehicles"][1]["track"], json!([[52.002, -2.0]]));
+        assert_eq!(next["vehicles"][1]["track_reset"], false);
+        assert_eq!(next["vehicles"][1]["position"], json!([52.002, -2.0]));
     }
 }

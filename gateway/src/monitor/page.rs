@@ -1,7 +1,9 @@
 //! The page's fixed part: the project as drawn — each net's SVG (Petrel's
 //! own layout, `nets::svg`), its places and transitions with their
-//! definitions (file:line, event, guard, actions), the global places, and
-//! the hierarchy (which net activates which, and each net's level).
+//! definitions (file:line, event, guard, actions), the global places, the
+//! hierarchy (which net activates which, and each net's level), and the
+//! team: its vehicles (name, system) and each net's vehicle (an instance's;
+//! null for a team net and in a project without a team).
 
 use std::collections::VecDeque;
 use std::path::Path;
@@ -189,13 +191,22 @@ pub fn page(project: &Project, dir: Option<&Path>, mode: &str) -> Json {
                     marking: None,
                 },
             );
-            json!({"name": net.name, "file": net.file, "active_at_start": net.active_at_start,
+            let vehicle = net
+                .vehicle
+                .and_then(|v| project.vehicles.get(v))
+                .map(|v| v.name.as_str());
+            json!({"name": net.name, "vehicle": vehicle, "file": net.file, "active_at_start": net.active_at_start,
                    "level": level[n], "activates": activates[n].iter().map(|&a| &project.nets[a].name).collect::<Vec<_>>(),
                    "places": places, "transitions": transitions, "svg": svg})
         })
         .collect();
+    let vehicles: Vec<Json> = project
+        .vehicles
+        .iter()
+        .map(|v| json!({"name": v.name, "system": v.system, "component": v.component}))
+        .collect();
     json!({"mode": mode, "name": project.name, "description": project.description,
-           "globals": globals, "nets": nets, "place_count": project.place_count,
+           "vehicles": vehicles, "globals": globals, "nets": nets, "place_count": project.place_count,
            "transition_count": flat_transition, "petrel": env!("CARGO_PKG_VERSION")})
 }
 
@@ -230,5 +241,46 @@ mod tests {
         for id in ["t-A-go", "p-A-idle", "p-A-on"] {
             assert!(svg.contains(&format!("id=\"{id}\"")), "{id} not in {svg}");
         }
+    }
+
+    #[test]
+    fn the_team_and_each_nets_vehicle_are_said() {
+        let files = [
+            (
+                "project.toml",
+                "[[vehicle]]\nname = \"R1\"\nsystem = 1\n[[vehicle]]\nname = \"R2\"\nsystem = 2\ncomponent = 3\n\
+                 [[net]]\nfile = \"t.toml\"\nactive = true\n[[net]]\nfile = \"a.toml\"\nactive = true\n[events]\nx = {}\n",
+            ),
+            ("t.toml", "name = \"T\"\nplaces = [\"s\"]\ninitial = [\"s\"]\n"),
+            (
+                "a.toml",
+                "name = \"A\"\nvehicles = \"all\"\nplaces = [\"s\"]\ninitial = [\"s\"]\n",
+            ),
+        ];
+        let project = nets::load(&files).unwrap_or_else(|e| panic!("{e}"));
+        let p = page(&project, None, "live");
+        assert_eq!(
+            p["vehicles"],
+            json!([{"name": "R1", "system": 1, "component": 1},
+                   {"name": "R2", "system": 2, "component": 3}])
+        );
+        let nets: Vec<(Json, Json)> = p["nets"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|n| (n["name"].clone(), n["vehicle"].clone()))
+            .collect();
+        assert_eq!(
+            nets,
+            vec![
+                (json!("T"), Json::Null),
+                (json!("A@R1"), json!("R1")),
+                (json!("A@R2"), json!("R2")),
+            ]
+        );
+        // Without a team: no vehicles, no net's vehicle.
+        let one = page(&super::super::board::tests::project(), None, "live");
+        assert_eq!(one["vehicles"], json!([]));
+        assert_eq!(one["nets"][0]["vehicle"], Json::Null);
     }
 }

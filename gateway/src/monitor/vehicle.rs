@@ -1,12 +1,15 @@
-//! The vehicle strip and the map's contents, read from the frames the
+//! The vehicles' strips and the map's contents, read from the frames the
 //! supervisor is fed (the same in `run` and over a recording) and from the
 //! nets' commands and results: mode, armed, altitude, ground speed,
 //! battery, GPS, link quality, the last autopilot HEARTBEAT; the track, home,
 //! the mission's waypoints, and positions the programs answered (emergency
-//! sites). Only the first autopilot heard is followed.
+//! sites). A team project (`[[vehicle]]`) follows each vehicle of the team
+//! by its declared system and component, and ignores every other system; a
+//! project without a team follows the first autopilot heard.
 
 use mavlink::dialects::ardupilotmega::{MavAutopilot, MavMessage, MavModeFlag, MavType};
-use nets::{Effect, Micros};
+use nets::model::VehicleId;
+use nets::{Effect, Micros, Project};
 use serde_json::{json, Value as Json};
 
 /// The message ids read (others are not decoded).
@@ -71,13 +74,15 @@ impl Strip {
     }
 }
 
-/// The vehicle as the monitor follows it.
+/// One vehicle as the monitor follows it.
 #[derive(Debug, Clone, Default)]
 pub struct Vehicle {
+    /// Its name in the team (`None`: a project without a team).
+    pub name: Option<String>,
+    /// Its MAVLink system id, declared or heard.
+    pub system: Option<u8>,
     pub strip: Strip,
-    /// The latest time seen.
-    pub now: Micros,
-    /// Whether the last step changed the strip.
+    /// Whether the last step changed its strip.
     pub changed: bool,
     /// The autopilot followed: (system, component).
     followed: Option<(u8, u8)>,
@@ -89,15 +94,56 @@ pub struct Vehicle {
     pub track_cap: usize,
 }
 
-impl Vehicle {
-    pub fn new(track_cap: usize) -> Vehicle {
-        Vehicle {
-            track_cap,
-            ..Vehicle::default()
+/// The vehicles the monitor follows: a team's, in team order, or the one
+/// vehicle of a project without a team.
+#[derive(Debug, Clone)]
+pub struct Vehicles {
+    pub all: Vec<Vehicle>,
+    /// Whether they are a declared team (else one vehicle, the first
+    /// autopilot heard).
+    team: bool,
+    /// The latest time seen.
+    pub now: Micros,
+    /// Whether the last step changed a strip.
+    pub changed: bool,
+}
+
+impl Vehicles {
+    /// The vehicles of `project`'s team (one unnamed vehicle without a
+    /// team), each keeping at most `track_cap` track points.
+    pub fn new(project: &Project, track_cap: usize) -> Vehicles {
+        let all: Vec<Vehicle> = if project.vehicles.is_empty() {
+            vec![Vehicle::new(track_cap)]
+        } else {
+            project
+                .vehicles
+                .iter()
+                .map(|v| Vehicle {
+                    name: Some(v.name.clone()),
+                    system: Some(v.system),
+                    followed: Some((v.system, v.component)),
+                    ..Vehicle::new(track_cap)
+                })
+                .collect()
+        };
+        Vehicles {
+            all,
+            team: !project.vehicles.is_empty(),
+            now: 0,
+            changed: false,
         }
     }
 
-    /// A frame as fed to the supervisor.
+    /// A new step: nothing changed yet.
+    pub fn begin(&mut self) {
+        self.changed = false;
+        for v in &mut self.all {
+            v.changed = false;
+        }
+    }
+
+    /// A frame as fed to the supervisor: to the vehicle it comes from, if
+    /// followed.
     pub fn frame(&mut self, time: Micros, bytes: &[u8]) {
         let Ok(frame) = elaboration::Frame::parse(bytes) else {
             return;
@@ -106,23 +152,91 @@ impl Vehicle {
             return;
         }
         let from = (frame.system_id(), frame.component_id());
+        let i = if self.team {
+            match self.all.iter().position(|v| v.followed == Some(from)) {
+                Some(i) => i,
+                None => return,
+            }
+        } else {
+            0
+        };
         let Ok(message) = frame.decode() else {
             return;
         };
-        if let MavMessage::HEARTBEAT(hb) = &message {
+        if let Some(v) = self.all.get_mut(i) {
+            let changed = v.frame(time, from, &message);
+            v.changed |= changed;
+            self.changed |= changed;
+        }
+    }
+
+    /// A command of the nets (the mission's waypoints, guided targets), on
+    /// the vehicle commanded.
+    pub fn effect(&mut self, effect: &Effect) {
+        let Effect::Command { vehicle, .. } = effect else {
+            return;
+        };
+        if let Some(v) = self.of(*vehicle) {
+            let changed = v.effect(effect);
+            v.changed |= changed;
+            self.changed |= changed;
+        }
+    }
+
+    /// A program's answer naming a position (an emergency site, say), on
+    /// the vehicle the call was for.
+    pub fn answer(&mut self, vehicle: Option<VehicleId>, of: &str, done: &Json) {
+        if let Some(v) = self.of(vehicle) {
+            let changed = v.answer(of, done);
+            v.changed |= changed;
+            self.changed |= changed;
+        }
+    }
+
+    /// The vehicle `vehicle` names: a team's, or without a team the one.
+    fn of(&mut self, vehicle: Option<VehicleId>) -> Option<&mut Vehicle> {
+        match (self.team, vehicle) {
+            (true, Some(v)) => self.all.get_mut(v),
+            (true, None) => None,
+            (false, _) => self.all.first_mut(),
+        }
+    }
+}
+
+/// A vehicle's strip (as it was at some instant) with its name and system.
+pub fn strip_json(v: &Vehicle, strip: &Strip, now: Micros) -> Json {
+    let mut j = strip.json(now);
+    j["name"] = json!(v.name);
+    j["system"] = json!(v.system);
+    j
+}
+
+impl Vehicle {
+    pub fn new(track_cap: usize) -> Vehicle {
+        Vehicle {
+            track_cap,
+            ..Vehicle::default()
+        }
+    }
+
+    /// A message from `from`: whether the strip changed. Without a
+    /// declared autopilot, the first autopilot's HEARTBEAT picks it.
+    fn frame(&mut self, time: Micros, from: (u8, u8), message: &MavMessage) -> bool {
+        if let MavMessage::HEARTBEAT(hb) = message {
             let autopilot = hb.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID
                 && hb.mavtype != MavType::MAV_TYPE_GCS
                 && hb.mavtype != MavType::MAV_TYPE_ONBOARD_CONTROLLER;
             if self.followed.is_none() && autopilot {
                 self.followed = Some(from);
+                self.system = Some(from.0);
             }
         }
         if self.followed != Some(from) {
-            return;
+            return false;
         }
         let before = self.strip.clone();
-        self.message(time, &message);
-        self.changed |= before != self.strip;
+        self.message(time, message);
+        before != self.strip
     }
 
     fn message(&mut self, time: Micros, message: &MavMessage) {
@@ -212,10 +326,11 @@ impl Vehicle {
         self.track_added += 1;
     }
 
-    /// The nets' commands: the mission's waypoints and guided targets.
-    pub fn effect(&mut self, effect: &Effect) {
+    /// The nets' commands: the mission's waypoints and guided targets;
+    /// whether the strip changed.
+    fn effect(&mut self, effect: &Effect) -> bool {
         let Effect::Command { verb, args, .. } = effect else {
-            return;
+            return false;
         };
         let args: Json = args.iter().map(|(k, v)| (k.clone(), v.to_json())).collect();
         let before = self.strip.clone();
@@ -242,20 +357,23 @@ impl Vehicle {
             }
             _ => {}
         }
-        self.changed |= before != self.strip;
+        before != self.strip
     }
 
-    /// A program's answer naming a position (an emergency site, say).
-    pub fn answer(&mut self, of: &str, done: &Json) {
-        if let Some(mut m) = at(done, of.to_owned()) {
-            if let Some(name) = done["name"].as_str() {
-                m.label = format!("{name} ({of})");
-            }
-            if !self.strip.sites.contains(&m) {
-                self.strip.sites.push(m);
-                self.changed = true;
-            }
+    /// A program's answer naming a position (an emergency site, say);
+    /// whether it was new.
+    fn answer(&mut self, of: &str, done: &Json) -> bool {
+        let Some(mut m) = at(done, of.to_owned()) else {
+            return false;
+        };
+        if let Some(name) = done["name"].as_str() {
+            m.label = format!("{name} ({of})");
         }
+        if self.strip.sites.contains(&m) {
+            return false;
+        }
+        self.strip.sites.push(m);
+        true
     }
 }
 
@@ -273,4 +391,191 @@ fn metres(a: (f64, f64), b: (f64, f64)) -> f64 {
     let dy = (b.0 - a.0) * k;
     let dx = (b.1 - a.1) * k * a.0.to_radians().cos();
     (dx * dx + dy * dy).sqrt()
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use mavlink::dialects::ardupilotmega::{MavState, GLOBAL_POSITION_INT_DATA, HEARTBEAT_DATA};
+    use mavlink::{MavHeader, MavlinkVersion};
+
+    use super::*;
+
+    /// A team of two rovers, R1 (system 1) and R2 (system 2).
+    fn team() -> Project {
+        let files = [
+            (
+                "project.toml",
+                "[[vehicle]]\nname = \"R1\"\nsystem = 1\n[[vehicle]]\nname = \"R2\"\nsystem = 2\n\
+                 [[net]]\nfile = \"a.toml\"\nactive = true\n[events]\nx = {}\n",
+            ),
+            (
+                "a.toml",
+                "name = \"A\"\nvehicles = \"all\"\nplaces = [\"idle\", \"on\"]\ninitial = [\"idle\"]\n\
+                 [[transition]]\nname = \"go\"\nfrom = [\"idle\"]\nto = [\"on\"]\non = \"x\"\n\
+                 do = [\"command goto {lat: 51.5, lon: -2.5, alt: 0}\"]\n",
+            ),
+        ];
+        nets::load(&files).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn bytes(system: u8, component: u8, message: &MavMessage) -> Vec<u8> {
+        let header = MavHeader {
+            system_id: u32::from(system),
+            component_id: component,
+            sequence: 0,
+        };
+        elaboration::frame::serialize(header, MavlinkVersion::V2, message)
+    }
+
+    /// A rover's HEARTBEAT in `custom_mode` (Rover: 4 HOLD, 15 GUIDED).
+    pub(crate) fn heartbeat(system: u8, custom_mode: u32, armed: bool) -> Vec<u8> {
+        let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+        if armed {
+            base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+        }
+        bytes(
+            system,
+            1,
+            &MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                custom_mode,
+                mavtype: MavType::MAV_TYPE_GROUND_ROVER,
+                autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+                base_mode,
+                system_status: MavState::MAV_STATE_ACTIVE,
+                mavlink_version: 3,
+            }),
+        )
+    }
+
+    /// The strips as the page reads them.
+    fn json(v: &Vehicles) -> Json {
+        v.all
+            .iter()
+            .map(|x| strip_json(x, &x.strip, v.now))
+            .collect::<Vec<_>>()
+            .into()
+    }
+
+    pub(crate) fn position(system: u8, lat: f64, lon: f64) -> Vec<u8> {
+        bytes(
+            system,
+            1,
+            &MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+                lat: (lat * 1e7) as i32,
+                lon: (lon * 1e7) as i32,
+                hdg: u16::MAX,
+                ..GLOBAL_POSITION_INT_DATA::default()
+            }),
+        )
+    }
+
+    #[test]
+    fn each_team_vehicle_is_followed_by_its_system_and_others_are_ignored() {
+        let project = team();
+        let mut v = Vehicles::new(&project, 100);
+        v.frame(1, &heartbeat(2, 15, true));
+        v.frame(2, &heartbeat(1, 4, false));
+        // A third system (a ground station, a stranger) and R1's camera.
+        v.frame(3, &heartbeat(3, 15, true));
+        v.frame(
+            3,
+            &bytes(
+                1,
+                100,
+                &MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                    custom_mode: 15,
+                    mavtype: MavType::MAV_TYPE_CAMERA,
+                    autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+                    base_mode: MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED,
+                    system_status: MavState::MAV_STATE_ACTIVE,
+                    mavlink_version: 3,
+                }),
+            ),
+        );
+        v.frame(4, &position(1, 51.0, -2.0));
+        v.frame(5, &position(2, 51.1, -2.1));
+        v.frame(6, &position(3, 10.0, 10.0));
+        v.now = 6;
+        let j = json(&v);
+        let all = j.as_array().cloned().unwrap_or_default();
+        assert_eq!(all.len(), 2);
+        assert_eq!(
+            (&all[0]["name"], &all[0]["system"]),
+            (&json!("R1"), &json!(1))
+        );
+        assert_eq!(
+            (&all[1]["name"], &all[1]["system"]),
+            (&json!("R2"), &json!(2))
+        );
+        assert_eq!(all[0]["mode"], "HOLD");
+        assert_eq!(all[0]["armed"], false);
+        assert_eq!(all[1]["mode"], "GUIDED");
+        assert_eq!(all[1]["armed"], true);
+        assert_eq!(all[0]["position"], json!([51.0, -2.0]));
+        assert_eq!(all[1]["position"], json!([51.1, -2.1]));
+        assert_eq!(v.all[0].track.len(), 1);
+        assert_eq!(v.all[1].track, vec![(5, 51.1, -2.1)]);
+    }
+
+    #[test]
+    fn a_command_and_an_answer_go_to_the_vehicle_they_are_for() {
+        let project = team();
+        let mut v = Vehicles::new(&project, 100);
+        let goto = |vehicle| Effect::Command {
+            time: 0,
+            id: 1,
+            net: 0,
+            verb: "goto".into(),
+            args: [("lat", 51.5), ("lon", -2.5)]
+                .into_iter()
+                .map(|(k, x)| (k.to_owned(), nets::Value::Float(x)))
+                .collect(),
+            vehicle,
+        };
+        v.begin();
+        v.effect(&goto(Some(1)));
+        assert!(v.changed && !v.all[0].changed && v.all[1].changed);
+        assert!(v.all[0].strip.targets.is_empty());
+        assert_eq!(v.all[1].strip.targets.len(), 1);
+        // A team net's command naming no vehicle marks none.
+        v.begin();
+        v.effect(&goto(None));
+        assert!(!v.changed);
+        v.answer(
+            Some(0),
+            "DEC.site",
+            &json!({"lat": 51.2, "lon": -2.2, "name": "field"}),
+        );
+        assert_eq!(v.all[0].strip.sites[0].label, "field (DEC.site)");
+        assert!(v.all[1].strip.sites.is_empty());
+    }
+
+    #[test]
+    fn without_a_team_the_first_autopilot_heard_is_followed() {
+        let project = super::super::board::tests::project();
+        let mut v = Vehicles::new(&project, 100);
+        assert_eq!(v.all.len(), 1);
+        v.frame(1, &heartbeat(7, 15, true));
+        v.frame(2, &heartbeat(8, 4, false));
+        v.frame(3, &position(7, 51.0, -2.0));
+        v.frame(4, &position(8, 52.0, -2.0));
+        let j = json(&v);
+        assert_eq!(j[0]["name"], Json::Null);
+        assert_eq!(j[0]["system"], 7);
+        assert_eq!(j[0]["mode"], "GUIDED");
+        assert_eq!(j[0]["position"], json!([51.0, -2.0]));
+        // Its command, naming no vehicle, is its own.
+        v.effect(&Effect::Command {
+            time: 0,
+            id: 1,
+            net: 0,
+            verb: "land".into(),
+            args: [("lat", 51.5), ("lon", -2.5)]
+                .into_iter()
+                .map(|(k, x)| (k.to_owned(), nets::Value::Float(x)))
+                .collect(),
+            vehicle: None,
+        });
+        assert_eq!(v.all[0].strip.targets.len(), 1);
+    }
 }

@@ -2,6 +2,8 @@
 // Usage: node driver.js live|view URL OUT_DIR [SECONDS_AT...]
 //        node driver.js mirror|mirror-read-only URL OUT_DIR [CHOICE]
 //        (gateway/tests/monitor_mirror.rs: the mirror's page)
+//        node driver.js team URL OUT_DIR
+//        (gateway/tests/monitor_team.rs: a team's live page; MONITOR_SIGNALS)
 // Prints one JSON object with what it saw; the Rust test judges it.
 // The browser is closed on every path (and dies with this process: it is
 // launched over a pipe).
@@ -203,6 +205,52 @@ async function mirror(page, seen, readOnly) {
   seen.second_closed = await page.$eval("#done-" + second, (el) => el.dataset.fate).catch(() => null);
 }
 
+// A team's live page: one group per vehicle and the team's, every vehicle
+// on the map moving; told when the test has failed R1's engine
+// ("moved" written to MONITOR_SIGNALS, then the page watched), R1's group
+// must show locked out, the others not.
+async function team(page, seen) {
+  const tell = (what) => require("fs").writeFileSync(path.join(process.env.MONITOR_SIGNALS, what), what);
+  await page.goto(url);
+  await page.waitForFunction(() => document.querySelector("#connection").textContent === "connected" &&
+    document.querySelectorAll("#nets .group").length > 0, null, { timeout: 30000 });
+  seen.groups = await page.$$eval("#nets > .group", (els) => els.map((g) => ({
+    id: g.id, vehicle: g.dataset.vehicle || null,
+    nets: [...g.querySelectorAll("div.net")].map((n) => n.dataset.net),
+    head: g.querySelector(".group-head").textContent,
+  })));
+  seen.strip_hidden = await page.$eval("#strip", (e) => e.hidden);
+  const markers = () => [...document.querySelectorAll("#map g.marker")].map((g) => ({
+    vehicle: g.dataset.vehicle, lat: +g.dataset.lat, lon: +g.dataset.lon,
+    fill: g.querySelector("circle").getAttribute("fill"), label: (g.querySelector("text") || {}).textContent || null }));
+  const first = await page.waitForFunction((f) => {
+    const m = eval(f)();
+    return m.length >= 2 && m;
+  }, "(" + markers.toString() + ")", { timeout: 60000 });
+  seen.markers_first = await first.jsonValue();
+  // Every marker moves (more than about 2 m).
+  const moved = await page.waitForFunction(([f, first]) => {
+    const m = eval(f)();
+    return first.every((a) => m.some((b) => b.vehicle === a.vehicle &&
+      (Math.abs(b.lat - a.lat) > 2e-5 || Math.abs(b.lon - a.lon) > 2e-5))) && m;
+  }, ["(" + markers.toString() + ")", seen.markers_first], { timeout: 120000 });
+  seen.markers_moved = await moved.jsonValue();
+  seen.tracks = await page.$$eval("#map polyline.track", (els) => els.map((e) => ({
+    vehicle: e.dataset.vehicle, stroke: e.getAttribute("stroke"), points: e.getAttribute("points").split(" ").length })));
+  seen.modes = await page.$$eval("#nets > .group[data-vehicle]", (els) => els.map((g) => g.querySelector(".g-mode b").textContent));
+  await page.screenshot({ path: path.join(out, "monitor-team.png") });
+  tell("moved");
+  await page.waitForFunction(() => {
+    const g = document.querySelector("#nets > .group[data-vehicle='R1']");
+    return g && g.classList.contains("locked");
+  }, null, { timeout: 60000 });
+  seen.locked = await page.$$eval("#nets > .group", (els) => els.map((g) => ({
+    vehicle: g.dataset.vehicle || null, locked: g.classList.contains("locked"),
+    badge: !g.querySelector(".g-lock").hidden, events: (g.querySelector(".g-events") || {}).textContent || "" })));
+  seen.banner = await page.$eval("#lockout", (e) => ({ hidden: e.hidden, text: e.textContent }));
+  await page.screenshot({ path: path.join(out, "monitor-team-locked.png") });
+}
+
 (async () => {
   const seen = { errors: [] };
   const browser = await chromium.launch({
@@ -216,6 +264,7 @@ async function mirror(page, seen, readOnly) {
     page.on("pageerror", (e) => seen.errors.push(String(e)));
     if (mode === "live") await live(page, seen);
     else if (mode.startsWith("mirror")) await mirror(page, seen, mode === "mirror-read-only");
+    else if (mode === "team") await team(page, seen);
     else await view(page, seen);
   } catch (e) {
     seen.failure = String(e && e.stack || e);

@@ -9,7 +9,10 @@ let page = null;
 let byId = {};             // element id -> {kind: "place"|"transition", flat, def, net}
 let frame = null;          // the last frame applied
 let firedAt = {};          // flat transition -> when it last fired (performance.now())
-let track = [];
+let vehicles = [];         // a team's vehicles: [{name, system, colour}]; [] without a team
+let tracks = {};           // vehicle name ("" without a team) -> track points
+let lastEvents = {};       // vehicle name -> its last events, newest first
+const LAST_EVENTS = 5;
 let selected = null;
 let socket = null;
 let logRows = 0;
@@ -51,35 +54,39 @@ function build() {
     chip.onclick = () => define({ kind: "global", def: g });
     globals.appendChild(chip);
   }
-  // Nets by level: the hierarchy reads top to bottom.
-  const levels = new Map();
-  page.nets.forEach((n, i) => {
-    const l = n.level === null ? 99 : n.level;
-    if (!levels.has(l)) levels.set(l, []);
-    levels.get(l).push(i);
-  });
+  // A team: one group per vehicle (its nets, strip and last events), then
+  // the team nets' group. Without a team the nets alone, as ever.
+  vehicles = teamOf(page);
   const nets = $("nets");
-  for (const l of [...levels.keys()].sort((a, b) => a - b)) {
-    const title = document.createElement("div");
-    title.className = "level-title";
-    title.textContent = l === 0 ? "level 0 — activated by no other net" : (l === 99 ? "not activated" : "level " + l);
-    nets.appendChild(title);
-    const row = document.createElement("div");
-    row.className = "level";
-    for (const i of levels.get(l)) row.appendChild(card(i));
-    nets.appendChild(row);
+  const all = page.nets.map((n, i) => i);
+  // The nets in the order shown: by group, each by level.
+  const order = [];
+  const shown = (indices) => { const l = byLevel(indices); for (const k of [...l.keys()].sort((a, b) => a - b)) order.push(...l.get(k)); };
+  if (vehicles.length) {
+    $("strip").hidden = true;
+    vehicles.forEach((v, k) => {
+      const mine = all.filter((i) => page.nets[i].vehicle === v.name);
+      nets.appendChild(group(v, k, mine));
+      shown(mine);
+    });
+    const team = all.filter((i) => !page.nets[i].vehicle);
+    if (team.length) nets.appendChild(group(null, null, team));
+    shown(team);
+  } else {
+    levelRows(nets, all);
+    shown(all);
   }
-  // The mission at a glance: each net and its marked places, by level.
+  // The mission at a glance: each net and its marked places, in that order.
   const summary = $("summary");
-  for (const l of [...levels.keys()].sort((a, b) => a - b)) {
-    for (const i of levels.get(l)) {
-      const s = document.createElement("div");
-      s.className = "sum";
-      s.id = "sum-" + i;
-      s.innerHTML = "<small>" + esc(page.nets[i].name) + "</small><b>–</b>";
-      s.onclick = () => $("net-" + i).scrollIntoView({ behavior: "smooth" });
-      summary.appendChild(s);
-    }
+  for (const i of order) {
+    const s = document.createElement("div");
+    s.className = "sum";
+    s.id = "sum-" + i;
+    s.innerHTML = "<small>" + esc(page.nets[i].name) + "</small><b>–</b>";
+    const v = vehicleOf(page.nets[i]);
+    if (v) s.style.borderLeftColor = v.colour;
+    s.onclick = () => $("net-" + i).scrollIntoView({ behavior: "smooth" });
+    summary.appendChild(s);
   }
   for (const [i, n] of page.nets.entries()) {
     for (const p of n.places) byId[p.id] = { kind: "place", flat: p.flat, def: p, net: i };
@@ -89,12 +96,77 @@ function build() {
   if (page.mirror) mirrorBuild();
 }
 
+// The team: the page's vehicles, or else the vehicles its nets name
+// (whatever page served the JSON), in order; each its colour.
+const COLOURS = ["#06c", "#d60", "#393", "#a3c", "#c03", "#088", "#875", "#d4a"];
+function colour(k) { return k < COLOURS.length ? COLOURS[k] : "hsl(" + ((k * 137.5) % 360).toFixed(0) + ", 70%, 40%)"; }
+function teamOf(p) {
+  const named = (p.vehicles || []).map((v) => ({ name: v.name, system: v.system }));
+  for (const n of p.nets) {
+    if (n.vehicle && !named.some((v) => v.name === n.vehicle)) named.push({ name: n.vehicle, system: null });
+  }
+  return named.map((v, k) => ({ name: v.name, system: v.system, colour: colour(k) }));
+}
+function vehicleOf(n) { return n.vehicle ? vehicles.find((v) => v.name === n.vehicle) : null; }
+function groupId(name) { return name === null ? "group-team" : "group-" + vehicles.findIndex((v) => v.name === name); }
+
+// Net indices by level: the hierarchy reads top to bottom.
+function byLevel(indices) {
+  const levels = new Map();
+  for (const i of indices) {
+    const l = page.nets[i].level === null ? 99 : page.nets[i].level;
+    if (!levels.has(l)) levels.set(l, []);
+    levels.get(l).push(i);
+  }
+  return levels;
+}
+function levelRows(box, indices) {
+  const levels = byLevel(indices);
+  for (const l of [...levels.keys()].sort((a, b) => a - b)) {
+    const title = document.createElement("div");
+    title.className = "level-title";
+    title.textContent = l === 0 ? "level 0 — activated by no other net" : (l === 99 ? "not activated" : "level " + l);
+    box.appendChild(title);
+    const row = document.createElement("div");
+    row.className = "level";
+    for (const i of levels.get(l)) row.appendChild(card(i));
+    box.appendChild(row);
+  }
+}
+
+// A vehicle's group (v null: the team nets'): its head — name, system,
+// lockout, mode, armed, position, heartbeat — its last events, its nets.
+function group(v, k, indices) {
+  const g = document.createElement("section");
+  g.className = "group" + (v ? "" : " team");
+  g.id = groupId(v ? v.name : null);
+  if (v) {
+    g.dataset.vehicle = v.name;
+    g.style.borderLeftColor = v.colour;
+    const tile = (c, label) => '<div class="g-tile ' + c + '"><label>' + label + "</label><b>–</b></div>";
+    g.innerHTML = '<div class="group-head"><span class="swatch" style="background:' + v.colour + '"></span><b class="g-name">' +
+      esc(v.name) + '</b><span class="g-system muted">' + (v.system === null ? "" : "system " + v.system) + "</span>" +
+      '<span class="g-lock" hidden>LOCKED OUT</span>' + tile("g-mode", "mode") + tile("g-armed", "armed") +
+      tile("g-position", "position") + tile("g-battery", "battery") + tile("g-hb", "last heartbeat") + "</div>" +
+      '<div class="g-events"><span class="muted">no event yet</span></div>';
+  } else {
+    g.innerHTML = '<div class="group-head"><b class="g-name">team</b><span class="muted">the nets of no one vehicle</span>' +
+      '<span class="g-lock" hidden>LOCKED OUT</span></div>';
+  }
+  const box = document.createElement("div");
+  box.className = "group-nets";
+  levelRows(box, indices);
+  g.appendChild(box);
+  return g;
+}
+
 function card(i) {
   const n = page.nets[i];
   const div = document.createElement("div");
   div.className = "net";
   div.id = "net-" + i;
   div.dataset.net = n.name;
+  if (n.vehicle) div.dataset.vehicle = n.vehicle;
   const by = page.nets.filter((m) => m.activates.includes(n.name)).map((m) => m.name);
   div.innerHTML = '<div class="net-head" title="open alone"><b>' + esc(n.name) + '</b><span class="state"></span>' +
     '<span class="now"></span><span class="activates">' + (n.activates.length ? "activates " + esc(n.activates.join(", ")) : "") +
@@ -196,9 +268,8 @@ function apply(f) {
   page.nets.forEach((n, i) => {
     const div = $("net-" + i);
     const on = !!f.active[i];
-    const vehicle = n.name.includes("@") ? n.name.slice(n.name.lastIndexOf("@") + 1) : null;
     div.classList.toggle("inactive", !on);
-    div.classList.toggle("locked", on && (f.lockout || (vehicle !== null && lockedVehicles.includes(vehicle))));
+    div.classList.toggle("locked", on && (f.lockout || (!!n.vehicle && lockedVehicles.includes(n.vehicle))));
     div.querySelector(".state").textContent = on ? "ACTIVE" : "inactive";
     // The marked places' names, large: the net's state read from afar.
     const names = n.places.filter((p) => !p.global && f.marked.includes(p.flat)).map((p) => p.name);
@@ -209,10 +280,24 @@ function apply(f) {
   });
   for (const g of page.globals) $("g-" + g.flat).classList.toggle("marked", f.marked.includes(g.flat));
   paint(document);
-  strip(f.vehicle);
-  if (f.track_reset) track = [];
-  track = track.concat(f.track || []);
-  map(f.vehicle);
+  const vs = f.vehicles || [];
+  for (const v of vs) {
+    const key = v.name || "";
+    if (v.track_reset || !tracks[key]) tracks[key] = [];
+    tracks[key] = tracks[key].concat(v.track || []);
+  }
+  if (vehicles.length) {
+    for (const g of document.querySelectorAll(".group")) {
+      const name = g.dataset.vehicle || null;
+      const locked = f.lockout || (name !== null && lockedVehicles.includes(name));
+      g.classList.toggle("locked", locked);
+      g.querySelector(".g-lock").hidden = !locked;
+    }
+    for (const v of vs) groupStrip(v);
+  } else {
+    strip(vs[0]);
+  }
+  map(vs);
   log(f.log || [], f.log_reset, f.log_gap);
   if (f.mirror) mirror(f.mirror);
   if (page.mode !== "live") position(f.time_us);
@@ -240,11 +325,60 @@ function strip(v) {
   tile("v-hb", age === null ? "never" : age.toFixed(1) + " s ago", age === null || age > 3 ? "bad" : (age > 1.5 ? "warn" : "good"));
 }
 
-function map(v) {
+// A vehicle's tiles in its group's head.
+function groupStrip(v) {
+  const k = vehicles.findIndex((x) => x.name === v.name);
+  const g = k < 0 ? null : $("group-" + k);
+  if (!g) return;
+  const set = (c, value, cls) => {
+    const t = g.querySelector("." + c);
+    t.querySelector("b").textContent = value;
+    t.className = "g-tile " + c + (cls ? " " + cls : "");
+  };
+  set("g-mode", text(v.mode) || "–");
+  set("g-armed", v.armed === null ? "–" : (v.armed ? "ARMED" : "disarmed"), v.armed ? "warn" : "");
+  set("g-position", v.position ? v.position[0].toFixed(5) + ", " + v.position[1].toFixed(5) : "–");
+  const b = v.battery_pct;
+  set("g-battery", b === null ? "–" : b + "%", b === null ? "" : (b < 20 ? "bad" : (b < 35 ? "warn" : "")));
+  const age = v.heartbeat_age;
+  set("g-hb", age === null ? "never" : age.toFixed(1) + " s ago", age === null || age > 3 ? "bad" : (age > 1.5 ? "warn" : "good"));
+}
+
+// Each vehicle's last events in its group's head, newest first.
+function vehicleEvents(entries, reset) {
+  if (!vehicles.length) return;
+  if (reset) lastEvents = {};
+  let touched = reset;
+  for (const e of entries) {
+    if (e.kind !== "event" || !e.vehicle) continue;
+    const list = (lastEvents[e.vehicle] = lastEvents[e.vehicle] || []);
+    list.unshift(e);
+    if (list.length > LAST_EVENTS) list.pop();
+    touched = true;
+  }
+  if (!touched) return;
+  vehicles.forEach((v, k) => {
+    const box = document.querySelector("#group-" + k + " .g-events");
+    if (!box) return;
+    const list = lastEvents[v.name] || [];
+    box.innerHTML = list.length ? list.map((e) => '<span class="g-event ' + esc(e.category) + '">' +
+      '<span class="t">' + e.t.toFixed(1) + "</span> " + esc(e.name) + "</span>").join("") : '<span class="muted">no event yet</span>';
+  });
+}
+
+// Every vehicle on one map: each its track, marker, heading and (in a
+// team) label, in its colour; home, waypoints, targets and sites too.
+function map(vs) {
   const svg = $("map");
-  const pts = track.slice();
+  const team = vehicles.length > 0;
+  const shown = vs.map((v) => {
+    const k = team ? vehicles.findIndex((x) => x.name === v.name) : 0;
+    return { v, k, colour: team ? (k < 0 ? "#555" : vehicles[k].colour) : "#06c", track: tracks[v.name || ""] || [] };
+  });
+  const pts = [];
   const add = (p) => { if (p) pts.push(p); };
-  if (v) {
+  for (const { v, track } of shown) {
+    track.forEach(add);
     add(v.position); add(v.home);
     (v.waypoints || []).forEach(add); (v.sites || []).forEach(add); (v.targets || []).forEach(add);
   }
@@ -264,25 +398,33 @@ function map(v) {
   if (bar / mPerUnit < 40) bar *= 5;
   o += '<line x1="10" y1="250" x2="' + (10 + bar / mPerUnit).toFixed(1) + '" y2="250" stroke="#333" stroke-width="3"/>' +
     '<text x="12" y="245" font-size="11">' + (bar >= 1000 ? bar / 1000 + " km" : bar + " m") + "</text>";
-  if (v && v.waypoints && v.waypoints.length) {
-    o += '<polyline fill="none" stroke="#777" stroke-dasharray="4 3" points="' + v.waypoints.map((p) => X(p) + "," + Y(p)).join(" ") + '"/>';
-    v.waypoints.forEach((p, i) => {
-      o += '<circle cx="' + X(p) + '" cy="' + Y(p) + '" r="5" fill="#fff" stroke="#333"><title>' + esc(p[2]) + "</title></circle>" +
-        '<text x="' + (+X(p) + 6) + '" y="' + (+Y(p) - 5) + '" font-size="10" fill="#333">' + (i + 1) + "</text>";
-    });
+  for (const { v, colour: c } of shown) {
+    if (v.waypoints && v.waypoints.length) {
+      o += '<polyline fill="none" stroke="' + (team ? c : "#777") + '" stroke-dasharray="4 3" points="' + v.waypoints.map((p) => X(p) + "," + Y(p)).join(" ") + '"/>';
+      v.waypoints.forEach((p, i) => {
+        o += '<circle cx="' + X(p) + '" cy="' + Y(p) + '" r="5" fill="#fff" stroke="#333"><title>' + esc(p[2]) + "</title></circle>" +
+          '<text x="' + (+X(p) + 6) + '" y="' + (+Y(p) - 5) + '" font-size="10" fill="#333">' + (i + 1) + "</text>";
+      });
+    }
   }
-  if (track.length > 1) o += '<polyline fill="none" stroke="#06c" stroke-width="2.5" points="' + track.map((p) => X(p) + "," + Y(p)).join(" ") + '"/>';
-  if (v && v.home) o += '<rect x="' + (X(v.home) - 6) + '" y="' + (Y(v.home) - 6) + '" width="12" height="12" fill="#2a2"/><text x="' + (+X(v.home) + 8) + '" y="' + (+Y(v.home) + 4) + '" font-size="11" font-weight="bold">H</text>';
-  for (const p of (v && v.sites) || []) {
-    o += '<path d="M ' + X(p) + " " + (Y(p) - 8) + " l 7 12 l -14 0 z\" fill=\"#d00\"><title>" + esc(p[2]) + "</title></path>" +
-      '<text x="' + (+X(p) + 8) + '" y="' + (+Y(p) + 4) + '" font-size="10" fill="#a00">' + esc(p[2]) + "</text>";
+  for (const { v, colour: c, track } of shown) {
+    if (track.length > 1) o += '<polyline class="track" data-vehicle="' + esc(v.name || "") + '" fill="none" stroke="' + c + '" stroke-width="2.5" points="' + track.map((p) => X(p) + "," + Y(p)).join(" ") + '"/>';
+    if (v.home) o += '<rect x="' + (X(v.home) - 6) + '" y="' + (Y(v.home) - 6) + '" width="12" height="12" fill="' + (team ? c : "#2a2") + '"/><text x="' + (+X(v.home) + 8) + '" y="' + (+Y(v.home) + 4) + '" font-size="11" font-weight="bold">H</text>';
+    // A team's sites are many (a planner's every answer): named on hover.
+    for (const p of v.sites || []) {
+      o += '<path d="M ' + X(p) + " " + (Y(p) - 8) + " l 7 12 l -14 0 z\" fill=\"" + (team ? c : "#d00") + "\"><title>" + esc(p[2]) + "</title></path>" +
+        (team ? "" : '<text x="' + (+X(p) + 8) + '" y="' + (+Y(p) + 4) + '" font-size="10" fill="#a00">' + esc(p[2]) + "</text>");
+    }
+    for (const p of v.targets || []) o += '<circle cx="' + X(p) + '" cy="' + Y(p) + '" r="7" fill="none" stroke="' + (team ? c : "#c0c") + '" stroke-width="2"><title>' + esc(p[2]) + "</title></circle>";
   }
-  for (const p of (v && v.targets) || []) o += '<circle cx="' + X(p) + '" cy="' + Y(p) + '" r="7" fill="none" stroke="#c0c" stroke-width="2"><title>' + esc(p[2]) + "</title></circle>";
-  if (v && v.position) {
+  for (const { v, colour: c } of shown) {
+    if (!v.position) continue;
     const hd = (v.heading || 0) * Math.PI / 180;
     const x = +X(v.position), y = +Y(v.position);
-    o += '<circle cx="' + x + '" cy="' + y + '" r="7" fill="#06c" stroke="#fff" stroke-width="2"/>' +
-      '<line x1="' + x + '" y1="' + y + '" x2="' + (x + 16 * Math.sin(hd)).toFixed(1) + '" y2="' + (y - 16 * Math.cos(hd)).toFixed(1) + '" stroke="#06c" stroke-width="3"/>';
+    o += '<g class="marker" data-vehicle="' + esc(v.name || "") + '" data-lat="' + v.position[0] + '" data-lon="' + v.position[1] + '">' +
+      '<circle cx="' + x + '" cy="' + y + '" r="7" fill="' + c + '" stroke="#fff" stroke-width="2"/>' +
+      '<line x1="' + x + '" y1="' + y + '" x2="' + (x + 16 * Math.sin(hd)).toFixed(1) + '" y2="' + (y - 16 * Math.cos(hd)).toFixed(1) + '" stroke="' + c + '" stroke-width="3"/>' +
+      (team && v.name ? '<text x="' + (x + 9) + '" y="' + (y - 9) + '" font-size="12" font-weight="bold" fill="' + c + '">' + esc(v.name) + "</text>" : "") + "</g>";
   }
   svg.innerHTML = o;
 }
@@ -333,6 +475,7 @@ function log(entries, reset, gap) {
     box.prepend(g);
   }
   for (const e of entries) { box.prepend(row(e)); logRows++; }
+  vehicleEvents(entries, reset);
   while (box.childElementCount > 500) box.lastElementChild.remove();
   $("log-count").textContent = "(" + logRows + ")";
 }
