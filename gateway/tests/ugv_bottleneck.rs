@@ -117,6 +117,7 @@ fn a_motor_failure_is_catastrophic_and_the_team_holds() {
 /// log and the summary), stderr and its folder (the recording `demo.mcap`);
 /// stopped after `wall` if it has not ended by then.
 fn demo(name: &str, args: &[&str], wall: Duration) -> (Option<i32>, String, String, PathBuf) {
+    let _turn = team::turn();
     let dir = scratch(name);
     let record = dir.join("demo.mcap");
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))

@@ -54,12 +54,23 @@ pub fn in_bottleneck(s: &SimState) -> bool {
     (17.5..42.5).contains(&n) && e.abs() < 1.5
 }
 
+/// One team drives at a time in a test binary: two simulated rovers, a
+/// gateway and PLN each take a good share of CI's two cores, and a team
+/// slowed by another misses its deadlines.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// This test's turn to drive a team (held until it is dropped).
+pub fn turn() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Two rovers on one link, the gateway on the example, PLN started by it.
 pub struct Team {
     pub fleet: Fleet,
     petrel: Option<Running>,
     /// Every snapshot of both rovers taken while it ran.
     pub seen: Vec<Vec<(u8, SimState)>>,
+    _turn: std::sync::MutexGuard<'static, ()>,
 }
 
 impl Team {
@@ -71,6 +82,7 @@ impl Team {
 
     /// The same, `speed` simulated seconds per wall second.
     pub fn start_at(name: &str, faults: &[(u8, &str)], extra: &[&str], speed: f64) -> Team {
+        let turn = turn();
         let mut r1 = rover(1, 0.0, -20.0);
         let mut r2 = rover(2, 60.0, 20.0);
         for (sys, spec) in faults {
@@ -96,6 +108,7 @@ impl Team {
             fleet,
             petrel: Some(Running::new(child)),
             seen: Vec::new(),
+            _turn: turn,
         }
     }
 
