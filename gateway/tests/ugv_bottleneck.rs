@@ -10,137 +10,17 @@
 #[path = "scenarios/flight.rs"]
 mod flight;
 
-use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+#[path = "ugv/team.rs"]
+mod team;
 
-use flight::{free_port, free_udp_port, petrel_run_project, scratch, Running};
-use sitl_tests::geo::{offset, Home};
-use sitl_tests::{BootTimeline, Fault, Fleet, SimConfig, SimState};
+use std::time::Duration;
+
+use sitl_tests::Fault;
+use team::{at, in_bottleneck, near, state, Team};
 
 /// The shared flight module's DEC reads this (not used here: PLN is
 /// started by the gateway).
 pub const MISSION_FILE: &str = "mission.toml";
-
-/// Simulated seconds per wall second (the simulator's and the gateway's).
-const SPEED: f64 = 10.0;
-
-fn project() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/ugv-bottleneck")
-}
-
-/// The labyrinth's origin: SITL's home, where pln.py measures from.
-fn origin() -> Home {
-    Home::default()
-}
-
-/// A rover of system `system` parked `north`, `east` metres from the origin.
-fn rover(system: u8, north: f64, east: f64) -> SimConfig {
-    let (lat, lon) = sitl_tests::geo::location(&origin(), sitl_tests::geo::V2::new(north, east));
-    SimConfig {
-        boot: BootTimeline::quick(),
-        first_arm_refused: false,
-        ..SimConfig::rover(
-            system,
-            Home {
-                lat,
-                lon,
-                ..origin()
-            },
-        )
-    }
-}
-
-/// Where a rover is, metres north and east of the labyrinth's origin.
-fn at(s: &SimState) -> (f64, f64) {
-    let v = offset(&origin(), s.lat, s.lon);
-    (v.n, v.e)
-}
-
-/// Inside the bottleneck: the corridor between the gates (north 15..45,
-/// east -1.5..1.5), gates excluded (a robot waits at its gate).
-fn in_bottleneck(s: &SimState) -> bool {
-    let (n, e) = at(s);
-    (17.5..42.5).contains(&n) && e.abs() < 1.5
-}
-
-/// Two rovers on one link, the gateway on the example, PLN started by it.
-struct Team {
-    fleet: Fleet,
-    petrel: Option<Running>,
-    /// Every snapshot of both rovers taken while it ran.
-    seen: Vec<Vec<(u8, SimState)>>,
-}
-
-impl Team {
-    fn start(name: &str, faults: &[(u8, &str)]) -> Team {
-        let mut r1 = rover(1, 0.0, -20.0);
-        let mut r2 = rover(2, 60.0, 20.0);
-        for (sys, spec) in faults {
-            let parsed = sitl_tests::Schedule::parse(&[*spec]).expect("a fault");
-            let cfg = if *sys == 1 { &mut r1 } else { &mut r2 };
-            cfg.faults.entries.extend(parsed.entries);
-        }
-        let port = free_udp_port();
-        let fleet = Fleet::start(&format!("udpin:127.0.0.1:{port}"), SPEED, vec![r1, r2])
-            .expect("the fleet starts");
-        let dir = scratch(name);
-        let programs = format!("tcp:127.0.0.1:{}", free_port());
-        let child = petrel_run_project(
-            &project(),
-            &fleet.client_address(),
-            &programs,
-            SPEED,
-            &dir.join("flight.rec"),
-            Duration::from_secs(600),
-            &[],
-        );
-        Team {
-            fleet,
-            petrel: Some(Running::new(child)),
-            seen: Vec::new(),
-        }
-    }
-
-    /// Runs until `done` holds on both rovers (or `wall` passes), checking
-    /// at every snapshot that they are never both in the bottleneck.
-    fn run_until(&mut self, wall: Duration, done: impl Fn(&[(u8, SimState)]) -> bool) -> bool {
-        let end = Instant::now() + wall;
-        while Instant::now() < end {
-            let all = self.fleet.states();
-            let inside: Vec<u8> = all
-                .iter()
-                .filter(|(_, s)| in_bottleneck(s))
-                .map(|(sys, _)| *sys)
-                .collect();
-            assert!(inside.len() < 2, "both rovers in the bottleneck: {all:?}");
-            let ok = done(&all);
-            self.seen.push(all);
-            if ok {
-                return true;
-            }
-            if self.petrel.as_mut().is_none_or(Running::exited) {
-                return false; // it refused the project, or died
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        false
-    }
-
-    fn stop(mut self) -> (String, String) {
-        let (out, err, _) = self.petrel.take().map(Running::stop).unwrap_or_default();
-        self.fleet.stop();
-        (out, err)
-    }
-}
-
-fn near(s: &SimState, n: f64, e: f64) -> bool {
-    let (sn, se) = at(s);
-    (sn - n).hypot(se - e) < 3.0
-}
-
-fn state(all: &[(u8, SimState)], sys: u8) -> &SimState {
-    &all.iter().find(|(s, _)| *s == sys).expect("that rover").1
-}
 
 #[test]
 fn both_rovers_cross_in_turn_and_reach_their_goals() {
