@@ -24,17 +24,22 @@ use std::time::Duration;
 use flight::{scratch, timeline, Running};
 use process::petrel_mirror;
 use router::{Loss, Router};
-use team::{near, project, state, Team, SPEED};
+use team::{near, project, state, Team};
 use wire::{fired, only_resync_requests, the_recording_of_checks_out};
 
 /// The shared flight module's DEC reads this (not used here: PLN is
 /// started by the gateway).
 pub const MISSION_FILE: &str = "mission.toml";
 
+/// Simulated seconds per wall second: half ugv_bottleneck.rs's pace, so
+/// that three processes and the simulator keep their time stamps on a
+/// busy two-core machine (the check compares receive times).
+const SPEED: f64 = 5.0;
+
 #[test]
 fn the_mirror_follows_both_rovers_through_the_bottleneck() {
     let dir = scratch("mirror-team");
-    let fleet = team::fleet("tcpin", &[]);
+    let fleet = team::fleet_at("tcpin", &[], SPEED);
     let mut router = Router::start(fleet.local_addr(), Loss::default());
     let recording = dir.join("mirror.mcap");
     let mirror = Running::new(petrel_mirror(
@@ -42,16 +47,18 @@ fn the_mirror_follows_both_rovers_through_the_bottleneck() {
         &format!("tcpout:127.0.0.1:{}", router.ground_port),
         &recording,
         SPEED,
-        Duration::from_secs(120),
+        Duration::from_secs(200),
         &[],
     ));
-    let mut team = Team::run(
+    let mut team = Team::run_at(
         "mirror-team-run",
         fleet,
         &format!("tcpout:127.0.0.1:{}", router.companion_port),
-        &["--downlink"],
+        // `petrel check` is ugv_bottleneck's and the verifier's business.
+        &["--downlink", "--unchecked"],
+        SPEED,
     );
-    let done = team.run_until(Duration::from_secs(60), |all| {
+    let done = team.run_until(Duration::from_secs(120), |all| {
         near(state(all, 1), 55.0, -20.0)
             && near(state(all, 2), 5.0, 20.0)
             && all.iter().all(|(_, s)| s.mode == "HOLD")
@@ -81,10 +88,11 @@ fn the_mirror_follows_both_rovers_through_the_bottleneck() {
     );
     let agreed = lines("agreed").len();
     assert!(agreed > 20, "only {agreed} checks agreed\n{mirror_err}");
-    // Its firings are the vehicle's: both robots' instances and SYNC.
+    // Its firings are the vehicle's: both robots' instances (SYNC, the
+    // team net, fires on a failure only).
     let vehicle = fired(&run);
     let replica = fired(&mirror);
-    for net in ["@R1", "@R2", "SYNC"] {
+    for net in ["@R1", "@R2"] {
         assert!(
             replica.iter().any(|f| f.contains(net)),
             "the replica never fired {net}: {replica:#?}"
@@ -117,6 +125,8 @@ fn the_mirror_follows_both_rovers_through_the_bottleneck() {
         assert!(v["matched"].as_u64().unwrap_or(0) >= 5, "{v}");
         assert_eq!(v["ground_only"], 0, "{v}");
         assert_eq!(v["vehicle_only"], 0, "{v}");
+        // A clean link: nothing excused as lost.
+        assert_eq!(v["unjudged"], 0, "{v}");
     }
     // The vehicles' events reached the timeline qualified.
     for r in ["R1", "R2"] {

@@ -175,6 +175,13 @@ impl Ground {
         if component == w.autopilot && autopilot_heartbeat(frame) {
             w.heard = true;
         }
+        // In a team the onboard gateway speaks as each vehicle's companion
+        // (vehicle, 191) with one sequence counter for all it sends, most
+        // of it never reaching the ground (commands to the vehicles): its
+        // numbers say nothing of the radio's losses.
+        if self.team && component == crate::mirror::COMPANION {
+            return;
+        }
         // The vehicle's frames the radio lost: a gap in a component's
         // sequence numbers, between the last one heard and this — and in
         // the system's, for vehicles whose components share one counter

@@ -64,6 +64,11 @@ pub struct Team {
 /// The two rovers (R1 south-west, R2 north-east of the bottleneck) on one
 /// link `listen` (`udpin` or `tcpin`, a free port), with their faults.
 pub fn fleet(transport: &str, faults: &[(u8, &str)]) -> Fleet {
+    fleet_at(transport, faults, SPEED)
+}
+
+/// The same, simulated `speed` times faster than real time.
+pub fn fleet_at(transport: &str, faults: &[(u8, &str)], speed: f64) -> Fleet {
     let mut r1 = rover(1, 0.0, -20.0);
     let mut r2 = rover(2, 60.0, 20.0);
     for (sys, spec) in faults {
@@ -78,7 +83,7 @@ pub fn fleet(transport: &str, faults: &[(u8, &str)]) -> Fleet {
     };
     Fleet::start(
         &format!("{transport}:127.0.0.1:{port}"),
-        SPEED,
+        speed,
         vec![r1, r2],
     )
     .expect("the fleet starts")
@@ -96,13 +101,18 @@ impl Team {
     /// `petrel run` on the example over `mavlink` (the fleet's address, or
     /// a router's in front of it), with `extra` arguments.
     pub fn run(name: &str, fleet: Fleet, mavlink: &str, extra: &[&str]) -> Team {
+        Team::run_at(name, fleet, mavlink, extra, SPEED)
+    }
+
+    /// The same, the gateway's clock `speed` times the wall (the fleet's).
+    pub fn run_at(name: &str, fleet: Fleet, mavlink: &str, extra: &[&str], speed: f64) -> Team {
         let dir = scratch(name);
         let programs = format!("tcp:127.0.0.1:{}", free_port());
         let child = petrel_run_project(
             &project(),
             mavlink,
             &programs,
-            SPEED,
+            speed,
             &dir.join("flight.rec"),
             Duration::from_secs(600),
             extra,
