@@ -72,3 +72,7 @@ pub fn step_inputs(input: &SupervisorInput, step: &Step) -> Option<Vec<Input>> {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+#[path = "ground/tests.rs"]
+mod ground_tests;

@@ -103,12 +103,16 @@ pub struct Report {
     pub messages: u64,
 }
 
+/// A step on the queue: its input, the frame's bytes, the step, the digest
+/// after it, the frame's link.
+pub(super) type StepEntry = (Input, Option<Vec<u8>>, Step, Digest, Option<usize>);
+
 /// One entry on the queue.
 pub(super) enum Entry {
     /// A step: its input (a frame's index is given by the writer), the
     /// frame's bytes, the step, the digest after it, the link the frame
     /// came in on (when told).
-    Step(Box<(Input, Option<Vec<u8>>, Step, Digest, Option<usize>)>),
+    Step(Box<StepEntry>),
     Sent {
         time: Micros,
         bytes: Vec<u8>,

@@ -10,7 +10,7 @@ use mavlink::dialects::ardupilotmega::{
 use mavlink::{MavHeader, MavlinkVersion};
 use nets::{Category, Event, Micros};
 
-use super::Ground;
+use super::ground::Ground;
 use crate::mirror::check::{Side, WINDOW};
 
 /// A HEARTBEAT of (`system`, `component`), sequence `seq`.
