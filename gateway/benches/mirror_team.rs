@@ -4,7 +4,9 @@
 //! template net per vehicle), fed over 127.0.0.1 UDP by this process
 //! (pinned to core 0) with N vehicles × 50 messages a second of realistic
 //! telemetry (`support/telemetry.rs`, each vehicle its own system id and
-//! sequence numbers), for 10 s. The mirror's `--json` closing line says how
+//! sequence numbers, their 10 Hz streams spread over the 100 ms period as
+//! independent vehicles' are; `MIRROR_TEAM_BURST=1`: all in step, the
+//! worst case), for 10 s. The mirror's `--json` closing line says how
 //! many frames it got of each vehicle; a frame sent and not got was
 //! dropped (the socket's buffer overflowed while the mirror was busy). It
 //! keeps up with N when it got every frame. Its CPU time over the run
@@ -67,6 +69,23 @@ fn project(dir: &std::path::Path, n: usize) {
     .expect("watch.toml");
 }
 
+/// Vehicle `i`'s phase among `n` when `SPREAD`: independent vehicles are
+/// not in step, so their 10 Hz streams are spread over the 100 ms period;
+/// else 37 µs apart (every vehicle's messages of an instant in one burst:
+/// the worst case).
+fn phase(i: usize, n: usize) -> u64 {
+    if spread() {
+        (i as u64 * 100_000) / n as u64
+    } else {
+        i as u64 * 37
+    }
+}
+
+/// `MIRROR_TEAM_BURST=1`: all vehicles in step (the worst case).
+fn spread() -> bool {
+    std::env::var_os("MIRROR_TEAM_BURST").is_none()
+}
+
 struct Trial {
     sent: u64,
     got: u64,
@@ -109,7 +128,7 @@ fn trial(n: usize) -> Option<Trial> {
             .flat_map(|i| {
                 telemetry::second_of(i as u8 + 1, s, &mut seqs[i])
                     .into_iter()
-                    .map(move |(t, b)| (t + i as u64 * 37, i, b))
+                    .map(move |(t, b)| (t + phase(i, n), i, b))
             })
             .collect();
         frames.sort_by_key(|(t, _, _)| *t);
@@ -183,6 +202,14 @@ fn main() {
         return;
     }
     pin(0);
+    println!(
+        "vehicles' streams {}",
+        if spread() {
+            "spread over the 100 ms period (independent vehicles)"
+        } else {
+            "in step, 37 µs apart (MIRROR_TEAM_BURST: the worst case)"
+        }
+    );
     pass("idle");
     let stop = Arc::new(AtomicBool::new(false));
     let spinner = {
