@@ -391,6 +391,18 @@ mod tests {
     }
 
     #[test]
+    fn a_frames_link_is_read_back_and_absent_in_older_recordings() {
+        let mut line = input_json(7, 1_000, &Input::Frame(3));
+        line["link"] = json!(1);
+        let read = input_with_setup(line.to_string().as_bytes()).map(|(i, _, l)| (i, l));
+        assert_eq!(read, Some(((7, 1_000, Input::Frame(3)), Some(1))));
+        // Written before links were: link 0 implied, the input unchanged.
+        let old = br#"{"seq": 7, "time_us": 1000, "input": "frame", "frame": 3}"#;
+        let read = input_with_setup(old).map(|(i, _, l)| (i, l));
+        assert_eq!(read, Some(((7, 1_000, Input::Frame(3)), None)));
+    }
+
+    #[test]
     fn the_setup_round_trips_through_json() {
         let config = elaboration::Config {
             sysid: Some(3),
