@@ -31,10 +31,12 @@ use wire::{fired, only_resync_requests, the_recording_of_checks_out};
 /// started by the gateway).
 pub const MISSION_FILE: &str = "mission.toml";
 
-/// Simulated seconds per wall second: half ugv_bottleneck.rs's pace, so
-/// that three processes and the simulator keep their time stamps on a
-/// busy two-core machine (the check compares receive times).
-const SPEED: f64 = 5.0;
+/// Simulated seconds per wall second: a quarter of ugv_bottleneck.rs's
+/// pace, so that three processes and the simulator keep their time stamps
+/// on a busy two-core machine: the check compares receive times, and a
+/// 0.3 s stall of `run` is 1.5 s of vehicle time at 5×, past the window
+/// (seen at a load average of 9.6; docs/mirror.md "Timing under load").
+const SPEED: f64 = 2.5;
 
 #[test]
 fn the_mirror_follows_both_rovers_through_the_bottleneck() {
@@ -47,7 +49,7 @@ fn the_mirror_follows_both_rovers_through_the_bottleneck() {
         &format!("tcpout:127.0.0.1:{}", router.ground_port),
         &recording,
         SPEED,
-        Duration::from_secs(200),
+        Duration::from_secs(300),
         &[],
     ));
     let mut team = Team::run_at(
@@ -58,12 +60,12 @@ fn the_mirror_follows_both_rovers_through_the_bottleneck() {
         &["--downlink", "--unchecked"],
         SPEED,
     );
-    let done = team.run_until(Duration::from_secs(120), |all| {
+    let done = team.run_until(Duration::from_secs(200), |all| {
         near(state(all, 1), 55.0, -20.0)
             && near(state(all, 2), 5.0, 20.0)
             && all.iter().all(|(_, s)| s.mode == "HOLD")
     });
-    // Twenty simulated seconds more: the last heartbeats reach the mirror.
+    // Five simulated seconds more: the last heartbeats reach the mirror.
     std::thread::sleep(Duration::from_secs(2));
     let (run_out, run_err) = team.stop();
     std::thread::sleep(Duration::from_millis(500));

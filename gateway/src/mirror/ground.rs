@@ -65,9 +65,15 @@ pub struct Ground {
     /// Those not said yet.
     unsaid: VecDeque<u8>,
     elaborated: Vec<Elaborated>,
+    /// Ground events elaborated before the vehicle's time base was known
+    /// (before the downlink's first heartbeat): judged once it is.
+    untimed: VecDeque<(Micros, Event)>,
     /// Events the ground elaborated.
     pub events: u64,
 }
+
+/// Ground events kept waiting for the time base, at most.
+const UNTIMED: usize = 256;
 
 impl Ground {
     /// The ground's view of `lanes` (`team::lanes`), each vehicle checked
@@ -92,6 +98,7 @@ impl Ground {
             foreign: BTreeMap::new(),
             unsaid: VecDeque::new(),
             elaborated: Vec::new(),
+            untimed: VecDeque::new(),
             events: 0,
         }
     }
@@ -220,13 +227,27 @@ impl Ground {
         to_vehicle: impl Fn(Micros) -> Option<Micros>,
         mut seen: impl FnMut(&Event),
     ) {
+        // Those that came before the time base, once it is known.
+        while let Some(t) = self.untimed.front().and_then(|(at, _)| to_vehicle(*at)) {
+            let (_, event) = self.untimed.pop_front().expect("checked");
+            let i = self.lane_of_event(&event);
+            self.checks[i].ground(t, &event);
+        }
         let mut elaborated = std::mem::take(&mut self.elaborated);
         for e in elaborated.drain(..) {
             self.events += 1;
             seen(&e.event);
-            if let Some(t) = to_vehicle(e.time_us) {
-                let i = self.lane_of_event(&e.event);
-                self.checks[i].ground(t, &e.event);
+            match to_vehicle(e.time_us) {
+                Some(t) => {
+                    let i = self.lane_of_event(&e.event);
+                    self.checks[i].ground(t, &e.event);
+                }
+                None => {
+                    if self.untimed.len() == UNTIMED {
+                        self.untimed.pop_front();
+                    }
+                    self.untimed.push_back((e.time_us, e.event));
+                }
             }
         }
         self.elaborated = elaborated;

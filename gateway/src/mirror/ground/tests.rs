@@ -230,3 +230,31 @@ fn one_vehicle_is_the_first_autopilot_heard() {
     assert_eq!(g.poll_foreign(), None);
     assert_eq!(g.companion(), Some((7, crate::mirror::COMPANION)));
 }
+
+#[test]
+fn events_before_the_time_base_are_judged_once_it_is_known() {
+    let project = crate::team::supervised::team();
+    let mut g = ground_of(&project);
+    let none = |_: Micros| None;
+    // R1 arms before the downlink's first heartbeat: no time base yet.
+    for (i, armed) in [(0u8, false), (1, true)] {
+        let frame = rover(1, i, armed);
+        let frame = Frame::parse(&frame).expect("a frame");
+        g.heard(u64::from(i) * 100_000, &frame, none);
+        g.elaborate(u64::from(i) * 100_000, &frame);
+        g.drain(none, |_| {});
+    }
+    // The time base known (vehicle time = ground time + 5 s): the
+    // vehicle's `armed@R1` at 5.1 s matches the ground's of 0.1 s.
+    let base = |t: Micros| Some(t + 5_000_000);
+    g.drain(base, |_| {});
+    g.vehicle_event(
+        5_100_000,
+        &Event {
+            name: "armed@R1".to_owned(),
+            category: Category::Mission,
+            params: nets::Params::new(),
+        },
+    );
+    assert!(g.counts().next().is_some_and(|c| c.matched == 1));
+}
