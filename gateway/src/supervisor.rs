@@ -63,12 +63,118 @@ pub struct Lane {
     pub config: Config,
 }
 
-/// Elaboration and the player.
-pub struct Supervisor {
+/// The team's elaboration: one elaborator per lane, frames routed by
+/// system id, events qualified with their lane's vehicle. The supervisor
+/// feeds its player from it; the ground mirror (`petrel mirror`)
+/// elaborates the ground's own telemetry with the same lanes, so that both
+/// sides name a vehicle's events alike.
+pub struct Lanes {
     /// One elaborator per lane, in team order.
     elaborators: Vec<Elaborator>,
     /// Each lane's vehicle name and `(sysid, compid)`.
-    lanes: Vec<(Option<String>, Option<u8>, Option<u8>)>,
+    ids: Vec<(Option<String>, Option<u8>, Option<u8>)>,
+}
+
+impl Lanes {
+    pub fn new(lanes: Vec<Lane>) -> Lanes {
+        let ids = lanes
+            .iter()
+            .map(|l| (l.vehicle.clone(), l.config.sysid, l.config.compid))
+            .collect();
+        let elaborators = lanes
+            .into_iter()
+            .map(|l| Elaborator::new(l.profile, l.config))
+            .collect();
+        Lanes { elaborators, ids }
+    }
+
+    /// How many lanes (1 without a team).
+    pub fn count(&self) -> usize {
+        self.elaborators.len()
+    }
+
+    /// Lane `i`'s vehicle name (`None` without a team).
+    pub fn vehicle(&self, i: usize) -> Option<&str> {
+        self.ids.get(i).and_then(|l| l.0.as_deref())
+    }
+
+    /// The lane of a team vehicle of system `system` (by system, then
+    /// component when several vehicles share the system); `None` for a
+    /// system that is no vehicle of the team, and always without a team.
+    pub fn lane_of(&self, system: u8, component: u8) -> Option<usize> {
+        let mine = |i: usize| self.ids[i].1 == Some(system);
+        let exact = |i: usize| mine(i) && self.ids[i].2 == Some(component);
+        let n = self.ids.len();
+        (0..n)
+            .find(|&i| exact(i))
+            .or_else(|| (0..n).find(|&i| mine(i)))
+    }
+
+    /// The lanes a frame from (`system`, `component`) goes to: the lane of
+    /// its vehicle, else every lane.
+    pub fn route(&self, system: u8, component: u8) -> std::ops::Range<usize> {
+        let n = self.ids.len();
+        if n == 1 {
+            return 0..1;
+        }
+        match self.lane_of(system, component) {
+            Some(i) => i..i + 1,
+            None => 0..n,
+        }
+    }
+
+    /// The first lane's elaborator (the only one without a team).
+    pub fn first(&self) -> &Elaborator {
+        &self.elaborators[0]
+    }
+
+    /// Feeds `frame` (or only time, `None`) at `time` to lanes `range` and
+    /// drains what they elaborate into `out`, each event qualified with its
+    /// lane's vehicle; several lanes' events in time order (a stable sort
+    /// keeps team order among events of one instant).
+    pub fn feed(
+        &mut self,
+        range: std::ops::Range<usize>,
+        time: Micros,
+        frame: Option<&Frame>,
+        out: &mut Vec<Elaborated>,
+    ) {
+        let several = range.len() > 1;
+        let start = out.len();
+        for i in range {
+            let e = &mut self.elaborators[i];
+            e.tick(time);
+            if let Some(frame) = frame {
+                e.frame(time, frame);
+            }
+            let from = out.len();
+            e.drain_into(out);
+            if let Some(vehicle) = &self.ids[i].0 {
+                for e in &mut out[from..] {
+                    e.event.name = nets::model::qualify(&e.event.name, vehicle);
+                }
+            }
+        }
+        if several {
+            out[start..].sort_by_key(|e| e.time_us);
+        }
+    }
+
+    /// A frame at `time` to the lanes of its system ([`Lanes::route`]).
+    pub fn frame(&mut self, time: Micros, frame: &Frame, out: &mut Vec<Elaborated>) {
+        let lanes = self.route(frame.system_id(), frame.component_id());
+        self.feed(lanes, time, Some(frame), out);
+    }
+
+    /// Time passes: every lane ticks, in team order.
+    pub fn tick(&mut self, time: Micros, out: &mut Vec<Elaborated>) {
+        self.feed(0..self.count(), time, None, out);
+    }
+}
+
+/// Elaboration and the player.
+pub struct Supervisor {
+    lanes: Lanes,
     player: Player,
     seq: u64,
     elaborated: Vec<Elaborated>,
@@ -99,17 +205,8 @@ impl Supervisor {
     pub fn start_lanes(project: Arc<Project>, lanes: Vec<Lane>, now: Micros) -> (Supervisor, Step) {
         let mut player = Player::start(project, now);
         let effects = player.effects().collect();
-        let ids = lanes
-            .iter()
-            .map(|l| (l.vehicle.clone(), l.config.sysid, l.config.compid))
-            .collect();
-        let elaborators = lanes
-            .into_iter()
-            .map(|l| Elaborator::new(l.profile, l.config))
-            .collect();
         let supervisor = Supervisor {
-            elaborators,
-            lanes: ids,
+            lanes: Lanes::new(lanes),
             player,
             seq: 0,
             elaborated: Vec::new(),
@@ -132,51 +229,7 @@ impl Supervisor {
 
     /// The first lane's elaborator (the only one without a team).
     pub fn elaborator(&self) -> &Elaborator {
-        &self.elaborators[0]
-    }
-
-    /// The lanes a frame from (`system`, `component`) goes to: the lane of
-    /// its vehicle (by system, then component when several vehicles share
-    /// the system), else every lane.
-    fn route(&self, system: u8, component: u8) -> std::ops::Range<usize> {
-        let mine = |i: usize| self.lanes[i].1 == Some(system);
-        let exact = |i: usize| mine(i) && self.lanes[i].2 == Some(component);
-        let n = self.lanes.len();
-        if n == 1 {
-            return 0..1;
-        }
-        if let Some(i) = (0..n).find(|&i| exact(i)) {
-            return i..i + 1;
-        }
-        match (0..n).find(|&i| mine(i)) {
-            Some(i) => i..i + 1,
-            None => 0..n,
-        }
-    }
-
-    /// Ticks and drains lanes `range`, qualifying each event with its
-    /// lane's vehicle.
-    fn drain(&mut self, range: std::ops::Range<usize>, time: Micros, frame: Option<&Frame>) {
-        let several = range.len() > 1;
-        for i in range {
-            let e = &mut self.elaborators[i];
-            e.tick(time);
-            if let Some(frame) = frame {
-                e.frame(time, frame);
-            }
-            let from = self.elaborated.len();
-            e.drain_into(&mut self.elaborated);
-            if let Some(vehicle) = &self.lanes[i].0 {
-                for e in &mut self.elaborated[from..] {
-                    e.event.name = nets::model::qualify(&e.event.name, vehicle);
-                }
-            }
-        }
-        if several {
-            // Several lanes' events in time order; a stable sort keeps
-            // team order among events of one instant.
-            self.elaborated.sort_by_key(|e| e.time_us);
-        }
+        self.lanes.first()
     }
 
     /// The number of the last step.
@@ -217,13 +270,10 @@ impl Supervisor {
         };
         match input {
             Input::Frame(bytes) => match Frame::parse(bytes) {
-                Ok(frame) => {
-                    let lanes = self.route(frame.system_id(), frame.component_id());
-                    self.drain(lanes, time, Some(&frame));
-                }
+                Ok(frame) => self.lanes.frame(time, &frame, &mut self.elaborated),
                 Err(_) => self.bad_frames += 1,
             },
-            Input::Tick => self.drain(0..self.elaborators.len(), time, None),
+            Input::Tick => self.lanes.tick(time, &mut self.elaborated),
             Input::Result { id, outcome } => self.player.result(id, outcome, time),
             Input::Event(event) => self.player.handle(&event, time),
             Input::Answer { id, choice } => {

@@ -247,7 +247,7 @@ mod tests {
 /// The supervisor running a team: each vehicle's frames through its own
 /// lane, its events qualified, commands addressed to it.
 #[cfg(test)]
-mod supervised {
+pub(crate) mod supervised {
     use crate::supervisor::{Input, Step, Supervisor};
     use elaboration::Config;
     use mavlink::dialects::ardupilotmega::{
@@ -259,7 +259,7 @@ mod supervised {
 
     /// A team of two (R1 system 1, R2 system 2), each instance of `M`
     /// firing `go` on its vehicle's `armed` and then commanding it.
-    fn team() -> Arc<Project> {
+    pub(crate) fn team() -> Arc<Project> {
         let sources = [
             (
                 "project.toml",

@@ -10,17 +10,20 @@
 
 #[path = "scenarios/flight.rs"]
 mod flight;
+#[path = "mirror/process.rs"]
+mod process;
 #[path = "mirror/router.rs"]
 mod router;
 #[path = "mirror/wire.rs"]
 mod wire;
 
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use flight::{
     free_port, petrel_run, project, scratch, start_sim, stop, timeline, Dec, Killed, SPEED,
 };
+use process::petrel_mirror;
 use router::{Loss, Router, Traffic};
 use sitl_tests::SimState;
 use wire::{check_recording, fired, only_resync_requests, the_recording_checks_out};
@@ -82,25 +85,14 @@ fn fly_mirrored_full(
     let programs = format!("tcp:127.0.0.1:{}", free_port());
     let max_wall = Duration::from_secs_f64(MAX_SIM_S / SPEED + 10.0);
     let recording = dir.join("mirror.mcap");
-    let mirror = Command::new(env!("CARGO_BIN_EXE_petrel"))
-        .arg("mirror")
-        .arg(project())
-        .arg("--record")
-        .arg(&recording)
-        .args([
-            "--mavlink",
-            &format!("tcpout:127.0.0.1:{}", router.ground_port),
-        ])
-        .args(["--time-scale", &SPEED.to_string()])
-        .args([
-            "--duration",
-            &format!("{:.0}", (max_wall + Duration::from_secs(10)).as_secs_f64()),
-        ])
-        .arg("--json")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("petrel mirror runs");
+    let mirror = petrel_mirror(
+        &project(),
+        &format!("tcpout:127.0.0.1:{}", router.ground_port),
+        &recording,
+        SPEED,
+        max_wall + Duration::from_secs(10),
+        &[],
+    );
     let mut mirror = Killed(Some(mirror));
     let run = petrel_run(
         &format!("tcpout:127.0.0.1:{}", router.companion_port),

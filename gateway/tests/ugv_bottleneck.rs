@@ -25,7 +25,7 @@ pub const MISSION_FILE: &str = "mission.toml";
 
 #[test]
 fn both_rovers_cross_in_turn_and_reach_their_goals() {
-    let mut team = Team::start("ugv-nominal", &[], &[]);
+    let mut team = Team::start("ugv-nominal", &[]);
     let done = team.run_until(Duration::from_secs(60), |all| {
         near(state(all, 1), 55.0, -20.0)
             && near(state(all, 2), 5.0, 20.0)
@@ -47,7 +47,7 @@ fn both_rovers_cross_in_turn_and_reach_their_goals() {
 fn a_rover_stuck_in_the_bottleneck_makes_the_other_go_round() {
     // The first rover into the bottleneck (whichever reaches its gate
     // first) stays stuck there.
-    let mut team = Team::start("ugv-stuck", &[], &[]);
+    let mut team = Team::start("ugv-stuck", &[]);
     let entered = team.run_until(Duration::from_secs(30), |all| {
         in_bottleneck(state(all, 1)) || in_bottleneck(state(all, 2))
     });
@@ -99,7 +99,7 @@ fn a_rover_stuck_in_the_bottleneck_makes_the_other_go_round() {
 
 #[test]
 fn a_motor_failure_is_catastrophic_and_the_team_holds() {
-    let mut team = Team::start("ugv-motor", &[(1, "engine_failure@12s")], &[]);
+    let mut team = Team::start("ugv-motor", &[(1, "engine_failure@12s")]);
     let held = team.run_until(Duration::from_secs(30), |all| {
         all.iter().all(|(_, s)| s.mode == "HOLD") && state(all, 1).time_s > 14.0
     });

@@ -9,11 +9,17 @@ use mavlink::dialects::ardupilotmega::*;
 use mavlink::{MavHeader, MavlinkVersion};
 
 /// Frames of second `s` (0-based), MAVLink 2, with their time offsets in µs.
+#[allow(dead_code)] // each bench uses one of the two
 pub fn second(s: u64, seq: &mut u8) -> Vec<(u64, Vec<u8>)> {
+    second_of(1, s, seq)
+}
+
+/// Frames of second `s` of the vehicle of system `system`.
+pub fn second_of(system: u8, s: u64, seq: &mut u8) -> Vec<(u64, Vec<u8>)> {
     let mut out = Vec::with_capacity(50);
     let mut push = |at_us: u64, message: MavMessage, seq: &mut u8| {
         let header = MavHeader {
-            system_id: 1,
+            system_id: u32::from(system),
             component_id: 1,
             sequence: *seq,
         };

@@ -14,8 +14,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use elaboration::{Elaborator, Frame};
-use mavlink::dialects::ardupilotmega::{MavAutopilot, MavMessage};
+use elaboration::Frame;
 use nets::{Micros, Project};
 use serde_json::json;
 use tokio::sync::mpsc;
@@ -25,8 +24,9 @@ use super::VerbResult;
 use crate::clock::Clock;
 use crate::link::Link;
 use crate::mirror::call::call_json;
-use crate::mirror::check::{Check, WINDOW};
+use crate::mirror::check::WINDOW;
 use crate::mirror::dialog::Dialog;
+use crate::mirror::ground::Ground;
 use crate::mirror::record::Input;
 use crate::mirror::replica::{Config as ReplicaConfig, Repair, Replica, Report};
 use crate::mirror::tunnel::Tunnel;
@@ -138,7 +138,15 @@ pub fn run(args: Args) -> VerbResult {
                 .unwrap_or_else(|| super::run::dated_recording("mirror")),
         )
     };
-    let elaborator = Elaborator::new(profile, elaboration::Config::default());
+    // The ground elaborates each vehicle in its lane, as `petrel run` does
+    // on board (one lane, unqualified, without a team).
+    let lanes = crate::team::lanes(
+        &project,
+        &args.project,
+        &profile,
+        crate::team::family(&layers.layers),
+        &elaboration::Config::default(),
+    )?;
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -147,7 +155,7 @@ pub fn run(args: Args) -> VerbResult {
         project,
         address,
         system,
-        elaborator,
+        lanes,
         json: args.json,
         time_scale: args.time_scale,
         duration: args.duration.map(Duration::from_secs_f64),
@@ -167,7 +175,8 @@ struct Setup {
     project: Arc<Project>,
     address: String,
     system: u8,
-    elaborator: Elaborator,
+    /// The ground's elaboration: one lane per vehicle of the team.
+    lanes: Vec<crate::supervisor::Lane>,
     json: bool,
     time_scale: f64,
     duration: Option<Duration>,
@@ -250,8 +259,7 @@ async fn mirror(setup: Setup) -> VerbResult {
             ..ReplicaConfig::default()
         },
     );
-    let mut check = Check::new(WINDOW);
-    let mut elaborator = setup.elaborator;
+    let mut ground = Ground::new(setup.lanes, WINDOW);
     let mut out = Timeline {
         out: std::io::BufWriter::new(std::io::stdout()),
         json: setup.json,
@@ -294,16 +302,10 @@ async fn mirror(setup: Setup) -> VerbResult {
             }
         })
     });
-    // The vehicle's system, from its autopilot's heartbeat; the onboard
-    // gateway's address, from its first record.
-    let mut vehicle: Option<u8> = None;
+    // The onboard gateway's address, from its first record (the vehicles'
+    // systems and heartbeats are the ground's: `ground`).
     let mut onboard: Option<(u8, u8)> = None;
-    let mut last_seq: Option<(u8, Micros)> = None;
-    let mut last_seqs: std::collections::BTreeMap<u8, (u8, Micros)> = Default::default();
-    let mut system_seq: Option<u8> = None;
     let mut sent = 0u64;
-    let mut ground_events = 0u64;
-    let mut elaborated = Vec::new();
     // The gap open: its first missing record and when it was seen (vehicle
     // time), for the detection time once that record comes.
     let mut gap_seen: Option<(u64, Micros)> = None;
@@ -334,36 +336,8 @@ async fn mirror(setup: Setup) -> VerbResult {
                 if let Some(page) = &mut page {
                     page.frame(now, &rx.bytes);
                 }
-                if let Some(MavMessage::HEARTBEAT(hb)) = &rx.message {
-                    if vehicle.is_none() && hb.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID {
-                        vehicle = Some(rx.header.system_id as u8);
-                    }
-                }
                 if let Ok(frame) = Frame::parse(&rx.bytes) {
-                    // The vehicle's frames the radio lost: a gap in a
-                    // component's sequence numbers, between the last one
-                    // heard and this — and in the system's, for vehicles
-                    // whose components share one counter (the simulator)
-                    // rather than one each (ArduPilot and its camera).
-                    if Some(frame.system_id()) == vehicle {
-                        let component = frame.component_id();
-                        let seq = frame.sequence();
-                        let system_gap = system_seq.is_some_and(|s: u8| seq != s.wrapping_add(1));
-                        system_seq = Some(seq);
-                        if let Some((last, at)) = last_seqs.get(&component) {
-                            if seq != last.wrapping_add(1) && system_gap {
-                                if let (Some(a), Some(b)) =
-                                    (replica.vehicle_time(*at), replica.vehicle_time(now))
-                                {
-                                    check.lost(a, b);
-                                }
-                            }
-                        }
-                        last_seqs.insert(component, (seq, now));
-                        if component == 1 {
-                            last_seq = Some((frame.sequence(), now));
-                        }
-                    }
+                    ground.heard(now, &frame, |t| replica.vehicle_time(t));
                     match Tunnel::from_frame(&frame) {
                         Some(t) if t.target_system == setup.system
                             && (t.target_component == 0 || t.target_component == uplink.identity().1) =>
@@ -372,16 +346,13 @@ async fn mirror(setup: Setup) -> VerbResult {
                             replica.receive(now, &t.payload);
                         }
                         Some(_) => {}
-                        None => {
-                            elaborator.tick(now);
-                            elaborator.frame(now, &frame);
-                        }
+                        None => ground.elaborate(now, &frame),
                     }
                 }
             }
             _ = ticks.tick() => {
                 let now = clock.now();
-                elaborator.tick(now);
+                ground.tick(now);
                 replica.tick(now);
             }
             Some(line) = lines.recv() => {
@@ -395,7 +366,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                 match picked {
                     None => say!("answer as `ID CHOICE` (pending: {pending:?})"),
                     Some((id, choice)) => {
-                        let to = onboard.or(vehicle.map(|v| (v, 191)));
+                        let to = onboard.or(ground.companion());
                         let sent = answer(&dialog, id, choice, to, signer.as_mut(), &uplink, clock.now(), recorder.as_ref()).await;
                         match &sent {
                             Ok(said) | Err(said) => say!("{said}"),
@@ -414,7 +385,7 @@ async fn mirror(setup: Setup) -> VerbResult {
             } => {
                 // The page's answer: the same path as one typed on stdin.
                 let crate::monitor::answer::Request { id, choice, reply } = request;
-                let to = onboard.or(vehicle.map(|v| (v, 191)));
+                let to = onboard.or(ground.companion());
                 let sent = answer(&dialog, id, &choice, to, signer.as_mut(), &uplink, clock.now(), recorder.as_ref()).await;
                 match &sent {
                     Ok(said) | Err(said) => say!("{said} (from the page)"),
@@ -429,12 +400,16 @@ async fn mirror(setup: Setup) -> VerbResult {
             _ = until_stop => break,
         }
         let now = clock.now();
-        elaborator.drain_into(&mut elaborated);
-        for e in elaborated.drain(..) {
-            ground_events += 1;
-            replica.ground_event(now, &e.event);
-            if let Some(t) = replica.vehicle_time(e.time_us) {
-                check.ground(t, &e.event);
+        {
+            // The replica is advanced by the ground's events while
+            // provisional; `vehicle_time` reads only the time base.
+            let (replica_view, mut ground_seen) = (&replica, Vec::new());
+            ground.drain(
+                |t| replica_view.vehicle_time(t),
+                |e| ground_seen.push(e.clone()),
+            );
+            for e in &ground_seen {
+                replica.ground_event(now, e);
             }
         }
         while let Some(report) = replica.poll_report() {
@@ -446,7 +421,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                 Some(t),
             ) = (&report, replica.exact_time())
             {
-                check.unknown_before(t);
+                ground.unknown_before(t);
             }
             match &report {
                 Report::Gap { from, .. } => {
@@ -470,7 +445,7 @@ async fn mirror(setup: Setup) -> VerbResult {
             if let Report::Step { inputs, .. } = &report {
                 for input in inputs {
                     if let Input::Elaborated { time, event } = input {
-                        check.vehicle(*time, event);
+                        ground.vehicle_event(*time, event);
                     }
                 }
             }
@@ -523,7 +498,7 @@ async fn mirror(setup: Setup) -> VerbResult {
             && replica.counts.packets == 0
             && origin.elapsed() >= 2 * SILENCE_WARNING
         {
-            if let Some(v) = vehicle {
+            if let Some(v) = ground.some_heard() {
                 said_no_downlink = true;
                 say!(
                     "petrel mirror: the vehicle (system {v}) is heard but no downlink record after {} s. Is `petrel run --downlink` running on board, and does the autopilot route to this mirror (system {})? (docs/mirror.md, \"Addressing\")",
@@ -532,11 +507,12 @@ async fn mirror(setup: Setup) -> VerbResult {
                 );
             }
         }
-        // The ground's view reaches the last autopilot frame heard (not the
-        // clock: during a radio outage it does not advance).
-        let ground_known = last_seq.and_then(|(_, at)| replica.vehicle_time(at));
-        check.advance(replica.exact_time(), ground_known);
-        while let Some(d) = check.poll() {
+        // Each vehicle's ground view reaches its last autopilot frame heard.
+        ground.advance(replica.exact_time(), |t| replica.vehicle_time(t));
+        while let Some(system) = ground.poll_foreign() {
+            say!("petrel mirror: system {system} is heard but is no vehicle of the team: its frames are not followed as a vehicle's");
+        }
+        while let Some((_, d)) = ground.poll_disagreement() {
             if let Some(page) = &mut page {
                 page.disagreement(&d);
             }
@@ -593,12 +569,12 @@ async fn mirror(setup: Setup) -> VerbResult {
         // A ground event the vehicle has not reported: a heartbeat asked
         // for at the end of its window proves the vehicle's records
         // complete through it, so the check judges it then.
-        while let Some(at) = check.poll_heartbeat_wanted(replica.vehicle_time(now)) {
+        while let Some(at) = ground.poll_heartbeat_wanted(replica.vehicle_time(now)) {
             replica.ask_heartbeat(at);
         }
         // Requests wait in the replica until there is someone to ask: the
         // onboard gateway, else the vehicle's companion.
-        if let Some(to) = onboard.or(vehicle.map(|v| (v, 191))) {
+        if let Some(to) = onboard.or(ground.companion()) {
             while let Some(request) = replica.poll_transmit() {
                 match uplink.send(to, &request).await {
                     Ok(bytes) => {
@@ -613,7 +589,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         }
         // The page last, off the path from a packet to its request.
         if let Some(page) = &mut page {
-            page.settle(now, &replica, &dialog);
+            page.settle(now, &replica, &dialog, &ground);
         }
         let _ = out.out.flush();
     }
@@ -621,16 +597,34 @@ async fn mirror(setup: Setup) -> VerbResult {
     if let Some(t) = stdin_task {
         t.abort();
     }
+    let total = ground.total();
     say!(
         "independent check: {} events matched (the vehicle at most {:.2} s after the ground, the ground at most {:.2} s after the vehicle), {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames), {} link events not compared",
-        check.counts.matched,
-        check.counts.vehicle_late_max as f64 / 1e6,
-        check.counts.ground_late_max as f64 / 1e6,
-        check.counts.ground_only,
-        check.counts.vehicle_only,
-        check.counts.unjudged,
-        check.counts.skipped
+        total.matched,
+        total.vehicle_late_max as f64 / 1e6,
+        total.ground_late_max as f64 / 1e6,
+        total.ground_only,
+        total.vehicle_only,
+        total.unjudged,
+        total.skipped
     );
+    if ground.team() {
+        for (w, c) in ground.watches().iter().zip(ground.counts()) {
+            say!(
+                "  {} (system {}): {} frames, {} events matched, {} ground only, {} vehicle only, {} not judged",
+                w.name.as_deref().unwrap_or("?"),
+                w.system.map_or("?".to_owned(), |s| s.to_string()),
+                w.frames,
+                c.matched,
+                c.ground_only,
+                c.vehicle_only,
+                c.unjudged
+            );
+        }
+        for (system, frames) in ground.foreign() {
+            say!("  system {system}, no vehicle of the team: {frames} frames not followed");
+        }
+    }
     let c = &replica.counts;
     say!(
         "mirror stopped after {:.1} s: {} downlink packets ({} refused), {} records, {} checks agreed, {} gaps, {} resends, {} snapshots and {} heartbeats asked, {} snapshots restored, {} divergences; {} requests sent; {} ground events",
@@ -646,8 +640,11 @@ async fn mirror(setup: Setup) -> VerbResult {
         c.snapshots_restored,
         c.diverged,
         sent,
-        ground_events,
+        ground.events,
     );
+    if out.json {
+        let _ = writeln!(out.out, "{}", summary_json(&ground, &replica, sent));
+    }
     if let Some(rec) = recorder {
         let dropped = rec.dropped();
         match rec.finish() {
@@ -670,6 +667,40 @@ async fn mirror(setup: Setup) -> VerbResult {
         super::Outcome::Failed
     } else {
         super::Outcome::Success
+    })
+}
+
+/// The closing summary (`--json`): each vehicle's frames received and its
+/// independent check, systems heard that are no vehicle of the team, and
+/// the replica's counts.
+fn summary_json(ground: &Ground, replica: &Replica, sent: u64) -> serde_json::Value {
+    let vehicles: Vec<serde_json::Value> = ground
+        .watches()
+        .iter()
+        .zip(ground.counts())
+        .map(|(w, c)| {
+            json!({
+                "vehicle": w.name, "system": w.system, "frames": w.frames, "heard": w.heard,
+                "matched": c.matched, "ground_only": c.ground_only, "vehicle_only": c.vehicle_only,
+                "unjudged": c.unjudged, "skipped": c.skipped,
+                "vehicle_late_max_s": c.vehicle_late_max as f64 / 1e6,
+                "ground_late_max_s": c.ground_late_max as f64 / 1e6,
+            })
+        })
+        .collect();
+    let foreign: serde_json::Map<String, serde_json::Value> = ground
+        .foreign()
+        .iter()
+        .map(|(s, n)| (s.to_string(), json!(n)))
+        .collect();
+    let c = &replica.counts;
+    json!({
+        "summary": "mirror",
+        "vehicles": vehicles,
+        "foreign": foreign,
+        "ground_events": ground.events,
+        "packets": c.packets, "records": c.records, "agreed": c.agreed, "gaps": c.gaps,
+        "diverged": c.diverged, "snapshots_restored": c.snapshots_restored, "requests_sent": sent,
     })
 }
 

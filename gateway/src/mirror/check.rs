@@ -360,6 +360,11 @@ impl Check {
             .map(|(_, o)| (o.time, o.params.clone()))
     }
 
+    /// Whether a disagreement waits to be polled.
+    pub fn has_report(&self) -> bool {
+        !self.reports.is_empty()
+    }
+
     pub fn poll(&mut self) -> Option<Disagreement> {
         self.reports.pop_front()
     }

@@ -9,6 +9,9 @@
 //!   ring, sends heartbeats and snapshots, answers the ground's requests.
 //! - `check`: on the ground, sans-IO — the independent check of the
 //!   ground's own elaboration against the vehicle's published events.
+//! - `ground`: on the ground, sans-IO — the ground's own elaboration in
+//!   the team's lanes, each vehicle's frames counted and watched for
+//!   losses, one check per vehicle.
 //! - `replica`: on the ground, sans-IO — plays the records, compares
 //!   digests, sees gaps, asks for what it lacks, reports
 //!   `mirror_resynced` / `mirror_diverged`.
@@ -19,6 +22,7 @@
 pub mod call;
 pub mod check;
 pub mod dialog;
+pub mod ground;
 pub mod publisher;
 pub mod record;
 pub mod replica;
@@ -30,6 +34,9 @@ use crate::supervisor::{Input as SupervisorInput, Step};
 /// The mirror's MAVLink system id by default: not 255, the ground
 /// station's that ArduPilot's GCS failsafe watches (`SYSID_MYGCS`).
 pub const MIRROR_SYSTEM: u8 = 245;
+/// The onboard gateway's component (MAV_COMP_ID_ONBOARD_COMPUTER): the
+/// downlink's source, the uplink's target.
+pub const COMPANION: u8 = 191;
 use record::Input;
 
 /// The inputs of a supervisor step that reached the player, as the
@@ -65,3 +72,7 @@ pub fn step_inputs(input: &SupervisorInput, step: &Step) -> Option<Vec<Input>> {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+#[path = "ground/tests.rs"]
+mod ground_tests;

@@ -14,7 +14,7 @@ use super::replica::{self, Replica, Report};
 use super::step_inputs;
 use crate::supervisor::{Input, Supervisor};
 
-fn example() -> (Arc<Project>, elaboration::Profile) {
+pub(crate) fn example() -> (Arc<Project>, elaboration::Profile) {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-flight-test");
     let gateway = crate::project::gateway_table(&dir).expect("project.toml");
     let given = gateway.get("profile").and_then(|v| v.as_str());

@@ -106,6 +106,8 @@ pub struct Mirror {
     /// Downlink packets heard so far, and the ground time of the last.
     packets: u64,
     heard: Option<Micros>,
+    /// The team's vehicles as the ground follows them (`vehicles`).
+    vehicles: Vec<Json>,
 }
 
 impl Mirror {
@@ -129,7 +131,26 @@ impl Mirror {
             answering,
             packets: 0,
             heard: None,
+            vehicles: Vec::new(),
         }
+    }
+
+    /// The vehicles the ground follows, in team order (one, named `null`,
+    /// without a team): each one's frames received, whether its autopilot
+    /// was heard, and its independent check's counts.
+    pub fn vehicles(&mut self, ground: &crate::mirror::ground::Ground) {
+        self.vehicles = ground
+            .watches()
+            .iter()
+            .zip(ground.counts())
+            .map(|(w, c)| {
+                json!({
+                    "vehicle": w.name, "system": w.system, "frames": w.frames, "heard": w.heard,
+                    "matched": c.matched, "ground_only": c.ground_only,
+                    "vehicle_only": c.vehicle_only, "unjudged": c.unjudged,
+                })
+            })
+            .collect();
     }
 
     /// One report of the replica, in order.
@@ -307,6 +328,7 @@ impl Mirror {
         };
         self.disagreements.push_front(json!({
             "event": d.event,
+            "vehicle": vehicle_of(&d.event),
             "seen_by": side(d.seen_by),
             "other": side(other),
             "t": d.time as f64 / 1e6,
@@ -332,7 +354,7 @@ impl Mirror {
                 Fate::Closed => ("closed", None, None),
             };
             json!({
-                "id": q.id, "net": q.net, "ask": q.ask, "question": q.question,
+                "id": q.id, "net": q.net, "vehicle": vehicle_of(&q.net), "ask": q.ask, "question": q.question,
                 "choices": q.choices, "deadline": q.deadline as f64 / 1e6,
                 "left": self.vehicle_now.map(|t| q.deadline.saturating_sub(t) as f64 / 1e6),
                 "fate": fate, "choice": choice, "reason": reason, "not_sent": q.refused,
@@ -368,8 +390,16 @@ impl Mirror {
             "silent_s": self.heard.map(|h| self.ground_now.saturating_sub(h) as f64 / 1e6),
             "answering": self.answering.is_ok(),
             "read_only": self.answering.as_ref().err(),
+            "vehicles": self.vehicles,
         })
     }
+}
+
+/// The vehicle a net instance (`MOVE@R1`) or an event (`armed@R1`) is
+/// of; `None` for a team net or a project without a team — the field the
+/// live monitor's board names `vehicle` too.
+fn vehicle_of(name: &str) -> Option<&str> {
+    nets::model::split_vehicle(name).1
 }
 
 #[cfg(test)]
@@ -634,5 +664,55 @@ pub(crate) mod tests {
         assert_eq!(d[0]["params"]["rpm"], 0);
         assert_eq!(d[0]["other_params"]["rpm"], 3000);
         assert_eq!(d[0]["other_t"], 50.0);
+        assert_eq!(d[0]["vehicle"], Json::Null, "no team");
+    }
+
+    #[test]
+    fn a_teams_disagreements_and_vehicles_say_which_vehicle() {
+        let mut m = Mirror::new(Ok(()));
+        m.disagreement(&Disagreement {
+            event: "engine_failure@R2".into(),
+            seen_by: Side::Vehicle,
+            time: 1_000_000,
+            params: nets::Params::new(),
+            window: 2_000_000,
+            other: None,
+        });
+        let project = crate::team::supervised::team();
+        let layers = crate::profile::Layers::builtin("ardupilot");
+        let profile = layers.load().expect("profile");
+        let lanes = crate::team::lanes(
+            &project,
+            std::path::Path::new("."),
+            &profile,
+            crate::team::family(&layers.layers),
+            &elaboration::Config::default(),
+        )
+        .expect("lanes");
+        let ground = crate::mirror::ground::Ground::new(lanes, crate::mirror::check::WINDOW);
+        m.vehicles(&ground);
+        let v = m.json();
+        assert_eq!(v["disagreements"][0]["vehicle"], "R2");
+        let names: Vec<_> = v["vehicles"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|w| {
+                (
+                    w["vehicle"].clone(),
+                    w["system"].clone(),
+                    w["frames"].clone(),
+                )
+            })
+            .collect();
+        assert_eq!(
+            names,
+            [
+                (json!("R1"), json!(1), json!(0)),
+                (json!("R2"), json!(2), json!(0))
+            ]
+        );
+        assert_eq!(vehicle_of("MOVE@R1"), Some("R1"));
+        assert_eq!(vehicle_of("SYNC"), None);
     }
 }

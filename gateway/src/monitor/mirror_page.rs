@@ -20,6 +20,7 @@ use super::mirror::Mirror;
 use super::server::Server;
 use crate::mirror::check::Disagreement;
 use crate::mirror::dialog::Dialog;
+use crate::mirror::ground::Ground;
 use crate::mirror::record::Input as RecordInput;
 use crate::mirror::replica::{Replica, Report};
 use crate::supervisor::{Input, Step};
@@ -91,7 +92,7 @@ impl Page {
 
     /// The end of a turn of the mirror's loop at ground time `now`: what
     /// it brought, the replica and the dialog as they stand, on the board.
-    pub fn settle(&mut self, now: Micros, replica: &Replica, dialog: &Dialog) {
+    pub fn settle(&mut self, now: Micros, replica: &Replica, dialog: &Dialog, ground: &Ground) {
         let shown = replica.shown();
         let (frames, reports, disagreements) = (&self.frames, &self.reports, &self.disagreements);
         self.feed.update(|b| {
@@ -114,6 +115,7 @@ impl Page {
                     m.disagreement(d);
                 }
                 m.questions(dialog);
+                m.vehicles(ground);
                 let digest = shown.map(|(p, _)| hex8(&p.digest().0));
                 m.replica(replica.exact_time().is_some(), shown.is_some(), digest);
                 m.clocks(replica.vehicle_time(now), now);

@@ -58,7 +58,7 @@ pub fn petrel_schema(topic: &str) -> (&'static str, &'static str) {
     match topic {
         INPUTS => (
             "petrel.Input",
-            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"input":{"type":"string","enum":["start","frame","tick","result","event","answer","replica"]},"replica":{"type":"object","description":"the ground mirror's call on its player","properties":{"call":{"type":"string","enum":["restart","record","advance","restore"]},"before":{"type":"integer"},"inputs":{"type":"array"},"state":{"type":"string","description":"(restore) the player's state, hex"}}},"frame":{"type":"integer","description":"index of the frame on /mavlink/raw"},"id":{"type":"integer"},"outcome":{"type":"object"},"event":{"type":"object"}}}"#,
+            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"input":{"type":"string","enum":["start","frame","tick","result","event","answer","replica"]},"replica":{"type":"object","description":"the ground mirror's call on its player","properties":{"call":{"type":"string","enum":["restart","record","advance","restore"]},"before":{"type":"integer"},"inputs":{"type":"array"},"state":{"type":"string","description":"(restore) the player's state, hex"}}},"frame":{"type":"integer","description":"index of the frame on /mavlink/raw"},"link":{"type":"integer","description":"the link the frame came in on: a team's links in the order first named (absent: 0)"},"id":{"type":"integer"},"outcome":{"type":"object"},"event":{"type":"object"}}}"#,
         ),
         EVENTS => (
             "petrel.Event",
@@ -280,6 +280,7 @@ struct InputLine<'a> {
     #[serde(borrow)]
     input: std::borrow::Cow<'a, str>,
     frame: Option<u64>,
+    link: Option<u64>,
     id: Option<u64>,
     outcome: Option<Json>,
     event: Option<Json>,
@@ -290,11 +291,14 @@ struct InputLine<'a> {
 
 /// Reads an input back from its JSON bytes: `(seq, time, input)`.
 pub fn input_from(bytes: &[u8]) -> Option<(u64, Micros, Input)> {
-    input_with_setup(bytes).map(|(i, _)| i)
+    input_with_setup(bytes).map(|(i, _, _)| i)
 }
 
-/// Reads an input back, with the setup a start carries.
-pub fn input_with_setup(bytes: &[u8]) -> Option<((u64, Micros, Input), Option<Json>)> {
+/// Reads an input back, with the setup a start carries and the link a
+/// frame came in on (`link`: a team's links, in the order first named;
+/// absent in recordings made before it, and in a mirror's).
+#[allow(clippy::type_complexity)]
+pub fn input_with_setup(bytes: &[u8]) -> Option<((u64, Micros, Input), Option<Json>, Option<u64>)> {
     let line: InputLine = serde_json::from_slice(bytes).ok()?;
     let input = match &*line.input {
         "start" => Input::Start,
@@ -315,7 +319,7 @@ pub fn input_with_setup(bytes: &[u8]) -> Option<((u64, Micros, Input), Option<Js
         },
         _ => return None,
     };
-    Some(((line.seq, line.time_us, input), line.setup))
+    Some(((line.seq, line.time_us, input), line.setup, line.link))
 }
 
 #[cfg(test)]
@@ -384,6 +388,18 @@ mod tests {
             input_from(br#"{"seq": 1, "time_us": 2, "input": "replica", "replica": "advance"}"#),
             None
         );
+    }
+
+    #[test]
+    fn a_frames_link_is_read_back_and_absent_in_older_recordings() {
+        let mut line = input_json(7, 1_000, &Input::Frame(3));
+        line["link"] = json!(1);
+        let read = input_with_setup(line.to_string().as_bytes()).map(|(i, _, l)| (i, l));
+        assert_eq!(read, Some(((7, 1_000, Input::Frame(3)), Some(1))));
+        // Written before links were: link 0 implied, the input unchanged.
+        let old = br#"{"seq": 7, "time_us": 1000, "input": "frame", "frame": 3}"#;
+        let read = input_with_setup(old).map(|(i, _, l)| (i, l));
+        assert_eq!(read, Some(((7, 1_000, Input::Frame(3)), None)));
     }
 
     #[test]

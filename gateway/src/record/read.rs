@@ -26,6 +26,9 @@ pub struct Recorded {
 pub struct Recording {
     /// Every input, in the recorded order: `(seq, time, input)`.
     pub inputs: Vec<(u64, Micros, Input)>,
+    /// The link each frame input came in on, by frame index, when recorded
+    /// (a team's `run` records it; older recordings do not: link 0).
+    pub links: std::collections::BTreeMap<u64, u64>,
     /// Raw frames on `/mavlink/raw`, tlog records (time, frame) one after
     /// the other: the flight's tlog.
     tlog: Vec<u8>,
@@ -395,7 +398,7 @@ impl Reader {
                     index,
                     what,
                 };
-                let (input, setup) = layout::input_with_setup(data).ok_or_else(|| {
+                let (input, setup, link) = layout::input_with_setup(data).ok_or_else(|| {
                     bad(format!("not an input: {}", String::from_utf8_lossy(data)))
                 })?;
                 if let Some(setup) = setup {
@@ -403,6 +406,9 @@ impl Reader {
                         layout::setup_from(&setup)
                             .ok_or_else(|| bad(format!("not an elaboration setup: {setup}")))?,
                     );
+                }
+                if let (Some(link), Input::Frame(frame)) = (link, &input.2) {
+                    rec.links.insert(*frame, link);
                 }
                 rec.inputs.push(input);
             }

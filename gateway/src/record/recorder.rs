@@ -103,11 +103,16 @@ pub struct Report {
     pub messages: u64,
 }
 
+/// A step on the queue: its input, the frame's bytes, the step, the digest
+/// after it, the frame's link.
+pub(super) type StepEntry = (Input, Option<Vec<u8>>, Step, Digest, Option<usize>);
+
 /// One entry on the queue.
 pub(super) enum Entry {
     /// A step: its input (a frame's index is given by the writer), the
-    /// frame's bytes, the step, the digest after it.
-    Step(Box<(Input, Option<Vec<u8>>, Step, Digest)>),
+    /// frame's bytes, the step, the digest after it, the link the frame
+    /// came in on (when told).
+    Step(Box<StepEntry>),
     Sent {
         time: Micros,
         bytes: Vec<u8>,
@@ -310,6 +315,7 @@ impl Recorder {
             None,
             step.clone(),
             player.digest(),
+            None,
         ))));
     }
 
@@ -323,6 +329,7 @@ impl Recorder {
             frame,
             step.clone(),
             player.digest(),
+            None,
         ))));
     }
 
@@ -330,8 +337,21 @@ impl Recorder {
     /// right after it: for a caller that carries a step out before it
     /// records it (`petrel run`). Call it for each step, in order.
     pub fn record(&self, input: &supervisor::Input, step: Step, digest: Digest) {
+        self.record_on(input, None, step, digest);
+    }
+
+    /// [`Recorder::record`], with the link a frame came in on (a team's
+    /// links, in the order first named): recorded as the input's `link`.
+    pub fn record_on(
+        &self,
+        input: &supervisor::Input,
+        link: Option<usize>,
+        step: Step,
+        digest: Digest,
+    ) {
         let (input, frame) = Self::split(input);
-        self.send(Entry::Step(Box::new((input, frame, step, digest))));
+        let link = link.filter(|_| frame.is_some());
+        self.send(Entry::Step(Box::new((input, frame, step, digest, link))));
     }
 
     fn split(input: &supervisor::Input) -> (Input, Option<Vec<u8>>) {

@@ -273,8 +273,8 @@ impl<W: Write + Seek> Writer<W> {
     fn entry(&mut self, entry: Entry) -> mcap::McapResult<()> {
         match entry {
             Entry::Step(b) => {
-                let (input, frame, step, digest) = *b;
-                self.step(input, frame, &step, digest)
+                let (input, frame, step, digest, link) = *b;
+                self.step(input, frame, &step, digest, link)
             }
             Entry::Sent { time, bytes } => self.frame(time, &bytes, true),
             Entry::Received { time, bytes } => self.frame(time, &bytes, false),
@@ -282,7 +282,7 @@ impl<W: Write + Seek> Writer<W> {
                 let (at, call, step, digest) = *b;
                 // Logged when the ground played it.
                 self.shift = at as i64 - step.time as i64;
-                let written = self.step(Input::Replica(call), None, &step, digest);
+                let written = self.step(Input::Replica(call), None, &step, digest, None);
                 self.shift = 0;
                 written
             }
@@ -333,6 +333,7 @@ impl<W: Write + Seek> Writer<W> {
         frame: Option<Vec<u8>>,
         step: &Step,
         digest: Digest,
+        link: Option<usize>,
     ) -> mcap::McapResult<()> {
         let (seq, time) = (step.seq, step.time);
         self.last_time = time;
@@ -342,6 +343,9 @@ impl<W: Write + Seek> Writer<W> {
             self.frame(time, &bytes, false)?;
         }
         let mut v = layout::input_json(seq, time, &input);
+        if let Some(link) = link {
+            v["link"] = json!(link);
+        }
         if input == Input::Start {
             v["setup"] = layout::setup_json(&layout::Setup {
                 config: self.options.config.clone(),

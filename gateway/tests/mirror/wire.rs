@@ -10,12 +10,18 @@ pub const MIRROR_SYSTEM: u8 = 245;
 pub const MIRROR_COMPONENT: u8 = 190;
 pub const PAYLOAD_TYPE: u16 = 0xD04D;
 
-/// `petrel replay FILE PROJECT --check-against`: (exit code, stderr).
+/// `petrel replay FILE PROJECT --check-against` on the flight-test
+/// example: (exit code, stderr).
 pub fn check_recording(file: &Path) -> (i32, String) {
+    check_recording_of(file, &super::flight::project())
+}
+
+/// `petrel replay FILE PROJECT --check-against`: (exit code, stderr).
+pub fn check_recording_of(file: &Path, project: &Path) -> (i32, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
         .arg("replay")
         .arg(file)
-        .arg(super::flight::project())
+        .arg(project)
         .arg("--check-against")
         .output()
         .expect("petrel replay runs");
@@ -28,7 +34,17 @@ pub fn check_recording(file: &Path) -> (i32, String) {
 /// The mirror's recording replays its replica exactly: every call's
 /// effects and digest. Returns the number of steps replayed.
 pub fn the_recording_checks_out(name: &str, recording: &Path, mirror_err: &str) -> u64 {
-    let (code, err) = check_recording(recording);
+    the_recording_of_checks_out(name, recording, &super::flight::project(), mirror_err)
+}
+
+/// The same, of a mirror following `project`.
+pub fn the_recording_of_checks_out(
+    name: &str,
+    recording: &Path,
+    project: &Path,
+    mirror_err: &str,
+) -> u64 {
+    let (code, err) = check_recording_of(recording, project);
     assert_eq!(
         code, 0,
         "{name}: petrel replay --check-against on the mirror's recording\n{err}\n{}",

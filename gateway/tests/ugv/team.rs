@@ -1,14 +1,15 @@
-#![allow(dead_code)] // shared by tests/ugv_bottleneck.rs and tests/monitor_team.rs, each using a part
-//! examples/ugv-bottleneck's team on the wire: two simulated rovers on one
-//! UDP link (sitl-tests' `Fleet`, in this process), PLN (pln.py, started
-//! by the gateway from project.toml's `run`) and the real `petrel run`;
-//! the labyrinth's geometry to assert on the simulated positions.
-//! The including test binary declares `mod flight` (scenarios/flight.rs).
+//! examples/ugv-bottleneck's two simulated rovers (sitl-tests' `Fleet`, in
+//! this process) and the real `petrel run` supervising them (PLN started by
+//! the gateway from project.toml's `run`); the labyrinth's geometry to
+//! assert on the simulated positions. Shared by `ugv_bottleneck.rs`,
+//! `mirror_team.rs` and `monitor_team.rs`, each using a part. The including test has
+//! `mod flight` (tests/scenarios/flight.rs).
+#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use super::flight::{free_port, free_udp_port, petrel_run_project, scratch, Running};
+use crate::flight::{free_port, free_udp_port, petrel_run_project, scratch, Running};
 use sitl_tests::geo::{offset, Home};
 use sitl_tests::{BootTimeline, Fleet, SimConfig, SimState};
 
@@ -25,7 +26,7 @@ pub fn origin() -> Home {
 }
 
 /// A rover of system `system` parked `north`, `east` metres from the origin.
-fn rover(system: u8, north: f64, east: f64) -> SimConfig {
+pub fn rover(system: u8, north: f64, east: f64) -> SimConfig {
     let (lat, lon) = sitl_tests::geo::location(&origin(), sitl_tests::geo::V2::new(north, east));
     SimConfig {
         boot: BootTimeline::quick(),
@@ -73,31 +74,74 @@ pub struct Team {
     _turn: std::sync::MutexGuard<'static, ()>,
 }
 
+/// The two rovers (R1 south-west, R2 north-east of the bottleneck) on one
+/// link `listen` (`udpin` or `tcpin`, a free port), with their faults.
+pub fn fleet(transport: &str, faults: &[(u8, &str)]) -> Fleet {
+    fleet_at(transport, faults, SPEED)
+}
+
+/// The same, simulated `speed` times faster than real time.
+pub fn fleet_at(transport: &str, faults: &[(u8, &str)], speed: f64) -> Fleet {
+    let mut r1 = rover(1, 0.0, -20.0);
+    let mut r2 = rover(2, 60.0, 20.0);
+    for (sys, spec) in faults {
+        let parsed = sitl_tests::Schedule::parse(&[*spec]).expect("a fault");
+        let cfg = if *sys == 1 { &mut r1 } else { &mut r2 };
+        cfg.faults.entries.extend(parsed.entries);
+    }
+    let port = if transport == "tcpin" {
+        free_port()
+    } else {
+        free_udp_port()
+    };
+    Fleet::start(
+        &format!("{transport}:127.0.0.1:{port}"),
+        speed,
+        vec![r1, r2],
+    )
+    .expect("the fleet starts")
+}
+
 impl Team {
-    /// The team with `faults` scheduled (`(system, "engine_failure@12s")`),
-    /// `petrel run` given `extra` arguments too.
-    pub fn start(name: &str, faults: &[(u8, &str)], extra: &[&str]) -> Team {
-        Team::start_at(name, faults, extra, SPEED)
+    /// Two rovers on one UDP link, the gateway on the example, PLN started
+    /// by it.
+    pub fn start(name: &str, faults: &[(u8, &str)]) -> Team {
+        Team::start_at(name, faults, &[], SPEED)
     }
 
-    /// The same, `speed` simulated seconds per wall second.
+    /// The same, `petrel run` given `extra` arguments, `speed` simulated
+    /// seconds per wall second.
     pub fn start_at(name: &str, faults: &[(u8, &str)], extra: &[&str], speed: f64) -> Team {
         let turn = turn();
-        let mut r1 = rover(1, 0.0, -20.0);
-        let mut r2 = rover(2, 60.0, 20.0);
-        for (sys, spec) in faults {
-            let parsed = sitl_tests::Schedule::parse(&[*spec]).expect("a fault");
-            let cfg = if *sys == 1 { &mut r1 } else { &mut r2 };
-            cfg.faults.entries.extend(parsed.entries);
-        }
-        let port = free_udp_port();
-        let fleet = Fleet::start(&format!("udpin:127.0.0.1:{port}"), speed, vec![r1, r2])
-            .expect("the fleet starts");
+        let fleet = fleet_at("udpin", faults, speed);
+        let link = fleet.client_address();
+        Team::started(name, fleet, &link, extra, speed, turn)
+    }
+
+    /// `petrel run` on the example over `mavlink` (the fleet's address, or
+    /// a router's in front of it), with `extra` arguments.
+    pub fn run(name: &str, fleet: Fleet, mavlink: &str, extra: &[&str]) -> Team {
+        Team::run_at(name, fleet, mavlink, extra, SPEED)
+    }
+
+    /// The same, the gateway's clock `speed` times the wall (the fleet's).
+    pub fn run_at(name: &str, fleet: Fleet, mavlink: &str, extra: &[&str], speed: f64) -> Team {
+        Team::started(name, fleet, mavlink, extra, speed, turn())
+    }
+
+    fn started(
+        name: &str,
+        fleet: Fleet,
+        mavlink: &str,
+        extra: &[&str],
+        speed: f64,
+        turn: std::sync::MutexGuard<'static, ()>,
+    ) -> Team {
         let dir = scratch(name);
         let programs = format!("tcp:127.0.0.1:{}", free_port());
         let child = petrel_run_project(
             &project(),
-            &fleet.client_address(),
+            mavlink,
             &programs,
             speed,
             &dir.join("flight.rec"),

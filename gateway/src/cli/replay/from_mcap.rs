@@ -320,6 +320,18 @@ pub fn run(args: Args) -> VerbResult {
         reading.as_secs_f64(),
         player.state().pending.len()
     );
+    if !rec.links.is_empty() {
+        // A team's recording says which link each frame came in on.
+        let mut per_link: std::collections::BTreeMap<u64, u64> = Default::default();
+        for link in rec.links.values() {
+            *per_link.entry(*link).or_default() += 1;
+        }
+        let text: Vec<String> = per_link
+            .iter()
+            .map(|(l, n)| format!("link {l}: {n}"))
+            .collect();
+        say!("frames by link: {}", text.join(", "));
+    }
     if !args.check_against {
         return Ok(Outcome::Success);
     }

@@ -73,17 +73,24 @@ struct Done {
 
 /// A Supervisor input, owned.
 enum Owned {
-    Frame(Vec<u8>),
+    /// A frame and the link it came in on.
+    Frame(Vec<u8>, usize),
     Tick,
-    Result { id: u64, outcome: nets::Outcome },
+    Result {
+        id: u64,
+        outcome: nets::Outcome,
+    },
     Event(nets::Event),
-    Answer { id: u64, choice: String },
+    Answer {
+        id: u64,
+        choice: String,
+    },
 }
 
 impl Owned {
     fn input(&self) -> Input<'_> {
         match self {
-            Owned::Frame(bytes) => Input::Frame(bytes),
+            Owned::Frame(bytes, _) => Input::Frame(bytes),
             Owned::Tick => Input::Tick,
             Owned::Result { id, outcome } => Input::Result {
                 id: *id,
@@ -168,7 +175,12 @@ impl Gateway {
                 feed.step(&input.input(), &step, self.supervisor.player());
             }
             if let (Some(rec), Some(digest)) = (&self.recorder, digest) {
-                rec.record(&input.input(), step, digest);
+                // A team's frames say their link (one link: implied).
+                let link = match &input {
+                    Owned::Frame(_, link) if self.writers.len() > 1 => Some(*link),
+                    _ => None,
+                };
+                rec.record_on(&input.input(), link, step, digest);
             }
         }
         if let Some((feed, _)) = &self.monitor {
@@ -546,7 +558,7 @@ impl Gateway {
             self.follow_vehicle_time(&rx.header, message);
             self.crew.message(link, rx.time_us, &rx.header, message);
         }
-        self.feed(rx.time_us, Owned::Frame(rx.bytes));
+        self.feed(rx.time_us, Owned::Frame(rx.bytes, link));
     }
 
     /// A scaled clock follows the simulated autopilot's own time
