@@ -34,6 +34,11 @@ struct Variant {
     /// A robot inside can lose its engine (catastrophic): it goes `down`
     /// and is locked out, keeping the bottleneck (the others wait for ever).
     failing: bool,
+    /// With `failing`: a robot may fail outside the bottleneck too, a
+    /// failing robot says `down`, and a team net HALT deactivates R2's MOVE
+    /// when R1 is down (a catastrophic reaction that deactivates another
+    /// vehicle's net, as SYNC does in examples/ugv-bottleneck).
+    halting: bool,
 }
 
 const PLAIN: Variant = Variant {
@@ -43,7 +48,10 @@ const PLAIN: Variant = Variant {
     blocked_frees: true,
     looping: false,
     failing: false,
+    halting: false,
 };
+
+const HALT: &str = "name = \"HALT\"\nplaces = [\"on\", \"off\"]\ninitial = [\"on\"]\nfinal = [\"on\", \"off\"]\n\n[[transition]]\nname = \"r1_down\"\nfrom = [\"on\"]\nto = [\"off\"]\non = \"down@R1\"\ndo = [\"deactivate MOVE@R2\"]\n";
 
 fn files(v: Variant) -> BTreeMap<String, String> {
     let mut project = read("project.toml");
@@ -89,6 +97,11 @@ fn files(v: Variant) -> BTreeMap<String, String> {
         moves.push_str(
             "\n[[transition]]\nname = \"engine_out\"\nfrom = [\"inside\"]\nto = [\"down\"]\non = \"engine_failure\"\n",
         );
+        if v.halting {
+            moves.push_str("do = [\"emit down\"]\n");
+            moves.push_str("\n[[transition]]\nname = \"engine_out_early\"\nfrom = [\"outside\"]\nto = [\"down\"]\non = \"engine_failure\"\ndo = [\"emit down\"]\n");
+            project.push_str("\n[[net]]\nfile = \"halt.toml\"\nactive = true\n");
+        }
     }
     let mut out = BTreeMap::from([
         ("project.toml".to_owned(), project),
@@ -96,6 +109,9 @@ fn files(v: Variant) -> BTreeMap<String, String> {
     ]);
     if v.watch {
         out.insert("watch.toml".to_owned(), read("watch.toml"));
+    }
+    if v.failing && v.halting {
+        out.insert("halt.toml".to_owned(), HALT.to_owned());
     }
     out
 }
@@ -168,10 +184,15 @@ fn permutations(n: usize) -> Vec<Vec<usize>> {
 
 /// Compares a reduced check with the unreduced one on variant `v`.
 fn same_as_unreduced(v: Variant, symmetry: bool, partial_order: bool) {
-    let p = load(v);
+    let what = format!("{v:?} symmetry {symmetry} partial order {partial_order}");
+    project_same_as_unreduced(&load(v), &what, symmetry, partial_order);
+}
+
+/// Compares a reduced check of `p` with the unreduced one.
+fn project_same_as_unreduced(p: &Arc<Project>, what: &str, symmetry: bool, partial_order: bool) {
+    let p = p.clone();
     let whole = check(&p, false, false);
     let reduced = check(&p, symmetry, partial_order);
-    let what = format!("{v:?} symmetry {symmetry} partial order {partial_order}");
     assert!(whole.complete && reduced.complete, "{what}");
     assert_eq!(whole.holds(), reduced.holds(), "{what}");
     assert_eq!(whole.safe, reduced.safe, "{what}");
@@ -244,6 +265,26 @@ fn same_as_unreduced(v: Variant, symmetry: bool, partial_order: bool) {
     for cycle in &reduced.loops {
         assert!(!cycle.is_empty(), "{what}");
     }
+    // Each net in its project: the same verdicts.
+    if partial_order {
+        let each = |symmetry: bool, partial_order: bool| {
+            project::check(
+                &p,
+                &Options {
+                    alone: false,
+                    symmetry,
+                    partial_order,
+                    ..Options::default()
+                },
+            )
+        };
+        let (whole, reduced) = (each(false, false), each(symmetry, partial_order));
+        for ((name, a), (_, b)) in whole.nets.iter().zip(&reduced.nets) {
+            assert_eq!(a.holds(), b.holds(), "{what} {name}");
+            assert_eq!(a.safe, b.safe, "{what} {name}");
+            assert_eq!(a.dead_markings == 0, b.dead_markings == 0, "{what} {name}");
+        }
+    }
 }
 
 fn every_reduction(v: Variant) {
@@ -273,6 +314,91 @@ fn a_robot_locked_out_by_its_engine_failure_checks_alike_reduced_or_not() {
         assert!(unreduced.dead_markings > 0, "{unreduced:?}");
         every_reduction(v);
     }
+}
+
+#[test]
+fn a_catastrophic_reaction_stopping_another_robot_checks_alike_reduced_or_not() {
+    // R1's engine failure locks R1 out, and HALT deactivates R2's MOVE.
+    // With three robots, R2 waits for ever when R3 fails inside: R2's MOVE
+    // is dead there, and R1 failing outside (any time) must not be taken
+    // first by the reduction, which would deactivate it.
+    for vehicles in [2, 3] {
+        let v = Variant {
+            vehicles,
+            failing: true,
+            halting: true,
+            ..PLAIN
+        };
+        let p = load(v);
+        let each = project::check(
+            &p,
+            &Options {
+                alone: false,
+                symmetry: false,
+                partial_order: false,
+                ..Options::default()
+            },
+        );
+        // The verdict the reduction must keep.
+        assert!(
+            vehicles == 2
+                || each
+                    .nets
+                    .iter()
+                    .any(|(name, r)| name == "MOVE@R2" && r.dead_markings > 0),
+            "{:?}",
+            each.nets
+                .iter()
+                .map(|(n, r)| (n, r.dead_markings))
+                .collect::<Vec<_>>()
+        );
+        every_reduction(v);
+    }
+}
+
+#[test]
+fn the_two_robot_example_checks_alike_reduced_or_not() {
+    let p = ugv(EXAMPLE);
+    assert_eq!(p.vehicles.len(), 2);
+    for (symmetry, partial_order) in [(false, true), (true, true)] {
+        project_same_as_unreduced(&p, "ugv-bottleneck", symmetry, partial_order);
+    }
+}
+
+#[test]
+fn the_four_robot_fixture_has_the_example_s_nets() {
+    for file in [
+        "route.toml",
+        "corridor.toml",
+        "safety.toml",
+        "sync.toml",
+        "profile.toml",
+    ] {
+        let read = |dir: &str| std::fs::read_to_string(format!("{dir}/{file}")).expect(file);
+        assert_eq!(read(EXAMPLE), read(UGV4), "{file}");
+    }
+    assert_eq!(ugv(UGV4).vehicles.len(), 4);
+}
+
+const EXAMPLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/ugv-bottleneck");
+const UGV4: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/ugv4");
+
+/// The two-robot example or its four-robot copy, without its profile.
+fn ugv(dir: &str) -> Arc<Project> {
+    let files: BTreeMap<String, String> = [
+        "project.toml",
+        "route.toml",
+        "corridor.toml",
+        "safety.toml",
+        "sync.toml",
+    ]
+    .iter()
+    .map(|f| {
+        let text = std::fs::read_to_string(format!("{dir}/{f}")).expect("example file");
+        ((*f).to_owned(), text)
+    })
+    .collect();
+    Arc::new(nets::load(&files).unwrap_or_else(|e| panic!("{e:?}")))
 }
 
 #[test]
@@ -481,11 +607,12 @@ proptest! {
         blocked_frees: bool,
         looping: bool,
         failing: bool,
+        halting: bool,
         symmetry: bool,
         partial_order: bool,
     ) {
         same_as_unreduced(
-            Variant { vehicles, watch, guarded, blocked_frees, looping, failing },
+            Variant { vehicles, watch, guarded, blocked_frees, looping, failing, halting },
             symmetry,
             partial_order,
         );

@@ -57,18 +57,25 @@ pub(super) struct Successors<'a> {
     store: &'a KeyStore,
     chunk: &'a mut Chunk,
     count: u32,
+    /// The number of the state being expanded.
+    from: u32,
 }
 
 impl Successors<'_> {
     /// A successor `key` reached by a step labelled `label` (the worker's
     /// number), `key` being the image of the real successor by the element
     /// `perm` of the symmetry group (0, the identity, without symmetry).
-    /// Whether it was stored already (in this level or before).
+    /// Whether it was stored before the state being expanded, or is that
+    /// state (numbers grow level by level, so every cycle of the graph has
+    /// an edge for which this is true: the one from its highest number).
     pub fn push(&mut self, label: u32, key: &[u8], perm: u8) -> bool {
         let h = hash(key);
-        let mut known = true;
+        let known;
         let target = match self.store.lookup(key, h) {
-            Some(i) => Target::Known(i),
+            Some(i) => {
+                known = i <= self.from;
+                Target::Known(i)
+            }
             None => {
                 known = false;
                 let start = self.chunk.bytes.len();
@@ -84,6 +91,30 @@ impl Successors<'_> {
         self.count += 1;
         known
     }
+
+    /// Where the successors pushed so far end, for [`Successors::undo`].
+    pub fn mark(&self) -> SuccessorsMark {
+        SuccessorsMark {
+            bytes: self.chunk.bytes.len(),
+            edges: self.chunk.edges.len(),
+            count: self.count,
+        }
+    }
+
+    /// Forgets the successors pushed since `mark`.
+    pub fn undo(&mut self, mark: SuccessorsMark) {
+        self.chunk.bytes.truncate(mark.bytes);
+        self.chunk.edges.truncate(mark.edges);
+        self.count = mark.count;
+    }
+}
+
+/// A point in a state's successors (see [`Successors::mark`]).
+#[derive(Clone, Copy)]
+pub(super) struct SuccessorsMark {
+    bytes: usize,
+    edges: usize,
+    count: u32,
 }
 
 /// The reachable states: keys in breadth-first order (state 0 is the
@@ -196,6 +227,7 @@ pub(super) fn expand_one<E: Explore>(
         store: &store,
         chunk: &mut chunk,
         count: 0,
+        from: u32::MAX,
     };
     space.expand(worker, key, &mut out);
     chunk
@@ -222,6 +254,7 @@ fn expand_level<E: Explore>(
                 store,
                 chunk: &mut chunk,
                 count: 0,
+                from: s as u32,
             };
             space.expand(worker, store.get(s as u32), &mut out);
             let count = out.count;

@@ -573,6 +573,10 @@ struct External {
     vehicle: Option<crate::model::VehicleId>,
 }
 
+/// How many ample sets a state tries (smallest first) before it is
+/// expanded fully (see [`Explorer::successors`]).
+const AMPLE_TRIES: usize = 4;
+
 /// A hash map with a fast fixed hash (what it holds never comes from
 /// outside a check).
 type FastMap<K, V> = HashMap<K, V, foldhash::fast::FixedState>;
@@ -998,47 +1002,41 @@ impl Explorer {
         }
         let abs = self.codec.decode(key);
         let inputs = self.inputs(&abs);
-        // The ample set, when the stubborn sets reduce in this state (never
-        // under the lockout, whose catastrophic timers and results have no
-        // class of their own).
-        let ample = self.stubborn.as_ref().and_then(|stubborn| {
-            let catastrophic = abs.state.lockout
-                || !abs.state.locked.is_empty()
-                || abs.state.timers.iter().any(|t| t.catastrophic)
-                || abs.state.pending.values().any(|p| p.catastrophic);
-            if catastrophic {
-                return None;
-            }
+        // The ample sets, when the stubborn sets reduce in this state.
+        let ample = self.stubborn.as_ref().map_or(Vec::new(), |stubborn| {
             let classes: Vec<Option<u32>> = inputs
                 .iter()
                 .map(|i| self.class_of(stubborn, &abs, i))
                 .collect();
-            stubborn.ample(&classes)
+            stubborn.ample(&classes, &abs.state, AMPLE_TRIES)
         });
-        match ample {
-            None => {
-                for input in &inputs {
-                    self.input_successors(w, key, &abs, input, out);
+        // The cycle proviso: an ample set one of whose steps leads to a
+        // state numbered no higher than this one (stored before it, or
+        // itself: every cycle has such a step) or changes nothing is not
+        // taken; the next is tried, and the state is expanded fully when
+        // none is left.
+        for set in &ample {
+            let mark = out.mark();
+            let mut known = false;
+            for (input, _) in inputs.iter().zip(set).filter(|(_, a)| **a) {
+                known = self.input_successors(w, key, &abs, input, out);
+                if known {
+                    break;
                 }
             }
-            Some(ample) => {
-                // The cycle proviso: expand fully when an ample step leads
-                // to a state already stored (or changes nothing).
-                let mut full = false;
-                for (input, _) in inputs.iter().zip(&ample).filter(|(_, a)| **a) {
-                    full |= self.input_successors(w, key, &abs, input, out);
-                }
-                if full {
-                    for (input, _) in inputs.iter().zip(&ample).filter(|(_, a)| !**a) {
-                        self.input_successors(w, key, &abs, input, out);
-                    }
-                }
+            if !known {
+                return;
             }
+            out.undo(mark);
+        }
+        for input in &inputs {
+            self.input_successors(w, key, &abs, input, out);
         }
     }
 
     /// The successors of the state `key` (decoded: `abs`) by one input;
-    /// whether one of them was stored already or the input changed nothing.
+    /// whether one of them was stored before it (or is it) or the input
+    /// changed nothing.
     fn input_successors(
         &self,
         w: &mut Worker,
