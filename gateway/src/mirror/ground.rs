@@ -227,11 +227,17 @@ impl Ground {
         to_vehicle: impl Fn(Micros) -> Option<Micros>,
         mut seen: impl FnMut(&Event),
     ) {
-        // Those that came before the time base, once it is known.
+        // Those that came before the time base, once it is known; those
+        // from before the vehicle's player started (vehicle time 0, where
+        // `to_vehicle` stops) the vehicle never elaborated: not judged.
         while let Some(t) = self.untimed.front().and_then(|(at, _)| to_vehicle(*at)) {
-            let (_, event) = self.untimed.pop_front().expect("checked");
-            let i = self.lane_of_event(&event);
-            self.checks[i].ground(t, &event);
+            let Some((_, event)) = self.untimed.pop_front() else {
+                break;
+            };
+            if t > 0 {
+                let i = self.lane_of_event(&event);
+                self.checks[i].ground(t, &event);
+            }
         }
         let mut elaborated = std::mem::take(&mut self.elaborated);
         for e in elaborated.drain(..) {

@@ -258,3 +258,31 @@ fn events_before_the_time_base_are_judged_once_it_is_known() {
     );
     assert!(g.counts().next().is_some_and(|c| c.matched == 1));
 }
+
+#[test]
+fn events_from_before_the_vehicle_started_are_not_judged() {
+    let project = crate::team::supervised::team();
+    let mut g = ground_of(&project);
+    let none = |_: Micros| None;
+    // R1 arms before the downlink's first heartbeat, and before the
+    // vehicle's player started: vehicle time 0 is as far back as it goes.
+    for (i, armed) in [(0u8, false), (1, true)] {
+        let frame = rover(1, i, armed);
+        let frame = Frame::parse(&frame).expect("a frame");
+        g.heard(u64::from(i) * 100_000, &frame, none);
+        g.elaborate(u64::from(i) * 100_000, &frame);
+        g.drain(none, |_| {});
+    }
+    // The vehicle started 5 s after the ground: its time clamps at 0.
+    let base = |t: Micros| Some(t.saturating_sub(5_000_000));
+    g.drain(base, |_| {});
+    // The replica holds every record through 10 s: whatever the ground
+    // had waiting is judged now (a ground-only event, were it kept).
+    g.advance(Some(10_000_000), base);
+    assert!(g.poll_disagreement().is_none());
+    let counts = g.counts().next().expect("R1's counts");
+    assert_eq!(
+        (counts.ground_only, counts.unjudged, counts.matched),
+        (0, 0, 0)
+    );
+}
