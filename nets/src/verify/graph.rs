@@ -367,6 +367,20 @@ fn bit(set: &[u64], v: u32) -> bool {
     (set[(v >> 6) as usize] >> (v & 63)) & 1 == 1
 }
 
+/// The nodes of a bitset, in increasing order.
+fn members(set: &[u64]) -> impl Iterator<Item = u32> + '_ {
+    set.iter().enumerate().flat_map(|(w, &bits)| {
+        let mut b = bits;
+        std::iter::from_fn(move || {
+            (b != 0).then(|| {
+                let v = (w * 64) as u32 + b.trailing_zeros();
+                b &= b - 1;
+                v
+            })
+        })
+    })
+}
+
 fn set_bit(set: &mut [u64], v: u32) {
     set[(v >> 6) as usize] |= 1 << (v & 63);
 }
@@ -435,14 +449,7 @@ fn terminal_component(g: &impl Adjacency, node: u32, n: usize) -> Option<Vec<u64
     }
     drop(queue);
     // the nodes it reaches, in increasing order
-    let mut reached = Vec::new();
-    for (w, &bits) in seen.iter().enumerate() {
-        let mut b = bits;
-        while b != 0 {
-            reached.push((w * 64) as u32 + b.trailing_zeros());
-            b &= b - 1;
-        }
-    }
+    let reached: Vec<u32> = members(&seen).collect();
     let mut back = vec![0u64; n.div_ceil(64)];
     set_bit(&mut back, node);
     let rest = reaching(g, &mut back, reached, n)?;
@@ -474,14 +481,9 @@ fn pearce(
     let mut last: Option<(u32, bool)> = None;
     if let Some((r, set)) = settled {
         let mut size = 0u32;
-        for (w, &bits) in set.iter().enumerate() {
-            let mut b = bits;
-            while b != 0 {
-                let v = w * 64 + b.trailing_zeros() as usize;
-                b &= b - 1;
-                rindex[v] = top;
-                size += 1;
-            }
+        for v in members(set) {
+            rindex[v as usize] = top;
+            size += 1;
         }
         last = Some((size, size > 1 || g.targets(r).contains(&r)));
     }
@@ -490,14 +492,9 @@ fn pearce(
     // a terminal component, numbered first: no edge leaves it
     if let Some((r, set)) = terminal {
         let mut size = 0u32;
-        for (w, &bits) in set.iter().enumerate() {
-            let mut b = bits;
-            while b != 0 {
-                let v = w * 64 + b.trailing_zeros() as usize;
-                b &= b - 1;
-                rindex[v] = c;
-                size += 1;
-            }
+        for v in members(set) {
+            rindex[v as usize] = c;
+            size += 1;
         }
         c -= 1;
         sizes.push(size);
