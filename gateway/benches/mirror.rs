@@ -25,6 +25,8 @@
 mod busy;
 #[path = "../tests/scenarios/flight.rs"]
 mod flight;
+#[path = "support/proc.rs"]
+mod proc;
 #[path = "../tests/mirror/router.rs"]
 mod router;
 
@@ -32,25 +34,13 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use flight::{free_port, petrel_run, project, scratch, start_sim, stop, Dec, Killed, SPEED};
+use proc::cpu;
 use router::{Loss, Router};
 
 /// The scenarios' mission file (DEC reads it).
 pub const MISSION_FILE: &str = "mission.toml";
 
 const MAX_SIM_S: f64 = 420.0;
-
-/// User + system CPU time of a process so far, from /proc/PID/stat.
-fn cpu(pid: u32) -> Option<Duration> {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-    // After the command name's closing parenthesis: state is field 3,
-    // utime and stime fields 14 and 15.
-    let rest = &stat[stat.rfind(')')? + 2..];
-    let fields: Vec<&str> = rest.split_whitespace().collect();
-    let ticks: u64 = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
-    // SAFETY: sysconf reads a constant of the system.
-    let hz = unsafe { libc::sysconf(libc::_SC_CLK_TCK) }.max(1) as u64;
-    Some(Duration::from_micros(ticks * 1_000_000 / hz))
-}
 
 struct Figures {
     run_cpu: Duration,

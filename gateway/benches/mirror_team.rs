@@ -18,6 +18,8 @@
 
 #![allow(dead_code)]
 
+#[path = "support/proc.rs"]
+mod proc;
 #[path = "support/telemetry.rs"]
 mod telemetry;
 
@@ -27,6 +29,8 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+use proc::cpu;
 
 const TEAMS: &[usize] = &[1, 50, 100, 150, 200, 240];
 const SECONDS: u64 = 10;
@@ -39,17 +43,6 @@ fn pin(cpu: usize) {
         libc::CPU_SET(cpu, &mut set);
         libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set);
     }
-}
-
-/// User + system CPU time of a process so far, from /proc/PID/stat.
-fn cpu(pid: u32) -> Option<Duration> {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-    let rest = &stat[stat.rfind(')')? + 2..];
-    let fields: Vec<&str> = rest.split_whitespace().collect();
-    let ticks: u64 = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
-    // SAFETY: sysconf reads a constant of the system.
-    let hz = unsafe { libc::sysconf(libc::_SC_CLK_TCK) }.max(1) as u64;
-    Some(Duration::from_micros(ticks * 1_000_000 / hz))
 }
 
 /// A team project of `n` vehicles in `dir`.

@@ -26,7 +26,7 @@ use serde_json::Value as Json;
 #[path = "monitor/browser.rs"]
 mod browser;
 
-use browser::{repo, require, Reaped};
+use browser::{repo, require, strings, Reaped};
 
 const PETREL: &str = env!("CARGO_BIN_EXE_petrel");
 
@@ -110,21 +110,10 @@ fn read(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-fn strings(v: &Json) -> Vec<String> {
-    v.as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|s| s.as_str().map(str::to_owned))
-                .collect()
-        })
-        .unwrap_or_default()
-}
-
 #[test]
 fn a_transition_added_in_the_page_is_written_checked_and_its_counterexample_stepped() {
     let Some(tools) = require() else { return };
-    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("monitor");
-    std::fs::create_dir_all(&shots).unwrap_or_else(|e| panic!("{e}"));
+    let shots = browser::shots();
     let tmp = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let dir = tmp.path();
     copy_example(dir);

@@ -199,8 +199,7 @@ fn replay_marked(lines: &[Json], at: u64, ex: &Example) -> BTreeSet<String> {
 fn the_flight_live_in_the_browser_then_its_recording_scrubbed() {
     let Some(tools) = require() else { return };
     let ex = read_example();
-    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("monitor");
-    std::fs::create_dir_all(&shots).unwrap_or_else(|e| panic!("{e}"));
+    let shots = browser::shots();
     // This test's own screenshots of an earlier run (the view's are named by
     // their instants); the mirror's test keeps its own beside them.
     for entry in std::fs::read_dir(&shots).into_iter().flatten().flatten() {

@@ -33,7 +33,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use browser::{drive, require};
+use browser::{drive, require, strings};
 use router::{Loss, Router};
 
 /// The scenarios' mission file (flight.rs names it; unused here).
@@ -171,16 +171,6 @@ impl Drop for Petrel {
     }
 }
 
-fn strings(v: &serde_json::Value) -> Vec<String> {
-    v.as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|s| s.as_str().map(str::to_owned))
-                .collect()
-        })
-        .unwrap_or_default()
-}
-
 /// The seconds a countdown shows (`27 s`).
 fn left(v: &serde_json::Value) -> f64 {
     v["left"]
@@ -192,8 +182,7 @@ fn left(v: &serde_json::Value) -> f64 {
 #[test]
 fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
     let Some(tools) = require() else { return };
-    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("monitor");
-    std::fs::create_dir_all(&shots).unwrap_or_else(|e| panic!("{e}"));
+    let shots = browser::shots();
     let shots = shots.to_string_lossy().to_string();
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     asking_project(dir.path(), 600);

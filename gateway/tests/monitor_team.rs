@@ -17,34 +17,22 @@ mod flight;
 #[path = "ugv/team.rs"]
 mod team;
 
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use serde_json::Value as Json;
 use sitl_tests::Fault;
 
-use browser::{drive_script, require};
+use browser::{drive_script, require, strings};
 use team::Team;
 
 /// The shared flight module's DEC reads this (not used here: PLN is
 /// started by the gateway).
 pub const MISSION_FILE: &str = "mission.toml";
 
-fn strings(v: &Json) -> Vec<String> {
-    v.as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|s| s.as_str().map(str::to_owned))
-                .collect()
-        })
-        .unwrap_or_default()
-}
-
 #[test]
 fn each_rover_its_group_and_marker_and_a_motor_failure_locks_out_its_rover_only() {
     let Some(tools) = require() else { return };
-    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("monitor");
-    std::fs::create_dir_all(&shots).unwrap_or_else(|e| panic!("{e}"));
+    let shots = browser::shots();
     let shots = shots.to_string_lossy().to_string();
     let signals = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let address = format!("127.0.0.1:{}", flight::free_port());

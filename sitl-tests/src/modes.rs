@@ -25,10 +25,14 @@ pub const INITIALISING: u32 = 16;
 /// (`FLY_BY_WIRE_A`, `AUTO`), as Petrel's elaboration names it; `MODE_<n>`
 /// when unknown.
 pub fn name(mode: u32) -> String {
-    match PlaneMode::from_u32(mode) {
-        Some(m) => format!("{m:?}")
-            .trim_start_matches("PLANE_MODE_")
-            .to_owned(),
+    dialect_name::<PlaneMode>(mode, "PLANE_MODE_")
+}
+
+/// A mode's name in the dialect's enum `M`, without its `prefix`;
+/// `MODE_<n>` when `M` has no such mode.
+fn dialect_name<M: FromPrimitive + std::fmt::Debug>(mode: u32, prefix: &str) -> String {
+    match M::from_u32(mode) {
+        Some(m) => format!("{m:?}").trim_start_matches(prefix).to_owned(),
         None => format!("MODE_{mode}"),
     }
 }
@@ -98,7 +102,6 @@ pub fn base_mode(mode: u32, armed: bool) -> MavModeFlag {
 /// Rover/GCS_Mavlink.cpp).
 pub mod rover {
     use mavlink::dialects::ardupilotmega::{MavModeFlag, RoverMode};
-    use num_traits::FromPrimitive;
 
     pub const MANUAL: u32 = 0;
     pub const ACRO: u32 = 1;
@@ -117,12 +120,7 @@ pub mod rover {
     /// `SMART_RTL`, `INITIALIZING`), as Petrel's elaboration names it;
     /// `MODE_<n>` when unknown.
     pub fn name(mode: u32) -> String {
-        match RoverMode::from_u32(mode) {
-            Some(m) => format!("{m:?}")
-                .trim_start_matches("ROVER_MODE_")
-                .to_owned(),
-            None => format!("MODE_{mode}"),
-        }
+        super::dialect_name::<RoverMode>(mode, "ROVER_MODE_")
     }
 
     /// A mode one may ask for (whether it can be entered now is the

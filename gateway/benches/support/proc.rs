@@ -1,4 +1,7 @@
-//! What /proc says of a process (Linux), for the memory figures.
+//! What /proc says of a process (Linux), for the memory and CPU figures.
+#![allow(dead_code)] // shared by several benches, each using a part
+
+use std::time::Duration;
 
 /// VmRSS and VmHWM of a process, in kB.
 pub fn rss_kb(pid: u32) -> Option<(u64, u64)> {
@@ -11,4 +14,17 @@ pub fn rss_kb(pid: u32) -> Option<(u64, u64)> {
             .and_then(|v| v.parse().ok())
     };
     Some((field("VmRSS:")?, field("VmHWM:")?))
+}
+
+/// User + system CPU time of a process so far, from /proc/PID/stat.
+pub fn cpu(pid: u32) -> Option<Duration> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    // After the command name's closing parenthesis: state is field 3,
+    // utime and stime fields 14 and 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: u64 = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
+    // SAFETY: sysconf reads a constant of the system.
+    let hz = unsafe { libc::sysconf(libc::_SC_CLK_TCK) }.max(1) as u64;
+    Some(Duration::from_micros(ticks * 1_000_000 / hz))
 }

@@ -500,6 +500,18 @@ pub(crate) mod tests {
     }
 
     /// Feeds `input` to the player as the supervisor would: the step.
+    /// Steps `player` on `input`, shows the step on `board`, and returns
+    /// the board's last log entry.
+    fn feed(board: &mut Board, player: &mut Player, seq: u64, time: Micros, input: &Input) -> Json {
+        let s = step(player, seq, time, input);
+        board.step(input, &s, player);
+        board
+            .log()
+            .back()
+            .map(|e| e.json.clone())
+            .unwrap_or_default()
+    }
+
     pub(crate) fn step(player: &mut Player, seq: u64, time: Micros, input: &Input) -> Step {
         match input {
             Input::Event(e) => player.handle(e, time),
@@ -547,25 +559,13 @@ pub(crate) mod tests {
             id,
             outcome: Outcome::Done(nets::Params::new()),
         };
-        let s = step(&mut player, 2, 1_500_000, &done);
-        board.step(&done, &s, &player);
-        let last = &board
-            .log()
-            .back()
-            .map(|e| e.json.clone())
-            .unwrap_or_default();
+        let last = feed(&mut board, &mut player, 2, 1_500_000, &done);
         assert_eq!(last["kind"], "result");
         assert_eq!(last["of"], "arm");
         assert_eq!(last["ok"], true);
         // An event nothing waits for is logged as such.
         let x = Input::Event(Event::new("x"));
-        let s = step(&mut player, 3, 2_000_000, &x);
-        board.step(&x, &s, &player);
-        let last = &board
-            .log()
-            .back()
-            .map(|e| e.json.clone())
-            .unwrap_or_default();
+        let last = feed(&mut board, &mut player, 3, 2_000_000, &x);
         assert_eq!(last["name"], "x");
         assert_eq!(last["fired"], json!([]));
         assert!(!board.marking_changed);
@@ -613,13 +613,7 @@ pub(crate) mod tests {
             id,
             outcome: Outcome::Done(nets::Params::new()),
         };
-        let s = step(&mut player, 2, 1_500_000, &done);
-        board.step(&done, &s, &player);
-        let last = board
-            .log()
-            .back()
-            .map(|e| e.json.clone())
-            .unwrap_or_default();
+        let last = feed(&mut board, &mut player, 2, 1_500_000, &done);
         assert_eq!(
             (&last["of"], &last["vehicle"]),
             (&json!("arm"), &json!("R2"))
@@ -633,13 +627,7 @@ pub(crate) mod tests {
         assert_eq!(frame["lockout"], false);
         // An event of no vehicle (a program's, to the team) has none.
         let y = Input::Event(Event::new("x"));
-        let s = step(&mut player, 4, 2_500_000, &y);
-        board.step(&y, &s, &player);
-        let last = board
-            .log()
-            .back()
-            .map(|e| e.json.clone())
-            .unwrap_or_default();
+        let last = feed(&mut board, &mut player, 4, 2_500_000, &y);
         assert_eq!(
             (&last["name"], &last["vehicle"]),
             (&json!("x"), &Json::Null)

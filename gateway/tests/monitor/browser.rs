@@ -1,13 +1,32 @@
 #![allow(dead_code)] // shared by the browser test binaries, each using a part
-//! The browser tests' tools (tests/monitor.rs, tests/monitor_mirror.rs, tests/edit.rs):
-//! node, playwright-core and Debian's chromium found or the test skipped
-//! (failed under `CI=true`), and `monitor/driver.js` run.
+//! The browser tests' tools (tests/monitor.rs, tests/monitor_mirror.rs,
+//! tests/monitor_team.rs, tests/edit.rs): node, playwright-core and Debian's
+//! chromium found or the test skipped (failed under `CI=true`),
+//! `monitor/driver.js` run, the screenshots' folder, the page's lists read.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use serde_json::Value as Json;
+
+/// Where the browser tests leave their screenshots: `target/tmp/monitor/`.
+pub fn shots() -> PathBuf {
+    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("monitor");
+    std::fs::create_dir_all(&shots).unwrap_or_else(|e| panic!("{}: {e}", shots.display()));
+    shots
+}
+
+/// The strings of a JSON array the page reported (none if it is not one).
+pub fn strings(v: &Json) -> Vec<String> {
+    v.as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|s| s.as_str().map(str::to_owned))
+                .collect()
+        })
+        .unwrap_or_default()
+}
 
 pub fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")

@@ -22,7 +22,7 @@ mod rovers;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use serde_json::Value as Json;
 
@@ -128,7 +128,7 @@ impl Scenario {
     /// The plane's fault schedule (sitl-tests `--fault` syntax).
     pub fn faults(self) -> &'static [&'static str] {
         match self {
-            Scenario::PayloadThenEngine => &["payload_failure=critical@38s", "engine_failure@50s"],
+            Scenario::PayloadThenEngine => &["payload_failure=critical@35s", "engine_failure@42s"],
             Scenario::Payload => &["payload_failure@wp3"],
             Scenario::Engine => &["engine_failure@wp2"],
             Scenario::Link => &["link_loss@wp3:10s"],
@@ -407,5 +407,58 @@ fn print(json: bool, log: &mut Log, line: &str) {
         println!("{line}");
     } else if let Ok(v) = serde_json::from_str::<Json>(line) {
         log.line(&v);
+    }
+}
+
+/// The end of a flight: once it is over (the vehicles at rest), the nets
+/// get `simulated` seconds of the simulation's time to finish before the
+/// demo stops; a flight that goes on again starts the wait afresh.
+struct Settle {
+    wait: Duration,
+    since: Option<Instant>,
+}
+
+impl Settle {
+    /// `simulated` seconds at `speed` times real time, at least a quarter
+    /// of a second of wall time (the gateway's thread prints its last
+    /// lines).
+    fn new(simulated: f64, speed: f64) -> Settle {
+        Settle {
+            wait: Duration::from_secs_f64((simulated / speed).max(0.25)),
+            since: None,
+        }
+    }
+
+    /// Whether the demo may stop at `now`, given whether the flight is
+    /// over then.
+    fn done(&mut self, over: bool, now: Instant) -> bool {
+        if !over {
+            self.since = None;
+            return false;
+        }
+        now.duration_since(*self.since.get_or_insert(now)) >= self.wait
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settle_waits_for_the_flight_to_stay_over() {
+        let t0 = Instant::now();
+        let at = |ms: u64| t0 + Duration::from_millis(ms);
+        let mut settle = Settle::new(1.0, 1.0);
+        assert!(!settle.done(false, at(0)));
+        assert!(!settle.done(true, at(100)));
+        assert!(!settle.done(true, at(1000)));
+        // Moving again starts the wait afresh.
+        assert!(!settle.done(false, at(1050)));
+        assert!(!settle.done(true, at(1100)));
+        assert!(!settle.done(true, at(2000)));
+        assert!(settle.done(true, at(2100)));
+        // Simulated seconds at the speed, at least a quarter of a second.
+        assert_eq!(Settle::new(10.0, 5.0).wait, Duration::from_secs(2));
+        assert_eq!(Settle::new(1.0, 100.0).wait, Duration::from_millis(250));
     }
 }

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use sitl_tests::{Schedule, Sim, SimConfig, SimState};
 
 use super::log::{list_or_none, Log};
-use super::{free_port, Flight, Gateway, MISSION_FILE};
+use super::{free_port, Flight, Gateway, Settle, MISSION_FILE};
 use crate::cli::{Outcome, VerbResult};
 
 pub(super) fn fly(flight: &Flight) -> VerbResult {
@@ -54,7 +54,9 @@ pub(super) fn fly(flight: &Flight) -> VerbResult {
     let started = Instant::now();
     let give_up = started + Duration::from_secs_f64(args.timeout.max(1.0));
     let mut faults_seen = 0;
-    let mut settled_since: Option<Instant> = None;
+    // The nets react within milliseconds; two simulated seconds after the
+    // aircraft is down and disarmed let the last heartbeat (1 Hz) arrive.
+    let mut settle = Settle::new(2.0, flight.speed);
     while dec.is_ok() && Instant::now() < give_up {
         gateway.show(Duration::from_millis(100));
         let state = sim.state();
@@ -66,19 +68,9 @@ pub(super) fn fly(flight: &Flight) -> VerbResult {
         }
         faults_seen = state.faults.len();
         // The flight is over once the aircraft is down and disarmed (or has
-        // crashed), and the nets have had a few seconds to finish.
+        // crashed), and the nets have had a moment to finish.
         let over = (state.landed && !state.armed) || state.crashed;
-        match (over, settled_since) {
-            (true, None) => settled_since = Some(Instant::now()),
-            (true, Some(t))
-                if t.elapsed() > Duration::from_secs_f64(3.0 / flight.speed.min(3.0)) =>
-            {
-                break
-            }
-            (false, _) => settled_since = None,
-            _ => {}
-        }
-        if gateway.finished() {
+        if settle.done(over, Instant::now()) || gateway.finished() {
             break;
         }
     }

@@ -13,7 +13,7 @@ use sitl_tests::geo::{location, offset, Home, V2};
 use sitl_tests::{BootTimeline, Fault, Fleet, Schedule, SimConfig, SimState};
 
 use super::log::Log;
-use super::{free_port, Flight, Gateway, Scenario};
+use super::{free_port, Flight, Gateway, Scenario, Settle};
 use crate::cli::{Outcome, VerbResult};
 
 /// Where the rovers start and end, metres north and east of the
@@ -134,7 +134,7 @@ pub(super) fn fly(flight: &Flight) -> VerbResult {
         armed_once: vec![false; ROVERS.len()],
         ..Watch::default()
     };
-    let mut settled_since: Option<Instant> = None;
+    let mut settle = Settle::new(3.0, flight.speed);
     while Instant::now() < give_up {
         gateway.show(Duration::from_millis(50));
         let all = fleet.states();
@@ -145,13 +145,7 @@ pub(super) fn fly(flight: &Flight) -> VerbResult {
             && all
                 .iter()
                 .all(|(_, s)| s.mode == "HOLD" && s.groundspeed < 0.2);
-        match (over, settled_since) {
-            (true, None) => settled_since = Some(Instant::now()),
-            (true, Some(t)) if t.elapsed() > Duration::from_secs_f64(3.0 / flight.speed) => break,
-            (false, _) => settled_since = None,
-            _ => {}
-        }
-        if gateway.finished() {
+        if settle.done(over, Instant::now()) || gateway.finished() {
             break;
         }
     }

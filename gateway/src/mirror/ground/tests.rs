@@ -231,12 +231,10 @@ fn one_vehicle_is_the_first_autopilot_heard() {
     assert_eq!(g.companion(), Some((7, crate::mirror::COMPANION)));
 }
 
-#[test]
-fn events_before_the_time_base_are_judged_once_it_is_known() {
-    let project = crate::team::supervised::team();
-    let mut g = ground_of(&project);
+/// R1's autopilot heard disarmed at 0 s, then armed at 0.1 s, before the
+/// downlink's first heartbeat (no time base).
+fn arm_r1_with_no_time_base(g: &mut Ground) {
     let none = |_: Micros| None;
-    // R1 arms before the downlink's first heartbeat: no time base yet.
     for (i, armed) in [(0u8, false), (1, true)] {
         let frame = rover(1, i, armed);
         let frame = Frame::parse(&frame).expect("a frame");
@@ -244,6 +242,14 @@ fn events_before_the_time_base_are_judged_once_it_is_known() {
         g.elaborate(u64::from(i) * 100_000, &frame);
         g.drain(none, |_| {});
     }
+}
+
+#[test]
+fn events_before_the_time_base_are_judged_once_it_is_known() {
+    let project = crate::team::supervised::team();
+    let mut g = ground_of(&project);
+    // R1 arms before the downlink's first heartbeat: no time base yet.
+    arm_r1_with_no_time_base(&mut g);
     // The time base known (vehicle time = ground time + 5 s): the
     // vehicle's `armed@R1` at 5.1 s matches the ground's of 0.1 s.
     let base = |t: Micros| Some(t + 5_000_000);
@@ -263,16 +269,9 @@ fn events_before_the_time_base_are_judged_once_it_is_known() {
 fn events_from_before_the_vehicle_started_are_not_judged() {
     let project = crate::team::supervised::team();
     let mut g = ground_of(&project);
-    let none = |_: Micros| None;
     // R1 arms before the downlink's first heartbeat, and before the
     // vehicle's player started: vehicle time 0 is as far back as it goes.
-    for (i, armed) in [(0u8, false), (1, true)] {
-        let frame = rover(1, i, armed);
-        let frame = Frame::parse(&frame).expect("a frame");
-        g.heard(u64::from(i) * 100_000, &frame, none);
-        g.elaborate(u64::from(i) * 100_000, &frame);
-        g.drain(none, |_| {});
-    }
+    arm_r1_with_no_time_base(&mut g);
     // The vehicle started 5 s after the ground: its time clamps at 0.
     let base = |t: Micros| Some(t.saturating_sub(5_000_000));
     g.drain(base, |_| {});
