@@ -14,9 +14,9 @@
 //! The recorder's thread, whose work can wait, is put in the batch policy:
 //! its wake-ups (every 10 ms) never preempt anyone.
 //!
-//! Both are requests: on another system, an older kernel (which ignores the
-//! slice) or a thread already given a real-time policy (`chrt`), nothing
-//! changes, and nothing fails. BENCHMARKS.md, "Under load (issue 15)", has
+//! Both are requests: on another system or an older kernel (which ignores
+//! the slice) nothing changes, and nothing fails. A loop given a real-time
+//! policy by the crew (`chrt -f`) keeps it. BENCHMARKS.md, "Under load (issue 15)", has
 //! the figures; docs/run.md how a crew raises the priority further.
 
 /// The slice the loop asks for: the kernel's shortest (100 µs).
@@ -46,15 +46,27 @@ pub fn short_slice(ns: u64) -> Asked {
 }
 
 /// Puts the calling thread in the batch policy (its wake-ups preempt no
-/// one) with the kernel's default slice (a thread inherits the short slice
-/// of the thread that spawned it), keeping its nice value; a thread under
-/// another policy than the normal one or batch is left alone.
+/// one) with the kernel's default slice (a thread inherits the policy and
+/// the slice of the thread that spawned it), keeping its nice value. A
+/// thread the crew gave a real-time policy (`chrt -f`, systemd's
+/// `CPUSchedulingPolicy=fifo`) goes down to batch too: the loop keeps its
+/// real-time priority, the recorder's work never preempts it or the rest
+/// of the computer. Lowering a policy needs no privilege; only an idle or
+/// deadline thread is left alone.
 pub fn batch() -> Asked {
     imp::change(|attr| {
-        if attr.sched_policy != imp::SCHED_OTHER && attr.sched_policy != imp::SCHED_BATCH {
+        if ![
+            imp::SCHED_OTHER,
+            imp::SCHED_BATCH,
+            imp::SCHED_FIFO,
+            imp::SCHED_RR,
+        ]
+        .contains(&attr.sched_policy)
+        {
             return false;
         }
         attr.sched_policy = imp::SCHED_BATCH;
+        attr.sched_priority = 0;
         attr.sched_runtime = 0;
         true
     })
@@ -65,6 +77,8 @@ mod imp {
     use super::Asked;
 
     pub const SCHED_OTHER: u32 = 0;
+    pub const SCHED_FIFO: u32 = 1;
+    pub const SCHED_RR: u32 = 2;
     pub const SCHED_BATCH: u32 = 3;
 
     /// `struct sched_attr` (linux/sched/types.h), as of Linux 5.3.
@@ -146,10 +160,13 @@ mod imp {
     use super::Asked;
 
     pub const SCHED_OTHER: u32 = 0;
+    pub const SCHED_FIFO: u32 = 1;
+    pub const SCHED_RR: u32 = 2;
     pub const SCHED_BATCH: u32 = 3;
 
     pub struct SchedAttr {
         pub sched_policy: u32,
+        pub sched_priority: u32,
         pub sched_runtime: u64,
     }
 
@@ -197,7 +214,10 @@ mod tests {
         assert_eq!(after.sched_nice, before.sched_nice);
         match asked {
             Asked::Granted => assert_eq!(after.sched_policy, imp::SCHED_BATCH),
-            Asked::LeftAlone => assert_eq!(after.sched_policy, before.sched_policy),
+            Asked::LeftAlone => {
+                assert_eq!(after.sched_policy, before.sched_policy);
+                assert!(before.sched_policy > imp::SCHED_BATCH, "{before:?}");
+            }
             Asked::Refused(e) => panic!("refused: errno {e}"),
         }
     }
@@ -217,6 +237,28 @@ mod tests {
         // On kernels that keep a slice of a thread's own (6.12 and later).
         if parent.sched_runtime == LOOP_SLICE_NS {
             assert_ne!(child.sched_runtime, LOOP_SLICE_NS, "{child:?}");
+        }
+    }
+
+    #[test]
+    fn a_real_time_thread_goes_down_to_batch() {
+        let after = on_thread(|| {
+            // Raising a thread to real time needs privileges: skipped without.
+            let fifo = imp::change(|attr| {
+                attr.sched_policy = imp::SCHED_FIFO;
+                attr.sched_priority = 1;
+                attr.sched_runtime = 0;
+                true
+            });
+            if fifo != Asked::Granted {
+                return None;
+            }
+            assert_eq!(batch(), Asked::Granted);
+            imp::current()
+        });
+        if let Some(after) = after {
+            assert_eq!(after.sched_policy, imp::SCHED_BATCH);
+            assert_eq!(after.sched_priority, 0);
         }
     }
 

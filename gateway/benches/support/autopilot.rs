@@ -225,79 +225,105 @@ pub fn connect(port: u16) -> Option<Autopilot> {
 }
 
 /// Runs at most `n` trials, for at most `limit`, against a reactor on `port`.
+#[allow(dead_code)]
 pub fn trials(name: &'static str, port: u16, n: usize, limit: Duration) -> Option<Stats> {
     let ap = connect(port)?;
     trials_on(name, ap, n, limit)
 }
 
 /// [`trials`] on an autopilot socket already made.
-pub fn trials_on(
-    name: &'static str,
-    mut ap: Autopilot,
+#[allow(dead_code)]
+pub fn trials_on(name: &'static str, ap: Autopilot, n: usize, limit: Duration) -> Option<Stats> {
+    interleaved(vec![(name, ap)], n, limit).pop().flatten()
+}
+
+/// Reads what is waiting, without waiting for more.
+fn drain_for(ap: &mut Autopilot, buf: &mut [u8], t: Duration) {
+    let until = Instant::now() + t;
+    let _ = ap.socket.set_nonblocking(true);
+    while Instant::now() < until && ap.socket.recv(buf).is_ok() {}
+    let _ = ap.socket.set_nonblocking(false);
+}
+
+/// Several reactors, each on its autopilot socket, given their trials in
+/// turn (one of each, then the next round): they all meet the machine's
+/// load as it comes and goes, which trials run one reactor after the other
+/// would not. At most `n` trials each, for at most `limit` in all.
+pub fn interleaved(
+    mut reactors: Vec<(&'static str, Autopilot)>,
     n: usize,
     limit: Duration,
-) -> Option<Stats> {
-    // Let the reactor hear the autopilot (and take its identity) first.
+) -> Vec<Option<Stats>> {
+    // Let each reactor hear its autopilot (and take its identity) first.
     let start = Instant::now();
     while start.elapsed() < Duration::from_secs(3) {
-        ap.send(&heartbeat());
-        ap.send(&sys_status(90));
+        for (_, ap) in &mut reactors {
+            ap.send(&heartbeat());
+            ap.send(&sys_status(90));
+        }
         std::thread::sleep(Duration::from_millis(50));
     }
     let mut drain = [0u8; 2048];
-    // Reads what is waiting, without waiting for more.
-    let drain_for = |ap: &mut Autopilot, buf: &mut [u8], t: Duration| {
-        let until = Instant::now() + t;
-        let _ = ap.socket.set_nonblocking(true);
-        while Instant::now() < until && ap.socket.recv(buf).is_ok() {}
-        let _ = ap.socket.set_nonblocking(false);
-    };
-    drain_for(&mut ap, &mut drain, Duration::from_millis(100));
-    // Each reactor gets at most this long, whatever happens.
+    for (_, ap) in &mut reactors {
+        drain_for(ap, &mut drain, Duration::from_millis(100));
+    }
     let give_up = Instant::now() + limit;
-    let mut micros = Vec::with_capacity(n.min(1 << 20));
-    let mut socket_micros = Vec::with_capacity(n.min(1 << 20));
-    let mut lost = 0;
+    let mut micros = vec![Vec::with_capacity(n.min(1 << 20)); reactors.len()];
+    let mut socket_micros = vec![Vec::with_capacity(n.min(1 << 20)); reactors.len()];
+    let mut lost = vec![0; reactors.len()];
     let mut last_hb = Instant::now();
-    for trial in 0..n {
+    'trials: for trial in 0..n {
         if trial % 1000 == 0 {
-            eprintln!("{name}: trial {trial}, {lost} lost");
+            for ((name, _), lost) in reactors.iter().zip(&lost) {
+                eprintln!("{name}: trial {trial}, {lost} lost");
+            }
         }
-        if last_hb.elapsed() > Duration::from_millis(500) {
-            ap.send(&heartbeat());
+        let heartbeat_due = last_hb.elapsed() > Duration::from_millis(500);
+        if heartbeat_due {
             last_hb = Instant::now();
         }
-        let sent_unix = unix_ns();
-        let sent = Instant::now();
-        ap.send(&sys_status(20));
-        match ap.wait_rtl(sent + Duration::from_secs(1)) {
-            Some((arrived, stamp)) => {
-                micros.push((arrived - sent).as_secs_f64() * 1e6);
-                if let Some(at) = stamp {
-                    socket_micros.push(at.saturating_sub(sent_unix) as f64 / 1e3);
-                }
+        for (r, (name, ap)) in reactors.iter_mut().enumerate() {
+            if heartbeat_due {
+                ap.send(&heartbeat());
             }
-            None => lost += 1,
-        }
-        // Re-arm the rule.
-        ap.send(&sys_status(90));
-        std::thread::sleep(Duration::from_micros(300));
-        drain_for(&mut ap, &mut drain, Duration::from_millis(2));
-        if lost > 20 {
-            eprintln!("{name}: more than 20 trials lost; stopping");
-            break;
-        }
-        if Instant::now() > give_up {
-            eprintln!("{name}: out of time after {trial} trials; stopping");
-            break;
+            let sent_unix = unix_ns();
+            let sent = Instant::now();
+            ap.send(&sys_status(20));
+            match ap.wait_rtl(sent + Duration::from_secs(1)) {
+                Some((arrived, stamp)) => {
+                    micros[r].push((arrived - sent).as_secs_f64() * 1e6);
+                    if let Some(at) = stamp {
+                        socket_micros[r].push(at.saturating_sub(sent_unix) as f64 / 1e3);
+                    }
+                }
+                None => lost[r] += 1,
+            }
+            // Re-arm the rule.
+            ap.send(&sys_status(90));
+            std::thread::sleep(Duration::from_micros(300));
+            drain_for(ap, &mut drain, Duration::from_millis(2));
+            if lost[r] > 20 {
+                eprintln!("{name}: more than 20 trials lost; stopping");
+                break 'trials;
+            }
+            if Instant::now() > give_up {
+                eprintln!("{name}: out of time after {trial} trials; stopping");
+                break 'trials;
+            }
         }
     }
-    micros.sort_by(f64::total_cmp);
-    socket_micros.sort_by(f64::total_cmp);
-    (!micros.is_empty()).then_some(Stats {
-        name,
-        micros,
-        socket_micros,
-        lost,
-    })
+    reactors
+        .iter()
+        .zip(micros.into_iter().zip(socket_micros).zip(lost))
+        .map(|((name, _), ((mut micros, mut socket_micros), lost))| {
+            micros.sort_by(f64::total_cmp);
+            socket_micros.sort_by(f64::total_cmp);
+            (!micros.is_empty()).then_some(Stats {
+                name,
+                micros,
+                socket_micros,
+                lost,
+            })
+        })
+        .collect()
 }
