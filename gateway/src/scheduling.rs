@@ -3,21 +3,25 @@
 //!
 //! On a loaded machine a thread woken by a frame waits for a CPU behind
 //! whatever runs there: under Linux's EEVDF scheduler (6.6 and later) up to
-//! a whole slice of the running task (about 3 ms by default on two cores).
+//! a whole slice of the running task (1.4 ms by default on the 2-core test
+//! machine), and more when several are queued.
 //! Since Linux 6.12 a thread may ask for a shorter slice of its own
 //! (`sched_setattr`'s `sched_runtime` with the normal policy), which needs
 //! no privilege and no change of priority: its deadline comes sooner, so it
-//! preempts the running task when it wakes, and it is preempted sooner in
-//! turn if it runs long. The loop that turns a frame into a command asks
-//! for the shortest (0.1 ms: a step takes tens of µs).
+//! may preempt the running task when it wakes (and is preempted sooner in
+//! turn if it runs long). The loop that turns a frame into a command asks
+//! for the shortest (0.1 ms: a step takes tens of µs). Measured, this did
+//! not hold the tail down on a saturated 2-core machine (the kernel shares
+//! the CPUs between sessions first); a real-time policy given by the crew
+//! did (BENCHMARKS.md, "Under load (issue 15)").
 //!
 //! The recorder's thread, whose work can wait, is put in the batch policy:
-//! its wake-ups (every 10 ms) never preempt anyone.
+//! its wake-ups (every 10 ms) never preempt anyone, and it never runs at
+//! the real-time priority a crew may give the gateway.
 //!
 //! Both are requests: on another system or an older kernel (which ignores
 //! the slice) nothing changes, and nothing fails. A loop given a real-time
-//! policy by the crew (`chrt -f`) keeps it. BENCHMARKS.md, "Under load (issue 15)", has
-//! the figures; docs/run.md how a crew raises the priority further.
+//! policy by the crew (`chrt -f`) keeps it; docs/run.md says how.
 
 /// The slice the loop asks for: the kernel's shortest (100 µs).
 pub const LOOP_SLICE_NS: u64 = 100_000;
