@@ -38,6 +38,7 @@ mod profile;
 mod programs;
 mod project;
 mod record;
+mod scheduling;
 mod supervisor;
 mod team;
 mod vehicle;

@@ -19,6 +19,11 @@ mod project;
 #[path = "../src/record/mod.rs"]
 mod record;
 
+// The recorder's thread asks for the batch policy (record/recorder.rs).
+#[allow(dead_code)]
+#[path = "../src/scheduling.rs"]
+mod scheduling;
+
 #[path = "record/files.rs"]
 mod files;
 #[path = "record/flight.rs"]

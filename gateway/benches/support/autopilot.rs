@@ -63,11 +63,13 @@ impl Autopilot {
         let _ = self.socket.send(&bytes);
     }
 
-    /// Waits for an RTL COMMAND_LONG, acking every command on the way.
-    fn wait_rtl(&mut self, deadline: Instant) -> Option<Instant> {
+    /// Waits for an RTL COMMAND_LONG, acking every command on the way:
+    /// when the harness read it, and when it reached the socket (the
+    /// kernel's receive timestamp, UNIX ns; `None` where there is none).
+    fn wait_rtl(&mut self, deadline: Instant) -> Option<(Instant, Option<u128>)> {
         let mut buf = [0u8; 2048];
         while Instant::now() < deadline {
-            let Ok(n) = self.socket.recv(&mut buf) else {
+            let Some((n, stamp)) = socket_stamp::recv(&self.socket, &mut buf) else {
                 continue;
             };
             let arrived = Instant::now();
@@ -91,7 +93,7 @@ impl Autopilot {
                 }
             }
             if rtl {
-                return Some(arrived);
+                return Some((arrived, stamp));
             }
         }
         None
@@ -100,15 +102,110 @@ impl Autopilot {
 
 pub struct Stats {
     pub name: &'static str,
+    /// From the send to the harness reading the command (sorted): what the
+    /// harness's own thread waited for a CPU is in it.
     pub micros: Vec<f64>,
+    /// From the send to the command reaching the harness's socket (the
+    /// kernel's receive timestamp; sorted; empty where there is none): the
+    /// reactor's time alone.
+    pub socket_micros: Vec<f64>,
     pub lost: usize,
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let i = ((sorted.len() as f64 - 1.0) * p).round() as usize;
+    sorted[i.min(sorted.len() - 1)]
 }
 
 impl Stats {
     pub fn pct(&self, p: f64) -> f64 {
-        let i = ((self.micros.len() as f64 - 1.0) * p).round() as usize;
-        self.micros[i.min(self.micros.len() - 1)]
+        percentile(&self.micros, p)
     }
+
+    /// [`Stats::pct`] of the times at the socket.
+    #[allow(dead_code)]
+    pub fn socket_pct(&self, p: f64) -> f64 {
+        percentile(&self.socket_micros, p)
+    }
+}
+
+/// Kernel receive timestamps on a UDP socket (SO_TIMESTAMPNS, Linux).
+mod socket_stamp {
+    use std::net::UdpSocket;
+
+    /// Asks the kernel to stamp each datagram received on `socket`.
+    #[cfg(target_os = "linux")]
+    pub fn enable(socket: &UdpSocket) -> bool {
+        use std::os::fd::AsRawFd;
+        let on: libc::c_int = 1;
+        // SAFETY: setsockopt reads one c_int from `on`, alive for the call.
+        unsafe {
+            libc::setsockopt(
+                socket.as_raw_fd(),
+                libc::SOL_SOCKET,
+                libc::SO_TIMESTAMPNS,
+                &on as *const libc::c_int as *const libc::c_void,
+                std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+            ) == 0
+        }
+    }
+
+    /// One datagram into `buf`: its length and the kernel's stamp (UNIX ns).
+    #[cfg(target_os = "linux")]
+    pub fn recv(socket: &UdpSocket, buf: &mut [u8]) -> Option<(usize, Option<u128>)> {
+        use std::os::fd::AsRawFd;
+        let mut iov = libc::iovec {
+            iov_base: buf.as_mut_ptr() as *mut libc::c_void,
+            iov_len: buf.len(),
+        };
+        let mut control = [0u64; 16];
+        // SAFETY: msghdr is plain data; zeroed is a valid empty header.
+        let mut msg: libc::msghdr = unsafe { std::mem::zeroed() };
+        msg.msg_iov = &mut iov;
+        msg.msg_iovlen = 1;
+        msg.msg_control = control.as_mut_ptr() as *mut libc::c_void;
+        msg.msg_controllen = std::mem::size_of_val(&control) as _;
+        // SAFETY: recvmsg writes at most iov_len bytes into `buf` and at
+        // most msg_controllen into `control`, both alive for the call.
+        let n = unsafe { libc::recvmsg(socket.as_raw_fd(), &mut msg, 0) };
+        if n < 0 {
+            return None;
+        }
+        let mut stamp = None;
+        // SAFETY: the CMSG macros walk the control buffer recvmsg filled,
+        // within msg_controllen.
+        unsafe {
+            let mut c = libc::CMSG_FIRSTHDR(&msg);
+            while !c.is_null() {
+                if (*c).cmsg_level == libc::SOL_SOCKET && (*c).cmsg_type == libc::SCM_TIMESTAMPNS {
+                    let ts = std::ptr::read_unaligned(libc::CMSG_DATA(c) as *const libc::timespec);
+                    stamp = Some(ts.tv_sec as u128 * 1_000_000_000 + ts.tv_nsec as u128);
+                }
+                c = libc::CMSG_NXTHDR(&msg, c);
+            }
+        }
+        Some((n as usize, stamp))
+    }
+
+    #[cfg(not(target_os = "linux"))]
+    pub fn enable(_: &UdpSocket) -> bool {
+        false
+    }
+
+    #[cfg(not(target_os = "linux"))]
+    pub fn recv(socket: &UdpSocket, buf: &mut [u8]) -> Option<(usize, Option<u128>)> {
+        socket.recv(buf).ok().map(|n| (n, None))
+    }
+}
+
+/// Now, UNIX ns (the clock of the kernel's receive timestamps).
+fn unix_ns() -> u128 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos())
 }
 
 /// The scripted autopilot's socket, connected to a reactor on `port`.
@@ -118,6 +215,9 @@ pub fn connect(port: u16) -> Option<Autopilot> {
     socket
         .set_read_timeout(Some(Duration::from_millis(50)))
         .ok()?;
+    if !socket_stamp::enable(&socket) {
+        eprintln!("no kernel receive timestamps: latencies at the socket not measured");
+    }
     Some(Autopilot {
         socket,
         seq: Arc::new(AtomicU8::new(0)),
@@ -125,66 +225,105 @@ pub fn connect(port: u16) -> Option<Autopilot> {
 }
 
 /// Runs at most `n` trials, for at most `limit`, against a reactor on `port`.
+#[allow(dead_code)]
 pub fn trials(name: &'static str, port: u16, n: usize, limit: Duration) -> Option<Stats> {
     let ap = connect(port)?;
     trials_on(name, ap, n, limit)
 }
 
 /// [`trials`] on an autopilot socket already made.
-pub fn trials_on(
-    name: &'static str,
-    mut ap: Autopilot,
+#[allow(dead_code)]
+pub fn trials_on(name: &'static str, ap: Autopilot, n: usize, limit: Duration) -> Option<Stats> {
+    interleaved(vec![(name, ap)], n, limit).pop().flatten()
+}
+
+/// Reads what is waiting, without waiting for more.
+fn drain_for(ap: &mut Autopilot, buf: &mut [u8], t: Duration) {
+    let until = Instant::now() + t;
+    let _ = ap.socket.set_nonblocking(true);
+    while Instant::now() < until && ap.socket.recv(buf).is_ok() {}
+    let _ = ap.socket.set_nonblocking(false);
+}
+
+/// Several reactors, each on its autopilot socket, given their trials in
+/// turn (one of each, then the next round): they all meet the machine's
+/// load as it comes and goes, which trials run one reactor after the other
+/// would not. At most `n` trials each, for at most `limit` in all.
+pub fn interleaved(
+    mut reactors: Vec<(&'static str, Autopilot)>,
     n: usize,
     limit: Duration,
-) -> Option<Stats> {
-    // Let the reactor hear the autopilot (and take its identity) first.
+) -> Vec<Option<Stats>> {
+    // Let each reactor hear its autopilot (and take its identity) first.
     let start = Instant::now();
     while start.elapsed() < Duration::from_secs(3) {
-        ap.send(&heartbeat());
-        ap.send(&sys_status(90));
+        for (_, ap) in &mut reactors {
+            ap.send(&heartbeat());
+            ap.send(&sys_status(90));
+        }
         std::thread::sleep(Duration::from_millis(50));
     }
     let mut drain = [0u8; 2048];
-    // Reads what is waiting, without waiting for more.
-    let drain_for = |ap: &mut Autopilot, buf: &mut [u8], t: Duration| {
-        let until = Instant::now() + t;
-        let _ = ap.socket.set_nonblocking(true);
-        while Instant::now() < until && ap.socket.recv(buf).is_ok() {}
-        let _ = ap.socket.set_nonblocking(false);
-    };
-    drain_for(&mut ap, &mut drain, Duration::from_millis(100));
-    // Each reactor gets at most this long, whatever happens.
+    for (_, ap) in &mut reactors {
+        drain_for(ap, &mut drain, Duration::from_millis(100));
+    }
     let give_up = Instant::now() + limit;
-    let mut micros = Vec::with_capacity(n.min(1 << 20));
-    let mut lost = 0;
+    let mut micros = vec![Vec::with_capacity(n.min(1 << 20)); reactors.len()];
+    let mut socket_micros = vec![Vec::with_capacity(n.min(1 << 20)); reactors.len()];
+    let mut lost = vec![0; reactors.len()];
     let mut last_hb = Instant::now();
-    for trial in 0..n {
+    'trials: for trial in 0..n {
         if trial % 1000 == 0 {
-            eprintln!("{name}: trial {trial}, {lost} lost");
+            for ((name, _), lost) in reactors.iter().zip(&lost) {
+                eprintln!("{name}: trial {trial}, {lost} lost");
+            }
         }
-        if last_hb.elapsed() > Duration::from_millis(500) {
-            ap.send(&heartbeat());
+        let heartbeat_due = last_hb.elapsed() > Duration::from_millis(500);
+        if heartbeat_due {
             last_hb = Instant::now();
         }
-        let sent = Instant::now();
-        ap.send(&sys_status(20));
-        match ap.wait_rtl(sent + Duration::from_secs(1)) {
-            Some(arrived) => micros.push((arrived - sent).as_secs_f64() * 1e6),
-            None => lost += 1,
-        }
-        // Re-arm the rule.
-        ap.send(&sys_status(90));
-        std::thread::sleep(Duration::from_micros(300));
-        drain_for(&mut ap, &mut drain, Duration::from_millis(2));
-        if lost > 20 {
-            eprintln!("{name}: more than 20 trials lost; stopping");
-            break;
-        }
-        if Instant::now() > give_up {
-            eprintln!("{name}: out of time after {trial} trials; stopping");
-            break;
+        for (r, (name, ap)) in reactors.iter_mut().enumerate() {
+            if heartbeat_due {
+                ap.send(&heartbeat());
+            }
+            let sent_unix = unix_ns();
+            let sent = Instant::now();
+            ap.send(&sys_status(20));
+            match ap.wait_rtl(sent + Duration::from_secs(1)) {
+                Some((arrived, stamp)) => {
+                    micros[r].push((arrived - sent).as_secs_f64() * 1e6);
+                    if let Some(at) = stamp {
+                        socket_micros[r].push(at.saturating_sub(sent_unix) as f64 / 1e3);
+                    }
+                }
+                None => lost[r] += 1,
+            }
+            // Re-arm the rule.
+            ap.send(&sys_status(90));
+            std::thread::sleep(Duration::from_micros(300));
+            drain_for(ap, &mut drain, Duration::from_millis(2));
+            if lost[r] > 20 {
+                eprintln!("{name}: more than 20 trials lost; stopping");
+                break 'trials;
+            }
+            if Instant::now() > give_up {
+                eprintln!("{name}: out of time after {trial} trials; stopping");
+                break 'trials;
+            }
         }
     }
-    micros.sort_by(f64::total_cmp);
-    (!micros.is_empty()).then_some(Stats { name, micros, lost })
+    reactors
+        .iter()
+        .zip(micros.into_iter().zip(socket_micros).zip(lost))
+        .map(|((name, _), ((mut micros, mut socket_micros), lost))| {
+            micros.sort_by(f64::total_cmp);
+            socket_micros.sort_by(f64::total_cmp);
+            (!micros.is_empty()).then_some(Stats {
+                name,
+                micros,
+                socket_micros,
+                lost,
+            })
+        })
+        .collect()
 }

@@ -386,6 +386,10 @@ pub(crate) fn fly(setup: Setup) -> VerbResult {
     // One thread for the link reader, the programs and the loop (two worker
     // threads measured no better: BENCHMARKS.md); the recorder writes on its
     // own thread.
+    // The loop asks the kernel for a short slice, so that a frame arriving
+    // while other programs hold both cores gets a CPU at once (scheduling.rs).
+    let asked = crate::scheduling::short_slice(crate::scheduling::LOOP_SLICE_NS);
+    tracing::debug!("the loop's short scheduling slice: {asked:?}");
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()

@@ -263,6 +263,10 @@ impl Recorder {
         let thread = std::thread::Builder::new()
             .name("petrel-recorder".into())
             .spawn(move || {
+                // The writer's work can wait: its wake-ups never preempt the
+                // gateway's loop (scheduling.rs).
+                let asked = crate::scheduling::batch();
+                tracing::debug!("the recorder's batch scheduling: {asked:?}");
                 let result = writer.run(rx);
                 let (written, at) = (writer.steps(), writer.last_time());
                 let result = result.and_then(|report| {

@@ -1,0 +1,278 @@
+//! How the kernel schedules the gateway's threads against the rest of the
+//! companion computer (video, vision, builds), without privileges.
+//!
+//! On a loaded machine a thread woken by a frame waits for a CPU behind
+//! whatever runs there: under Linux's EEVDF scheduler (6.6 and later) up to
+//! a whole slice of the running task (1.4 ms by default on the 2-core test
+//! machine), and more when several are queued.
+//! Since Linux 6.12 a thread may ask for a shorter slice of its own
+//! (`sched_setattr`'s `sched_runtime` with the normal policy), which needs
+//! no privilege and no change of priority: its deadline comes sooner, so it
+//! may preempt the running task when it wakes (and is preempted sooner in
+//! turn if it runs long). The loop that turns a frame into a command asks
+//! for the shortest (0.1 ms: a step takes tens of µs). Measured, this did
+//! not hold the tail down on a saturated 2-core machine (the kernel shares
+//! the CPUs between sessions first); a real-time policy given by the crew
+//! did (BENCHMARKS.md, "Under load (issue 15)").
+//!
+//! The recorder's thread, whose work can wait, is put in the batch policy:
+//! its wake-ups (every 10 ms) never preempt anyone, and it never runs at
+//! the real-time priority a crew may give the gateway.
+//!
+//! Both are requests: on another system or an older kernel (which ignores
+//! the slice) nothing changes, and nothing fails. A loop given a real-time
+//! policy by the crew (`chrt -f`) keeps it; docs/run.md says how.
+
+/// The slice the loop asks for: the kernel's shortest (100 µs).
+pub const LOOP_SLICE_NS: u64 = 100_000;
+
+/// What the kernel was asked, for the log.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Asked {
+    /// Done.
+    Granted,
+    /// The thread runs under another policy (real-time, idle): left alone.
+    LeftAlone,
+    /// Not on Linux, or the kernel refused (the error number).
+    Refused(i32),
+}
+
+/// Asks for a short slice (ns) for the calling thread, keeping its policy
+/// (normal or batch) and its nice value.
+pub fn short_slice(ns: u64) -> Asked {
+    imp::change(|attr| {
+        if attr.sched_policy != imp::SCHED_OTHER && attr.sched_policy != imp::SCHED_BATCH {
+            return false;
+        }
+        attr.sched_runtime = ns;
+        true
+    })
+}
+
+/// Puts the calling thread in the batch policy (its wake-ups preempt no
+/// one) with the kernel's default slice (a thread inherits the policy and
+/// the slice of the thread that spawned it), keeping its nice value. A
+/// thread the crew gave a real-time policy (`chrt -f`, systemd's
+/// `CPUSchedulingPolicy=fifo`) goes down to batch too: the loop keeps its
+/// real-time priority, the recorder's work never preempts it or the rest
+/// of the computer. Lowering a policy needs no privilege; only an idle or
+/// deadline thread is left alone.
+pub fn batch() -> Asked {
+    imp::change(|attr| {
+        if ![
+            imp::SCHED_OTHER,
+            imp::SCHED_BATCH,
+            imp::SCHED_FIFO,
+            imp::SCHED_RR,
+        ]
+        .contains(&attr.sched_policy)
+        {
+            return false;
+        }
+        attr.sched_policy = imp::SCHED_BATCH;
+        attr.sched_priority = 0;
+        attr.sched_runtime = 0;
+        true
+    })
+}
+
+#[cfg(target_os = "linux")]
+mod imp {
+    use super::Asked;
+
+    pub const SCHED_OTHER: u32 = 0;
+    pub const SCHED_FIFO: u32 = 1;
+    pub const SCHED_RR: u32 = 2;
+    pub const SCHED_BATCH: u32 = 3;
+
+    /// `struct sched_attr` (linux/sched/types.h), as of Linux 5.3.
+    #[repr(C)]
+    #[derive(Debug, Default, Clone, Copy)]
+    pub struct SchedAttr {
+        pub size: u32,
+        pub sched_policy: u32,
+        pub sched_flags: u64,
+        pub sched_nice: i32,
+        pub sched_priority: u32,
+        pub sched_runtime: u64,
+        pub sched_deadline: u64,
+        pub sched_period: u64,
+        pub sched_util_min: u32,
+        pub sched_util_max: u32,
+    }
+
+    const SIZE: u32 = std::mem::size_of::<SchedAttr>() as u32;
+
+    fn errno() -> i32 {
+        std::io::Error::last_os_error().raw_os_error().unwrap_or(0)
+    }
+
+    /// Reads the calling thread's attributes, lets `edit` change them (it
+    /// says whether to), and sets them.
+    pub fn change(edit: impl FnOnce(&mut SchedAttr) -> bool) -> Asked {
+        let mut attr = SchedAttr::default();
+        // SAFETY: sched_getattr(0, attr, size, 0) writes at most `size`
+        // bytes into `attr`, which is that large and lives across the call.
+        let got = unsafe {
+            libc::syscall(
+                libc::SYS_sched_getattr,
+                0,
+                &mut attr as *mut SchedAttr,
+                SIZE,
+                0,
+            )
+        };
+        if got != 0 {
+            return Asked::Refused(errno());
+        }
+        // Utilisation clamps are set only when their flag says so.
+        attr.size = SIZE;
+        attr.sched_flags = 0;
+        if !edit(&mut attr) {
+            return Asked::LeftAlone;
+        }
+        // SAFETY: sched_setattr(0, attr, 0) reads `attr.size` bytes from
+        // `attr`, which is that large and lives across the call.
+        let set =
+            unsafe { libc::syscall(libc::SYS_sched_setattr, 0, &attr as *const SchedAttr, 0) };
+        if set != 0 {
+            return Asked::Refused(errno());
+        }
+        Asked::Granted
+    }
+
+    /// The calling thread's attributes (tests).
+    #[cfg(test)]
+    pub fn current() -> Option<SchedAttr> {
+        let mut attr = SchedAttr::default();
+        // SAFETY: as in `change`.
+        let got = unsafe {
+            libc::syscall(
+                libc::SYS_sched_getattr,
+                0,
+                &mut attr as *mut SchedAttr,
+                SIZE,
+                0,
+            )
+        };
+        (got == 0).then_some(attr)
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+mod imp {
+    use super::Asked;
+
+    pub const SCHED_OTHER: u32 = 0;
+    pub const SCHED_FIFO: u32 = 1;
+    pub const SCHED_RR: u32 = 2;
+    pub const SCHED_BATCH: u32 = 3;
+
+    pub struct SchedAttr {
+        pub sched_policy: u32,
+        pub sched_priority: u32,
+        pub sched_runtime: u64,
+    }
+
+    pub fn change(_: impl FnOnce(&mut SchedAttr) -> bool) -> Asked {
+        Asked::Refused(0)
+    }
+}
+
+#[cfg(all(test, target_os = "linux"))]
+mod tests {
+    use super::*;
+
+    /// Each test on a thread of its own: the attributes are the thread's.
+    fn on_thread<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
+        std::thread::spawn(f).join().expect("the test thread")
+    }
+
+    #[test]
+    fn a_short_slice_is_granted_and_keeps_the_policy_and_nice_value() {
+        let (asked, before, after) = on_thread(|| {
+            let before = imp::current().expect("sched_getattr");
+            let asked = short_slice(LOOP_SLICE_NS);
+            (asked, before, imp::current().expect("sched_getattr"))
+        });
+        assert_eq!(after.sched_policy, before.sched_policy);
+        assert_eq!(after.sched_nice, before.sched_nice);
+        match asked {
+            // Kernels before 6.12 accept the call and keep their own slice.
+            Asked::Granted => assert!(
+                after.sched_runtime == LOOP_SLICE_NS || after.sched_runtime == before.sched_runtime,
+                "{after:?}"
+            ),
+            Asked::LeftAlone => assert!(before.sched_policy != imp::SCHED_OTHER),
+            Asked::Refused(e) => panic!("refused: errno {e}"),
+        }
+    }
+
+    #[test]
+    fn the_batch_policy_is_granted_and_keeps_the_nice_value() {
+        let (asked, before, after) = on_thread(|| {
+            let before = imp::current().expect("sched_getattr");
+            let asked = batch();
+            (asked, before, imp::current().expect("sched_getattr"))
+        });
+        assert_eq!(after.sched_nice, before.sched_nice);
+        match asked {
+            Asked::Granted => assert_eq!(after.sched_policy, imp::SCHED_BATCH),
+            Asked::LeftAlone => {
+                assert_eq!(after.sched_policy, before.sched_policy);
+                assert!(before.sched_policy > imp::SCHED_BATCH, "{before:?}");
+            }
+            Asked::Refused(e) => panic!("refused: errno {e}"),
+        }
+    }
+
+    #[test]
+    fn a_thread_put_in_batch_drops_the_short_slice_it_inherited() {
+        let (parent, child) = on_thread(|| {
+            assert_eq!(short_slice(LOOP_SLICE_NS), Asked::Granted);
+            let parent = imp::current().expect("sched_getattr");
+            let child = on_thread(|| {
+                assert_eq!(batch(), Asked::Granted);
+                imp::current().expect("sched_getattr")
+            });
+            (parent, child)
+        });
+        assert_eq!(child.sched_policy, imp::SCHED_BATCH);
+        // On kernels that keep a slice of a thread's own (6.12 and later).
+        if parent.sched_runtime == LOOP_SLICE_NS {
+            assert_ne!(child.sched_runtime, LOOP_SLICE_NS, "{child:?}");
+        }
+    }
+
+    #[test]
+    fn a_real_time_thread_goes_down_to_batch() {
+        let after = on_thread(|| {
+            // Raising a thread to real time needs privileges: skipped without.
+            let fifo = imp::change(|attr| {
+                attr.sched_policy = imp::SCHED_FIFO;
+                attr.sched_priority = 1;
+                attr.sched_runtime = 0;
+                true
+            });
+            if fifo != Asked::Granted {
+                return None;
+            }
+            assert_eq!(batch(), Asked::Granted);
+            imp::current()
+        });
+        if let Some(after) = after {
+            assert_eq!(after.sched_policy, imp::SCHED_BATCH);
+            assert_eq!(after.sched_priority, 0);
+        }
+    }
+
+    #[test]
+    fn a_thread_in_batch_keeps_it_when_given_a_slice() {
+        let after = on_thread(|| {
+            assert_eq!(batch(), Asked::Granted);
+            assert_eq!(short_slice(LOOP_SLICE_NS), Asked::Granted);
+            imp::current().expect("sched_getattr")
+        });
+        assert_eq!(after.sched_policy, imp::SCHED_BATCH);
+    }
+}
