@@ -76,6 +76,34 @@ pub fn batch() -> Asked {
     })
 }
 
+/// Puts the calling thread in the normal policy if it runs under a
+/// real-time one, and drops any slice of its own, keeping its nice value
+/// (a batch thread stays batch). For the threads whose work can wait but
+/// which a person sees (the web monitor), and for the programs the gateway
+/// starts ([`in_program`]): none of them inherits a real-time priority the
+/// crew gave the gateway, nor the loop's short slice.
+pub fn normal() -> Asked {
+    imp::change(|attr| {
+        match attr.sched_policy {
+            imp::SCHED_FIFO | imp::SCHED_RR => attr.sched_policy = imp::SCHED_OTHER,
+            imp::SCHED_OTHER | imp::SCHED_BATCH => {}
+            _ => return false,
+        }
+        attr.sched_priority = 0;
+        attr.sched_runtime = 0;
+        true
+    })
+}
+
+/// Run in a started program's process between fork and exec
+/// (`Command::pre_exec`): [`normal`]. It only makes the `sched_getattr`
+/// and `sched_setattr` system calls, allocates nothing, and never fails
+/// the start.
+pub fn in_program() -> std::io::Result<()> {
+    let _ = normal();
+    Ok(())
+}
+
 #[cfg(target_os = "linux")]
 mod imp {
     use super::Asked;
@@ -264,6 +292,59 @@ mod tests {
             assert_eq!(after.sched_policy, imp::SCHED_BATCH);
             assert_eq!(after.sched_priority, 0);
         }
+    }
+
+    #[test]
+    fn a_real_time_thread_goes_down_to_normal_and_its_programs_start_normal() {
+        let got = on_thread(|| {
+            // Raising a thread to real time needs privileges: skipped without.
+            let fifo = imp::change(|attr| {
+                attr.sched_policy = imp::SCHED_FIFO;
+                attr.sched_priority = 1;
+                attr.sched_runtime = 0;
+                true
+            });
+            if fifo != Asked::Granted {
+                return None;
+            }
+            // A program started from the real-time thread: its policy is
+            // field 41 of /proc/self/stat.
+            let mut command = std::process::Command::new("cat");
+            command.arg("/proc/self/stat");
+            // SAFETY: in_program makes two system calls and allocates nothing.
+            unsafe {
+                std::os::unix::process::CommandExt::pre_exec(&mut command, in_program);
+            }
+            let out = command.output().expect("cat");
+            let stat = String::from_utf8_lossy(&out.stdout).to_string();
+            assert_eq!(normal(), Asked::Granted);
+            Some((imp::current(), stat))
+        });
+        let Some((after, stat)) = got else {
+            println!("skipped: raising a thread to a real-time policy needs privileges");
+            return;
+        };
+        let after = after.expect("sched_getattr");
+        assert_eq!(
+            (after.sched_policy, after.sched_priority),
+            (imp::SCHED_OTHER, 0)
+        );
+        let fields: Vec<&str> = stat[stat.rfind(')').expect("a stat line") + 2..]
+            .split_whitespace()
+            .collect();
+        // Field 41 is the 39th after the command's name and state.
+        assert_eq!(fields.get(38), Some(&"0"), "the program's policy: {stat}");
+    }
+
+    #[test]
+    fn a_normal_thread_drops_its_own_slice_and_keeps_its_policy() {
+        let after = on_thread(|| {
+            assert_eq!(short_slice(LOOP_SLICE_NS), Asked::Granted);
+            assert_eq!(normal(), Asked::Granted);
+            imp::current().expect("sched_getattr")
+        });
+        assert_eq!(after.sched_policy, imp::SCHED_OTHER);
+        assert_ne!(after.sched_runtime, LOOP_SLICE_NS);
     }
 
     #[test]

@@ -7,6 +7,10 @@
 
 #[path = "../src/programs/mod.rs"]
 mod programs;
+// A started program begins under the normal policy (programs/child.rs).
+#[allow(dead_code)]
+#[path = "../src/scheduling.rs"]
+mod scheduling;
 
 #[path = "programs/support.rs"]
 mod support;

@@ -192,6 +192,9 @@ impl Server {
         let thread = std::thread::Builder::new()
             .name("petrel-monitor".into())
             .spawn(move || {
+                // A page can wait: never at a real-time priority a crew gave
+                // the gateway (docs/run.md "On a busy computer").
+                let _ = crate::scheduling::normal();
                 runtime.block_on(async move {
                     let listener = match tokio::net::TcpListener::from_std(listener) {
                         Ok(l) => l,

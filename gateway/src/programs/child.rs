@@ -148,6 +148,13 @@ fn spawn(launch: &Launch) -> std::io::Result<Child> {
         // Its own process group: signals reach its children too, and a
         // Ctrl-C on the gateway's terminal reaches the gateway only.
         .process_group(0);
+    // SAFETY: between fork and exec, in_program makes two system calls and
+    // allocates nothing.
+    unsafe {
+        // Never the real-time priority a crew may give the gateway, nor the
+        // loop's short slice: docs/run.md "On a busy computer".
+        command.pre_exec(crate::scheduling::in_program);
+    }
     let mut child = command.spawn()?;
     if let Some(out) = child.stdout.take() {
         tokio::spawn(log_lines(out, launch.name.clone(), "stdout"));
