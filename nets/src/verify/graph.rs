@@ -292,21 +292,31 @@ pub fn strongly_connected_components(g: &impl Successors) -> Sccs {
     }
 }
 
-/// A graph over dense node numbers whose successor lists can be borrowed
-/// (explicit edges, e.g. kept by an exploration).
+/// A graph over dense node numbers whose successor lists are read without
+/// allocating (explicit edges, e.g. kept by an exploration, plain or coded).
 pub trait Adjacency {
+    /// The successors of a node, one by one.
+    type Targets<'a>: Iterator<Item = u32>
+    where
+        Self: 'a;
     /// Nodes are numbered `0..nodes()`.
     fn nodes(&self) -> usize;
     /// The successors of `node` (duplicates allowed).
-    fn targets(&self, node: u32) -> &[u32];
+    fn targets(&self, node: u32) -> Self::Targets<'_>;
 }
 
 impl<L> Adjacency for Csr<L> {
+    type Targets<'a>
+        = std::iter::Copied<std::slice::Iter<'a, u32>>
+    where
+        L: 'a;
     fn nodes(&self) -> usize {
         self.offsets.len() - 1
     }
-    fn targets(&self, node: u32) -> &[u32] {
-        &self.targets[self.offsets[node as usize]..self.offsets[node as usize + 1]]
+    fn targets(&self, node: u32) -> Self::Targets<'_> {
+        self.targets[self.offsets[node as usize]..self.offsets[node as usize + 1]]
+            .iter()
+            .copied()
     }
 }
 
@@ -406,7 +416,7 @@ fn reaching(
         work += rest.len();
         let mut changed = false;
         let mut join = |v: u32, reach: &mut [u64]| {
-            if !bit(reach, v) && g.targets(v).iter().any(|&w| bit(reach, w)) {
+            if !bit(reach, v) && g.targets(v).any(|w| bit(reach, w)) {
                 set_bit(reach, v);
                 changed = true;
             }
@@ -440,7 +450,7 @@ fn terminal_component(g: &impl Adjacency, node: u32, n: usize) -> Option<Vec<u64
     let mut head = 0;
     while let Some(&v) = queue.get(head) {
         head += 1;
-        for &w in g.targets(v) {
+        for w in g.targets(v) {
             if !bit(&seen, w) {
                 set_bit(&mut seen, w);
                 queue.push(w);
@@ -463,8 +473,8 @@ fn terminal_component(g: &impl Adjacency, node: u32, n: usize) -> Option<Vec<u64
 /// `set` (a bitset) is the root's component, and no node outside it
 /// reaches it (numbered last); with `terminal = (node, set)`, `set` is
 /// `node`'s component and no edge leaves it (numbered first).
-fn pearce(
-    g: &impl Adjacency,
+fn pearce<G: Adjacency>(
+    g: &G,
     settled: Option<(u32, &[u64])>,
     terminal: Option<(u32, &[u64])>,
 ) -> Sccs {
@@ -485,7 +495,7 @@ fn pearce(
             rindex[v as usize] = top;
             size += 1;
         }
-        last = Some((size, size > 1 || g.targets(r).contains(&r)));
+        last = Some((size, size > 1 || g.targets(r).any(|w| w == r)));
     }
     let base = if last.is_some() { top - 1 } else { top };
     let mut c = base;
@@ -498,13 +508,13 @@ fn pearce(
         }
         c -= 1;
         sizes.push(size);
-        cyclic.push(size > 1 || g.targets(r).contains(&r));
+        cyclic.push(size > 1 || g.targets(r).any(|w| w == r));
     }
     let mut index = 1u32;
     let mut stack: Vec<u32> = Vec::new();
     // frames: node, its successors still to look at, whether it has an
     // edge to itself
-    let mut calls: Vec<(u32, &[u32], bool)> = Vec::new();
+    let mut calls: Vec<(u32, G::Targets<'_>, bool)> = Vec::new();
     let is_root = |root: &[u64], v: u32| (root[(v >> 6) as usize] >> (v & 63)) & 1 == 1;
     let set_root = |root: &mut [u64], v: u32, on: bool| {
         let (w, m) = ((v >> 6) as usize, 1u64 << (v & 63));
@@ -524,8 +534,7 @@ fn pearce(
         calls.push((start, g.targets(start), false));
         while let Some(frame) = calls.last_mut() {
             let v = frame.0;
-            if let Some((&w, rest)) = frame.1.split_first() {
-                frame.1 = rest;
+            if let Some(w) = frame.1.next() {
                 if w == v {
                     frame.2 = true;
                 } else if rindex[w as usize] == 0 {
@@ -736,7 +745,7 @@ mod tests {
             assert_eq!(a.cyclic[ca], b.cyclic[cb as usize]);
         }
         for v in 0..n as u32 {
-            for &w in Adjacency::targets(g, v) {
+            for w in Adjacency::targets(g, v) {
                 assert!(b.component[v as usize] >= b.component[w as usize]);
             }
         }

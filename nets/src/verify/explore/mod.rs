@@ -377,6 +377,16 @@ impl<'n> Exploration<'n> {
             Space::C16(r) => summarize(r, Engine::Counts16, threads, net.transitions.len()),
             Space::C32(r) => summarize(r, Engine::Counts32, threads, net.transitions.len()),
         };
+        let mut space = space;
+        on_space!(&mut space, r => {
+            if !r.arcs.is_empty() {
+                // the loop analysis reads the kept arcs, and counterexamples
+                // are rebuilt from the markings: nothing is looked up again
+                for store in &mut r.stores {
+                    store.drop_table();
+                }
+            }
+        });
         Exploration {
             net,
             summary,
@@ -553,7 +563,7 @@ impl<S: Semantics> Successors for Graph<'_, S> {
 }
 
 /// The reachability graph over the successors kept by the exploration
-/// ([`Options::keep_arcs`]).
+/// ([`Options::keep_arcs`]), decoded as they are read.
 struct Kept<'r> {
     arcs: &'r [edges::Edges],
     offsets: Vec<u32>,
@@ -561,21 +571,27 @@ struct Kept<'r> {
 
 impl Kept<'_> {
     #[inline]
-    fn of(&self, node: u32) -> &[u32] {
-        if self.arcs.len() == 1 {
-            return self.arcs[0].of(node);
-        }
-        let p = self.offsets.partition_point(|&o| o <= node) - 1;
-        self.arcs[p].of(node - self.offsets[p])
+    fn of(&self, node: u32) -> edges::Targets<'_> {
+        let p = if self.arcs.len() == 1 {
+            0
+        } else {
+            self.offsets.partition_point(|&o| o <= node) - 1
+        };
+        self.arcs[p].targets(node - self.offsets[p], &self.offsets)
     }
 }
 
 impl Adjacency for Kept<'_> {
+    type Targets<'a>
+        = edges::Targets<'a>
+    where
+        Self: 'a;
+
     fn nodes(&self) -> usize {
         self.offsets.last().copied().unwrap_or(0) as usize
     }
 
-    fn targets(&self, node: u32) -> &[u32] {
+    fn targets(&self, node: u32) -> edges::Targets<'_> {
         self.of(node)
     }
 }
@@ -586,7 +602,7 @@ impl Successors for Kept<'_> {
     }
 
     fn successors(&self, node: u32, out: &mut Vec<u32>) {
-        out.extend_from_slice(self.of(node));
+        out.extend(self.of(node));
     }
 }
 
