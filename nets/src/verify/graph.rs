@@ -330,7 +330,9 @@ const SWEEP_BUDGET: usize = 8;
 /// Strongly connected components of a graph whose nodes are all reachable
 /// from `root` (a reachability graph from its initial state), as
 /// [`strongly_connected_components`] finds them, in a cheaper way when the
-/// root's component is large.
+/// root's component is large. `order` lists every node once, best in
+/// breadth-first order from `root` (as an exploration stores them; the
+/// sweeps settle in few passes then), `root` first.
 ///
 /// The root's component is then exactly the set of nodes from which the
 /// root can be reached: it is found first by sweeps over the nodes (see
@@ -344,14 +346,16 @@ const SWEEP_BUDGET: usize = 8;
 /// on the whole graph. Components are numbered in reverse topological
 /// order, as by [`strongly_connected_components`], but the numbers may
 /// differ.
-pub fn strongly_connected_components_from(g: &impl Adjacency, root: u32) -> Sccs {
+pub fn strongly_connected_components_from(g: &impl Adjacency, root: u32, order: Vec<u32>) -> Sccs {
     let n = g.nodes();
-    if n == 0 || root as usize >= n {
+    if n == 0 || root as usize >= n || order.len() != n {
         return pearce(g, None, None);
     }
     let mut reach = vec![0u64; n.div_ceil(64)];
     set_bit(&mut reach, root);
-    let Some(rest) = reaching(g, &mut reach, (0..n as u32).collect(), n) else {
+    // the root is first: the sweeps go up first, from the root down its
+    // shortcuts back
+    let Some(rest) = reaching(g, &mut reach, order, n, Direction::Up) else {
         return pearce(g, None, None);
     };
     // A root alone (or nearly: a few transient markings before the net
@@ -361,16 +365,25 @@ pub fn strongly_connected_components_from(g: &impl Adjacency, root: u32) -> Sccs
     // reach it back.
     let terminal = if rest.len() > n / 2 {
         rest.last()
-            .and_then(|&last| terminal_component(g, last, n).map(|set| (last, set)))
+            .copied()
+            .and_then(|last| terminal_component(g, last, rest, n).map(|set| (last, set)))
     } else {
         None
     };
-    drop(rest);
     pearce(
         g,
         Some((root, &reach)),
         terminal.as_ref().map(|(r, set)| (*r, set.as_slice())),
     )
+}
+
+/// Which way the first sweep goes over the candidates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Direction {
+    /// In their order: best when the target comes first.
+    Up,
+    /// Against it: best when the target comes last.
+    Down,
 }
 
 fn bit(set: &[u64], v: u32) -> bool {
@@ -395,17 +408,19 @@ fn set_bit(set: &mut [u64], v: u32) {
     set[(v >> 6) as usize] |= 1 << (v & 63);
 }
 
-/// Sweeps `candidates` (in increasing order) until every one that reaches
-/// a node of `reach` has joined it: the candidates that do not reach it,
-/// or `None` when the sweeps did not settle within their budget
+/// Sweeps `candidates` until every one that reaches a node of `reach` has
+/// joined it: the candidates that do not reach it (in their order), or
+/// `None` when the sweeps did not settle within their budget
 /// ([`SWEEP_BUDGET`] times `n` nodes looked at). A candidate joins when one
-/// of its successors has joined; the sweeps alternate between decreasing
-/// and increasing order, on a bitset that stays in cache.
+/// of its successors has joined; the sweeps go along the candidates' order
+/// and against it in turn, starting with `first`, on a bitset that stays
+/// in cache.
 fn reaching(
     g: &impl Adjacency,
     reach: &mut [u64],
     mut rest: Vec<u32>,
     n: usize,
+    first: Direction,
 ) -> Option<Vec<u32>> {
     rest.retain(|&v| !bit(reach, v));
     let mut work = 0usize;
@@ -421,7 +436,8 @@ fn reaching(
                 changed = true;
             }
         };
-        if sweep % 2 == 1 {
+        let up = (sweep % 2 == 0) == (first == Direction::Up);
+        if !up {
             for &v in rest.iter().rev() {
                 join(v, reach);
             }
@@ -442,8 +458,15 @@ fn reaching(
 
 /// The component of `node` as a bitset, if it is terminal (no edge leaves
 /// it): every node `node` reaches reaches it back. `None` when it is not,
-/// or when the sweeps did not settle.
-fn terminal_component(g: &impl Adjacency, node: u32, n: usize) -> Option<Vec<u64>> {
+/// or when the sweeps did not settle. `candidates` holds every node `node`
+/// may reach, `node` last (a breadth-first order: the sweeps go down
+/// first).
+fn terminal_component(
+    g: &impl Adjacency,
+    node: u32,
+    mut candidates: Vec<u32>,
+    n: usize,
+) -> Option<Vec<u64>> {
     let mut seen = vec![0u64; n.div_ceil(64)];
     set_bit(&mut seen, node);
     let mut queue = vec![node];
@@ -458,11 +481,12 @@ fn terminal_component(g: &impl Adjacency, node: u32, n: usize) -> Option<Vec<u64
         }
     }
     drop(queue);
-    // the nodes it reaches, in increasing order
-    let reached: Vec<u32> = members(&seen).collect();
+    // the nodes it reaches, in the candidates' order
+    candidates.retain(|&v| bit(&seen, v));
+    drop(seen);
     let mut back = vec![0u64; n.div_ceil(64)];
     set_bit(&mut back, node);
-    let rest = reaching(g, &mut back, reached, n)?;
+    let rest = reaching(g, &mut back, candidates, n, Direction::Down)?;
     rest.is_empty().then_some(back)
 }
 
@@ -767,7 +791,26 @@ mod tests {
             let g = random_graph(n, extra, seed);
             let tarjan = strongly_connected_components(&g);
             same_components(&g, &tarjan, &pearce(&g, None, None));
-            same_components(&g, &tarjan, &strongly_connected_components_from(&g, 0));
+            same_components(
+                &g,
+                &tarjan,
+                &strongly_connected_components_from(&g, 0, (0..n).collect()),
+            );
+            // any order of the nodes, root first, gives the same components
+            let mut shuffled: Vec<u32> = (1..n).collect();
+            let mut x = seed;
+            for i in (1..shuffled.len()).rev() {
+                x = x
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                shuffled.swap(i, (x >> 33) as usize % (i + 1));
+            }
+            shuffled.insert(0, 0);
+            same_components(
+                &g,
+                &tarjan,
+                &strongly_connected_components_from(&g, 0, shuffled),
+            );
         }
         // a ring walked against the sweeps: 0 -> 1 -> ... -> n-1 -> 0 in
         // a zig-zag numbering, so that each sweep adds few nodes (Pearce's
@@ -786,7 +829,7 @@ mod tests {
             g.push_node(l.into_iter().map(|t| ((), t)));
         }
         let tarjan = strongly_connected_components(&g);
-        let from = strongly_connected_components_from(&g, order[0]);
+        let from = strongly_connected_components_from(&g, order[0], (0..n).collect());
         same_components(&g, &tarjan, &from);
         assert_eq!(from.sizes, vec![n]);
     }
@@ -820,7 +863,7 @@ mod tests {
                 g.push_node(l.into_iter().map(|t| ((), t)));
             }
             let tarjan = strongly_connected_components(&g);
-            let from = strongly_connected_components_from(&g, 0);
+            let from = strongly_connected_components_from(&g, 0, (0..n).collect());
             same_components(&g, &tarjan, &from);
             let ring = from.component[10] as usize;
             assert_eq!(from.sizes[ring], ring_end - 3);

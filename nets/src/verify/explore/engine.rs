@@ -539,6 +539,11 @@ fn worker<S: Semantics>(
                     level,
                 );
                 batch.clear();
+                if n == 1 && sh.keep_arcs {
+                    // one partition: every successor id is known, code the
+                    // batch's while they are in cache
+                    arcs.seal();
+                }
                 if !ok {
                     f.full = true;
                     sh.stop_level.fetch_min(level, Relaxed);

@@ -627,7 +627,13 @@ fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize) -> Loops {
             .level_ids(0)
             .next()
             .map_or(0, |id| dense_of(&kept.offsets, id));
-        let sccs = graph::strongly_connected_components_from(&kept, initial);
+        // breadth-first order over all partitions: level by level
+        let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
+        let order: Vec<u32> = (0..depths)
+            .flat_map(|k| r.level_ids(k))
+            .map(|id| dense_of(&kept.offsets, id))
+            .collect();
+        let sccs = graph::strongly_connected_components_from(&kept, initial, order);
         loops_in(r, &kept, &sccs, max_listed)
     }
 }
