@@ -332,7 +332,9 @@ const SWEEP_BUDGET: usize = 8;
 /// [`strongly_connected_components`] finds them, in a cheaper way when the
 /// root's component is large. `order` lists every node once, best in
 /// breadth-first order from `root` (as an exploration stores them; the
-/// sweeps settle in few passes then), `root` first.
+/// sweeps settle in few passes then), `root` first. `entered` is false when
+/// no arc leads to `root` (then its component is itself alone, found
+/// without a sweep); true when some may.
 ///
 /// The root's component is then exactly the set of nodes from which the
 /// root can be reached: it is found first by sweeps over the nodes (see
@@ -346,17 +348,28 @@ const SWEEP_BUDGET: usize = 8;
 /// on the whole graph. Components are numbered in reverse topological
 /// order, as by [`strongly_connected_components`], but the numbers may
 /// differ.
-pub fn strongly_connected_components_from(g: &impl Adjacency, root: u32, order: Vec<u32>) -> Sccs {
+pub fn strongly_connected_components_from(
+    g: &impl Adjacency,
+    root: u32,
+    entered: bool,
+    mut order: Vec<u32>,
+) -> Sccs {
     let n = g.nodes();
     if n == 0 || root as usize >= n || order.len() != n {
         return pearce(g, None, None);
     }
     let mut reach = vec![0u64; n.div_ceil(64)];
     set_bit(&mut reach, root);
-    // the root is first: the sweeps go up first, from the root down its
-    // shortcuts back
-    let Some(rest) = reaching(g, &mut reach, order, n, Direction::Up) else {
-        return pearce(g, None, None);
+    // most arcs lead forward in a breadth-first order: the first sweep goes
+    // down, so that a path forward then back to the root joins in one go
+    let rest = if entered {
+        let Some(rest) = reaching(g, &mut reach, order, n, Direction::Down) else {
+            return pearce(g, None, None);
+        };
+        rest
+    } else {
+        order.retain(|&v| v != root);
+        order
     };
     // A root alone (or nearly: a few transient markings before the net
     // settles into its cycles) leaves Pearce's search the whole graph. The
@@ -794,7 +807,7 @@ mod tests {
             same_components(
                 &g,
                 &tarjan,
-                &strongly_connected_components_from(&g, 0, (0..n).collect()),
+                &strongly_connected_components_from(&g, 0, true, (0..n).collect()),
             );
             // any order of the nodes, root first, gives the same components
             let mut shuffled: Vec<u32> = (1..n).collect();
@@ -809,7 +822,7 @@ mod tests {
             same_components(
                 &g,
                 &tarjan,
-                &strongly_connected_components_from(&g, 0, shuffled),
+                &strongly_connected_components_from(&g, 0, true, shuffled),
             );
         }
         // a ring walked against the sweeps: 0 -> 1 -> ... -> n-1 -> 0 in
@@ -829,7 +842,7 @@ mod tests {
             g.push_node(l.into_iter().map(|t| ((), t)));
         }
         let tarjan = strongly_connected_components(&g);
-        let from = strongly_connected_components_from(&g, order[0], (0..n).collect());
+        let from = strongly_connected_components_from(&g, order[0], true, (0..n).collect());
         same_components(&g, &tarjan, &from);
         assert_eq!(from.sizes, vec![n]);
     }
@@ -863,8 +876,11 @@ mod tests {
                 g.push_node(l.into_iter().map(|t| ((), t)));
             }
             let tarjan = strongly_connected_components(&g);
-            let from = strongly_connected_components_from(&g, 0, (0..n).collect());
+            let from = strongly_connected_components_from(&g, 0, true, (0..n).collect());
             same_components(&g, &tarjan, &from);
+            // nothing leads back to 0: the same without sweeping for it
+            let unentered = strongly_connected_components_from(&g, 0, false, (0..n).collect());
+            same_components(&g, &tarjan, &unentered);
             let ring = from.component[10] as usize;
             assert_eq!(from.sizes[ring], ring_end - 3);
             assert!(from.cyclic[ring]);

@@ -37,6 +37,9 @@ pub struct Edges {
     /// More arcs than 32-bit offsets can hold, or a slot never answered:
     /// nothing is kept.
     overflow: bool,
+    /// The partitions whose first marking is a successor here (one bit
+    /// each): whether anything leads back to the initial marking.
+    into_first: u32,
 }
 
 /// Bits needed to name one of `parts` partitions.
@@ -54,6 +57,7 @@ impl Edges {
             starts: vec![0],
             coded: Vec::new(),
             overflow: false,
+            into_first: 0,
         }
     }
 
@@ -110,6 +114,9 @@ impl Edges {
                     break;
                 }
                 let (q, l) = split_id(id);
+                if l == 0 {
+                    self.into_first |= 1 << q;
+                }
                 let d = i64::from(l) - i64::from(prev);
                 prev = l;
                 let zigzag = ((d << 1) ^ (d >> 63)) as u64;
@@ -142,6 +149,11 @@ impl Edges {
     /// Whether the successors of all `nodes` markings are coded.
     pub fn complete(&self, nodes: u32) -> bool {
         !self.overflow && self.staged.is_empty() && self.starts.len() == nodes as usize + 1
+    }
+
+    /// Whether an arc kept here leads to the first marking of partition `q`.
+    pub fn into_first(&self, q: usize) -> bool {
+        (self.into_first >> q) & 1 == 1
     }
 
     /// Gives back the room reserved for more arcs and the staging buffers.
@@ -248,11 +260,13 @@ mod tests {
         e.answer(1, state_id(1, 9));
         e.seal();
         assert!(e.complete(2));
+        assert!(!e.into_first(0));
         e.node(1);
         assert_eq!(e.push(state_id(0, 0)), 0);
         assert!(!e.complete(3));
         e.seal();
         assert!(e.complete(3));
+        assert!(e.into_first(0) && !e.into_first(1));
         // partition 0 holds 20 markings, partition 1 starts at 20
         let offsets = [0, 20, 40];
         assert_eq!(e.targets(0, &offsets).collect::<Vec<_>>(), vec![7, 29]);

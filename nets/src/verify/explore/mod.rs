@@ -51,9 +51,11 @@ pub struct Options<'a> {
     /// hash. Default false: on an idle machine hashing balances the threads
     /// better and wins (BENCHMARKS.md).
     pub partition_by_places: bool,
-    /// Keep the successors of every marking as they are found (4 bytes per
-    /// arc and per marking) so that [`Exploration::loops`] need not fire
-    /// every transition again. Default false: `loops` then recomputes them.
+    /// Keep the successors of every marking as they are found (coded, about
+    /// 2 bytes per arc and 4 per marking, see `edges.rs`; the hash tables
+    /// are freed once the exploration ends) so that [`Exploration::loops`]
+    /// need not fire every transition again. Default false: `loops` then
+    /// recomputes them.
     pub keep_arcs: bool,
 }
 
@@ -623,17 +625,17 @@ fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize) -> Loops {
             arcs: &r.arcs,
             offsets: r.offsets(),
         };
-        let initial = r
-            .level_ids(0)
-            .next()
-            .map_or(0, |id| dense_of(&kept.offsets, id));
+        let first = r.level_ids(0).next().unwrap_or(0);
+        let initial = dense_of(&kept.offsets, first);
+        let (p0, l0) = split_id(first);
+        let entered = l0 != 0 || r.arcs.iter().any(|a| a.into_first(p0));
         // breadth-first order over all partitions: level by level
         let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
         let order: Vec<u32> = (0..depths)
             .flat_map(|k| r.level_ids(k))
             .map(|id| dense_of(&kept.offsets, id))
             .collect();
-        let sccs = graph::strongly_connected_components_from(&kept, initial, order);
+        let sccs = graph::strongly_connected_components_from(&kept, initial, entered, order);
         loops_in(r, &kept, &sccs, max_listed)
     }
 }
