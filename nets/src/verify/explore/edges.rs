@@ -39,7 +39,7 @@ pub struct Edges {
     overflow: bool,
     /// The partitions whose first marking is a successor here (one bit
     /// each): whether anything leads back to the initial marking.
-    into_first: u32,
+    leads_to_first: u32,
 }
 
 /// Bits needed to name one of `parts` partitions.
@@ -57,7 +57,7 @@ impl Edges {
             starts: vec![0],
             coded: Vec::new(),
             overflow: false,
-            into_first: 0,
+            leads_to_first: 0,
         }
     }
 
@@ -115,7 +115,7 @@ impl Edges {
                 }
                 let (q, l) = split_id(id);
                 if l == 0 {
-                    self.into_first |= 1 << q;
+                    self.leads_to_first |= 1 << q;
                 }
                 let d = i64::from(l) - i64::from(prev);
                 prev = l;
@@ -152,8 +152,8 @@ impl Edges {
     }
 
     /// Whether an arc kept here leads to the first marking of partition `q`.
-    pub fn into_first(&self, q: usize) -> bool {
-        (self.into_first >> q) & 1 == 1
+    pub fn leads_to_first(&self, q: usize) -> bool {
+        (self.leads_to_first >> q) & 1 == 1
     }
 
     /// Gives back the room reserved for more arcs and the staging buffers.
@@ -260,13 +260,13 @@ mod tests {
         e.answer(1, state_id(1, 9));
         e.seal();
         assert!(e.complete(2));
-        assert!(!e.into_first(0));
+        assert!(!e.leads_to_first(0));
         e.node(1);
         assert_eq!(e.push(state_id(0, 0)), 0);
         assert!(!e.complete(3));
         e.seal();
         assert!(e.complete(3));
-        assert!(e.into_first(0) && !e.into_first(1));
+        assert!(e.leads_to_first(0) && !e.leads_to_first(1));
         // partition 0 holds 20 markings, partition 1 starts at 20
         let offsets = [0, 20, 40];
         assert_eq!(e.targets(0, &offsets).collect::<Vec<_>>(), vec![7, 29]);

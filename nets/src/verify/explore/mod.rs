@@ -628,7 +628,7 @@ fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize) -> Loops {
         let first = r.level_ids(0).next().unwrap_or(0);
         let initial = dense_of(&kept.offsets, first);
         let (p0, l0) = split_id(first);
-        let entered = l0 != 0 || r.arcs.iter().any(|a| a.into_first(p0));
+        let entered = l0 != 0 || r.arcs.iter().any(|a| a.leads_to_first(p0));
         // breadth-first order over all partitions: level by level
         let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
         let order: Vec<u32> = (0..depths)
