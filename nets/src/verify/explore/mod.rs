@@ -8,16 +8,18 @@
 //! not safe, with a shortest firing sequence to a marking that is not
 //! 1-safe). Counts that outgrow their width restart with wider counts.
 //!
-//! Markings are stored back to back in one arena with their parent's id
-//! (no allocation per state) and found through a table of 32-bit hash +
+//! Markings are stored back to back in one arena, without parent links
+//! (no allocation per state), and found through a table of 32-bit hash +
 //! index entries, compared in full on a hash match. A transition is looked
 //! at only when its least-often-marked input place (measured on a first
 //! sample of the state space) is marked. With `threads > 1` the state space
 //! is split in partitions by hash, one thread each (see [`engine`]).
 //!
 //! The stored state space is kept ([`Exploration`]) so counterexamples are
-//! rebuilt from parent links and loops found by strongly connected
-//! components over successors regenerated on demand ([`Exploration::graph`]).
+//! rebuilt level by level, and loops found by strongly connected components
+//! over the arcs kept during the exploration ([`Options::keep_arcs`], coded
+//! in `edges.rs`; the hash tables are freed then), or else over successors
+//! regenerated on demand.
 
 mod edges;
 mod engine;
