@@ -275,6 +275,31 @@ mod tests {
     }
 
     #[test]
+    fn successors_stored_one_after_the_other_take_a_byte_each() {
+        // marking i of a level of 1000 has successors 1000 + 3i, +1, +2:
+        // the first is 1000 + 2i past its marking (2 or 3 bytes), the
+        // others one past the previous (1 byte)
+        let mut e = Edges::new(1);
+        for i in 0..1000u32 {
+            e.node(3);
+            for j in 0..3 {
+                e.push(state_id(0, 1000 + 3 * i + j));
+            }
+        }
+        e.seal();
+        assert!(e.complete(1000));
+        let firsts: usize = (0..1000u64)
+            .map(|i| if 2 * (1000 + 2 * i) < 1 << 14 { 2 } else { 3 })
+            .sum();
+        assert_eq!(e.coded_bytes(), firsts + 2 * 1000);
+        let offsets = [0, 4000];
+        assert_eq!(
+            e.targets(999, &offsets).collect::<Vec<_>>(),
+            vec![3997, 3998, 3999]
+        );
+    }
+
+    #[test]
     fn an_unanswered_slot_keeps_nothing() {
         let mut e = Edges::new(2);
         e.node(1);
