@@ -292,21 +292,31 @@ pub fn strongly_connected_components(g: &impl Successors) -> Sccs {
     }
 }
 
-/// A graph over dense node numbers whose successor lists can be borrowed
-/// (explicit edges, e.g. kept by an exploration).
+/// A graph over dense node numbers whose successor lists are read without
+/// allocating (explicit edges, e.g. kept by an exploration, plain or coded).
 pub trait Adjacency {
+    /// The successors of a node, one by one.
+    type Targets<'a>: Iterator<Item = u32>
+    where
+        Self: 'a;
     /// Nodes are numbered `0..nodes()`.
     fn nodes(&self) -> usize;
     /// The successors of `node` (duplicates allowed).
-    fn targets(&self, node: u32) -> &[u32];
+    fn targets(&self, node: u32) -> Self::Targets<'_>;
 }
 
 impl<L> Adjacency for Csr<L> {
+    type Targets<'a>
+        = std::iter::Copied<std::slice::Iter<'a, u32>>
+    where
+        L: 'a;
     fn nodes(&self) -> usize {
         self.offsets.len() - 1
     }
-    fn targets(&self, node: u32) -> &[u32] {
-        &self.targets[self.offsets[node as usize]..self.offsets[node as usize + 1]]
+    fn targets(&self, node: u32) -> Self::Targets<'_> {
+        self.targets[self.offsets[node as usize]..self.offsets[node as usize + 1]]
+            .iter()
+            .copied()
     }
 }
 
@@ -320,7 +330,11 @@ const SWEEP_BUDGET: usize = 8;
 /// Strongly connected components of a graph whose nodes are all reachable
 /// from `root` (a reachability graph from its initial state), as
 /// [`strongly_connected_components`] finds them, in a cheaper way when the
-/// root's component is large.
+/// root's component is large. `order` lists every node once, best in
+/// breadth-first order from `root` (as an exploration stores them; the
+/// sweeps settle in few passes then), `root` first. `entered` is false when
+/// no arc leads to `root` (then its component is itself alone, found
+/// without a sweep); true when some may.
 ///
 /// The root's component is then exactly the set of nodes from which the
 /// root can be reached: it is found first by sweeps over the nodes (see
@@ -334,15 +348,28 @@ const SWEEP_BUDGET: usize = 8;
 /// on the whole graph. Components are numbered in reverse topological
 /// order, as by [`strongly_connected_components`], but the numbers may
 /// differ.
-pub fn strongly_connected_components_from(g: &impl Adjacency, root: u32) -> Sccs {
+pub fn strongly_connected_components_from(
+    g: &impl Adjacency,
+    root: u32,
+    entered: bool,
+    mut order: Vec<u32>,
+) -> Sccs {
     let n = g.nodes();
-    if n == 0 || root as usize >= n {
+    if n == 0 || root as usize >= n || order.len() != n {
         return pearce(g, None, None);
     }
     let mut reach = vec![0u64; n.div_ceil(64)];
     set_bit(&mut reach, root);
-    let Some(rest) = reaching(g, &mut reach, (0..n as u32).collect(), n) else {
-        return pearce(g, None, None);
+    // most arcs lead forward in a breadth-first order: the first sweep goes
+    // down, so that a path forward then back to the root joins in one go
+    let rest = if entered {
+        let Some(rest) = reaching(g, &mut reach, order, n, Direction::Down) else {
+            return pearce(g, None, None);
+        };
+        rest
+    } else {
+        order.retain(|&v| v != root);
+        order
     };
     // A root alone (or nearly: a few transient markings before the net
     // settles into its cycles) leaves Pearce's search the whole graph. The
@@ -351,16 +378,25 @@ pub fn strongly_connected_components_from(g: &impl Adjacency, root: u32) -> Sccs
     // reach it back.
     let terminal = if rest.len() > n / 2 {
         rest.last()
-            .and_then(|&last| terminal_component(g, last, n).map(|set| (last, set)))
+            .copied()
+            .and_then(|last| terminal_component(g, last, rest, n).map(|set| (last, set)))
     } else {
         None
     };
-    drop(rest);
     pearce(
         g,
         Some((root, &reach)),
         terminal.as_ref().map(|(r, set)| (*r, set.as_slice())),
     )
+}
+
+/// Which way the first sweep goes over the candidates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Direction {
+    /// In their order: best when the target comes first.
+    Up,
+    /// Against it: best when the target comes last.
+    Down,
 }
 
 fn bit(set: &[u64], v: u32) -> bool {
@@ -385,17 +421,19 @@ fn set_bit(set: &mut [u64], v: u32) {
     set[(v >> 6) as usize] |= 1 << (v & 63);
 }
 
-/// Sweeps `candidates` (in increasing order) until every one that reaches
-/// a node of `reach` has joined it: the candidates that do not reach it,
-/// or `None` when the sweeps did not settle within their budget
+/// Sweeps `candidates` until every one that reaches a node of `reach` has
+/// joined it: the candidates that do not reach it (in their order), or
+/// `None` when the sweeps did not settle within their budget
 /// ([`SWEEP_BUDGET`] times `n` nodes looked at). A candidate joins when one
-/// of its successors has joined; the sweeps alternate between decreasing
-/// and increasing order, on a bitset that stays in cache.
+/// of its successors has joined; the sweeps go along the candidates' order
+/// and against it in turn, starting with `first`, on a bitset that stays
+/// in cache.
 fn reaching(
     g: &impl Adjacency,
     reach: &mut [u64],
     mut rest: Vec<u32>,
     n: usize,
+    first: Direction,
 ) -> Option<Vec<u32>> {
     rest.retain(|&v| !bit(reach, v));
     let mut work = 0usize;
@@ -406,12 +444,13 @@ fn reaching(
         work += rest.len();
         let mut changed = false;
         let mut join = |v: u32, reach: &mut [u64]| {
-            if !bit(reach, v) && g.targets(v).iter().any(|&w| bit(reach, w)) {
+            if !bit(reach, v) && g.targets(v).any(|w| bit(reach, w)) {
                 set_bit(reach, v);
                 changed = true;
             }
         };
-        if sweep % 2 == 1 {
+        let up = (sweep % 2 == 0) == (first == Direction::Up);
+        if !up {
             for &v in rest.iter().rev() {
                 join(v, reach);
             }
@@ -432,15 +471,22 @@ fn reaching(
 
 /// The component of `node` as a bitset, if it is terminal (no edge leaves
 /// it): every node `node` reaches reaches it back. `None` when it is not,
-/// or when the sweeps did not settle.
-fn terminal_component(g: &impl Adjacency, node: u32, n: usize) -> Option<Vec<u64>> {
+/// or when the sweeps did not settle. `candidates` holds every node `node`
+/// may reach, `node` last (a breadth-first order: the sweeps go down
+/// first).
+fn terminal_component(
+    g: &impl Adjacency,
+    node: u32,
+    mut candidates: Vec<u32>,
+    n: usize,
+) -> Option<Vec<u64>> {
     let mut seen = vec![0u64; n.div_ceil(64)];
     set_bit(&mut seen, node);
     let mut queue = vec![node];
     let mut head = 0;
     while let Some(&v) = queue.get(head) {
         head += 1;
-        for &w in g.targets(v) {
+        for w in g.targets(v) {
             if !bit(&seen, w) {
                 set_bit(&mut seen, w);
                 queue.push(w);
@@ -448,11 +494,12 @@ fn terminal_component(g: &impl Adjacency, node: u32, n: usize) -> Option<Vec<u64
         }
     }
     drop(queue);
-    // the nodes it reaches, in increasing order
-    let reached: Vec<u32> = members(&seen).collect();
+    // the nodes it reaches, in the candidates' order
+    candidates.retain(|&v| bit(&seen, v));
+    drop(seen);
     let mut back = vec![0u64; n.div_ceil(64)];
     set_bit(&mut back, node);
-    let rest = reaching(g, &mut back, reached, n)?;
+    let rest = reaching(g, &mut back, candidates, n, Direction::Down)?;
     rest.is_empty().then_some(back)
 }
 
@@ -463,8 +510,8 @@ fn terminal_component(g: &impl Adjacency, node: u32, n: usize) -> Option<Vec<u64
 /// `set` (a bitset) is the root's component, and no node outside it
 /// reaches it (numbered last); with `terminal = (node, set)`, `set` is
 /// `node`'s component and no edge leaves it (numbered first).
-fn pearce(
-    g: &impl Adjacency,
+fn pearce<G: Adjacency>(
+    g: &G,
     settled: Option<(u32, &[u64])>,
     terminal: Option<(u32, &[u64])>,
 ) -> Sccs {
@@ -485,7 +532,7 @@ fn pearce(
             rindex[v as usize] = top;
             size += 1;
         }
-        last = Some((size, size > 1 || g.targets(r).contains(&r)));
+        last = Some((size, size > 1 || g.targets(r).any(|w| w == r)));
     }
     let base = if last.is_some() { top - 1 } else { top };
     let mut c = base;
@@ -498,13 +545,13 @@ fn pearce(
         }
         c -= 1;
         sizes.push(size);
-        cyclic.push(size > 1 || g.targets(r).contains(&r));
+        cyclic.push(size > 1 || g.targets(r).any(|w| w == r));
     }
     let mut index = 1u32;
     let mut stack: Vec<u32> = Vec::new();
     // frames: node, its successors still to look at, whether it has an
     // edge to itself
-    let mut calls: Vec<(u32, &[u32], bool)> = Vec::new();
+    let mut calls: Vec<(u32, G::Targets<'_>, bool)> = Vec::new();
     let is_root = |root: &[u64], v: u32| (root[(v >> 6) as usize] >> (v & 63)) & 1 == 1;
     let set_root = |root: &mut [u64], v: u32, on: bool| {
         let (w, m) = ((v >> 6) as usize, 1u64 << (v & 63));
@@ -524,8 +571,7 @@ fn pearce(
         calls.push((start, g.targets(start), false));
         while let Some(frame) = calls.last_mut() {
             let v = frame.0;
-            if let Some((&w, rest)) = frame.1.split_first() {
-                frame.1 = rest;
+            if let Some(w) = frame.1.next() {
                 if w == v {
                     frame.2 = true;
                 } else if rindex[w as usize] == 0 {
@@ -736,7 +782,7 @@ mod tests {
             assert_eq!(a.cyclic[ca], b.cyclic[cb as usize]);
         }
         for v in 0..n as u32 {
-            for &w in Adjacency::targets(g, v) {
+            for w in Adjacency::targets(g, v) {
                 assert!(b.component[v as usize] >= b.component[w as usize]);
             }
         }
@@ -758,7 +804,26 @@ mod tests {
             let g = random_graph(n, extra, seed);
             let tarjan = strongly_connected_components(&g);
             same_components(&g, &tarjan, &pearce(&g, None, None));
-            same_components(&g, &tarjan, &strongly_connected_components_from(&g, 0));
+            same_components(
+                &g,
+                &tarjan,
+                &strongly_connected_components_from(&g, 0, true, (0..n).collect()),
+            );
+            // any order of the nodes, root first, gives the same components
+            let mut shuffled: Vec<u32> = (1..n).collect();
+            let mut x = seed;
+            for i in (1..shuffled.len()).rev() {
+                x = x
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                shuffled.swap(i, (x >> 33) as usize % (i + 1));
+            }
+            shuffled.insert(0, 0);
+            same_components(
+                &g,
+                &tarjan,
+                &strongly_connected_components_from(&g, 0, true, shuffled),
+            );
         }
         // a ring walked against the sweeps: 0 -> 1 -> ... -> n-1 -> 0 in
         // a zig-zag numbering, so that each sweep adds few nodes (Pearce's
@@ -777,7 +842,7 @@ mod tests {
             g.push_node(l.into_iter().map(|t| ((), t)));
         }
         let tarjan = strongly_connected_components(&g);
-        let from = strongly_connected_components_from(&g, order[0]);
+        let from = strongly_connected_components_from(&g, order[0], true, (0..n).collect());
         same_components(&g, &tarjan, &from);
         assert_eq!(from.sizes, vec![n]);
     }
@@ -811,8 +876,11 @@ mod tests {
                 g.push_node(l.into_iter().map(|t| ((), t)));
             }
             let tarjan = strongly_connected_components(&g);
-            let from = strongly_connected_components_from(&g, 0);
+            let from = strongly_connected_components_from(&g, 0, true, (0..n).collect());
             same_components(&g, &tarjan, &from);
+            // nothing leads back to 0: the same without sweeping for it
+            let unentered = strongly_connected_components_from(&g, 0, false, (0..n).collect());
+            same_components(&g, &tarjan, &unentered);
             let ring = from.component[10] as usize;
             assert_eq!(from.sizes[ring], ring_end - 3);
             assert!(from.cyclic[ring]);

@@ -114,9 +114,8 @@ pub struct Run<S> {
     /// For each partition, where each breadth-first level starts (markings
     /// are stored level after level).
     pub levels: Vec<Vec<u32>>,
-    /// For each partition, the successors of its markings (dense node
-    /// numbers, see [`Run::dense`]), when asked for and complete; else
-    /// empty.
+    /// For each partition, the successors of its markings (coded, see
+    /// [`Edges`]), when asked for and complete; else empty.
     pub arcs: Vec<Edges>,
 }
 
@@ -347,12 +346,8 @@ pub fn run<S: Semantics>(
             .zip(&run.stores)
             .all(|(a, s)| a.complete(s.len()))
     {
-        let offsets = run.offsets();
         for a in &mut arcs {
-            a.renumber(|id| {
-                let (p, l) = split_id(id);
-                offsets[p] + l
-            });
+            a.shrink();
         }
         run.arcs = arcs;
     }
@@ -480,7 +475,7 @@ fn worker<S: Semantics>(
     // a record in the mail also carries the sender's slot when arcs are kept
     let mail_record = record + if sh.keep_arcs { 4 } else { 0 };
     let mut f = Found::default();
-    let mut arcs = Edges::default();
+    let mut arcs = Edges::new(n);
     let mut replies: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
     let mut cur = vec![0u64; words];
     let mut child: Vec<u64> = Vec::with_capacity(words);
@@ -544,6 +539,11 @@ fn worker<S: Semantics>(
                     level,
                 );
                 batch.clear();
+                if n == 1 && sh.keep_arcs {
+                    // one partition: every successor id is known, code the
+                    // batch's while they are in cache
+                    arcs.seal();
+                }
                 if !ok {
                     f.full = true;
                     sh.stop_level.fetch_min(level, Relaxed);
@@ -614,6 +614,10 @@ fn worker<S: Semantics>(
                     }
                 }
             }
+        }
+        if sh.keep_arcs {
+            // the level's successors are all known: code them
+            arcs.seal();
         }
         let total = sh.total.load(Relaxed);
         if sh.stop_level.load(Relaxed) <= level || total == prev_total {

@@ -8,16 +8,18 @@
 //! not safe, with a shortest firing sequence to a marking that is not
 //! 1-safe). Counts that outgrow their width restart with wider counts.
 //!
-//! Markings are stored back to back in one arena with their parent's id
-//! (no allocation per state) and found through a table of 32-bit hash +
+//! Markings are stored back to back in one arena, without parent links
+//! (no allocation per state), and found through a table of 32-bit hash +
 //! index entries, compared in full on a hash match. A transition is looked
 //! at only when its least-often-marked input place (measured on a first
 //! sample of the state space) is marked. With `threads > 1` the state space
 //! is split in partitions by hash, one thread each (see [`engine`]).
 //!
 //! The stored state space is kept ([`Exploration`]) so counterexamples are
-//! rebuilt from parent links and loops found by strongly connected
-//! components over successors regenerated on demand ([`Exploration::graph`]).
+//! rebuilt level by level, and loops found by strongly connected components
+//! over the arcs kept during the exploration ([`Options::keep_arcs`], coded
+//! in `edges.rs`; the hash tables are freed then), or else over successors
+//! regenerated on demand.
 
 mod edges;
 mod engine;
@@ -51,9 +53,11 @@ pub struct Options<'a> {
     /// hash. Default false: on an idle machine hashing balances the threads
     /// better and wins (BENCHMARKS.md).
     pub partition_by_places: bool,
-    /// Keep the successors of every marking as they are found (4 bytes per
-    /// arc and per marking) so that [`Exploration::loops`] need not fire
-    /// every transition again. Default false: `loops` then recomputes them.
+    /// Keep the successors of every marking as they are found (coded, about
+    /// 2 bytes per arc and 4 per marking, see `edges.rs`; the hash tables
+    /// are freed once the exploration ends) so that [`Exploration::loops`]
+    /// need not fire every transition again. Default false: `loops` then
+    /// recomputes them.
     pub keep_arcs: bool,
 }
 
@@ -377,6 +381,16 @@ impl<'n> Exploration<'n> {
             Space::C16(r) => summarize(r, Engine::Counts16, threads, net.transitions.len()),
             Space::C32(r) => summarize(r, Engine::Counts32, threads, net.transitions.len()),
         };
+        let mut space = space;
+        on_space!(&mut space, r => {
+            if !r.arcs.is_empty() {
+                // the loop analysis reads the kept arcs, and counterexamples
+                // are rebuilt from the markings: nothing is looked up again
+                for store in &mut r.stores {
+                    store.drop_table();
+                }
+            }
+        });
         Exploration {
             net,
             summary,
@@ -553,7 +567,7 @@ impl<S: Semantics> Successors for Graph<'_, S> {
 }
 
 /// The reachability graph over the successors kept by the exploration
-/// ([`Options::keep_arcs`]).
+/// ([`Options::keep_arcs`]), decoded as they are read.
 struct Kept<'r> {
     arcs: &'r [edges::Edges],
     offsets: Vec<u32>,
@@ -561,21 +575,27 @@ struct Kept<'r> {
 
 impl Kept<'_> {
     #[inline]
-    fn of(&self, node: u32) -> &[u32] {
-        if self.arcs.len() == 1 {
-            return self.arcs[0].of(node);
-        }
-        let p = self.offsets.partition_point(|&o| o <= node) - 1;
-        self.arcs[p].of(node - self.offsets[p])
+    fn of(&self, node: u32) -> edges::Targets<'_> {
+        let p = if self.arcs.len() == 1 {
+            0
+        } else {
+            self.offsets.partition_point(|&o| o <= node) - 1
+        };
+        self.arcs[p].targets(node - self.offsets[p], &self.offsets)
     }
 }
 
 impl Adjacency for Kept<'_> {
+    type Targets<'a>
+        = edges::Targets<'a>
+    where
+        Self: 'a;
+
     fn nodes(&self) -> usize {
         self.offsets.last().copied().unwrap_or(0) as usize
     }
 
-    fn targets(&self, node: u32) -> &[u32] {
+    fn targets(&self, node: u32) -> edges::Targets<'_> {
         self.of(node)
     }
 }
@@ -586,7 +606,7 @@ impl Successors for Kept<'_> {
     }
 
     fn successors(&self, node: u32, out: &mut Vec<u32>) {
-        out.extend_from_slice(self.of(node));
+        out.extend(self.of(node));
     }
 }
 
@@ -607,11 +627,17 @@ fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize) -> Loops {
             arcs: &r.arcs,
             offsets: r.offsets(),
         };
-        let initial = r
-            .level_ids(0)
-            .next()
-            .map_or(0, |id| dense_of(&kept.offsets, id));
-        let sccs = graph::strongly_connected_components_from(&kept, initial);
+        let first = r.level_ids(0).next().unwrap_or(0);
+        let initial = dense_of(&kept.offsets, first);
+        let (p0, l0) = split_id(first);
+        let entered = l0 != 0 || r.arcs.iter().any(|a| a.leads_to_first(p0));
+        // breadth-first order over all partitions: level by level
+        let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
+        let order: Vec<u32> = (0..depths)
+            .flat_map(|k| r.level_ids(k))
+            .map(|id| dense_of(&kept.offsets, id))
+            .collect();
+        let sccs = graph::strongly_connected_components_from(&kept, initial, entered, order);
         loops_in(r, &kept, &sccs, max_listed)
     }
 }

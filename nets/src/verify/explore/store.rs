@@ -65,8 +65,18 @@ impl Store {
         &self.record_at(index)[..self.width]
     }
 
+    /// Frees the hash table once no marking will be looked up again (the
+    /// markings stay: counterexamples are rebuilt from them); later lookups
+    /// find nothing.
+    pub fn drop_table(&mut self) {
+        self.table = Vec::new();
+    }
+
     /// The index of `marking` (with hash `hash`) if stored.
     pub fn lookup(&self, marking: &[u8], hash: u64) -> Option<u32> {
+        if self.table.is_empty() {
+            return None;
+        }
         let h = hash as u32;
         let mut slot = slot_of(h, self.table.len());
         loop {
@@ -85,6 +95,9 @@ impl Store {
     /// a batch: the fetches of the whole batch overlap).
     #[inline]
     pub fn prefetch_slot(&self, hash: u64) {
+        if self.table.is_empty() {
+            return;
+        }
         prefetch(&self.table[slot_of(hash as u32, self.table.len())]);
     }
 
@@ -92,6 +105,9 @@ impl Store {
     /// hash as `hash` (second step of a batch, once the slots are cached).
     #[inline]
     pub fn prefetch_record(&self, hash: u64) {
+        if self.table.is_empty() {
+            return;
+        }
         let h = hash as u32;
         let mut slot = slot_of(h, self.table.len());
         for _ in 0..4 {
@@ -255,6 +271,9 @@ mod tests {
             assert_eq!(s.get(i), &m[..3]);
         }
         assert_eq!(s.lookup(&[1, 2, 200], 77), None);
+        s.drop_table();
+        assert_eq!(s.lookup(&[0, 0, 0], 0), None);
+        assert_eq!(s.get(7), &7u32.to_le_bytes()[..3]);
     }
 
     #[test]
