@@ -646,3 +646,90 @@ proptest! {
         );
     }
 }
+
+#[test]
+fn an_event_of_a_family_the_nets_emit_for_others_is_produced_by_nothing() {
+    // SYNC emits `detour@R1`, `detour@R2` (and `resume@…`) only; `detour` is
+    // not declared: R3's and R4's are the nets' own family, which no
+    // program may send and nothing produces.
+    let warnings: Vec<String> = project::static_warnings(&ugv(UGV4))
+        .into_iter()
+        .map(|w| w.text)
+        .collect();
+    for (event, transition) in [
+        ("detour@R3", "CORRIDOR@R3.told"),
+        ("resume@R4", "CORRIDOR@R4.resume"),
+    ] {
+        let base = event.split('@').next().unwrap_or(event);
+        let expected = format!(
+            "event `{event}` (awaited by {transition}) is produced by nothing: of its family `{base}` the nets emit `{base}@R1`, `{base}@R2` only"
+        );
+        assert!(
+            warnings.iter().any(|w| w.starts_with(&expected)),
+            "{expected}\n{warnings:#?}"
+        );
+    }
+    // The two-robot example: every robot's `detour` and `resume` is
+    // emitted.
+    let two = project::static_warnings(&ugv(EXAMPLE));
+    assert!(
+        !two.iter().any(|w| w.text.contains("of its family")),
+        "{two:?}"
+    );
+}
+
+#[test]
+fn results_delivered_to_each_robot_s_own_net_keep_the_symmetry_of_r3_and_r4() {
+    // R3 and R4 are named by no team net: exchanging them maps the project
+    // onto itself. A result is handed to the net that called, so
+    // ROUTE@R3.end and ROUTE@R4.leg enabled together (both wait for
+    // `PLN.next.done`) are no order the player decides between vehicles.
+    let p = ugv(UGV4);
+    let report = project::check(
+        &p,
+        &Options {
+            each_net: false,
+            partial_order: false,
+            max_states: 20_000,
+            ..Options::default()
+        },
+    )
+    .project;
+    assert_eq!(report.reduction.symmetry, [["R3", "R4"]]);
+    assert_eq!(report.reduction.group, 2, "{:?}", report.reduction.notes);
+    assert!(
+        report.reduction.notes.is_empty(),
+        "{:?}",
+        report.reduction.notes
+    );
+}
+
+#[test]
+fn two_robots_without_the_team_net_are_symmetric_and_check_alike_reduced_or_not() {
+    // The example without SYNC: R1 and R2 interchangeable, each robot's
+    // results handed to its own nets (the symmetry holds for the player).
+    let mut files: BTreeMap<String, String> =
+        ["project.toml", "route.toml", "corridor.toml", "safety.toml"]
+            .iter()
+            .map(|f| {
+                let text = std::fs::read_to_string(format!("{EXAMPLE}/{f}")).expect("example file");
+                ((*f).to_owned(), text)
+            })
+            .collect();
+    let project =
+        files["project.toml"].replace("[[net]]\nfile = \"sync.toml\"\nactive = true\n", "");
+    assert_ne!(project, files["project.toml"], "SYNC's [[net]] left out");
+    files.insert("project.toml".to_owned(), project);
+    let p = Arc::new(nets::load(&files).unwrap_or_else(|e| panic!("{e:?}")));
+    let reduced = check(&p, true, true);
+    assert_eq!(reduced.reduction.group, 2, "{:?}", reduced.reduction.notes);
+    for (symmetry, partial_order, proviso) in REDUCTIONS {
+        project_same_as_unreduced(
+            &p,
+            "ugv-bottleneck without SYNC",
+            symmetry,
+            partial_order,
+            proviso,
+        );
+    }
+}
