@@ -25,14 +25,24 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use divan::Bencher;
-use nets::verify::project::{check, Options, ProjectReport};
+use nets::verify::project::{check, Options, ProjectReport, Proviso};
 use nets::Project;
 
 #[path = "../../gateway/benches/support/busy.rs"]
 mod busy;
 
-/// A configuration: name, fixture, symmetry, partial order.
+/// A configuration: name, fixture, symmetry, partial order (with the
+/// default cycle proviso, after the search: [`Proviso::Components`]).
 type Config = (&'static str, &'static str, bool, bool);
+
+/// The configurations run again with the levels' cycle proviso (during
+/// the search), for comparison: by name, in [`CONFIGS`].
+const LEVELS: [&str; 4] = [
+    "ugv, 2, partial order",
+    "ugv, 2, both",
+    "ugv, 4, partial order",
+    "ugv, 4, both",
+];
 
 const CONFIGS: [Config; 17] = [
     ("one robot (baseline)", "one", false, false),
@@ -89,6 +99,10 @@ fn fixture(name: &str) -> Arc<Project> {
 }
 
 fn options(symmetry: bool, partial_order: bool) -> Options<'static> {
+    options_with(symmetry, partial_order, Proviso::default())
+}
+
+fn options_with(symmetry: bool, partial_order: bool, proviso: Proviso) -> Options<'static> {
     let max_states = std::env::var("PETREL_TEAM_BENCH_MAX")
         .ok()
         .and_then(|m| m.parse().ok())
@@ -97,13 +111,35 @@ fn options(symmetry: bool, partial_order: bool) -> Options<'static> {
         symmetry,
         partial_order,
         max_states,
+        proviso,
         ..Options::default()
     }
 }
 
+/// Configuration `config`: one of [`CONFIGS`], then those of [`LEVELS`].
 fn run(config: usize) -> ProjectReport {
-    let (_, name, symmetry, partial_order) = CONFIGS[config];
-    check(&fixture(name), &options(symmetry, partial_order))
+    let (i, proviso) = match config.checked_sub(CONFIGS.len()) {
+        None => (config, Proviso::Components),
+        Some(k) => (config_index(LEVELS[k]), Proviso::Levels),
+    };
+    let (_, name, symmetry, partial_order) = CONFIGS[i];
+    check(
+        &fixture(name),
+        &options_with(symmetry, partial_order, proviso),
+    )
+}
+
+fn config_index(name: &str) -> usize {
+    CONFIGS.iter().position(|c| c.0 == name).unwrap_or(0)
+}
+
+/// Every configuration's name, [`CONFIGS`] then [`LEVELS`].
+fn names() -> Vec<String> {
+    CONFIGS
+        .iter()
+        .map(|c| c.0.to_owned())
+        .chain(LEVELS.iter().map(|n| format!("{n} (levels proviso)")))
+        .collect()
 }
 
 /// VmHWM of this process, in kB.
@@ -210,7 +246,7 @@ fn table(exe: &Path, busy: bool) {
         None => println!("P/T explorer: ../shared/pnml/{PT_NAME}.pnml not found"),
     }
     println!(
-        "{:<24} {:>8} {:>9} {:>5} {:>5} {:>5} {:>8} {:>8} {:>9} {:>7} {:>8}",
+        "{:<40} {:>8} {:>9} {:>5} {:>5} {:>5} {:>8} {:>8} {:>9} {:>7} {:>8}",
         "configuration",
         "states",
         "steps",
@@ -223,7 +259,7 @@ fn table(exe: &Path, busy: bool) {
         "vs P/T",
         "peak MB"
     );
-    for (i, (name, ..)) in CONFIGS.iter().enumerate() {
+    for (i, name) in names().iter().enumerate() {
         let Some(f) = spawn(exe, CHILD, &i.to_string(), busy) else {
             println!("{name}: the child failed");
             continue;
@@ -233,7 +269,7 @@ fn table(exe: &Path, busy: bool) {
         let rate = states / cpu.max(0.01);
         let holds = if f[5] == "true" { &f[4] } else { "limit" };
         println!(
-            "{:<24} {:>8} {:>9} {:>5} {:>5} {:>5} {:>8} {:>8} {:>9.0} {:>7} {:>8.1}",
+            "{:<40} {:>8} {:>9} {:>5} {:>5} {:>5} {:>8} {:>8} {:>9.0} {:>7} {:>8.1}",
             name,
             f[0],
             f[1],
@@ -254,7 +290,7 @@ fn main() {
     if let Some(config) = std::env::var(CHILD)
         .ok()
         .and_then(|c| c.parse::<usize>().ok())
-        .filter(|&c| c < CONFIGS.len())
+        .filter(|&c| c < CONFIGS.len() + LEVELS.len())
     {
         if busy {
             busy::with_a_core_busy(|| child(config));

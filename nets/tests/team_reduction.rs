@@ -6,7 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
-use nets::verify::project::{self, Options, Report};
+use nets::verify::project::{self, Options, Proviso, Report};
 use nets::Project;
 use proptest::prelude::*;
 
@@ -124,10 +124,15 @@ fn load(v: Variant) -> Arc<Project> {
 }
 
 fn options(symmetry: bool, partial_order: bool) -> Options<'static> {
+    options_with(symmetry, partial_order, Proviso::default())
+}
+
+fn options_with(symmetry: bool, partial_order: bool, proviso: Proviso) -> Options<'static> {
     Options {
         each_net: false,
         symmetry,
         partial_order,
+        proviso,
         ..Options::default()
     }
 }
@@ -135,6 +140,20 @@ fn options(symmetry: bool, partial_order: bool) -> Options<'static> {
 fn check(p: &Arc<Project>, symmetry: bool, partial_order: bool) -> Report {
     project::check(p, &options(symmetry, partial_order)).project
 }
+
+fn check_with(p: &Arc<Project>, symmetry: bool, partial_order: bool, proviso: Proviso) -> Report {
+    project::check(p, &options_with(symmetry, partial_order, proviso)).project
+}
+
+/// Every combination of reductions compared: symmetry, partial order, and
+/// with partial order each cycle proviso.
+const REDUCTIONS: [(bool, bool, Proviso); 5] = [
+    (true, false, Proviso::Components),
+    (false, true, Proviso::Components),
+    (true, true, Proviso::Components),
+    (false, true, Proviso::Levels),
+    (true, true, Proviso::Levels),
+];
 
 /// The names of the marked places of a marking.
 fn named(p: &Project, marked: &[usize]) -> Vec<String> {
@@ -183,16 +202,22 @@ fn permutations(n: usize) -> Vec<Vec<usize>> {
 }
 
 /// Compares a reduced check with the unreduced one on variant `v`.
-fn same_as_unreduced(v: Variant, symmetry: bool, partial_order: bool) {
-    let what = format!("{v:?} symmetry {symmetry} partial order {partial_order}");
-    project_same_as_unreduced(&load(v), &what, symmetry, partial_order);
+fn same_as_unreduced(v: Variant, symmetry: bool, partial_order: bool, proviso: Proviso) {
+    let what = format!("{v:?} symmetry {symmetry} partial order {partial_order} {proviso:?}");
+    project_same_as_unreduced(&load(v), &what, symmetry, partial_order, proviso);
 }
 
 /// Compares a reduced check of `p` with the unreduced one.
-fn project_same_as_unreduced(p: &Arc<Project>, what: &str, symmetry: bool, partial_order: bool) {
+fn project_same_as_unreduced(
+    p: &Arc<Project>,
+    what: &str,
+    symmetry: bool,
+    partial_order: bool,
+    proviso: Proviso,
+) {
     let p = p.clone();
     let whole = check(&p, false, false);
-    let reduced = check(&p, symmetry, partial_order);
+    let reduced = check_with(&p, symmetry, partial_order, proviso);
     assert!(whole.complete && reduced.complete, "{what}");
     assert_eq!(whole.holds(), reduced.holds(), "{what}");
     assert_eq!(whole.safe, reduced.safe, "{what}");
@@ -228,7 +253,7 @@ fn project_same_as_unreduced(p: &Arc<Project>, what: &str, symmetry: bool, parti
         .map(|m| up_to_symmetry(&p, m))
         .collect();
     let found: BTreeSet<Vec<String>> =
-        project::dead_markings(&p, &options(symmetry, partial_order))
+        project::dead_markings(&p, &options_with(symmetry, partial_order, proviso))
             .iter()
             .map(|m| up_to_symmetry(&p, m))
             .collect();
@@ -274,6 +299,7 @@ fn project_same_as_unreduced(p: &Arc<Project>, what: &str, symmetry: bool, parti
                     alone: false,
                     symmetry,
                     partial_order,
+                    proviso,
                     ..Options::default()
                 },
             )
@@ -288,8 +314,8 @@ fn project_same_as_unreduced(p: &Arc<Project>, what: &str, symmetry: bool, parti
 }
 
 fn every_reduction(v: Variant) {
-    for (symmetry, partial_order) in [(true, false), (false, true), (true, true)] {
-        same_as_unreduced(v, symmetry, partial_order);
+    for (symmetry, partial_order, proviso) in REDUCTIONS {
+        same_as_unreduced(v, symmetry, partial_order, proviso);
     }
 }
 
@@ -360,8 +386,8 @@ fn a_catastrophic_reaction_stopping_another_robot_checks_alike_reduced_or_not() 
 fn the_two_robot_example_checks_alike_reduced_or_not() {
     let p = ugv(EXAMPLE);
     assert_eq!(p.vehicles.len(), 2);
-    for (symmetry, partial_order) in [(false, true), (true, true)] {
-        project_same_as_unreduced(&p, "ugv-bottleneck", symmetry, partial_order);
+    for (symmetry, partial_order, proviso) in REDUCTIONS.into_iter().filter(|r| r.1) {
+        project_same_as_unreduced(&p, "ugv-bottleneck", symmetry, partial_order, proviso);
     }
 }
 
@@ -610,11 +636,100 @@ proptest! {
         halting: bool,
         symmetry: bool,
         partial_order: bool,
+        levels: bool,
     ) {
         same_as_unreduced(
             Variant { vehicles, watch, guarded, blocked_frees, looping, failing, halting },
             symmetry,
             partial_order,
+            if levels { Proviso::Levels } else { Proviso::Components },
+        );
+    }
+}
+
+#[test]
+fn an_event_of_a_family_the_nets_emit_for_others_is_produced_by_nothing() {
+    // SYNC emits `detour@R1`, `detour@R2` (and `resume@…`) only; `detour` is
+    // not declared: R3's and R4's are the nets' own family, which no
+    // program may send and nothing produces.
+    let warnings: Vec<String> = project::static_warnings(&ugv(UGV4))
+        .into_iter()
+        .map(|w| w.text)
+        .collect();
+    for (event, transition) in [
+        ("detour@R3", "CORRIDOR@R3.told"),
+        ("resume@R4", "CORRIDOR@R4.resume"),
+    ] {
+        let base = event.split('@').next().unwrap_or(event);
+        let expected = format!(
+            "event `{event}` (awaited by {transition}) is produced by nothing: of its family `{base}` the nets emit `{base}@R1`, `{base}@R2` only"
+        );
+        assert!(
+            warnings.iter().any(|w| w.starts_with(&expected)),
+            "{expected}\n{warnings:#?}"
+        );
+    }
+    // The two-robot example: every robot's `detour` and `resume` is
+    // emitted.
+    let two = project::static_warnings(&ugv(EXAMPLE));
+    assert!(
+        !two.iter().any(|w| w.text.contains("of its family")),
+        "{two:?}"
+    );
+}
+
+#[test]
+fn results_delivered_to_each_robot_s_own_net_keep_the_symmetry_of_r3_and_r4() {
+    // R3 and R4 are named by no team net: exchanging them maps the project
+    // onto itself. A result is handed to the net that called, so
+    // ROUTE@R3.end and ROUTE@R4.leg enabled together (both wait for
+    // `PLN.next.done`) are no order the player decides between vehicles.
+    let p = ugv(UGV4);
+    let report = project::check(
+        &p,
+        &Options {
+            each_net: false,
+            partial_order: false,
+            max_states: 20_000,
+            ..Options::default()
+        },
+    )
+    .project;
+    assert_eq!(report.reduction.symmetry, [["R3", "R4"]]);
+    assert_eq!(report.reduction.group, 2, "{:?}", report.reduction.notes);
+    assert!(
+        report.reduction.notes.is_empty(),
+        "{:?}",
+        report.reduction.notes
+    );
+}
+
+#[test]
+fn two_robots_without_the_team_net_are_symmetric_and_check_alike_reduced_or_not() {
+    // The example without SYNC: R1 and R2 interchangeable, each robot's
+    // results handed to its own nets (the symmetry holds for the player).
+    let mut files: BTreeMap<String, String> =
+        ["project.toml", "route.toml", "corridor.toml", "safety.toml"]
+            .iter()
+            .map(|f| {
+                let text = std::fs::read_to_string(format!("{EXAMPLE}/{f}")).expect("example file");
+                ((*f).to_owned(), text)
+            })
+            .collect();
+    let project =
+        files["project.toml"].replace("[[net]]\nfile = \"sync.toml\"\nactive = true\n", "");
+    assert_ne!(project, files["project.toml"], "SYNC's [[net]] left out");
+    files.insert("project.toml".to_owned(), project);
+    let p = Arc::new(nets::load(&files).unwrap_or_else(|e| panic!("{e:?}")));
+    let reduced = check(&p, true, true);
+    assert_eq!(reduced.reduction.group, 2, "{:?}", reduced.reduction.notes);
+    for (symmetry, partial_order, proviso) in REDUCTIONS {
+        project_same_as_unreduced(
+            &p,
+            "ugv-bottleneck without SYNC",
+            symmetry,
+            partial_order,
+            proviso,
         );
     }
 }

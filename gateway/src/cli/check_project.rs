@@ -69,6 +69,7 @@ pub fn run(
             symmetry: reductions.symmetry,
             partial_order: reductions.partial_order,
             compare_unreduced: false,
+            proviso: Default::default(),
             progress: if std::io::stderr().is_terminal() {
                 Some(&report_progress)
             } else {

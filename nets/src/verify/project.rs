@@ -48,6 +48,7 @@ use std::sync::{Arc, Mutex};
 
 use super::graph::{self, Csr};
 use super::levels;
+pub use super::levels::Proviso;
 use super::project_states::{Abs, Codec, Scratch};
 use super::stubborn::{Class, Stubborn};
 use super::symmetry::Symmetry;
@@ -90,6 +91,10 @@ pub struct Options<'a> {
     /// Also explore the whole project without reduction, for the
     /// unreduced number of states ([`Reduction::unreduced_states`]).
     pub compare_unreduced: bool,
+    /// How a partial-order reduction keeps an input from being put off
+    /// for ever around a cycle of reduced states (no effect without
+    /// `partial_order`).
+    pub proviso: Proviso,
 }
 
 impl Default for Options<'_> {
@@ -103,6 +108,7 @@ impl Default for Options<'_> {
             symmetry: true,
             partial_order: true,
             compare_unreduced: false,
+            proviso: Proviso::default(),
         }
     }
 }
@@ -223,6 +229,7 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
         let plain = Explorer::new(project.clone(), false, false).run(
             options.max_states,
             options.threads,
+            options.proviso,
             None,
         );
         whole.reduction.unreduced_states = Some(plain.space.store.len());
@@ -267,13 +274,14 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
         let explored = Explorer::new(copy, options.symmetry, options.partial_order).run(
             options.max_states,
             options.threads,
+            options.proviso,
             options.progress.map(|_| &progress as &dyn Fn(usize)),
         );
         let explored =
             match explored.symmetry_broken() {
                 // The copy's symmetry does not hold for the player: whole.
                 Some(_) => Explorer::new(explored.project.clone(), false, options.partial_order)
-                    .run(options.max_states, options.threads, None),
+                    .run(options.max_states, options.threads, options.proviso, None),
                 None => explored,
             };
         done += explored.space.store.len();
@@ -475,6 +483,7 @@ fn explore_reduced(project: &Arc<Project>, options: &Options) -> (Explored, Redu
     let explored = Explorer::new(project.clone(), options.symmetry, options.partial_order).run(
         options.max_states,
         options.threads,
+        options.proviso,
         options.progress,
     );
     let mut notes = Vec::new();
@@ -486,6 +495,7 @@ fn explore_reduced(project: &Arc<Project>, options: &Options) -> (Explored, Redu
             Explorer::new(project.clone(), false, options.partial_order).run(
                 options.max_states,
                 options.threads,
+                options.proviso,
                 options.progress,
             )
         }
@@ -780,7 +790,13 @@ impl Explorer {
         explorer
     }
 
-    fn run(self, max_states: usize, threads: usize, progress: Option<&dyn Fn(usize)>) -> Explored {
+    fn run(
+        self,
+        max_states: usize,
+        threads: usize,
+        proviso: Proviso,
+        progress: Option<&dyn Fn(usize)>,
+    ) -> Explored {
         let mut player = Player::start(self.project.clone(), T);
         player.set_oracle(Some(Oracle::default()));
         let effects: Vec<Effect> = player.effects().collect();
@@ -826,7 +842,7 @@ impl Explorer {
                 self.note_broken(why);
             }
         }
-        let space = levels::explore(&self, &initial, max_states, threads, &mut tell);
+        let space = levels::explore(&self, &initial, max_states, threads, proviso, &mut tell);
         let n = space.store.len();
         let reverse = reverse_of(&space.graph, n);
         let labels = self
@@ -1002,19 +1018,21 @@ impl Explorer {
         }
         let abs = self.codec.decode(key);
         let inputs = self.inputs(&abs);
-        // The ample sets, when the stubborn sets reduce in this state.
-        let ample = self.stubborn.as_ref().map_or(Vec::new(), |stubborn| {
+        // The ample sets, when the stubborn sets reduce in this state (and
+        // the search does not ask for every input).
+        let stubborn = self.stubborn.as_ref().filter(|_| !out.full());
+        let ample = stubborn.map_or(Vec::new(), |stubborn| {
             let classes: Vec<Option<u32>> = inputs
                 .iter()
                 .map(|i| self.class_of(stubborn, &abs, i))
                 .collect();
             stubborn.ample(&classes, &abs.state, AMPLE_TRIES)
         });
-        // The cycle proviso: an ample set one of whose steps leads to a
-        // state numbered no higher than this one (stored before it, or
-        // itself: every cycle has such a step) or changes nothing is not
-        // taken; the next is tried, and the state is expanded fully when
-        // none is left.
+        // An ample set one of whose steps changes nothing is not taken,
+        // nor under the levels' cycle proviso (see [`Proviso`]) one of
+        // whose steps leads to a state numbered no higher than this one
+        // (stored before it, or itself: every cycle has such a step); the
+        // next is tried, and the state is expanded fully when none is left.
         for set in &ample {
             let mark = out.mark();
             let mut known = false;
@@ -1025,6 +1043,7 @@ impl Explorer {
                 }
             }
             if !known {
+                out.set_reduced();
                 return;
             }
             out.undo(mark);
@@ -2087,7 +2106,26 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
                 || ((e == names::COMMAND_OK || e == names::COMMAND_FAILED)
                     && issues(project, ni, |a| matches!(a, Action::Command { .. })))
                 || result_called(project, ni, e);
-            if !produced {
+            if !produced && crate::outside::emitted(project, e) {
+                // The family is the nets' own (outside.rs), emitted for
+                // other vehicles only: no program or script may send it.
+                let base = crate::outside::base(project, e);
+                let family: Vec<String> = emitted
+                    .iter()
+                    .filter(|x| crate::outside::base(project, x) == base)
+                    .map(|x| format!("`{x}`"))
+                    .collect();
+                out.push(Warning {
+                    text: format!(
+                        "event `{e}` (awaited by {}.{}) is produced by nothing: of its family `{base}` the nets emit {} only, and no program or script may send it ([events] does not declare `{base}`)",
+                        net.name,
+                        t.name,
+                        family.join(", ")
+                    ),
+                    nets: vec![ni],
+                    conflict: None,
+                });
+            } else if !produced {
                 out.push(Warning {
                     text: format!(
                         "event `{e}` (awaited by {}.{}) is produced by nothing: no elaboration rule or [events] declaration, no net emits it, and it is no timer or result of {}",

@@ -358,6 +358,9 @@ impl Symmetry {
                         .enumerate()
                         .flat_map(|(n, x)| x.immediate.iter().map(move |&u| (n, u)))
                         .collect(),
+                    // An event delivered to its own net only (a timer, a
+                    // result, an answer) meets no other vehicle's net.
+                    Some(event) if targeted(project, net, event) => Vec::new(),
                     Some(event) => project.triggers.get(event).cloned().unwrap_or_default(),
                 };
                 // Two transitions fired in either order end alike unless
@@ -612,18 +615,7 @@ fn swap_is_automorphism(project: &Project, v: VehicleId, w: VehicleId) -> bool {
         // An event delivered to one net only (its own timer, a result, an
         // answer) meets one transition list entry's net at a time: the order
         // of the list does not matter.
-        let targeted = !emitted(project, event)
-            && waiting.iter().all(|&(n, _)| {
-                crate::outside::own_timer(project, n, event)
-                    || matches!(
-                        crate::outside::player_own(project, event),
-                        Some(
-                            crate::outside::Refusal::CommandResult
-                                | crate::outside::Refusal::CallResult
-                                | crate::outside::Refusal::Answer
-                        )
-                    )
-            });
+        let targeted = waiting.iter().all(|&(n, _)| targeted(project, n, event));
         let same = if targeted {
             let (mut a, mut b) = (mapped.clone(), image.clone());
             a.sort_unstable();
@@ -655,6 +647,22 @@ fn swap_is_automorphism(project: &Project, v: VehicleId, w: VehicleId) -> bool {
         }
     }
     true
+}
+
+/// Whether `event`, awaited by net `net`, is delivered to that net only:
+/// its own timer, or a result or an answer the player hands to the net
+/// that called, commanded or asked — and no net emits it.
+fn targeted(project: &Project, net: NetId, event: &str) -> bool {
+    !emitted(project, event)
+        && (crate::outside::own_timer(project, net, event)
+            || matches!(
+                crate::outside::player_own(project, event),
+                Some(
+                    crate::outside::Refusal::CommandResult
+                        | crate::outside::Refusal::CallResult
+                        | crate::outside::Refusal::Answer
+                )
+            ))
 }
 
 /// Whether a net emits `event`.
