@@ -272,17 +272,21 @@ mod tests {
         }
     }
 
+    /// Raises the calling thread to SCHED_FIFO 1; false without the
+    /// privilege to (the test is then skipped).
+    fn raise_to_fifo() -> bool {
+        imp::change(|attr| {
+            attr.sched_policy = imp::SCHED_FIFO;
+            attr.sched_priority = 1;
+            attr.sched_runtime = 0;
+            true
+        }) == Asked::Granted
+    }
+
     #[test]
     fn a_real_time_thread_goes_down_to_batch() {
         let after = on_thread(|| {
-            // Raising a thread to real time needs privileges: skipped without.
-            let fifo = imp::change(|attr| {
-                attr.sched_policy = imp::SCHED_FIFO;
-                attr.sched_priority = 1;
-                attr.sched_runtime = 0;
-                true
-            });
-            if fifo != Asked::Granted {
+            if !raise_to_fifo() {
                 return None;
             }
             assert_eq!(batch(), Asked::Granted);
@@ -297,14 +301,7 @@ mod tests {
     #[test]
     fn a_real_time_thread_goes_down_to_normal_and_its_programs_start_normal() {
         let got = on_thread(|| {
-            // Raising a thread to real time needs privileges: skipped without.
-            let fifo = imp::change(|attr| {
-                attr.sched_policy = imp::SCHED_FIFO;
-                attr.sched_priority = 1;
-                attr.sched_runtime = 0;
-                true
-            });
-            if fifo != Asked::Granted {
+            if !raise_to_fifo() {
                 return None;
             }
             // A program started from the real-time thread: its policy is
