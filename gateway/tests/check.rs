@@ -440,6 +440,28 @@ fn each_net_is_checked_alone_too() {
     assert!(out.contains(&format!("  warning: {relies}\n")), "{out}");
 }
 
+#[test]
+fn a_project_check_stops_at_the_state_limit_given() {
+    // The two-robot example: 2,071 states reduced; stopped at 100.
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/ugv-bottleneck");
+    let d = example.to_str().unwrap();
+    let (code, out, err) = petrel(&[
+        "check",
+        d,
+        "--json",
+        "--max-states",
+        "100",
+        "--threads",
+        "1",
+    ]);
+    assert_eq!(code, 1, "{out}{err}");
+    let j = json_of(&out);
+    assert_eq!(j["holds"], false, "{j}");
+    assert_eq!(j["complete"], false, "{j}");
+    let states = j["states"].as_u64().unwrap_or(0);
+    assert!((100..2_071).contains(&states), "{states} states");
+}
+
 /// The two-robot fixture of `nets` with its bottleneck left unguarded, in a
 /// scratch folder.
 fn unguarded_team() -> PathBuf {

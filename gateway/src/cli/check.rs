@@ -32,10 +32,12 @@ pub struct Args {
     /// Threads exploring the state space [default: the number of cores].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=16))]
     pub threads: Option<u16>,
-    /// Stop after storing this many markings (guards against unbounded nets;
-    /// a project check stores at most 1,000,000 states).
-    #[arg(long, value_name = "N", default_value_t = 100_000_000)]
-    pub max_states: u64,
+    /// Stop after storing this many markings, or a project's states
+    /// (guards against unbounded nets) [default: 100,000,000 markings for
+    /// --pnml; 1,000,000 states for a project, the limit `petrel run`
+    /// checks with].
+    #[arg(long, value_name = "N")]
+    pub max_states: Option<u64>,
     /// The elaboration profile whose events the project hears (their
     /// categories, and what they produce): ardupilot, px4 or a FILE.toml
     /// extending the ArduPilot one [default: `[gateway] profile`, else
@@ -69,17 +71,27 @@ pub(crate) fn threads(asked: Option<u16>) -> usize {
     }
 }
 
+/// `--max-states`' default for `--pnml`.
+const PNML_MAX_STATES: u64 = 100_000_000;
+
+/// A project check's limit: `--max-states` when given (above the
+/// pre-flight's too: a ground check may take longer), else `petrel run`'s.
+fn project_limit(asked: Option<u64>) -> usize {
+    asked.map_or(nets::verify::project::MAX_STATES, |n| {
+        usize::try_from(n).unwrap_or(usize::MAX)
+    })
+}
+
 pub fn run(args: Args) -> VerbResult {
     let Some(file) = &args.pnml else {
         let Some(dir) = &args.project else {
             return Err(miette::miette!("give a project folder or --pnml FILE"));
         };
-        let max_states = usize::try_from(args.max_states).unwrap_or(usize::MAX);
         return super::check_project::run(
             dir,
             args.profile.as_deref(),
             args.json,
-            max_states.min(nets::verify::project::MAX_STATES),
+            project_limit(args.max_states),
             threads(args.threads),
             super::check_project::Reductions {
                 symmetry: !args.no_symmetry,
@@ -101,7 +113,7 @@ pub fn run(args: Args) -> VerbResult {
     let report = |states: u64| meter.report(states);
     let options = Options {
         threads,
-        max_states: args.max_states,
+        max_states: args.max_states.unwrap_or(PNML_MAX_STATES),
         progress: if std::io::stderr().is_terminal() {
             Some(&report)
         } else {
@@ -359,6 +371,13 @@ mod tests {
     use std::time::Duration;
 
     use super::*;
+
+    #[test]
+    fn a_projects_limit_is_run_s_unless_asked_above_or_below() {
+        assert_eq!(project_limit(None), nets::verify::project::MAX_STATES);
+        assert_eq!(project_limit(Some(100)), 100);
+        assert_eq!(project_limit(Some(2_000_000)), 2_000_000);
+    }
 
     #[test]
     fn the_progress_line_comes_after_a_second_at_most_twice_a_second() {
