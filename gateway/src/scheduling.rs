@@ -138,21 +138,10 @@ mod imp {
     /// Reads the calling thread's attributes, lets `edit` change them (it
     /// says whether to), and sets them.
     pub fn change(edit: impl FnOnce(&mut SchedAttr) -> bool) -> Asked {
-        let mut attr = SchedAttr::default();
-        // SAFETY: sched_getattr(0, attr, size, 0) writes at most `size`
-        // bytes into `attr`, which is that large and lives across the call.
-        let got = unsafe {
-            libc::syscall(
-                libc::SYS_sched_getattr,
-                0,
-                &mut attr as *mut SchedAttr,
-                SIZE,
-                0,
-            )
+        let mut attr = match get() {
+            Ok(attr) => attr,
+            Err(e) => return Asked::Refused(e),
         };
-        if got != 0 {
-            return Asked::Refused(errno());
-        }
         // Utilisation clamps are set only when their flag says so.
         attr.size = SIZE;
         attr.sched_flags = 0;
@@ -169,11 +158,12 @@ mod imp {
         Asked::Granted
     }
 
-    /// The calling thread's attributes (tests).
-    #[cfg(test)]
-    pub fn current() -> Option<SchedAttr> {
+    /// The calling thread's attributes, or the error number. Makes one
+    /// system call and allocates nothing (it runs between fork and exec).
+    fn get() -> Result<SchedAttr, i32> {
         let mut attr = SchedAttr::default();
-        // SAFETY: as in `change`.
+        // SAFETY: sched_getattr(0, attr, size, 0) writes at most `size`
+        // bytes into `attr`, which is that large and lives across the call.
         let got = unsafe {
             libc::syscall(
                 libc::SYS_sched_getattr,
@@ -183,7 +173,16 @@ mod imp {
                 0,
             )
         };
-        (got == 0).then_some(attr)
+        if got != 0 {
+            return Err(errno());
+        }
+        Ok(attr)
+    }
+
+    /// The calling thread's attributes (tests).
+    #[cfg(test)]
+    pub fn current() -> Option<SchedAttr> {
+        get().ok()
     }
 }
 
