@@ -634,6 +634,34 @@ fn plane_engine_failure_from_efi_and_from_esc_telemetry() {
         got,
         [(12 * S + 2, "engine_failure {throttle: 60}".to_string())]
     );
+    // A glide after the failure: the throttle falls under 20 % and rises
+    // again while the motor stays stopped (the autopilot asks for power to
+    // hold its airspeed). One failure, not two; the motor turning again
+    // re-arms the rule, and its second stop is a second failure.
+    let mut s = Script::default();
+    for step in 0..60u64 {
+        let t = step * S / 2;
+        s.at(t, 1, 1, plane(true, MAV_STATE_ACTIVE));
+        let throttle = if (20..30).contains(&step) { 10 } else { 60 };
+        s.at(t + 1, 1, 1, vfr(throttle));
+        let rpm = if (10..40).contains(&step) || step >= 50 {
+            0
+        } else {
+            3500
+        };
+        s.at(t + 2, 1, 1, esc(rpm));
+    }
+    let got: Vec<(u64, String)> = timeline(&s.run(builtin("ardupilot"), 30 * S))
+        .into_iter()
+        .filter(|(_, e)| e.starts_with("engine_failure"))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            (7 * S + 2, "engine_failure {throttle: 60}".to_string()),
+            (27 * S + 2, "engine_failure {throttle: 60}".to_string())
+        ]
+    );
     // All ESCs silent (count 0, as SITL copters report): nothing.
     let mut s = Script::default();
     for step in 0..20u64 {
@@ -653,12 +681,15 @@ fn plane_engine_failure_from_efi_and_from_esc_telemetry() {
     // Combustion: EFI rpm under idle with throttle 50 % for 2 s. The ESC
     // telemetry that also reports the stopped engine (as the simulated
     // ArduPlane sends both) does not give a second event.
+    // The throttle's dip under 20 % (12-14 s) during the glide gives no
+    // second event either.
     let mut s = Script::default();
     for step in 0..20u64 {
         s.at(step * S, 1, 1, plane(true, MAV_STATE_ACTIVE));
         let rpm = if step >= 5 { 0.0 } else { 5200.0 };
-        s.at(step * S + 1, 1, 1, efi(rpm, 50.0));
-        s.at(step * S + 2, 1, 1, vfr(50));
+        let throttle = if (12..15).contains(&step) { 5 } else { 50 };
+        s.at(step * S + 1, 1, 1, efi(rpm, throttle as f32));
+        s.at(step * S + 2, 1, 1, vfr(throttle));
         s.at(step * S + 3, 1, 1, esc(rpm as u16));
     }
     let got: Vec<(u64, String)> = timeline(&s.run(builtin("ardupilot"), 20 * S))
