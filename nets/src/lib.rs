@@ -1,7 +1,7 @@
 //! # nets — Petrel's net language, player and verifier
 //!
 //! This crate owns the interpreted safe Petri nets of a Petrel project: the
-//! TOML language and its [`load`]er (every problem reported at once, with
+//! TOML language and its [`load`](mod@load)er (every problem reported at once, with
 //! file:line:col), the [`Player`] that fires event-triggered transitions and
 //! produces effects, scripts of timed inputs ([`script`]), and the
 //! [`verify`]er (reachability graphs, PNML).

@@ -121,7 +121,7 @@ impl Vehicle {
         self.text(MavSeverity::MAV_SEVERITY_CRITICAL, text);
     }
 
-    /// Every 30 s while disarmed and failing: "PreArm: <reason>" for each
+    /// Every 30 s while disarmed and failing: `"PreArm: <reason>"` for each
     /// failing check.
     pub(crate) fn prearm_report(&mut self) {
         if self.fl.armed || !self.ready() {

@@ -68,6 +68,8 @@ pub struct Args {
     /// calls as its steps, plus the mirror's channels (docs/mirror.md,
     /// "The mirror's recording"); `petrel replay --check-against` replays
     /// it [default: recordings/mirror-<UTC date and time>.mcap].
+    // The text is `--help`'s, where `<…>` is no HTML tag.
+    #[allow(rustdoc::invalid_html_tags)]
     #[arg(long, value_name = "FILE", conflicts_with = "no_record")]
     pub record: Option<PathBuf>,
     /// Do not record.

@@ -66,6 +66,8 @@ pub struct Args {
     pub json: bool,
     /// Record the flight to this MCAP file [default: recordings/petrel-<UTC
     /// date and time>.mcap].
+    // The text is `--help`'s, where `<…>` is no HTML tag.
+    #[allow(rustdoc::invalid_html_tags)]
     #[arg(long, value_name = "FILE", conflicts_with = "no_record")]
     pub record: Option<PathBuf>,
     /// Do not record.

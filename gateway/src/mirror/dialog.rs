@@ -11,7 +11,7 @@
 //! - [`AnswerGate`]: on board, judges an answer frame: unsigned, wrongly
 //!   signed, replayed or stale frames are rejected and counted, never
 //!   delivered; a valid one gives (question id, choice) for the player,
-//!   which refuses it if it comes late ([`AnswerGate::refused`] counts).
+//!   which refuses it if it comes late ([`AnswerGate::rejected`] counts it as [`AnswerRejection::Late`]).
 
 use std::collections::BTreeMap;
 

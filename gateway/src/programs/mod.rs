@@ -7,7 +7,7 @@
 //! - [`roster`]: what the project expects of each program (the functions
 //!   the nets call, its settings) and the `[gateway] programs` address.
 //! - [`server`]: the tokio layer: the listener, one task per connection, the
-//!   started programs ([`child`]), and the [`Programs`] handle the gateway's
+//!   started programs ([`child`]), and the [`Programs`](server::Programs) handle the gateway's
 //!   loop calls without ever blocking.
 //! - [`stubs`]: program skeletons for `petrel stubs`.
 

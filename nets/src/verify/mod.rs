@@ -7,7 +7,7 @@
 //!   connected components, dead states).
 //! - [`explore`]: explicit-state exploration of a P/T net's token game (a
 //!   bitset engine for 1-safe nets, a counting engine for the others, both
-//!   parallel); [`reference`]: a plain explorer the tests compare it with.
+//!   parallel); [`reference`](mod@reference): a plain explorer the tests compare it with.
 //! - [`project`]: the project-level verifier (the player's own semantics;
 //!   its states kept as bytes by `project_states`, searched breadth-first
 //!   on several threads by `levels`); [`alone`]: each net explored alone, the

@@ -67,6 +67,8 @@ struct Args {
     #[arg(long = "param", value_name = "NAME=VALUE")]
     params: Vec<String>,
     /// A vehicle: KIND:SYSID[:NORTH,EAST][@LISTEN], KIND plane or rover (repeatable).
+    // The text is `--help`'s, where `[@LISTEN]` is no link.
+    #[allow(rustdoc::broken_intra_doc_links)]
     #[arg(long = "vehicle", value_name = "KIND:SYSID")]
     vehicles: Vec<String>,
     /// Stop after this many sim seconds (default: run until interrupted).
