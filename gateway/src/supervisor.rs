@@ -73,6 +73,9 @@ pub struct Lanes {
     elaborators: Vec<Elaborator>,
     /// Each lane's vehicle name and `(sysid, compid)`.
     ids: Vec<(Option<String>, Option<u8>, Option<u8>)>,
+    /// By system id: the lanes of that system, in team order (a frame's
+    /// lane is found without a scan of the team).
+    by_system: Vec<Vec<usize>>,
 }
 
 impl Lanes {
@@ -80,12 +83,22 @@ impl Lanes {
         let ids = lanes
             .iter()
             .map(|l| (l.vehicle.clone(), l.config.sysid, l.config.compid))
-            .collect();
+            .collect::<Vec<_>>();
+        let mut by_system = vec![Vec::new(); 256];
+        for (i, (_, system, _)) in ids.iter().enumerate() {
+            if let Some(system) = system {
+                by_system[usize::from(*system)].push(i);
+            }
+        }
         let elaborators = lanes
             .into_iter()
             .map(|l| Elaborator::new(l.profile, l.config))
             .collect();
-        Lanes { elaborators, ids }
+        Lanes {
+            elaborators,
+            ids,
+            by_system,
+        }
     }
 
     /// How many lanes (1 without a team).
@@ -102,12 +115,11 @@ impl Lanes {
     /// component when several vehicles share the system); `None` for a
     /// system that is no vehicle of the team, and always without a team.
     pub fn lane_of(&self, system: u8, component: u8) -> Option<usize> {
-        let mine = |i: usize| self.ids[i].1 == Some(system);
-        let exact = |i: usize| mine(i) && self.ids[i].2 == Some(component);
-        let n = self.ids.len();
-        (0..n)
-            .find(|&i| exact(i))
-            .or_else(|| (0..n).find(|&i| mine(i)))
+        let mine = self.by_system.get(usize::from(system))?;
+        mine.iter()
+            .copied()
+            .find(|&i| self.ids[i].2 == Some(component))
+            .or_else(|| mine.first().copied())
     }
 
     /// The lanes a frame from (`system`, `component`) goes to: the lane of
@@ -289,5 +301,50 @@ impl Supervisor {
         self.player.advance(time);
         step.effects.extend(self.player.effects());
         step
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lanes(ids: &[(&str, Option<u8>, Option<u8>)]) -> Lanes {
+        let lanes = ids
+            .iter()
+            .map(|&(name, sysid, compid)| Lane {
+                vehicle: Some(name.to_owned()),
+                profile: Profile::builtin("ardupilot").unwrap(),
+                config: Config {
+                    sysid,
+                    compid,
+                    ..Config::default()
+                },
+            })
+            .collect();
+        Lanes::new(lanes)
+    }
+
+    #[test]
+    fn a_frame_finds_its_lane_by_system_then_component() {
+        // R1 and R2 share system 1 (components 1 and 2); R3 is system 3
+        // with any component; R4 has no system id.
+        let l = lanes(&[
+            ("R1", Some(1), Some(1)),
+            ("R2", Some(1), Some(2)),
+            ("R3", Some(3), None),
+            ("R4", None, None),
+        ]);
+        assert_eq!(l.lane_of(1, 1), Some(0));
+        assert_eq!(l.lane_of(1, 2), Some(1));
+        // Another component of system 1: its first lane.
+        assert_eq!(l.lane_of(1, 9), Some(0));
+        assert_eq!(l.lane_of(3, 200), Some(2));
+        assert_eq!(l.lane_of(2, 1), None);
+        assert_eq!(l.route(3, 1), 2..3);
+        // No vehicle of the team: every lane.
+        assert_eq!(l.route(255, 190), 0..4);
+        // The same system declared twice with its component: in team order.
+        let l = lanes(&[("A", Some(7), Some(4)), ("B", Some(7), Some(4))]);
+        assert_eq!(l.lane_of(7, 4), Some(0));
     }
 }
