@@ -610,6 +610,12 @@ fn plane_engine_failure_from_efi_and_from_esc_telemetry() {
         d.throttle_out = throttle;
         MavMessage::EFI_STATUS(d)
     };
+    let failures = |s: &Script, until: u64| -> Vec<(u64, String)> {
+        timeline(&s.run(builtin("ardupilot"), until))
+            .into_iter()
+            .filter(|(_, e)| e.starts_with("engine_failure"))
+            .collect()
+    };
     // Electric: the motor stops at 10 s under 60 % throttle; a 1.5 s dip
     // at 4 s and an idle motor at 0 % throttle (20-25 s) are not failures.
     let mut s = Script::default();
@@ -626,10 +632,7 @@ fn plane_engine_failure_from_efi_and_from_esc_telemetry() {
         };
         s.at(t + 2, 1, 1, esc(rpm));
     }
-    let got: Vec<(u64, String)> = timeline(&s.run(builtin("ardupilot"), 30 * S))
-        .into_iter()
-        .filter(|(_, e)| e.starts_with("engine_failure"))
-        .collect();
+    let got = failures(&s, 30 * S);
     assert_eq!(
         got,
         [(12 * S + 2, "engine_failure {throttle: 60}".to_string())]
@@ -651,10 +654,7 @@ fn plane_engine_failure_from_efi_and_from_esc_telemetry() {
         };
         s.at(t + 2, 1, 1, esc(rpm));
     }
-    let got: Vec<(u64, String)> = timeline(&s.run(builtin("ardupilot"), 30 * S))
-        .into_iter()
-        .filter(|(_, e)| e.starts_with("engine_failure"))
-        .collect();
+    let got = failures(&s, 30 * S);
     assert_eq!(
         got,
         [
@@ -692,10 +692,7 @@ fn plane_engine_failure_from_efi_and_from_esc_telemetry() {
         s.at(step * S + 2, 1, 1, vfr(throttle));
         s.at(step * S + 3, 1, 1, esc(rpm as u16));
     }
-    let got: Vec<(u64, String)> = timeline(&s.run(builtin("ardupilot"), 20 * S))
-        .into_iter()
-        .filter(|(_, e)| e.starts_with("engine_failure"))
-        .collect();
+    let got = failures(&s, 20 * S);
     assert_eq!(got, [(7 * S + 1, "engine_failure".to_string())]);
 }
 
