@@ -101,8 +101,9 @@ impl Example {
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Scenario {
-    /// (uav) A payload failure at the second operations-area waypoint,
-    /// then an engine failure on the way on: DEC replans, then picks a site.
+    /// (uav) A payload failure over the first operations-area waypoint,
+    /// then an engine failure on the way to the new route: DEC replans,
+    /// then picks a site.
     PayloadThenEngine,
     /// Nothing goes wrong.
     Nominal,
