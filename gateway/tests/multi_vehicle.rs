@@ -36,9 +36,10 @@ use std::time::{Duration, Instant};
 
 use mavlink::dialects::ardupilotmega::{MavCmd, MavMessage, MavResult, COMMAND_ACK_DATA};
 use serde_json::Value;
-use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
 
-use harness::{copter_heartbeat, frame, free_udp_port, mavproxy, mavproxy_log, Process, Router};
+use harness::{
+    copter_heartbeat, frame, free_udp_port, mavproxy_log, route, two_copters, Process, Router,
+};
 
 /// SITL's --speedup, and the gateways' --time-scale.
 const SPEEDUP: u32 = 5;
@@ -185,25 +186,12 @@ impl Gateway {
 #[test]
 fn two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway() {
     let test = "two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway";
-    let Some(copter) = ardupilot::require(Firmware::Copter, test) else {
-        return;
-    };
-    let Some(mavproxy) = mavproxy(test) else {
-        return;
-    };
     let started = Instant::now();
     let tmp = tempfile::tempdir().expect("scratch folder");
     let dir = tmp.path();
-    let options = |instance, sysid, east: f64| Options {
-        instance,
-        speedup: SPEEDUP,
-        sysid: Some(sysid),
-        home: (-35.363261, 149.165230 + east, 584.0, 353.0),
-        ..Options::default()
+    let Some((mavproxy, sitl1, mut sitl2)) = two_copters(test, 6, SPEEDUP, dir) else {
+        return;
     };
-    let sitl1 = Sitl::start(&copter, &options(6, 1, 0.0), &dir.join("sitl1")).expect("SITL 1");
-    let mut sitl2 =
-        Sitl::start(&copter, &options(7, 2, 0.001), &dir.join("sitl2")).expect("SITL 2");
 
     // The gateways behind the router listen first; MAVProxy's connection
     // to both SERIAL0 starts the simulations.
@@ -221,22 +209,7 @@ fn two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway() 
         dir,
     );
     let router_log = dir.join("router.tlog");
-    let mut router = Process::spawn(
-        "MAVProxy",
-        Command::new(&mavproxy)
-            .arg(format!("--master=tcp:127.0.0.1:{}", sitl1.port(0)))
-            .arg(format!("--master=tcp:127.0.0.1:{}", sitl2.port(0)))
-            .arg(format!("--out=udp:127.0.0.1:{port_a}"))
-            .arg(format!("--out=udp:127.0.0.1:{port_b}"))
-            // The gateways ask for their own telemetry.
-            .args(["--streamrate=-1", "--daemon", "--non-interactive"])
-            .arg("--state-basedir")
-            .arg(dir.join("mavproxy"))
-            .arg("--logfile")
-            .arg(&router_log)
-            .stdout(std::fs::File::create(dir.join("mavproxy.out")).expect("log file"))
-            .stderr(std::fs::File::create(dir.join("mavproxy.err")).expect("log file")),
-    );
+    let mut router = route(&mavproxy, [&sitl1, &sitl2], &[port_a, port_b], dir);
     // Vehicle 2's own link: SERIAL1 listens once the simulation runs.
     let serial1 = format!("SERIAL1 on TCP port {}", sitl2.port(1));
     while !sitl2.output().contains(&serial1) {

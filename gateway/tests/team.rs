@@ -30,9 +30,10 @@ use std::time::{Duration, Instant};
 
 use mavlink::dialects::ardupilotmega::{MavCmd, MavMessage, MavResult, COMMAND_ACK_DATA};
 use serde_json::Value;
-use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
 
-use harness::{copter_heartbeat, frame, free_udp_port, mavproxy, mavproxy_log, Process, Router};
+use harness::{
+    copter_heartbeat, frame, free_udp_port, mavproxy_log, route, two_copters, Process, Router,
+};
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -464,24 +465,12 @@ const LIMIT: Duration = Duration::from_secs(180);
 #[test]
 fn two_real_copters_take_off_under_one_petrel_and_r2_alone_is_sent_home() {
     let test = "two_real_copters_take_off_under_one_petrel_and_r2_alone_is_sent_home";
-    let Some(copter) = ardupilot::require(Firmware::Copter, test) else {
-        return;
-    };
-    let Some(mavproxy) = mavproxy(test) else {
-        return;
-    };
     let started = Instant::now();
     let tmp = tempfile::tempdir().expect("scratch folder");
     let dir = tmp.path();
-    let options = |instance, sysid, east: f64| Options {
-        instance,
-        speedup: SPEEDUP,
-        sysid: Some(sysid),
-        home: (-35.363261, 149.165230 + east, 584.0, 353.0),
-        ..Options::default()
+    let Some((mavproxy, sitl1, sitl2)) = two_copters(test, 8, SPEEDUP, dir) else {
+        return;
     };
-    let sitl1 = Sitl::start(&copter, &options(8, 1, 0.0), &dir.join("sitl1")).expect("SITL 1");
-    let sitl2 = Sitl::start(&copter, &options(9, 2, 0.001), &dir.join("sitl2")).expect("SITL 2");
     let project = fixture("team-copters");
     let port = free_udp_port();
     let mut gw = petrel(
@@ -492,20 +481,7 @@ fn two_real_copters_take_off_under_one_petrel_and_r2_alone_is_sent_home() {
         LIMIT,
     );
     let router_log = dir.join("router.tlog");
-    let mut router = Process::spawn(
-        "MAVProxy",
-        Command::new(&mavproxy)
-            .arg(format!("--master=tcp:127.0.0.1:{}", sitl1.port(0)))
-            .arg(format!("--master=tcp:127.0.0.1:{}", sitl2.port(0)))
-            .arg(format!("--out=udp:127.0.0.1:{port}"))
-            .args(["--streamrate=-1", "--daemon", "--non-interactive"])
-            .arg("--state-basedir")
-            .arg(dir.join("mavproxy"))
-            .arg("--logfile")
-            .arg(&router_log)
-            .stdout(std::fs::File::create(dir.join("mavproxy.out")).expect("log file"))
-            .stderr(std::fs::File::create(dir.join("mavproxy.err")).expect("log file")),
-    );
+    let mut router = route(&mavproxy, [&sitl1, &sitl2], &[port], dir);
     let flew = loop {
         if Timeline::read(dir).fired("TEAM", "r2_going_home") {
             // Time for RTL to show in the router's log.

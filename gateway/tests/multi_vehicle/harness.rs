@@ -32,6 +32,59 @@ pub fn mavproxy(test: &str) -> Option<PathBuf> {
     }
 }
 
+/// Two real ArduCopter SITLs side by side, SITL instances `first` and
+/// `first + 1`, system ids 1 and 2, homes 0.001° of longitude apart (about
+/// 90 m), at `speedup`, with MAVProxy to route them: `None` (the test is
+/// skipped, saying why; a failure under CI=true) when either is missing.
+pub fn two_copters(
+    test: &str,
+    first: u8,
+    speedup: u32,
+    dir: &Path,
+) -> Option<(PathBuf, ardupilot::Sitl, ardupilot::Sitl)> {
+    let copter = ardupilot::require(ardupilot::Firmware::Copter, test)?;
+    let mavproxy = mavproxy(test)?;
+    let options = |instance, sysid, east: f64| ardupilot::Options {
+        instance,
+        speedup,
+        sysid: Some(sysid),
+        home: (-35.363261, 149.165230 + east, 584.0, 353.0),
+        ..ardupilot::Options::default()
+    };
+    let start = |instance, sysid, east, name: &str| {
+        ardupilot::Sitl::start(&copter, &options(instance, sysid, east), &dir.join(name))
+            .unwrap_or_else(|e| panic!("{test}: cannot start {name}: {e}"))
+    };
+    let sitl1 = start(first, 1, 0.0, "sitl1");
+    let sitl2 = start(first + 1, 2, 0.001, "sitl2");
+    Some((mavproxy, sitl1, sitl2))
+}
+
+/// MAVProxy routing both SITLs' SERIAL0 to UDP `outs` on 127.0.0.1, its
+/// tlog at `dir/router.tlog`, its output in `dir/mavproxy.{out,err}`;
+/// the gateways behind it ask for their own telemetry.
+pub fn route(mavproxy: &Path, sitls: [&ardupilot::Sitl; 2], outs: &[u16], dir: &Path) -> Process {
+    let mut command = Command::new(mavproxy);
+    for sitl in sitls {
+        command.arg(format!("--master=tcp:127.0.0.1:{}", sitl.port(0)));
+    }
+    for port in outs {
+        command.arg(format!("--out=udp:127.0.0.1:{port}"));
+    }
+    let log = |name: &str| std::fs::File::create(dir.join(name)).expect("log file");
+    Process::spawn(
+        "MAVProxy",
+        command
+            .args(["--streamrate=-1", "--daemon", "--non-interactive"])
+            .arg("--state-basedir")
+            .arg(dir.join("mavproxy"))
+            .arg("--logfile")
+            .arg(dir.join("router.tlog"))
+            .stdout(log("mavproxy.out"))
+            .stderr(log("mavproxy.err")),
+    )
+}
+
 /// What MAVProxy printed, for failure messages.
 pub fn mavproxy_log(dir: &Path) -> String {
     let read = |f: &str| std::fs::read_to_string(dir.join(f)).unwrap_or_default();
