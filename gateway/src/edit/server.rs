@@ -14,7 +14,7 @@ use serde_json::{json, Value as Json};
 
 use super::op::Op;
 use super::session::{Refusal, Session};
-use crate::monitor::server::{asset, INDEX, SCRIPT, STYLE};
+use crate::monitor::server::{asset, page_routes};
 
 const EDIT_SCRIPT: &str = include_str!("../monitor/assets/edit.js");
 const EDIT_STYLE: &str = include_str!("../monitor/assets/edit.css");
@@ -89,19 +89,7 @@ async fn stubs(State(session): State<Arc<Session>>, headers: HeaderMap, body: St
 
 /// The editing page's router over `session`.
 pub fn router(session: Arc<Session>) -> Router {
-    Router::new()
-        .route(
-            "/",
-            get(|| async { asset("text/html; charset=utf-8", INDEX) }),
-        )
-        .route(
-            "/monitor.js",
-            get(|| async { asset("text/javascript; charset=utf-8", SCRIPT) }),
-        )
-        .route(
-            "/monitor.css",
-            get(|| async { asset("text/css; charset=utf-8", STYLE) }),
-        )
+    page_routes()
         .route(
             "/edit.js",
             get(|| async { asset("text/javascript; charset=utf-8", EDIT_SCRIPT) }),
@@ -110,7 +98,6 @@ pub fn router(session: Arc<Session>) -> Router {
             "/edit.css",
             get(|| async { asset("text/css; charset=utf-8", EDIT_STYLE) }),
         )
-        .route("/favicon.ico", get(|| async { StatusCode::NO_CONTENT }))
         .route(
             "/page.json",
             get(|State(s): State<Arc<Session>>| async move { answer(StatusCode::OK, s.page()) }),

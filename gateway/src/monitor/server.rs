@@ -46,7 +46,9 @@ pub(crate) fn asset(kind: &'static str, body: &'static str) -> Response {
     ([(header::CONTENT_TYPE, kind)], body).into_response()
 }
 
-fn router(source: Source) -> Router {
+/// The page and its script and style, which the editing page serves too
+/// (its own assets beside them).
+pub(crate) fn page_routes<S: Clone + Send + Sync + 'static>() -> Router<S> {
     Router::new()
         .route(
             "/",
@@ -64,6 +66,10 @@ fn router(source: Source) -> Router {
             "/favicon.ico",
             get(|| async { axum::http::StatusCode::NO_CONTENT }),
         )
+}
+
+fn router(source: Source) -> Router {
+    page_routes()
         .route(
             "/page.json",
             get(|State(s): State<Source>| async move {
