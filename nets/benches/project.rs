@@ -22,7 +22,6 @@
 //! The whole report, to compare two builds: `PETREL_PROJECT_BENCH_DUMP=FILE`
 //! (written for one thread and, to `FILE.2`, for two).
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
