@@ -1313,41 +1313,38 @@ impl Player {
         }
         let mut firings = 0usize;
         let mut rejected: Vec<(NetId, TransitionId)> = Vec::new();
+        let symbols = Arc::clone(&self.symbols);
         'scan: loop {
-            for (n, net) in project.nets.iter().enumerate() {
-                if !self.state.active[n] {
+            for immediate in &symbols.immediates {
+                let (n, t) = (immediate.net, immediate.transition);
+                if !self.state.active[n]
+                    || !immediate.enabled(&self.state.marking)
+                    || rejected.contains(&(n, t))
+                {
                     continue;
                 }
-                for &t in &net.immediate {
-                    let tr = &net.transitions[t];
-                    if !tr.flat_inputs.iter().all(|&p| self.state.marked(p))
-                        || rejected.contains(&(n, t))
-                    {
-                        continue;
+                firings += 1;
+                if firings > project.limits.firings_per_step {
+                    self.effects.push(Effect::Fault {
+                        time: now,
+                        fault: Fault::Livelock {
+                            net: n,
+                            transition: t,
+                            firings: firings - 1,
+                        },
+                    });
+                    self.changed = false;
+                    return;
+                }
+                match self.fire(project, n, t, &Params::new(), now, tainted) {
+                    Firing::Fired => {
+                        rejected.clear();
+                        self.run_actions(project, n, t, &Params::new(), now, tainted);
+                        continue 'scan;
                     }
-                    firings += 1;
-                    if firings > project.limits.firings_per_step {
-                        self.effects.push(Effect::Fault {
-                            time: now,
-                            fault: Fault::Livelock {
-                                net: n,
-                                transition: t,
-                                firings: firings - 1,
-                            },
-                        });
-                        self.changed = false;
-                        return;
-                    }
-                    match self.fire(project, n, t, &Params::new(), now, tainted) {
-                        Firing::Fired => {
-                            rejected.clear();
-                            self.run_actions(project, n, t, &Params::new(), now, tainted);
-                            continue 'scan;
-                        }
-                        Firing::Rejected => {
-                            self.queue_net_faults(project);
-                            rejected.push((n, t));
-                        }
+                    Firing::Rejected => {
+                        self.queue_net_faults(project);
+                        rejected.push((n, t));
                     }
                 }
             }

@@ -45,6 +45,27 @@ pub(super) struct Symbols {
     pub command_ok: u32,
     pub command_failed: u32,
     pub net_fault: u32,
+    /// Every immediate transition, in the order the player tries them
+    /// (nets in project order, each net's in file order).
+    pub immediates: Vec<Immediate>,
+}
+
+/// An immediate transition, with its input places as marking words and
+/// the bits they must have.
+#[derive(Debug)]
+pub(super) struct Immediate {
+    pub net: NetId,
+    pub transition: TransitionId,
+    pub inputs: smallvec::SmallVec<[(usize, u64); 2]>,
+}
+
+impl Immediate {
+    /// Whether every input place is marked in `marking`.
+    pub fn enabled(&self, marking: &[u64]) -> bool {
+        self.inputs
+            .iter()
+            .all(|&(word, bits)| marking[word] & bits == bits)
+    }
 }
 
 impl Symbols {
@@ -57,7 +78,25 @@ impl Symbols {
             command_ok: 0,
             command_failed: 0,
             net_fault: 0,
+            immediates: Vec::new(),
         };
+        for (n, net) in project.nets.iter().enumerate() {
+            for &t in &net.immediate {
+                let mut inputs: smallvec::SmallVec<[(usize, u64); 2]> = Default::default();
+                for &p in &net.transitions[t].flat_inputs {
+                    let (word, bit) = (p / 64, 1u64 << (p % 64));
+                    match inputs.iter_mut().find(|(w, _)| *w == word) {
+                        Some((_, bits)) => *bits |= bit,
+                        None => inputs.push((word, bit)),
+                    }
+                }
+                symbols.immediates.push(Immediate {
+                    net: n,
+                    transition: t,
+                    inputs,
+                });
+            }
+        }
         symbols.command_ok = symbols.add(project, names::COMMAND_OK);
         symbols.command_failed = symbols.add(project, names::COMMAND_FAILED);
         symbols.net_fault = symbols.add(project, names::NET_FAULT);

@@ -590,6 +590,9 @@ enum Input {
 struct Label {
     text: String,
     fired: Vec<(NetId, TransitionId)>,
+    /// The nets numbered below 64 among `fired`, as bits (what
+    /// [`Label::fires`] reads for them).
+    fired_nets: u64,
     /// The net whose transition attempted a double token.
     unsafe_by: Option<NetId>,
     /// The livelock's net (the transition the bound stopped at), or `None`
@@ -598,9 +601,29 @@ struct Label {
 }
 
 impl Label {
+    fn new(
+        text: String,
+        fired: Vec<(NetId, TransitionId)>,
+        unsafe_by: Option<NetId>,
+        livelock: Option<Option<NetId>>,
+    ) -> Label {
+        let fired_nets = fired
+            .iter()
+            .filter(|(n, _)| *n < 64)
+            .fold(0u64, |bits, (n, _)| bits | 1 << n);
+        Label {
+            text,
+            fired,
+            fired_nets,
+            unsafe_by,
+            livelock,
+        }
+    }
+
     fn fires(&self, net: Option<NetId>) -> bool {
         match net {
             None => !self.fired.is_empty(),
+            Some(n) if n < 64 => self.fired_nets & 1 << n != 0,
             Some(n) => self.fired.iter().any(|(m, _)| *m == n),
         }
     }
@@ -642,8 +665,9 @@ struct Explorer {
     codec: Codec,
     externals: Vec<External>,
     /// Per call (net, program, function) and command (net, verb) the
-    /// project's actions make: what is known of its result.
-    calls: FastMap<(NetId, usize, usize), Known>,
+    /// project's actions make: what is known of its result; calls by net,
+    /// then program, then function.
+    calls: Vec<Vec<Vec<Option<Known>>>>,
     /// By verb, then net.
     commands: FastMap<String, Vec<(NetId, Known)>>,
     /// Per net, per question it asks.
@@ -787,6 +811,17 @@ impl Explorer {
                 }
             })
             .collect();
+        let calls = project
+            .nets
+            .iter()
+            .map(|_| {
+                project
+                    .programs
+                    .iter()
+                    .map(|p| vec![None; p.functions.len()])
+                    .collect()
+            })
+            .collect();
         let mut explorer = Explorer {
             codec: Codec::new(
                 &project,
@@ -794,7 +829,7 @@ impl Explorer {
             ),
             project,
             externals,
-            calls: FastMap::default(),
+            calls,
             commands: FastMap::default(),
             questions: Vec::new(),
             labels: Mutex::new(LabelTable::default()),
@@ -840,7 +875,7 @@ impl Explorer {
                 let known = explorer.compute_known(&pending);
                 match pending.kind {
                     PendingKind::Call { program, function } => {
-                        explorer.calls.insert((n, program, function), known);
+                        explorer.calls[n][program][function] = Some(known);
                     }
                     PendingKind::Question { .. } => {}
                     PendingKind::Command { verb } => {
@@ -957,9 +992,12 @@ impl Explorer {
     /// relevant, and the reasons its failure is explored with.
     fn known(&self, pending: &crate::player::Pending) -> std::borrow::Cow<'_, Known> {
         let found = match &pending.kind {
-            PendingKind::Call { program, function } => {
-                self.calls.get(&(pending.net, *program, *function))
-            }
+            PendingKind::Call { program, function } => self
+                .calls
+                .get(pending.net)
+                .and_then(|by_program| by_program.get(*program))
+                .and_then(|by_function| by_function.get(*function))
+                .and_then(Option::as_ref),
             PendingKind::Command { verb } => self
                 .commands
                 .get(verb.as_str())
@@ -1225,12 +1263,12 @@ impl Explorer {
                     Some(&l) => l,
                     None => {
                         let l = w.labels.len() as u32;
-                        let label = Label {
-                            text: self.describe(abs, input, questions, used, effects),
-                            fired: fired_of(effects),
+                        let label = Label::new(
+                            self.describe(abs, input, questions, used, effects),
+                            fired_of(effects),
                             unsafe_by,
                             livelock,
-                        };
+                        );
                         w.labels.push((w.label_key.clone(), label));
                         w.index.insert(w.label_key.clone(), l);
                         w.global.push(u32::MAX);
