@@ -297,6 +297,11 @@ impl Player {
         self.effects.drain(..)
     }
 
+    /// The effects recorded since the verifier's last restore, in place.
+    pub(crate) fn recorded(&self) -> &[Effect] {
+        &self.effects
+    }
+
     /// The earliest timer deadline, if a timer runs: call [`Player::advance`]
     /// then.
     pub fn next_deadline(&self) -> Option<Micros> {

@@ -697,7 +697,6 @@ struct Worker {
     /// The search's number of each, once known.
     global: Vec<u32>,
     scratch: Scratch,
-    effects: Vec<Effect>,
     next: Vec<u8>,
     label_key: Vec<u8>,
     /// The edges of the input being explored: label and target key.
@@ -748,7 +747,6 @@ impl levels::Explore for Explorer {
             index: FastMap::default(),
             global: Vec::new(),
             scratch: Scratch::default(),
-            effects: Vec::new(),
             next: Vec::new(),
             label_key: Vec::new(),
             this_input: Vec::new(),
@@ -1208,8 +1206,9 @@ impl Explorer {
                 else {
                     continue;
                 };
-                w.effects.clear();
-                w.effects.extend(player.effects());
+                // Read where the player recorded them (its next restore
+                // clears them).
+                let effects: &[Effect] = player.recorded();
                 let questions: &[Question] = player.oracle().map_or(&[], |o| &o.questions);
                 let asked = questions.len();
                 for k in answers.len()..asked {
@@ -1232,7 +1231,6 @@ impl Explorer {
                     &mut w.scratch,
                     &mut w.next,
                 );
-                let effects = &w.effects;
                 let mut unsafe_by = None;
                 let mut livelock = None;
                 let mut fires = false;
