@@ -15,6 +15,7 @@ mod oracle;
 mod render;
 pub mod snapshot;
 mod state;
+mod symbols;
 
 use std::sync::Arc;
 
@@ -29,6 +30,7 @@ use crate::event::{Category, Event};
 use crate::model::{names, Action, NetId, PlaceRef, Project, TransitionId, VehicleId};
 use crate::time::Micros;
 use crate::value::{Params, Value};
+use symbols::{EventInfo, Symbols};
 
 /// The outcome of a call or command, given back to the player.
 #[derive(Debug, Clone, PartialEq)]
@@ -50,6 +52,8 @@ pub enum RestoreError {
 #[derive(Debug, Clone)]
 pub struct Player {
     project: Arc<Project>,
+    /// The project's event names, worked out once.
+    symbols: Arc<Symbols>,
     state: State,
     effects: Vec<Effect>,
     oracle: Option<Oracle>,
@@ -66,6 +70,11 @@ pub struct Player {
     /// effect is recorded (its millions of steps would build them for
     /// nothing). Never set in flight.
     firings_only: bool,
+    /// For the verifier: the pending calls as its last restore put them
+    /// (the caller's number for them, their count and the next id then):
+    /// while the count and the next id are unchanged nothing was added or
+    /// removed, and the same calls need not be copied again.
+    pending_from: Option<(u64, usize, u64)>,
 }
 
 enum Firing {
@@ -112,6 +121,7 @@ impl Player {
     fn with_state(project: Arc<Project>, state: State) -> Player {
         let words = project.place_count.div_ceil(64).max(1);
         Player {
+            symbols: Arc::new(Symbols::new(&project)),
             project,
             state,
             effects: Vec::new(),
@@ -121,6 +131,7 @@ impl Player {
             changed: false,
             net_faults: Vec::new(),
             firings_only: false,
+            pending_from: None,
         }
     }
 
@@ -192,21 +203,31 @@ impl Player {
     /// an oracle giving `answers`, keeping the buffers of both, so that
     /// millions of steps allocate little. From then on only firings and
     /// faults are recorded.
-    pub(crate) fn reset_for_verifier(&mut self, state: &State, answers: &[bool]) {
+    /// `pending` numbers `state`'s pending calls: the same number twice
+    /// means the same calls (the copy is then skipped when the player has
+    /// not changed its own since).
+    pub(crate) fn reset_for_verifier(&mut self, state: &State, pending: u64, answers: &[bool]) {
         let s = &mut self.state;
         s.now = state.now;
         s.marking.clone_from(&state.marking);
         s.active.clone_from(&state.active);
         s.timers.clone_from(&state.timers);
         for (q, from) in s.queue.iter_mut().zip(&state.queue) {
-            q.clear();
-            q.extend(from.iter().cloned());
+            // Empty between inputs, both: nothing to do then.
+            if !q.is_empty() || !from.is_empty() {
+                q.clear();
+                q.extend(from.iter().cloned());
+            }
         }
         s.lockout = state.lockout;
         s.locked.clone_from(&state.locked);
-        if s.pending != state.pending {
+        let same = self.pending_from.is_some_and(|(p, len, next)| {
+            p == pending && len == s.pending.len() && next == s.next_id
+        });
+        if !same && s.pending != state.pending {
             s.pending.clone_from(&state.pending);
         }
+        self.pending_from = Some((pending, state.pending.len(), state.next_id));
         s.next_id = state.next_id;
         s.next_timer_seq = state.next_timer_seq;
         self.effects.clear();
@@ -276,6 +297,11 @@ impl Player {
         self.effects.drain(..)
     }
 
+    /// The effects recorded since the verifier's last restore, in place.
+    pub(crate) fn recorded(&self) -> &[Effect] {
+        &self.effects
+    }
+
     /// The earliest timer deadline, if a timer runs: call [`Player::advance`]
     /// then.
     pub fn next_deadline(&self) -> Option<Micros> {
@@ -317,15 +343,23 @@ impl Player {
     /// category for the event, if any, replaces the event's own.
     pub fn handle(&mut self, event: &Event, now: Micros) {
         let project = Arc::clone(&self.project);
+        let symbols = Arc::clone(&self.symbols);
         self.expire_timers(&project, now);
         let now = self.state.now.max(now);
         self.state.now = now;
-        let category = project
-            .declared_category(&event.name)
-            .unwrap_or(event.category);
+        let info = symbols.get(&event.name);
+        let category = match info {
+            Some(info) => info.declared,
+            None => project.declared_category(&event.name),
+        }
+        .unwrap_or(event.category);
         // A result or `net_fault` from outside would stand for one the
         // player never produced: dropped, recorded.
-        if crate::outside::player_own(&project, &event.name).is_some() {
+        let own = match info {
+            Some(info) => info.own,
+            None => crate::outside::player_own(&project, &event.name).is_some(),
+        };
+        if own {
             self.drop_outside(now, event, category, DropReason::Reserved);
             return;
         }
@@ -333,7 +367,15 @@ impl Player {
         if let Some(oracle) = &mut self.oracle {
             oracle.open(true);
         }
-        let occurred = self.occur(&project, &event.name, category, &event.params, None, now);
+        let occurred = self.occur(
+            &project,
+            info,
+            &event.name,
+            category,
+            &event.params,
+            None,
+            now,
+        );
         if let Some(oracle) = &mut self.oracle {
             oracle.open(false);
         }
@@ -367,37 +409,38 @@ impl Player {
             }
             return;
         };
-        let (name, params) = match (&pending.kind, outcome) {
+        let symbols = Arc::clone(&self.symbols);
+        let (id, params) = match (&pending.kind, outcome) {
             (PendingKind::Call { program, function }, outcome) => {
-                let prog = &project.programs[*program];
-                let base = format!("{}.{}", prog.name, prog.functions[*function].name);
+                let (done, failed) = symbols.results[*program][*function];
                 match outcome {
-                    Outcome::Done(params) => (format!("{base}.{}", names::DONE), params),
+                    Outcome::Done(params) => (done, params),
                     Outcome::Failed(reason) => (
-                        format!("{base}.{}", names::FAILED),
+                        failed,
                         Params::from([("reason".to_owned(), Value::Str(reason))]),
                     ),
                 }
             }
             (PendingKind::Command { verb }, Outcome::Done(mut params)) => {
                 params.insert("verb".into(), Value::Str(verb.clone()));
-                (names::COMMAND_OK.to_owned(), params)
+                (symbols.command_ok, params)
             }
             (PendingKind::Question { .. }, _) => {
                 unreachable!("questions are answered, not resulted")
             }
             (PendingKind::Command { verb }, Outcome::Failed(reason)) => (
-                names::COMMAND_FAILED.to_owned(),
+                symbols.command_failed,
                 Params::from([
                     ("reason".to_owned(), Value::Str(reason)),
                     ("verb".to_owned(), Value::Str(verb.clone())),
                 ]),
             ),
         };
+        let info = symbols.info(id);
         self.push_result(
-            project.as_ref(),
             pending.net,
-            name,
+            info.name.clone(),
+            info.declared,
             params,
             pending.catastrophic,
         );
@@ -459,13 +502,12 @@ impl Player {
             });
         }
         let params = Params::from([("choice".to_owned(), Value::Str(choice.to_owned()))]);
-        self.push_result(
-            &project,
-            net,
-            spec.answer_event(choice),
-            params,
-            catastrophic,
-        );
+        let name = spec.answer_event(choice);
+        let declared = match self.symbols.get(&name) {
+            Some(info) => info.declared,
+            None => project.declared_category(&name),
+        };
+        self.push_result(net, name, declared, params, catastrophic);
         self.run_queue(&project, now, 0);
         Ok(())
     }
@@ -473,20 +515,19 @@ impl Player {
     /// Queues a result (a call's, a command's, an answer) for net `net`:
     /// catastrophic if the catastrophic reaction issued it, else the
     /// declared category or nominal.
+    /// `declared`: the project's declared category for `name`.
     fn push_result(
         &mut self,
-        project: &Project,
         net: NetId,
         name: String,
+        declared: Option<Category>,
         params: Params,
         catastrophic: bool,
     ) {
         let category = if catastrophic {
             Category::Catastrophic
         } else {
-            project
-                .declared_category(&name)
-                .unwrap_or(Category::Nominal)
+            declared.unwrap_or(Category::Nominal)
         };
         self.state.push(Queued {
             event: Event {
@@ -567,7 +608,7 @@ impl Player {
                     if self.records() {
                         self.effects.push(Effect::Dropped {
                             time,
-                            event: timer_event(project, t),
+                            event: timer_event(&self.symbols, t),
                             reason: DropReason::Overflow,
                         });
                     }
@@ -583,7 +624,7 @@ impl Player {
             }
             self.question_timed_out(project, timer.net, timer.timer, time);
             self.state.push(Queued {
-                event: timer_event(project, &timer),
+                event: timer_event(&self.symbols, &timer),
                 target: Some(timer.net),
             });
             self.run_queue(project, time, 0);
@@ -618,8 +659,10 @@ impl Player {
                 return;
             }
             let category = q.event.category;
+            let symbols = Arc::clone(&self.symbols);
             if let Err(reason) = self.occur(
                 project,
+                symbols.get(&q.event.name),
                 &q.event.name,
                 category,
                 &q.event.params,
@@ -656,31 +699,38 @@ impl Player {
     /// One occurrence of an event: fires every waiting transition enabled at
     /// its arrival, each at most once, first declared first; or says why the
     /// event is dropped.
+    /// `info`: what the project's symbols know of `name` (`None`: a name
+    /// the project does not know, which no transition waits for).
+    #[allow(clippy::too_many_arguments)]
     fn occur(
         &mut self,
         project: &Project,
+        info: Option<&EventInfo>,
         name: &str,
         category: Category,
         params: &Params,
         target: Option<NetId>,
         now: Micros,
     ) -> Result<(), DropReason> {
-        let vehicle = event_vehicle(project, name, params, target);
+        let vehicle = match info {
+            Some(info) if target.is_none() && name != names::NET_FAULT => info.vehicle,
+            _ => event_vehicle(project, name, params, target),
+        };
         if let Some(reason) = self.drop_reason(category, target, vehicle) {
             return Err(reason);
         }
-        let Some(waiting) = project.triggers.get(name) else {
+        let Some(waiting) = info.and_then(|i| i.waiting.as_ref()) else {
             return Ok(());
         };
         let mut candidates = std::mem::take(&mut self.candidates);
         candidates.clear();
-        for &(n, t) in waiting {
+        for &(n, t, own_timer) in waiting {
             if target.is_some_and(|x| x != n) || !self.state.active[n] {
                 continue;
             }
             // A net's own timer is heard from that timer only, never from
             // an event that bears its name.
-            if target.is_none() && crate::outside::own_timer(project, n, name) {
+            if target.is_none() && own_timer {
                 continue;
             }
             let tr = &project.nets[n].transitions[t];
@@ -887,8 +937,9 @@ impl Player {
             let category = if tainted && self.state.locks(vehicle) {
                 Category::Catastrophic
             } else {
-                project
-                    .declared_category(names::NET_FAULT)
+                self.symbols
+                    .info(self.symbols.net_fault)
+                    .declared
                     .unwrap_or(Category::Safety)
             };
             self.state.push(Queued {
@@ -951,9 +1002,11 @@ impl Player {
                     let category = if tainted {
                         Category::Catastrophic
                     } else {
-                        project
-                            .declared_category(event)
-                            .unwrap_or(Category::Nominal)
+                        match self.symbols.get(event) {
+                            Some(info) => info.declared,
+                            None => project.declared_category(event),
+                        }
+                        .unwrap_or(Category::Nominal)
                     };
                     let event = Event {
                         name: event.clone(),
@@ -1265,41 +1318,38 @@ impl Player {
         }
         let mut firings = 0usize;
         let mut rejected: Vec<(NetId, TransitionId)> = Vec::new();
+        let symbols = Arc::clone(&self.symbols);
         'scan: loop {
-            for (n, net) in project.nets.iter().enumerate() {
-                if !self.state.active[n] {
+            for immediate in &symbols.immediates {
+                let (n, t) = (immediate.net, immediate.transition);
+                if !self.state.active[n]
+                    || !immediate.enabled(&self.state.marking)
+                    || rejected.contains(&(n, t))
+                {
                     continue;
                 }
-                for &t in &net.immediate {
-                    let tr = &net.transitions[t];
-                    if !tr.flat_inputs.iter().all(|&p| self.state.marked(p))
-                        || rejected.contains(&(n, t))
-                    {
-                        continue;
+                firings += 1;
+                if firings > project.limits.firings_per_step {
+                    self.effects.push(Effect::Fault {
+                        time: now,
+                        fault: Fault::Livelock {
+                            net: n,
+                            transition: t,
+                            firings: firings - 1,
+                        },
+                    });
+                    self.changed = false;
+                    return;
+                }
+                match self.fire(project, n, t, &Params::new(), now, tainted) {
+                    Firing::Fired => {
+                        rejected.clear();
+                        self.run_actions(project, n, t, &Params::new(), now, tainted);
+                        continue 'scan;
                     }
-                    firings += 1;
-                    if firings > project.limits.firings_per_step {
-                        self.effects.push(Effect::Fault {
-                            time: now,
-                            fault: Fault::Livelock {
-                                net: n,
-                                transition: t,
-                                firings: firings - 1,
-                            },
-                        });
-                        self.changed = false;
-                        return;
-                    }
-                    match self.fire(project, n, t, &Params::new(), now, tainted) {
-                        Firing::Fired => {
-                            rejected.clear();
-                            self.run_actions(project, n, t, &Params::new(), now, tainted);
-                            continue 'scan;
-                        }
-                        Firing::Rejected => {
-                            self.queue_net_faults(project);
-                            rejected.push((n, t));
-                        }
+                    Firing::Rejected => {
+                        self.queue_net_faults(project);
+                        rejected.push((n, t));
                     }
                 }
             }
@@ -1334,17 +1384,15 @@ impl Player {
 /// The event a timer's expiry delivers to its net: its name, no parameters,
 /// catastrophic if the catastrophic reaction started it, else the declared
 /// category or nominal.
-fn timer_event(project: &Project, timer: &Timer) -> Event {
-    let name = project.nets[timer.net].timers[timer.timer].clone();
+fn timer_event(symbols: &Symbols, timer: &Timer) -> Event {
+    let info = symbols.info(symbols.timers[timer.net][timer.timer]);
     let category = if timer.catastrophic {
         Category::Catastrophic
     } else {
-        project
-            .declared_category(&name)
-            .unwrap_or(Category::Nominal)
+        info.declared.unwrap_or(Category::Nominal)
     };
     Event {
-        name,
+        name: info.name.clone(),
         category,
         params: Params::new(),
     }

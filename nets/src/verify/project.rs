@@ -219,7 +219,19 @@ impl ProjectReport {
 /// Checks a project as a whole and, if asked, each net in it and alone.
 pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
     let (explored, reduction) = explore_reduced(project, options);
-    let mut whole = explored.verdict(None, true);
+    // The whole project's verdict, then each net's (on the threads asked
+    // for: each verdict reads the exploration only).
+    let scopes: Vec<Option<NetId>> = if options.each_net {
+        std::iter::once(None)
+            .chain((0..project.nets.len()).map(Some))
+            .collect()
+    } else {
+        vec![None]
+    };
+    let mut verdicts = verdicts(&explored, &scopes, options.threads).into_iter();
+    let mut whole = verdicts
+        .next()
+        .unwrap_or_else(|| explored.verdict(None, true));
     whole.reduction = reduction;
     let mut walker = explored.partial_order.then(|| Walker::new(project));
     if let Some(walker) = &mut walker {
@@ -245,7 +257,9 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
     }
     let mut nets: Vec<(String, Report)> = (0..project.nets.len())
         .map(|n| {
-            let mut r = explored.verdict(Some(n), true);
+            let mut r = verdicts
+                .next()
+                .unwrap_or_else(|| explored.verdict(Some(n), true));
             if let Some(walker) = &mut walker {
                 walker.shorten_report(project, &mut r);
             }
@@ -299,6 +313,32 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
         nets,
         alone,
     }
+}
+
+/// The verdicts of `explored` for each of `scopes` (see
+/// [`Explored::verdict`]), in order, worked out on up to `threads` threads.
+fn verdicts(explored: &Explored, scopes: &[Option<NetId>], threads: usize) -> Vec<Report> {
+    let threads = threads.clamp(1, scopes.len().max(1));
+    if threads == 1 {
+        return scopes.iter().map(|&s| explored.verdict(s, true)).collect();
+    }
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let done: Mutex<Vec<(usize, Report)>> = Mutex::new(Vec::with_capacity(scopes.len()));
+    std::thread::scope(|scope| {
+        for _ in 0..threads {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(&s) = scopes.get(i) else { break };
+                let report = explored.verdict(s, true);
+                if let Ok(mut d) = done.lock() {
+                    d.push((i, report));
+                }
+            });
+        }
+    });
+    let mut done = done.into_inner().unwrap_or_else(|e| e.into_inner());
+    done.sort_by_key(|(i, _)| *i);
+    done.into_iter().map(|(_, r)| r).collect()
 }
 
 /// Replays a counterexample (the texts of its steps, as a report gives
@@ -536,10 +576,12 @@ enum Input {
     /// An external event: its index in [`Explorer::externals`].
     Event(usize),
     Timer(usize),
-    /// `reason`: `None` for done, the failure's reason otherwise.
+    /// `reason`: `None` for done, otherwise the failure's reason (a
+    /// question's choice): its index in what is known of the result
+    /// ([`Explorer::known`]).
     Result {
         id: u64,
-        reason: Option<String>,
+        reason: Option<usize>,
     },
 }
 
@@ -548,6 +590,9 @@ enum Input {
 struct Label {
     text: String,
     fired: Vec<(NetId, TransitionId)>,
+    /// The nets numbered below 64 among `fired`, as bits (what
+    /// [`Label::fires`] reads for them).
+    fired_nets: u64,
     /// The net whose transition attempted a double token.
     unsafe_by: Option<NetId>,
     /// The livelock's net (the transition the bound stopped at), or `None`
@@ -556,9 +601,29 @@ struct Label {
 }
 
 impl Label {
+    fn new(
+        text: String,
+        fired: Vec<(NetId, TransitionId)>,
+        unsafe_by: Option<NetId>,
+        livelock: Option<Option<NetId>>,
+    ) -> Label {
+        let fired_nets = fired
+            .iter()
+            .filter(|(n, _)| *n < 64)
+            .fold(0u64, |bits, (n, _)| bits | 1 << n);
+        Label {
+            text,
+            fired,
+            fired_nets,
+            unsafe_by,
+            livelock,
+        }
+    }
+
     fn fires(&self, net: Option<NetId>) -> bool {
         match net {
             None => !self.fired.is_empty(),
+            Some(n) if n < 64 => self.fired_nets & 1 << n != 0,
             Some(n) => self.fired.iter().any(|(m, _)| *m == n),
         }
     }
@@ -600,10 +665,13 @@ struct Explorer {
     codec: Codec,
     externals: Vec<External>,
     /// Per call (net, program, function) and command (net, verb) the
-    /// project's actions make: what is known of its result.
-    calls: FastMap<(NetId, usize, usize), Known>,
+    /// project's actions make: what is known of its result; calls by net,
+    /// then program, then function.
+    calls: Vec<Vec<Vec<Option<Known>>>>,
     /// By verb, then net.
     commands: FastMap<String, Vec<(NetId, Known)>>,
+    /// Per net, per question it asks.
+    questions: Vec<Vec<Known>>,
     /// The search's labels, numbered in merge order, and their keys.
     labels: Mutex<LabelTable>,
     /// The team's symmetry, when it reduces and is asked for.
@@ -629,7 +697,6 @@ struct Worker {
     /// The search's number of each, once known.
     global: Vec<u32>,
     scratch: Scratch,
-    effects: Vec<Effect>,
     next: Vec<u8>,
     label_key: Vec<u8>,
     /// The edges of the input being explored: label and target key.
@@ -639,6 +706,15 @@ struct Worker {
     /// input starts from.
     player: Option<Player>,
     concrete: Option<State>,
+    /// Numbers the pending calls `concrete` holds: one more each time
+    /// they change (see [`Player::reset_for_verifier`]).
+    pending_number: u64,
+    /// The answer sequences still to run for an input (ranges of
+    /// `todo_bits`), the one running, and it padded to the questions asked.
+    todo: Vec<std::ops::Range<usize>>,
+    todo_bits: Vec<bool>,
+    answers: Vec<bool>,
+    used: Vec<bool>,
     /// The canonical key of a successor, and a buffer for its images.
     canon: Vec<u8>,
     image: Vec<u8>,
@@ -657,6 +733,9 @@ struct Explored {
     symmetry: Option<Symmetry>,
     partial_order: bool,
     broken: Option<String>,
+    /// The warnings found without exploring that the exploration does not
+    /// disprove, worked out for the first verdict that asks.
+    statics: std::sync::OnceLock<Vec<Warning>>,
 }
 
 impl levels::Explore for Explorer {
@@ -668,13 +747,17 @@ impl levels::Explore for Explorer {
             index: FastMap::default(),
             global: Vec::new(),
             scratch: Scratch::default(),
-            effects: Vec::new(),
             next: Vec::new(),
             label_key: Vec::new(),
             this_input: Vec::new(),
             this_input_keys: Vec::new(),
             player: None,
             concrete: None,
+            pending_number: 0,
+            todo: Vec::new(),
+            todo_bits: Vec::new(),
+            answers: Vec::new(),
+            used: Vec::new(),
             canon: Vec::new(),
             image: Vec::new(),
         }
@@ -726,6 +809,17 @@ impl Explorer {
                 }
             })
             .collect();
+        let calls = project
+            .nets
+            .iter()
+            .map(|_| {
+                project
+                    .programs
+                    .iter()
+                    .map(|p| vec![None; p.functions.len()])
+                    .collect()
+            })
+            .collect();
         let mut explorer = Explorer {
             codec: Codec::new(
                 &project,
@@ -733,8 +827,9 @@ impl Explorer {
             ),
             project,
             externals,
-            calls: FastMap::default(),
+            calls,
             commands: FastMap::default(),
+            questions: Vec::new(),
             labels: Mutex::new(LabelTable::default()),
             symmetry: None,
             stubborn: None,
@@ -742,6 +837,22 @@ impl Explorer {
         };
         // What is known of every result the nets' actions can await.
         let project = explorer.project.clone();
+        explorer.questions = project
+            .nets
+            .iter()
+            .enumerate()
+            .map(|(n, net)| {
+                (0..net.asks.len())
+                    .map(|ask| {
+                        explorer.compute_known(&crate::player::Pending {
+                            net: n,
+                            kind: PendingKind::Question { ask },
+                            catastrophic: false,
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
         for (n, net) in project.nets.iter().enumerate() {
             for action in net.transitions.iter().flat_map(|t| &t.actions) {
                 let kind = match action {
@@ -762,7 +873,7 @@ impl Explorer {
                 let known = explorer.compute_known(&pending);
                 match pending.kind {
                     PendingKind::Call { program, function } => {
-                        explorer.calls.insert((n, program, function), known);
+                        explorer.calls[n][program][function] = Some(known);
                     }
                     PendingKind::Question { .. } => {}
                     PendingKind::Command { verb } => {
@@ -871,6 +982,7 @@ impl Explorer {
             symmetry: self.symmetry,
             partial_order: self.stubborn.is_some(),
             broken: self.broken.into_inner().unwrap_or_else(|e| e.into_inner()),
+            statics: std::sync::OnceLock::new(),
         }
     }
 
@@ -878,15 +990,21 @@ impl Explorer {
     /// relevant, and the reasons its failure is explored with.
     fn known(&self, pending: &crate::player::Pending) -> std::borrow::Cow<'_, Known> {
         let found = match &pending.kind {
-            PendingKind::Call { program, function } => {
-                self.calls.get(&(pending.net, *program, *function))
-            }
+            PendingKind::Call { program, function } => self
+                .calls
+                .get(pending.net)
+                .and_then(|by_program| by_program.get(*program))
+                .and_then(|by_function| by_function.get(*function))
+                .and_then(Option::as_ref),
             PendingKind::Command { verb } => self
                 .commands
                 .get(verb.as_str())
                 .and_then(|by_net| by_net.iter().find(|(n, _)| *n == pending.net))
                 .map(|(_, k)| k),
-            PendingKind::Question { .. } => None,
+            PendingKind::Question { ask } => self
+                .questions
+                .get(pending.net)
+                .and_then(|asks| asks.get(*ask)),
         };
         match found {
             Some(k) => std::borrow::Cow::Borrowed(k),
@@ -977,10 +1095,10 @@ impl Explorer {
                     reason: None,
                 });
             }
-            for reason in &self.known(pending).1 {
+            for reason in 0..self.known(pending).1.len() {
                 inputs.push(Input::Result {
                     id: *id,
-                    reason: Some(reason.clone()),
+                    reason: Some(reason),
                 });
             }
         }
@@ -1067,30 +1185,43 @@ impl Explorer {
         let mut known = false;
         let mut pushed = false;
         {
-            let input = input.clone();
             w.this_input.clear();
             w.this_input_keys.clear();
             let concrete = w.concrete.get_or_insert_with(|| abs.state.clone());
-            let seq_before = set_concrete(abs, &input, concrete);
+            let (seq_before, pending_changed) = set_concrete(abs, input, concrete);
+            w.pending_number += u64::from(pending_changed);
             let concrete = &*concrete;
-            // Every sequence of oracle answers, depth first.
-            let mut todo: Vec<Vec<bool>> = vec![Vec::new()];
-            while let Some(answers) = todo.pop() {
-                let Some(player) = self.step(&mut w.player, concrete, &input, &answers) else {
+            // Every sequence of oracle answers, depth first: a stack of
+            // ranges of `todo_bits`.
+            w.todo.clear();
+            w.todo_bits.clear();
+            w.todo.push(0..0);
+            while let Some(range) = w.todo.pop() {
+                w.answers.clear();
+                w.answers.extend_from_slice(&w.todo_bits[range.clone()]);
+                w.todo_bits.truncate(range.start);
+                let answers = &w.answers;
+                let Some(player) =
+                    self.step(&mut w.player, concrete, w.pending_number, input, answers)
+                else {
                     continue;
                 };
-                w.effects.clear();
-                w.effects.extend(player.effects());
+                // Read where the player recorded them (its next restore
+                // clears them).
+                let effects: &[Effect] = player.recorded();
                 let questions: &[Question] = player.oracle().map_or(&[], |o| &o.questions);
                 let asked = questions.len();
                 for k in answers.len()..asked {
-                    let mut alt = answers.clone();
-                    alt.resize(k, false);
-                    alt.push(true);
-                    todo.push(alt);
+                    let start = w.todo_bits.len();
+                    w.todo_bits.extend_from_slice(answers);
+                    w.todo_bits.resize(start + k, false);
+                    w.todo_bits.push(true);
+                    w.todo.push(start..w.todo_bits.len());
                 }
-                let mut used = answers.clone();
-                used.resize(asked, false);
+                w.used.clear();
+                w.used.extend_from_slice(answers);
+                w.used.resize(asked, false);
+                let used = &w.used;
                 self.codec.encode(
                     player.state(),
                     seq_before,
@@ -1100,7 +1231,6 @@ impl Explorer {
                     &mut w.scratch,
                     &mut w.next,
                 );
-                let effects = &w.effects;
                 let mut unsafe_by = None;
                 let mut livelock = None;
                 let mut fires = false;
@@ -1126,17 +1256,17 @@ impl Explorer {
                     continue; // nothing happened: not an edge
                 }
                 // The step's label, known by what its text says.
-                label_key(abs, &input, questions, &used, effects, &mut w.label_key);
+                label_key(abs, input, questions, used, effects, &mut w.label_key);
                 let local = match w.index.get(&w.label_key) {
                     Some(&l) => l,
                     None => {
                         let l = w.labels.len() as u32;
-                        let label = Label {
-                            text: self.describe(abs, &input, questions, &used, effects),
-                            fired: fired_of(effects),
+                        let label = Label::new(
+                            self.describe(abs, input, questions, used, effects),
+                            fired_of(effects),
                             unsafe_by,
                             livelock,
-                        };
+                        );
                         w.labels.push((w.label_key.clone(), label));
                         w.index.insert(w.label_key.clone(), l);
                         w.global.push(u32::MAX);
@@ -1173,22 +1303,25 @@ impl Explorer {
 
     /// Runs one input on `concrete` (see [`set_concrete`]) with the oracle's
     /// `answers`, in the worker's player: the player after it.
+    /// `pending` numbers `concrete`'s pending calls (see
+    /// [`Player::reset_for_verifier`]).
     fn step<'p>(
         &self,
         slot: &'p mut Option<Player>,
         concrete: &State,
+        pending: u64,
         input: &Input,
         answers: &[bool],
     ) -> Option<&'p mut Player> {
         let player = match slot {
             Some(player) => {
-                player.reset_for_verifier(concrete, answers);
+                player.reset_for_verifier(concrete, pending, answers);
                 player
             }
             None => {
                 // A state the explorer built itself always fits its project.
                 let mut player = Player::restore(self.project.clone(), concrete.clone()).ok()?;
-                player.reset_for_verifier(concrete, answers);
+                player.reset_for_verifier(concrete, pending, answers);
                 slot.insert(player)
             }
         };
@@ -1196,21 +1329,35 @@ impl Explorer {
             Input::Event(i) => player.handle(&self.externals[*i].event, T + 1),
             Input::Timer(_) => player.advance(T + 1),
             Input::Result { id, reason } => {
-                let question = concrete
-                    .pending
-                    .get(id)
-                    .is_some_and(|p| matches!(p.kind, PendingKind::Question { .. }));
-                match reason {
+                let pending = concrete.pending.get(id);
+                let question =
+                    pending.is_some_and(|p| matches!(p.kind, PendingKind::Question { .. }));
+                match self.reason(pending, *reason) {
                     Some(choice) if question => {
                         // Refusal cannot happen: the choice is offered.
-                        let _ = player.answer(*id, choice, T + 1);
+                        let _ = player.answer(*id, &choice, T + 1);
                     }
                     None => player.result(*id, Outcome::Done(Params::new()), T + 1),
-                    Some(r) => player.result(*id, Outcome::Failed(r.clone()), T + 1),
+                    Some(r) => player.result(*id, Outcome::Failed(r.into_owned()), T + 1),
                 }
             }
         }
         Some(player)
+    }
+
+    /// The text of reason number `reason` of a pending result (`None`:
+    /// done, or a result that is not pending: its inputs are only listed
+    /// from the pending results of a state).
+    fn reason(
+        &self,
+        pending: Option<&crate::player::Pending>,
+        reason: Option<usize>,
+    ) -> Option<std::borrow::Cow<'_, str>> {
+        let (pending, reason) = (pending?, reason?);
+        match self.known(pending) {
+            std::borrow::Cow::Borrowed(k) => k.1.get(reason).map(|r| r.as_str().into()),
+            std::borrow::Cow::Owned(k) => k.1.get(reason).map(|r| r.clone().into()),
+        }
     }
 
     /// The reasons a failed call or command is explored with: one per way
@@ -1288,6 +1435,7 @@ impl Explorer {
                 )
             }
             Input::Result { id, reason } => {
+                let reason = self.reason(abs.state.pending.get(id), *reason);
                 let done = reason.is_none();
                 let outcome = if done { names::DONE } else { names::FAILED };
                 let mut text = match abs.state.pending.get(id).map(|x| &x.kind) {
@@ -1385,8 +1533,9 @@ impl Explorer {
 
 /// The concrete state an input runs on: `abs` at instant `T`, every timer
 /// due after the step's instant, except the one the input expires (due at
-/// it); and the start order the step's first new timer gets.
-fn set_concrete(abs: &Abs, input: &Input, concrete: &mut State) -> u64 {
+/// it); and the start order the step's first new timer gets, and whether
+/// the pending calls changed.
+fn set_concrete(abs: &Abs, input: &Input, concrete: &mut State) -> (u64, bool) {
     let expire = match input {
         Input::Timer(i) => Some(*i),
         _ => None,
@@ -1401,7 +1550,8 @@ fn set_concrete(abs: &Abs, input: &Input, concrete: &mut State) -> u64 {
         .for_each(std::collections::VecDeque::clear);
     concrete.lockout = from.lockout;
     concrete.locked.clone_from(&from.locked);
-    if concrete.pending != from.pending {
+    let pending_changed = concrete.pending != from.pending;
+    if pending_changed {
         concrete.pending.clone_from(&from.pending);
     }
     concrete.next_id = from.next_id;
@@ -1415,7 +1565,7 @@ fn set_concrete(abs: &Abs, input: &Input, concrete: &mut State) -> u64 {
         };
     }
     concrete.timers.sort_by_key(|t| (t.deadline, t.seq));
-    concrete.next_timer_seq
+    (concrete.next_timer_seq, pending_changed)
 }
 
 /// The bytes that tell one step's label from another's: the input, the
@@ -1473,11 +1623,13 @@ fn label_key(
                     out.extend_from_slice(&id.to_le_bytes());
                 }
             }
+            // The reason's index: what is known of a result depends on
+            // its net and kind only, written above.
             match reason {
                 None => out.push(0),
                 Some(r) => {
                     out.push(1);
-                    str_(out, r);
+                    u32_(out, *r);
                 }
             }
         }
@@ -1872,17 +2024,19 @@ impl Explored {
         }
 
         let fired = &self.fired;
-        let statics = if statics {
-            let mut found = static_warnings(project);
-            found.retain(|w| !self.never_together(w));
-            found
+        let statics: &[Warning] = if statics {
+            self.statics.get_or_init(|| {
+                let mut found = static_warnings(project);
+                found.retain(|w| !self.never_together(w));
+                found
+            })
         } else {
-            Vec::new()
+            &[]
         };
         let mut warnings: Vec<String> = statics
-            .into_iter()
+            .iter()
             .filter(|w| net.is_none_or(|x| w.nets.contains(&x)))
-            .map(|w| w.text)
+            .map(|w| w.text.clone())
             .collect();
         for (ni, nt) in project
             .nets
