@@ -99,6 +99,11 @@ pub(super) struct Stubborn {
     writing: Vec<Bits>,
     /// Per class: the classes that may write what enables it.
     enablers: Vec<Vec<u32>>,
+    /// Per timer or pending class: the classes that may start that timer
+    /// or issue that kind of call, command or question.
+    starters: Vec<Vec<u32>>,
+    /// Per class: its timer, for a timer's class.
+    timer_of: Vec<Option<(NetId, usize)>>,
     /// Per net: its final places.
     finals: Vec<Vec<usize>>,
     /// Per external event's class: the net and input places of each
@@ -114,10 +119,12 @@ pub(super) struct Stubborn {
     dependent: Vec<Vec<u32>>,
 }
 
-/// What the stubborn sets read of a state: marked places, active nets.
+/// What the stubborn sets read of a state: marked places, active nets,
+/// running timers.
 pub(super) trait Marking {
     fn marked(&self, place: usize) -> bool;
     fn active(&self, net: NetId) -> bool;
+    fn running(&self, net: NetId, timer: usize) -> bool;
 }
 
 /// Resources, numbered: places, active flags, timers, pending kinds, then
@@ -788,6 +795,23 @@ impl Stubborn {
                 }
             }
         }
+        let starters = classes
+            .iter()
+            .map(|c| match class_resource(res, c) {
+                Some(r) => (0..k)
+                    .filter(|&b| footprints[b].starts.has(r))
+                    .map(|b| b as u32)
+                    .collect(),
+                None => Vec::new(),
+            })
+            .collect();
+        let timer_of = classes
+            .iter()
+            .map(|c| match c {
+                Class::Timer(n, t) => Some((*n, *t)),
+                _ => None,
+            })
+            .collect();
         let mut touching = vec![Bits::new(k); res.count()];
         let mut writing = vec![Bits::new(k); res.count()];
         for (c, f) in footprints.iter().enumerate() {
@@ -846,6 +870,8 @@ impl Stubborn {
             touching,
             writing,
             enablers,
+            starters,
+            timer_of,
             finals: project
                 .nets
                 .iter()
@@ -872,8 +898,12 @@ impl Stubborn {
     /// event, one condition each of its transitions lacks (its net active,
     /// else one input place marked: the one fewest classes mark) and the
     /// classes that may fulfil it; an event none of whose transitions
-    /// lacks anything is disabled by a lockout, which nothing lifts. For
-    /// any other class, every class that may write what enables it.
+    /// lacks anything is disabled by a lockout, which nothing lifts. For a
+    /// timer that runs (another one started with it expires first), every
+    /// class that may write what enables it; for a timer that does not
+    /// run, or a kind of result not awaited, the classes that may start it
+    /// (nothing else makes it run or awaited: a cancel, a deactivation
+    /// only stops it).
     fn enablers_in<'a>(
         &'a self,
         c: usize,
@@ -881,7 +911,10 @@ impl Stubborn {
         out: &'a mut Vec<u32>,
     ) -> &'a [u32] {
         if self.waiting[c].is_empty() {
-            return &self.enablers[c];
+            return match self.timer_of[c] {
+                Some((n, t)) if state.running(n, t) => &self.enablers[c],
+                _ => &self.starters[c],
+            };
         }
         out.clear();
         for (n, inputs) in &self.waiting[c] {
@@ -1086,6 +1119,9 @@ impl Marking for crate::player::State {
     fn active(&self, net: NetId) -> bool {
         self.active[net]
     }
+    fn running(&self, net: NetId, timer: usize) -> bool {
+        self.timers.iter().any(|t| t.net == net && t.timer == timer)
+    }
 }
 
 #[cfg(test)]
@@ -1164,6 +1200,9 @@ mod tests {
         }
         fn active(&self, _: NetId) -> bool {
             true
+        }
+        fn running(&self, _: NetId, _: usize) -> bool {
+            false
         }
     }
 
