@@ -733,3 +733,38 @@ fn two_robots_without_the_team_net_are_symmetric_and_check_alike_reduced_or_not(
         );
     }
 }
+
+/// One robot's net with two tokens: `ask` calls PLN.f; its result moves
+/// `p0` to `p1` and, if `q_in` is marked by then, `q_in` to `q_out` too
+/// (one occurrence fires both); `go` marks `q_in`. When the result comes
+/// before `go`, `q_in` stays marked (a final place); after, the robot ends
+/// at `p1` and `q_out`, no final place marked: a dead marking.
+const TWO_TOKENS: &str = "name = \"X\"\nvehicles = \"all\"\nplaces = [\"idle\", \"p0\", \"p1\", \"q_wait\", \"q_in\", \"q_out\"]\ninitial = [\"idle\", \"q_wait\"]\nfinal = [\"q_in\"]\n\n[[transition]]\nname = \"ask\"\nfrom = [\"idle\"]\nto = [\"p0\"]\non = \"start\"\ndo = [\"call PLN.f\"]\n\n[[transition]]\nname = \"first\"\nfrom = [\"p0\"]\nto = [\"p1\"]\non = \"PLN.f.done\"\n\n[[transition]]\nname = \"second\"\nfrom = [\"q_in\"]\nto = [\"q_out\"]\non = \"PLN.f.done\"\n\n[[transition]]\nname = \"go\"\nfrom = [\"q_wait\"]\nto = [\"q_in\"]\non = \"go\"\n";
+
+#[test]
+fn a_step_that_fires_more_once_another_input_marks_a_place_keeps_its_dead_marking() {
+    // In the state after `ask`, the result of PLN.f can fire only `first`
+    // (`q_in` is not marked): its footprint read in the state is `p0`,
+    // `p1` and the pending call, which `go` does not touch. But `go` marks
+    // what `second` lacks: a stubborn set holding the result must hold
+    // `go` too, or the reduction takes the result first every time and
+    // never reaches the dead marking (`p1`, `q_out`) that `go` then the
+    // result make.
+    let files: BTreeMap<String, String> = [
+        (
+            "project.toml".to_owned(),
+            "[events]\nstart = \"nominal\"\ngo = \"nominal\"\n\n[[vehicle]]\nname = \"R1\"\nsystem = 1\n\n[[vehicle]]\nname = \"R2\"\nsystem = 2\n\n[programs.PLN.functions]\nf = {}\n\n[[net]]\nfile = \"x.toml\"\nactive = true\n".to_owned(),
+        ),
+        ("x.toml".to_owned(), TWO_TOKENS.to_owned()),
+    ]
+    .into();
+    let p = Arc::new(nets::load(&files).unwrap_or_else(|e| panic!("{e:?}")));
+    let whole = check(&p, false, false);
+    assert!(whole.dead_markings > 0, "{whole:?}");
+    for (symmetry, partial_order, proviso) in REDUCTIONS {
+        project_same_as_unreduced(&p, "two tokens", symmetry, partial_order, proviso);
+    }
+    // The reduction does reduce here: R1 and R2 are independent.
+    let reduced = check(&p, false, true);
+    assert!(reduced.states < whole.states, "{reduced:?}");
+}

@@ -2,17 +2,26 @@
 //! inputs a state offers.
 //!
 //! Inputs come in *classes*: an external event, a timer of a net, the
-//! result of a kind of call, command or question of a net. Each class has a
-//! static footprint: what a step it starts may read and write, over every
-//! transition that can fire in that step (those its event triggers, then
-//! the immediate transitions its outputs may enable, the transitions the
-//! events it emits trigger, the nets it activates, `net_fault`'s). The
-//! resources are the places, each net's active flag, each timer, each kind
-//! of pending result, and the catastrophic lockouts: one per vehicle and
-//! the team's (the order in which timers start and results are awaited is
-//! not: a team's reduced key keeps none the player cannot tell apart, see
-//! `project_states`). Two classes are dependent when one writes what the
-//! other reads or writes.
+//! result of a kind of call, command or question of a net. A step of a
+//! class has a *footprint*: what it may read and write. The resources are
+//! the places, each net's active flag, each timer, each kind of pending
+//! result, and the catastrophic lockouts: one per vehicle and the team's
+//! (the order in which timers start and results are awaited is not: a
+//! team's reduced key keeps none the player cannot tell apart, see
+//! `project_states`). A step fires the transitions its input triggers,
+//! then the immediate transitions their outputs may enable, the
+//! transitions the events they emit trigger, the nets they activate,
+//! `net_fault`'s; its footprint is the union of theirs.
+//!
+//! Two footprints per class:
+//! - the *static* one counts every transition that can fire in the step,
+//!   in any state;
+//! - the one *read in a state* counts only the transitions that can fire
+//!   from that state: their net active (or activated earlier in the step)
+//!   and every input place marked (or marked earlier in the step). Each
+//!   transition left out lacks a condition — one input place unmarked or
+//!   its net inactive — and the classes that may fulfil it (that may mark
+//!   that place, activate that net) are its *enablers in the state*.
 //!
 //! The lockouts follow the player: an occurrence of vehicle V (an event
 //! `E@V`, a timer or result of one of V's instances, their `net_fault`) is
@@ -25,34 +34,41 @@
 //! reaction makes what it emits catastrophic: a step that may handle a
 //! catastrophic occurrence writes the lockout of every occurrence it may
 //! handle. A timer or result such a step may start is catastrophic in turn
-//! (the player's taint), and its class gets the same footprint. Lockouts
-//! are never lifted. A locked-out vehicle's events are no inputs; its
-//! timers and results still are, and are dropped: the static footprint
-//! over-approximates such a step (dropping only takes effects away), so the
-//! reduction stays on once vehicles are locked out.
+//! (the player's taint, decided on the static footprints), and its class
+//! gets the same footprint. Lockouts are never lifted. A locked-out
+//! vehicle's events are no inputs; its timers and results still are, and
+//! are dropped: the footprint over-approximates such a step (dropping only
+//! takes effects away), so the reduction stays on once vehicles are
+//! locked out.
 //!
 //! In a state, a stubborn set starts from one enabled class and is closed
-//! under: an enabled member brings every class dependent on it; a disabled
-//! external event brings, for each transition it triggers, the classes
-//! that may fulfil one condition that transition lacks in the state (its
-//! net active, else one unmarked input place: the one fewest classes
-//! mark), or nothing when none is lacking (then a lockout drops it, for
-//! good); any other disabled member brings every class that may write what
-//! enables it. Only the enabled members (the ample set) are explored, and
-//! only when none is *visible* — may deactivate a net that is active and
-//! marks none of its final places in the state (a net's own deadness reads
-//! it) — unless they are all the enabled classes. A step that may mark a
-//! place of an `[[exclusive]]` resource reads every place of it, so that
-//! making a second holder is an outcome of the step. The cycle proviso is
-//! the explorer's: an ample set is not taken when one of its steps leads to
-//! a state numbered no higher than the state expanded, or changes nothing;
-//! the next smallest is tried, and the state is expanded fully when none
-//! is left (see docs/verify.md for why this preserves every verdict).
+//! under:
+//! - an enabled member brings every class whose *static* footprint writes
+//!   what the member's footprint in the state reads or writes, or reads
+//!   what it writes; and the enablers in the state of every transition its
+//!   step leaves out (so that no class outside the set can make the
+//!   member's step larger than read in the state);
+//! - a disabled external event brings, for each transition it triggers,
+//!   the classes that may fulfil one condition that transition lacks in
+//!   the state (its net active, else one unmarked input place: the one
+//!   fewest classes mark), or nothing when none is lacking (then a lockout
+//!   drops it, for good);
+//! - any other disabled member brings every class that may write what
+//!   enables it.
+//!
+//! Only the enabled members (the ample set) are explored, and only when
+//! none is *visible* — its step in the state deactivates a net that is
+//! active there and marks none of its final places (a net's own deadness
+//! reads it) — unless they are all the enabled classes. A step that may
+//! mark a place of an `[[exclusive]]` resource reads every place of it, so
+//! that making a second holder is an outcome of the step. The cycle
+//! proviso is the explorer's (see docs/verify.md for why all this
+//! preserves every verdict).
 
 use std::collections::HashMap;
 
 use crate::event::Category;
-use crate::model::{names, Action, NetId, Project, TransitionId, VehicleId};
+use crate::model::{names, Action, NetId, Project, Transition, TransitionId, VehicleId};
 use crate::player::{Pending, PendingKind};
 
 /// A class of inputs (see the module doc).
@@ -66,16 +82,28 @@ pub(super) enum Class {
     Question(NetId, usize),
 }
 
-/// The footprints of every class and the dependencies between them.
+/// The steps of every class, their static footprints, and what the stubborn
+/// sets read of a state.
 pub(super) struct Stubborn {
     index: HashMap<Class, u32>,
-    /// Per class: the classes dependent on it.
-    dependent: Vec<Vec<u32>>,
+    /// The steps: what a footprint is computed from.
+    steps: Steps,
+    /// Per class: its inputs may be catastrophic (see the module doc).
+    tainted: Vec<bool>,
+    /// Per class: what its enabling reads besides its own resource (the
+    /// timers started with it: they expire in their order).
+    together: Vec<Bits>,
+    /// Per resource: the classes whose static footprint reads or writes it.
+    touching: Vec<Bits>,
+    /// Per resource: the classes whose static footprint writes it.
+    writing: Vec<Bits>,
     /// Per class: the classes that may write what enables it.
     enablers: Vec<Vec<u32>>,
-    /// Per class: the nets it may deactivate (what a net's own deadness
-    /// reads; see [`Stubborn::visible`]).
-    deactivates: Vec<Vec<NetId>>,
+    /// Per timer or pending class: the classes that may start that timer
+    /// or issue that kind of call, command or question.
+    starters: Vec<Vec<u32>>,
+    /// Per class: its timer, for a timer's class.
+    timer_of: Vec<Option<(NetId, usize)>>,
     /// Per net: its final places.
     finals: Vec<Vec<usize>>,
     /// Per external event's class: the net and input places of each
@@ -85,12 +113,18 @@ pub(super) struct Stubborn {
     producers: Vec<Vec<u32>>,
     /// Per net: the classes that may activate it.
     activators: Vec<Vec<u32>>,
+    /// The static dependency relation, for the tests: per class, the
+    /// classes whose static footprint meets its own.
+    #[cfg(test)]
+    dependent: Vec<Vec<u32>>,
 }
 
-/// What the stubborn sets read of a state: marked places, active nets.
+/// What the stubborn sets read of a state: marked places, active nets,
+/// running timers.
 pub(super) trait Marking {
     fn marked(&self, place: usize) -> bool;
     fn active(&self, net: NetId) -> bool;
+    fn running(&self, net: NetId, timer: usize) -> bool;
 }
 
 /// Resources, numbered: places, active flags, timers, pending kinds, then
@@ -125,8 +159,8 @@ impl Resources {
     }
 }
 
-/// A set of resources.
-#[derive(Clone)]
+/// A set of resources, or of classes.
+#[derive(Clone, Debug, PartialEq, Eq)]
 struct Bits(Vec<u64>);
 
 impl Bits {
@@ -142,14 +176,30 @@ impl Bits {
     fn meets(&self, other: &Bits) -> bool {
         self.0.iter().zip(&other.0).any(|(a, b)| a & b != 0)
     }
+    fn add(&mut self, other: &Bits) {
+        for (a, b) in self.0.iter_mut().zip(&other.0) {
+            *a |= b;
+        }
+    }
+    /// The members, ascending.
+    fn members(&self) -> impl Iterator<Item = usize> + '_ {
+        self.0.iter().enumerate().flat_map(|(i, &w)| {
+            let mut w = w;
+            std::iter::from_fn(move || {
+                (w != 0).then(|| {
+                    let b = w.trailing_zeros() as usize;
+                    w &= w - 1;
+                    i * 64 + b
+                })
+            })
+        })
+    }
 }
 
-/// Reads and writes of one class.
+/// Reads and writes of a step of one class.
 struct Footprint {
     reads: Bits,
     writes: Bits,
-    /// What decides whether the class is enabled.
-    enabling: Bits,
     /// A step of the class may handle a catastrophic occurrence (so what
     /// it starts may be catastrophic too).
     catastrophic: bool,
@@ -160,6 +210,483 @@ struct Footprint {
     starts: Bits,
     /// The nets it may deactivate.
     deactivates: Vec<NetId>,
+}
+
+/// One transition's own part in a step: what its firing (and its actions)
+/// may read and write, and the transitions that may fire after it in the
+/// same step.
+struct Move {
+    net: NetId,
+    inputs: Vec<usize>,
+    reads: Bits,
+    writes: Bits,
+    marks: Bits,
+    starts: Bits,
+    deactivates: Vec<NetId>,
+    /// It waits for a catastrophic event or emits one.
+    catastrophic: bool,
+    /// The vehicles of the occurrences its firing may raise that something
+    /// waits for (its emitted events, its `net_fault`).
+    heard: Vec<Option<VehicleId>>,
+    /// The transitions that may fire after it in the step: the immediate
+    /// ones its outputs may enable, those of the nets it activates, those
+    /// its emitted events trigger.
+    next: Vec<u32>,
+}
+
+/// How a step of a class starts, before any transition fires.
+struct Opening {
+    reads: Bits,
+    writes: Bits,
+    /// What decides whether the class is enabled.
+    enabling: Bits,
+    /// The vehicle whose lockout drops its input (`None`: the team's only).
+    vehicle: Option<VehicleId>,
+    /// Its input is a catastrophic event.
+    catastrophic: bool,
+    /// The transitions its input may fire (moves), then `net_fault`'s when
+    /// there is one.
+    start: Vec<u32>,
+}
+
+/// Everything a footprint is computed from.
+struct Steps {
+    res: Resources,
+    moves: Vec<Move>,
+    openings: Vec<Opening>,
+    /// The immediate transitions (moves): one enabled in a state was
+    /// rejected there, and is tried again after any step.
+    immediates: Vec<u32>,
+    /// The places of each `[[exclusive]]` resource.
+    held: Vec<Bits>,
+}
+
+/// The transitions a step read in a state leaves out.
+#[derive(Default)]
+struct Left {
+    seen: Vec<bool>,
+    work: Vec<u32>,
+    deferred: Vec<u32>,
+}
+
+impl Steps {
+    fn new(project: &Project, externals: &[String], classes: &[Class], res: Resources) -> Steps {
+        let offsets: Vec<u32> = project
+            .nets
+            .iter()
+            .scan(0u32, |acc, net| {
+                let at = *acc;
+                *acc += net.transitions.len() as u32;
+                Some(at)
+            })
+            .collect();
+        let id = |(n, t): (NetId, TransitionId)| offsets[n] + t as u32;
+        let net_fault: Vec<u32> = project
+            .triggers
+            .get(names::NET_FAULT)
+            .into_iter()
+            .flatten()
+            .map(|&x| id(x))
+            .collect();
+        let mut moves = Vec::new();
+        for (n, net) in project.nets.iter().enumerate() {
+            for tr in &net.transitions {
+                moves.push(one_move(project, &res, n, tr, !net_fault.is_empty(), &id));
+            }
+        }
+        let openings = classes
+            .iter()
+            .map(|c| {
+                let mut o = opening(project, externals, &res, c, &id);
+                if !o.start.is_empty() {
+                    o.start.extend(&net_fault);
+                }
+                o
+            })
+            .collect();
+        let held = project
+            .exclusive
+            .iter()
+            .map(|resource| {
+                let mut held = Bits::new(res.count());
+                for &p in resource.held.iter().flat_map(|(_, places)| places) {
+                    held.set(p);
+                }
+                held
+            })
+            .collect();
+        let immediates = project
+            .nets
+            .iter()
+            .enumerate()
+            .flat_map(|(n, net)| net.immediate.iter().map(move |&t| (n, t)))
+            .map(id)
+            .collect();
+        Steps {
+            res,
+            moves,
+            openings,
+            immediates,
+            held,
+        }
+    }
+
+    /// Whether `m` can fire in a step from `state` that has marked `marks`
+    /// so far (`None`: any state).
+    fn can_fire(&self, m: &Move, state: Option<&dyn Marking>, marks: &Bits) -> bool {
+        let Some(s) = state else {
+            return true;
+        };
+        (s.active(m.net) || marks.has(self.res.active(m.net)))
+            && m.inputs.iter().all(|&p| s.marked(p) || marks.has(p))
+    }
+
+    /// The footprint of a step of class `c` (`tainted`: its input may be
+    /// catastrophic) from `state`, or from any state (`None`). With a
+    /// state, `left.deferred` ends with the transitions the step leaves
+    /// out: they cannot fire in it.
+    fn footprint(
+        &self,
+        c: usize,
+        tainted: bool,
+        state: Option<&dyn Marking>,
+        left: &mut Left,
+    ) -> Footprint {
+        let o = &self.openings[c];
+        let count = self.res.count();
+        let mut reads = o.reads.clone();
+        let mut writes = o.writes.clone();
+        let mut marks = Bits::new(count);
+        let mut starts = Bits::new(count);
+        let mut deactivates = Vec::new();
+        let mut catastrophic = tainted || o.catastrophic;
+        let mut heard: Vec<Option<VehicleId>> = Vec::new();
+        left.seen.clear();
+        left.seen.resize(self.moves.len(), false);
+        left.work.clear();
+        left.deferred.clear();
+        left.work.extend(o.start.iter().rev());
+        // An immediate transition enabled in the state was rejected there
+        // (else it would have fired): it is tried again after the step.
+        if let Some(s) = state.filter(|_| !o.start.is_empty()) {
+            for &u in &self.immediates {
+                let m = &self.moves[u as usize];
+                if s.active(m.net) && m.inputs.iter().all(|&p| s.marked(p)) {
+                    left.work.push(u);
+                }
+            }
+        }
+        let mut fired = false;
+        loop {
+            while let Some(t) = left.work.pop() {
+                if left.seen[t as usize] {
+                    continue;
+                }
+                let m = &self.moves[t as usize];
+                if !self.can_fire(m, state, &marks) {
+                    left.deferred.push(t);
+                    continue;
+                }
+                left.seen[t as usize] = true;
+                fired = true;
+                reads.add(&m.reads);
+                writes.add(&m.writes);
+                marks.add(&m.marks);
+                starts.add(&m.starts);
+                for &n in &m.deactivates {
+                    if !deactivates.contains(&n) {
+                        deactivates.push(n);
+                    }
+                }
+                catastrophic |= m.catastrophic;
+                heard.extend_from_slice(&m.heard);
+                left.work.extend(m.next.iter().rev());
+            }
+            // What the step marked may let a transition left out fire.
+            left.deferred.retain(|&t| !left.seen[t as usize]);
+            left.deferred.sort_unstable();
+            left.deferred.dedup();
+            let ready: Vec<u32> = left
+                .deferred
+                .iter()
+                .copied()
+                .filter(|&t| self.can_fire(&self.moves[t as usize], state, &marks))
+                .collect();
+            if ready.is_empty() {
+                break;
+            }
+            left.work.extend(ready);
+        }
+        // An occurrence of a vehicle locked out (or of any, the team's
+        // lockout on) is dropped: the step reads those lockouts. A
+        // catastrophic one that fires a transition locks its vehicle out
+        // (the team, for a team event), and so may every occurrence a
+        // catastrophic reaction handles (its emitted events and
+        // `net_fault`s are catastrophic too).
+        if fired {
+            heard.push(o.vehicle);
+        }
+        heard.sort_unstable();
+        heard.dedup();
+        if !heard.is_empty() {
+            reads.set(self.res.lockout(None));
+        }
+        for &v in &heard {
+            reads.set(self.res.lockout(v));
+            if catastrophic {
+                writes.set(self.res.lockout(v));
+            }
+        }
+        // A step that may mark a place of an `[[exclusive]]` resource
+        // reads every place of it: whether the step makes a second holder
+        // is then an outcome of the step, which the reduction preserves
+        // like any other (see docs/verify.md).
+        for held in &self.held {
+            if marks.meets(held) {
+                reads.add(held);
+            }
+        }
+        Footprint {
+            reads,
+            writes,
+            catastrophic,
+            marks,
+            starts,
+            deactivates,
+        }
+    }
+}
+
+/// A transition's own part in a step (see [`Move`]); `net_fault`: some
+/// transition waits for `net_fault` (a rejected firing raises it).
+fn one_move(
+    project: &Project,
+    res: &Resources,
+    n: NetId,
+    tr: &Transition,
+    net_fault: bool,
+    id: &dyn Fn((NetId, TransitionId)) -> u32,
+) -> Move {
+    let count = res.count();
+    let mut reads = Bits::new(count);
+    let mut writes = Bits::new(count);
+    let mut marks = Bits::new(count);
+    let mut starts = Bits::new(count);
+    let mut deactivates = Vec::new();
+    let mut heard = Vec::new();
+    let mut next = Vec::new();
+    reads.set(res.active(n));
+    for &p in &tr.flat_inputs {
+        reads.set(p);
+        writes.set(p);
+    }
+    for &p in &tr.flat_outputs {
+        reads.set(p); // a double token is found by reading it
+        writes.set(p);
+        marks.set(p);
+    }
+    let mut catastrophic = tr
+        .event
+        .as_deref()
+        .is_some_and(|e| category(project, e) == Category::Catastrophic);
+    // A rejected firing raises the net's `net_fault`.
+    if net_fault {
+        heard.push(project.nets[n].vehicle);
+    }
+    // Immediate transitions the outputs may enable.
+    for (m, net) in project.nets.iter().enumerate() {
+        for &u in &net.immediate {
+            if net.transitions[u]
+                .flat_inputs
+                .iter()
+                .any(|p| tr.flat_outputs.contains(p))
+            {
+                next.push(id((m, u)));
+            }
+        }
+    }
+    for a in &tr.actions {
+        match a {
+            Action::Activate(m) | Action::Deactivate(m) => {
+                let m = *m;
+                writes.set(res.active(m));
+                if matches!(a, Action::Deactivate(_)) && !deactivates.contains(&m) {
+                    deactivates.push(m);
+                }
+                if matches!(a, Action::Activate(_)) {
+                    marks.set(res.active(m));
+                    let offset = project.place_offsets[m];
+                    for (i, place) in project.nets[m].places.iter().enumerate() {
+                        if place.initial {
+                            marks.set(offset + i);
+                        }
+                    }
+                }
+                let offset = project.place_offsets[m];
+                for i in 0..project.nets[m].places.len() {
+                    writes.set(offset + i);
+                    reads.set(offset + i);
+                }
+                for i in 0..project.nets[m].timers.len() {
+                    writes.set(res.timer(m, i));
+                }
+                for class in res.pending.keys() {
+                    let net = match class {
+                        Class::Call(x, ..) | Class::Command(x, _) | Class::Question(x, _) => *x,
+                        _ => continue,
+                    };
+                    if net == m {
+                        if let Some(r) = res.pending(class) {
+                            writes.set(r);
+                        }
+                    }
+                }
+                for &u in &project.nets[m].immediate {
+                    next.push(id((m, u)));
+                }
+            }
+            Action::Emit { event, .. } => {
+                catastrophic |= category(project, event) == Category::Catastrophic;
+                if let Some(waiting) = project.triggers.get(event) {
+                    heard.push(project.vehicle_event(event).map(|(_, v)| v));
+                    next.extend(waiting.iter().map(|&x| id(x)));
+                }
+            }
+            Action::Timer { timer, .. } => {
+                writes.set(res.timer(n, *timer));
+                starts.set(res.timer(n, *timer));
+            }
+            Action::Cancel { timer } => writes.set(res.timer(n, *timer)),
+            Action::Call {
+                program, function, ..
+            } => issue(
+                res,
+                &mut writes,
+                &mut starts,
+                Class::Call(n, *program, *function),
+            ),
+            Action::Command { verb, .. } => issue(
+                res,
+                &mut writes,
+                &mut starts,
+                Class::Command(n, verb.clone()),
+            ),
+            Action::Ask { ask, .. } => {
+                let timer = project.nets[n].asks[*ask].timer;
+                writes.set(res.timer(n, timer));
+                starts.set(res.timer(n, timer));
+                issue(res, &mut writes, &mut starts, Class::Question(n, *ask));
+            }
+        }
+    }
+    Move {
+        net: n,
+        inputs: tr.flat_inputs.clone(),
+        reads,
+        writes,
+        marks,
+        starts,
+        deactivates,
+        catastrophic,
+        heard,
+        next,
+    }
+}
+
+/// How a step of class `c` starts (see [`Opening`]).
+fn opening(
+    project: &Project,
+    externals: &[String],
+    res: &Resources,
+    c: &Class,
+    id: &dyn Fn((NetId, TransitionId)) -> u32,
+) -> Opening {
+    let count = res.count();
+    let mut reads = Bits::new(count);
+    let mut writes = Bits::new(count);
+    let mut enabling = Bits::new(count);
+    let mut catastrophic = false;
+    let waiting_for = |net: NetId, event: &str| -> Vec<(NetId, TransitionId)> {
+        project.nets[net]
+            .transitions
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| t.event.as_deref() == Some(event))
+            .map(|(i, _)| (net, i))
+            .collect()
+    };
+    let mut start: Vec<(NetId, TransitionId)> = Vec::new();
+    match c {
+        Class::Event(i) => {
+            let event = &externals[*i];
+            start = project.triggers.get(event).cloned().unwrap_or_default();
+            for &(n, t) in &start {
+                enabling.set(res.active(n));
+                for &p in &project.nets[n].transitions[t].flat_inputs {
+                    enabling.set(p);
+                }
+            }
+            catastrophic = category(project, event) == Category::Catastrophic;
+        }
+        Class::Timer(n, t) => {
+            let r = res.timer(*n, *t);
+            enabling.set(r);
+            reads.set(r);
+            writes.set(r);
+            start = waiting_for(*n, &project.nets[*n].timers[*t]);
+            // A question's timeout ends the question.
+            for (a, ask) in project.nets[*n].asks.iter().enumerate() {
+                if ask.timer == *t {
+                    if let Some(q) = res.pending(&Class::Question(*n, a)) {
+                        writes.set(q);
+                    }
+                }
+            }
+        }
+        other => {
+            if let Some(r) = res.pending(other) {
+                enabling.set(r);
+                reads.set(r);
+                writes.set(r);
+            }
+            match other {
+                Class::Call(n, program, function) => {
+                    let p = &project.programs[*program];
+                    let base = format!("{}.{}", p.name, p.functions[*function].name);
+                    start = waiting_for(*n, &format!("{base}.{}", names::DONE));
+                    start.extend(waiting_for(*n, &format!("{base}.{}", names::FAILED)));
+                }
+                Class::Command(n, _) => {
+                    start = waiting_for(*n, names::COMMAND_OK);
+                    start.extend(waiting_for(*n, names::COMMAND_FAILED));
+                }
+                Class::Question(n, a) => {
+                    let ask = &project.nets[*n].asks[*a];
+                    for choice in &ask.choices {
+                        start.extend(waiting_for(*n, &ask.answer_event(choice)));
+                    }
+                    writes.set(res.timer(*n, ask.timer));
+                }
+                _ => {}
+            }
+        }
+    }
+    let vehicle = input_vehicle(project, externals, c);
+    // The lockouts that drop the input (the team's, its vehicle's): they
+    // decide whether an external event is an input at all, and whether a
+    // timer or result fires what awaits it.
+    if matches!(c, Class::Event(_)) {
+        enabling.set(res.lockout(None));
+        enabling.set(res.lockout(vehicle));
+    }
+    Opening {
+        reads,
+        writes,
+        enabling,
+        vehicle,
+        catastrophic,
+        start: start.into_iter().map(id).collect(),
+    }
 }
 
 impl Stubborn {
@@ -207,18 +734,21 @@ impl Stubborn {
             pending,
             vehicles: project.vehicles.len(),
         };
-        let mut footprints: Vec<Footprint> = classes
-            .iter()
-            .map(|c| footprint(project, externals, &res, c, false))
+        let steps = Steps::new(project, externals, &classes, res);
+        let res = &steps.res;
+        let k = classes.len();
+        let mut left = Left::default();
+        let mut footprints: Vec<Footprint> = (0..k)
+            .map(|c| steps.footprint(c, false, None, &mut left))
             .collect();
         // A timer or result a catastrophic reaction starts is catastrophic
         // (the player's `tainted`): its class gets a catastrophic step's
         // footprint, and so on for what that step starts.
-        let mut tainted = vec![false; classes.len()];
+        let mut tainted = vec![false; k];
         loop {
             let mut more = false;
-            for i in 0..classes.len() {
-                let Some(r) = class_resource(&res, &classes[i]) else {
+            for i in 0..k {
+                let Some(r) = class_resource(res, &classes[i]) else {
                     continue;
                 };
                 if tainted[i] {
@@ -226,7 +756,7 @@ impl Stubborn {
                 }
                 if footprints.iter().any(|f| f.catastrophic && f.starts.has(r)) {
                     tainted[i] = true;
-                    footprints[i] = footprint(project, externals, &res, &classes[i], true);
+                    footprints[i] = steps.footprint(i, true, None, &mut left);
                     more = true;
                 }
             }
@@ -236,62 +766,61 @@ impl Stubborn {
         }
         // Timers started in one step expire in their order: a timer's
         // enabling reads every timer a class may start with it.
-        let starts: Vec<Vec<usize>> = (0..classes.len())
-            .map(|i| {
-                (0..classes.len())
-                    .filter(|&j| {
-                        matches!(classes[j], Class::Timer(..))
-                            && class_resource(&res, &classes[j])
-                                .is_some_and(|r| footprints[i].starts.has(r))
-                    })
-                    .collect()
-            })
-            .collect();
-        for together in &starts {
-            for &a in together {
-                for &b in together {
-                    if let Some(r) = class_resource(&res, &classes[b]) {
-                        footprints[a].enabling.set(r);
-                        footprints[a].reads.set(r);
+        let mut together: Vec<Bits> = vec![Bits::new(res.count()); k];
+        for f in &footprints {
+            let started: Vec<usize> = (0..k)
+                .filter(|&j| {
+                    matches!(classes[j], Class::Timer(..))
+                        && class_resource(res, &classes[j]).is_some_and(|r| f.starts.has(r))
+                })
+                .collect();
+            for &a in &started {
+                for &b in &started {
+                    if let Some(r) = class_resource(res, &classes[b]) {
+                        together[a].set(r);
                     }
                 }
             }
         }
-        // A step that may mark a place of an `[[exclusive]]` resource reads
-        // every place of it: whether the step makes a second holder is then
-        // an outcome of the step, which the reduction preserves like any
-        // other (see docs/verify.md).
-        for resource in &project.exclusive {
-            let mut held = Bits::new(res.count());
-            for (_, places) in &resource.held {
-                for &p in places {
-                    held.set(p);
-                }
-            }
-            for f in &mut footprints {
-                if f.marks.meets(&held) {
-                    for (r, w) in f.reads.0.iter_mut().zip(&held.0) {
-                        *r |= w;
-                    }
-                }
-            }
+        let mut enabling: Vec<Bits> = steps.openings.iter().map(|o| o.enabling.clone()).collect();
+        for c in 0..k {
+            footprints[c].reads.add(&together[c]);
+            enabling[c].add(&together[c]);
         }
-        let k = classes.len();
-        let mut dependent = vec![Vec::new(); k];
         let mut enablers = vec![Vec::new(); k];
         for a in 0..k {
-            for b in 0..k {
-                let (fa, fb) = (&footprints[a], &footprints[b]);
-                if a == b
-                    || fa.writes.meets(&fb.reads)
-                    || fa.writes.meets(&fb.writes)
-                    || fb.writes.meets(&fa.reads)
-                {
-                    dependent[a].push(b as u32);
-                }
-                if fb.writes.meets(&fa.enabling) {
+            for (b, fb) in footprints.iter().enumerate() {
+                if fb.writes.meets(&enabling[a]) {
                     enablers[a].push(b as u32);
                 }
+            }
+        }
+        let starters = classes
+            .iter()
+            .map(|c| match class_resource(res, c) {
+                Some(r) => (0..k)
+                    .filter(|&b| footprints[b].starts.has(r))
+                    .map(|b| b as u32)
+                    .collect(),
+                None => Vec::new(),
+            })
+            .collect();
+        let timer_of = classes
+            .iter()
+            .map(|c| match c {
+                Class::Timer(n, t) => Some((*n, *t)),
+                _ => None,
+            })
+            .collect();
+        let mut touching = vec![Bits::new(k); res.count()];
+        let mut writing = vec![Bits::new(k); res.count()];
+        for (c, f) in footprints.iter().enumerate() {
+            for r in f.reads.members() {
+                touching[r].set(c);
+            }
+            for r in f.writes.members() {
+                touching[r].set(c);
+                writing[r].set(c);
             }
         }
         let waiting = classes
@@ -315,15 +844,34 @@ impl Stubborn {
                 .map(|b| b as u32)
                 .collect()
         };
+        #[cfg(test)]
+        let dependent = (0..k)
+            .map(|a| {
+                (0..k)
+                    .filter(|&b| {
+                        let (fa, fb) = (&footprints[a], &footprints[b]);
+                        a == b
+                            || fa.writes.meets(&fb.reads)
+                            || fa.writes.meets(&fb.writes)
+                            || fb.writes.meets(&fa.reads)
+                    })
+                    .map(|b| b as u32)
+                    .collect()
+            })
+            .collect();
         Stubborn {
             index: classes
                 .into_iter()
                 .enumerate()
                 .map(|(i, c)| (c, i as u32))
                 .collect(),
-            dependent,
+            tainted,
+            together,
+            touching,
+            writing,
             enablers,
-            deactivates: footprints.iter().map(|f| f.deactivates.clone()).collect(),
+            starters,
+            timer_of,
             finals: project
                 .nets
                 .iter()
@@ -340,6 +888,9 @@ impl Stubborn {
             waiting,
             producers: (0..res.places).map(who).collect(),
             activators: (0..res.nets).map(|n| who(res.active(n))).collect(),
+            #[cfg(test)]
+            dependent,
+            steps,
         }
     }
 
@@ -347,8 +898,12 @@ impl Stubborn {
     /// event, one condition each of its transitions lacks (its net active,
     /// else one input place marked: the one fewest classes mark) and the
     /// classes that may fulfil it; an event none of whose transitions
-    /// lacks anything is disabled by a lockout, which nothing lifts. For
-    /// any other class, every class that may write what enables it.
+    /// lacks anything is disabled by a lockout, which nothing lifts. For a
+    /// timer that runs (another one started with it expires first), every
+    /// class that may write what enables it; for a timer that does not
+    /// run, or a kind of result not awaited, the classes that may start it
+    /// (nothing else makes it run or awaited: a cancel, a deactivation
+    /// only stops it).
     fn enablers_in<'a>(
         &'a self,
         c: usize,
@@ -356,7 +911,10 @@ impl Stubborn {
         out: &'a mut Vec<u32>,
     ) -> &'a [u32] {
         if self.waiting[c].is_empty() {
-            return &self.enablers[c];
+            return match self.timer_of[c] {
+                Some((n, t)) if state.running(n, t) => &self.enablers[c],
+                _ => &self.starters[c],
+            };
         }
         out.clear();
         for (n, inputs) in &self.waiting[c] {
@@ -377,13 +935,51 @@ impl Stubborn {
         out
     }
 
-    /// Whether class `c` is visible in a state: it may deactivate a net
-    /// that is active there and marks none of its final places (a net that
-    /// may be dead: the reduction must not take the deactivation first).
-    fn visible(&self, c: usize, state: &dyn Marking) -> bool {
-        self.deactivates[c]
+    /// What the enabled class `c` brings into a stubborn set in `state`,
+    /// and whether it is visible there (its step deactivates a net that is
+    /// active and marks none of its final places: a net that may be dead,
+    /// the reduction must not take the deactivation first). It brings
+    /// itself, every class whose static footprint writes what its step in
+    /// the state reads or writes or reads what it writes, and for each
+    /// transition its step leaves out the classes that may fulfil one
+    /// condition it lacks (its net active, else one input place the step
+    /// does not mark either: the one fewest classes mark).
+    fn brings(&self, c: usize, state: &dyn Marking, left: &mut Left) -> (Bits, bool) {
+        let f = self.steps.footprint(c, self.tainted[c], Some(state), left);
+        let mut out = Bits::new(self.enablers.len());
+        out.set(c);
+        for r in f.writes.members() {
+            out.add(&self.touching[r]);
+        }
+        for r in f.reads.members().chain(self.together[c].members()) {
+            out.add(&self.writing[r]);
+        }
+        let res = &self.steps.res;
+        for &t in &left.deferred {
+            let m = &self.steps.moves[t as usize];
+            let lacking = if !(state.active(m.net) || f.marks.has(res.active(m.net))) {
+                &self.activators[m.net]
+            } else {
+                match m
+                    .inputs
+                    .iter()
+                    .filter(|&&p| !(state.marked(p) || f.marks.has(p)))
+                    .min_by_key(|&&p| self.producers[p].len())
+                {
+                    Some(&p) => &self.producers[p],
+                    // Not reached: a transition left out lacks something.
+                    None => continue,
+                }
+            };
+            for &b in lacking {
+                out.set(b as usize);
+            }
+        }
+        let visible = f
+            .deactivates
             .iter()
-            .any(|&n| state.active(n) && !self.finals[n].iter().any(|&p| state.marked(p)))
+            .any(|&n| state.active(n) && !self.finals[n].iter().any(|&p| state.marked(p)));
+        (out, visible)
     }
 
     /// The class of a pending result.
@@ -416,12 +1012,15 @@ impl Stubborn {
         if enabled.iter().any(Option::is_none) {
             return Vec::new();
         }
-        let classes = self.dependent.len();
+        let classes = self.enablers.len();
         let mut is_enabled = vec![false; classes];
         for c in enabled.iter().flatten() {
             is_enabled[*c as usize] = true;
         }
         let distinct = is_enabled.iter().filter(|e| **e).count();
+        // What each enabled class brings, read in the state once.
+        let mut brought: Vec<Option<(Vec<u32>, bool)>> = vec![None; classes];
+        let mut left = Left::default();
         let mut found: Vec<(usize, Vec<bool>)> = Vec::new();
         let mut lacking = Vec::new();
         let mut seeds: Vec<u32> = enabled.iter().flatten().copied().collect();
@@ -430,9 +1029,6 @@ impl Stubborn {
         let mut member = vec![false; classes];
         let mut work = Vec::new();
         for seed in seeds {
-            if self.visible(seed as usize, state) {
-                continue;
-            }
             member.iter_mut().for_each(|m| *m = false);
             member[seed as usize] = true;
             work.clear();
@@ -441,9 +1037,13 @@ impl Stubborn {
             let mut visible = false;
             while let Some(c) = work.pop() {
                 let c = c as usize;
-                let next = if is_enabled[c] {
-                    visible |= self.visible(c, state);
-                    &self.dependent[c]
+                let next: &[u32] = if is_enabled[c] {
+                    let (next, v) = brought[c].get_or_insert_with(|| {
+                        let (set, v) = self.brings(c, state, &mut left);
+                        (set.members().map(|b| b as u32).collect(), v)
+                    });
+                    visible |= *v;
+                    next
                 } else {
                     self.enablers_in(c, state, &mut lacking)
                 };
@@ -503,258 +1103,6 @@ fn input_vehicle(project: &Project, externals: &[String], c: &Class) -> Option<V
     }
 }
 
-/// What a step of class `c` may read and write; `tainted`: the input may
-/// be catastrophic (a catastrophic event, or a timer or result a
-/// catastrophic reaction may have started).
-fn footprint(
-    project: &Project,
-    externals: &[String],
-    res: &Resources,
-    c: &Class,
-    tainted: bool,
-) -> Footprint {
-    let mut reads = Bits::new(res.count());
-    let mut writes = Bits::new(res.count());
-    let mut enabling = Bits::new(res.count());
-    let mut marks = Bits::new(res.count());
-    let mut starts = Bits::new(res.count());
-    let mut deactivates = Vec::new();
-    let vehicle = input_vehicle(project, externals, c);
-    // The vehicles of the occurrences the step may handle that something
-    // hears (an occurrence nothing waits for changes nothing, dropped or
-    // not), and whether one may be catastrophic.
-    let mut heard: Vec<Option<VehicleId>> = Vec::new();
-    let mut catastrophic = tainted;
-    let waiting_for = |net: NetId, event: &str| -> Vec<(NetId, TransitionId)> {
-        project.nets[net]
-            .transitions
-            .iter()
-            .enumerate()
-            .filter(|(_, t)| t.event.as_deref() == Some(event))
-            .map(|(i, _)| (net, i))
-            .collect()
-    };
-    let mut start: Vec<(NetId, TransitionId)> = Vec::new();
-    match c {
-        Class::Event(i) => {
-            let event = &externals[*i];
-            start = project.triggers.get(event).cloned().unwrap_or_default();
-            for &(n, t) in &start {
-                enabling.set(res.active(n));
-                for &p in &project.nets[n].transitions[t].flat_inputs {
-                    enabling.set(p);
-                }
-            }
-            catastrophic |= category(project, event) == Category::Catastrophic;
-        }
-        Class::Timer(n, t) => {
-            let r = res.timer(*n, *t);
-            enabling.set(r);
-            reads.set(r);
-            writes.set(r);
-            start = waiting_for(*n, &project.nets[*n].timers[*t]);
-            // A question's timeout ends the question.
-            for (a, ask) in project.nets[*n].asks.iter().enumerate() {
-                if ask.timer == *t {
-                    if let Some(q) = res.pending(&Class::Question(*n, a)) {
-                        writes.set(q);
-                    }
-                }
-            }
-        }
-        other => {
-            if let Some(r) = res.pending(other) {
-                enabling.set(r);
-                reads.set(r);
-                writes.set(r);
-            }
-            match other {
-                Class::Call(n, program, function) => {
-                    let p = &project.programs[*program];
-                    let base = format!("{}.{}", p.name, p.functions[*function].name);
-                    start = waiting_for(*n, &format!("{base}.{}", names::DONE));
-                    start.extend(waiting_for(*n, &format!("{base}.{}", names::FAILED)));
-                }
-                Class::Command(n, _) => {
-                    start = waiting_for(*n, names::COMMAND_OK);
-                    start.extend(waiting_for(*n, names::COMMAND_FAILED));
-                }
-                Class::Question(n, a) => {
-                    let ask = &project.nets[*n].asks[*a];
-                    for choice in &ask.choices {
-                        start.extend(waiting_for(*n, &ask.answer_event(choice)));
-                    }
-                    writes.set(res.timer(*n, ask.timer));
-                }
-                _ => {}
-            }
-        }
-    }
-    // The transitions that may fire in the step.
-    let mut seen: std::collections::HashSet<(NetId, TransitionId)> = Default::default();
-    // The lockouts that drop the input (the team's, its vehicle's): they
-    // decide whether an external event is an input at all, and whether a
-    // timer or result fires what awaits it.
-    if matches!(c, Class::Event(_)) {
-        enabling.set(res.lockout(None));
-        enabling.set(res.lockout(vehicle));
-    }
-    if !start.is_empty() {
-        heard.push(vehicle);
-    }
-    let mut work = start;
-    let net_fault = project
-        .triggers
-        .get(names::NET_FAULT)
-        .cloned()
-        .unwrap_or_default();
-    if !work.is_empty() {
-        work.extend(net_fault.iter().copied());
-    }
-    while let Some((n, t)) = work.pop() {
-        if !seen.insert((n, t)) {
-            continue;
-        }
-        let tr = &project.nets[n].transitions[t];
-        reads.set(res.active(n));
-        for &p in &tr.flat_inputs {
-            reads.set(p);
-            writes.set(p);
-        }
-        for &p in &tr.flat_outputs {
-            reads.set(p); // a double token is found by reading it
-            writes.set(p);
-            marks.set(p);
-        }
-        if tr
-            .event
-            .as_deref()
-            .is_some_and(|e| category(project, e) == Category::Catastrophic)
-        {
-            catastrophic = true;
-        }
-        // A rejected firing raises the net's `net_fault`.
-        if !net_fault.is_empty() {
-            heard.push(project.nets[n].vehicle);
-        }
-        // Immediate transitions the outputs may enable.
-        for (m, net) in project.nets.iter().enumerate() {
-            for &u in &net.immediate {
-                if net.transitions[u]
-                    .flat_inputs
-                    .iter()
-                    .any(|p| tr.flat_outputs.contains(p))
-                {
-                    work.push((m, u));
-                }
-            }
-        }
-        for a in &tr.actions {
-            match a {
-                Action::Activate(m) | Action::Deactivate(m) => {
-                    let m = *m;
-                    writes.set(res.active(m));
-                    if matches!(a, Action::Deactivate(_)) && !deactivates.contains(&m) {
-                        deactivates.push(m);
-                    }
-                    if matches!(a, Action::Activate(_)) {
-                        marks.set(res.active(m));
-                        let offset = project.place_offsets[m];
-                        for (i, place) in project.nets[m].places.iter().enumerate() {
-                            if place.initial {
-                                marks.set(offset + i);
-                            }
-                        }
-                    }
-                    let offset = project.place_offsets[m];
-                    for i in 0..project.nets[m].places.len() {
-                        writes.set(offset + i);
-                        reads.set(offset + i);
-                    }
-                    for i in 0..project.nets[m].timers.len() {
-                        writes.set(res.timer(m, i));
-                    }
-                    for (class, _) in res.pending.iter() {
-                        let net = match class {
-                            Class::Call(x, ..) | Class::Command(x, _) | Class::Question(x, _) => *x,
-                            _ => continue,
-                        };
-                        if net == m {
-                            if let Some(r) = res.pending(class) {
-                                writes.set(r);
-                            }
-                        }
-                    }
-                    for &u in &project.nets[m].immediate {
-                        work.push((m, u));
-                    }
-                }
-                Action::Emit { event, .. } => {
-                    catastrophic |= category(project, event) == Category::Catastrophic;
-                    if let Some(waiting) = project.triggers.get(event) {
-                        heard.push(project.vehicle_event(event).map(|(_, v)| v));
-                        work.extend(waiting.iter().copied());
-                    }
-                }
-                Action::Timer { timer, .. } => {
-                    writes.set(res.timer(n, *timer));
-                    starts.set(res.timer(n, *timer));
-                }
-                Action::Cancel { timer } => writes.set(res.timer(n, *timer)),
-                Action::Call {
-                    program, function, ..
-                } => {
-                    issue(
-                        res,
-                        &mut writes,
-                        &mut starts,
-                        Class::Call(n, *program, *function),
-                    );
-                }
-                Action::Command { verb, .. } => {
-                    issue(
-                        res,
-                        &mut writes,
-                        &mut starts,
-                        Class::Command(n, verb.clone()),
-                    );
-                }
-                Action::Ask { ask, .. } => {
-                    let timer = project.nets[n].asks[*ask].timer;
-                    writes.set(res.timer(n, timer));
-                    starts.set(res.timer(n, timer));
-                    issue(res, &mut writes, &mut starts, Class::Question(n, *ask));
-                }
-            }
-        }
-    }
-    // An occurrence of a vehicle locked out (or of any, the team's lockout
-    // on) is dropped: the step reads those lockouts. A catastrophic one that
-    // fires a transition locks its vehicle out (the team, for a team
-    // event), and so may every occurrence a catastrophic reaction handles
-    // (its emitted events and `net_fault`s are catastrophic too).
-    heard.sort_unstable();
-    heard.dedup();
-    if !heard.is_empty() {
-        reads.set(res.lockout(None));
-    }
-    for &v in &heard {
-        reads.set(res.lockout(v));
-        if catastrophic {
-            writes.set(res.lockout(v));
-        }
-    }
-    Footprint {
-        reads,
-        writes,
-        enabling,
-        catastrophic,
-        marks,
-        starts,
-        deactivates,
-    }
-}
-
 /// A call, command or question issued: its kind is written (the order of
 /// pending results is not part of a team's reduced key).
 fn issue(res: &Resources, writes: &mut Bits, starts: &mut Bits, class: Class) {
@@ -770,6 +1118,9 @@ impl Marking for crate::player::State {
     }
     fn active(&self, net: NetId) -> bool {
         self.active[net]
+    }
+    fn running(&self, net: NetId, timer: usize) -> bool {
+        self.timers.iter().any(|t| t.net == net && t.timer == timer)
     }
 }
 
@@ -850,6 +1201,9 @@ mod tests {
         fn active(&self, _: NetId) -> bool {
             true
         }
+        fn running(&self, _: NetId, _: usize) -> bool {
+            false
+        }
     }
 
     #[test]
@@ -884,5 +1238,88 @@ mod tests {
         ]);
         let enabled = [class("alarm"), class("go@R1"), class("go@R2")];
         assert!(s.ample(&enabled, &alert, 4).is_empty());
+    }
+
+    /// Two robots: `go` (a to b), `arrived` (b back to a, or out of the
+    /// bottleneck: inside to out, giving `@free` back), `enter` (a and
+    /// `@free` to inside).
+    fn corridor() -> (Project, Vec<String>) {
+        let files: BTreeMap<String, String> = [
+            (
+                "project.toml",
+                "[events]\ngo = \"nominal\"\narrived = \"nominal\"\nenter = \"nominal\"\n\n[globals]\nfree = true\n\n[[vehicle]]\nname = \"R1\"\nsystem = 1\n\n[[vehicle]]\nname = \"R2\"\nsystem = 2\n\n[[net]]\nfile = \"move.toml\"\nactive = true\n",
+            ),
+            (
+                "move.toml",
+                "name = \"MOVE\"\nvehicles = \"all\"\nplaces = [\"a\", \"b\", \"inside\", \"out\"]\ninitial = [\"a\"]\nfinal = [\"out\"]\n\n[[transition]]\nname = \"go\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"go\"\n\n[[transition]]\nname = \"back\"\nfrom = [\"b\"]\nto = [\"a\"]\non = \"arrived\"\n\n[[transition]]\nname = \"leave\"\nfrom = [\"inside\"]\nto = [\"out\", \"@free\"]\non = \"arrived\"\n\n[[transition]]\nname = \"enter\"\nfrom = [\"a\", \"@free\"]\nto = [\"inside\"]\non = \"enter\"\n",
+            ),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_owned(), v.to_owned()))
+        .collect();
+        let project = crate::load::load(&files).unwrap_or_else(|e| panic!("{e:?}"));
+        let externals = [
+            "arrived@R1",
+            "arrived@R2",
+            "enter@R1",
+            "enter@R2",
+            "go@R1",
+            "go@R2",
+        ]
+        .map(str::to_owned)
+        .to_vec();
+        (project, externals)
+    }
+
+    #[test]
+    fn a_step_read_in_the_state_counts_only_the_transitions_that_can_fire() {
+        let (project, externals) = corridor();
+        let s = Stubborn::new(&project, &externals);
+        let place = |net: &str, name: &str| {
+            let n = project.nets.iter().position(|x| x.name == net).expect(net);
+            let i = project.nets[n].places.iter().position(|p| p.name == name);
+            project.place_offsets[n] + i.expect(name)
+        };
+        // Globals come first.
+        let global = 0;
+        let class = |name: &str| {
+            let i = externals.iter().position(|x| x == name).expect(name);
+            Some(s.index[&Class::Event(i)])
+        };
+        // Statically, `arrived@R1` may fire `leave`, which gives `@free`
+        // back: it depends on R2's `enter`, which takes it.
+        assert!(depends(&s, &externals, "arrived@R1", "enter@R2"));
+        // R1 at b (not inside), R2 at a, the bottleneck free: R1's
+        // `arrived` can only fire `back`; `leave` needs `inside`, which
+        // only R1's own `enter` marks (disabled: it needs a, which only
+        // R1's `back` marks). So `arrived@R1` alone is an ample set.
+        let at_b = At(vec![place("MOVE@R1", "b"), place("MOVE@R2", "a"), global]);
+        let enabled = [class("arrived@R1"), class("enter@R2"), class("go@R2")];
+        let sets = s.ample(&enabled, &at_b, 4);
+        assert!(sets.contains(&vec![true, false, false]), "{sets:?}");
+        // R1 inside instead: its `arrived` fires `leave` and gives `@free`
+        // back, so R2's `enter` (disabled: it lacks `@free`) is in every
+        // set holding it, and with it what may give `@free` back: R2's
+        // `arrived`, which needs R2's `go` first. No set reduces.
+        let inside = At(vec![place("MOVE@R1", "inside"), place("MOVE@R2", "a")]);
+        let enabled = [class("arrived@R1"), class("go@R2")];
+        assert!(s.ample(&enabled, &inside, 4).is_empty());
+        let mut left = Left::default();
+        let leaving = s.steps.footprint(
+            s.index[&Class::Event(0)] as usize,
+            false,
+            Some(&inside),
+            &mut left,
+        );
+        assert!(leaving.writes.has(global));
+        let backing = s.steps.footprint(
+            s.index[&Class::Event(0)] as usize,
+            false,
+            Some(&at_b),
+            &mut left,
+        );
+        assert!(!backing.writes.has(global) && !backing.reads.has(global));
+        // `leave` was left out: it lacks `inside`.
+        assert_eq!(left.deferred.len(), 1);
     }
 }
