@@ -165,3 +165,49 @@ fn kept_arcs_give_the_same_loops() {
     let e = explore(&net, &Options::default());
     assert_eq!(e.loops(10).cyclic_components, 3);
 }
+
+/// Temporary: dumps the kept graph of `PETREL_DUMP_NET` (1 and 2 threads)
+/// for experiments outside the crate.
+#[test]
+#[ignore]
+fn dump_kept_graph() {
+    let Ok(path) = std::env::var("PETREL_DUMP_NET") else {
+        return;
+    };
+    let text = std::fs::read_to_string(&path).unwrap();
+    let net = crate::verify::pnml::read_ptnet(&text).unwrap();
+    for threads in [1usize, 2] {
+        let e = explore(
+            &net,
+            &Options {
+                threads,
+                keep_arcs: true,
+                ..Options::default()
+            },
+        );
+        on_space!(&e.space, r => {
+            let kept = Kept { arcs: &r.arcs, offsets: r.offsets() };
+            let n = Adjacency::nodes(&kept) as u32;
+            let mut out: Vec<u32> = vec![n];
+            for v in 0..n {
+                let t: Vec<u32> = Adjacency::targets(&kept, v).collect();
+                out.push(t.len() as u32);
+                out.extend(t);
+            }
+            let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
+            let mut order = Vec::new();
+            let mut level_of = vec![0u32; n as usize];
+            for k in 0..depths {
+                for id in r.level_ids(k) {
+                    let d = dense_of(&kept.offsets, id);
+                    order.push(d);
+                    level_of[d as usize] = k as u32;
+                }
+            }
+            out.extend(order);
+            out.extend(level_of);
+            let bytes: Vec<u8> = out.iter().flat_map(|x| x.to_le_bytes()).collect();
+            std::fs::write(format!("{path}.{threads}.graph"), bytes).unwrap();
+        });
+    }
+}
