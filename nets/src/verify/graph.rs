@@ -449,7 +449,7 @@ fn reaching(
 ) -> Option<Vec<u32>> {
     rest.retain(|&v| !bit(reach, v));
     if threads > 1 && rest.len() >= PARALLEL_SWEEPS {
-        return reaching_together(g, reach, rest, n, first);
+        return reaching_together(g, reach, rest, n);
     }
     let mut work = 0usize;
     for sweep in 0usize.. {
@@ -493,119 +493,58 @@ fn reaching(
 /// Candidates from which two threads sweep at once (below, one is faster).
 const PARALLEL_SWEEPS: usize = 1 << 16;
 
-/// Candidates one thread sweeps before the other takes the next ones.
-const SWEEP_BLOCK: usize = 2048;
-
-/// [`reaching`] on two threads: each sweep is shared, the candidates cut in
-/// blocks taken by the threads in turn (both go the sweep's way, side by
-/// side, on one bitset, each seeing what the other joins as it goes); the
-/// sweeps end when one joins nothing (the bitset did not change during it:
-/// nothing more can join).
+/// [`reaching`] on two threads: in each round one sweeps up the
+/// candidates and the other down, on one bitset, each seeing what the
+/// other joins as it goes; the rounds end when neither joined anything
+/// (the bitset did not change during the round: nothing more can join).
 fn reaching_together(
     g: &(impl Adjacency + Sync),
     reach: &mut [u64],
     mut rest: Vec<u32>,
     n: usize,
-    first: Direction,
 ) -> Option<Vec<u32>> {
     let shared: Vec<AtomicU64> = reach.iter().map(|&w| AtomicU64::new(w)).collect();
     let joined = |v: u32| (shared[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1;
-    // one thread's share of a sweep over `nodes`: blocks `part`, `part + 2`...
-    // counted the sweep's way
-    let sweep = |nodes: &[u32], part: usize, up: bool| {
+    let sweep = |nodes: &mut dyn Iterator<Item = &u32>| {
         let mut changed = false;
-        let blocks = nodes.len().div_ceil(SWEEP_BLOCK);
-        for b in (part..blocks).step_by(2) {
-            let b = if up { b } else { blocks - 1 - b };
-            let block = &nodes[b * SWEEP_BLOCK..nodes.len().min((b + 1) * SWEEP_BLOCK)];
-            let mut visit = |v: u32| {
-                let mut hit = 0u64;
-                for w in g.targets(v) {
-                    hit |= shared[(w >> 6) as usize].load(Relaxed) >> (w & 63);
-                }
-                if hit & 1 == 1 {
-                    shared[(v >> 6) as usize].fetch_or(1 << (v & 63), Relaxed);
-                    changed = true;
-                }
-            };
-            if up {
-                block.iter().for_each(|&v| visit(v));
-            } else {
-                block.iter().rev().for_each(|&v| visit(v));
+        for &v in nodes {
+            let mut hit = 0u64;
+            for w in g.targets(v) {
+                hit |= shared[(w >> 6) as usize].load(Relaxed) >> (w & 63);
+            }
+            if hit & 1 == 1 {
+                shared[(v >> 6) as usize].fetch_or(1 << (v & 63), Relaxed);
+                changed = true;
             }
         }
         changed
     };
     let mut work = 0usize;
-    let mut settled = false;
-    for round in 0usize.. {
+    let settled = loop {
         if work > SWEEP_BUDGET * n {
-            break;
+            break false;
         }
         work += rest.len();
-        let up = (round % 2 == 0) == (first == Direction::Up);
-        let changed = std::thread::scope(|scope| {
-            let nodes = rest.as_slice();
-            let other = scope.spawn(move || sweep(nodes, 1, up));
-            let mine = sweep(nodes, 0, up);
+        let (up, down) = std::thread::scope(|scope| {
+            let other = scope.spawn(|| sweep(&mut rest.iter()));
+            let down = sweep(&mut rest.iter().rev());
             match other.join() {
-                Ok(theirs) => mine || theirs,
+                Ok(up) => (up, down),
                 Err(panic) => std::panic::resume_unwind(panic),
             }
         });
-        if changed {
-            rest.retain(|&v| !joined(v));
+        if !up && !down {
+            break true;
         }
-        if !changed || rest.is_empty() {
-            settled = true;
-            break;
+        rest.retain(|&v| !joined(v));
+        if rest.is_empty() {
+            break true;
         }
-    }
+    };
     for (w, a) in reach.iter_mut().zip(&shared) {
         *w = a.load(Relaxed);
     }
     settled.then_some(rest)
-}
-
-/// The nodes `node` reaches (itself included), as a bitset: a
-/// breadth-first search, each large level shared by two threads when
-/// `threads` is above 1.
-fn reached_from(g: &(impl Adjacency + Sync), node: u32, n: usize, threads: usize) -> Vec<u64> {
-    let seen: Vec<AtomicU64> = (0..n.div_ceil(64)).map(|_| AtomicU64::new(0)).collect();
-    let claim = |w: u32| {
-        let (i, m) = ((w >> 6) as usize, 1u64 << (w & 63));
-        seen[i].load(Relaxed) & m == 0 && seen[i].fetch_or(m, Relaxed) & m == 0
-    };
-    let expand = |level: &[u32]| {
-        let mut next = Vec::new();
-        for &v in level {
-            for w in g.targets(v) {
-                if claim(w) {
-                    next.push(w);
-                }
-            }
-        }
-        next
-    };
-    claim(node);
-    let mut level = vec![node];
-    while !level.is_empty() {
-        level = if threads > 1 && level.len() >= 2 * SWEEP_BLOCK {
-            let (a, b) = level.split_at(level.len() / 2);
-            std::thread::scope(|scope| {
-                let other = scope.spawn(|| expand(b));
-                let mut next = expand(a);
-                match other.join() {
-                    Ok(more) => next.extend(more),
-                    Err(panic) => std::panic::resume_unwind(panic),
-                }
-                next
-            })
-        } else {
-            expand(&level)
-        };
-    }
-    seen.into_iter().map(AtomicU64::into_inner).collect()
 }
 
 /// The component of `node` as a bitset, if it is terminal (no edge leaves
@@ -620,7 +559,20 @@ fn terminal_component(
     n: usize,
     threads: usize,
 ) -> Option<Vec<u64>> {
-    let seen = reached_from(g, node, n, threads);
+    let mut seen = vec![0u64; n.div_ceil(64)];
+    set_bit(&mut seen, node);
+    let mut queue = vec![node];
+    let mut head = 0;
+    while let Some(&v) = queue.get(head) {
+        head += 1;
+        for w in g.targets(v) {
+            if !bit(&seen, w) {
+                set_bit(&mut seen, w);
+                queue.push(w);
+            }
+        }
+    }
+    drop(queue);
     // the nodes it reaches, in the candidates' order
     candidates.retain(|&v| bit(&seen, v));
     drop(seen);
@@ -992,31 +944,6 @@ mod tests {
         let from = strongly_connected_components_from(&g, order[0], true, &[], (0..n).collect(), 1);
         same_components(&g, &tarjan, &from);
         assert_eq!(from.sizes, vec![n]);
-    }
-
-    #[test]
-    fn two_threads_reach_what_one_does() {
-        // a random tree from 0 has wide levels: the search shares them
-        let n = 100_000u32;
-        let g = random_graph(n, 50_000, 12);
-        for from in [0, 17, n - 1] {
-            let one = reached_from(&g, from, n as usize, 1);
-            assert_eq!(one, reached_from(&g, from, n as usize, 2));
-            // against a plain search
-            let mut seen = vec![false; n as usize];
-            seen[from as usize] = true;
-            let mut queue = vec![from];
-            while let Some(v) = queue.pop() {
-                for w in Adjacency::targets(&g, v) {
-                    if !seen[w as usize] {
-                        seen[w as usize] = true;
-                        queue.push(w);
-                    }
-                }
-            }
-            let plain: Vec<u32> = (0..n).filter(|&v| seen[v as usize]).collect();
-            assert_eq!(members(&one).collect::<Vec<_>>(), plain);
-        }
     }
 
     #[test]
