@@ -47,8 +47,8 @@ pub struct Args {
     /// How many loops (cyclic strongly connected components) to list.
     #[arg(long, value_name = "N", default_value_t = 5)]
     pub loops: usize,
-    /// Skip the loop analysis (it keeps the reachability graph's arcs,
-    /// coded: about 2 bytes per arc and 4 per marking more).
+    /// Skip the loop analysis (it keeps the reachability graph's arcs:
+    /// 4 bytes per arc and 4 per marking more).
     #[arg(long)]
     pub no_loops: bool,
     /// A team project: explore every vehicle, not one representative per

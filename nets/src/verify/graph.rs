@@ -22,6 +22,7 @@
 
 use std::collections::{HashMap, VecDeque};
 use std::hash::Hash;
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 /// A graph over dense node numbers `0..node_count()`.
 pub trait Successors {
@@ -293,7 +294,7 @@ pub fn strongly_connected_components(g: &impl Successors) -> Sccs {
 }
 
 /// A graph over dense node numbers whose successor lists are read without
-/// allocating (explicit edges, e.g. kept by an exploration, plain or coded).
+/// allocating (explicit edges, e.g. kept by an exploration).
 pub trait Adjacency {
     /// The successors of a node, one by one.
     type Targets<'a>: Iterator<Item = u32>
@@ -334,7 +335,10 @@ const SWEEP_BUDGET: usize = 8;
 /// breadth-first order from `root` (as an exploration stores them; the
 /// sweeps settle in few passes then), `root` first. `entered` is false when
 /// no arc leads to `root` (then its component is itself alone, found
-/// without a sweep); true when some may.
+/// without a sweep); true when some may. `seeds` are nodes known to reach
+/// `root` (e.g. a cycle through it: nodes at many depths, from which the
+/// first sweep joins many more); they may be empty. With `threads` above
+/// 1, large sweeps run on two threads.
 ///
 /// The root's component is then exactly the set of nodes from which the
 /// root can be reached: it is found first by sweeps over the nodes (see
@@ -349,21 +353,28 @@ const SWEEP_BUDGET: usize = 8;
 /// order, as by [`strongly_connected_components`], but the numbers may
 /// differ.
 pub fn strongly_connected_components_from(
-    g: &impl Adjacency,
+    g: &(impl Adjacency + Sync),
     root: u32,
     entered: bool,
+    seeds: &[u32],
     mut order: Vec<u32>,
+    threads: usize,
 ) -> Sccs {
     let n = g.nodes();
-    if n == 0 || root as usize >= n || order.len() != n {
+    if n == 0 || root as usize >= n || order.len() != n || seeds.iter().any(|&s| s as usize >= n) {
         return pearce(g, None, None);
     }
     let mut reach = vec![0u64; n.div_ceil(64)];
     set_bit(&mut reach, root);
+    if entered {
+        for &s in seeds {
+            set_bit(&mut reach, s);
+        }
+    }
     // most arcs lead forward in a breadth-first order: the first sweep goes
     // down, so that a path forward then back to the root joins in one go
     let rest = if entered {
-        let Some(rest) = reaching(g, &mut reach, order, n, Direction::Down) else {
+        let Some(rest) = reaching(g, &mut reach, order, n, Direction::Down, threads) else {
             return pearce(g, None, None);
         };
         rest
@@ -379,7 +390,7 @@ pub fn strongly_connected_components_from(
     let terminal = if rest.len() > n / 2 {
         rest.last()
             .copied()
-            .and_then(|last| terminal_component(g, last, rest, n).map(|set| (last, set)))
+            .and_then(|last| terminal_component(g, last, rest, n, threads).map(|set| (last, set)))
     } else {
         None
     };
@@ -429,13 +440,17 @@ fn set_bit(set: &mut [u64], v: u32) {
 /// and against it in turn, starting with `first`, on a bitset that stays
 /// in cache.
 fn reaching(
-    g: &impl Adjacency,
+    g: &(impl Adjacency + Sync),
     reach: &mut [u64],
     mut rest: Vec<u32>,
     n: usize,
     first: Direction,
+    threads: usize,
 ) -> Option<Vec<u32>> {
     rest.retain(|&v| !bit(reach, v));
+    if threads > 1 && rest.len() >= PARALLEL_SWEEPS {
+        return reaching_together(g, reach, rest, n);
+    }
     let mut work = 0usize;
     for sweep in 0usize.. {
         if work > SWEEP_BUDGET * n {
@@ -443,11 +458,17 @@ fn reaching(
         }
         work += rest.len();
         let mut changed = false;
+        // every successor is looked at, without a branch per successor:
+        // whether a node joins is unpredictable, and most candidates of
+        // the first sweeps do not (so read all their successors anyway)
         let mut join = |v: u32, reach: &mut [u64]| {
-            if !bit(reach, v) && g.targets(v).any(|w| bit(reach, w)) {
-                set_bit(reach, v);
-                changed = true;
+            let mut hit = 0u64;
+            for w in g.targets(v) {
+                hit |= reach[(w >> 6) as usize] >> (w & 63);
             }
+            let hit = hit & 1;
+            reach[(v >> 6) as usize] |= hit << (v & 63);
+            changed |= hit != 0;
         };
         let up = (sweep % 2 == 0) == (first == Direction::Up);
         if !up {
@@ -469,16 +490,74 @@ fn reaching(
     None
 }
 
+/// Candidates from which two threads sweep at once (below, one is faster).
+const PARALLEL_SWEEPS: usize = 1 << 16;
+
+/// [`reaching`] on two threads: in each round one sweeps up the
+/// candidates and the other down, on one bitset, each seeing what the
+/// other joins as it goes; the rounds end when neither joined anything
+/// (the bitset did not change during the round: nothing more can join).
+fn reaching_together(
+    g: &(impl Adjacency + Sync),
+    reach: &mut [u64],
+    mut rest: Vec<u32>,
+    n: usize,
+) -> Option<Vec<u32>> {
+    let shared: Vec<AtomicU64> = reach.iter().map(|&w| AtomicU64::new(w)).collect();
+    let joined = |v: u32| (shared[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1;
+    let sweep = |nodes: &mut dyn Iterator<Item = &u32>| {
+        let mut changed = false;
+        for &v in nodes {
+            let mut hit = 0u64;
+            for w in g.targets(v) {
+                hit |= shared[(w >> 6) as usize].load(Relaxed) >> (w & 63);
+            }
+            if hit & 1 == 1 {
+                shared[(v >> 6) as usize].fetch_or(1 << (v & 63), Relaxed);
+                changed = true;
+            }
+        }
+        changed
+    };
+    let mut work = 0usize;
+    let settled = loop {
+        if work > SWEEP_BUDGET * n {
+            break false;
+        }
+        work += rest.len();
+        let (up, down) = std::thread::scope(|scope| {
+            let other = scope.spawn(|| sweep(&mut rest.iter()));
+            let down = sweep(&mut rest.iter().rev());
+            match other.join() {
+                Ok(up) => (up, down),
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        });
+        if !up && !down {
+            break true;
+        }
+        rest.retain(|&v| !joined(v));
+        if rest.is_empty() {
+            break true;
+        }
+    };
+    for (w, a) in reach.iter_mut().zip(&shared) {
+        *w = a.load(Relaxed);
+    }
+    settled.then_some(rest)
+}
+
 /// The component of `node` as a bitset, if it is terminal (no edge leaves
 /// it): every node `node` reaches reaches it back. `None` when it is not,
 /// or when the sweeps did not settle. `candidates` holds every node `node`
 /// may reach, `node` last (a breadth-first order: the sweeps go down
 /// first).
 fn terminal_component(
-    g: &impl Adjacency,
+    g: &(impl Adjacency + Sync),
     node: u32,
     mut candidates: Vec<u32>,
     n: usize,
+    threads: usize,
 ) -> Option<Vec<u64>> {
     let mut seen = vec![0u64; n.div_ceil(64)];
     set_bit(&mut seen, node);
@@ -499,7 +578,7 @@ fn terminal_component(
     drop(seen);
     let mut back = vec![0u64; n.div_ceil(64)];
     set_bit(&mut back, node);
-    let rest = reaching(g, &mut back, candidates, n, Direction::Down)?;
+    let rest = reaching(g, &mut back, candidates, n, Direction::Down, threads)?;
     rest.is_empty().then_some(back)
 }
 
@@ -807,7 +886,14 @@ mod tests {
             same_components(
                 &g,
                 &tarjan,
-                &strongly_connected_components_from(&g, 0, true, (0..n).collect()),
+                &strongly_connected_components_from(&g, 0, true, &[], (0..n).collect(), 1),
+            );
+            // seeded by a cycle through the root
+            let cycle = shortest_cycle(&g, 0, |_| true).unwrap_or_default();
+            same_components(
+                &g,
+                &tarjan,
+                &strongly_connected_components_from(&g, 0, true, &cycle, (0..n).collect(), 1),
             );
             // any order of the nodes, root first, gives the same components
             let mut shuffled: Vec<u32> = (1..n).collect();
@@ -822,8 +908,21 @@ mod tests {
             same_components(
                 &g,
                 &tarjan,
-                &strongly_connected_components_from(&g, 0, true, shuffled),
+                &strongly_connected_components_from(&g, 0, true, &[], shuffled, 1),
             );
+        }
+        // large enough for two threads to sweep
+        for (n, extra, seed) in [(100_000, 150_000, 10), (100_000, 30_000, 11)] {
+            let g = random_graph(n, extra, seed);
+            let tarjan = strongly_connected_components(&g);
+            let cycle = shortest_cycle(&g, 0, |_| true).unwrap_or_default();
+            for seeds in [&[][..], &cycle[..]] {
+                same_components(
+                    &g,
+                    &tarjan,
+                    &strongly_connected_components_from(&g, 0, true, seeds, (0..n).collect(), 2),
+                );
+            }
         }
         // a ring walked against the sweeps: 0 -> 1 -> ... -> n-1 -> 0 in
         // a zig-zag numbering, so that each sweep adds few nodes (Pearce's
@@ -842,7 +941,7 @@ mod tests {
             g.push_node(l.into_iter().map(|t| ((), t)));
         }
         let tarjan = strongly_connected_components(&g);
-        let from = strongly_connected_components_from(&g, order[0], true, (0..n).collect());
+        let from = strongly_connected_components_from(&g, order[0], true, &[], (0..n).collect(), 1);
         same_components(&g, &tarjan, &from);
         assert_eq!(from.sizes, vec![n]);
     }
@@ -854,8 +953,12 @@ mod tests {
         // the last node's (terminal) holds the rest; then the same with an
         // exit from the ring to a last node with no successor (the ring is
         // no longer terminal, the sink is).
-        for exit in [false, true] {
-            let n = 400u32;
+        for (exit, n, threads) in [
+            (false, 400u32, 1),
+            (true, 400, 1),
+            (false, 100_000, 2),
+            (true, 100_000, 2),
+        ] {
             let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n as usize];
             for v in 0..3 {
                 lists[v as usize].push(v + 1);
@@ -876,10 +979,12 @@ mod tests {
                 g.push_node(l.into_iter().map(|t| ((), t)));
             }
             let tarjan = strongly_connected_components(&g);
-            let from = strongly_connected_components_from(&g, 0, true, (0..n).collect());
+            let from =
+                strongly_connected_components_from(&g, 0, true, &[], (0..n).collect(), threads);
             same_components(&g, &tarjan, &from);
             // nothing leads back to 0: the same without sweeping for it
-            let unentered = strongly_connected_components_from(&g, 0, false, (0..n).collect());
+            let unentered =
+                strongly_connected_components_from(&g, 0, false, &[], (0..n).collect(), threads);
             same_components(&g, &tarjan, &unentered);
             let ring = from.component[10] as usize;
             assert_eq!(from.sizes[ring], ring_end - 3);

@@ -114,7 +114,7 @@ pub struct Run<S> {
     /// For each partition, where each breadth-first level starts (markings
     /// are stored level after level).
     pub levels: Vec<Vec<u32>>,
-    /// For each partition, the successors of its markings (coded, see
+    /// For each partition, the successors of its markings (dense numbers, see
     /// [`Edges`]), when asked for and complete; else empty.
     pub arcs: Vec<Edges>,
 }
@@ -346,10 +346,27 @@ pub fn run<S: Semantics>(
             .zip(&run.stores)
             .all(|(a, s)| a.complete(s.len()))
     {
-        for a in &mut arcs {
+        let offsets = run.offsets();
+        let number = |a: &mut Edges| {
             a.shrink();
+            a.number(&offsets)
+        };
+        // state ids to dense numbers: one pass over the arcs, each
+        // partition's on its own thread
+        let numbered = if n == 1 {
+            arcs.iter_mut().all(number)
+        } else {
+            std::thread::scope(|scope| {
+                let handles: Vec<_> = arcs
+                    .iter_mut()
+                    .map(|a| scope.spawn(move || number(a)))
+                    .collect();
+                handles.into_iter().all(|h| h.join().unwrap_or(false))
+            })
+        };
+        if numbered {
+            run.arcs = arcs;
         }
-        run.arcs = arcs;
     }
     run.first_dead = dead_at.map(|(_, id)| id);
     if run.first_unsafe.is_none() {
@@ -475,7 +492,7 @@ fn worker<S: Semantics>(
     // a record in the mail also carries the sender's slot when arcs are kept
     let mail_record = record + if sh.keep_arcs { 4 } else { 0 };
     let mut f = Found::default();
-    let mut arcs = Edges::new(n);
+    let mut arcs = Edges::new();
     let mut replies: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
     let mut cur = vec![0u64; words];
     let mut child: Vec<u64> = Vec::with_capacity(words);
@@ -539,11 +556,6 @@ fn worker<S: Semantics>(
                     level,
                 );
                 batch.clear();
-                if n == 1 && sh.keep_arcs {
-                    // one partition: every successor id is known, code the
-                    // batch's while they are in cache
-                    arcs.seal();
-                }
                 if !ok {
                     f.full = true;
                     sh.stop_level.fetch_min(level, Relaxed);
@@ -614,10 +626,6 @@ fn worker<S: Semantics>(
                     }
                 }
             }
-        }
-        if sh.keep_arcs {
-            // the level's successors are all known: code them
-            arcs.seal();
         }
         let total = sh.total.load(Relaxed);
         if sh.stop_level.load(Relaxed) <= level || total == prev_total {

@@ -17,8 +17,8 @@
 //!
 //! The stored state space is kept ([`Exploration`]) so counterexamples are
 //! rebuilt level by level, and loops found by strongly connected components
-//! over the arcs kept during the exploration ([`Options::keep_arcs`], coded
-//! in `edges.rs`; the hash tables are freed then), or else over successors
+//! over the arcs kept during the exploration ([`Options::keep_arcs`], see
+//! `edges.rs`; the hash tables are freed then), or else over successors
 //! regenerated on demand.
 
 mod edges;
@@ -53,8 +53,8 @@ pub struct Options<'a> {
     /// hash. Default false: on an idle machine hashing balances the threads
     /// better and wins (BENCHMARKS.md).
     pub partition_by_places: bool,
-    /// Keep the successors of every marking as they are found (coded, about
-    /// 2 bytes per arc and 4 per marking, see `edges.rs`; the hash tables
+    /// Keep the successors of every marking as they are found (4 bytes per
+    /// arc and 4 per marking, see `edges.rs`; the hash tables
     /// are freed once the exploration ends) so that [`Exploration::loops`]
     /// need not fire every transition again. Default false: `loops` then
     /// recomputes them.
@@ -567,7 +567,7 @@ impl<S: Semantics> Successors for Graph<'_, S> {
 }
 
 /// The reachability graph over the successors kept by the exploration
-/// ([`Options::keep_arcs`]), decoded as they are read.
+/// ([`Options::keep_arcs`]), in dense numbers.
 struct Kept<'r> {
     arcs: &'r [edges::Edges],
     offsets: Vec<u32>,
@@ -575,19 +575,19 @@ struct Kept<'r> {
 
 impl Kept<'_> {
     #[inline]
-    fn of(&self, node: u32) -> edges::Targets<'_> {
+    fn of(&self, node: u32) -> &[u32] {
         let p = if self.arcs.len() == 1 {
             0
         } else {
             self.offsets.partition_point(|&o| o <= node) - 1
         };
-        self.arcs[p].targets(node - self.offsets[p], &self.offsets)
+        self.arcs[p].targets(node - self.offsets[p])
     }
 }
 
 impl Adjacency for Kept<'_> {
     type Targets<'a>
-        = edges::Targets<'a>
+        = std::iter::Copied<std::slice::Iter<'a, u32>>
     where
         Self: 'a;
 
@@ -595,8 +595,9 @@ impl Adjacency for Kept<'_> {
         self.offsets.last().copied().unwrap_or(0) as usize
     }
 
-    fn targets(&self, node: u32) -> edges::Targets<'_> {
-        self.of(node)
+    #[inline]
+    fn targets(&self, node: u32) -> Self::Targets<'_> {
+        self.of(node).iter().copied()
     }
 }
 
@@ -606,7 +607,7 @@ impl Successors for Kept<'_> {
     }
 
     fn successors(&self, node: u32, out: &mut Vec<u32>) {
-        out.extend(self.of(node));
+        out.extend_from_slice(self.of(node));
     }
 }
 
@@ -617,11 +618,11 @@ fn id_of(offsets: &[u32], node: u32) -> u32 {
     state_id(p, node - offsets[p])
 }
 
-fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize) -> Loops {
+fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize, threads: usize) -> Loops {
     if r.arcs.is_empty() {
         let g = Graph::new(r);
         let sccs = graph::strongly_connected_components(&g);
-        loops_in(r, &g, &sccs, max_listed)
+        loops_in(r, &g, &sccs, max_listed, None)
     } else {
         let kept = Kept {
             arcs: &r.arcs,
@@ -637,8 +638,23 @@ fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize) -> Loops {
             .flat_map(|k| r.level_ids(k))
             .map(|id| dense_of(&kept.offsets, id))
             .collect();
-        let sccs = graph::strongly_connected_components_from(&kept, initial, entered, order);
-        loops_in(r, &kept, &sccs, max_listed)
+        // A shortest cycle through the initial marking: listed first (its
+        // component is the first reached), and its markings, at every
+        // depth down to the deepest on the cycle, all reach the initial
+        // one: the sweeps start from them. Searched over the whole graph,
+        // it is the same as searched in the component: no marking outside
+        // leads back.
+        let cycle = if entered && max_listed > 0 {
+            graph::shortest_cycle(&kept, initial, |_| true)
+        } else {
+            None
+        };
+        let seeds = cycle.as_deref().unwrap_or_default();
+        let sccs = graph::strongly_connected_components_from(
+            &kept, initial, entered, seeds, order, threads,
+        );
+        let known = cycle.map(|c| (initial, c));
+        loops_in(r, &kept, &sccs, max_listed, known)
     }
 }
 
@@ -649,12 +665,14 @@ fn dense_of(offsets: &[u32], id: u32) -> u32 {
 }
 
 /// The loops of `g`, the reachability graph of `r` in dense numbering,
-/// whose strongly connected components are `sccs`.
+/// whose strongly connected components are `sccs`; `known`: a node and a
+/// shortest cycle through it, found already.
 fn loops_in<S: Semantics>(
     r: &Run<S>,
     g: &impl Successors,
     sccs: &Sccs,
     max_listed: usize,
+    mut known: Option<(u32, Vec<u32>)>,
 ) -> Loops {
     let cyclic_components = sccs.cyclic.iter().filter(|&&c| c).count() as u64;
     let largest = sccs
@@ -693,9 +711,11 @@ fn loops_in<S: Semantics>(
         .into_iter()
         .map(|(c, v)| {
             let prefix = firing_sequence(r, &chain_to(r, id_of(&offsets, v)));
-            let cycle_nodes =
-                graph::shortest_cycle(g, v, |w| sccs.component[w as usize] as usize == c)
-                    .unwrap_or_default();
+            let cycle_nodes = match known.take_if(|(k, _)| *k == v) {
+                Some((_, nodes)) => nodes,
+                None => graph::shortest_cycle(g, v, |w| sccs.component[w as usize] as usize == c)
+                    .unwrap_or_default(),
+            };
             let mut ids: Vec<u32> = cycle_nodes.iter().map(|&w| id_of(&offsets, w)).collect();
             ids.push(id_of(&offsets, v));
             Loop {
@@ -727,7 +747,7 @@ impl Exploration<'_> {
     /// Strongly connected components of the reachability graph, listing at
     /// most `max_listed` cycles. Costs about one more exploration.
     pub fn loops(&self, max_listed: usize) -> Loops {
-        on_space!(&self.space, r => loops_of(r, max_listed))
+        on_space!(&self.space, r => loops_of(r, max_listed, self.summary.threads))
     }
 
     /// The names of transitions.
