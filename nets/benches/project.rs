@@ -31,6 +31,8 @@ use nets::Project;
 
 #[path = "../../gateway/benches/support/busy.rs"]
 mod busy;
+#[path = "../../gateway/benches/support/proc.rs"]
+mod proc;
 
 const PT_NAME: &str = "ParamProductionCell-PT-3";
 
@@ -100,35 +102,13 @@ fn options(threads: usize) -> Options<'static> {
 
 /// CPU time of the whole process (user + system), in seconds.
 fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let fields: Vec<&str> = stat
-        .rsplit_once(')')
-        .map(|(_, rest)| rest.split_whitespace().collect())
-        .unwrap_or_default();
-    let ticks = |i: usize| {
-        fields
-            .get(i)
-            .and_then(|f| f.parse::<f64>().ok())
-            .unwrap_or(0.0)
-    };
-    (ticks(11) + ticks(12)) / 100.0
+    proc::cpu_in("/proc/self/stat").map_or(0.0, |d| d.as_secs_f64())
 }
 
 /// CPU time of the calling thread, in seconds (a spinning thread beside
 /// it is not counted).
 fn thread_cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/thread-self/stat").unwrap_or_default();
-    let fields: Vec<&str> = stat
-        .rsplit_once(')')
-        .map(|(_, rest)| rest.split_whitespace().collect())
-        .unwrap_or_default();
-    let ticks = |i: usize| {
-        fields
-            .get(i)
-            .and_then(|f| f.parse::<f64>().ok())
-            .unwrap_or(0.0)
-    };
-    (ticks(11) + ticks(12)) / 100.0
+    proc::cpu_in("/proc/thread-self/stat").map_or(0.0, |d| d.as_secs_f64())
 }
 
 /// The P/T explorer's states/s of CPU on [`PT_NAME`], one thread.

@@ -30,6 +30,8 @@ use nets::Project;
 
 #[path = "../../gateway/benches/support/busy.rs"]
 mod busy;
+#[path = "../../gateway/benches/support/proc.rs"]
+mod proc;
 
 /// A configuration: name, fixture, symmetry, partial order (with the
 /// default cycle proviso, after the search: [`Proviso::Components`]).
@@ -144,31 +146,13 @@ fn names() -> Vec<String> {
 
 /// VmHWM of this process, in kB.
 fn peak_kb() -> u64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
-        .unwrap_or(0)
+    proc::rss_kb(std::process::id()).map_or(0, |(_, peak)| peak)
 }
 
 /// CPU time of this thread (user + system), in seconds: the spinning
 /// thread of a busy run is not counted.
 fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/thread-self/stat").unwrap_or_default();
-    let fields: Vec<&str> = stat
-        .rsplit_once(')')
-        .map(|(_, rest)| rest.split_whitespace().collect())
-        .unwrap_or_default();
-    let ticks = |i: usize| {
-        fields
-            .get(i)
-            .and_then(|f| f.parse::<f64>().ok())
-            .unwrap_or(0.0)
-    };
-    // utime and stime are fields 14 and 15 (1-based), 12 and 13 after the
-    // name; clock ticks are 100 per second on Linux.
-    (ticks(11) + ticks(12)) / 100.0
+    proc::cpu_in("/proc/thread-self/stat").map_or(0.0, |d| d.as_secs_f64())
 }
 
 const CHILD: &str = "PETREL_TEAM_BENCH_CONFIG";

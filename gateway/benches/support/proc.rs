@@ -18,7 +18,14 @@ pub fn rss_kb(pid: u32) -> Option<(u64, u64)> {
 
 /// User + system CPU time of a process so far, from /proc/PID/stat.
 pub fn cpu(pid: u32) -> Option<Duration> {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    cpu_in(&format!("/proc/{pid}/stat"))
+}
+
+/// User + system CPU time so far from a `stat` file of /proc: a process's
+/// (`/proc/self/stat`) or a thread's (`/proc/thread-self/stat`, which a
+/// spinning thread beside it does not count in).
+pub fn cpu_in(path: &str) -> Option<Duration> {
+    let stat = std::fs::read_to_string(path).ok()?;
     // After the command name's closing parenthesis: state is field 3,
     // utime and stime fields 14 and 15.
     let rest = &stat[stat.rfind(')')? + 2..];
