@@ -12,7 +12,9 @@
 //! reached the harness's socket (the kernel's receive timestamp).
 //!
 //! Run: `cargo bench -p gateway --bench latency` (PETREL_LATENCY_TRIALS sets
-//! the number of trials, 10,000 by default). The pymavlink side is skipped,
+//! the number of trials, 10,000 by default; PETREL_LATENCY_REALTIME=off
+//! runs petrel with `--no-realtime`, PETREL_LATENCY_RECORD=off with
+//! `--no-record`, PETREL_LATENCY_CHRT=N under `chrt -f N`). The pymavlink side is skipped,
 //! saying so, when pymavlink is not installed.
 
 #[path = "support/autopilot.rs"]
@@ -100,6 +102,11 @@ fn main() {
         command.arg("--record").arg(scratch.join("latency.mcap"));
     } else {
         command.arg("--no-record");
+    }
+    // PETREL_LATENCY_REALTIME=off: petrel with `--no-realtime` (the loop
+    // does not ask for a real-time priority itself; docs/run.md).
+    if std::env::var("PETREL_LATENCY_REALTIME").is_ok_and(|v| v == "off") {
+        command.arg("--no-realtime");
     }
     let mut petrel = match command
         .args(["--duration", "3600"])

@@ -1,27 +1,36 @@
 //! How the kernel schedules the gateway's threads against the rest of the
-//! companion computer (video, vision, builds), without privileges.
+//! companion computer (video, vision, builds).
 //!
 //! On a loaded machine a thread woken by a frame waits for a CPU behind
 //! whatever runs there: under Linux's EEVDF scheduler (6.6 and later) up to
 //! a whole slice of the running task (1.4 ms by default on the 2-core test
-//! machine), and more when several are queued.
-//! Since Linux 6.12 a thread may ask for a shorter slice of its own
-//! (`sched_setattr`'s `sched_runtime` with the normal policy), which needs
-//! no privilege and no change of priority: its deadline comes sooner, so it
-//! may preempt the running task when it wakes (and is preempted sooner in
-//! turn if it runs long). The loop that turns a frame into a command asks
-//! for the shortest (0.1 ms: a step takes tens of µs). Measured, this did
-//! not hold the tail down on a saturated 2-core machine (the kernel shares
-//! the CPUs between sessions first); a real-time policy given by the crew
-//! did (BENCHMARKS.md, "Under load (issue 15)").
+//! machine), and more when several are queued, and Linux shares the CPUs
+//! between sessions (autogroups) before it shares them between threads.
+//! Measured on a saturated 2-core machine, only a real-time policy held
+//! the reaction time's tail down (BENCHMARKS.md, "Under load (issue 15)").
+//!
+//! So the loop that turns a frame into a command asks for one itself
+//! ([`for_the_loop`]): `SCHED_FIFO` at [`LOOP_PRIORITY`] (`--realtime-priority`),
+//! with the reset-on-fork flag, so that no thread or program it starts
+//! inherits it. That needs root, `CAP_SYS_NICE` or an `RLIMIT_RTPRIO` as
+//! high; refused, it says so once and asks for a short slice instead
+//! (`sched_setattr`'s `sched_runtime` with the normal policy, Linux 6.12
+//! and later, no privilege needed): its deadline comes sooner, so it may
+//! preempt the running task when it wakes. A policy given from outside
+//! (`chrt -f`, systemd's `CPUSchedulingPolicy=fifo`) is kept.
 //!
 //! The recorder's thread, whose work can wait, is put in the batch policy:
 //! its wake-ups (every 10 ms) never preempt anyone, and it never runs at
-//! the real-time priority a crew may give the gateway.
+//! the real-time priority the gateway has.
 //!
-//! Both are requests: on another system or an older kernel (which ignores
-//! the slice) nothing changes, and nothing fails. A loop given a real-time
-//! policy by the crew (`chrt -f`) keeps it; docs/run.md says how.
+//! All are requests: on another system or an older kernel (which ignores
+//! the slice) nothing changes, and nothing fails.
+
+/// The real-time priority the loop asks for by default (`SCHED_FIFO`): the
+/// shipped unit's, low among real-time tasks and below the kernel's
+/// threaded interrupt handlers (50), so that the network's and the serial
+/// port's interrupts are served first.
+pub const LOOP_PRIORITY: u32 = 10;
 
 /// The slice the loop asks for: the kernel's shortest (100 µs).
 pub const LOOP_SLICE_NS: u64 = 100_000;
@@ -35,6 +44,55 @@ pub enum Asked {
     LeftAlone,
     /// Not on Linux, or the kernel refused (the error number).
     Refused(i32),
+}
+
+/// Asks the real-time policy `SCHED_FIFO` at `priority` (1-99) for the
+/// calling thread, with the reset-on-fork flag: threads and processes it
+/// starts begin under the normal policy. A thread already under a
+/// real-time policy (given from outside) or an idle or deadline one is
+/// left alone. Refused (the error number) without the privilege.
+pub fn real_time(priority: u32) -> Asked {
+    imp::change(|attr| {
+        if attr.sched_policy != imp::SCHED_OTHER && attr.sched_policy != imp::SCHED_BATCH {
+            return false;
+        }
+        attr.sched_policy = imp::SCHED_FIFO;
+        attr.sched_priority = priority;
+        attr.sched_runtime = 0;
+        attr.sched_flags = imp::SCHED_FLAG_RESET_ON_FORK;
+        true
+    })
+}
+
+/// What the gateway's loop asks of the kernel at start, on its own thread:
+/// [`real_time`] at `priority`, else (none given, or refused) a
+/// [`short_slice`]. A refusal is logged as a warning saying how to grant
+/// it; the loop runs on either way.
+pub fn for_the_loop(priority: Option<u32>) -> Asked {
+    if let Some(priority) = priority {
+        match real_time(priority) {
+            Asked::Granted => {
+                tracing::info!("the loop runs at real-time priority {priority} (SCHED_FIFO)");
+                return Asked::Granted;
+            }
+            Asked::LeftAlone => {
+                tracing::info!("the loop keeps the scheduling policy it was given");
+                return Asked::LeftAlone;
+            }
+            Asked::Refused(e) => tracing::warn!(
+                "the loop runs at the normal priority: real-time priority {priority} \
+                 (SCHED_FIFO) refused ({}); its reaction time suffers when other \
+                 programs hold every CPU. Run it as the shipped service, or as root, \
+                 or give it the right (`setcap cap_sys_nice=ep petrel`, or an \
+                 RLIMIT_RTPRIO of {priority}); --no-realtime says not to ask \
+                 (docs/run.md, \"On a busy computer\")",
+                std::io::Error::from_raw_os_error(e)
+            ),
+        }
+    }
+    let asked = short_slice(LOOP_SLICE_NS);
+    tracing::debug!("the loop's short scheduling slice: {asked:?}");
+    asked
 }
 
 /// Asks for a short slice (ns) for the calling thread, keeping its policy
@@ -112,6 +170,8 @@ mod imp {
     pub const SCHED_FIFO: u32 = 1;
     pub const SCHED_RR: u32 = 2;
     pub const SCHED_BATCH: u32 = 3;
+    /// Children (threads and processes) start under the normal policy.
+    pub const SCHED_FLAG_RESET_ON_FORK: u64 = 1;
 
     /// `struct sched_attr` (linux/sched/types.h), as of Linux 5.3.
     #[repr(C)]
@@ -194,9 +254,11 @@ mod imp {
     pub const SCHED_FIFO: u32 = 1;
     pub const SCHED_RR: u32 = 2;
     pub const SCHED_BATCH: u32 = 3;
+    pub const SCHED_FLAG_RESET_ON_FORK: u64 = 1;
 
     pub struct SchedAttr {
         pub sched_policy: u32,
+        pub sched_flags: u64,
         pub sched_priority: u32,
         pub sched_runtime: u64,
     }
@@ -351,5 +413,82 @@ mod tests {
             imp::current().expect("sched_getattr")
         });
         assert_eq!(after.sched_policy, imp::SCHED_BATCH);
+    }
+
+    #[test]
+    fn real_time_is_granted_with_reset_on_fork_and_a_thread_it_starts_runs_normal() {
+        let got = on_thread(|| {
+            let asked = real_time(LOOP_PRIORITY);
+            let me = imp::current().expect("sched_getattr");
+            let child = on_thread(|| imp::current().expect("sched_getattr"));
+            (asked, me, child)
+        });
+        match got {
+            (Asked::Granted, me, child) => {
+                assert_eq!(
+                    (me.sched_policy, me.sched_priority),
+                    (imp::SCHED_FIFO, LOOP_PRIORITY)
+                );
+                assert_ne!(me.sched_flags & imp::SCHED_FLAG_RESET_ON_FORK, 0, "{me:?}");
+                assert_eq!(
+                    (child.sched_policy, child.sched_priority),
+                    (imp::SCHED_OTHER, 0),
+                    "{child:?}"
+                );
+            }
+            (Asked::Refused(e), me, _) => {
+                println!("skipped: a real-time policy needs privileges (errno {e})");
+                assert_ne!(me.sched_policy, imp::SCHED_FIFO);
+            }
+            (Asked::LeftAlone, me, _) => {
+                assert!(me.sched_policy > imp::SCHED_BATCH, "{me:?}")
+            }
+        }
+    }
+
+    #[test]
+    fn a_real_time_policy_given_from_outside_is_kept() {
+        let after = on_thread(|| {
+            if !raise_to_fifo() {
+                return None;
+            }
+            Some((real_time(LOOP_PRIORITY), imp::current()))
+        });
+        if let Some((asked, after)) = after {
+            assert_eq!(asked, Asked::LeftAlone);
+            let after = after.expect("sched_getattr");
+            assert_eq!(
+                (after.sched_policy, after.sched_priority),
+                (imp::SCHED_FIFO, 1)
+            );
+        }
+    }
+
+    #[test]
+    fn a_refused_priority_leaves_the_loop_normal_with_a_short_slice() {
+        // 100 is no priority: the kernel refuses it whatever the privileges.
+        let (refused, fell_back, after) = on_thread(|| {
+            let refused = real_time(100);
+            let fell_back = for_the_loop(Some(100));
+            (refused, fell_back, imp::current().expect("sched_getattr"))
+        });
+        assert!(matches!(refused, Asked::Refused(_)), "{refused:?}");
+        assert_eq!(fell_back, Asked::Granted, "the short slice");
+        assert_eq!(
+            (after.sched_policy, after.sched_priority),
+            (imp::SCHED_OTHER, 0)
+        );
+    }
+
+    #[test]
+    fn no_priority_asked_keeps_the_normal_policy() {
+        let after = on_thread(|| {
+            assert_eq!(for_the_loop(None), Asked::Granted);
+            imp::current().expect("sched_getattr")
+        });
+        assert_eq!(
+            (after.sched_policy, after.sched_priority),
+            (imp::SCHED_OTHER, 0)
+        );
     }
 }

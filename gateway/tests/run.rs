@@ -521,3 +521,126 @@ async fn run_speaks_first_and_says_when_no_vehicle_is_heard() {
         "adopted the vehicle's system id: {heard:?}"
     );
 }
+
+/// A thread's scheduling policy and real-time priority, from
+/// /proc/PID/task/TID/stat (fields 41 and 40); `None` once it has gone.
+fn policy_of(pid: u32, tid: &str) -> Option<(u32, u32)> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/task/{tid}/stat")).ok()?;
+    // Fields after the command's name (which may hold spaces) and state:
+    // field N is at index N - 3.
+    let fields: Vec<&str> = stat[stat.rfind(')')? + 2..].split_whitespace().collect();
+    Some((fields.get(38)?.parse().ok()?, fields.get(37)?.parse().ok()?))
+}
+
+/// `petrel run`'s threads while it runs: (thread id, policy, priority).
+async fn threads_of(pid: u32) -> Vec<(String, u32, u32)> {
+    let mut threads = Vec::new();
+    for entry in std::fs::read_dir(format!("/proc/{pid}/task")).expect("/proc") {
+        let tid = entry
+            .expect("task")
+            .file_name()
+            .to_string_lossy()
+            .to_string();
+        if let Some((policy, priority)) = policy_of(pid, &tid) {
+            threads.push((tid, policy, priority));
+        }
+    }
+    threads
+}
+
+const SCHED_OTHER: u32 = 0;
+const SCHED_FIFO: u32 = 1;
+const SCHED_BATCH: u32 = 3;
+
+/// The loop asks for a real-time priority by itself (`--realtime-priority`,
+/// 10 by default); the recorder's and the web monitor's threads do not run
+/// at it. Without the privilege it says so and runs at the normal priority.
+/// `--no-realtime` does not ask.
+#[cfg(target_os = "linux")]
+#[tokio::test]
+async fn the_loop_asks_for_a_real_time_priority_and_nothing_else_inherits_it() {
+    let dir = project("realtime", TAKEOFF_NET);
+    let recording = dir.join("flight.mcap");
+    for (options, asked) in [
+        (vec!["--realtime-priority", "12"], Some(12)),
+        (vec!["--no-realtime"], None),
+    ] {
+        let port = free_port();
+        let _vehicle = flipping_copter(port).await;
+        let mut child = petrel()
+            .args([
+                "run",
+                dir.to_str().expect("utf-8"),
+                "--mavlink",
+                &format!("udpin:127.0.0.1:{port}"),
+                "--unchecked",
+                "--record",
+                recording.to_str().expect("utf-8"),
+                "--http",
+                "0",
+                "--duration",
+                "2",
+            ])
+            .args(&options)
+            .env("PETREL_LOG", "info")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("petrel runs");
+        let pid = child.id().expect("a pid");
+        // The loop, the recorder's and the monitor's threads have started.
+        tokio::time::sleep(Duration::from_millis(1000)).await;
+        let threads = threads_of(pid).await;
+        let stderr = {
+            let status = tokio::time::timeout(Duration::from_secs(30), child.wait())
+                .await
+                .expect("petrel stops by itself")
+                .expect("petrel runs");
+            let mut err = String::new();
+            if let Some(mut e) = child.stderr.take() {
+                use tokio::io::AsyncReadExt;
+                let _ = e.read_to_string(&mut err).await;
+            }
+            assert!(status.success(), "{options:?}: {err}");
+            err
+        };
+        let main = threads
+            .iter()
+            .find(|t| t.0 == pid.to_string())
+            .expect("the main thread");
+        assert!(
+            threads.len() >= 3,
+            "the loop, recorder, monitor: {threads:?}"
+        );
+        match asked {
+            Some(priority) if stderr.contains("runs at real-time priority") => {
+                assert_eq!((main.1, main.2), (SCHED_FIFO, priority), "{threads:?}");
+            }
+            Some(_) => {
+                // Not privileged here: said, and the normal policy kept.
+                assert!(
+                    stderr.contains("refused") && stderr.contains("--no-realtime"),
+                    "{stderr}"
+                );
+                println!("not privileged for a real-time policy: the refusal checked instead");
+                assert_eq!(main.1, SCHED_OTHER, "{threads:?}");
+            }
+            None => {
+                assert_eq!(main.1, SCHED_OTHER, "{threads:?}");
+                assert!(!stderr.contains("real-time"), "{stderr}");
+            }
+        }
+        // No other thread runs under a real-time policy.
+        for (tid, policy, priority) in &threads {
+            if *tid != pid.to_string() {
+                assert!(
+                    [SCHED_OTHER, SCHED_BATCH].contains(policy) && *priority == 0,
+                    "thread {tid}: {threads:?}"
+                );
+            }
+        }
+        // The recorder's thread is in the batch policy.
+        assert!(threads.iter().any(|t| t.1 == SCHED_BATCH), "{threads:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

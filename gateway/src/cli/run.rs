@@ -117,6 +117,22 @@ pub struct Args {
     /// 127.0.0.1:PORT given a port alone. Read-only.
     #[arg(long, value_name = "ADDR:PORT")]
     pub http: Option<String>,
+    /// The real-time priority (SCHED_FIFO, 1-99) the loop asks the kernel
+    /// for, so that a frame gets a CPU at once when other programs hold
+    /// them all. Needs root, CAP_SYS_NICE or a high enough RLIMIT_RTPRIO;
+    /// refused, the loop runs at the normal priority and says so. A
+    /// real-time policy given from outside (chrt, systemd) is kept.
+    #[arg(
+        long,
+        value_name = "PRIORITY",
+        default_value_t = crate::scheduling::LOOP_PRIORITY,
+        value_parser = clap::value_parser!(u32).range(1..=99)
+    )]
+    pub realtime_priority: u32,
+    /// Do not ask for a real-time priority: the loop runs at the normal
+    /// priority (with a short slice).
+    #[arg(long, conflicts_with = "realtime_priority")]
+    pub no_realtime: bool,
 }
 
 /// `recordings/NAME-YYYYMMDD-HHMMSS.mcap` for the current UTC time.
@@ -335,6 +351,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         time_scale: args.time_scale,
         out: Box::new(std::io::stdout()),
         stop: None,
+        realtime: (!args.no_realtime).then_some(args.realtime_priority),
     }))
 }
 
@@ -388,10 +405,10 @@ pub(crate) fn fly(setup: Setup) -> VerbResult {
     // One thread for the link reader, the programs and the loop (two worker
     // threads measured no better: BENCHMARKS.md); the recorder writes on its
     // own thread.
-    // The loop asks the kernel for a short slice, so that a frame arriving
-    // while other programs hold both cores gets a CPU at once (scheduling.rs).
-    let asked = crate::scheduling::short_slice(crate::scheduling::LOOP_SLICE_NS);
-    tracing::debug!("the loop's short scheduling slice: {asked:?}");
+    // The loop asks the kernel for a real-time priority, else a short
+    // slice, so that a frame arriving while other programs hold both cores
+    // gets a CPU at once (scheduling.rs).
+    crate::scheduling::for_the_loop(setup.realtime);
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -427,6 +444,8 @@ pub(crate) struct Setup {
     pub stop: Option<Arc<tokio::sync::Notify>>,
     /// Serve the web monitor here.
     pub http: Option<std::net::SocketAddr>,
+    /// The real-time priority the loop asks for (`None`: the normal policy).
+    pub realtime: Option<u32>,
 }
 
 /// Elaboration follows the vehicle the commander commands (docs/multi-vehicle.md).

@@ -331,6 +331,9 @@ impl Gateway {
                 (Some(a), false) => Some(a.clone()),
                 (None, false) => Some(default_http()),
             },
+            // A demonstration on a desktop: the normal priority.
+            realtime_priority: crate::scheduling::LOOP_PRIORITY,
+            no_realtime: true,
         };
         let mut setup = match super::run::prepare(&run_args)? {
             Ok(setup) => setup,
