@@ -86,13 +86,23 @@ pub fn for_the_loop(priority: Option<u32>) -> Asked {
                  or give it the right (`setcap cap_sys_nice=ep petrel`, or an \
                  RLIMIT_RTPRIO of {priority}); --no-realtime says not to ask \
                  (docs/run.md, \"On a busy computer\")",
-                std::io::Error::from_raw_os_error(e)
+                refusal(e)
             ),
         }
     }
     let asked = short_slice(LOOP_SLICE_NS);
     tracing::debug!("the loop's short scheduling slice: {asked:?}");
     asked
+}
+
+/// Why the kernel refused, for people: EPERM and EINVAL by name, others as
+/// the system says them.
+fn refusal(errno: i32) -> String {
+    match errno {
+        1 => "EPERM: not permitted".into(),
+        22 => "EINVAL: not a priority this kernel takes".into(),
+        e => std::io::Error::from_raw_os_error(e).to_string(),
+    }
 }
 
 /// Asks for a short slice (ns) for the calling thread, keeping its policy
