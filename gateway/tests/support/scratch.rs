@@ -90,13 +90,13 @@ impl Drop for Scratch {
 
 #[cfg(test)]
 mod tests {
-    use super::{Scratch, KEEP};
-    use std::path::PathBuf;
+    // Paths in full: a bench that includes this file compiles the module
+    // with cfg(test) but without its #[test] functions.
 
     #[test]
     fn a_scratch_folder_is_fresh_named_and_removed_after_a_normal_drop() {
-        let one = Scratch::new("scratch-test");
-        let two = Scratch::new("scratch-test");
+        let one = super::Scratch::new("scratch-test");
+        let two = super::Scratch::new("scratch-test");
         assert_ne!(one.path(), two.path());
         for dir in [&one, &two] {
             assert!(dir.is_dir(), "{}", dir.display());
@@ -110,7 +110,7 @@ mod tests {
         drop(one);
         drop(two);
         // Removed, or kept when asked to keep them all.
-        let kept = std::env::var_os(KEEP).is_some();
+        let kept = std::env::var_os(super::KEEP).is_some();
         assert_eq!(
             one_path.join("inner/flight.mcap").exists(),
             kept,
@@ -126,9 +126,9 @@ mod tests {
 
     #[test]
     fn a_scratch_folder_is_kept_after_a_panic() {
-        let mut path = PathBuf::new();
+        let mut path = std::path::PathBuf::new();
         let unwound = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            let dir = Scratch::new("scratch-test-panic");
+            let dir = super::Scratch::new("scratch-test-panic");
             std::fs::write(dir.join("log.txt"), b"what failed").expect("a file inside");
             path = dir.to_path_buf();
             // A panic without the panic hook (no "thread panicked" noise,
