@@ -234,13 +234,17 @@ fn mcc_nets_through_the_binary() {
     assert_eq!(j["safe"], false);
 }
 
-/// A project folder in the scratch space: (file name, text) pairs.
-fn project_dir(name: &str, files: &[(&str, &str)]) -> Scratch {
-    let dir = Scratch::new(&format!("check-{name}"));
+/// A project folder `name` (the project's name) in a scratch folder, of
+/// (file name, text) pairs: the scratch folder, to hold while the project
+/// is used, and the project's.
+fn project_dir(name: &str, files: &[(&str, &str)]) -> (Scratch, PathBuf) {
+    let scratch = Scratch::new("check");
+    let dir = scratch.join(name);
+    std::fs::create_dir(&dir).expect("the project's folder");
     for (file, text) in files {
         std::fs::write(dir.join(file), text).expect("scratch file");
     }
-    dir
+    (scratch, dir)
 }
 
 /// A net awaiting events of ArduPilot's built-in profile (declared nowhere
@@ -280,7 +284,7 @@ on = "landed"
 
 #[test]
 fn a_project_is_checked_with_the_events_its_profile_produces() {
-    let dir = project_dir(
+    let (_scratch, dir) = project_dir(
         "elaborated",
         &[
             (
@@ -365,7 +369,7 @@ fn a_project_is_checked_with_the_events_its_profile_produces() {
 fn each_net_is_checked_alone_too() {
     // A fills @ready on `go`; B waits for it: alone, B is dead at the start
     // (a warning: it relies on A); the project holds.
-    let dir = project_dir(
+    let (_scratch, dir) = project_dir(
         "alone",
         &[
             (
