@@ -1,5 +1,5 @@
-//! Scratch files, the `petrel` binary, recorded flights shared by the
-//! tests, and rewriting a recording (tampering).
+//! The folder of the recorded flights shared by the tests, the `petrel`
+//! binary, and rewriting a recording (tampering).
 
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
