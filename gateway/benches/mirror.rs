@@ -29,13 +29,16 @@ mod flight;
 mod proc;
 #[path = "../tests/mirror/router.rs"]
 mod router;
+#[path = "../tests/support/scratch.rs"]
+mod scratch;
 
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use flight::{free_port, petrel_run, project, scratch, start_sim, stop, Dec, Killed, SPEED};
+use flight::{free_port, petrel_run, project, start_sim, stop, Dec, Killed, SPEED};
 use proc::cpu;
 use router::{Loss, Router};
+use scratch::Scratch;
 
 /// The scenarios' mission file (DEC reads it).
 pub const MISSION_FILE: &str = "mission.toml";
@@ -52,7 +55,7 @@ struct Figures {
 }
 
 fn flight() -> Option<Figures> {
-    let dir = scratch("bench-mirror");
+    let dir = Scratch::new("bench-mirror");
     let sim = start_sim(&[]);
     let mut router = Router::start(sim.local_addr(), Loss::default());
     let programs = format!("tcp:127.0.0.1:{}", free_port());

@@ -1,7 +1,12 @@
 //! `petrel check --pnml` end to end: exit codes, the JSON object, errors.
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+use scratch::Scratch;
 
 fn petrel(args: &[&str]) -> (i32, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
@@ -27,17 +32,17 @@ fn json_of(out: &str) -> serde_json::Value {
     serde_json::from_str(out.trim()).unwrap_or_else(|e| panic!("not one JSON object ({e}): {out}"))
 }
 
-/// Writes `body` (places, transitions, arcs) as a PNML file in a scratch folder.
-fn pnml_file(name: &str, body: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("check-tests");
-    std::fs::create_dir_all(&dir).expect("scratch folder");
+/// Writes `body` (places, transitions, arcs) as a PNML file in a scratch
+/// folder: the folder (to hold while the file is used) and the file.
+fn pnml_file(name: &str, body: &str) -> (Scratch, PathBuf) {
+    let dir = Scratch::new("check-pnml");
     let path = dir.join(name);
     let text = format!(
         "<?xml version=\"1.0\"?>\n<pnml xmlns=\"http://www.pnml.org/version-2009/grammar/pnml\">\n\
          <net id=\"{name}\" type=\"http://www.pnml.org/version-2009/grammar/ptnet\">\n<page id=\"pg\">\n{body}\n</page>\n</net>\n</pnml>\n"
     );
     std::fs::write(&path, text).expect("scratch file");
-    path
+    (dir, path)
 }
 
 fn shared_pnml(file: &str) -> Option<String> {
@@ -64,7 +69,7 @@ const RING: &str = r#"<place id="a"><initialMarking><text>1</text></initialMarki
 
 #[test]
 fn a_safe_live_net_passes_with_exit_0() {
-    let f = pnml_file("ring.pnml", RING);
+    let (_dir, f) = pnml_file("ring.pnml", RING);
     let (code, out, err) = petrel(&["check", "--pnml", f.to_str().unwrap(), "--json"]);
     assert_eq!(code, 0, "{err}");
     let j = json_of(&out);
@@ -90,7 +95,7 @@ fn a_safe_live_net_passes_with_exit_0() {
 #[test]
 fn an_unsafe_net_with_a_deadlock_fails_with_exit_1() {
     // `go` puts a second token in `b` after `fill`; `stop` empties `a` for good.
-    let f = pnml_file(
+    let (_dir, f) = pnml_file(
         "unsafe.pnml",
         r#"<place id="a"><initialMarking><text>1</text></initialMarking></place>
 <place id="b"><initialMarking><text>1</text></initialMarking></place>
@@ -117,7 +122,7 @@ fn an_unsafe_net_with_a_deadlock_fails_with_exit_1() {
 
 #[test]
 fn an_unbounded_net_stops_at_the_state_limit() {
-    let f = pnml_file(
+    let (_dir, f) = pnml_file(
         "unbounded.pnml",
         r#"<place id="src"><initialMarking><text>1</text></initialMarking></place><place id="sink"/>
 <transition id="gen"/>
@@ -162,7 +167,7 @@ fn an_unbounded_net_stops_at_the_state_limit() {
 
 #[test]
 fn bad_input_exits_2_with_the_position() {
-    let f = pnml_file(
+    let (_dir, f) = pnml_file(
         "dangling.pnml",
         "<place id=\"a\"/>\n<arc id=\"x\" source=\"a\" target=\"nowhere\"/>",
     );
@@ -229,17 +234,17 @@ fn mcc_nets_through_the_binary() {
     assert_eq!(j["safe"], false);
 }
 
-/// A project folder in the scratch space: (file name, text) pairs.
-fn project_dir(name: &str, files: &[(&str, &str)]) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("check-tests")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch folder");
+/// A project folder `name` (the project's name) in a scratch folder, of
+/// (file name, text) pairs: the scratch folder, to hold while the project
+/// is used, and the project's.
+fn project_dir(name: &str, files: &[(&str, &str)]) -> (Scratch, PathBuf) {
+    let scratch = Scratch::new("check");
+    let dir = scratch.join(name);
+    std::fs::create_dir(&dir).expect("the project's folder");
     for (file, text) in files {
         std::fs::write(dir.join(file), text).expect("scratch file");
     }
-    dir
+    (scratch, dir)
 }
 
 /// A net awaiting events of ArduPilot's built-in profile (declared nowhere
@@ -279,7 +284,7 @@ on = "landed"
 
 #[test]
 fn a_project_is_checked_with_the_events_its_profile_produces() {
-    let dir = project_dir(
+    let (_scratch, dir) = project_dir(
         "elaborated",
         &[
             (
@@ -364,7 +369,7 @@ fn a_project_is_checked_with_the_events_its_profile_produces() {
 fn each_net_is_checked_alone_too() {
     // A fills @ready on `go`; B waits for it: alone, B is dead at the start
     // (a warning: it relies on A); the project holds.
-    let dir = project_dir(
+    let (_scratch, dir) = project_dir(
         "alone",
         &[
             (
@@ -464,10 +469,9 @@ fn a_project_check_stops_at_the_state_limit_given() {
 
 /// The two-robot fixture of `nets` with its bottleneck left unguarded, in a
 /// scratch folder.
-fn unguarded_team() -> PathBuf {
+fn unguarded_team() -> Scratch {
     let from = Path::new(env!("CARGO_MANIFEST_DIR")).join("../nets/tests/fixtures/team");
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("check-team-unguarded");
-    std::fs::create_dir_all(&dir).expect("scratch folder");
+    let dir = Scratch::new("check-team-unguarded");
     for f in ["project.toml", "move.toml", "watch.toml"] {
         let text = std::fs::read_to_string(from.join(f)).expect("fixture");
         let text = text

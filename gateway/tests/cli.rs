@@ -1,7 +1,12 @@
 //! `petrel play` end to end: the binary on the example's scripts.
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+use scratch::Scratch;
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -92,8 +97,7 @@ fn play_for_people_shows_the_lockout() {
 
 #[test]
 fn play_reports_bad_input_with_exit_2() {
-    let dir = std::env::temp_dir().join(format!("petrel-play-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = Scratch::new("play");
     let script = dir.join("bad.jsonl");
     std::fs::write(
         &script,
@@ -132,7 +136,6 @@ fn play_reports_bad_input_with_exit_2() {
 
     let (code, _, _) = petrel(&["play", "examples/uav-survey"]);
     assert_eq!(code, 2, "a missing --events is a usage error");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -164,8 +167,7 @@ fn check_project_reports_for_people_and_as_json_with_exit_codes() {
         .is_some_and(|n| n > 0));
 
     // A project with a deadlock fails with exit 1 and shows the sequence.
-    let dir = std::env::temp_dir().join(format!("petrel-check-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = Scratch::new("check");
     std::fs::write(
         dir.join("project.toml"),
         "[programs.DEC.functions]\nplan = {}\n[[net]]\nfile = \"a.toml\"\nactive = true\n",
@@ -188,12 +190,11 @@ fn check_project_reports_for_people_and_as_json_with_exit_codes() {
     );
     let (code, _, err) = petrel(&["check", "/nonexistent/project"]);
     assert_eq!(code, 2, "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn export_writes_pnml_that_check_reads_and_draw_writes_dot() {
-    let dir = std::env::temp_dir().join(format!("petrel-export-{}", std::process::id()));
+    let dir = Scratch::new("export");
     let (code, _, err) = petrel(&[
         "export",
         "examples/uav-survey",
@@ -221,7 +222,6 @@ fn export_writes_pnml_that_check_reads_and_draw_writes_dot() {
         err.contains("no net `NOPE` in the project (it has: MISSION, EVENTS)"),
         "{err}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `../shared` beside the workspace root, or why the test cannot run.
@@ -290,8 +290,7 @@ fn replay_runs_a_recorded_flight_through_elaboration_and_the_nets() {
 
 #[test]
 fn play_prints_every_line_in_time_order_with_expiries_before_the_input_that_let_them_fire() {
-    let dir = std::env::temp_dir().join(format!("petrel-play-order-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = Scratch::new("play-order");
     std::fs::write(
         dir.join("project.toml"),
         "[[net]]\nfile = \"n.toml\"\nactive = true\n",
@@ -318,7 +317,6 @@ fn play_prints_every_line_in_time_order_with_expiries_before_the_input_that_let_
         script.to_str().expect("utf-8"),
         "--json",
     ]);
-    let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(code, 0, "{err}");
     let lines: Vec<serde_json::Value> = out
         .lines()
@@ -353,8 +351,7 @@ fn no_verb_panics_when_stdout_and_stderr_cannot_be_written() {
         eprintln!("skipped: no /dev/full on this system");
         return;
     }
-    let dir = std::env::temp_dir().join(format!("petrel-full-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = Scratch::new("full");
     std::fs::write(dir.join("project.toml"), "[[net]]\nfile = \"n.toml\"\n").expect("write");
     std::fs::write(
         dir.join("n.toml"),
@@ -397,7 +394,6 @@ fn no_verb_panics_when_stdout_and_stderr_cannot_be_written() {
             failures.push(format!("petrel {}: {status}", args.join(" ")));
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
     assert!(
         failures.is_empty(),
         "expected exit 2:\n{}",
@@ -413,8 +409,7 @@ fn replay_of_a_telemetry_log_follows_the_vehicle_named_by_sysid() {
         MavAutopilot, MavMessage, MavModeFlag, MavType, HEARTBEAT_DATA,
     };
     use mavlink::{MavHeader, MavlinkVersion};
-    let dir = std::env::temp_dir().join(format!("petrel-replay-sysid-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = Scratch::new("replay-sysid");
     std::fs::write(
         dir.join("project.toml"),
         "[[net]]\nfile = \"n.toml\"\nactive = true\n",
@@ -472,7 +467,6 @@ fn replay_of_a_telemetry_log_follows_the_vehicle_named_by_sysid() {
     );
     assert!(fired(&["--sysid", "2"]), "system 2 goes RTL");
     assert!(!fired(&["--sysid", "1"]));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -20,6 +20,9 @@
 //! time. Without the SITL binaries, MAVProxy, socat or systemd-analyze they
 //! print why they are skipped; with `CI=true` they fail instead.
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 #[path = "deploy/gateway.rs"]
 mod gateway;
 #[path = "deploy/peers.rs"]
@@ -33,6 +36,7 @@ use std::time::{Duration, Instant};
 
 use gateway::{assert_bench_flight, bench_over, Gateway};
 use mavlink::dialects::ardupilotmega::{MavMessage, MavType};
+use scratch::Scratch;
 use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
 
 fn repository() -> PathBuf {
@@ -81,7 +85,7 @@ fn the_unit_passes_systemd_analyze_verify() {
         "ExecStart moved: update this test"
     );
     // verify checks that ExecStart's binary exists: point it at ours.
-    let dir = tempfile::tempdir().expect("temp dir");
+    let dir = Scratch::new("deploy");
     let unit = dir.path().join("petrel.service");
     std::fs::write(
         &unit,
@@ -215,7 +219,7 @@ fn the_units_command_line_runs() {
         })
         .collect();
     assert_eq!(words[0], "run");
-    let dir = tempfile::tempdir().expect("temp dir");
+    let dir = Scratch::new("deploy");
     let started = Instant::now();
     let mut child = Command::new(env!("CARGO_BIN_EXE_petrel"))
         .args(&words)
@@ -292,7 +296,7 @@ fn through_mavproxy_as_a_router() {
     };
     let _one = INSTANCE_5.lock().unwrap_or_else(|p| p.into_inner());
     let started = Instant::now();
-    let scratch = tempfile::tempdir().expect("temp dir");
+    let scratch = Scratch::new("deploy");
     let options = Options {
         instance: INSTANCE,
         speedup: SPEEDUP,
@@ -384,7 +388,7 @@ fn over_a_serial_link() {
     };
     let _one = INSTANCE_5.lock().unwrap_or_else(|p| p.into_inner());
     let started = Instant::now();
-    let scratch = tempfile::tempdir().expect("temp dir");
+    let scratch = Scratch::new("deploy");
     let cable = peers::PtyPair::open(&socat, scratch.path());
     // SERIAL1 as the flight controller's TELEM port to the companion
     // computer: MAVLink 2 at 57600 baud, on the pseudo-terminal.
@@ -469,7 +473,7 @@ fn a_usb_serial_link_comes_back() {
     };
     let _one = INSTANCE_5.lock().unwrap_or_else(|p| p.into_inner());
     let started = Instant::now();
-    let scratch = tempfile::tempdir().expect("temp dir");
+    let scratch = Scratch::new("deploy");
     let options = Options {
         instance: INSTANCE,
         speedup: SPEEDUP,

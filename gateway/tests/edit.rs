@@ -15,6 +15,9 @@
 //! does: skipped with the reason without them, failed under `CI=true`.
 //! Screenshots go to `target/tmp/monitor/edit-*.png`.
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -27,6 +30,7 @@ use serde_json::Value as Json;
 mod browser;
 
 use browser::{repo, require, strings, Reaped};
+use scratch::Scratch;
 
 const PETREL: &str = env!("CARGO_BIN_EXE_petrel");
 
@@ -114,7 +118,7 @@ fn read(path: &Path) -> String {
 fn a_transition_added_in_the_page_is_written_checked_and_its_counterexample_stepped() {
     let Some(tools) = require() else { return };
     let shots = browser::shots();
-    let tmp = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let tmp = Scratch::new("edit");
     let dir = tmp.path();
     copy_example(dir);
     let original = read(&example().join("communication.toml"));
@@ -312,7 +316,7 @@ fn http_with(
 /// after a reload, and generate the programs' stubs; bad input exits 2.
 #[test]
 fn the_editor_never_overwrites_a_file_changed_on_disk() {
-    let tmp = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let tmp = Scratch::new("edit");
     let dir = tmp.path();
     copy_example(dir);
     let (editor, url) = edit(dir);

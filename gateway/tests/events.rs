@@ -2,6 +2,9 @@
 //! the timeline for people, the summary on stderr, profiles, exit codes)
 //! and on the shared recordings.
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -9,6 +12,7 @@ use elaboration::frame::{extra_crc, serialize};
 use elaboration::TlogWriter;
 use mavlink::dialects::ardupilotmega::*;
 use mavlink::{MavHeader, MavlinkVersion};
+use scratch::Scratch;
 use serde_json::Value;
 
 fn petrel(args: &[&str]) -> (i32, String, String) {
@@ -122,7 +126,7 @@ fn json_lines(out: &str) -> Vec<Value> {
 
 #[test]
 fn json_lines_have_exactly_the_documented_keys_and_the_summary_goes_to_stderr() {
-    let dir = tempfile::tempdir().expect("temp dir");
+    let dir = Scratch::new("events");
     let log = write(dir.path(), "flight.tlog", &synthetic_log());
     let (code, out, err) = petrel(&["events", &log, "--json"]);
     assert_eq!(code, 0, "{err}");
@@ -182,7 +186,7 @@ fn json_lines_have_exactly_the_documented_keys_and_the_summary_goes_to_stderr() 
 
 #[test]
 fn without_json_a_timeline_for_people() {
-    let dir = tempfile::tempdir().expect("temp dir");
+    let dir = Scratch::new("events");
     let log = write(dir.path(), "flight.tlog", &synthetic_log());
     let (code, out, err) = petrel(&["events", &log]);
     assert_eq!(code, 0, "{err}");
@@ -222,7 +226,7 @@ fn without_json_a_timeline_for_people() {
 
 #[test]
 fn a_project_file_layers_over_the_builtin_profile() {
-    let dir = tempfile::tempdir().expect("temp dir");
+    let dir = Scratch::new("events");
     let log = write(dir.path(), "flight.tlog", &synthetic_log());
     let profile = write(
         dir.path(),
@@ -256,7 +260,7 @@ fn a_project_file_layers_over_the_builtin_profile() {
 
 #[test]
 fn bad_input_exits_2_with_every_profile_problem_located() {
-    let dir = tempfile::tempdir().expect("temp dir");
+    let dir = Scratch::new("events");
     let log = write(dir.path(), "flight.tlog", &synthetic_log());
     let profile = write(
         dir.path(),
@@ -281,7 +285,7 @@ fn bad_input_exits_2_with_every_profile_problem_located() {
 
 #[test]
 fn garbage_is_counted_not_fatal() {
-    let dir = tempfile::tempdir().expect("temp dir");
+    let dir = Scratch::new("events");
     let mut bytes: Vec<u8> = (0..5000u32).map(|i| (i * 7919 % 251) as u8).collect();
     bytes.extend(synthetic_log());
     bytes.extend_from_slice(&[0xFD, 9, 0]); // ends inside a frame

@@ -14,17 +14,18 @@ mod flight;
 mod process;
 #[path = "mirror/router.rs"]
 mod router;
+#[path = "support/scratch.rs"]
+mod scratch;
 #[path = "mirror/wire.rs"]
 mod wire;
 
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use flight::{
-    free_port, petrel_run, project, scratch, start_sim, stop, timeline, Dec, Killed, SPEED,
-};
+use flight::{free_port, petrel_run, project, start_sim, stop, timeline, Dec, Killed, SPEED};
 use process::petrel_mirror;
 use router::{Loss, Router, Traffic};
+use scratch::Scratch;
 use sitl_tests::SimState;
 use wire::{check_recording, fired, only_resync_requests, the_recording_checks_out};
 
@@ -46,6 +47,8 @@ struct Mirrored {
     state: SimState,
     /// The mirror's own recording.
     recording: std::path::PathBuf,
+    /// Its folder, with run's recording and both timelines.
+    _scratch: Scratch,
     /// When (simulated s) the router forgot its routes.
     forgot_at: Option<f64>,
 }
@@ -79,7 +82,7 @@ fn fly_mirrored_full(
     forget_at: Option<f64>,
 ) -> Mirrored {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let dir = scratch(&format!("mirror-{name}"));
+    let dir = Scratch::new(&format!("mirror-{name}"));
     let sim = start_sim(faults);
     let mut router = Router::start(sim.local_addr(), loss);
     let programs = format!("tcp:127.0.0.1:{}", free_port());
@@ -151,6 +154,7 @@ fn fly_mirrored_full(
         traffic,
         state,
         recording,
+        _scratch: dir,
     }
 }
 
@@ -583,7 +587,7 @@ fn a_vehicle_that_misses_engine_failure_is_caught_by_the_independent_check() {
     // The onboard profile altered: the project's layer with every rule of
     // `engine_failure` removed (`enabled = false`). The mirror elaborates
     // with the project's own.
-    let dir = scratch("mirror-blind-profile");
+    let dir = Scratch::new("mirror-blind-profile");
     let layer =
         std::fs::read_to_string(project().join("profile.toml")).expect("the project's profile");
     let mut altered = String::new();

@@ -11,6 +11,8 @@
 mod flight;
 #[path = "mirror/router.rs"]
 mod router;
+#[path = "support/scratch.rs"]
+mod scratch;
 
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
@@ -19,6 +21,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use router::{Loss, Router};
+use scratch::Scratch;
 
 /// Simulated seconds per wall second: half the flights' pace, so that
 /// the two gateways' recorders keep up with the telemetry on a busy
@@ -30,10 +33,9 @@ const TIMEOUT_S: f64 = 50.0;
 /// The scenarios' mission file (flight.rs names it; unused here).
 pub const MISSION_FILE: &str = "mission.toml";
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("petrel-dialog-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
+/// A scratch folder holding a project that asks a question.
+fn scratch(name: &str) -> Scratch {
+    let dir = Scratch::new(&format!("dialog-{name}"));
     std::fs::write(
         dir.join("project.toml"),
         "[events]\nreached = {}\n[[net]]\nfile = \"n.toml\"\nactive = true\n",
@@ -113,7 +115,6 @@ fn an_operator_key_others_may_read_is_refused_on_both_sides() {
         assert_eq!(code, 2, "{args:?}: {err}");
         assert!(err.contains("chmod 600"), "{args:?}: {err}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A net that asks `go` ("Go on?", yes or no, 50 s to answer) 20 s
@@ -536,7 +537,4 @@ fn answers_typed_on_the_mirror_are_delivered_on_board_only_when_valid_and_in_tim
         String::from_utf8_lossy(&check.stderr)
     );
     drop(router);
-    if std::env::var_os("PETREL_KEEP").is_none() {
-        let _ = std::fs::remove_dir_all(&dir);
-    }
 }

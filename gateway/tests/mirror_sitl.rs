@@ -13,6 +13,8 @@
 mod flight;
 #[path = "scenarios/real.rs"]
 mod real;
+#[path = "support/scratch.rs"]
+mod scratch;
 #[path = "mirror/wire.rs"]
 mod wire;
 
@@ -23,10 +25,11 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use elaboration::{Frame, FrameError};
-use flight::{free_port, project, scratch, Dec, Running};
+use flight::{free_port, project, Dec, Running};
 use mavlink::dialects::ardupilotmega::*;
 use mavlink::{MavConnection, MavHeader};
 use real::Truth;
+use scratch::Scratch;
 use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
 use wire::{fired, only_resync_requests, the_recording_checks_out};
 
@@ -330,7 +333,7 @@ fn arduplane_routes_the_downlink_and_its_gcs_failsafe_still_triggers_with_the_mi
     let Some(located) = ardupilot::require(Firmware::Plane, "mirror_sitl") else {
         return;
     };
-    let dir = scratch("mirror-sitl");
+    let dir = Scratch::new("mirror-sitl");
     let mut sitl = Sitl::start(
         &located,
         &Options {

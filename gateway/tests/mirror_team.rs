@@ -14,6 +14,8 @@ mod flight;
 mod process;
 #[path = "mirror/router.rs"]
 mod router;
+#[path = "support/scratch.rs"]
+mod scratch;
 #[path = "ugv/team.rs"]
 mod team;
 #[path = "mirror/wire.rs"]
@@ -21,9 +23,10 @@ mod wire;
 
 use std::time::Duration;
 
-use flight::{scratch, timeline, Running};
+use flight::{timeline, Running};
 use process::petrel_mirror;
 use router::{Loss, Router};
+use scratch::Scratch;
 use team::{near, project, state, Team};
 use wire::{fired, only_resync_requests, the_recording_of_checks_out};
 
@@ -40,7 +43,7 @@ const SPEED: f64 = 2.5;
 
 #[test]
 fn the_mirror_follows_both_rovers_through_the_bottleneck() {
-    let dir = scratch("mirror-team");
+    let dir = Scratch::new("mirror-team");
     let fleet = team::fleet_at("tcpin", &[], SPEED);
     let mut router = Router::start(fleet.local_addr(), Loss::default());
     let recording = dir.join("mirror.mcap");
@@ -67,7 +70,7 @@ fn the_mirror_follows_both_rovers_through_the_bottleneck() {
     });
     // Five simulated seconds more: the last heartbeats reach the mirror.
     std::thread::sleep(Duration::from_secs(2));
-    let (run_out, run_err) = team.stop();
+    let (run_out, run_err, _recording) = team.stop();
     std::thread::sleep(Duration::from_millis(500));
     let (mirror_out, mirror_err, _) = mirror.stop();
     router.stop();

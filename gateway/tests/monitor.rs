@@ -12,6 +12,9 @@
 //! installs them): skipped with the reason without them, failed under
 //! `CI=true`. Screenshots go to `target/tmp/monitor/`.
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -25,6 +28,7 @@ use serde_json::Value as Json;
 mod browser;
 
 use browser::{drive, repo, require, Reaped};
+use scratch::Scratch;
 
 const PETREL: &str = env!("CARGO_BIN_EXE_petrel");
 
@@ -211,7 +215,7 @@ fn the_flight_live_in_the_browser_then_its_recording_scrubbed() {
             let _ = std::fs::remove_file(entry.path());
         }
     }
-    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let dir = Scratch::new("monitor");
     let mcap = dir.path().join("flight.mcap");
     let mcap_s = mcap.to_string_lossy().to_string();
     let shots_s = shots.to_string_lossy().to_string();

@@ -26,6 +26,8 @@ mod browser;
 mod flight;
 #[path = "mirror/router.rs"]
 mod router;
+#[path = "support/scratch.rs"]
+mod scratch;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -35,6 +37,7 @@ use std::time::{Duration, Instant};
 
 use browser::{drive, require, strings};
 use router::{Loss, Router};
+use scratch::Scratch;
 
 /// The scenarios' mission file (flight.rs names it; unused here).
 pub const MISSION_FILE: &str = "mission.toml";
@@ -184,7 +187,7 @@ fn the_operator_answers_in_the_mirrors_page_and_the_vehicle_takes_it() {
     let Some(tools) = require() else { return };
     let shots = browser::shots();
     let shots = shots.to_string_lossy().to_string();
-    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let dir = Scratch::new("monitor-mirror");
     asking_project(dir.path(), 600);
     // The same project but for the question's timeout: a replica of the
     // vehicle on it diverges when the net asks.

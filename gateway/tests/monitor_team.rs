@@ -14,6 +14,8 @@
 mod browser;
 #[path = "scenarios/flight.rs"]
 mod flight;
+#[path = "support/scratch.rs"]
+mod scratch;
 #[path = "ugv/team.rs"]
 mod team;
 
@@ -23,6 +25,7 @@ use serde_json::Value as Json;
 use sitl_tests::Fault;
 
 use browser::{drive_script, require, strings};
+use scratch::Scratch;
 use team::Team;
 
 /// The shared flight module's DEC reads this (not used here: PLN is
@@ -34,7 +37,7 @@ fn each_rover_its_group_and_marker_and_a_motor_failure_locks_out_its_rover_only(
     let Some(tools) = require() else { return };
     let shots = browser::shots();
     let shots = shots.to_string_lossy().to_string();
-    let signals = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let signals = Scratch::new("monitor-team-signals");
     let address = format!("127.0.0.1:{}", flight::free_port());
     // At 4× (not the ugv tests' 10×) the rovers drive for half a minute:
     // a browser starting on a loaded machine still sees them move.
@@ -62,7 +65,7 @@ fn each_rover_its_group_and_marker_and_a_motor_failure_locks_out_its_rover_only(
         (seen, failed)
     });
     let exited = team.exited();
-    let (out, err) = team.stop();
+    let (out, err, _recording) = team.stop();
     let seen = seen.unwrap_or_else(|_| panic!("the driver failed\n{out}\n{err}"));
     assert!(!exited, "petrel run ended early\n{err}");
     assert!(failed, "R1's motor was not failed: {seen}");

@@ -27,6 +27,9 @@
 //! (`mavproxy.py`, pip): without them it prints why and passes, except
 //! with `CI=true`, where it fails.
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 #[path = "multi_vehicle/harness.rs"]
 mod harness;
 
@@ -40,6 +43,7 @@ use serde_json::Value;
 use harness::{
     copter_heartbeat, frame, free_udp_port, mavproxy_log, route, two_copters, Process, Router,
 };
+use scratch::Scratch;
 
 /// SITL's --speedup, and the gateways' --time-scale.
 const SPEEDUP: u32 = 5;
@@ -187,7 +191,7 @@ impl Gateway {
 fn two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway() {
     let test = "two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway";
     let started = Instant::now();
-    let tmp = tempfile::tempdir().expect("scratch folder");
+    let tmp = Scratch::new("multi-vehicle");
     let dir = tmp.path();
     let Some((mavproxy, sitl1, mut sitl2)) = two_copters(test, 6, SPEEDUP, dir) else {
         return;
@@ -336,7 +340,7 @@ fn two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway() 
 fn two_scripted_vehicles_on_one_link_each_gateway_hears_and_commands_its_own() {
     let test = "two_scripted_vehicles_on_one_link_each_gateway_hears_and_commands_its_own";
     let started = Instant::now();
-    let tmp = tempfile::tempdir().expect("scratch folder");
+    let tmp = Scratch::new("multi-vehicle");
     let dir = tmp.path();
     // The "router": one socket speaking for both vehicles to both gateways.
     let router = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");

@@ -3,21 +3,26 @@
 //! explored again when any of them differs, with `--recheck`, or when the
 //! entry is corrupt; a failed check never remembered.
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+use scratch::Scratch;
 
 const NET: &str = "name = \"N\"\nplaces = [\"a\", \"b\"]\ninitial = [\"a\"]\n\
 [[transition]]\nname = \"up\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"armed\"\n\
 [[transition]]\nname = \"down\"\nfrom = [\"b\"]\nto = [\"a\"]\non = \"disarmed\"\n";
 
 /// A project folder and a cache directory of its own.
-struct Scratch {
-    dir: tempfile::TempDir,
+struct Preflight {
+    dir: Scratch,
 }
 
-impl Scratch {
-    fn new(net: &str) -> Scratch {
-        let dir = tempfile::tempdir().expect("temp dir");
+impl Preflight {
+    fn new(net: &str) -> Preflight {
+        let dir = Scratch::new("preflight");
         std::fs::create_dir(dir.path().join("project")).expect("project dir");
         std::fs::write(
             dir.path().join("project/project.toml"),
@@ -25,7 +30,7 @@ impl Scratch {
         )
         .expect("write");
         std::fs::write(dir.path().join("project/n.toml"), net).expect("write");
-        Scratch { dir }
+        Preflight { dir }
     }
 
     fn project(&self) -> PathBuf {
@@ -87,7 +92,7 @@ fn write(path: &Path, text: &str) {
 
 #[test]
 fn a_check_that_held_is_remembered_until_an_input_changes() {
-    let s = Scratch::new(NET);
+    let s = Preflight::new(NET);
     let (code, err) = s.run(&[]);
     assert_eq!(code, Some(0), "{err}");
     assert!(explored(&err), "{err}");
@@ -135,7 +140,7 @@ fn a_check_that_held_is_remembered_until_an_input_changes() {
 
 #[test]
 fn a_corrupt_entry_is_ignored_and_replaced() {
-    let s = Scratch::new(NET);
+    let s = Preflight::new(NET);
     let (code, err) = s.run(&[]);
     assert_eq!(code, Some(0), "{err}");
     let entry = s.entries().pop().expect("an entry");
@@ -173,7 +178,7 @@ fn a_corrupt_entry_is_ignored_and_replaced() {
 #[test]
 fn a_failed_check_is_never_remembered() {
     // b is dead and not final: a deadlock.
-    let s = Scratch::new(
+    let s = Preflight::new(
         "name = \"N\"\nplaces = [\"a\", \"b\"]\ninitial = [\"a\"]\n\
          [[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"armed\"\n",
     );

@@ -12,6 +12,9 @@ mod programs;
 #[path = "../src/scheduling.rs"]
 mod scheduling;
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 #[path = "programs/support.rs"]
 mod support;
 

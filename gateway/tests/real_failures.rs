@@ -12,17 +12,21 @@
 //! flies an AUTO mission with MISSION_ITEM_REACHED requested as a stream
 //! and ends with its engine out; the two run side by side (instances 3
 //! and 4).
-//! The tlogs stay in the test's scratch folder, printed.
+//! The tlogs are in the test's scratch folder (printed), left there when
+//! the test fails or `PETREL_KEEP` is set.
 
 #[path = "real_failures/flight.rs"]
 mod flight;
+#[path = "support/scratch.rs"]
+mod scratch;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
 use flight::Link;
 use mavlink::dialects::ardupilotmega::MavCmd;
+use scratch::Scratch;
 use serde_json::Value;
 use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
 
@@ -55,15 +59,6 @@ struct Event {
     name: String,
     category: String,
     params: Value,
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("real_failures")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch folder");
-    dir
 }
 
 fn petrel_events(tlog: &Path) -> Vec<Event> {
@@ -375,7 +370,7 @@ fn copter_failures_one_after_another() {
         return;
     };
     let started = Instant::now();
-    let dir = scratch("copter");
+    let dir = Scratch::new("real-failures-copter");
     let options = Options {
         instance: 3,
         speedup: SPEEDUP,
@@ -513,7 +508,7 @@ fn plane_engine_out_at_cruise() {
         return;
     };
     let started = Instant::now();
-    let dir = scratch("plane");
+    let dir = Scratch::new("real-failures-plane");
     let options = Options {
         instance: 4,
         speedup: SPEEDUP,

@@ -11,6 +11,8 @@
 mod flight;
 #[path = "scenarios/real.rs"]
 mod real;
+#[path = "support/scratch.rs"]
+mod scratch;
 
 use flight::{metres, site};
 use real::{Act, Plan, RealFlown, Truth};

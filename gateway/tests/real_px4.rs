@@ -12,8 +12,11 @@
 mod flight;
 #[path = "scenarios/px4.rs"]
 mod px4;
+#[path = "support/scratch.rs"]
+mod scratch;
 
 use px4::{Plan, Px4Flown, Truth};
+use scratch::Scratch;
 
 /// The mission file DEC reads (scenarios/flight.rs asks its crate).
 pub const MISSION_FILE: &str = "mission.toml";
@@ -560,18 +563,19 @@ fn names(events: &[(f64, String)]) -> Vec<String> {
 
 /// `project` flown on ArduCopter's own SITL (`instance`, at `home`),
 /// `petrel run` on SERIAL0: the gateway's events, labelled, until it has
-/// landed and disarmed.
+/// landed and disarmed; and the flight's folder, to hold until the
+/// assertions are done.
 fn on_arducopter(
     project: &str,
     instance: u8,
     home: (f64, f64, f64, f64),
-) -> Option<Vec<(f64, String)>> {
+) -> Option<(Vec<(f64, String)>, Scratch)> {
     use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
     use std::io::BufRead;
     use std::time::{Duration, Instant};
     let located = ardupilot::require(Firmware::Copter, &format!("{project} on ArduCopter"))?;
     let _one = px4::one_flight();
-    let dir = flight::scratch(&format!("px4-{project}-arducopter"));
+    let dir = Scratch::new(&format!("px4-{project}-arducopter"));
     let sitl = Sitl::start(
         &located,
         &Options {
@@ -632,7 +636,7 @@ fn on_arducopter(
     drop(child);
     drop(sitl);
     eprintln!("{project} on ArduCopter: all events {events:?}");
-    Some(events)
+    Some((events, dir))
 }
 
 /// ArduCopter SITL's speed-up: twice PX4's. Its events alone are compared
@@ -689,7 +693,7 @@ fn head_and_tail(events: &[(f64, String)]) -> (Vec<String>, std::collections::BT
 /// followed by its readiness again).
 #[test]
 fn the_same_hop_gives_the_same_events_on_arducopter_and_px4() {
-    let Some(copter) = on_arducopter("hop", 10, CMAC) else {
+    let Some((copter, _copter_flight)) = on_arducopter("hop", 10, CMAC) else {
         return;
     };
     let Some(f) = px4::fly(Plan::new("hop", px4::project("hop")), |t| {
@@ -840,7 +844,7 @@ fn rc_lost_in_flight_on_px4() {
 /// each item reached by the same number — then the landing's instant.
 #[test]
 fn the_same_survey_gives_the_same_events_on_arducopter_and_px4() {
-    let Some(copter) = on_arducopter("both", 13, PX4_HOME) else {
+    let Some((copter, _copter_flight)) = on_arducopter("both", 13, PX4_HOME) else {
         return;
     };
     let plan = Plan {

@@ -36,3 +36,5 @@ mod python;
 mod queue;
 #[path = "record/replay.rs"]
 mod replay;
+#[path = "support/scratch.rs"]
+mod scratch;

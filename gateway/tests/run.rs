@@ -4,12 +4,15 @@
 #[path = "vehicle/peer.rs"]
 #[allow(dead_code)]
 mod peer;
+#[path = "support/scratch.rs"]
+mod scratch;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Duration;
 
 use mavlink::dialects::ardupilotmega::*;
 use mavlink::MavHeader;
+use scratch::Scratch;
 
 fn petrel() -> tokio::process::Command {
     let mut c = tokio::process::Command::new(env!("CARGO_BIN_EXE_petrel"));
@@ -18,9 +21,9 @@ fn petrel() -> tokio::process::Command {
     c
 }
 
-fn project(name: &str, net: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("petrel-run-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+/// A scratch folder holding a project of one net.
+fn project(name: &str, net: &str) -> Scratch {
+    let dir = Scratch::new(&format!("run-{name}"));
     std::fs::write(
         dir.join("project.toml"),
         "[[net]]\nfile = \"n.toml\"\nactive = true\n",
@@ -204,7 +207,6 @@ async fn run_commands_the_vehicle_from_the_nets_and_hears_the_ack() {
         .filter_map(|l| l["transition"].as_str().map(str::to_owned))
         .collect();
     assert_eq!(fired_again, ["go", "ok"]);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[tokio::test]
@@ -250,7 +252,6 @@ async fn run_refuses_a_project_that_fails_check_unless_unchecked() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A team runs (gateway/tests/team.rs), but a vehicle whose `profile` does
@@ -416,7 +417,6 @@ on = "command.failed"
         "{}",
         String::from_utf8_lossy(&replay.stderr)
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Behind an endpoint that waits for its client to speak first (a
@@ -502,7 +502,6 @@ async fn run_speaks_first_and_says_when_no_vehicle_is_heard() {
         .expect("petrel runs");
     let (heard, answered) = listen.await.expect("listener");
     let stderr = String::from_utf8_lossy(&out.stderr);
-    let _ = std::fs::remove_dir_all(&dir);
     let first = heard.first().expect("the gateway spoke first");
     assert!(first.0 < 3.0, "first heartbeat at {} s", first.0);
     assert_eq!(first.1, (1, 191), "announced as system 1, component 191");

@@ -7,6 +7,8 @@
 
 #[path = "scenarios/flight.rs"]
 mod flight;
+#[path = "support/scratch.rs"]
+mod scratch;
 
 use flight::{fly, metres, site, Flown, Injection};
 use sitl_tests::{Fault, PayloadFailure, SimState};

@@ -4,19 +4,23 @@
 //! the peer, what the peer signs is accepted, and unsigned or wrongly
 //! signed frames are dropped, counted and raised to the nets.
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use mavlink::dialects::ardupilotmega::*;
 use mavlink::{AsyncMavConnection, MavHeader, SigningConfig};
+use scratch::Scratch;
 
 const KEY: [u8; 32] = [0x5a; 32];
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("petrel-signing-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
+/// A scratch folder holding a project whose net reacts to a rejected
+/// signature.
+fn scratch(name: &str) -> Scratch {
+    let dir = Scratch::new(&format!("signing-{name}"));
     std::fs::write(
         dir.join("project.toml"),
         "[events]\nsignature_rejected = { category = \"communication\", params = [\"count\", \"reason\", \"system\", \"component\"] }\n[[net]]\nfile = \"n.toml\"\nactive = true\n",
@@ -163,7 +167,6 @@ async fn a_signed_vehicle_is_heard_and_verifies_everything_the_gateway_sends() {
         .parse()
         .expect("a number");
     assert!(ts > (1_767_225_600 - 1_420_070_400) * 100_000, "{ts}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -221,7 +224,6 @@ async fn unsigned_and_wrongly_signed_vehicles_are_rejected_counted_and_raised() 
                 .any(|l| l["effect"] == "fired" && l["transition"] == "intruder"),
             "{name}: the net reacted:\n{out}"
         );
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }
 
@@ -235,7 +237,6 @@ async fn a_key_others_may_read_is_refused() {
     assert!(err.contains("chmod 600"), "{err}");
     let (code, _, err) = petrel(&dir, port, &["--require-signed"]).await;
     assert_eq!(code, 2, "--require-signed needs a key: {err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The same key on ArduPilot's own firmware: after SETUP_SIGNING (sent on
@@ -335,7 +336,6 @@ fn against_ardupilot_sitl_after_setup_signing() {
     let _ = serial0.shutdown(std::net::Shutdown::Both);
     let _ = drainer.join();
     drop(sitl);
-    let _ = std::fs::remove_dir_all(&scratch);
     assert!(
         fired(&signed_out, "accepted"),
         "signed: ArduPilot accepted the mode change\n{signed_out}\n{signed_err}"

@@ -29,6 +29,8 @@
 
 #[path = "scenarios/flight.rs"]
 mod flight;
+#[path = "support/scratch.rs"]
+mod scratch;
 
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpStream;
@@ -38,7 +40,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use flight::{free_port, petrel_run, project, scratch, Running};
+use flight::{free_port, petrel_run, project, Running};
+use scratch::Scratch;
 use sitl_tests::{Fault, Refusal, Schedule, Sim, SimConfig, SimState, Trigger};
 
 /// The mission file DEC reads (flight.rs's `Dec`, unused here).
@@ -297,12 +300,14 @@ struct Soaked {
     stderr: String,
     code: Option<i32>,
     recording: PathBuf,
+    /// The recording's folder, with the soak's mission.
+    _scratch: Scratch,
     rss: Vec<(f64, u64)>,
     wall: Duration,
 }
 
 fn fly(plan: Plan) -> Soaked {
-    let dir = scratch(&format!("soak-{}", plan.name));
+    let dir = Scratch::new(&format!("soak-{}", plan.name));
     let recording = dir.join("soak.mcap");
     let mission = soak_mission(&dir, plan.loops);
     let faults = plan.vehicle.entries.len();
@@ -391,6 +396,7 @@ fn fly(plan: Plan) -> Soaked {
         stderr,
         code,
         recording,
+        _scratch: dir,
         rss,
         wall,
     }

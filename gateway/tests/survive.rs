@@ -13,11 +13,15 @@
 //! The Python package is a peer: without it the Python checks skip with the
 //! reason, and fail under `CI=true` (or `PETREL_PYTHON_MCAP=required`).
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
+use scratch::Scratch;
 use serde_json::Value;
 use sitl_tests::{BootTimeline, Sim, SimConfig};
 
@@ -64,13 +68,6 @@ fn python_read(path: &Path) -> Value {
         String::from_utf8_lossy(&out.stderr)
     );
     serde_json::from_slice(&out.stdout).expect("JSON from read_cut.py")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("petrel-survive-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch folder");
-    dir
 }
 
 fn free_port() -> u16 {
@@ -161,7 +158,7 @@ const LOSS_LIMIT_S: f64 = 1.25;
 #[test]
 fn kill_9_at_random_instants_leaves_recordings_every_reader_opens() {
     let python = python_mcap();
-    let dir = scratch("kill");
+    let dir = Scratch::new("survive-kill");
     let mut instants = Instants::new();
     let mut worst_loss: f64 = 0.0;
     for round in 0..4 {
@@ -264,7 +261,6 @@ fn kill_9_at_random_instants_leaves_recordings_every_reader_opens() {
         assert_eq!(v["summary"]["indexed_messages"].as_u64(), Some(n), "{v}");
     }
     eprintln!("worst loss over the kills: {worst_loss:.3} s");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The recording on a 1 MiB tmpfs already nearly full, in a mount
@@ -283,7 +279,7 @@ exit $code
 
 #[test]
 fn a_full_disk_stops_the_recording_and_the_flight_goes_on() {
-    let dir = scratch("full");
+    let dir = Scratch::new("survive-full");
     let disk = dir.join("disk");
     std::fs::create_dir_all(&disk).expect("the mount point");
     let sim = sim();
@@ -309,7 +305,7 @@ fn a_full_disk_stops_the_recording_and_the_flight_goes_on() {
         ])
         .args(&args)
         .env("DISK", &disk)
-        .env("OUT", &dir)
+        .env("OUT", dir.path())
         .env("FILL", (1024 * 1024 - 40 * 1024).to_string())
         .env("PETREL", env!("CARGO_BIN_EXE_petrel"))
         .current_dir(&dir)
@@ -397,5 +393,4 @@ fn a_full_disk_stops_the_recording_and_the_flight_goes_on() {
         assert_eq!(v["seeking"]["error"], Value::Null, "{v}");
         assert!(v["seeking"]["messages"].as_u64().unwrap_or(0) > 0, "{v}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

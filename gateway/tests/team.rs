@@ -20,6 +20,9 @@
 //! (`../shared/ardupilot-sitl`) and `mavproxy.py`: without them it prints
 //! why and passes, except under `CI=true`, where it fails.
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 #[path = "multi_vehicle/harness.rs"]
 mod harness;
 
@@ -34,6 +37,7 @@ use serde_json::Value;
 use harness::{
     copter_heartbeat, frame, free_udp_port, mavproxy_log, route, two_copters, Process, Router,
 };
+use scratch::Scratch;
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -354,7 +358,7 @@ fn supervised(dir: &Path, project: &Path) -> Timeline {
 #[test]
 fn a_team_on_one_link_each_vehicle_hears_and_is_commanded_alone() {
     let started = Instant::now();
-    let tmp = tempfile::tempdir().expect("scratch folder");
+    let tmp = Scratch::new("team");
     let dir = tmp.path();
     let project = fixture("team-scripted");
     let port = free_udp_port();
@@ -391,7 +395,7 @@ fn a_team_on_one_link_each_vehicle_hears_and_is_commanded_alone() {
 #[test]
 fn a_team_on_two_links_each_vehicle_is_commanded_on_its_own() {
     let started = Instant::now();
-    let tmp = tempfile::tempdir().expect("scratch folder");
+    let tmp = Scratch::new("team");
     let dir = tmp.path();
     let (port_a, port_b) = (free_udp_port(), free_udp_port());
     // The fixture with R2 on a link of its own.
@@ -466,7 +470,7 @@ const LIMIT: Duration = Duration::from_secs(180);
 fn two_real_copters_take_off_under_one_petrel_and_r2_alone_is_sent_home() {
     let test = "two_real_copters_take_off_under_one_petrel_and_r2_alone_is_sent_home";
     let started = Instant::now();
-    let tmp = tempfile::tempdir().expect("scratch folder");
+    let tmp = Scratch::new("team");
     let dir = tmp.path();
     let Some((mavproxy, sitl1, sitl2)) = two_copters(test, 8, SPEEDUP, dir) else {
         return;

@@ -9,13 +9,15 @@
 
 #[path = "scenarios/flight.rs"]
 mod flight;
+#[path = "support/scratch.rs"]
+mod scratch;
 #[path = "ugv/team.rs"]
 mod team;
 
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use flight::{scratch, Running};
+use flight::Running;
+use scratch::Scratch;
 use sitl_tests::Fault;
 use team::{at, in_bottleneck, near, project, state, Team};
 
@@ -32,7 +34,7 @@ fn both_rovers_cross_in_turn_and_reach_their_goals() {
             && all.iter().all(|(_, s)| s.mode == "HOLD")
     });
     let seen = std::mem::take(&mut team.seen);
-    let (out, err) = team.stop();
+    let (out, err, _recording) = team.stop();
     assert!(done, "not both at their goals\n{out}\n{err}");
     // Each went through the bottleneck, one after the other.
     for sys in [1u8, 2] {
@@ -68,7 +70,7 @@ fn a_rover_stuck_in_the_bottleneck_makes_the_other_go_round() {
         near(state(all, other), goal.0, goal.1) && state(all, other).mode == "HOLD"
     });
     let seen = std::mem::take(&mut team.seen);
-    let (out, err) = team.stop();
+    let (out, err, _recording) = team.stop();
     assert!(done, "R{other} did not finish\n{out}\n{err}");
     assert!(
         // Snapshots are too sparse to catch the ring's corner itself.
@@ -104,7 +106,7 @@ fn a_motor_failure_is_catastrophic_and_the_team_holds() {
         all.iter().all(|(_, s)| s.mode == "HOLD") && state(all, 1).time_s > 14.0
     });
     let seen = std::mem::take(&mut team.seen);
-    let (out, err) = team.stop();
+    let (out, err, _recording) = team.stop();
     assert!(held, "not both holding\n{out}\n{err}");
     let last = seen.last().expect("snapshots");
     assert!(!state(last, 1).engine_running);
@@ -116,9 +118,9 @@ fn a_motor_failure_is_catastrophic_and_the_team_holds() {
 /// `petrel demo --example ugv-bottleneck`: its exit code, stdout (the live
 /// log and the summary), stderr and its folder (the recording `demo.mcap`);
 /// stopped after `wall` if it has not ended by then.
-fn demo(name: &str, args: &[&str], wall: Duration) -> (Option<i32>, String, String, PathBuf) {
+fn demo(name: &str, args: &[&str], wall: Duration) -> (Option<i32>, String, String, Scratch) {
     let _turn = team::turn();
-    let dir = scratch(name);
+    let dir = Scratch::new(name);
     let record = dir.join("demo.mcap");
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
         .args([

@@ -5,10 +5,15 @@
 //! the nets' answers to a robot blocked in the bottleneck and to a motor
 //! failure.
 
+#[path = "support/scratch.rs"]
+mod scratch;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use serde_json::Value;
+
+use scratch::Scratch;
 
 fn example() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/ugv-bottleneck")
@@ -80,11 +85,8 @@ fn petrel_check_proves_the_team_project_with_no_warning() {
 
 /// Copies the example into a scratch folder, with `edit` applied to one
 /// net file.
-fn variant(name: &str, file: &str, edit: impl Fn(String) -> String) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("ugv-example")
-        .join(name);
-    std::fs::create_dir_all(&dir).expect("scratch folder");
+fn variant(name: &str, file: &str, edit: impl Fn(String) -> String) -> Scratch {
+    let dir = Scratch::new(&format!("ugv-example-{name}"));
     for entry in std::fs::read_dir(example()).expect("the example") {
         let path = entry.expect("an entry").path();
         if path.is_file() {

@@ -94,6 +94,11 @@ mod telemetry;
 mod vehicle;
 pub mod wire;
 
+// The unit tests' scratch folders: the guard of the gateway's tests.
+#[cfg(test)]
+#[path = "../../gateway/tests/support/scratch.rs"]
+mod scratch;
+
 pub use boot::BootTimeline;
 pub use camera_component::{CameraCommand, CameraComponent, CameraConfig, CameraState};
 pub use camera_sim::{CameraSim, CameraSimError};

@@ -299,6 +299,7 @@ fn links(located: &Located, bin: &Path) -> std::io::Result<PathBuf> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scratch::Scratch;
 
     #[test]
     fn instances_are_taken_once_and_given_back() {
@@ -313,8 +314,7 @@ mod tests {
 
     #[test]
     fn links_rebuild_a_copy_that_lost_its_symbolic_links() {
-        let root = std::env::temp_dir().join(format!("petrel-px4-links-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&root);
+        let root = Scratch::new("px4-links");
         let build = root.join("build");
         std::fs::create_dir_all(build.join("etc")).expect("etc");
         for (name, text) in [
@@ -336,6 +336,5 @@ mod tests {
         assert!(bin.join("README.md").symlink_metadata().is_err());
         // Again over the same folder: nothing to redo, no error.
         links(&Located { dir: build }, &bin).expect("links again");
-        let _ = std::fs::remove_dir_all(&root);
     }
 }

@@ -6,6 +6,7 @@ use nets::{Category, Outcome, Params, Value};
 
 use crate::programs::roster::Config;
 use crate::programs::server::{Direction, ProgramInput};
+use crate::scratch::Scratch;
 use crate::support::*;
 
 fn check_indices(h: &Harness) {
@@ -250,7 +251,7 @@ async fn shutdown_kills_a_program_that_ignores_sigterm_and_leaves_no_zombie() {
 
 #[tokio::test]
 async fn programs_connect_over_a_unix_socket() {
-    let dir = tempfile::tempdir().expect("tempdir");
+    let dir = Scratch::new("programs");
     let socket = dir.path().join("programs.sock");
     let mut config = config();
     config.address = format!("unix:{}", socket.display())
@@ -326,7 +327,7 @@ async fn a_runaway_line_is_discarded_with_an_error_and_the_connection_stays() {
 /// their outcomes and events back to the player.
 #[tokio::test]
 async fn the_player_and_a_started_program_play_together() {
-    let dir = tempfile::tempdir().expect("tempdir");
+    let dir = Scratch::new("programs");
     let project = format!(
         "name = \"duo\"\n[[net]]\nfile = \"n.toml\"\nactive = true\n\
          [events]\nobstacle = {{ category = \"safety\", params = [\"range\"] }}\n\
@@ -443,7 +444,7 @@ async fn with_a_token_only_programs_that_give_it_connect_and_the_token_is_never_
 
 #[tokio::test]
 async fn listening_beyond_loopback_without_a_token_is_refused() {
-    let dir = tempfile::tempdir().expect("tempdir");
+    let dir = Scratch::new("programs");
     let project = write_project(dir.path(), &fixture_program("never", "5s", ALL), FUNCTIONS);
     let config = Config {
         address: "tcp:0.0.0.0:0".parse().expect("address"),

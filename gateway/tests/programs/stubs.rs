@@ -7,6 +7,7 @@ use std::sync::Arc;
 use nets::{Outcome, Params, Value};
 
 use crate::programs::server::Programs;
+use crate::scratch::Scratch;
 use crate::support::{config, failed, params, Harness};
 
 const DEC_FUNCTIONS: &str = "[programs.DEC.functions]\n\
@@ -54,7 +55,7 @@ fn replace(path: &Path, from: &str, to: &str) {
 
 #[test]
 fn stubs_verb_writes_skeletons_refuses_to_overwrite_and_rejects_bad_input() {
-    let dir = tempfile::tempdir().expect("tempdir");
+    let dir = Scratch::new("stubs");
     project(dir.path(), "");
     let p = dir.path().to_str().expect("utf-8 path");
     let out = dir.path().join("out");
@@ -100,7 +101,7 @@ async fn serve_three_calls(dir: &Path, project: Arc<nets::Project>) {
         programs,
         inputs,
         traffic: Vec::new(),
-        dir: tempfile::tempdir().expect("tempdir"),
+        dir: Scratch::new("stubs"),
         project,
     };
     h.programs.call(1, 0, NEXT, Params::new());
@@ -130,7 +131,7 @@ async fn serve_three_calls(dir: &Path, project: Arc<nets::Project>) {
 
 #[tokio::test]
 async fn a_python_skeleton_filled_in_serves_calls() {
-    let dir = tempfile::tempdir().expect("tempdir");
+    let dir = Scratch::new("stubs");
     let p = dir.path().to_str().expect("utf-8 path");
     project(dir.path(), "");
     let (code, _, stderr) = petrel(&["stubs", p, "--lang", "python", p]);
@@ -161,7 +162,7 @@ async fn a_rust_skeleton_builds_offline_and_filled_in_serves_calls() {
         eprintln!("skipped: no cargo on PATH to build the Rust skeleton");
         return;
     }
-    let dir = tempfile::tempdir().expect("tempdir");
+    let dir = Scratch::new("stubs");
     let p = dir.path().to_str().expect("utf-8 path");
     project(dir.path(), "");
     let (code, _, stderr) = petrel(&["stubs", p, "--lang", "rust", p]);
@@ -203,7 +204,7 @@ async fn a_rust_skeleton_builds_offline_and_filled_in_serves_calls() {
 
 #[tokio::test]
 async fn a_python_skeleton_connecting_by_itself_is_served_refused_and_lost() {
-    let dir = tempfile::tempdir().expect("tempdir");
+    let dir = Scratch::new("stubs");
     let p = dir.path().to_str().expect("utf-8 path");
     let project = project(dir.path(), "");
     let (code, _, stderr) = petrel(&["stubs", p, "--lang", "python", p]);
@@ -216,7 +217,7 @@ async fn a_python_skeleton_connecting_by_itself_is_served_refused_and_lost() {
         programs,
         inputs,
         traffic: Vec::new(),
-        dir: tempfile::tempdir().expect("tempdir"),
+        dir: Scratch::new("stubs"),
         project,
     };
     let start = |name: &str| {

@@ -10,6 +10,7 @@ use tokio::sync::mpsc;
 
 use crate::programs::roster::Config;
 use crate::programs::server::{Direction, ProgramInput, Programs, Traffic};
+use crate::scratch::Scratch;
 
 /// Longest wait for any one input.
 pub const WAIT: Duration = Duration::from_secs(15);
@@ -89,7 +90,7 @@ pub struct Harness {
     pub programs: Programs,
     pub inputs: mpsc::Receiver<ProgramInput>,
     pub traffic: Vec<Traffic>,
-    pub dir: tempfile::TempDir,
+    pub dir: Scratch,
     pub project: Arc<Project>,
 }
 
@@ -99,7 +100,7 @@ impl Harness {
     }
 
     pub async fn start_with(programs: &str, functions: &str, config: Config) -> Harness {
-        let dir = tempfile::tempdir().expect("tempdir");
+        let dir = Scratch::new("programs");
         let project = write_project(dir.path(), programs, functions);
         let (handle, inputs) = Programs::start(Arc::clone(&project), dir.path(), config)
             .await

@@ -1,21 +1,55 @@
-//! Scratch files, the `petrel` binary, recorded flights shared by the
-//! tests, and rewriting a recording (tampering).
+//! The folder of the recorded flights shared by the tests, the `petrel`
+//! binary, and rewriting a recording (tampering).
 
-use std::io::BufWriter;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::OnceLock;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, OnceLock, PoisonError};
 use std::time::Duration;
 
 use crate::flight::{self, Fed};
 use crate::record::recorder::{Options, Recorder, Report};
+use crate::scratch::Scratch;
 
-/// A scratch directory of this process, removed at exit by no one: it lives
-/// under the target directory's tmp (cargo cleans it), one per process.
-pub fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("record-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("scratch directory");
+/// The folder of the recordings several tests share, made once for the
+/// process.
+static SHARED: Mutex<Option<Scratch>> = Mutex::new(None);
+/// Whether any test of the process panicked (failed).
+static PANICKED: AtomicBool = AtomicBool::new(false);
+
+/// `name` in the folder of the recordings several tests share. They live
+/// in `static`s, which are never dropped, so the folder is removed when the
+/// process exits; unless a test failed, then it is kept and its path
+/// printed, as a test's own scratch folder is.
+fn shared(name: &str) -> PathBuf {
+    let mut shared = SHARED.lock().unwrap_or_else(PoisonError::into_inner);
+    let dir = shared.get_or_insert_with(|| {
+        let hook = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            PANICKED.store(true, Ordering::Relaxed);
+            hook(info)
+        }));
+        // SAFETY: `atexit` is given a plain function, which does not unwind.
+        unsafe { libc::atexit(remove_shared) };
+        Scratch::new("record")
+    });
     dir.join(name)
+}
+
+/// At exit: removes the shared folder, or keeps it if a test failed.
+extern "C" fn remove_shared() {
+    let shared = SHARED.lock().unwrap_or_else(PoisonError::into_inner).take();
+    if let Some(dir) = shared {
+        if PANICKED.load(Ordering::Relaxed) {
+            let kept = dir.keep();
+            let _ = writeln!(
+                std::io::stderr(),
+                "shared recordings kept for the failed tests: {}",
+                kept.display()
+            );
+        }
+    }
 }
 
 /// Runs `petrel` from the workspace root: (exit code, stdout, stderr).
@@ -54,7 +88,7 @@ pub struct Flown {
 /// Records the first `limit` frames of the SITL flight into `name`.
 pub fn record(name: &str, limit: usize, options: Options) -> Option<Flown> {
     let tlog = flight::tlog()?;
-    let path = scratch(name);
+    let path = shared(name);
     let options = Options {
         profile: "ardupilot".into(),
         ..options

@@ -5,10 +5,11 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::files::{check, scratch};
+use crate::files::check;
 use crate::flight;
 use crate::record::read;
 use crate::record::recorder::{Options, Recorder};
+use crate::scratch::Scratch;
 
 const CHILD: &str = "PETREL_RECORD_UNTIL_KILLED";
 
@@ -32,8 +33,8 @@ fn a_recorder_killed_mid_flight_leaves_a_readable_file() {
     if flight::shared().is_none() {
         return;
     }
-    let path = scratch("killed.mcap");
-    let _ = std::fs::remove_file(&path);
+    let dir = Scratch::new("record-killed");
+    let path = dir.join("killed.mcap");
     let name = module_path!()
         .split_once("::")
         .map(|(_, m)| format!("{m}::a_recorder_killed_mid_flight_leaves_a_readable_file"))

@@ -5,10 +5,11 @@ use std::io::{Cursor, Seek, SeekFrom, Write};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use crate::files::{check, scratch};
+use crate::files::check;
 use crate::flight;
 use crate::record::read;
 use crate::record::recorder::{Options, Recorder};
+use crate::scratch::Scratch;
 
 /// An in-memory sink that takes 2 ms per write, shared with the test.
 #[derive(Clone, Default)]
@@ -59,7 +60,8 @@ fn a_slow_writer_drops_counts_and_records_the_count() {
     assert_eq!(rec.dropped_steps, report.dropped_steps);
     assert_eq!(rec.inputs.len() as u64, report.steps);
     // Replay cannot be exact past the first gap, and says so.
-    let path = scratch("dropped.mcap");
+    let dir = Scratch::new("record-dropped");
+    let path = dir.join("dropped.mcap");
     std::fs::write(&path, &bytes).expect("written");
     let (code, _, err) = check(&path, &[]);
     assert_eq!(code, 1, "{err}");

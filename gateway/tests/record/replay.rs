@@ -5,8 +5,9 @@ use std::collections::BTreeMap;
 
 use serde_json::{json, Value};
 
-use crate::files::{check, chunky_flight, rewrite, scratch, whole_flight};
+use crate::files::{check, chunky_flight, rewrite, whole_flight};
 use crate::record::{layout, read};
+use crate::scratch::Scratch;
 
 #[test]
 fn a_recording_replays_exactly_and_checks_out() {
@@ -153,7 +154,8 @@ fn a_recording_replays_exactly_and_checks_out() {
 fn a_digest_tampered_with_is_reported_at_its_step() {
     let Some(flown) = whole_flight() else { return };
     let k = flown.fed.steps / 2;
-    let out = scratch("tampered-digest.mcap");
+    let dir = Scratch::new("record-tampered");
+    let out = dir.join("tampered-digest.mcap");
     let edits = rewrite(&flown.path, &out, |topic, v| {
         if topic == layout::DIGESTS && v["seq"] == k {
             v["digest"] = json!("0".repeat(64));
@@ -185,7 +187,8 @@ fn an_input_tampered_with_is_reported_at_its_step() {
     let Some(flown) = whole_flight() else { return };
     // The autopilot's acknowledgement of the arming turned into a refusal.
     let k = flown.fed.command_results[0];
-    let out = scratch("tampered-input.mcap");
+    let dir = Scratch::new("record-tampered");
+    let out = dir.join("tampered-input.mcap");
     let edits = rewrite(&flown.path, &out, |topic, v| {
         if topic == layout::INPUTS && v["seq"] == k {
             assert_eq!(v["input"], "result", "{v}");
@@ -231,7 +234,8 @@ fn a_recording_cut_short_replays_up_to_its_last_complete_chunk() {
     }
     // 1 % short of the end loses at most a few steps of 3,000.
     assert!(before as u64 + 100 > flown.fed.steps, "{before}");
-    let cut_path = scratch("cut.mcap");
+    let dir = Scratch::new("record-cut");
+    let cut_path = dir.join("cut.mcap");
     std::fs::write(&cut_path, &bytes[..bytes.len() / 2]).expect("written");
     let (code, _, err) = check(&cut_path, &[]);
     assert_eq!(code, 0, "{err}");
@@ -242,13 +246,14 @@ fn a_recording_cut_short_replays_up_to_its_last_complete_chunk() {
 
 #[test]
 fn files_that_are_not_petrel_recordings_are_refused() {
-    let not_mcap = scratch("not.mcap");
+    let dir = Scratch::new("record-refused");
+    let not_mcap = dir.join("not.mcap");
     std::fs::write(&not_mcap, b"hello, world").expect("written");
     let (code, _, err) = check(&not_mcap, &[]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("not an MCAP file"), "{err}");
     // An MCAP without Petrel's inputs.
-    let other = scratch("other.mcap");
+    let other = dir.join("other.mcap");
     {
         let file = std::fs::File::create(&other).expect("file");
         let mut w = mcap::Writer::new(std::io::BufWriter::new(file)).expect("writer");
@@ -277,6 +282,7 @@ fn a_recording_damaged_mid_file_is_read_up_to_the_damage_or_refused() {
     let Some(flown) = chunky_flight() else { return };
     let bytes = std::fs::read(&flown.path).expect("recording");
     let full = read::read(&bytes, true).expect("readable");
+    let dir = Scratch::new("record-damaged");
     for percent in [30, 60] {
         let mut damaged = bytes.clone();
         let at = bytes.len() * percent / 100;
@@ -301,7 +307,7 @@ fn a_recording_damaged_mid_file_is_read_up_to_the_damage_or_refused() {
             }
             Err(e) => assert!(!e.to_string().is_empty()),
         }
-        let path = scratch(&format!("damaged-{percent}.mcap"));
+        let path = dir.join(format!("damaged-{percent}.mcap"));
         std::fs::write(&path, &damaged).expect("written");
         let (code, _, err) = check(&path, &[]);
         assert!(matches!(code, 0..=2), "{code}: {err}");

@@ -13,6 +13,8 @@ use std::time::{Duration, Instant};
 
 use sitl_tests::{Fault, Schedule, Sim, SimConfig, SimState};
 
+use crate::scratch::Scratch;
+
 /// A fault injected from the test when a condition first holds.
 pub type Injection = (Box<dyn Fn(&SimState) -> bool>, Fault);
 
@@ -34,6 +36,8 @@ pub struct Flown {
     pub timeline: Vec<serde_json::Value>,
     pub stderr: String,
     pub recording: PathBuf,
+    /// The folder of the recording, removed with the flight.
+    pub scratch: Scratch,
     pub wall: Duration,
 }
 
@@ -182,14 +186,6 @@ pub fn free_udp_port() -> u16 {
         .expect("a free UDP port")
 }
 
-/// A fresh scratch folder for one flight.
-pub fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("petrel-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch folder");
-    dir
-}
-
 /// `petrel run` on the example, its clock `time_scale` times the wall,
 /// its timeline (JSON lines) and stderr piped.
 pub fn petrel_run(
@@ -313,7 +309,8 @@ pub fn fly(
     max_sim_s: f64,
     done: impl Fn(&SimState) -> bool,
 ) -> Flown {
-    let recording = scratch(&format!("scenario-{name}")).join("flight.mcap");
+    let scratch = Scratch::new(&format!("scenario-{name}"));
+    let recording = scratch.join("flight.mcap");
     let sim = start_sim(faults);
     let programs = format!("tcp:127.0.0.1:{}", free_port());
     let max_wall = Duration::from_secs_f64(max_sim_s / SPEED + 10.0);
@@ -366,6 +363,7 @@ pub fn fly(
         timeline: timeline(&stdout),
         stderr,
         recording,
+        scratch,
         wall,
     }
 }

@@ -19,6 +19,7 @@ use mavlink::MavHeader;
 use sitl_tests::px4::{self, Model, Options, Px4};
 
 use super::flight::{self, Flown};
+use crate::scratch::Scratch;
 
 /// Our system id on the ground station link: a ground station's (PX4
 /// counts the link as a GCS link only from a MAV_TYPE_GCS heartbeat).
@@ -589,6 +590,7 @@ pub struct Px4Flown {
     pub tlog: PathBuf,
     pub truth: Truth,
     pub code: Option<i32>,
+    /// The flight's scratch folder (`flown.scratch`'s).
     pub dir: PathBuf,
     /// PX4's console.
     pub console: String,
@@ -643,7 +645,8 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
     // One PX4 flight at a time: two SIH at 10× on a busy 2-core machine
     // fall behind their lockstep and starve each other's links.
     let _one = one_flight();
-    let dir = flight::scratch(&format!("px4-{name}"));
+    let scratch = Scratch::new(&format!("px4-{name}"));
+    let dir = scratch.to_path_buf();
     let mut sitl = Px4::start(
         &located,
         &Options {
@@ -746,6 +749,7 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
             timeline: flight::timeline(&stdout),
             stderr,
             recording,
+            scratch,
             wall,
         },
         truth,

@@ -21,6 +21,7 @@ use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
 use sitl_tests::{CameraConfig, CameraSim, CameraState};
 
 use super::flight::{self, Dec, Flown};
+use crate::scratch::Scratch;
 
 /// Simulated seconds per wall second, for SITL and the gateway's clock.
 pub const SPEEDUP: u32 = 10;
@@ -415,6 +416,7 @@ pub struct RealFlown {
     pub camera: CameraState,
     /// The gateway's exit status.
     pub code: Option<i32>,
+    /// The flight's scratch folder (`flown.scratch`'s).
     pub sitl_dir: PathBuf,
 }
 
@@ -494,7 +496,8 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
     } = plan;
     let located = ardupilot::require(Firmware::Plane, name)?;
     let instance = Instance::take();
-    let dir = flight::scratch(&format!("real-{name}"));
+    let scratch = Scratch::new(&format!("real-{name}"));
+    let dir = scratch.to_path_buf();
     let mut sitl = Sitl::start(
         &located,
         &Options {
@@ -603,6 +606,7 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
             timeline: flight::timeline(&stdout),
             stderr,
             recording,
+            scratch,
             wall,
         },
         truth,

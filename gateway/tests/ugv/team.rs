@@ -9,7 +9,8 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use crate::flight::{free_port, free_udp_port, petrel_run_project, scratch, Running};
+use crate::flight::{free_port, free_udp_port, petrel_run_project, Running};
+use crate::scratch::Scratch;
 use sitl_tests::geo::{offset, Home};
 use sitl_tests::{BootTimeline, Fleet, SimConfig, SimState};
 
@@ -72,6 +73,9 @@ pub struct Team {
     /// Every snapshot of both rovers taken while it ran.
     pub seen: Vec<Vec<(u8, SimState)>>,
     _turn: std::sync::MutexGuard<'static, ()>,
+    /// The gateway's recording's folder: after `petrel` (fields drop in
+    /// order), removed once the gateway is reaped.
+    scratch: Scratch,
 }
 
 /// The two rovers (R1 south-west, R2 north-east of the bottleneck) on one
@@ -137,14 +141,14 @@ impl Team {
         speed: f64,
         turn: std::sync::MutexGuard<'static, ()>,
     ) -> Team {
-        let dir = scratch(name);
+        let scratch = Scratch::new(name);
         let programs = format!("tcp:127.0.0.1:{}", free_port());
         let child = petrel_run_project(
             &project(),
             mavlink,
             &programs,
             speed,
-            &dir.join("flight.rec"),
+            &scratch.join("flight.rec"),
             Duration::from_secs(600),
             extra,
         );
@@ -153,6 +157,7 @@ impl Team {
             petrel: Some(Running::new(child)),
             seen: Vec::new(),
             _turn: turn,
+            scratch,
         }
     }
 
@@ -186,10 +191,13 @@ impl Team {
         self.petrel.as_mut().is_none_or(Running::exited)
     }
 
-    pub fn stop(mut self) -> (String, String) {
+    /// Stops the gateway and the rovers: what the gateway printed (stdout,
+    /// stderr) and the folder of its recording, to hold until the
+    /// assertions are done (a failed test leaves it to read).
+    pub fn stop(mut self) -> (String, String, Scratch) {
         let (out, err, _) = self.petrel.take().map(Running::stop).unwrap_or_default();
         self.fleet.stop();
-        (out, err)
+        (out, err, self.scratch)
     }
 }
 

@@ -13,6 +13,7 @@ use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
 use sitl_tests::{CameraConfig, CameraSim};
 
 use super::common::{Link, GATEWAY, SITL_INSTANCE_8};
+use crate::scratch::Scratch;
 
 const SPEEDUP: u32 = 5;
 
@@ -28,7 +29,7 @@ fn a_camera_on_serial1_is_commanded_through_the_real_autopilot() {
     };
     let _instance = SITL_INSTANCE_8.lock().unwrap_or_else(|p| p.into_inner());
     let started = Instant::now();
-    let dir = std::env::temp_dir().join(format!("petrel-sitl-camera-{}", std::process::id()));
+    let dir = Scratch::new("sitl-camera");
     let sitl = Sitl::start(
         &located,
         &Options {
@@ -121,5 +122,4 @@ fn a_camera_on_serial1_is_commanded_through_the_real_autopilot() {
         routed_at.as_secs_f64(),
         started.elapsed().as_secs_f64()
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }

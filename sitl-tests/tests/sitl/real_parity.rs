@@ -15,6 +15,7 @@ use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
 use sitl_tests::{Sim, SimConfig};
 
 use super::common::{Link, SITL_INSTANCE_8};
+use crate::scratch::Scratch;
 
 const SPEEDUP: u32 = 10;
 /// The messages Petrel's ArduPilot profile reads (HEARTBEAT aside), and
@@ -297,7 +298,7 @@ fn the_first_minute_is_the_same_on_the_real_firmware_and_the_simulation() {
     let _instance = SITL_INSTANCE_8.lock().unwrap_or_else(|p| p.into_inner());
     let started = Instant::now();
     let heartbeat = Duration::from_millis(1000 / SPEEDUP as u64);
-    let dir = std::env::temp_dir().join(format!("petrel-sitl-parity-{}", std::process::id()));
+    let dir = Scratch::new("sitl-parity");
     let sitl = Sitl::start(
         &located,
         &Options {
@@ -353,5 +354,4 @@ fn the_first_minute_is_the_same_on_the_real_firmware_and_the_simulation() {
     assert!(real.armed);
     // And the simulation says the same.
     assert_eq!(simulated, real);
-    let _ = std::fs::remove_dir_all(&dir);
 }
