@@ -641,5 +641,4 @@ async fn the_loop_asks_for_a_real_time_priority_and_nothing_else_inherits_it() {
         // The recorder's thread is in the batch policy.
         assert!(threads.iter().any(|t| t.1 == SCHED_BATCH), "{threads:?}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
