@@ -224,8 +224,16 @@ impl Player {
         let same = self.pending_from.is_some_and(|(p, len, next)| {
             p == pending && len == s.pending.len() && next == s.next_id
         });
-        if !same && s.pending != state.pending {
-            s.pending.clone_from(&state.pending);
+        if !same {
+            // A step changes a few entries (a result removes one, a call
+            // adds one): put back only those, not a copy of every entry.
+            s.pending
+                .retain(|id, p| state.pending.get(id).is_some_and(|q| q == p));
+            if s.pending.len() != state.pending.len() {
+                for (id, p) in &state.pending {
+                    s.pending.entry(*id).or_insert_with(|| p.clone());
+                }
+            }
         }
         self.pending_from = Some((pending, state.pending.len(), state.next_id));
         s.next_id = state.next_id;
@@ -830,8 +838,27 @@ impl Player {
                 _ => continue,
             };
             for (key, e) in args {
-                let err = match (e.eval(params), &mut self.oracle) {
-                    (Ok(_), _) => continue,
+                // The common argument `$p`: checked without a copy of its
+                // value (what evaluating it comes to, below).
+                let fast = match e {
+                    crate::expr::Expr::Param { name, .. } => {
+                        match (params.get(name.as_str()), &mut self.oracle) {
+                            (Some(v), _) if v.is_finite() => Some(None),
+                            (None, Some(oracle)) => Some(
+                                oracle
+                                    .argument(e, params)
+                                    .map(crate::expr::EvalError::MissingParam),
+                            ),
+                            _ => None,
+                        }
+                    }
+                    _ => None,
+                };
+                let err = match fast {
+                    Some(None) => continue,
+                    Some(Some(err)) => err,
+                    None => match (e.eval(params), &mut self.oracle) {
+                        (Ok(_), _) => continue,
                     // The verifier does not know the parameter: if the
                     // external event is said to lack it, the firing is
                     // rejected as in flight; else the argument is left out.
@@ -842,6 +869,7 @@ impl Player {
                         }
                     }
                     (Err(err), _) => err,
+                    },
                 };
                 let message = format!("argument `{key}`: {err}");
                 self.effects.push(Effect::Fault {
@@ -965,6 +993,12 @@ impl Player {
         let eval = |args: &[(String, crate::expr::Expr)]| -> Params {
             // Already checked in `fire`: evaluation cannot fail here.
             args.iter()
+                .filter(|(_, e)| match e {
+                    // Left out, as its evaluation's error would be (without
+                    // building the error).
+                    crate::expr::Expr::Param { name, .. } => params.contains_key(name.as_str()),
+                    _ => true,
+                })
                 .filter_map(|(k, e)| e.eval(params).ok().map(|v| (k.clone(), v)))
                 .collect()
         };
