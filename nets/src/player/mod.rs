@@ -221,17 +221,25 @@ impl Player {
         }
         s.lockout = state.lockout;
         s.locked.clone_from(&state.locked);
-        let same = self.pending_from.is_some_and(|(p, len, next)| {
-            p == pending && len == s.pending.len() && next == s.next_id
-        });
-        if !same {
-            // A step changes a few entries (a result removes one, a call
-            // adds one): put back only those, not a copy of every entry.
-            s.pending
-                .retain(|id, p| state.pending.get(id).is_some_and(|q| q == p));
-            if s.pending.len() != state.pending.len() {
-                for (id, p) in &state.pending {
-                    s.pending.entry(*id).or_insert_with(|| p.clone());
+        match self.pending_from {
+            // The same calls as the last restore's: as the steps since left
+            // them. A step never changes an entry: it adds calls (ids from
+            // `next_id` on) and removes some. Put back only what changed.
+            Some((p, len, next)) if p == pending => {
+                if len != s.pending.len() || next != s.next_id {
+                    if next != s.next_id {
+                        drop(s.pending.split_off(&next));
+                    }
+                    if s.pending.len() != state.pending.len() {
+                        for (id, p) in &state.pending {
+                            s.pending.entry(*id).or_insert_with(|| p.clone());
+                        }
+                    }
+                }
+            }
+            _ => {
+                if s.pending != state.pending {
+                    s.pending.clone_from(&state.pending);
                 }
             }
         }
@@ -859,16 +867,16 @@ impl Player {
                     Some(Some(err)) => err,
                     None => match (e.eval(params), &mut self.oracle) {
                         (Ok(_), _) => continue,
-                    // The verifier does not know the parameter: if the
-                    // external event is said to lack it, the firing is
-                    // rejected as in flight; else the argument is left out.
-                    (Err(crate::expr::EvalError::MissingParam(_)), Some(oracle)) => {
-                        match oracle.argument(e, params) {
-                            Some(p) => crate::expr::EvalError::MissingParam(p),
-                            None => continue,
+                        // The verifier does not know the parameter: if the
+                        // external event is said to lack it, the firing is
+                        // rejected as in flight; else the argument is left out.
+                        (Err(crate::expr::EvalError::MissingParam(_)), Some(oracle)) => {
+                            match oracle.argument(e, params) {
+                                Some(p) => crate::expr::EvalError::MissingParam(p),
+                                None => continue,
+                            }
                         }
-                    }
-                    (Err(err), _) => err,
+                        (Err(err), _) => err,
                     },
                 };
                 let message = format!("argument `{key}`: {err}");

@@ -377,7 +377,7 @@ impl Walker {
             0,
             T,
             None,
-            &|p| explorer.relevant(p),
+            &|_, p| explorer.relevant(p),
             &mut Scratch::default(),
             &mut initial,
         );
@@ -922,7 +922,7 @@ impl Explorer {
             0,
             T,
             None,
-            &|p| self.relevant(p),
+            &|_, p| self.relevant(p),
             &mut Scratch::default(),
             &mut initial,
         );
@@ -1234,7 +1234,13 @@ impl Explorer {
                     seq_before,
                     T + 1,
                     Some(abs),
-                    &|p| self.relevant(p),
+                    &|id, p| {
+                        // The state's own pending calls are in its key, so
+                        // relevant (relevance depends on a call's net and
+                        // kind only; without symmetry, the key is the state
+                        // encoded): only the step's new ones are looked up.
+                        (id < abs.state.next_id && self.symmetry.is_none()) || self.relevant(p)
+                    },
                     &mut w.scratch,
                     &mut w.next,
                 );
@@ -1649,7 +1655,7 @@ fn label_key(
             Question::Guard => out.push(u8::from(*a)),
             Question::Carries(p) => {
                 out.push(2 + u8::from(*a));
-                str_(out, &**p);
+                str_(out, p);
             }
         }
     }
