@@ -13,6 +13,8 @@ mod digest;
 mod effect;
 mod oracle;
 mod render;
+#[cfg(test)]
+mod reset_tests;
 pub mod snapshot;
 mod state;
 mod symbols;
