@@ -13,6 +13,8 @@ mod digest;
 mod effect;
 mod oracle;
 mod render;
+#[cfg(test)]
+mod reset_tests;
 pub mod snapshot;
 mod state;
 mod symbols;
@@ -221,11 +223,27 @@ impl Player {
         }
         s.lockout = state.lockout;
         s.locked.clone_from(&state.locked);
-        let same = self.pending_from.is_some_and(|(p, len, next)| {
-            p == pending && len == s.pending.len() && next == s.next_id
-        });
-        if !same && s.pending != state.pending {
-            s.pending.clone_from(&state.pending);
+        match self.pending_from {
+            // The same calls as the last restore's: as the steps since left
+            // them. A step never changes an entry: it adds calls (ids from
+            // `next_id` on) and removes some. Put back only what changed.
+            Some((p, len, next)) if p == pending => {
+                if len != s.pending.len() || next != s.next_id {
+                    if next != s.next_id {
+                        drop(s.pending.split_off(&next));
+                    }
+                    if s.pending.len() != state.pending.len() {
+                        for (id, p) in &state.pending {
+                            s.pending.entry(*id).or_insert_with(|| p.clone());
+                        }
+                    }
+                }
+            }
+            _ => {
+                if s.pending != state.pending {
+                    s.pending.clone_from(&state.pending);
+                }
+            }
         }
         self.pending_from = Some((pending, state.pending.len(), state.next_id));
         s.next_id = state.next_id;
@@ -830,18 +848,38 @@ impl Player {
                 _ => continue,
             };
             for (key, e) in args {
-                let err = match (e.eval(params), &mut self.oracle) {
-                    (Ok(_), _) => continue,
-                    // The verifier does not know the parameter: if the
-                    // external event is said to lack it, the firing is
-                    // rejected as in flight; else the argument is left out.
-                    (Err(crate::expr::EvalError::MissingParam(_)), Some(oracle)) => {
-                        match oracle.argument(e, params) {
-                            Some(p) => crate::expr::EvalError::MissingParam(p),
-                            None => continue,
+                // The common argument `$p`: checked without a copy of its
+                // value (what evaluating it comes to, below).
+                let fast = match e {
+                    crate::expr::Expr::Param { name, .. } => {
+                        match (params.get(name.as_str()), &mut self.oracle) {
+                            (Some(v), _) if v.is_finite() => Some(None),
+                            (None, Some(oracle)) => Some(
+                                oracle
+                                    .argument(e, params)
+                                    .map(crate::expr::EvalError::MissingParam),
+                            ),
+                            _ => None,
                         }
                     }
-                    (Err(err), _) => err,
+                    _ => None,
+                };
+                let err = match fast {
+                    Some(None) => continue,
+                    Some(Some(err)) => err,
+                    None => match (e.eval(params), &mut self.oracle) {
+                        (Ok(_), _) => continue,
+                        // The verifier does not know the parameter: if the
+                        // external event is said to lack it, the firing is
+                        // rejected as in flight; else the argument is left out.
+                        (Err(crate::expr::EvalError::MissingParam(_)), Some(oracle)) => {
+                            match oracle.argument(e, params) {
+                                Some(p) => crate::expr::EvalError::MissingParam(p),
+                                None => continue,
+                            }
+                        }
+                        (Err(err), _) => err,
+                    },
                 };
                 let message = format!("argument `{key}`: {err}");
                 self.effects.push(Effect::Fault {
@@ -965,6 +1003,12 @@ impl Player {
         let eval = |args: &[(String, crate::expr::Expr)]| -> Params {
             // Already checked in `fire`: evaluation cannot fail here.
             args.iter()
+                .filter(|(_, e)| match e {
+                    // Left out, as its evaluation's error would be (without
+                    // building the error).
+                    crate::expr::Expr::Param { name, .. } => params.contains_key(name.as_str()),
+                    _ => true,
+                })
                 .filter_map(|(k, e)| e.eval(params).ok().map(|v| (k.clone(), v)))
                 .collect()
         };

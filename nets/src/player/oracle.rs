@@ -19,6 +19,8 @@
 //! only asked by arguments: a guard on an absent parameter is false, which
 //! its own "no" already covers, so asking there would only repeat states.
 
+use std::sync::Arc;
+
 use crate::expr::{BinOp, Expr};
 use crate::value::Params;
 
@@ -28,7 +30,7 @@ pub enum Question {
     /// Does a guard hold? (It reads a parameter the event does not carry.)
     Guard,
     /// Does the external event being handled carry this parameter?
-    Carries(String),
+    Carries(Arc<str>),
 }
 
 /// How the verifier answers what the player cannot know. In flight there is
@@ -51,7 +53,11 @@ pub struct Oracle {
     /// parameters the verifier does not know).
     open: bool,
     /// What is known of the external event's parameters: present or not.
-    known: Vec<(String, bool)>,
+    known: Vec<(Arc<str>, bool)>,
+    /// Every parameter name asked about so far, kept across occurrences:
+    /// a question or a known parameter shares its name instead of
+    /// allocating one (the verifier runs millions of occurrences).
+    names: Vec<Arc<str>>,
 }
 
 /// What a guard reading an unknown parameter comes to.
@@ -87,7 +93,22 @@ impl Oracle {
     }
 
     fn known(&self, name: &str) -> Option<bool> {
-        self.known.iter().find(|(n, _)| n == name).map(|(_, k)| *k)
+        self.known
+            .iter()
+            .find(|(n, _)| **n == *name)
+            .map(|(_, k)| *k)
+    }
+
+    /// `name`, shared.
+    fn name(&mut self, name: &str) -> Arc<str> {
+        match self.names.iter().find(|n| ***n == *name) {
+            Some(n) => Arc::clone(n),
+            None => {
+                let n: Arc<str> = Arc::from(name);
+                self.names.push(Arc::clone(&n));
+                n
+            }
+        }
     }
 
     /// Whether the external event carries `name`: known, or asked now.
@@ -95,8 +116,9 @@ impl Oracle {
         if let Some(k) = self.known(name) {
             return k;
         }
-        let answer = self.ask(Question::Carries(name.to_owned()));
-        self.known.push((name.to_owned(), answer));
+        let name = self.name(name);
+        let answer = self.ask(Question::Carries(Arc::clone(&name)));
+        self.known.push((name, answer));
         answer
     }
 
@@ -135,7 +157,8 @@ impl Oracle {
         }
         for p in needed {
             if self.known(p).is_none() {
-                self.known.push((p.to_owned(), true));
+                let p = self.name(p);
+                self.known.push((p, true));
             }
         }
         GuardAnswer::Holds

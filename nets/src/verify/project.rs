@@ -377,7 +377,7 @@ impl Walker {
             0,
             T,
             None,
-            &|p| explorer.relevant(p),
+            &|_, p| explorer.relevant(p),
             &mut Scratch::default(),
             &mut initial,
         );
@@ -706,6 +706,9 @@ struct Worker {
     /// input starts from.
     player: Option<Player>,
     concrete: Option<State>,
+    /// `concrete` holds the pending calls of the state being expanded
+    /// (set by its first input: the later ones skip comparing them).
+    concrete_current: bool,
     /// Numbers the pending calls `concrete` holds: one more each time
     /// they change (see [`Player::reset_for_verifier`]).
     pending_number: u64,
@@ -753,6 +756,7 @@ impl levels::Explore for Explorer {
             this_input_keys: Vec::new(),
             player: None,
             concrete: None,
+            concrete_current: false,
             pending_number: 0,
             todo: Vec::new(),
             todo_bits: Vec::new(),
@@ -918,7 +922,7 @@ impl Explorer {
             0,
             T,
             None,
-            &|p| self.relevant(p),
+            &|_, p| self.relevant(p),
             &mut Scratch::default(),
             &mut initial,
         );
@@ -1135,6 +1139,7 @@ impl Explorer {
             return; // the exploration is given up: no need to go on
         }
         let abs = self.codec.decode(key);
+        w.concrete_current = false;
         let inputs = self.inputs(&abs);
         // The ample sets, when the stubborn sets reduce in this state (and
         // the search does not ask for every input).
@@ -1188,7 +1193,9 @@ impl Explorer {
             w.this_input.clear();
             w.this_input_keys.clear();
             let concrete = w.concrete.get_or_insert_with(|| abs.state.clone());
-            let (seq_before, pending_changed) = set_concrete(abs, input, concrete);
+            let (seq_before, pending_changed) =
+                set_concrete(abs, input, concrete, w.concrete_current);
+            w.concrete_current = true;
             w.pending_number += u64::from(pending_changed);
             let concrete = &*concrete;
             // Every sequence of oracle answers, depth first: a stack of
@@ -1227,7 +1234,13 @@ impl Explorer {
                     seq_before,
                     T + 1,
                     Some(abs),
-                    &|p| self.relevant(p),
+                    &|id, p| {
+                        // The state's own pending calls are in its key, so
+                        // relevant (relevance depends on a call's net and
+                        // kind only; without symmetry, the key is the state
+                        // encoded): only the step's new ones are looked up.
+                        (id < abs.state.next_id && self.symmetry.is_none()) || self.relevant(p)
+                    },
                     &mut w.scratch,
                     &mut w.next,
                 );
@@ -1476,7 +1489,7 @@ impl Explorer {
                 .iter()
                 .zip(answers)
                 .filter_map(|(q, a)| match q {
-                    Question::Carries(p) if *a == present => Some(p.as_str()),
+                    Question::Carries(p) if *a == present => Some(&**p),
                     _ => None,
                 })
                 .collect()
@@ -1534,8 +1547,10 @@ impl Explorer {
 /// The concrete state an input runs on: `abs` at instant `T`, every timer
 /// due after the step's instant, except the one the input expires (due at
 /// it); and the start order the step's first new timer gets, and whether
-/// the pending calls changed.
-fn set_concrete(abs: &Abs, input: &Input, concrete: &mut State) -> (u64, bool) {
+/// the pending calls changed. `current`: `concrete` already holds `abs`'s
+/// pending calls (set for an earlier input of the same state; only this
+/// function changes `concrete`).
+fn set_concrete(abs: &Abs, input: &Input, concrete: &mut State, current: bool) -> (u64, bool) {
     let expire = match input {
         Input::Timer(i) => Some(*i),
         _ => None,
@@ -1550,7 +1565,7 @@ fn set_concrete(abs: &Abs, input: &Input, concrete: &mut State) -> (u64, bool) {
         .for_each(std::collections::VecDeque::clear);
     concrete.lockout = from.lockout;
     concrete.locked.clone_from(&from.locked);
-    let pending_changed = concrete.pending != from.pending;
+    let pending_changed = !current && concrete.pending != from.pending;
     if pending_changed {
         concrete.pending.clone_from(&from.pending);
     }

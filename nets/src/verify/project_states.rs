@@ -118,7 +118,7 @@ impl Codec {
     /// `prev` is the state the step ran on (`None` at start-up): its timers
     /// keep their group and duration; timers numbered from `seq_before` on
     /// were started by the step, at `step_time`. `relevant` says whether
-    /// anything awaits a pending result.
+    /// anything awaits a pending result (given its id too).
     #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &self,
@@ -126,7 +126,7 @@ impl Codec {
         seq_before: u64,
         step_time: Micros,
         prev: Option<&Abs>,
-        relevant: &dyn Fn(&Pending) -> bool,
+        relevant: &dyn Fn(u64, &Pending) -> bool,
         scratch: &mut Scratch,
         out: &mut Vec<u8>,
     ) {
@@ -196,8 +196,8 @@ impl Codec {
         }
         // Pending calls and commands, in id order.
         let mut kept: SmallVec<[&Pending; 16]> = SmallVec::new();
-        for p in state.pending.values() {
-            if relevant(p) && kept.iter().filter(|k| **k == p).count() < MAX_SAME_PENDING {
+        for (&id, p) in &state.pending {
+            if relevant(id, p) && kept.iter().filter(|k| **k == p).count() < MAX_SAME_PENDING {
                 kept.push(p);
             }
         }
