@@ -364,6 +364,9 @@ pub fn strongly_connected_components_from(
     if n == 0 || root as usize >= n || order.len() != n || seeds.iter().any(|&s| s as usize >= n) {
         return pearce(g, None, None);
     }
+    if std::env::var_os("PETREL_SWEEPS").is_none() {
+        return components_by_predecessors(g, root, entered, order, threads);
+    }
     let mut reach = vec![0u64; n.div_ceil(64)];
     set_bit(&mut reach, root);
     if entered {
@@ -394,6 +397,44 @@ pub fn strongly_connected_components_from(
     } else {
         None
     };
+    pearce(
+        g,
+        Some((root, &reach)),
+        terminal.as_ref().map(|(r, set)| (*r, set.as_slice())),
+    )
+}
+
+/// [`strongly_connected_components_from`] over the predecessors.
+fn components_by_predecessors(
+    g: &(impl Adjacency + Sync),
+    root: u32,
+    entered: bool,
+    mut order: Vec<u32>,
+    threads: usize,
+) -> Sccs {
+    let n = g.nodes();
+    let Some(p) = Predecessors::of(g, threads) else {
+        return pearce(g, None, None);
+    };
+    let reach = if entered {
+        reaching_set(&p, root, None, threads).0
+    } else {
+        let mut alone = vec![0u64; n.div_ceil(64)];
+        set_bit(&mut alone, root);
+        alone
+    };
+    order.retain(|&v| !bit(&reach, v));
+    let terminal = if order.len() > n / 2 {
+        order.last().copied().and_then(|last| {
+            let (ahead, count) = reached_set(g, last);
+            let (back, back_count) = reaching_set(&p, last, Some(&ahead), threads);
+            (back_count == count).then_some((last, back))
+        })
+    } else {
+        None
+    };
+    drop(order);
+    drop(p);
     pearce(
         g,
         Some((root, &reach)),
@@ -545,6 +586,219 @@ fn reaching_together(
         *w = a.load(Relaxed);
     }
     settled.then_some(rest)
+}
+
+/// The arcs of a graph turned around: the predecessors of each node, in
+/// increasing order (duplicates kept), 4 bytes per arc and 4 per node.
+/// Built from the successor lists by a counting sort on the targets: one
+/// pass counts each node's predecessors, one places them (on two threads,
+/// each thread the targets of one half of the nodes).
+#[derive(Debug, Clone)]
+pub struct Predecessors {
+    /// `starts[v]..starts[v + 1]`: the predecessors of `v` in `sources`.
+    starts: Vec<u32>,
+    sources: Vec<u32>,
+}
+
+impl Predecessors {
+    /// The predecessors of every node of `g`; `None` when its arcs are more
+    /// than 32-bit offsets can number.
+    pub fn of(g: &(impl Adjacency + Sync), threads: usize) -> Option<Predecessors> {
+        Predecessors::build(g, threads > 1 && g.nodes() >= PARALLEL_NODES)
+    }
+
+    /// [`Predecessors::of`], on two threads if `two`.
+    fn build(g: &(impl Adjacency + Sync), two: bool) -> Option<Predecessors> {
+        let n = g.nodes();
+        if n >= u32::MAX as usize {
+            return None;
+        }
+        let mut starts = vec![0u32; n + 1];
+        // the targets below `half` are the first thread's, the others the
+        // second's
+        let half = if two { (n / 2) as u32 } else { n as u32 };
+        // counts: the predecessors of `w` in starts[w + 1]
+        {
+            let (low, high) = starts[1..].split_at_mut(half as usize);
+            let count = |counts: &mut [u32], lo: u32| {
+                let hi = lo + counts.len() as u32;
+                for v in 0..n as u32 {
+                    for w in g.targets(v) {
+                        if (lo..hi).contains(&w) {
+                            counts[(w - lo) as usize] += 1;
+                        }
+                    }
+                }
+            };
+            let alone = high.is_empty();
+            both(|| count(low, 0), || count(high, half), alone);
+        }
+        let mut total = 0u64;
+        for s in &mut starts {
+            total += u64::from(*s);
+            if total >= u64::from(u32::MAX) {
+                return None;
+            }
+            *s = total as u32;
+        }
+        let mut sources = vec![0u32; total as usize];
+        // placing: starts[w] is where the next predecessor of `w` goes,
+        // then (after) where its predecessors end
+        {
+            let split = starts[half as usize] as usize;
+            let (low_at, high_at) = starts[..n].split_at_mut(half as usize);
+            let (low, high) = sources.split_at_mut(split);
+            let place = |at: &mut [u32], into: &mut [u32], lo: u32, base: usize| {
+                let hi = lo + at.len() as u32;
+                for v in 0..n as u32 {
+                    for w in g.targets(v) {
+                        if (lo..hi).contains(&w) {
+                            let slot = &mut at[(w - lo) as usize];
+                            into[*slot as usize - base] = v;
+                            *slot += 1;
+                        }
+                    }
+                }
+            };
+            let alone = high_at.is_empty();
+            both(
+                || place(low_at, low, 0, 0),
+                || place(high_at, high, half, split),
+                alone,
+            );
+        }
+        // each start is where the previous node's predecessors ended
+        for w in (1..n).rev() {
+            starts[w] = starts[w - 1];
+        }
+        if let Some(s) = starts.first_mut() {
+            *s = 0;
+        }
+        Some(Predecessors { starts, sources })
+    }
+
+    /// The predecessors of `node`.
+    #[inline]
+    pub fn of_node(&self, node: u32) -> &[u32] {
+        let (a, b) = (
+            self.starts[node as usize] as usize,
+            self.starts[node as usize + 1] as usize,
+        );
+        &self.sources[a..b]
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        ((self.starts.capacity() + self.sources.capacity()) * 4) as u64
+    }
+}
+
+/// Nodes from which two threads build the predecessors (below, one is
+/// faster).
+const PARALLEL_NODES: usize = 1 << 16;
+
+/// Runs `a` and `b`, on two threads unless `alone` (then `b` is not run:
+/// it has nothing to do).
+fn both(a: impl FnOnce() + Send, b: impl FnOnce() + Send, alone: bool) {
+    if alone {
+        a();
+        return;
+    }
+    std::thread::scope(|scope| {
+        let other = scope.spawn(b);
+        a();
+        if let Err(panic) = other.join() {
+            std::panic::resume_unwind(panic);
+        }
+    });
+}
+
+/// The nodes from which `to` can be reached (`to` included) through nodes
+/// of `within` (every node when `None`), as a bitset, and their number: a
+/// breadth-first search over the predecessors, level by level, each level
+/// shared by two threads when it is large and `threads` is above 1.
+fn reaching_set(
+    p: &Predecessors,
+    to: u32,
+    within: Option<&[u64]>,
+    threads: usize,
+) -> (Vec<u64>, usize) {
+    let n = p.starts.len() - 1;
+    let words = n.div_ceil(64);
+    let allowed = |v: u32| within.is_none_or(|set| bit(set, v));
+    if threads <= 1 {
+        let mut seen = vec![0u64; words];
+        set_bit(&mut seen, to);
+        let mut queue = vec![to];
+        let mut head = 0;
+        while let Some(&v) = queue.get(head) {
+            head += 1;
+            for &u in p.of_node(v) {
+                if !bit(&seen, u) && allowed(u) {
+                    set_bit(&mut seen, u);
+                    queue.push(u);
+                }
+            }
+        }
+        return (seen, queue.len());
+    }
+    let seen: Vec<AtomicU64> = (0..words).map(|_| AtomicU64::new(0)).collect();
+    seen[(to >> 6) as usize].fetch_or(1 << (to & 63), Relaxed);
+    // claims the unseen predecessors of `nodes` into `next`
+    let expand = |nodes: &[u32], next: &mut Vec<u32>| {
+        for &v in nodes {
+            for &u in p.of_node(v) {
+                let (w, m) = ((u >> 6) as usize, 1u64 << (u & 63));
+                if seen[w].load(Relaxed) & m == 0
+                    && allowed(u)
+                    && seen[w].fetch_or(m, Relaxed) & m == 0
+                {
+                    next.push(u);
+                }
+            }
+        }
+    };
+    let mut level = vec![to];
+    let mut count = 1usize;
+    let (mut mine, mut theirs) = (Vec::new(), Vec::new());
+    while !level.is_empty() {
+        mine.clear();
+        theirs.clear();
+        if level.len() < PARALLEL_LEVEL {
+            expand(&level, &mut mine);
+        } else {
+            let (a, b) = level.split_at(level.len() / 2);
+            both(|| expand(a, &mut mine), || expand(b, &mut theirs), false);
+        }
+        level.clear();
+        level.extend_from_slice(&mine);
+        level.extend_from_slice(&theirs);
+        count += level.len();
+    }
+    (seen.into_iter().map(AtomicU64::into_inner).collect(), count)
+}
+
+/// Nodes in a level from which two threads search it.
+const PARALLEL_LEVEL: usize = 4096;
+
+/// The nodes `from` reaches (`from` included), as a bitset, and their
+/// number: a breadth-first search over the successors.
+fn reached_set(g: &impl Adjacency, from: u32) -> (Vec<u64>, usize) {
+    let n = g.nodes();
+    let mut seen = vec![0u64; n.div_ceil(64)];
+    set_bit(&mut seen, from);
+    let mut queue = vec![from];
+    let mut head = 0;
+    while let Some(&v) = queue.get(head) {
+        head += 1;
+        for w in g.targets(v) {
+            if !bit(&seen, w) {
+                set_bit(&mut seen, w);
+                queue.push(w);
+            }
+        }
+    }
+    (seen, queue.len())
 }
 
 /// The component of `node` as a bitset, if it is terminal (no edge leaves
@@ -990,6 +1244,77 @@ mod tests {
             assert_eq!(from.sizes[ring], ring_end - 3);
             assert!(from.cyclic[ring]);
             assert_eq!(from.count(), 4 + usize::from(exit));
+        }
+    }
+
+    /// The predecessors of each node as the successor lists give them:
+    /// every source once per arc, in increasing order.
+    fn predecessors_by_hand(g: &Csr<()>) -> Vec<Vec<u32>> {
+        let n = Adjacency::nodes(g);
+        let mut want = vec![Vec::new(); n];
+        for v in 0..n as u32 {
+            for w in Adjacency::targets(g, v) {
+                want[w as usize].push(v);
+            }
+        }
+        want
+    }
+
+    proptest::proptest! {
+        /// Any graph's predecessors, built on one thread or two.
+        #[test]
+        fn predecessors_turn_every_arc_around(
+            lists in proptest::collection::vec(
+                proptest::collection::vec(0u32..64, 0..8), 1..64),
+            two in proptest::bool::ANY,
+        ) {
+            let n = lists.len() as u32;
+            let mut g = Csr::default();
+            for l in &lists {
+                g.push_node(l.iter().map(|&t| ((), t % n)));
+            }
+            let p = Predecessors::build(&g, two).unwrap();
+            for (w, want) in predecessors_by_hand(&g).iter().enumerate() {
+                proptest::prop_assert_eq!(p.of_node(w as u32), want.as_slice());
+            }
+        }
+    }
+
+    #[test]
+    fn searches_backward_and_forward() {
+        for (n, extra, seed, threads) in [(300, 200, 12, 1), (100_000, 60_000, 13, 2)] {
+            let g = random_graph(n, extra, seed);
+            let p = Predecessors::of(&g, threads).unwrap();
+            let want = predecessors_by_hand(&g);
+            for w in 0..n {
+                assert_eq!(p.of_node(w), want[w as usize].as_slice());
+            }
+            let tarjan = strongly_connected_components(&g);
+            // every node is reached from 0: a node reaches 0 iff it is in
+            // 0's component
+            let (back, count) = reaching_set(&p, 0, None, threads);
+            let zero = tarjan.component[0];
+            for v in 0..n {
+                assert_eq!(
+                    bit(&back, v),
+                    tarjan.component[v as usize] == zero,
+                    "node {v}"
+                );
+            }
+            assert_eq!(count, tarjan.sizes[zero as usize] as usize);
+            // forward from 0 reaches everything; back from a node within
+            // what it reaches is its component
+            let (all, reached) = reached_set(&g, 0);
+            assert_eq!(reached, n as usize);
+            let v = n - 1;
+            let (ahead, _) = reached_set(&g, v);
+            let (comp, size) = reaching_set(&p, v, Some(&ahead), threads);
+            let c = tarjan.component[v as usize];
+            assert_eq!(size, tarjan.sizes[c as usize] as usize);
+            for w in 0..n {
+                assert!(bit(&all, w));
+                assert_eq!(bit(&comp, w), tarjan.component[w as usize] == c);
+            }
         }
     }
 
