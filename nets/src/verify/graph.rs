@@ -304,6 +304,11 @@ pub trait Adjacency {
     fn nodes(&self) -> usize;
     /// The successors of `node` (duplicates allowed).
     fn targets(&self, node: u32) -> Self::Targets<'_>;
+    /// A hint that the successors of `node` will be read soon: where they
+    /// start (`near` false, well ahead), or the successors themselves
+    /// (`near` true, after their start). Nothing by default.
+    #[inline]
+    fn prefetch(&self, _node: u32, _near: bool) {}
 }
 
 impl<L> Adjacency for Csr<L> {
@@ -564,6 +569,14 @@ fn terminal_component(
     let mut queue = vec![node];
     let mut head = 0;
     while let Some(&v) = queue.get(head) {
+        // the queue's order is nowhere near the nodes': load the nodes
+        // ahead in two steps (where their successors start, then these)
+        if let Some(&u) = queue.get(head + 2 * PREFETCH) {
+            g.prefetch(u, false);
+        }
+        if let Some(&u) = queue.get(head + PREFETCH) {
+            g.prefetch(u, true);
+        }
         head += 1;
         for w in g.targets(v) {
             if !bit(&seen, w) {
@@ -581,6 +594,10 @@ fn terminal_component(
     let rest = reaching(g, &mut back, candidates, n, Direction::Down, threads)?;
     rest.is_empty().then_some(back)
 }
+
+/// How far ahead in its queue a breadth-first search asks for the nodes it
+/// will read ([`Adjacency::prefetch`]).
+const PREFETCH: usize = 8;
 
 /// Strongly connected components by Pearce's space-efficient variant of
 /// Tarjan's algorithm ("A space-efficient algorithm for finding strongly

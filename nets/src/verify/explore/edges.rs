@@ -18,6 +18,7 @@
 //! one after the other).
 
 use super::engine::split_id;
+use super::store::prefetch;
 
 /// A slot whose successor id has not arrived yet.
 pub const PENDING: u32 = u32::MAX;
@@ -154,6 +155,27 @@ impl Edges {
     pub fn targets(&self, i: u32) -> &[u32] {
         let (a, b) = (self.starts[i as usize], self.starts[i as usize + 1]);
         &self.targets[a as usize..b as usize]
+    }
+
+    /// A hint to load where the successors of local marking `i` start.
+    #[inline]
+    pub fn prefetch_start(&self, i: u32) {
+        if let Some(s) = self.starts.get(i as usize) {
+            prefetch(s);
+        }
+    }
+
+    /// A hint to load the successors of local marking `i` (best once its
+    /// start is loaded, see [`Edges::prefetch_start`]).
+    #[inline]
+    pub fn prefetch_targets(&self, i: u32) {
+        if let Some(t) = self
+            .starts
+            .get(i as usize)
+            .and_then(|&a| self.targets.get(a as usize))
+        {
+            prefetch(t);
+        }
     }
 
     /// Bytes held.

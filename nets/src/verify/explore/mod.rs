@@ -574,14 +574,21 @@ struct Kept<'r> {
 }
 
 impl Kept<'_> {
+    /// The partition of `node` and its index there.
+    #[inline]
+    fn local(&self, node: u32) -> (usize, u32) {
+        // a few partitions: a scan beats a binary search
+        let mut p = 0;
+        while p + 1 < self.arcs.len() && node >= self.offsets[p + 1] {
+            p += 1;
+        }
+        (p, node - self.offsets[p])
+    }
+
     #[inline]
     fn of(&self, node: u32) -> &[u32] {
-        let p = if self.arcs.len() == 1 {
-            0
-        } else {
-            self.offsets.partition_point(|&o| o <= node) - 1
-        };
-        self.arcs[p].targets(node - self.offsets[p])
+        let (p, i) = self.local(node);
+        self.arcs[p].targets(i)
     }
 }
 
@@ -598,6 +605,18 @@ impl Adjacency for Kept<'_> {
     #[inline]
     fn targets(&self, node: u32) -> Self::Targets<'_> {
         self.of(node).iter().copied()
+    }
+
+    #[inline]
+    fn prefetch(&self, node: u32, near: bool) {
+        let (p, i) = self.local(node);
+        if let Some(a) = self.arcs.get(p) {
+            if near {
+                a.prefetch_targets(i);
+            } else {
+                a.prefetch_start(i);
+            }
+        }
     }
 }
 

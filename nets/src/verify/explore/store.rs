@@ -213,7 +213,7 @@ fn next_slot(slot: usize, capacity: usize) -> usize {
 
 /// A hint to load the cache line holding `r`.
 #[inline(always)]
-fn prefetch<T>(r: &T) {
+pub(super) fn prefetch<T>(r: &T) {
     #[cfg(target_arch = "x86_64")]
     // SAFETY: a prefetch is only a hint: it never faults, writes nothing and
     // the address comes from a live reference.
