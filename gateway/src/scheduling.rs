@@ -99,8 +99,8 @@ pub fn for_the_loop(priority: Option<u32>) -> Asked {
 /// the system says them.
 fn refusal(errno: i32) -> String {
     match errno {
-        1 => "EPERM: not permitted".into(),
-        22 => "EINVAL: not a priority this kernel takes".into(),
+        libc::EPERM => "EPERM: not permitted".into(),
+        libc::EINVAL => "EINVAL: not a priority this kernel takes".into(),
         e => std::io::Error::from_raw_os_error(e).to_string(),
     }
 }

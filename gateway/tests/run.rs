@@ -532,7 +532,7 @@ fn policy_of(pid: u32, tid: &str) -> Option<(u32, u32)> {
 }
 
 /// `petrel run`'s threads while it runs: (thread id, policy, priority).
-async fn threads_of(pid: u32) -> Vec<(String, u32, u32)> {
+fn threads_of(pid: u32) -> Vec<(String, u32, u32)> {
     let mut threads = Vec::new();
     for entry in std::fs::read_dir(format!("/proc/{pid}/task")).expect("/proc") {
         let tid = entry
@@ -589,7 +589,7 @@ async fn the_loop_asks_for_a_real_time_priority_and_nothing_else_inherits_it() {
         let pid = child.id().expect("a pid");
         // The loop, the recorder's and the monitor's threads have started.
         tokio::time::sleep(Duration::from_millis(1000)).await;
-        let threads = threads_of(pid).await;
+        let threads = threads_of(pid);
         let stderr = {
             let status = tokio::time::timeout(Duration::from_secs(30), child.wait())
                 .await
