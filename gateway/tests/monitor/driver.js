@@ -195,7 +195,12 @@ async function mirror(page, seen, readOnly) {
   tell("fade");
   await until("silent", 30000);
   await page.click("#q-" + second + " button[data-choice='no']");
-  await page.waitForFunction((id) => document.querySelector("#q-" + id).dataset.fate === "sent", second, { timeout: 10000 });
+  // Sent: the mirror's frame says so, and the page has heard the desk's
+  // verdict (the two come apart; either may be first).
+  await page.waitForFunction((id) => {
+    const q = document.querySelector("#q-" + id);
+    return q && q.dataset.fate === "sent" && !q.querySelector(".status").textContent.startsWith("sending");
+  }, second, { timeout: 10000 }).catch(() => {});
   seen.second_sent = await page.$eval("#q-" + second + " .status", (e) => e.textContent);
   await page.waitForTimeout(1000);
   tell("downlink");

@@ -593,8 +593,11 @@ function questions(m) {
 
 // The answer goes to the mirror, which sends it as one typed on its stdin.
 function answer(id, choice) {
+  // The desk's verdict is shown at once, not at the next frame: with the
+  // vehicle silent, that may be a while.
+  const repaint = () => { if (frame && frame.mirror) questions(frame.mirror); };
   asking[id] = { text: "sending “" + choice + "”…", bad: false };
-  if (frame && frame.mirror) questions(frame.mirror);
+  repaint();
   fetch("answer", {
     method: "POST",
     headers: { "Content-Type": "application/json", "X-Petrel-Answer": "1" },
@@ -602,8 +605,9 @@ function answer(id, choice) {
   }).then((r) => r.json()).then((r) => {
     delete asking[id];
     if (!r.sent) asking[id] = { text: r.error, bad: true };
-    setTimeout(() => { if (asking[id] && asking[id].bad) delete asking[id]; }, 5000);
-  }).catch((e) => { asking[id] = { text: "not sent: " + e, bad: true }; });
+    setTimeout(() => { if (asking[id] && asking[id].bad) { delete asking[id]; repaint(); } }, 5000);
+    repaint();
+  }).catch((e) => { asking[id] = { text: "not sent: " + e, bad: true }; repaint(); });
 }
 
 // ---- one net alone, zoomable and pannable -------------------------------
