@@ -87,6 +87,28 @@ pub fn check_project(project: &Arc<Project>, inputs: &Inputs, recheck: bool) -> 
     }
 }
 
+/// Remembers a check of `petrel check` that held, when it is the check
+/// `petrel run` makes (the same limits and reductions; the digest then
+/// covers the same inputs): a crew that checks the project before the
+/// flight does not pay for the exploration again when the gateway starts.
+/// Whether it was remembered.
+pub fn remember_held(inputs: &Inputs, checked: &Options, report: &ProjectReport) -> bool {
+    let run = options();
+    let same = checked.max_states == run.max_states
+        && checked.each_net == run.each_net
+        && checked.symmetry == run.symmetry
+        && checked.partial_order == run.partial_order
+        && checked.proviso == run.proviso;
+    if !same || !report.holds() {
+        return false;
+    }
+    let digest = digest(inputs, &run);
+    match cache_dir() {
+        Some(dir) => remember(&dir.join(format!("{digest}.json")), &digest, report),
+        None => false,
+    }
+}
+
 /// The digest of what the verdict depends on (see the module doc).
 pub fn digest(inputs: &Inputs, options: &Options) -> String {
     let mut h = Sha256::new();
@@ -176,8 +198,8 @@ fn remembered(entry: &Path, digest: &str) -> bool {
 }
 
 /// Writes the entry of a check that held (atomically: a temporary file
-/// renamed), or warns.
-fn remember(entry: &Path, digest: &str, report: &ProjectReport) {
+/// renamed), or warns; whether it was written.
+fn remember(entry: &Path, digest: &str, report: &ProjectReport) -> bool {
     let text = json!({
         "format": 1,
         "digest": digest,
@@ -194,10 +216,14 @@ fn remember(entry: &Path, digest: &str, report: &ProjectReport) {
         std::fs::write(&tmp, text.as_bytes())?;
         std::fs::rename(&tmp, entry)
     };
-    if let Err(e) = write() {
-        tracing::warn!(
-            "cannot remember the pre-flight check in {}: {e}",
-            entry.display()
-        );
+    match write() {
+        Ok(()) => true,
+        Err(e) => {
+            tracing::warn!(
+                "cannot remember the pre-flight check in {}: {e}",
+                entry.display()
+            );
+            false
+        }
     }
 }

@@ -1,7 +1,8 @@
 //! `petrel run`'s pre-flight check, remembered in the user's cache
 //! directory: skipped when the same nets, profile and Petrel held before,
 //! explored again when any of them differs, with `--recheck`, or when the
-//! entry is corrupt; a failed check never remembered.
+//! entry is corrupt; a failed check never remembered. A `petrel check`
+//! that held with the run's own limits is remembered too.
 
 #[path = "support/scratch.rs"]
 mod scratch;
@@ -67,6 +68,23 @@ impl Preflight {
                 "0.1",
                 "--no-record",
             ])
+            .args(extra)
+            .env("XDG_CACHE_HOME", self.cache())
+            .output()
+            .expect("petrel runs");
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    }
+}
+
+impl Preflight {
+    /// `petrel check` of the project: exit code and stderr.
+    fn check(&self, extra: &[&str]) -> (Option<i32>, String) {
+        let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
+            .arg("check")
+            .arg(self.project())
             .args(extra)
             .env("XDG_CACHE_HOME", self.cache())
             .output()
@@ -188,5 +206,45 @@ fn a_failed_check_is_never_remembered() {
         assert!(err.contains("refusing to run"), "{err}");
         assert!(err.contains("deadlocks        FAILED"), "{err}");
     }
+    assert!(s.entries().is_empty(), "{:?}", s.entries());
+}
+
+#[test]
+fn a_petrel_check_that_held_spares_the_run_its_exploration() {
+    let s = Preflight::new(NET);
+    // Another limit than the run's: not the run's check, not remembered.
+    let (code, err) = s.check(&["--max-states", "1000"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!err.contains("remembered"), "{err}");
+    assert!(s.entries().is_empty(), "{:?}", s.entries());
+    // As the run checks: remembered, and said.
+    let (code, err) = s.check(&[]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("remembered: `petrel run`"), "{err}");
+    assert_eq!(s.entries().len(), 1, "{err}");
+    let (code, err) = s.run(&[]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(remembered(&err), "{err}");
+    // Checked against another profile than the run's: the run explores.
+    write(
+        &s.project().join("n.toml"),
+        &NET.replace("on = \"disarmed\"", "on = \"landed\""),
+    );
+    let (code, err) = s.check(&["--profile", "px4"]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, err) = s.run(&[]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(explored(&err), "{err}");
+}
+
+#[test]
+fn a_petrel_check_that_fails_is_never_remembered() {
+    let s = Preflight::new(
+        "name = \"N\"\nplaces = [\"a\", \"b\"]\ninitial = [\"a\"]\n\
+         [[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"armed\"\n",
+    );
+    let (code, err) = s.check(&[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(!err.contains("remembered"), "{err}");
     assert!(s.entries().is_empty(), "{:?}", s.entries());
 }

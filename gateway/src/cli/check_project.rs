@@ -47,7 +47,7 @@ pub fn run(
     let Some(profile) = layers.load() else {
         return Ok(Outcome::BadInput);
     };
-    let project = crate::project::load_with(dir, &profile.catalog())?;
+    let (project, files) = crate::project::load_read(dir, &profile.catalog())?;
     let name = if project.name.is_empty() {
         dir.file_name().map_or_else(
             || dir.display().to_string(),
@@ -59,26 +59,33 @@ pub fn run(
     let start = Instant::now();
     let meter = super::check::Progress::new(start);
     let report_progress = |states: usize| meter.report(states as u64);
-    let report = check(
-        &project,
-        &Options {
-            max_states,
-            each_net: true,
-            alone: true,
-            threads,
-            symmetry: reductions.symmetry,
-            partial_order: reductions.partial_order,
-            compare_unreduced: false,
-            proviso: Default::default(),
-            progress: if std::io::stderr().is_terminal() {
-                Some(&report_progress)
-            } else {
-                None
-            },
+    let options = Options {
+        max_states,
+        each_net: true,
+        alone: true,
+        threads,
+        symmetry: reductions.symmetry,
+        partial_order: reductions.partial_order,
+        compare_unreduced: false,
+        proviso: Default::default(),
+        progress: if std::io::stderr().is_terminal() {
+            Some(&report_progress)
+        } else {
+            None
         },
-    );
+    };
+    let report = check(&project, &options);
     let seconds = start.elapsed().as_secs_f64();
     meter.finish();
+    // The same check as `petrel run`'s pre-flight one: it starts without
+    // exploring again.
+    let inputs = crate::preflight::Inputs {
+        files: &files,
+        layers: &layers.layers,
+    };
+    if crate::preflight::remember_held(&inputs, &options, &report) && !as_json {
+        say!("remembered: `petrel run`, `petrel mirror` and `petrel demo` start without exploring it again while the nets, the profile and Petrel stay the same (--recheck explores anyway)");
+    }
     if as_json {
         let mut obj = report_json(&report.project, seconds);
         let nets: serde_json::Map<String, Value> = report
