@@ -27,6 +27,7 @@ pub mod graph;
 mod levels;
 pub mod pnml;
 pub mod project;
+mod project_memo;
 mod project_states;
 pub mod ptnet;
 pub mod reference;
