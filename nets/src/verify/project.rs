@@ -755,6 +755,8 @@ struct Worker {
     cone: project_memo::Cone,
     /// The immediate transitions enabled in the state being expanded.
     enabled: Vec<u64>,
+    /// The cones worked out so far.
+    cones: project_memo::ConeCache,
     memo_key: Vec<u8>,
     patched: Option<State>,
     patched_pending: u64,
@@ -815,6 +817,7 @@ impl levels::Explore for Explorer {
             memo: project_memo::Memo::default(),
             cone: project_memo::Cone::default(),
             enabled: Vec::new(),
+            cones: project_memo::ConeCache::default(),
             memo_key: Vec::new(),
             patched: None,
             patched_pending: u64::MAX,
@@ -1277,7 +1280,7 @@ impl Explorer {
         let probe = self.probe.as_deref();
         let mut cone = std::mem::take(&mut w.cone);
         let edge: Edge;
-        if self.cone(abs, input, &w.enabled, &mut cone) {
+        if self.cone(abs, input, &w.enabled, &mut w.cones, &mut cone) {
             let cone = &cone;
             w.memo_key.clear();
             self.input_key(abs, input, cone, &mut w.memo_key);
@@ -1387,23 +1390,24 @@ impl Explorer {
         abs: &Abs,
         input: &Input,
         enabled: &[u64],
+        cache: &mut project_memo::ConeCache,
         cone: &mut project_memo::Cone,
     ) -> bool {
         let Some(cones) = self.cones.as_ref() else {
             return false;
         };
-        let (start, net) = match input {
-            Input::Event(i) => (cones.event(*i), None),
+        let (tag, start, net) = match input {
+            Input::Event(i) => ((0, *i as u32), cones.event(*i), None),
             Input::Timer(i) => match abs.state.timers.get(*i) {
-                Some(t) => (cones.net(t.net), Some(t.net)),
+                Some(t) => ((1, t.net as u32), cones.net(t.net), Some(t.net)),
                 None => return false,
             },
             Input::Result { id, .. } => match abs.state.pending.get(id) {
-                Some(p) => (cones.net(p.net), Some(p.net)),
+                Some(p) => ((1, p.net as u32), cones.net(p.net), Some(p.net)),
                 None => return false,
             },
         };
-        cones.cone(start, net, &abs.state, enabled, cone);
+        cache.cone(cones, tag, start, net, &abs.state, enabled, cone);
         true
     }
 

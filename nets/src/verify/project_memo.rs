@@ -109,6 +109,60 @@ impl Cone {
     }
 }
 
+/// The cones computed by one worker, by input and the marking and active
+/// flags they depend on (many states share them: they differ in timers and
+/// pending calls), so that a state met again does not work them out again.
+#[derive(Default)]
+pub(super) struct ConeCache {
+    index: std::collections::HashMap<Vec<u8>, u32, foldhash::fast::FixedState>,
+    /// Per cone: its transitions, nets and places, back to back.
+    cones: Vec<(Vec<u64>, u64, Vec<u64>)>,
+    key: Vec<u8>,
+}
+
+/// The most cones a worker keeps (then it starts again).
+const MAX_CONES: usize = 1 << 16;
+
+impl ConeCache {
+    /// Puts into `out` the cone of the input `tag` (what names it, the
+    /// same for every input with the same `start` and `net`) in `state`,
+    /// from the cache or worked out by `cones`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn cone(
+        &mut self,
+        cones: &Cones,
+        tag: (u8, u32),
+        start: &[u64],
+        net: Option<NetId>,
+        state: &State,
+        enabled: &[u64],
+        out: &mut Cone,
+    ) {
+        self.key.clear();
+        self.key.push(tag.0);
+        self.key.extend_from_slice(&tag.1.to_le_bytes());
+        for w in &state.marking {
+            self.key.extend_from_slice(&w.to_le_bytes());
+        }
+        self.key.extend(state.active.iter().map(|&a| u8::from(a)));
+        if let Some(&i) = self.index.get(&self.key) {
+            let (set, nets, mask) = &self.cones[i as usize];
+            out.set.clone_from(set);
+            out.nets = *nets;
+            out.mask.clone_from(mask);
+            return;
+        }
+        cones.cone(start, net, state, enabled, out);
+        if self.cones.len() >= MAX_CONES {
+            self.index.clear();
+            self.cones.clear();
+        }
+        self.index.insert(self.key.clone(), self.cones.len() as u32);
+        self.cones
+            .push((out.set.clone(), out.nets, out.mask.clone()));
+    }
+}
+
 /// What one transition may do, for the cones.
 struct Reach {
     net: NetId,
