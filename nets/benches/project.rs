@@ -21,16 +21,12 @@
 //! A profiling loop: `PETREL_PROJECT_BENCH_ONLY=1` (one check, one thread).
 //! The whole report, to compare two builds: `PETREL_PROJECT_BENCH_DUMP=FILE`
 //! (written for one thread and, to `FILE.2`, for two).
-//! The memo of runs: `PETREL_PROJECT_BENCH_MEMO=off` leaves it out (the
-//! same binary without it, to compare), `=count` prints its hits, misses
-//! and size after each check, `=check` also runs the player on every hit
-//! and says whether anything differed.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use divan::Bencher;
-use nets::verify::project::{check_probed, MemoProbe, Options, ProjectReport};
+use nets::verify::project::{check, Options, ProjectReport};
 use nets::Project;
 
 #[path = "../../gateway/benches/support/busy.rs"]
@@ -95,37 +91,6 @@ fn project() -> Arc<Project> {
     let project =
         nets::load::load_with(&Folder(example()), &catalog()).unwrap_or_else(|e| panic!("{e:?}"));
     Arc::new(project)
-}
-
-/// The memo's probe `PETREL_PROJECT_BENCH_MEMO` asks for, if any.
-fn probe() -> Option<Arc<MemoProbe>> {
-    let mode = std::env::var("PETREL_PROJECT_BENCH_MEMO").ok()?;
-    Some(Arc::new(MemoProbe {
-        off: mode == "off",
-        cross_check: mode == "check",
-        ..MemoProbe::default()
-    }))
-}
-
-/// The check, with the memo's probe asked for (its counts printed).
-fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
-    let probe = probe();
-    let report = check_probed(project, options, probe.as_ref());
-    if let Some(p) = probe.filter(|p| !p.off) {
-        let n = |a: &std::sync::atomic::AtomicU64| a.load(std::sync::atomic::Ordering::Relaxed);
-        let (hits, misses, bypassed) = (n(&p.hits), n(&p.misses), n(&p.bypassed));
-        println!(
-            "memo: {hits} hits, {misses} misses, {bypassed} bypassed ({:.1} % hits), peak {:.1} MB per worker, emptied {} times, {} mismatches",
-            100.0 * hits as f64 / (hits + misses + bypassed).max(1) as f64,
-            n(&p.peak_bytes) as f64 / 1e6,
-            n(&p.cleared),
-            p.mismatches().len(),
-        );
-        for m in p.mismatches().iter().take(5) {
-            println!("  {m}");
-        }
-    }
-    report
 }
 
 fn options(threads: usize) -> Options<'static> {

@@ -27,7 +27,6 @@ pub mod graph;
 mod levels;
 pub mod pnml;
 pub mod project;
-mod project_memo;
 mod project_states;
 pub mod ptnet;
 pub mod reference;

@@ -49,9 +49,7 @@ use std::sync::{Arc, Mutex};
 use super::graph::{self, Csr};
 use super::levels;
 pub use super::levels::Proviso;
-use super::project_memo;
-pub use super::project_memo::MemoProbe;
-use super::project_states::{self, Abs, Codec, Scratch};
+use super::project_states::{Abs, Codec, Scratch};
 use super::stubborn::{Class, Stubborn};
 use super::symmetry::Symmetry;
 use crate::event::Event;
@@ -220,18 +218,7 @@ impl ProjectReport {
 
 /// Checks a project as a whole and, if asked, each net in it and alone.
 pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
-    check_probed(project, options, None)
-}
-
-/// [`check`], with `probe` saying how the memo of runs is used (left out,
-/// or cross-checked against the player on every hit) and counting its
-/// hits: for the bench and the tests (the report is the same either way).
-pub fn check_probed(
-    project: &Arc<Project>,
-    options: &Options,
-    probe: Option<&Arc<MemoProbe>>,
-) -> ProjectReport {
-    let (explored, reduction) = explore_reduced(project, options, probe);
+    let (explored, reduction) = explore_reduced(project, options);
     // The whole project's verdict, then each net's (on the threads asked
     // for: each verdict reads the exploration only).
     let scopes: Vec<Option<NetId>> = if options.each_net {
@@ -298,21 +285,19 @@ pub fn check_probed(
                 report(offset + k);
             }
         };
-        let explored = Explorer::new(copy, options.symmetry, options.partial_order)
-            .probed(probe)
-            .run(
-                options.max_states,
-                options.threads,
-                options.proviso,
-                options.progress.map(|_| &progress as &dyn Fn(usize)),
-            );
-        let explored = match explored.symmetry_broken() {
-            // The copy's symmetry does not hold for the player: whole.
-            Some(_) => Explorer::new(explored.project.clone(), false, options.partial_order)
-                .probed(probe)
-                .run(options.max_states, options.threads, options.proviso, None),
-            None => explored,
-        };
+        let explored = Explorer::new(copy, options.symmetry, options.partial_order).run(
+            options.max_states,
+            options.threads,
+            options.proviso,
+            options.progress.map(|_| &progress as &dyn Fn(usize)),
+        );
+        let explored =
+            match explored.symmetry_broken() {
+                // The copy's symmetry does not hold for the player: whole.
+                Some(_) => Explorer::new(explored.project.clone(), false, options.partial_order)
+                    .run(options.max_states, options.threads, options.proviso, None),
+                None => explored,
+            };
         done += explored.space.store.len();
         // Static warnings of the copy (events the absent nets emit look
         // produced by nothing) say nothing of the net: left out.
@@ -480,7 +465,7 @@ const MAX_SHORTENED: usize = 64;
 /// (with symmetry, one per orbit), each as its marked flat places: what
 /// [`Report::dead_markings`] counts.
 pub fn dead_markings(project: &Arc<Project>, options: &Options) -> Vec<Vec<usize>> {
-    let (explored, _) = explore_reduced(project, options, None);
+    let (explored, _) = explore_reduced(project, options);
     let n = explored.space.store.len();
     let labels = &explored.labels;
     let mut live = vec![false; n];
@@ -534,33 +519,25 @@ pub fn dead_markings(project: &Arc<Project>, options: &Options) -> Vec<Vec<usize
 
 /// Explores `project` with the reductions `options` asks for; when the
 /// player breaks the symmetry the model has, explores again without it.
-fn explore_reduced(
-    project: &Arc<Project>,
-    options: &Options,
-    probe: Option<&Arc<MemoProbe>>,
-) -> (Explored, Reduction) {
-    let explored = Explorer::new(project.clone(), options.symmetry, options.partial_order)
-        .probed(probe)
-        .run(
-            options.max_states,
-            options.threads,
-            options.proviso,
-            options.progress,
-        );
+fn explore_reduced(project: &Arc<Project>, options: &Options) -> (Explored, Reduction) {
+    let explored = Explorer::new(project.clone(), options.symmetry, options.partial_order).run(
+        options.max_states,
+        options.threads,
+        options.proviso,
+        options.progress,
+    );
     let mut notes = Vec::new();
     let explored = match explored.symmetry_broken() {
         Some(why) => {
             notes.push(format!(
                 "symmetry not used: the player's order of vehicles decides a step ({why})"
             ));
-            Explorer::new(project.clone(), false, options.partial_order)
-                .probed(probe)
-                .run(
-                    options.max_states,
-                    options.threads,
-                    options.proviso,
-                    options.progress,
-                )
+            Explorer::new(project.clone(), false, options.partial_order).run(
+                options.max_states,
+                options.threads,
+                options.proviso,
+                options.progress,
+            )
         }
         None => explored,
     };
@@ -704,10 +681,6 @@ struct Explorer {
     /// A step whose outcome the player's order of vehicles decided (the
     /// first found): the symmetry does not hold, the exploration stops.
     broken: Mutex<Option<String>>,
-    /// The cones of the inputs, when the memo of runs is used.
-    cones: Option<project_memo::Cones>,
-    /// How the memo is used, and what it counted.
-    probe: Option<Arc<MemoProbe>>,
 }
 
 #[derive(Default)]
@@ -748,29 +721,6 @@ struct Worker {
     /// The canonical key of a successor, and a buffer for its images.
     canon: Vec<u8>,
     image: Vec<u8>,
-    /// The memo of runs ([`super::project_memo`]), the key being looked
-    /// up, and the state a remembered outcome is applied to (whose
-    /// pending calls are `concrete`'s numbered `patched_pending`).
-    memo: project_memo::Memo,
-    cone: project_memo::Cone,
-    /// The immediate transitions enabled in the state being expanded.
-    enabled: Vec<u64>,
-    /// The cones worked out so far.
-    cones: project_memo::ConeCache,
-    memo_key: Vec<u8>,
-    patched: Option<State>,
-    patched_pending: u64,
-}
-
-/// What one input's runs added to a state's successors.
-#[derive(Default)]
-struct Edge {
-    /// One of them was stored before the state (or is it).
-    known: bool,
-    /// One was pushed.
-    pushed: bool,
-    /// Every run's outcome was kept by the memo (when recording).
-    remembered: bool,
 }
 
 /// An exploration, ready for verdicts.
@@ -814,13 +764,6 @@ impl levels::Explore for Explorer {
             used: Vec::new(),
             canon: Vec::new(),
             image: Vec::new(),
-            memo: project_memo::Memo::default(),
-            cone: project_memo::Cone::default(),
-            enabled: Vec::new(),
-            cones: project_memo::ConeCache::default(),
-            memo_key: Vec::new(),
-            patched: None,
-            patched_pending: u64::MAX,
         }
     }
 
@@ -895,8 +838,6 @@ impl Explorer {
             symmetry: None,
             stubborn: None,
             broken: Mutex::new(None),
-            cones: None,
-            probe: None,
         };
         // What is known of every result the nets' actions can await.
         let project = explorer.project.clone();
@@ -961,25 +902,7 @@ impl Explorer {
             let stubborn = Stubborn::new(&project, &names);
             explorer.stubborn = Some(stubborn);
         }
-        if explorer.symmetry.is_none() && explorer.stubborn.is_none() {
-            let waiting: Vec<Vec<(NetId, TransitionId)>> = explorer
-                .externals
-                .iter()
-                .map(|x| x.waiting.clone())
-                .collect();
-            explorer.cones = project_memo::Cones::of(&project, &waiting);
-        }
         explorer
-    }
-
-    /// The explorer with `probe` deciding how the memo of runs is used
-    /// (and counting); without one, the memo is used, nothing counted.
-    fn probed(mut self, probe: Option<&Arc<MemoProbe>>) -> Explorer {
-        if probe.is_some_and(|p| p.off) {
-            self.cones = None;
-        }
-        self.probe = probe.cloned();
-        self
     }
 
     fn run(
@@ -1217,9 +1140,6 @@ impl Explorer {
         }
         let abs = self.codec.decode(key);
         w.concrete_current = false;
-        if let Some(cones) = &self.cones {
-            cones.enabled_immediates(&abs.state, &mut w.enabled);
-        }
         let inputs = self.inputs(&abs);
         // The ample sets, when the stubborn sets reduce in this state (and
         // the search does not ask for every input).
@@ -1258,9 +1178,7 @@ impl Explorer {
 
     /// The successors of the state `key` (decoded: `abs`) by one input;
     /// whether one of them was stored before it (or is it) or the input
-    /// changed nothing. The outcome comes from the memo of runs when the
-    /// state agrees with one met before on the input's cone
-    /// ([`super::project_memo`]); else the player runs it.
+    /// changed nothing.
     fn input_successors(
         &self,
         w: &mut Worker,
@@ -1269,395 +1187,133 @@ impl Explorer {
         input: &Input,
         out: &mut levels::Successors<'_>,
     ) -> bool {
-        w.this_input.clear();
-        w.this_input_keys.clear();
-        let mut concrete = w.concrete.take().unwrap_or_else(|| abs.state.clone());
-        let (seq_before, pending_changed) =
-            set_concrete(abs, input, &mut concrete, w.concrete_current);
-        w.concrete_current = true;
-        w.pending_number += u64::from(pending_changed);
-        let mut memo = std::mem::take(&mut w.memo);
-        let probe = self.probe.as_deref();
-        let mut cone = std::mem::take(&mut w.cone);
-        let edge: Edge;
-        if self.cone(abs, input, &w.enabled, &mut w.cones, &mut cone) {
-            let cone = &cone;
-            w.memo_key.clear();
-            self.input_key(abs, input, cone, &mut w.memo_key);
-            project_memo::project_key(cone, &abs.state, &mut w.memo_key);
-            let h = project_states::hash(&w.memo_key);
-            match memo.get(&w.memo_key, h) {
-                Some(outcomes) if probe.is_some_and(|p| p.cross_check) => {
-                    let mut by_memo = Vec::new();
-                    self.replay(
-                        w,
-                        key,
-                        abs,
-                        seq_before,
-                        &concrete,
-                        (&memo, cone, outcomes),
-                        Some(&mut by_memo),
-                        None,
-                    );
-                    let mut by_player = Vec::new();
-                    edge = self.run_player(
-                        w,
-                        key,
-                        abs,
-                        input,
-                        seq_before,
-                        &concrete,
-                        None,
-                        Some(&mut by_player),
-                        out,
-                    );
-                    if by_memo != by_player {
-                        if let Some(p) = probe {
-                            let text = |runs: &[(Vec<u8>, u32)]| -> Vec<String> {
-                                runs.iter()
-                                    .map(|(_, l)| w.labels[*l as usize].1.text.clone())
-                                    .collect()
-                            };
-                            let m = format!(
-                                "memo {:?} / player {:?} (same keys: {})",
-                                text(&by_memo),
-                                text(&by_player),
-                                by_memo
-                                    .iter()
-                                    .map(|r| &r.0)
-                                    .eq(by_player.iter().map(|r| &r.0))
-                            );
-                            if let Ok(mut all) = p.mismatches.lock() {
-                                all.push(m);
-                            }
-                        }
-                    }
-                    if let Some(p) = probe {
-                        p.count(&p.hits);
-                    }
-                }
-                Some(outcomes) => {
-                    edge = self.replay(
-                        w,
-                        key,
-                        abs,
-                        seq_before,
-                        &concrete,
-                        (&memo, cone, outcomes),
-                        None,
-                        Some(out),
-                    );
-                    if let Some(p) = probe {
-                        p.count(&p.hits);
-                    }
-                }
-                None => {
-                    memo.begin(&w.memo_key, h, probe);
-                    edge = self.run_player(
-                        w,
-                        key,
-                        abs,
-                        input,
-                        seq_before,
-                        &concrete,
-                        Some((cone, &mut memo)),
-                        None,
-                        out,
-                    );
-                    memo.end(edge.remembered, probe);
-                    if let Some(p) = probe {
-                        p.count(if edge.remembered {
-                            &p.misses
-                        } else {
-                            &p.bypassed
-                        });
-                    }
-                }
-            }
-        } else {
-            edge = self.run_player(w, key, abs, input, seq_before, &concrete, None, None, out);
-        }
-        w.memo = memo;
-        w.cone = cone;
-        w.concrete = Some(concrete);
-        edge.known || !edge.pushed
-    }
-
-    /// Puts the cone of `input` in the state `abs` into `cone`; false
-    /// when the memo of runs is not used (see [`super::project_memo`]).
-    fn cone(
-        &self,
-        abs: &Abs,
-        input: &Input,
-        enabled: &[u64],
-        cache: &mut project_memo::ConeCache,
-        cone: &mut project_memo::Cone,
-    ) -> bool {
-        let Some(cones) = self.cones.as_ref() else {
-            return false;
-        };
-        let (tag, start, net) = match input {
-            Input::Event(i) => ((0, *i as u32), cones.event(*i), None),
-            Input::Timer(i) => match abs.state.timers.get(*i) {
-                Some(t) => ((1, t.net as u32), cones.net(t.net), Some(t.net)),
-                None => return false,
-            },
-            Input::Result { id, .. } => match abs.state.pending.get(id) {
-                Some(p) => ((1, p.net as u32), cones.net(p.net), Some(p.net)),
-                None => return false,
-            },
-        };
-        cache.cone(cones, tag, start, net, &abs.state, enabled, cone);
-        true
-    }
-
-    /// The memo key's first bytes: which input (by what names it, not by
-    /// its index in the state).
-    fn input_key(&self, abs: &Abs, input: &Input, cone: &project_memo::Cone, out: &mut Vec<u8>) {
-        match input {
-            Input::Event(i) => {
-                out.push(0);
-                out.extend_from_slice(&(*i as u32).to_le_bytes());
-            }
-            Input::Timer(i) => {
-                let t = &abs.state.timers[*i];
-                out.push(1);
-                out.extend_from_slice(&(t.net as u32).to_le_bytes());
-                out.extend_from_slice(&(t.timer as u32).to_le_bytes());
-            }
-            Input::Result { id, reason } => {
-                let net = abs.state.pending.get(id).map_or(u32::MAX, |p| p.net as u32);
-                out.push(2);
-                out.extend_from_slice(&net.to_le_bytes());
-                let rank = project_memo::pending_rank(cone, &abs.state, *id);
-                out.extend_from_slice(&rank.to_le_bytes());
-                out.extend_from_slice(&reason.map_or(u32::MAX, |r| r as u32).to_le_bytes());
-            }
-        }
-    }
-
-    /// The edges of one input from the memo's `outcomes`: each applied to
-    /// `concrete` and encoded, then as [`Explorer::add_edge`] (into `out`,
-    /// or, for the cross-check, only listed in `seen`).
-    #[allow(clippy::too_many_arguments)]
-    fn replay(
-        &self,
-        w: &mut Worker,
-        key: &[u8],
-        abs: &Abs,
-        seq_before: u64,
-        concrete: &State,
-        (memo, cone, outcomes): (
-            &project_memo::Memo,
-            &project_memo::Cone,
-            &[project_memo::Outcome],
-        ),
-        mut seen: Option<&mut Vec<(Vec<u8>, u32)>>,
-        mut out: Option<&mut levels::Successors<'_>>,
-    ) -> Edge {
-        let mut edge = Edge::default();
-        let mut patched = w.patched.take().unwrap_or_else(|| concrete.clone());
-        if w.patched_pending != w.pending_number {
-            patched.pending.clone_from(&concrete.pending);
-            w.patched_pending = w.pending_number;
-        }
-        for o in outcomes {
-            memo.apply(cone, o, concrete, &mut patched);
-            self.codec.encode(
-                &patched,
-                seq_before,
-                T + 1,
-                Some(abs),
-                &|id, p| id < abs.state.next_id || self.relevant(p),
-                &mut w.scratch,
-                &mut w.next,
-            );
-            memo.undo(o, concrete, &mut patched);
-            if let Some(seen) = seen.as_deref_mut() {
-                seen.push((w.next.clone(), o.label));
-            }
-            if let Some(out) = out.as_deref_mut() {
-                self.add_edge(w, key, abs, o.label, &[], out, &mut edge);
-            }
-        }
-        w.patched = Some(patched);
-        edge
-    }
-
-    /// Runs `input` on `concrete` with every sequence of oracle answers,
-    /// adding the edges (see [`Explorer::add_edge`]); with `record`, the
-    /// memo keeps each run's outcome; with `seen`, each run's successor
-    /// and label are listed.
-    #[allow(clippy::too_many_arguments)]
-    fn run_player(
-        &self,
-        w: &mut Worker,
-        key: &[u8],
-        abs: &Abs,
-        input: &Input,
-        seq_before: u64,
-        concrete: &State,
-        mut record: Option<(&project_memo::Cone, &mut project_memo::Memo)>,
-        mut seen: Option<&mut Vec<(Vec<u8>, u32)>>,
-        out: &mut levels::Successors<'_>,
-    ) -> Edge {
-        let mut edge = Edge {
-            remembered: true,
-            ..Edge::default()
-        };
-        // The worker's player, out of the worker while it runs.
-        let mut slot = w.player.take();
-        // Every sequence of oracle answers, depth first: a stack of
-        // ranges of `todo_bits`.
-        w.todo.clear();
-        w.todo_bits.clear();
-        w.todo.push(0..0);
-        while let Some(range) = w.todo.pop() {
-            w.answers.clear();
-            w.answers.extend_from_slice(&w.todo_bits[range.clone()]);
-            w.todo_bits.truncate(range.start);
-            let answers = &w.answers;
-            let Some(player) = self.step(&mut slot, concrete, w.pending_number, input, answers)
-            else {
-                edge.remembered = false;
-                continue;
-            };
-            // Read where the player recorded them (its next restore
-            // clears them).
-            let effects: &[Effect] = player.recorded();
-            let questions: &[Question] = player.oracle().map_or(&[], |o| &o.questions);
-            let asked = questions.len();
-            for k in answers.len()..asked {
-                let start = w.todo_bits.len();
-                w.todo_bits.extend_from_slice(answers);
-                w.todo_bits.resize(start + k, false);
-                w.todo_bits.push(true);
-                w.todo.push(start..w.todo_bits.len());
-            }
-            w.used.clear();
-            w.used.extend_from_slice(answers);
-            w.used.resize(asked, false);
-            let used = &w.used;
-            self.codec.encode(
-                player.state(),
-                seq_before,
-                T + 1,
-                Some(abs),
-                &|id, p| {
-                    // The state's own pending calls are in its key, so
-                    // relevant (relevance depends on a call's net and
-                    // kind only; without symmetry, the key is the state
-                    // encoded): only the step's new ones are looked up.
-                    (id < abs.state.next_id && self.symmetry.is_none()) || self.relevant(p)
-                },
-                &mut w.scratch,
-                &mut w.next,
-            );
-            let mut unsafe_by = None;
-            let mut livelock = None;
-            let mut fires = false;
-            for e in effects {
-                match e {
-                    Effect::Fired { .. } => fires = true,
-                    Effect::Fault {
-                        fault: Fault::DoubleToken { net, .. },
-                        ..
-                    } => unsafe_by = unsafe_by.or(Some(*net)),
-                    Effect::Fault {
-                        fault: Fault::Livelock { net, .. },
-                        ..
-                    } => livelock = Some(Some(*net)),
-                    Effect::Fault {
-                        fault: Fault::Overflow { .. },
-                        ..
-                    } => livelock = livelock.or(Some(None)),
-                    _ => {}
-                }
-            }
-            let nothing = !fires && unsafe_by.is_none() && livelock.is_none() && w.next == key;
-            if nothing && record.is_none() && seen.is_none() {
-                continue; // nothing happened: not an edge
-            }
-            // The step's label, known by what its text says.
-            label_key(abs, input, questions, used, effects, &mut w.label_key);
-            let local = match w.index.get(&w.label_key) {
-                Some(&l) => l,
-                None => {
-                    let l = w.labels.len() as u32;
-                    let label = Label::new(
-                        self.describe(abs, input, questions, used, effects),
-                        fired_of(effects),
-                        unsafe_by,
-                        livelock,
-                    );
-                    w.labels.push((w.label_key.clone(), label));
-                    w.index.insert(w.label_key.clone(), l);
-                    w.global.push(u32::MAX);
-                    l
-                }
-            };
-            if let Some((cone, memo)) = record.as_mut() {
-                edge.remembered &= memo.record(cone, concrete, player.state(), local);
-            }
-            if let Some(seen) = seen.as_deref_mut() {
-                seen.push((w.next.clone(), local));
-            }
-            let effects = if self.symmetry.is_some() {
-                player.recorded()
-            } else {
-                &[]
-            };
-            self.add_edge(w, key, abs, local, effects, out, &mut edge);
-        }
-        w.player = slot;
-        edge
-    }
-
-    /// One run's successor (its key in the worker's `next`, its label
-    /// `local`) as an edge of the state `key`: none if nothing happened,
-    /// none if an earlier answer sequence of the same input ended alike;
-    /// else pushed. `effects`: the run's, read by the symmetry only.
-    #[allow(clippy::too_many_arguments)]
-    fn add_edge(
-        &self,
-        w: &mut Worker,
-        key: &[u8],
-        abs: &Abs,
-        local: u32,
-        effects: &[Effect],
-        out: &mut levels::Successors<'_>,
-        edge: &mut Edge,
-    ) {
-        let label = &w.labels[local as usize].1;
-        if !label.fires(None)
-            && label.unsafe_by.is_none()
-            && label.livelock.is_none()
-            && w.next == key
+        let mut known = false;
+        let mut pushed = false;
         {
-            return; // nothing happened: not an edge
-        }
-        // Answers that end alike (an event lacking `lat` or `lon`
-        // is rejected the same way) make one edge: the first.
-        if w.this_input.iter().any(|(l, range)| {
-            w.this_input_keys[range.clone()] == w.next[..] && w.labels[*l as usize].1.alike(label)
-        }) {
-            return;
-        }
-        let start = w.this_input_keys.len();
-        w.this_input_keys.extend_from_slice(&w.next);
-        w.this_input.push((local, start..w.this_input_keys.len()));
-        edge.pushed = true;
-        match &self.symmetry {
-            None => edge.known |= out.push(local, &w.next, 0),
-            Some(sym) => {
-                if let Some(why) = sym.order_decides(&self.project, &abs.state, effects) {
-                    self.note_broken(why);
+            w.this_input.clear();
+            w.this_input_keys.clear();
+            let concrete = w.concrete.get_or_insert_with(|| abs.state.clone());
+            let (seq_before, pending_changed) =
+                set_concrete(abs, input, concrete, w.concrete_current);
+            w.concrete_current = true;
+            w.pending_number += u64::from(pending_changed);
+            let concrete = &*concrete;
+            // Every sequence of oracle answers, depth first: a stack of
+            // ranges of `todo_bits`.
+            w.todo.clear();
+            w.todo_bits.clear();
+            w.todo.push(0..0);
+            while let Some(range) = w.todo.pop() {
+                w.answers.clear();
+                w.answers.extend_from_slice(&w.todo_bits[range.clone()]);
+                w.todo_bits.truncate(range.start);
+                let answers = &w.answers;
+                let Some(player) =
+                    self.step(&mut w.player, concrete, w.pending_number, input, answers)
+                else {
+                    continue;
+                };
+                // Read where the player recorded them (its next restore
+                // clears them).
+                let effects: &[Effect] = player.recorded();
+                let questions: &[Question] = player.oracle().map_or(&[], |o| &o.questions);
+                let asked = questions.len();
+                for k in answers.len()..asked {
+                    let start = w.todo_bits.len();
+                    w.todo_bits.extend_from_slice(answers);
+                    w.todo_bits.resize(start + k, false);
+                    w.todo_bits.push(true);
+                    w.todo.push(start..w.todo_bits.len());
                 }
-                let perm = sym.canonical(&w.next, &mut w.canon, &mut w.image);
-                edge.known |= out.push(local, &w.canon, perm);
+                w.used.clear();
+                w.used.extend_from_slice(answers);
+                w.used.resize(asked, false);
+                let used = &w.used;
+                self.codec.encode(
+                    player.state(),
+                    seq_before,
+                    T + 1,
+                    Some(abs),
+                    &|id, p| {
+                        // The state's own pending calls are in its key, so
+                        // relevant (relevance depends on a call's net and
+                        // kind only; without symmetry, the key is the state
+                        // encoded): only the step's new ones are looked up.
+                        (id < abs.state.next_id && self.symmetry.is_none()) || self.relevant(p)
+                    },
+                    &mut w.scratch,
+                    &mut w.next,
+                );
+                let mut unsafe_by = None;
+                let mut livelock = None;
+                let mut fires = false;
+                for e in effects {
+                    match e {
+                        Effect::Fired { .. } => fires = true,
+                        Effect::Fault {
+                            fault: Fault::DoubleToken { net, .. },
+                            ..
+                        } => unsafe_by = unsafe_by.or(Some(*net)),
+                        Effect::Fault {
+                            fault: Fault::Livelock { net, .. },
+                            ..
+                        } => livelock = Some(Some(*net)),
+                        Effect::Fault {
+                            fault: Fault::Overflow { .. },
+                            ..
+                        } => livelock = livelock.or(Some(None)),
+                        _ => {}
+                    }
+                }
+                if !fires && unsafe_by.is_none() && livelock.is_none() && w.next == key {
+                    continue; // nothing happened: not an edge
+                }
+                // The step's label, known by what its text says.
+                label_key(abs, input, questions, used, effects, &mut w.label_key);
+                let local = match w.index.get(&w.label_key) {
+                    Some(&l) => l,
+                    None => {
+                        let l = w.labels.len() as u32;
+                        let label = Label::new(
+                            self.describe(abs, input, questions, used, effects),
+                            fired_of(effects),
+                            unsafe_by,
+                            livelock,
+                        );
+                        w.labels.push((w.label_key.clone(), label));
+                        w.index.insert(w.label_key.clone(), l);
+                        w.global.push(u32::MAX);
+                        l
+                    }
+                };
+                // Answers that end alike (an event lacking `lat` or `lon`
+                // is rejected the same way) make one edge: the first.
+                let label = &w.labels[local as usize].1;
+                if w.this_input.iter().any(|(l, range)| {
+                    w.this_input_keys[range.clone()] == w.next[..]
+                        && w.labels[*l as usize].1.alike(label)
+                }) {
+                    continue;
+                }
+                let start = w.this_input_keys.len();
+                w.this_input_keys.extend_from_slice(&w.next);
+                w.this_input.push((local, start..w.this_input_keys.len()));
+                pushed = true;
+                match &self.symmetry {
+                    None => known |= out.push(local, &w.next, 0),
+                    Some(sym) => {
+                        if let Some(why) = sym.order_decides(&self.project, &abs.state, effects) {
+                            self.note_broken(why);
+                        }
+                        let perm = sym.canonical(&w.next, &mut w.canon, &mut w.image);
+                        known |= out.push(local, &w.canon, perm);
+                    }
+                }
             }
         }
+        known || !pushed
     }
+
     /// Runs one input on `concrete` (see [`set_concrete`]) with the oracle's
     /// `answers`, in the worker's player: the player after it.
     /// `pending` numbers `concrete`'s pending calls (see
