@@ -27,6 +27,16 @@ macro_rules! say_part {
     }};
 }
 
+/// `println!` that never panics: a reader that stopped reading (`| head`)
+/// or a full disk loses the lines, not the process (a flight under way
+/// goes on, and its recording is finished).
+macro_rules! show {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 mod cli;
 mod clock;
 mod edit;

@@ -199,6 +199,54 @@ fn the_demo_s_motor_failure_locks_out_that_rover_alone() {
 }
 
 #[test]
+fn the_demo_flies_on_when_its_reader_stops_reading() {
+    // `petrel demo | head`: the live log's reader is gone at once. The demo
+    // neither panics nor stops mid-drive: it finishes, says so on exit 0,
+    // and its recording is whole.
+    let _turn = team::turn();
+    let dir = Scratch::new("ugv-demo-head");
+    let record = dir.join("demo.mcap");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .args(["demo", "--example", "ugv-bottleneck", "--no-http"])
+        .args([
+            "--scenario",
+            "motor-failure",
+            "--speed",
+            "10",
+            "--timeout",
+            "60",
+        ])
+        .arg("--record")
+        .arg(&record)
+        .current_dir(&dir)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("petrel demo starts");
+    drop(child.stdout.take());
+    let mut running = Running::new(child);
+    let end = Instant::now() + Duration::from_secs(80);
+    while !running.exited() && Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let (_, err, code) = running.stop();
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(code, Some(0), "{err}");
+    let replay = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("replay")
+        .arg(&record)
+        .arg(project())
+        .arg("--check-against")
+        .output()
+        .expect("petrel replay runs");
+    assert!(
+        replay.status.success(),
+        "{}",
+        String::from_utf8_lossy(&replay.stderr)
+    );
+}
+
+#[test]
 fn the_demo_refuses_a_scenario_of_the_other_example() {
     let (code, out, err, _) = demo(
         "ugv-demo-payload",

@@ -241,7 +241,7 @@ fn print_json(
         "threads": s.threads,
         "seconds": seconds,
     });
-    println!("{out}");
+    show!("{out}");
 }
 
 fn sequence(names: &[String]) -> String {
@@ -263,30 +263,31 @@ fn print_report(
 ) {
     let s = &x.summary;
     let ok = |b: bool| if b { "yes" } else { "NO" };
-    println!("net {name}: {places} places, {transitions} transitions");
-    println!("  states          {}", s.states);
-    println!("  edges           {}", s.edges);
-    println!("  dead markings   {}", s.dead_markings);
-    println!("  max tokens      {}", s.max_tokens);
-    println!("  1-safe          {}", ok(s.safe));
-    println!("  deadlock-free   {}", ok(s.dead_markings == 0));
+    show!("net {name}: {places} places, {transitions} transitions");
+    show!("  states          {}", s.states);
+    show!("  edges           {}", s.edges);
+    show!("  dead markings   {}", s.dead_markings);
+    show!("  max tokens      {}", s.max_tokens);
+    show!("  1-safe          {}", ok(s.safe));
+    show!("  deadlock-free   {}", ok(s.dead_markings == 0));
     if let Some(p) = x.unsafe_example() {
-        println!("  unsafe after    {}", sequence(&x.names(&p)));
+        show!("  unsafe after    {}", sequence(&x.names(&p)));
     }
     if let Some(p) = x.deadlock_example() {
-        println!("  deadlock after  {}", sequence(&x.names(&p)));
+        show!("  deadlock after  {}", sequence(&x.names(&p)));
     }
     if let Some(l) = loops {
         if l.cyclic_components == 0 {
-            println!("  loops           none");
+            show!("  loops           none");
         } else {
-            println!(
+            show!(
                 "  loops           {} cyclic component(s), the largest of {} markings",
-                l.cyclic_components, l.largest
+                l.cyclic_components,
+                l.largest
             );
         }
         for c in &l.listed {
-            println!(
+            show!(
                 "    after {}: {} (back to the same marking)",
                 sequence(&x.names(&c.prefix)),
                 x.names(&c.cycle).join(" ")
@@ -294,15 +295,15 @@ fn print_report(
         }
     }
     for w in &v.warnings {
-        println!("  warning: {w}");
+        show!("  warning: {w}");
     }
-    println!(
+    show!(
         "  time            {seconds:.3} s ({} engine, {} thread(s), {:.1} bytes per marking)",
         engine_name(s.engine),
         s.threads,
         s.stored_bytes as f64 / s.states.max(1) as f64
     );
-    println!(
+    show!(
         "{}",
         if v.holds() {
             "OK: 1-safe and deadlock-free"

@@ -46,7 +46,7 @@ pub fn run(args: Args) -> VerbResult {
         say!("the nets call no program: nothing to write");
     }
     for path in written {
-        println!("{}", path.display());
+        show!("{}", path.display());
     }
     Ok(Outcome::Success)
 }

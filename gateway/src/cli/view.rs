@@ -149,7 +149,7 @@ fn measure(history: &History, n: usize, indexed: std::time::Duration) {
         .collect();
     times.sort_by(f64::total_cmp);
     let pct = |p: f64| times[((times.len() - 1) as f64 * p) as usize];
-    println!(
+    show!(
         "{}",
         serde_json::json!({
             "indexed_s": indexed.as_secs_f64(),

@@ -39,13 +39,13 @@ impl Log {
             let category = s("category");
             *self.events.entry(category.clone()).or_default() += 1;
             let params = params_text(&v["params"]);
-            println!("{t:>8.1}s  event    {}{params}  [{category}]", s("event"));
+            show!("{t:>8.1}s  event    {}{params}  [{category}]", s("event"));
             return;
         }
         match v["effect"].as_str() {
             Some("command") => {
                 self.commands += 1;
-                println!(
+                show!(
                     "{t:>8.1}s  command  {}{}  ({})",
                     s("verb"),
                     params_text(&v["args"]),
@@ -54,7 +54,7 @@ impl Log {
             }
             Some("call") => {
                 self.calls += 1;
-                println!(
+                show!(
                     "{t:>8.1}s  call     {}.{}{}  ({})",
                     s("program"),
                     s("function"),
@@ -75,15 +75,15 @@ impl Log {
                     .unwrap_or_default();
                 let now = marked.join(", ");
                 if !net.is_empty() && self.phase.get(&net) != Some(&now) {
-                    println!("{t:>8.1}s  {net:<8} {now}");
+                    show!("{t:>8.1}s  {net:<8} {now}");
                     self.phase.insert(net, now);
                 }
             }
             Some("dropped") => {
                 self.dropped += 1;
-                println!("{t:>8.1}s  dropped  {} ({})", s("event"), s("reason"));
+                show!("{t:>8.1}s  dropped  {} ({})", s("event"), s("reason"));
             }
-            Some("fault") => println!("{t:>8.1}s  FAULT    {v}"),
+            Some("fault") => show!("{t:>8.1}s  FAULT    {v}"),
             _ => {}
         }
     }

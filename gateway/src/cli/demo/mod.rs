@@ -408,7 +408,7 @@ impl Gateway {
 /// One timeline line: as it is (`--json`), or in the live log.
 fn print(json: bool, log: &mut Log, line: &str) {
     if json {
-        println!("{line}");
+        show!("{line}");
     } else if let Ok(v) = serde_json::from_str::<Json>(line) {
         log.line(&v);
     }

@@ -63,7 +63,7 @@ pub(super) fn fly(flight: &Flight) -> VerbResult {
         for f in state.faults.iter().skip(faults_seen) {
             if !args.json {
                 let what = if f.cleared { "cleared" } else { "injected" };
-                println!("{:>8.1}s  !! {what}: {:?}", f.time_s, f.fault);
+                show!("{:>8.1}s  !! {what}: {:?}", f.time_s, f.fault);
             }
         }
         faults_seen = state.faults.len();
@@ -93,10 +93,10 @@ pub(super) fn fly(flight: &Flight) -> VerbResult {
 }
 
 fn summary(state: &SimState, log: &Log, record: &Path, wall: Duration, timed_out: bool) {
-    println!();
-    println!("— flight summary —");
+    show!();
+    show!("— flight summary —");
     if timed_out {
-        println!(
+        show!(
             "the flight did not end in time: stopped after {:.0} s of wall time",
             wall.as_secs_f64()
         );
@@ -110,7 +110,7 @@ fn summary(state: &SimState, log: &Log, record: &Path, wall: Duration, timed_out
     } else {
         "on the ground"
     };
-    println!(
+    show!(
         "{:.0} s of flight time simulated in {:.0} s; the aircraft {end} at {:.6}, {:.6}, {}",
         state.time_s,
         wall.as_secs_f64(),
@@ -119,15 +119,15 @@ fn summary(state: &SimState, log: &Log, record: &Path, wall: Duration, timed_out
         if state.armed { "armed" } else { "disarmed" }
     );
     let reached: Vec<String> = state.reached.iter().map(|r| r.seq.to_string()).collect();
-    println!("mission items reached: {}", list_or_none(&reached));
-    println!(
+    show!("mission items reached: {}", list_or_none(&reached));
+    show!(
         "camera events: {}; payload actions: {}; faults injected: {}",
         state.camera.len(),
         state.payload_actions.len(),
         state.faults.iter().filter(|f| !f.cleared).count()
     );
-    println!("{}", log.counts());
-    println!(
+    show!("{}", log.counts());
+    show!(
         "recorded to {} (petrel replay {} PROJECT --check-against)",
         record.display(),
         record.display()

@@ -195,14 +195,14 @@ fn look(
                 } else {
                     "injected into"
                 };
-                println!("{:>8.1}s  !! {what} {who}: {:?}", f.time_s, f.fault);
+                show!("{:>8.1}s  !! {what} {who}: {:?}", f.time_s, f.fault);
             }
         }
         watch.faults_seen[i] = s.faults.len();
         let inside = in_bottleneck(s);
         if inside != watch.inside[i] && live {
             let verb = if inside { "enters" } else { "leaves" };
-            println!("{:>8.1}s  ** {who} {verb} the bottleneck", s.time_s);
+            show!("{:>8.1}s  ** {who} {verb} the bottleneck", s.time_s);
         }
         watch.inside[i] = inside;
         if inside {
@@ -216,7 +216,7 @@ fn look(
     if inside_now > 1 {
         watch.both_inside += 1;
         if live {
-            println!("          !! both rovers in the bottleneck");
+            show!("          !! both rovers in the bottleneck");
         }
     }
 }
@@ -230,16 +230,16 @@ fn summary(
     wall: Duration,
     timed_out: bool,
 ) {
-    println!();
-    println!("— drive summary —");
+    show!();
+    show!("— drive summary —");
     if timed_out {
-        println!(
+        show!(
             "the rovers did not end in time: stopped after {:.0} s of wall time",
             wall.as_secs_f64()
         );
     }
     let time = all.iter().map(|(_, s)| s.time_s).fold(0.0, f64::max);
-    println!(
+    show!(
         "{time:.0} s of driving simulated in {:.0} s",
         wall.as_secs_f64()
     );
@@ -249,7 +249,7 @@ fn summary(
         };
         let (n, e) = at(s);
         let goal = (n - rover.goal.0).hypot(e - rover.goal.1) < 3.0;
-        println!(
+        show!(
             "{}: {} at {n:.1} m north, {e:.1} m east{}, {}, {}; faults injected: {}",
             name(vehicles, rover.system),
             if goal { "at its goal" } else { "stopped" },
@@ -263,12 +263,13 @@ fn summary(
             s.faults.iter().filter(|f| !f.cleared).count()
         );
     }
-    println!(
+    show!(
         "the bottleneck: {} looks at both rovers, {} with both inside",
-        watch.looks, watch.both_inside
+        watch.looks,
+        watch.both_inside
     );
-    println!("{}", log.counts());
-    println!(
+    show!("{}", log.counts());
+    show!(
         "recorded to {} (petrel replay {} PROJECT --check-against)",
         record.display(),
         record.display()
