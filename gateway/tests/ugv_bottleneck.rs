@@ -119,10 +119,20 @@ fn a_motor_failure_is_catastrophic_and_the_team_holds() {
 /// log and the summary), stderr and its folder (the recording `demo.mcap`);
 /// stopped after `wall` if it has not ended by then.
 fn demo(name: &str, args: &[&str], wall: Duration) -> (Option<i32>, String, String, Scratch) {
+    demo_read(name, args, wall, true)
+}
+
+/// [`demo`], its stdout read (`true`) or closed at once (`| head`).
+fn demo_read(
+    name: &str,
+    args: &[&str],
+    wall: Duration,
+    read: bool,
+) -> (Option<i32>, String, String, Scratch) {
     let _turn = team::turn();
     let dir = Scratch::new(name);
     let record = dir.join("demo.mcap");
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
         .args([
             "demo",
             "--example",
@@ -137,6 +147,9 @@ fn demo(name: &str, args: &[&str], wall: Duration) -> (Option<i32>, String, Stri
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("petrel demo starts");
+    if !read {
+        drop(child.stdout.take());
+    }
     let mut running = Running::new(child);
     let end = Instant::now() + wall;
     while !running.exited() && Instant::now() < end {
@@ -144,6 +157,22 @@ fn demo(name: &str, args: &[&str], wall: Duration) -> (Option<i32>, String, Stri
     }
     let (out, err, code) = running.stop();
     (code, out, err, dir)
+}
+
+/// The demo's recording replays and agrees with what it recorded.
+fn assert_replays(dir: &Scratch) {
+    let replay = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("replay")
+        .arg(dir.join("demo.mcap"))
+        .arg(project())
+        .arg("--check-against")
+        .output()
+        .expect("petrel replay runs");
+    assert!(
+        replay.status.success(),
+        "{}",
+        String::from_utf8_lossy(&replay.stderr)
+    );
 }
 
 #[test]
@@ -164,35 +193,22 @@ fn the_demo_drives_the_blocked_scenario_and_its_recording_replays() {
     // SYNC asked PLN to replan, and the other rover was sent round.
     assert!(out.contains("PLN.replan"), "{out}");
     assert!(out.contains("PLN.detour"), "{out}");
-    let record = dir.join("demo.mcap");
-    let replay = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
-        .arg("replay")
-        .arg(&record)
-        .arg(project())
-        .arg("--check-against")
-        .output()
-        .expect("petrel replay runs");
-    assert!(
-        replay.status.success(),
-        "{}",
-        String::from_utf8_lossy(&replay.stderr)
-    );
+    assert_replays(&dir);
 }
+
+/// The motor-failure scenario, ten times real time.
+const MOTOR_FAILURE: &[&str] = &[
+    "--scenario",
+    "motor-failure",
+    "--speed",
+    "10",
+    "--timeout",
+    "60",
+];
 
 #[test]
 fn the_demo_s_motor_failure_locks_out_that_rover_alone() {
-    let (code, out, err, _) = demo(
-        "ugv-demo-motor",
-        &[
-            "--scenario",
-            "motor-failure",
-            "--speed",
-            "10",
-            "--timeout",
-            "60",
-        ],
-        Duration::from_secs(80),
-    );
+    let (code, out, err, _) = demo("ugv-demo-motor", MOTOR_FAILURE, Duration::from_secs(80));
     assert_eq!(code, Some(0), "{out}\n{err}");
     assert!(out.contains("locked out at the end: R1\n"), "{out}");
     assert!(out.contains("engine_failure@R1"), "{out}");
@@ -203,47 +219,15 @@ fn the_demo_flies_on_when_its_reader_stops_reading() {
     // `petrel demo | head`: the live log's reader is gone at once. The demo
     // neither panics nor stops mid-drive: it finishes, says so on exit 0,
     // and its recording is whole.
-    let _turn = team::turn();
-    let dir = Scratch::new("ugv-demo-head");
-    let record = dir.join("demo.mcap");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
-        .args(["demo", "--example", "ugv-bottleneck", "--no-http"])
-        .args([
-            "--scenario",
-            "motor-failure",
-            "--speed",
-            "10",
-            "--timeout",
-            "60",
-        ])
-        .arg("--record")
-        .arg(&record)
-        .current_dir(&dir)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("petrel demo starts");
-    drop(child.stdout.take());
-    let mut running = Running::new(child);
-    let end = Instant::now() + Duration::from_secs(80);
-    while !running.exited() && Instant::now() < end {
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    let (_, err, code) = running.stop();
+    let (code, _, err, dir) = demo_read(
+        "ugv-demo-head",
+        MOTOR_FAILURE,
+        Duration::from_secs(80),
+        false,
+    );
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(code, Some(0), "{err}");
-    let replay = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
-        .arg("replay")
-        .arg(&record)
-        .arg(project())
-        .arg("--check-against")
-        .output()
-        .expect("petrel replay runs");
-    assert!(
-        replay.status.success(),
-        "{}",
-        String::from_utf8_lossy(&replay.stderr)
-    );
+    assert_replays(&dir);
 }
 
 #[test]
