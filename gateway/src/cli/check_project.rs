@@ -84,7 +84,7 @@ pub fn run(
         layers: &layers.layers,
     };
     if crate::preflight::remember_held(&inputs, &options, &report) && !as_json {
-        say!("remembered: `petrel run`, `petrel mirror` and `petrel demo` start without exploring it again while the nets, the profile and Petrel stay the same (--recheck explores anyway)");
+        say!("remembered: `petrel run` and `petrel demo` start without exploring it again while the nets, the profile and Petrel stay the same (--recheck explores anyway)");
     }
     if as_json {
         let mut obj = report_json(&report.project, seconds);
