@@ -13,10 +13,9 @@
 //! During the exploration a successor is its state id (partition and
 //! index); those in another partition are stored by that partition's
 //! thread, which answers with their id at the end of the level (until then
-//! their slot holds [`PENDING`]). On one partition the ids are already
-//! dense numbers in breadth-first order; on several, `renumber.rs` lays
-//! all the arcs out again in breadth-first numbers
-//! ([`Edges::from_lists`]).
+//! their slot holds [`PENDING`]). Once every partition's size is known,
+//! [`Edges::number`] turns the ids into dense node numbers (all partitions
+//! one after the other).
 
 use super::engine::split_id;
 use super::store::prefetch;
@@ -27,8 +26,8 @@ pub const PENDING: u32 = u32::MAX;
 /// One partition's arcs.
 #[derive(Debug, Clone)]
 pub struct Edges {
-    /// Successors, marking after marking: state ids (or dense numbers, see
-    /// [`Edges::from_lists`]).
+    /// Successors, marking after marking: state ids, then dense numbers
+    /// after [`Edges::number`].
     targets: Vec<u32>,
     /// `starts[i]..starts[i + 1]`: the successors of marking `i`.
     starts: Vec<u32>,
@@ -56,24 +55,6 @@ impl Edges {
             overflow: false,
             leads_to_first: 0,
         }
-    }
-
-    /// Arcs already laid out: `starts[i]..starts[i + 1]` the successors of
-    /// marking `i` in `targets`, dense numbers (one partition);
-    /// `to_first`: whether some arc leads to marking 0.
-    pub fn from_lists(starts: Vec<u32>, targets: Vec<u32>, to_first: bool) -> Edges {
-        Edges {
-            targets,
-            starts,
-            unanswered: 0,
-            overflow: false,
-            leads_to_first: u32::from(to_first),
-        }
-    }
-
-    /// Number of arcs kept.
-    pub fn arc_count(&self) -> usize {
-        self.targets.len()
     }
 
     /// Records that the next marking (in store order) has `k` successors,
@@ -147,20 +128,33 @@ impl Edges {
         self.targets.shrink_to_fit();
     }
 
-    /// The successors of local marking `i` (state ids, or dense numbers
-    /// once laid out again, see `renumber.rs`).
+    /// Turns the state ids into dense node numbers, the partitions starting
+    /// at `offsets` (all one after the other). False (and nothing kept)
+    /// when an id names no partition.
+    pub fn number(&mut self, offsets: &[u32]) -> bool {
+        if offsets.len() <= 2 {
+            // one partition: ids are indices in it
+            return true;
+        }
+        for t in &mut self.targets {
+            let (q, l) = split_id(*t);
+            match offsets.get(q) {
+                Some(&o) => *t = o.wrapping_add(l),
+                None => {
+                    self.give_up();
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// The successors of local marking `i` (dense numbers after
+    /// [`Edges::number`]).
     #[inline]
     pub fn targets(&self, i: u32) -> &[u32] {
         let (a, b) = (self.starts[i as usize], self.starts[i as usize + 1]);
         &self.targets[a as usize..b as usize]
-    }
-
-    /// The successors of local marking `i`, if kept.
-    #[inline]
-    pub fn targets_checked(&self, i: u32) -> Option<&[u32]> {
-        let a = *self.starts.get(i as usize)?;
-        let b = *self.starts.get(i as usize + 1)?;
-        self.targets.get(a as usize..b as usize)
     }
 
     /// A hint to load where the successors of local marking `i` start.
@@ -212,15 +206,15 @@ mod tests {
         assert!(!e.complete(2));
         assert!(e.complete(3));
         assert!(e.leads_to_first(0) && !e.leads_to_first(1));
-        assert_eq!(e.targets(0), &[state_id(0, 7), state_id(1, 9)]);
+        // partition 0 holds 20 markings, partition 1 starts at 20
+        assert!(e.number(&[0, 20, 40]));
+        assert_eq!(e.targets(0), &[7, 29]);
         assert!(e.targets(1).is_empty());
         assert_eq!(e.targets(2), &[0]);
-        assert_eq!(e.targets_checked(3), None);
-        assert_eq!(e.arc_count(), 3);
     }
 
     #[test]
-    fn an_unanswered_slot_is_not_complete() {
+    fn an_unanswered_slot_or_a_stray_id_keeps_nothing() {
         let mut e = Edges::new();
         e.node(1);
         e.push(PENDING);
@@ -228,9 +222,12 @@ mod tests {
         // an answer of PENDING answers nothing
         e.answer(0, PENDING);
         assert!(!e.complete(1));
-        e.answer(0, state_id(5, 1));
+        let mut e = Edges::new();
+        e.node(1);
+        e.push(state_id(5, 1));
         assert!(e.complete(1));
-        assert!(!e.leads_to_first(0) && e.targets(0) == [state_id(5, 1)]);
+        assert!(!e.number(&[0, 3, 6]));
+        assert!(!e.complete(1));
     }
 
     proptest! {
@@ -262,8 +259,11 @@ mod tests {
                 e.answer(slot, id);
             }
             prop_assert!(e.complete(lists.len() as u32));
+            // partitions far apart in the dense numbering
+            let offsets: Vec<u32> = (0..=parts as u32).map(|p| p * 7).collect();
+            prop_assert!(e.number(&offsets));
             for (i, l) in lists.iter().enumerate() {
-                let want: Vec<u32> = l.iter().map(|&(q, x)| state_id(q, x)).collect();
+                let want: Vec<u32> = l.iter().map(|&(q, x)| offsets[q].wrapping_add(x)).collect();
                 prop_assert_eq!(e.targets(i as u32), want.as_slice());
             }
         }

@@ -14,7 +14,6 @@ use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
 use std::sync::{Barrier, Mutex, MutexGuard};
 
 use super::edges::{Edges, PENDING};
-use super::renumber::renumber;
 use super::semantics::{load_words, mix, push_words, to_words, Semantics, Stop};
 use super::store::{Inserted, Store};
 
@@ -115,14 +114,9 @@ pub struct Run<S> {
     /// For each partition, where each breadth-first level starts (markings
     /// are stored level after level).
     pub levels: Vec<Vec<u32>>,
-    /// The successors of every marking, when asked for and complete (else
-    /// empty), in dense numbers: on one partition its own (indices in
-    /// breadth-first order); on more, one [`Edges`] for all markings
-    /// numbered again in breadth-first order (see `renumber.rs`).
+    /// For each partition, the successors of its markings (dense numbers, see
+    /// [`Edges`]), when asked for and complete; else empty.
     pub arcs: Vec<Edges>,
-    /// With the arcs of several partitions numbered again: the state id of
-    /// each number. Else empty.
-    pub ids: Vec<u32>,
 }
 
 impl<S: Semantics> Run<S> {
@@ -314,7 +308,6 @@ pub fn run<S: Semantics>(
         fired: Vec::new(),
         levels: Vec::with_capacity(n),
         arcs: Vec::new(),
-        ids: Vec::new(),
     };
     let mut dead_at: Option<(u32, u32)> = None;
     let mut unsafe_at: Option<(u32, u32)> = None;
@@ -353,18 +346,26 @@ pub fn run<S: Semantics>(
             .zip(&run.stores)
             .all(|(a, s)| a.complete(s.len()))
     {
-        if n == 1 {
-            // one partition: ids are dense numbers in breadth-first order
-            arcs.iter_mut().for_each(Edges::shrink);
-            run.arcs = arcs;
+        let offsets = run.offsets();
+        let number = |a: &mut Edges| {
+            a.shrink();
+            a.number(&offsets)
+        };
+        // state ids to dense numbers: one pass over the arcs, each
+        // partition's on its own thread
+        let numbered = if n == 1 {
+            arcs.iter_mut().all(number)
         } else {
-            // the markings in breadth-first order, and their arcs with them
-            let sizes: Vec<u32> = run.stores.iter().map(Store::len).collect();
-            if let Some(r) = renumber(&arcs, &sizes, state_id(p0, 0)) {
-                drop(arcs);
-                run.arcs = vec![r.arcs];
-                run.ids = r.ids;
-            }
+            std::thread::scope(|scope| {
+                let handles: Vec<_> = arcs
+                    .iter_mut()
+                    .map(|a| scope.spawn(move || number(a)))
+                    .collect();
+                handles.into_iter().all(|h| h.join().unwrap_or(false))
+            })
+        };
+        if numbered {
+            run.arcs = arcs;
         }
     }
     run.first_dead = dead_at.map(|(_, id)| id);

@@ -23,7 +23,6 @@
 
 mod edges;
 mod engine;
-mod renumber;
 mod semantics;
 mod store;
 
@@ -568,10 +567,29 @@ impl<S: Semantics> Successors for Graph<'_, S> {
 }
 
 /// The reachability graph over the successors kept by the exploration
-/// ([`Options::keep_arcs`]), its markings in breadth-first order.
+/// ([`Options::keep_arcs`]), in dense numbers.
 struct Kept<'r> {
-    arcs: &'r edges::Edges,
-    nodes: usize,
+    arcs: &'r [edges::Edges],
+    offsets: Vec<u32>,
+}
+
+impl Kept<'_> {
+    /// The partition of `node` and its index there.
+    #[inline]
+    fn local(&self, node: u32) -> (usize, u32) {
+        // a few partitions: a scan beats a binary search
+        let mut p = 0;
+        while p + 1 < self.arcs.len() && node >= self.offsets[p + 1] {
+            p += 1;
+        }
+        (p, node - self.offsets[p])
+    }
+
+    #[inline]
+    fn of(&self, node: u32) -> &[u32] {
+        let (p, i) = self.local(node);
+        self.arcs[p].targets(i)
+    }
 }
 
 impl Adjacency for Kept<'_> {
@@ -581,31 +599,34 @@ impl Adjacency for Kept<'_> {
         Self: 'a;
 
     fn nodes(&self) -> usize {
-        self.nodes
+        self.offsets.last().copied().unwrap_or(0) as usize
     }
 
     #[inline]
     fn targets(&self, node: u32) -> Self::Targets<'_> {
-        self.arcs.targets(node).iter().copied()
+        self.of(node).iter().copied()
     }
 
     #[inline]
     fn prefetch(&self, node: u32, near: bool) {
-        if near {
-            self.arcs.prefetch_targets(node);
-        } else {
-            self.arcs.prefetch_start(node);
+        let (p, i) = self.local(node);
+        if let Some(a) = self.arcs.get(p) {
+            if near {
+                a.prefetch_targets(i);
+            } else {
+                a.prefetch_start(i);
+            }
         }
     }
 }
 
 impl Successors for Kept<'_> {
     fn node_count(&self) -> usize {
-        self.nodes
+        self.offsets.last().copied().unwrap_or(0) as usize
     }
 
     fn successors(&self, node: u32, out: &mut Vec<u32>) {
-        out.extend_from_slice(self.arcs.targets(node));
+        out.extend_from_slice(self.of(node));
     }
 }
 
@@ -616,83 +637,61 @@ fn id_of(offsets: &[u32], node: u32) -> u32 {
     state_id(p, node - offsets[p])
 }
 
-/// How the nodes of a reachability graph name the stored markings.
-enum Numbers<'r> {
-    /// Partitions one after the other from these offsets (store order).
-    Stored(Vec<u32>),
-    /// In breadth-first order: the state id of each node (see
-    /// `renumber.rs`; on one partition ids are these numbers).
-    BreadthFirst(&'r [u32]),
-}
-
-impl Numbers<'_> {
-    fn id(&self, node: u32) -> u32 {
-        match self {
-            Numbers::Stored(offsets) => id_of(offsets, node),
-            Numbers::BreadthFirst([]) => node,
-            Numbers::BreadthFirst(ids) => ids.get(node as usize).copied().unwrap_or(node),
-        }
+fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize, threads: usize) -> Loops {
+    if r.arcs.is_empty() {
+        let g = Graph::new(r);
+        let sccs = graph::strongly_connected_components(&g);
+        loops_in(r, &g, &sccs, max_listed, None)
+    } else {
+        let kept = Kept {
+            arcs: &r.arcs,
+            offsets: r.offsets(),
+        };
+        let first = r.level_ids(0).next().unwrap_or(0);
+        let initial = dense_of(&kept.offsets, first);
+        let (p0, l0) = split_id(first);
+        let entered = l0 != 0 || r.arcs.iter().any(|a| a.leads_to_first(p0));
+        // breadth-first order over all partitions: level by level
+        let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
+        let order: Vec<u32> = (0..depths)
+            .flat_map(|k| r.level_ids(k))
+            .map(|id| dense_of(&kept.offsets, id))
+            .collect();
+        // A shortest cycle through the initial marking: listed first (its
+        // component is the first reached), and its markings, at every
+        // depth down to the deepest on the cycle, all reach the initial
+        // one: the sweeps start from them. Searched over the whole graph,
+        // it is the same as searched in the component: no marking outside
+        // leads back.
+        let cycle = if entered && max_listed > 0 {
+            graph::shortest_cycle(&kept, initial, |_| true)
+        } else {
+            None
+        };
+        let seeds = cycle.as_deref().unwrap_or_default();
+        let sccs = graph::strongly_connected_components_from(
+            &kept, initial, entered, seeds, order, threads,
+        );
+        let known = cycle.map(|c| (initial, c));
+        loops_in(r, &kept, &sccs, max_listed, known)
     }
 }
 
-fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize, threads: usize) -> Loops {
-    let Some(arcs) = r.arcs.first() else {
-        let g = Graph::new(r);
-        let sccs = graph::strongly_connected_components(&g);
-        return loops_in(
-            r,
-            &g,
-            &sccs,
-            max_listed,
-            None,
-            &Numbers::Stored(r.offsets()),
-        );
-    };
-    // one partition, or several numbered again: breadth-first order, the
-    // initial marking first
-    let nodes = r.states() as usize;
-    let kept = Kept { arcs, nodes };
-    let entered = arcs.leads_to_first(0);
-    let order: Vec<u32> = (0..nodes as u32).collect();
-    // A shortest cycle through the initial marking: listed first (its
-    // component is the first reached), and its markings, at every depth
-    // down to the deepest on the cycle, all reach the initial one: the
-    // sweeps start from them. Searched over the whole graph, it is the
-    // same as searched in the component: no marking outside leads back.
-    let cycle = if entered && max_listed > 0 {
-        graph::shortest_cycle(&kept, 0, |_| true)
-    } else {
-        None
-    };
-    let seeds = cycle.as_deref().unwrap_or_default();
-    let sccs = graph::strongly_connected_components_from(&kept, 0, entered, seeds, order, threads);
-    let known = cycle.map(|c| (0, c));
-    loops_in(
-        r,
-        &kept,
-        &sccs,
-        max_listed,
-        known,
-        &Numbers::BreadthFirst(&r.ids),
-    )
-}
-
-/// The dense number of state id `id` in store order.
+/// The dense number of state id `id`.
 fn dense_of(offsets: &[u32], id: u32) -> u32 {
     let (p, l) = split_id(id);
     offsets[p] + l
 }
 
-/// The loops of `g`, the reachability graph of `r` whose nodes are
-/// `numbers`, whose strongly connected components are `sccs`; `known`: a
-/// node and a shortest cycle through it, found already.
+/// The loops of `g`, the reachability graph of `r` in dense numbering,
+/// whose strongly connected components are `sccs`; `known`: a node and a
+/// shortest cycle through it, found already.
 fn loops_in<S: Semantics>(
     r: &Run<S>,
     g: &impl Successors,
     sccs: &Sccs,
     max_listed: usize,
     mut known: Option<(u32, Vec<u32>)>,
-    numbers: &Numbers,
 ) -> Loops {
     let cyclic_components = sccs.cyclic.iter().filter(|&&c| c).count() as u64;
     let largest = sccs
@@ -704,40 +703,21 @@ fn loops_in<S: Semantics>(
         .max()
         .unwrap_or(0);
     // The first-reached node of each cyclic component (smallest depth, then
-    // smallest state id: partition, then index in it), for the first
-    // `max_listed` components in that order.
+    // smallest number), for the first `max_listed` components in that
+    // order: markings level by level, in increasing numbers in each.
+    let offsets = r.offsets();
+    let dense = |id: u32| dense_of(&offsets, id);
     let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
     let mut seen = vec![false; sccs.count()];
     let mut entries: Vec<(usize, u32)> = Vec::new();
-    let fresh = |v: u32, seen: &[bool]| {
-        let c = sccs.component[v as usize] as usize;
-        sccs.cyclic[c] && !seen[c]
-    };
-    let mut level_start = 0u32;
     'levels: for k in 0..depths {
         if entries.len() >= max_listed || entries.len() as u64 == cyclic_components {
             break;
         }
-        // the level's nodes, in state id order
-        let level: Vec<u32> = match numbers {
-            Numbers::Stored(offsets) => r.level_ids(k).map(|id| dense_of(offsets, id)).collect(),
-            Numbers::BreadthFirst(ids) => {
-                let size = r.level_ids(k).count() as u32;
-                let range = level_start..level_start + size;
-                level_start += size;
-                if !range.clone().any(|v| fresh(v, &seen)) {
-                    continue;
-                }
-                let mut level: Vec<u32> = range.collect();
-                if !ids.is_empty() {
-                    level.sort_unstable_by_key(|&v| numbers.id(v));
-                }
-                level
-            }
-        };
-        for v in level {
-            if fresh(v, &seen) {
-                let c = sccs.component[v as usize] as usize;
+        for id in r.level_ids(k) {
+            let v = dense(id);
+            let c = sccs.component[v as usize] as usize;
+            if sccs.cyclic[c] && !seen[c] {
                 seen[c] = true;
                 entries.push((c, v));
                 if entries.len() >= max_listed {
@@ -749,14 +729,14 @@ fn loops_in<S: Semantics>(
     let listed = entries
         .into_iter()
         .map(|(c, v)| {
-            let prefix = firing_sequence(r, &chain_to(r, numbers.id(v)));
+            let prefix = firing_sequence(r, &chain_to(r, id_of(&offsets, v)));
             let cycle_nodes = match known.take_if(|(k, _)| *k == v) {
                 Some((_, nodes)) => nodes,
                 None => graph::shortest_cycle(g, v, |w| sccs.component[w as usize] as usize == c)
                     .unwrap_or_default(),
             };
-            let mut ids: Vec<u32> = cycle_nodes.iter().map(|&w| numbers.id(w)).collect();
-            ids.push(numbers.id(v));
+            let mut ids: Vec<u32> = cycle_nodes.iter().map(|&w| id_of(&offsets, w)).collect();
+            ids.push(id_of(&offsets, v));
             Loop {
                 states: sccs.sizes[c],
                 prefix,
