@@ -564,28 +564,7 @@ fn terminal_component(
     n: usize,
     threads: usize,
 ) -> Option<Vec<u64>> {
-    let mut seen = vec![0u64; n.div_ceil(64)];
-    set_bit(&mut seen, node);
-    let mut queue = vec![node];
-    let mut head = 0;
-    while let Some(&v) = queue.get(head) {
-        // the queue's order is nowhere near the nodes': load the nodes
-        // ahead in two steps (where their successors start, then these)
-        if let Some(&u) = queue.get(head + 2 * PREFETCH) {
-            g.prefetch(u, false);
-        }
-        if let Some(&u) = queue.get(head + PREFETCH) {
-            g.prefetch(u, true);
-        }
-        head += 1;
-        for w in g.targets(v) {
-            if !bit(&seen, w) {
-                set_bit(&mut seen, w);
-                queue.push(w);
-            }
-        }
-    }
-    drop(queue);
+    let seen = reached_by_levels(g, node, n);
     // the nodes it reaches, in the candidates' order
     candidates.retain(|&v| bit(&seen, v));
     drop(seen);
@@ -595,7 +574,51 @@ fn terminal_component(
     rest.is_empty().then_some(back)
 }
 
-/// How far ahead in its queue a breadth-first search asks for the nodes it
+/// The nodes `node` reaches, as a bitset: a breadth-first search level by
+/// level, each level's nodes read in increasing order, so that their
+/// successors are read in the order they lie in memory, whatever order the
+/// search reaches them in (after an exploration on two threads that order
+/// is nowhere near the nodes': BENCHMARKS.md, stop 29). The nodes a few
+/// places ahead are asked for in two steps (where their successors start,
+/// then these).
+fn reached_by_levels(g: &impl Adjacency, node: u32, n: usize) -> Vec<u64> {
+    let words = n.div_ceil(64);
+    let mut seen = vec![0u64; words];
+    let mut next = vec![0u64; words];
+    set_bit(&mut seen, node);
+    let mut level = vec![node];
+    while !level.is_empty() {
+        let (mut lo, mut hi) = (words, 0);
+        for (i, &v) in level.iter().enumerate() {
+            if let Some(&u) = level.get(i + 2 * PREFETCH) {
+                g.prefetch(u, false);
+            }
+            if let Some(&u) = level.get(i + PREFETCH) {
+                g.prefetch(u, true);
+            }
+            for w in g.targets(v) {
+                let (at, m) = ((w >> 6) as usize, 1u64 << (w & 63));
+                if seen[at] & m == 0 {
+                    seen[at] |= m;
+                    next[at] |= m;
+                    lo = lo.min(at);
+                    hi = hi.max(at + 1);
+                }
+            }
+        }
+        level.clear();
+        for (at, word) in next.iter_mut().enumerate().take(hi).skip(lo) {
+            let mut bits = std::mem::take(word);
+            while bits != 0 {
+                level.push((at * 64) as u32 + bits.trailing_zeros());
+                bits &= bits - 1;
+            }
+        }
+    }
+    seen
+}
+
+/// How far ahead in its level a breadth-first search asks for the nodes it
 /// will read ([`Adjacency::prefetch`]).
 const PREFETCH: usize = 8;
 
@@ -961,6 +984,29 @@ mod tests {
         let from = strongly_connected_components_from(&g, order[0], true, &[], (0..n).collect(), 1);
         same_components(&g, &tarjan, &from);
         assert_eq!(from.sizes, vec![n]);
+    }
+
+    #[test]
+    fn the_search_by_levels_reaches_what_a_plain_search_reaches() {
+        for (n, extra, seed) in [(1, 0, 1), (50, 20, 2), (300, 100, 3), (5000, 2000, 4)] {
+            let g = random_graph(n, extra, seed);
+            for from in [0, n / 2, n - 1] {
+                let mut want = vec![false; n as usize];
+                let mut stack = vec![from];
+                want[from as usize] = true;
+                while let Some(v) = stack.pop() {
+                    for w in Adjacency::targets(&g, v) {
+                        if !want[w as usize] {
+                            want[w as usize] = true;
+                            stack.push(w);
+                        }
+                    }
+                }
+                let got = reached_by_levels(&g, from, n as usize);
+                let got: Vec<bool> = (0..n).map(|v| bit(&got, v)).collect();
+                assert_eq!(got, want, "n {n}, from {from}");
+            }
+        }
     }
 
     #[test]
