@@ -83,7 +83,10 @@ pub fn run(
         files: &files,
         layers: &layers.layers,
     };
-    if crate::preflight::remember_held(&inputs, &options, &report) && !as_json {
+    // Said at a terminal only, as the progress is: a script's stderr stays
+    // empty when all is well.
+    let remembered = crate::preflight::remember_held(&inputs, &options, &report);
+    if remembered && !as_json && std::io::stderr().is_terminal() {
         say!("remembered: `petrel run` and `petrel demo` start without exploring it again while the nets, the profile and Petrel stay the same (--recheck explores anyway)");
     }
     if as_json {
