@@ -77,18 +77,6 @@ pub fn run(
     let report = check(&project, &options);
     let seconds = start.elapsed().as_secs_f64();
     meter.finish();
-    // The same check as `petrel run`'s pre-flight one: it starts without
-    // exploring again.
-    let inputs = crate::preflight::Inputs {
-        files: &files,
-        layers: &layers.layers,
-    };
-    // Said at a terminal only, as the progress is: a script's stderr stays
-    // empty when all is well.
-    let remembered = crate::preflight::remember_held(&inputs, &options, &report);
-    if remembered && !as_json && std::io::stderr().is_terminal() {
-        say!("remembered: `petrel run` and `petrel demo` start without exploring it again while the nets, the profile and Petrel stay the same (--recheck explores anyway)");
-    }
     if as_json {
         let mut obj = report_json(&report.project, seconds);
         let nets: serde_json::Map<String, Value> = report
@@ -116,6 +104,18 @@ pub fn run(
         write_out(&format!("{obj}\n"))?;
     } else {
         write_out(&human(&name, &report, seconds))?;
+    }
+    // The same check as `petrel run`'s pre-flight one: it starts without
+    // exploring again.
+    let inputs = crate::preflight::Inputs {
+        files: &files,
+        layers: &layers.layers,
+    };
+    // Said at a terminal only, as the progress is: a script's stderr stays
+    // empty when all is well.
+    let remembered = crate::preflight::remember_held(&inputs, &options, &report);
+    if remembered && !as_json && std::io::stderr().is_terminal() {
+        say!("remembered: `petrel run` and `petrel demo` start without exploring it again while the nets, the profile and Petrel stay the same (--recheck explores anyway)");
     }
     Ok(if report.holds() {
         Outcome::Success
