@@ -489,3 +489,89 @@ fn draw_svg_lays_out_every_net_without_graphviz() {
     let (code, _, err) = petrel(&["draw", "examples/uav-flight-test", "--svg", "--dot"]);
     assert_eq!(code, 2, "one format: {err}");
 }
+
+#[test]
+fn absurd_times_and_speeds_are_bad_input_not_a_panic() {
+    // `--duration 1e30` used to panic turning seconds into a `Duration`
+    // (exit 101), as did a clock a million times too slow; now each is
+    // refused, naming the flag, before anything opens.
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &[
+                "run",
+                "examples/uav-flight-test",
+                "--mavlink",
+                "udpin:127.0.0.1:0",
+                "--no-record",
+                "--duration",
+                "1e30",
+            ],
+            "--duration must be a positive number of seconds",
+        ),
+        (
+            &[
+                "run",
+                "examples/uav-flight-test",
+                "--mavlink",
+                "udpin:127.0.0.1:0",
+                "--no-record",
+                "--duration",
+                "0.1",
+                "--time-scale",
+                "1e-300",
+            ],
+            "--time-scale must be a number from 0.001 to 10000",
+        ),
+        (
+            &[
+                "run",
+                "examples/uav-flight-test",
+                "--mavlink",
+                "udpin:127.0.0.1:0",
+                "--no-record",
+                "--duration",
+                "inf",
+            ],
+            "--duration must be",
+        ),
+        (
+            &[
+                "mirror",
+                "examples/uav-flight-test",
+                "--mavlink",
+                "udpin:127.0.0.1:0",
+                "--duration",
+                "1e30",
+            ],
+            "--duration must be",
+        ),
+        (
+            &["demo", "--no-http", "--timeout", "1e30"],
+            "--timeout must be a positive number of seconds",
+        ),
+        (
+            &["demo", "--no-http", "--speed", "1e-300"],
+            "--speed must be a number",
+        ),
+        (
+            &["demo", "--no-http", "--speed", "1e300"],
+            "--speed must be a number",
+        ),
+        (
+            &[
+                "replay",
+                "nowhere.mcap",
+                "examples/uav-flight-test",
+                "--speed",
+                "1e-300",
+            ],
+            "--speed must be a number from 0.001 to 1000000",
+        ),
+    ];
+    for (args, says) in cases {
+        let (code, _, err) = petrel(args);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}

@@ -234,3 +234,85 @@ fn a_petrel_check_that_held_spares_the_run_its_exploration() {
     assert_eq!(code, Some(0), "{err}");
     assert!(explored(&err), "{err}");
 }
+
+#[test]
+fn ctrl_c_during_the_demos_pre_flight_check_leaves_nothing_behind() {
+    // `petrel demo` unpacks its example into the temporary directory, then
+    // explores it (`--recheck`: seconds). Interrupted then, it removes the
+    // folder, records nothing and exits 130, as an interrupted command.
+    let scratch = Scratch::new("demo-interrupted");
+    let tmp = scratch.path().join("tmp");
+    std::fs::create_dir(&tmp).expect("tmp");
+    let record = scratch.path().join("demo.mcap");
+    let child = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .args(["demo", "--recheck", "--no-http", "--record"])
+        .arg(&record)
+        .env("TMPDIR", &tmp)
+        .env("XDG_CACHE_HOME", scratch.path().join("cache"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("petrel demo starts");
+    // Reaped however the test ends.
+    struct Reaped(std::process::Child);
+    impl Drop for Reaped {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+    let mut child = Reaped(child);
+    let unpacked = |tmp: &Path| -> Vec<PathBuf> {
+        std::fs::read_dir(tmp)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| {
+                p.file_name()
+                    .is_some_and(|n| n.to_string_lossy().starts_with("petrel-demo-"))
+            })
+            .collect()
+    };
+    let until = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    while unpacked(&tmp).is_empty() {
+        assert!(
+            std::time::Instant::now() < until,
+            "the demo never unpacked its example"
+        );
+        assert!(
+            child.0.try_wait().ok().flatten().is_none(),
+            "the demo ended before unpacking"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    // Its files written (a few kB), the exploration under way.
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    assert!(
+        child.0.try_wait().ok().flatten().is_none(),
+        "the demo ended before it could be interrupted"
+    );
+    let pid = libc::pid_t::try_from(child.0.id()).expect("a pid");
+    // SAFETY: kill(2) on our own child, which is not reaped yet.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGINT) }, 0);
+    let until = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    let status = loop {
+        if let Some(status) = child.0.try_wait().expect("wait") {
+            break status;
+        }
+        assert!(
+            std::time::Instant::now() < until,
+            "the demo did not stop on SIGINT"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    if let Some(mut e) = child.0.stderr.take() {
+        use std::io::Read;
+        let _ = e.read_to_string(&mut err);
+    }
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert!(err.contains("interrupted before the flight"), "{err}");
+    assert_eq!(unpacked(&tmp), Vec::<PathBuf>::new(), "{err}");
+    assert!(!record.exists(), "a recording was started");
+}

@@ -246,12 +246,18 @@ async fn run_refuses_a_project_that_fails_check_unless_unchecked() {
         .output()
         .await
         .expect("petrel runs");
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    // No autopilot on the link and no `[gateway] firmware`: the wait for
+    // its HEARTBEAT (up to 3 s) stays within `--duration`.
+    assert!(err.contains("no autopilot HEARTBEAT yet"), "{err}");
+    let after: f64 = err
+        .split("stopped after ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no `stopped after`: {err}"));
+    assert!(after < 2.5, "held {after} s for a --duration of 0.3 s: {err}");
 }
 
 /// A team runs (gateway/tests/team.rs), but a vehicle whose `profile` does

@@ -28,6 +28,7 @@ mod gateway;
 mod links;
 mod parameters;
 mod signals;
+pub(crate) use signals::Signals;
 
 use super::timeline;
 
@@ -383,21 +384,42 @@ impl ProfileChoice {
     }
 }
 
-/// `--duration` and `--time-scale` (`run` and `mirror`): positive numbers.
-pub(crate) fn check_timing(duration: Option<f64>, time_scale: f64) -> Result<(), miette::Report> {
-    if let Some(d) = duration {
-        if !(d.is_finite() && d > 0.0) {
-            return Err(miette::miette!(
-                "--duration must be a positive number of seconds, not {d}"
-            ));
-        }
-    }
-    if !(time_scale.is_finite() && time_scale > 0.0) {
+/// The longest wall time a verb waits (`--duration`, `--timeout`): about
+/// 31 years, far from where a `Duration` or an `Instant` overflows.
+const LONGEST_S: f64 = 1e9;
+/// Time factors (`--time-scale`, `--speed`) from this slowest one.
+const SLOWEST: f64 = 1e-3;
+/// The fastest simulated clock (`run --time-scale`, `demo --speed`); a
+/// replay may go faster ([`check_factor`]'s `fastest`).
+pub(crate) const FASTEST_CLOCK: f64 = 1e4;
+
+/// A wall time in seconds: positive, at most [`LONGEST_S`] (bad input, not a
+/// panic, for `1e30` or `inf`).
+pub(crate) fn check_seconds(flag: &str, seconds: f64) -> Result<(), miette::Report> {
+    if !(seconds.is_finite() && seconds > 0.0 && seconds <= LONGEST_S) {
         return Err(miette::miette!(
-            "--time-scale must be a positive number, not {time_scale}"
+            "{flag} must be a positive number of seconds up to {LONGEST_S:e}, not {seconds}"
         ));
     }
     Ok(())
+}
+
+/// A time factor: from [`SLOWEST`] to `fastest`.
+pub(crate) fn check_factor(flag: &str, factor: f64, fastest: f64) -> Result<(), miette::Report> {
+    if !(factor.is_finite() && (SLOWEST..=fastest).contains(&factor)) {
+        return Err(miette::miette!(
+            "{flag} must be a number from {SLOWEST} to {fastest}, not {factor}"
+        ));
+    }
+    Ok(())
+}
+
+/// `--duration` and `--time-scale` (`run` and `mirror`).
+pub(crate) fn check_timing(duration: Option<f64>, time_scale: f64) -> Result<(), miette::Report> {
+    if let Some(d) = duration {
+        check_seconds("--duration", d)?;
+    }
+    check_factor("--time-scale", time_scale, FASTEST_CLOCK)
 }
 
 /// Runs the gateway until its duration, a signal or `stop`.

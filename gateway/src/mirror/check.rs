@@ -21,6 +21,14 @@
 //! soon "the vehicle reported none": the mirror asks the vehicle for a
 //! heartbeat at that time ([`Check::poll_heartbeat_wanted`]), whose
 //! arrival proves the vehicle's records complete through it.
+//!
+//! Nothing is judged while the two views settle ([`SETTLE`]): rules
+//! compare a reading with the one before (`changed`, `prev`), and the two
+//! sides start reading at different moments, through different ports. The
+//! ground may hear ArduPlane's INITIALISING heartbeat and then MANUAL (a
+//! `mode_changed`) where the vehicle's first heartbeat was already MANUAL
+//! (its first reading: no event). Both saw the truth; neither is a
+//! disagreement an operator should be shown at boot.
 
 use std::collections::VecDeque;
 
@@ -50,6 +58,14 @@ pub const WINDOW: Window = Window {
 /// the loss itself (rules on a component's silence wait up to 15 s, the
 /// flight-test example's camera): it is not judged.
 pub const SILENCE: Micros = 20_000_000;
+
+/// Events of either side within this after the later of the two views'
+/// starts (the vehicle's player, or the snapshot the replica was restored
+/// from; the ground's first autopilot heartbeat) are not judged: by then
+/// each side has read every stream its rules compare at least once (the
+/// ground's slowest at 0.5 Hz) and a change one side sees is one the
+/// other saw the start of.
+pub const SETTLE: Micros = 2_000_000;
 
 /// Which side saw an event the other did not.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -113,7 +129,8 @@ pub struct Counts {
     /// Link events, not compared.
     pub skipped: u64,
     /// Events not judged: seen by one side while the ground was losing the
-    /// vehicle's frames, or by the ground before the replica's snapshot.
+    /// vehicle's frames, by the ground before the replica's snapshot, or by
+    /// either while the two views settled ([`SETTLE`]).
     pub unjudged: u64,
     /// The longest the vehicle saw a matched event after the ground, and
     /// the ground after the vehicle (vehicle time): the margins the window
@@ -136,6 +153,9 @@ pub struct Check {
     /// The vehicle's events before this time are unknown (the replica was
     /// restored from a snapshot taken then).
     known_from: Micros,
+    /// The ground's first autopilot heartbeat (vehicle time): its view's
+    /// start.
+    ground_from: Option<Micros>,
     /// Ground events not matched when seen (their time and name): if still
     /// unmatched half a window later, a heartbeat is asked for at the end
     /// of their window.
@@ -153,6 +173,7 @@ impl Check {
             reports: VecDeque::new(),
             lost: VecDeque::new(),
             known_from: 0,
+            ground_from: None,
             wanted: VecDeque::new(),
             counts: Counts::default(),
         }
@@ -198,6 +219,19 @@ impl Check {
         let before = self.ground.len();
         self.ground.retain(|g| g.time >= time);
         self.counts.unjudged += (before - self.ground.len()) as u64;
+    }
+
+    /// The ground heard the vehicle's autopilot's first heartbeat at vehicle
+    /// time `time` (the first call counts).
+    pub fn ground_from(&mut self, time: Micros) {
+        self.ground_from.get_or_insert(time);
+    }
+
+    /// Whether an event seen on one side only at `time` falls while the two
+    /// views settled: within [`SETTLE`] of the later start.
+    fn settling(&self, time: Micros) -> bool {
+        let start = self.known_from.max(self.ground_from.unwrap_or(0));
+        time < start.saturating_add(SETTLE)
     }
 
     /// Whether the ground lost frames between `from` and `to`.
@@ -308,7 +342,7 @@ impl Check {
                 .is_some_and(|g| g.time.saturating_add(vehicle_late) < v)
             {
                 let g = self.ground.pop_front().expect("checked");
-                if self.losing(g.time.saturating_sub(SILENCE), g.time) {
+                if self.losing(g.time.saturating_sub(SILENCE), g.time) || self.settling(g.time) {
                     self.counts.unjudged += 1;
                     continue;
                 }
@@ -331,10 +365,12 @@ impl Check {
                 .is_some_and(|v| v.time.saturating_add(ground_late) < gk)
             {
                 let v = self.vehicle.pop_front().expect("checked");
-                if self.losing(
-                    v.time.saturating_sub(ground_late),
-                    v.time.saturating_add(ground_late),
-                ) {
+                if self.settling(v.time)
+                    || self.losing(
+                        v.time.saturating_sub(ground_late),
+                        v.time.saturating_add(ground_late),
+                    )
+                {
                     self.counts.unjudged += 1;
                     continue;
                 }
@@ -451,8 +487,8 @@ mod tests {
     #[test]
     fn the_reverse_is_reported_with_the_grounds_nearest_evidence() {
         let mut c = Check::new(WINDOW);
-        c.ground(1_000_000, &ev("battery_low", Category::Safety));
-        c.advance(Some(1_000_000), Some(1_000_000));
+        c.ground(3_000_000, &ev("battery_low", Category::Safety));
+        c.advance(Some(3_000_000), Some(3_000_000));
         c.vehicle(40_000_000, &ev("battery_low", Category::Safety));
         c.advance(Some(43_000_000), Some(43_000_000));
         let reports: Vec<Disagreement> = std::iter::from_fn(|| c.poll()).collect();
@@ -461,8 +497,8 @@ mod tests {
             .iter()
             .find(|d| d.seen_by == Side::Vehicle)
             .expect("vehicle only");
-        assert_eq!(v.other.as_ref().map(|o| o.0), Some(1_000_000));
-        assert_eq!(v.event().params["ground_event_t"], nets::Value::Float(1.0));
+        assert_eq!(v.other.as_ref().map(|o| o.0), Some(3_000_000));
+        assert_eq!(v.event().params["ground_event_t"], nets::Value::Float(3.0));
     }
 
     #[test]
@@ -501,6 +537,42 @@ mod tests {
         c.advance(Some(90_000_000), Some(90_000_000));
         assert_eq!(c.poll(), None);
         assert_eq!(c.counts.unjudged, 3);
+    }
+
+    #[test]
+    fn nothing_is_judged_while_the_two_views_settle() {
+        // The vehicle's player started at 0; the ground heard ArduPlane's
+        // INITIALISING heartbeat at 0.15 s and MANUAL at 1.15 s (a change),
+        // where the vehicle's first heartbeat was already MANUAL.
+        let mut c = Check::new(WINDOW);
+        c.ground_from(150_000);
+        c.ground(1_150_000, &ev("mode_changed", Category::Nominal));
+        // A real one later, on the ground only, is reported.
+        c.ground(2_200_000, &ev("mode_changed", Category::Nominal));
+        c.advance(Some(10_000_000), Some(10_000_000));
+        let d = c.poll().expect("the later one");
+        assert_eq!((d.time, d.seen_by), (2_200_000, Side::Ground));
+        assert_eq!(c.poll(), None);
+        assert_eq!((c.counts.unjudged, c.counts.ground_only), (1, 1));
+
+        // The ground started listening 100 s into the vehicle's flight:
+        // what the vehicle saw in the ground's first 2 s is not judged,
+        // what it saw after is.
+        let mut c = Check::new(WINDOW);
+        c.ground_from(100_000_000);
+        c.vehicle(101_000_000, &ev("mode_changed", Category::Nominal));
+        c.vehicle(102_500_000, &ev("armed", Category::Nominal));
+        c.advance(Some(110_000_000), Some(110_000_000));
+        let d = c.poll().expect("the later one");
+        assert_eq!((d.event.as_str(), d.seen_by), ("armed", Side::Vehicle));
+        assert_eq!(c.poll(), None);
+        assert_eq!((c.counts.unjudged, c.counts.vehicle_only), (1, 1));
+
+        // The first call counts: a later heartbeat does not move the start.
+        c.ground_from(200_000_000);
+        c.ground(200_500_000, &ev("disarmed", Category::Nominal));
+        c.advance(Some(210_000_000), Some(210_000_000));
+        assert_eq!(c.poll().map(|d| d.time), Some(200_500_000));
     }
 
     #[test]

@@ -44,6 +44,9 @@ pub struct Watch {
     pub frames: u64,
     /// Its autopilot's heartbeat was heard.
     pub heard: bool,
+    /// When it was first heard (ground time): where the ground's view of
+    /// the vehicle starts.
+    first_heard: Option<Micros>,
     /// Each component's last sequence number and when it came (ground
     /// time), and the system's last.
     last_seqs: BTreeMap<u8, (u8, Micros)>,
@@ -182,6 +185,7 @@ impl Ground {
         let component = frame.component_id();
         if component == w.autopilot && autopilot_heartbeat(frame) {
             w.heard = true;
+            w.first_heard.get_or_insert(now);
         }
         // In a team the onboard gateway speaks as each vehicle's companion
         // (vehicle, 191) with one sequence counter for all it sends, most
@@ -293,6 +297,9 @@ impl Ground {
         to_vehicle: impl Fn(Micros) -> Option<Micros>,
     ) {
         for (c, w) in self.checks.iter_mut().zip(&self.watches) {
+            if let Some(t) = w.first_heard.and_then(&to_vehicle) {
+                c.ground_from(t);
+            }
             c.advance(vehicle_known, w.last_autopilot.and_then(&to_vehicle));
         }
     }

@@ -15,6 +15,7 @@
 //! commands), injects the scenario's failures, records `demo.mcap`, and
 //! ends with a summary.
 
+mod interrupt;
 mod log;
 mod plane;
 mod rovers;
@@ -191,6 +192,8 @@ struct Flight<'a> {
     dir: &'a Path,
     scenario: Scenario,
     speed: f64,
+    /// Ctrl-C before the gateway starts (`None` if it cannot be watched).
+    interrupt: Option<&'a interrupt::Watch>,
 }
 
 /// Where `demo` serves the monitor unless told: 127.0.0.1:8080, or any
@@ -247,11 +250,8 @@ impl Write for Lines {
 
 pub fn run(args: Args) -> VerbResult {
     let speed = args.speed.unwrap_or(args.example.default_speed());
-    if !(speed.is_finite() && speed > 0.0) {
-        return Err(miette::miette!(
-            "--speed must be a positive number, not {speed}"
-        ));
-    }
+    super::run::check_factor("--speed", speed, super::run::FASTEST_CLOCK)?;
+    super::run::check_seconds("--timeout", args.timeout)?;
     let scenario = args.scenario.unwrap_or(args.example.default_scenario());
     if !args.example.scenarios().contains(&scenario) {
         let names: Vec<String> = args.example.scenarios().iter().map(|s| s.name()).collect();
@@ -263,15 +263,20 @@ pub fn run(args: Args) -> VerbResult {
         );
         return Ok(Outcome::BadInput);
     }
+    let interrupt = interrupt::Watch::arm();
     let (dir, unpacked) = match &args.project {
         Some(dir) => (dir.clone(), false),
         None => (unpack(args.example)?, true),
     };
+    if let (Some(watch), true) = (&interrupt, unpacked) {
+        watch.remove_on_interrupt(dir.clone());
+    }
     let flight = Flight {
         args: &args,
         dir: &dir,
         scenario,
         speed,
+        interrupt: interrupt.as_ref(),
     };
     let outcome = match args.example {
         Example::UavFlightTest => plane::fly(&flight),
@@ -355,6 +360,11 @@ impl Gateway {
         setup.out = Box::new(Lines(tx, Vec::new()));
         let stop = Arc::new(tokio::sync::Notify::new());
         setup.stop = Some(stop.clone());
+        // The gateway watches the signals from here on, stops cleanly and
+        // the folder is removed after it.
+        if let Some(watch) = flight.interrupt {
+            watch.disarm();
+        }
         let thread = std::thread::Builder::new()
             .name("petrel-gateway".into())
             .spawn(move || super::run::fly(setup).map_err(|e| format!("{e:?}")))

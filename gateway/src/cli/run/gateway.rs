@@ -222,9 +222,12 @@ impl Gateway {
         let early = match setup.detect.take() {
             None => Vec::new(),
             Some(choice) => {
+                // Within `--duration`: a run of 0.3 s is not held 3 s
+                // waiting for an autopilot that is not there.
                 let limit = clock
                     .wall(setup.vehicle.timing.link_timeout)
                     .max(Duration::from_secs(1));
+                let limit = setup.duration.map_or(limit, |d| limit.min(d));
                 let announce = (
                     setup
                         .project

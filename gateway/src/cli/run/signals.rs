@@ -1,13 +1,13 @@
 //! SIGINT and SIGTERM, which stop `run` cleanly.
 
 /// SIGINT and SIGTERM.
-pub(super) struct Signals {
+pub(crate) struct Signals {
     term: tokio::signal::unix::Signal,
     int: tokio::signal::unix::Signal,
 }
 
 impl Signals {
-    pub(super) fn new() -> Result<Signals, miette::Report> {
+    pub(crate) fn new() -> Result<Signals, miette::Report> {
         use tokio::signal::unix::{signal, SignalKind};
         let err = |e: std::io::Error| miette::miette!("cannot watch for signals: {e}");
         Ok(Signals {
@@ -16,7 +16,7 @@ impl Signals {
         })
     }
 
-    pub(super) async fn recv(&mut self) {
+    pub(crate) async fn recv(&mut self) {
         tokio::select! {
             _ = self.term.recv() => {}
             _ = self.int.recv() => {}

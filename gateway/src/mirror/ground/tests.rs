@@ -285,3 +285,51 @@ fn events_from_before_the_vehicle_started_are_not_judged() {
         (0, 0, 0)
     );
 }
+
+/// ArduPlane's HEARTBEAT in `custom_mode` (16 INITIALISING, 0 MANUAL).
+fn plane(seq: u8, custom_mode: u32) -> Vec<u8> {
+    let header = MavHeader {
+        system_id: 1,
+        component_id: 1,
+        sequence: seq,
+    };
+    let hb = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode,
+        mavtype: MavType::MAV_TYPE_FIXED_WING,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+        system_status: MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    });
+    elaboration::frame::serialize(header, MavlinkVersion::V2, &hb)
+}
+
+#[test]
+fn a_mode_change_the_ground_alone_heard_at_boot_is_not_judged() {
+    // Real ArduPlane at boot: the ground's port carried INITIALISING at
+    // 0.15 s, then MANUAL at 1.15 s (a `mode_changed`); the vehicle's first
+    // heartbeat was already MANUAL (its first reading: no event).
+    let (project, _) = crate::mirror::tests::example();
+    let mut g = ground_of(&project);
+    feed(&mut g, 150_000, &plane(0, 16));
+    let names = feed(&mut g, 1_150_000, &plane(1, 0));
+    assert!(names.iter().any(|n| n == "mode_changed"), "{names:?}");
+    for (i, t) in (2..12u8).zip((2_150_000..).step_by(1_000_000)) {
+        feed(&mut g, t, &plane(i, 0));
+    }
+    g.advance(Some(11_000_000), same);
+    assert!(g.poll_disagreement().is_none());
+    let c = g.total();
+    assert_eq!((c.ground_only, c.unjudged), (0, 1));
+    // Past the settling, the same change on the ground alone is reported.
+    feed(&mut g, 12_150_000, &plane(12, 10));
+    for (i, t) in (13..20u8).zip((13_150_000..).step_by(1_000_000)) {
+        feed(&mut g, t, &plane(i, 10));
+    }
+    g.advance(Some(19_000_000), same);
+    let (_, d) = g.poll_disagreement().expect("the later change");
+    assert_eq!(
+        (d.event.as_str(), d.seen_by),
+        ("mode_changed", Side::Ground)
+    );
+}
