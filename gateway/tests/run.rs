@@ -257,7 +257,10 @@ async fn run_refuses_a_project_that_fails_check_unless_unchecked() {
         .and_then(|r| r.split(' ').next())
         .and_then(|s| s.parse().ok())
         .unwrap_or_else(|| panic!("no `stopped after`: {err}"));
-    assert!(after < 2.5, "held {after} s for a --duration of 0.3 s: {err}");
+    assert!(
+        after < 2.5,
+        "held {after} s for a --duration of 0.3 s: {err}"
+    );
 }
 
 /// A team runs (gateway/tests/team.rs), but a vehicle whose `profile` does
@@ -647,4 +650,73 @@ async fn the_loop_asks_for_a_real_time_priority_and_nothing_else_inherits_it() {
         // The recorder's thread is in the batch policy.
         assert!(threads.iter().any(|t| t.1 == SCHED_BATCH), "{threads:?}");
     }
+}
+
+/// A `tcpin:` link waits for its client: within `--duration`, and a stop
+/// (systemd's SIGTERM) meanwhile ends cleanly, saying so, with exit 0.
+#[tokio::test]
+async fn a_tcpin_link_nobody_connects_to_stops_at_the_duration_and_on_sigterm() {
+    let dir = project(
+        "tcpin",
+        "name = \"N\"\nplaces = [\"a\", \"b\"]\ninitial = [\"a\"]\n[[transition]]\nname = \"up\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"armed\"\n[[transition]]\nname = \"down\"\nfrom = [\"b\"]\nto = [\"a\"]\non = \"disarmed\"\n",
+    );
+    let record = dir.join("run.mcap");
+    let args = |extra: &[&str]| {
+        let mut c = petrel();
+        c.args([
+            "run",
+            dir.to_str().expect("utf-8"),
+            "--mavlink",
+            "tcpin:127.0.0.1:0",
+            "--record",
+        ])
+        .arg(&record)
+        .args(extra);
+        c
+    };
+    let out = tokio::time::timeout(
+        Duration::from_secs(30),
+        args(&["--duration", "0.5"]).output(),
+    )
+    .await
+    .expect("it stops by itself")
+    .expect("petrel runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(err.contains("before the link opened"), "{err}");
+    assert!(!record.exists(), "{err}");
+
+    let child = args(&[])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("petrel runs");
+    let pid = libc::pid_t::try_from(child.id().expect("running")).expect("a pid");
+    // Sent once the gateway catches SIGTERM (`SigCgt` in /proc), else the
+    // default action would kill it before it could say anything.
+    let catches_term = || {
+        std::fs::read_to_string(format!("/proc/{pid}/status"))
+            .ok()
+            .and_then(|s| {
+                let mask = s.lines().find_map(|l| l.strip_prefix("SigCgt:"))?;
+                u64::from_str_radix(mask.trim(), 16).ok()
+            })
+            .is_some_and(|m| m & (1 << (libc::SIGTERM - 1)) != 0)
+    };
+    let until = std::time::Instant::now() + Duration::from_secs(20);
+    while !catches_term() {
+        assert!(std::time::Instant::now() < until, "SIGTERM never caught");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    // Past the pre-flight check, waiting for its client.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    // SAFETY: kill(2) on our own child, not reaped yet.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGTERM) }, 0);
+    let out = tokio::time::timeout(Duration::from_secs(10), child.wait_with_output())
+        .await
+        .expect("it stops on SIGTERM")
+        .expect("petrel runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(err.contains("stopped before the link opened"), "{err}");
+    assert!(!record.exists(), "{err}");
 }

@@ -205,19 +205,42 @@ impl Gateway {
         // Said once if the vehicle stays silent this long after the link
         // opens (below).
         let silent_until = Instant::now() + SILENCE_WARNING;
-        // Each link once, however many vehicles share it.
+        // Signals are watched from here on: a stop (systemd's SIGTERM)
+        // while a `tcpin:` link waits for its client, or during the wait
+        // for the autopilot, still ends cleanly.
+        let mut signals = Signals::new()?;
+        // Each link once, however many vehicles share it; a `tcpin:` link
+        // waits for its client, within `--duration`.
+        let stop_opening = async {
+            match setup.duration {
+                Some(d) => tokio::time::sleep_until((origin + d).into()).await,
+                None => std::future::pending().await,
+            }
+        };
+        let opened = tokio::select! {
+            opened = links::open(&setup, &clock) => opened?,
+            _ = signals.recv() => {
+                say!("stopped before the link opened ({}): nothing recorded", setup.address);
+                return Ok(Outcome::Success);
+            }
+            _ = stop_opening => {
+                say!(
+                    "stopped after {:.1} s (--duration) before the link opened ({}: a `tcpin:` link waits for its client): nothing recorded",
+                    origin.elapsed().as_secs_f64(),
+                    setup.address
+                );
+                return Ok(Outcome::Success);
+            }
+        };
         let links::Opened {
             addresses,
             link_of,
             mut readers,
             writers,
             rejections,
-        } = links::open(&setup, &clock).await?;
+        } = opened;
         // Which autopilot, when the profile follows it: the frames read
         // meanwhile are fed once the supervisor runs, none lost.
-        // Signals are watched from here on: a stop (systemd's SIGTERM)
-        // during the wait for the autopilot still ends cleanly.
-        let mut signals = Signals::new()?;
         let mut told_early = false;
         let early = match setup.detect.take() {
             None => Vec::new(),
