@@ -653,9 +653,16 @@ async fn the_loop_asks_for_a_real_time_priority_and_nothing_else_inherits_it() {
 }
 
 /// A `tcpin:` link waits for its client: within `--duration`, and a stop
-/// (systemd's SIGTERM) meanwhile ends cleanly, saying so, with exit 0.
+/// (systemd's SIGTERM) meanwhile ends cleanly, saying so, with exit 0 —
+/// `run`'s and the ground mirror's.
 #[tokio::test]
 async fn a_tcpin_link_nobody_connects_to_stops_at_the_duration_and_on_sigterm() {
+    for verb in ["run", "mirror"] {
+        tcpin_nobody_connects_to(verb).await;
+    }
+}
+
+async fn tcpin_nobody_connects_to(verb: &str) {
     let dir = project(
         "tcpin",
         "name = \"N\"\nplaces = [\"a\", \"b\"]\ninitial = [\"a\"]\n[[transition]]\nname = \"up\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"armed\"\n[[transition]]\nname = \"down\"\nfrom = [\"b\"]\nto = [\"a\"]\non = \"disarmed\"\n",
@@ -683,7 +690,7 @@ async fn a_tcpin_link_nobody_connects_to_stops_at_the_duration_and_on_sigterm() 
     .expect("petrel runs");
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{err}");
-    assert!(err.contains("before the link opened"), "{err}");
+    assert!(err.contains("before the link opened"), "{verb}: {err}");
     assert!(!record.exists(), "{err}");
 
     let child = args(&[])
@@ -717,6 +724,9 @@ async fn a_tcpin_link_nobody_connects_to_stops_at_the_duration_and_on_sigterm() 
         .expect("petrel runs");
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{err}");
-    assert!(err.contains("stopped before the link opened"), "{err}");
+    assert!(
+        err.contains("stopped before the link opened"),
+        "{verb}: {err}"
+    );
     assert!(!record.exists(), "{err}");
 }

@@ -197,9 +197,30 @@ struct Setup {
 async fn mirror(setup: Setup) -> VerbResult {
     let origin = Instant::now();
     let clock = Clock::new(origin, setup.time_scale);
-    let (mut reader, writer) = Link::open(&setup.address, clock.clone())
-        .await
-        .map_err(|e| miette::miette!("{e}"))?;
+    // Signals are watched from here on: a stop while a `tcpin:` link waits
+    // for its client ends cleanly too, as `run`'s (docs/run.md).
+    let mut signals = super::run::Signals::new()?;
+    let stop_opening = async {
+        match setup.duration {
+            Some(d) => tokio::time::sleep_until((origin + d).into()).await,
+            None => std::future::pending().await,
+        }
+    };
+    let (mut reader, writer) = tokio::select! {
+        opened = Link::open(&setup.address, clock.clone()) => opened.map_err(|e| miette::miette!("{e}"))?,
+        _ = signals.recv() => {
+            say!("mirror stopped before the link opened ({}): nothing recorded", setup.address);
+            return Ok(super::Outcome::Success);
+        }
+        _ = stop_opening => {
+            say!(
+                "mirror stopped after {:.1} s (--duration) before the link opened ({}: a `tcpin:` link waits for its client): nothing recorded",
+                origin.elapsed().as_secs_f64(),
+                setup.address
+            );
+            return Ok(super::Outcome::Success);
+        }
+    };
     let uplink = UplinkWriter::new(writer, setup.system);
     // The recording is created once the link is open, as `run`'s.
     let recorder = match &setup.record {
@@ -313,8 +334,6 @@ async fn mirror(setup: Setup) -> VerbResult {
     let mut gap_seen: Option<(u64, Micros)> = None;
     // Said once: nothing heard; the vehicle heard but not its downlink.
     let (mut heard_any, mut said_silent, mut said_no_downlink) = (false, false, false);
-    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
-        .map_err(|e| miette::miette!("cannot watch for signals: {e}"))?;
     // Ticks on their own schedule: a sleep made anew at each turn of the
     // loop never ends while frames come faster than TICK (telemetry at
     // 50 Hz, or any rate at 10x), and then no request was ever retried
@@ -397,8 +416,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                 }
                 let _ = reply.send(sent);
             }
-            _ = tokio::signal::ctrl_c() => break,
-            _ = term.recv() => break,
+            _ = signals.recv() => break,
             _ = until_stop => break,
         }
         let now = clock.now();
