@@ -200,23 +200,18 @@ async fn mirror(setup: Setup) -> VerbResult {
     // Signals are watched from here on: a stop while a `tcpin:` link waits
     // for its client ends cleanly too, as `run`'s (docs/run.md).
     let mut signals = super::run::Signals::new()?;
-    let stop_opening = async {
-        match setup.duration {
-            Some(d) => tokio::time::sleep_until((origin + d).into()).await,
-            None => std::future::pending().await,
-        }
-    };
-    let (mut reader, writer) = tokio::select! {
-        opened = Link::open(&setup.address, clock.clone()) => opened.map_err(|e| miette::miette!("{e}"))?,
-        _ = signals.recv() => {
-            say!("mirror stopped before the link opened ({}): nothing recorded", setup.address);
-            return Ok(super::Outcome::Success);
-        }
-        _ = stop_opening => {
+    let opened = signals
+        .or_stop(
+            Link::open(&setup.address, clock.clone()),
+            setup.duration.map(|d| origin + d),
+        )
+        .await;
+    let (mut reader, writer) = match opened {
+        Ok(opened) => opened.map_err(|e| miette::miette!("{e}"))?,
+        Err(stopped) => {
             say!(
-                "mirror stopped after {:.1} s (--duration) before the link opened ({}: a `tcpin:` link waits for its client): nothing recorded",
-                origin.elapsed().as_secs_f64(),
-                setup.address
+                "{}",
+                stopped.before_the_link("mirror", &setup.address, origin.elapsed())
             );
             return Ok(super::Outcome::Success);
         }

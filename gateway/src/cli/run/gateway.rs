@@ -211,23 +211,18 @@ impl Gateway {
         let mut signals = Signals::new()?;
         // Each link once, however many vehicles share it; a `tcpin:` link
         // waits for its client, within `--duration`.
-        let stop_opening = async {
-            match setup.duration {
-                Some(d) => tokio::time::sleep_until((origin + d).into()).await,
-                None => std::future::pending().await,
-            }
-        };
-        let opened = tokio::select! {
-            opened = links::open(&setup, &clock) => opened?,
-            _ = signals.recv() => {
-                say!("stopped before the link opened ({}): nothing recorded", setup.address);
-                return Ok(Outcome::Success);
-            }
-            _ = stop_opening => {
+        let opened = signals
+            .or_stop(
+                links::open(&setup, &clock),
+                setup.duration.map(|d| origin + d),
+            )
+            .await;
+        let opened = match opened {
+            Ok(opened) => opened?,
+            Err(stopped) => {
                 say!(
-                    "stopped after {:.1} s (--duration) before the link opened ({}: a `tcpin:` link waits for its client): nothing recorded",
-                    origin.elapsed().as_secs_f64(),
-                    setup.address
+                    "{}",
+                    stopped.before_the_link("run", &setup.address, origin.elapsed())
                 );
                 return Ok(Outcome::Success);
             }
