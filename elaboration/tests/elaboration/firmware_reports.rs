@@ -508,6 +508,12 @@ fn every_guided_goto_reached_is_heard_and_is_no_mission_item() {
         assert!(gotos.iter().all(|g| (g.2 - 20.0).abs() < 1e-9), "{gotos:?}");
         assert!(items.is_empty(), "{mavtype:?}: {items:?}");
     }
+    // Where the vehicle was is a state the gateway asks for
+    // (GLOBAL_POSITION_INT, 33); the reach itself is not streamed (46).
+    let telemetry = Profile::builtin("ardupilot")
+        .expect("built-in profile")
+        .telemetry();
+    assert!(telemetry.contains(&33) && !telemetry.contains(&46));
 }
 
 /// In AUTO a MISSION_ITEM_REACHED 0 is no goto (ArduCopter's and
