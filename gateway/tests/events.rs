@@ -443,11 +443,7 @@ fn reposition(
 /// Take-off in GUIDED, a goto with the default GUID_OPTIONS (0), then
 /// GUID_OPTIONS 64 and two gotos in a row, each waited for by its
 /// MISSION_ITEM_REACHED: the number of those frames after the first goto.
-fn fly_gotos(
-    link: &mut flight::Link,
-    targets: [(f64, f64); 3],
-    alt: f32,
-) -> Result<u64, String> {
+fn fly_gotos(link: &mut flight::Link, targets: [(f64, f64); 3], alt: f32) -> Result<u64, String> {
     const GUIDED: u32 = 4;
     link.arm(GUIDED, 120.0, |l| {
         l.command(
@@ -504,7 +500,11 @@ fn two_gotos_in_a_row_on_real_arducopter_are_two_goto_reached() {
     let mut sitl = Sitl::start(&located, &options, &dir).expect("SITL starts");
     let tlog = dir.join("copter.tlog");
     let alt = 20.0;
-    let targets = [from_home(30.0, 0.0), from_home(40.0, 30.0), from_home(0.0, 60.0)];
+    let targets = [
+        from_home(30.0, 0.0),
+        from_home(40.0, 30.0),
+        from_home(0.0, 60.0),
+    ];
     let flown = flight::Link::open(&sitl, COPTER_SPEEDUP, &tlog).and_then(|mut link| {
         let flown = fly_gotos(&mut link, targets, alt);
         let said = (link.said.reached_frames, link.said.reached.clone());
@@ -512,9 +512,8 @@ fn two_gotos_in_a_row_on_real_arducopter_are_two_goto_reached() {
         link.finish().and(flown).map(|silent| (silent, said, sim_s))
     });
     sitl.stop();
-    let (silent, (frames, seqs), sim_s) = flown.unwrap_or_else(|e| {
-        panic!("the flight: {e}\nSITL said:\n{}", sitl.output())
-    });
+    let (silent, (frames, seqs), sim_s) =
+        flown.unwrap_or_else(|e| panic!("the flight: {e}\nSITL said:\n{}", sitl.output()));
     eprintln!(
         "copter: {sim_s:.1} s of vehicle time flown in {:.1} s wall at {COPTER_SPEEDUP}x",
         started.elapsed().as_secs_f64()
@@ -525,7 +524,8 @@ fn two_gotos_in_a_row_on_real_arducopter_are_two_goto_reached() {
     let (code, out, err) = petrel(&["events", &tlog.display().to_string(), "--json"]);
     assert_eq!(code, 0, "{err}");
     let events = json_lines(&out);
-    let named = |name: &str| -> Vec<&Value> { events.iter().filter(|e| e["event"] == name).collect() };
+    let named =
+        |name: &str| -> Vec<&Value> { events.iter().filter(|e| e["event"] == name).collect() };
     let gotos = named("goto_reached");
     let timeline: Vec<String> = events
         .iter()

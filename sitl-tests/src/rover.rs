@@ -646,7 +646,10 @@ mod tests {
         // Each goto reached is heard (the built-in `goto_reached`, which
         // the example uses), and none is a mission item.
         let count = |n: &str| names.iter().filter(|x| **x == n).count();
-        assert_eq!((count("goto_reached"), count("mission_item_reached")), (2, 0));
+        assert_eq!(
+            (count("goto_reached"), count("mission_item_reached")),
+            (2, 0)
+        );
         assert!(!names.contains(&"engine_failure"), "{before:?}");
         // The motor fails while driving: engine_failure within 2 s and a
         // stream period.
