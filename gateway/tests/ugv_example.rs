@@ -134,7 +134,7 @@ fn without_the_synchronisation_both_robots_can_be_in_the_bottleneck() {
             steps.iter().any(|s| s.contains(&entered)),
             "{entered} not in {steps:?}"
         );
-        let at_gate = format!("arrived@{robot}");
+        let at_gate = format!("goto_reached@{robot}");
         assert!(
             steps.iter().any(|s| s.starts_with(&at_gate)),
             "{at_gate} not in {steps:?}"

@@ -424,6 +424,167 @@ fn mission_item_reached_repeats_and_65535_are_not_events() {
     }
 }
 
+/// A HEARTBEAT of an ArduPilot vehicle of `mavtype`, armed and flying, in
+/// `custom_mode`.
+fn ardupilot_in(mavtype: MavType, custom_mode: u32) -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode,
+        mavtype,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+            | MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED,
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    })
+}
+
+/// GLOBAL_POSITION_INT at `north` metres north of (-35.36, 149.16),
+/// `alt` metres above home.
+fn position(north: f64, alt: f64) -> MavMessage {
+    let mut d = GLOBAL_POSITION_INT_DATA::DEFAULT;
+    d.lat = (-35.36e7 + north * 90.0) as i32;
+    d.lon = 149.16e7 as i32;
+    d.relative_alt = (alt * 1000.0) as i32;
+    d.alt = ((584.0 + alt) * 1000.0) as i32;
+    MavMessage::GLOBAL_POSITION_INT(d)
+}
+
+/// Each (time, lat, alt) of the `goto_reached` events, and the
+/// `mission_item_reached` summaries.
+fn gotos_and_items(r: &Run) -> (Vec<(u64, f64, f64)>, Vec<String>) {
+    let float = |e: &Elaborated, k: &str| match e.event.params.get(k) {
+        Some(nets::Value::Float(x)) => *x,
+        other => panic!("goto_reached {k}: {other:?}"),
+    };
+    let gotos = r
+        .out
+        .iter()
+        .filter(|e| e.event.name == "goto_reached")
+        .map(|e| {
+            assert_eq!(e.event.category, nets::Category::Mission);
+            (e.time_us, float(e, "lat"), float(e, "alt"))
+        })
+        .collect();
+    let items = r
+        .only(&["mission_item_reached"])
+        .into_iter()
+        .map(|(_, s)| s)
+        .collect();
+    (gotos, items)
+}
+
+/// ArduCopter, ArduRover and ArduPlane in GUIDED say each destination
+/// reached with MISSION_ITEM_REACHED 0 (mode_guided.cpp,
+/// `send_mission_item_reached_message(0)`; ArduPlane's update_loiter), and
+/// MISSION_CURRENT stays where it was: two gotos in a row are two
+/// `goto_reached`, each where the vehicle was, and neither a mission item.
+#[test]
+fn every_guided_goto_reached_is_heard_and_is_no_mission_item() {
+    for (mavtype, guided) in [
+        (MavType::MAV_TYPE_QUADROTOR, 4),
+        (MavType::MAV_TYPE_GROUND_ROVER, 15),
+        (MavType::MAV_TYPE_FIXED_WING, 15),
+    ] {
+        let mut r = Run::new("ardupilot");
+        for period in 0..40u64 {
+            let t = period * 250 * MS;
+            r.send(t, ardupilot_in(mavtype, guided));
+            r.send(t + MS, current(0));
+            r.send(t + 2 * MS, position(period as f64, 20.0));
+            if period == 8 || period == 28 {
+                r.send(t + 3 * MS, reached(0));
+            }
+        }
+        let (gotos, items) = gotos_and_items(&r);
+        assert_eq!(
+            gotos.iter().map(|g| g.0).collect::<Vec<_>>(),
+            [2 * S + 3 * MS, 7 * S + 3 * MS],
+            "{mavtype:?}"
+        );
+        // Where the vehicle was at each: 8 and 28 m north, 20 m up.
+        let north = |lat: f64| (lat * 1e7 + 35.36e7) / 90.0;
+        assert!((north(gotos[0].1) - 8.0).abs() < 0.1, "{gotos:?}");
+        assert!((north(gotos[1].1) - 28.0).abs() < 0.1, "{gotos:?}");
+        assert!(gotos.iter().all(|g| (g.2 - 20.0).abs() < 1e-9), "{gotos:?}");
+        assert!(items.is_empty(), "{mavtype:?}: {items:?}");
+    }
+    // Where the vehicle was is a state the gateway asks for
+    // (GLOBAL_POSITION_INT, 33); the reach itself is not streamed (46).
+    let telemetry = Profile::builtin("ardupilot")
+        .expect("built-in profile")
+        .telemetry();
+    assert!(telemetry.contains(&33) && !telemetry.contains(&46));
+}
+
+/// In AUTO a MISSION_ITEM_REACHED 0 is no goto (ArduCopter's and
+/// ArduRover's NAV_GUIDED_ENABLE) and no mission item either (item 0 is
+/// home); ArduPlane's AVOID_ADSB (its GUIDED under another name, flying to
+/// its own escape point) is neither; and a mission flown before the gotos
+/// keeps its items, and is not told of the gotos once back in AUTO.
+#[test]
+fn no_goto_reached_outside_guided_and_the_mission_keeps_its_items() {
+    for (mavtype, auto) in [
+        (MavType::MAV_TYPE_QUADROTOR, 3),
+        (MavType::MAV_TYPE_GROUND_ROVER, 10),
+        (MavType::MAV_TYPE_FIXED_WING, 10),
+    ] {
+        let mut r = Run::new("ardupilot");
+        r.send(0, ardupilot_in(mavtype, auto));
+        r.send(MS, position(0.0, 20.0));
+        r.send(S, reached(0));
+        r.send(2 * S, ardupilot_in(mavtype, auto));
+        let (gotos, items) = gotos_and_items(&r);
+        assert!(gotos.is_empty(), "{mavtype:?} in AUTO: {gotos:?}");
+        assert!(items.is_empty(), "{mavtype:?} in AUTO: {items:?}");
+    }
+
+    let plane = MavType::MAV_TYPE_FIXED_WING;
+    let mut r = Run::new("ardupilot");
+    r.send(0, ardupilot_in(plane, 14));
+    r.send(MS, position(0.0, 100.0));
+    r.send(S, reached(0));
+    assert_eq!(gotos_and_items(&r), (vec![], vec![]), "AVOID_ADSB");
+
+    // A copter's mission (items 1 and 2 in AUTO), then two gotos in GUIDED
+    // with MISSION_CURRENT left at 2.
+    let copter = MavType::MAV_TYPE_QUADROTOR;
+    let mut r = Run::new("ardupilot");
+    r.send(0, ardupilot_in(copter, 3));
+    r.send(MS, position(0.0, 20.0));
+    r.send(S, current(1));
+    r.send(2 * S, reached(1));
+    r.send(2 * S + MS, current(2));
+    r.send(3 * S, reached(2));
+    r.send(4 * S, ardupilot_in(copter, 4));
+    // A heartbeat and the first goto reached at one instant, then the
+    // second with no heartbeat between.
+    r.send(5 * S, ardupilot_in(copter, 4));
+    r.send(5 * S, reached(0));
+    r.send(5 * S + MS, current(2));
+    r.send(6 * S, reached(0));
+    // Heartbeats after the second goto, the first at its very instant,
+    // then back to AUTO and on to item 3.
+    r.send(6 * S, ardupilot_in(copter, 4));
+    r.send(7 * S, ardupilot_in(copter, 4));
+    r.send(8 * S, ardupilot_in(copter, 3));
+    r.send(8 * S + MS, current(3));
+    r.send(9 * S, ardupilot_in(copter, 3));
+    r.send(10 * S, reached(3));
+    let (gotos, items) = gotos_and_items(&r);
+    assert_eq!(
+        items,
+        [
+            "mission_item_reached {seq: 1}",
+            "mission_item_reached {seq: 2}",
+            "mission_item_reached {seq: 3}"
+        ]
+    );
+    assert_eq!(
+        gotos.iter().map(|g| g.0).collect::<Vec<_>>(),
+        [5 * S, 6 * S]
+    );
+}
+
 #[test]
 fn command_rejected_names_the_command_and_the_result() {
     let mut r = Run::new("ardupilot");

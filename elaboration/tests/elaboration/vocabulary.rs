@@ -458,6 +458,7 @@ fn both_builtin_profiles_define_the_whole_vocabulary_with_its_categories() {
         "takeoff"
         | "landed"
         | "mission_item_reached"
+        | "goto_reached"
         | "mission_complete"
         | "command_rejected"
         | "payload_failure" => Mission,
