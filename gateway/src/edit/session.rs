@@ -38,6 +38,20 @@ pub enum Refusal {
     Conflict(String),
     #[error("{0}")]
     Io(String),
+    #[error("nothing to undo")]
+    NothingToUndo,
+}
+
+/// How many edits can be undone (the oldest forgotten beyond): each
+/// keeps the whole text of the files it changed, before and after.
+pub const UNDO_DEPTH: usize = 200;
+
+/// One edit as written: each file it changed, in the order written, with
+/// its text before and after (None: absent).
+#[derive(Debug, Clone)]
+struct Change {
+    what: String,
+    files: Vec<(String, Option<String>, Option<String>)>,
 }
 
 /// One load problem, and the element it concerns.
@@ -83,6 +97,8 @@ struct State {
     child: Option<Child>,
     /// Bumped whenever what the page shows changes.
     version: u64,
+    /// The edits of this session that can be undone, the last on top.
+    undo: Vec<Change>,
 }
 
 /// A project being edited.
@@ -126,6 +142,42 @@ pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
     result
 }
 
+/// Writes `text` to `path`, which must not exist: a temporary file beside
+/// it, synced, then linked to `path` (which fails if `path` appeared
+/// meanwhile: nothing of anyone's is overwritten) and unlinked.
+pub fn write_new(path: &Path, text: &str) -> std::io::Result<()> {
+    use std::io::Write;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.petrel-edit-{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(text.as_bytes())?;
+        f.sync_all()?;
+        std::fs::hard_link(&tmp, path)
+    })();
+    let _ = std::fs::remove_file(&tmp);
+    result
+}
+
+/// The draft of the files as last read or written.
+fn draft_from(read: &BTreeMap<String, Option<String>>) -> Result<Draft, String> {
+    let text = |file: &str| read.get(file).cloned().flatten();
+    let project =
+        text(nets::load::PROJECT_FILE).ok_or_else(|| "project.toml is gone".to_owned())?;
+    let mut nets_read = Vec::new();
+    for file in Draft::net_files(&project).map_err(|e| e.to_string())? {
+        let t =
+            text(&file).ok_or_else(|| format!("{file}: no such file (project.toml lists it)"))?;
+        nets_read.push((file, t));
+    }
+    let layout = text(positions::FILE).unwrap_or_default();
+    Draft::parse(&project, &nets_read, &layout).map_err(|e| e.to_string())
+}
+
 impl Session {
     /// Opens the project in `dir`: an error when it has no project.toml or
     /// that file is not TOML.
@@ -150,6 +202,7 @@ impl Session {
                 generation: 0,
                 child: None,
                 version: 0,
+                undo: Vec::new(),
             }),
             checker: std::env::current_exe().ok(),
         });
@@ -165,7 +218,7 @@ impl Session {
     /// written as it is made), loads and checks.
     pub fn reload(self: &Arc<Self>) {
         let mut s = self.lock();
-        s.read.clear();
+        let before = std::mem::take(&mut s.read);
         s.draft = None;
         s.broken = None;
         let result = (|| -> Result<Draft, String> {
@@ -189,6 +242,11 @@ impl Session {
             Ok(d) => s.draft = Some(d),
             Err(e) => s.broken = Some(e),
         }
+        // Files changed by someone else: what the history would undo is no
+        // longer what is on disk.
+        if s.read != before {
+            s.undo.clear();
+        }
         self.load_and_check(&mut s);
     }
 
@@ -202,29 +260,76 @@ impl Session {
         };
         let mut next = draft.clone();
         let applied = next.apply(op)?;
-        let mut writes: Vec<(String, String)> = Vec::new();
+        // (file, text, new): a net added's file first, then project.toml.
+        let mut writes: Vec<(String, String, bool)> = Vec::new();
         if let Some(n) = applied.net_file {
-            writes.push((next.nets[n].file.clone(), next.nets[n].doc.to_string()));
+            writes.push((
+                next.nets[n].file.clone(),
+                next.nets[n].doc.to_string(),
+                applied.project,
+            ));
         }
         if applied.layout {
-            writes.push((positions::FILE.to_owned(), next.positions.text()));
+            writes.push((positions::FILE.to_owned(), next.positions.text(), false));
         }
-        // Refused if any file to write is not what it was when read.
-        for (file, _) in &writes {
+        if applied.project {
+            writes.push((
+                nets::load::PROJECT_FILE.to_owned(),
+                next.project.to_string(),
+                false,
+            ));
+        }
+        // Refused if any file to write is not what it was when read, or a
+        // new one exists.
+        for (file, _, new) in &writes {
             let on_disk = read_file(&self.dir, file).map_err(Refusal::Io)?;
-            if s.read.get(file) != Some(&on_disk) {
+            if *new {
+                if on_disk.is_some() || self.dir.join(file).exists() {
+                    return Err(EditError::FileExists(file.clone()).into());
+                }
+            } else if s.read.get(file) != Some(&on_disk) {
                 return Err(Refusal::Conflict(file.clone()));
             }
         }
-        for (file, text) in &writes {
-            if let Err(e) = write_atomic(&self.dir.join(file), text) {
+        let mut change = Change {
+            what: op.describe(),
+            files: Vec::new(),
+        };
+        for (file, text, new) in &writes {
+            let path = self.dir.join(file);
+            let written = if *new {
+                write_new(&path, text)
+            } else {
+                write_atomic(&path, text)
+            };
+            if let Err(e) = written {
+                // A net's new file without its entry in project.toml:
+                // removed, so that nothing is left of the refused edit.
+                for (done, before, _) in &change.files {
+                    if before.is_none() {
+                        let _ = std::fs::remove_file(self.dir.join(done));
+                    }
+                }
                 // Some files may be written, others not: the disk is the
                 // truth, read again.
                 drop(s);
                 self.reload();
-                return Err(Refusal::Io(format!("cannot write {file}: {e}")));
+                return Err(if *new && e.kind() == std::io::ErrorKind::AlreadyExists {
+                    EditError::FileExists(file.clone()).into()
+                } else {
+                    Refusal::Io(format!("cannot write {file}: {e}"))
+                });
             }
-            s.read.insert(file.clone(), Some(text.clone()));
+            let before = s.read.insert(file.clone(), Some(text.clone())).flatten();
+            change
+                .files
+                .push((file.clone(), before, Some(text.clone())));
+        }
+        if !change.files.is_empty() {
+            s.undo.push(change);
+            if s.undo.len() > UNDO_DEPTH {
+                s.undo.remove(0);
+            }
         }
         s.draft = Some(next);
         s.version += 1;
@@ -233,6 +338,55 @@ impl Session {
             self.load_and_check(&mut s);
         }
         Ok(())
+    }
+
+    /// Undoes the last edit of the session not undone yet: each file it
+    /// wrote back to its exact previous bytes (a net added: its file
+    /// removed, project.toml as it was). Refused, nothing written, when one
+    /// of them changed on disk since; the edit stays undoable. Returns what
+    /// was undone.
+    pub fn undo(self: &Arc<Self>) -> Result<String, Refusal> {
+        let mut s = self.lock();
+        let Some(change) = s.undo.last().cloned() else {
+            return Err(Refusal::NothingToUndo);
+        };
+        for (file, _, after) in &change.files {
+            let on_disk = read_file(&self.dir, file).map_err(Refusal::Io)?;
+            if on_disk != *after {
+                return Err(Refusal::Conflict(file.clone()));
+            }
+        }
+        // Last written first: project.toml before the net's file goes.
+        for (file, before, _) in change.files.iter().rev() {
+            let path = self.dir.join(file);
+            let restored = match before {
+                Some(text) => write_atomic(&path, text),
+                None => std::fs::remove_file(&path),
+            };
+            if let Err(e) = restored {
+                drop(s);
+                self.reload();
+                return Err(Refusal::Io(format!("cannot restore {file}: {e}")));
+            }
+            if before.is_none() && file != positions::FILE {
+                s.read.remove(file);
+            } else {
+                s.read.insert(file.clone(), before.clone());
+            }
+        }
+        s.undo.pop();
+        match draft_from(&s.read) {
+            Ok(d) => {
+                s.draft = Some(d);
+                s.broken = None;
+            }
+            Err(e) => {
+                s.draft = None;
+                s.broken = Some(e);
+            }
+        }
+        self.load_and_check(&mut s);
+        Ok(change.what)
     }
 
     /// Loads the project as `petrel check` does, keeps its problems, and
@@ -419,7 +573,8 @@ impl Session {
                "version": s.version, "nets": nets, "broken": s.broken,
                "globals": s.draft.as_ref().map(|d| d.globals.clone()).unwrap_or_default(),
                "events": events, "loads": s.project.is_some(), "problems": s.problems,
-               "check": check, "petrel": env!("CARGO_PKG_VERSION")})
+               "check": check, "undo": s.undo.last().map(|c| c.what.clone()),
+               "undo_depth": s.undo.len(), "petrel": env!("CARGO_PKG_VERSION")})
     }
 
     pub fn version(&self) -> u64 {
