@@ -705,8 +705,9 @@ fn a_net_added_and_edits_undone_through_the_routes() {
 
 /// In the browser: a net added with the toolbar's form (a name taken
 /// refused with the reason shown), drawn at once, checked (dead at the
-/// start), given a transition: the files on disk, a fresh `petrel check`
-/// holds. Then undone with Ctrl-Z and the Undo button until the example
+/// start), given a transition (still dead after a catastrophe: nothing
+/// final) and its place made final: the files on disk, a fresh `petrel
+/// check` holds. Then undone with Ctrl-Z and the Undo button until the example
 /// is back byte for byte.
 #[test]
 fn a_net_added_in_the_page_is_written_checked_and_undone() {
@@ -756,6 +757,10 @@ fn a_net_added_in_the_page_is_written_checked_and_undone() {
         "{}",
         seen["first_check"]
     );
+    // With its transition, still dead once a catastrophe locks it out
+    // (nothing final): as any net.
+    assert_eq!(seen["arcs_check"]["state"], "violated", "{}", seen["arcs_check"]);
+    assert_eq!(seen["arcs_check"]["title"], "net NEW: a deadlock", "{}", seen["arcs_check"]);
     assert_eq!(seen["problems_after"], 0);
     assert_eq!(seen["check"]["state"], "holds", "{}", seen["check"]);
 
@@ -766,7 +771,7 @@ fn a_net_added_in_the_page_is_written_checked_and_undone() {
     );
     assert_eq!(
         read(&dir.join("NEW.toml")),
-        "# NEW: a net added by `petrel edit`.\nname = \"NEW\"\nplaces = [\"idle\"]\ninitial = [\"idle\"]\n\n[[transition]]\nname = \"t1\"\nfrom = [\"idle\"]\nto = [\"idle\"]\non = \"link_lost\"\n"
+        "# NEW: a net added by `petrel edit`.\nname = \"NEW\"\nplaces = [\"idle\"]\ninitial = [\"idle\"]\nfinal = [\"idle\"]\n\n[[transition]]\nname = \"t1\"\nfrom = [\"idle\"]\nto = [\"idle\"]\non = \"link_lost\"\n"
     );
     for (name, text) in &original {
         if name != "project.toml" {
@@ -781,6 +786,7 @@ fn a_net_added_in_the_page_is_written_checked_and_undone() {
     assert_eq!(
         strings(&seen["undone"]),
         [
+            "set place NEW.idle",
             "add arc NEW.t1 → idle",
             "add arc idle → NEW.t1",
             "set transition NEW.t1",
@@ -788,7 +794,9 @@ fn a_net_added_in_the_page_is_written_checked_and_undone() {
             "add net NEW"
         ]
     );
-    assert_eq!(strings(&seen["arcs_after_ctrl_z"]), ["idle->t1"]);
+    let mut arcs = strings(&seen["arcs_after_ctrl_z"]);
+    arcs.sort();
+    assert_eq!(arcs, ["idle->t1", "idle<-t1"], "Ctrl-Z undid the final place only");
     assert!(!strings(&seen["nets"]).contains(&"NEW".to_owned()));
     assert_eq!(seen["undo_disabled"], true);
     assert_eq!(files(dir), original, "the example back, byte for byte");

@@ -8,7 +8,8 @@
 //          its counterexample stepped through to the end.
 //   net:   a net added with the toolbar's form (first with a name taken:
 //          refused, the reason shown), the check's verdict on it, then a
-//          transition given to it with its event and arcs, and the verdict.
+//          transition given to it with its event and arcs, the verdict,
+//          its place made final, and the verdict.
 //   undo:  Ctrl-Z once, then the Undo button until the added net is gone.
 // Prints one JSON object with what it saw; the Rust test judges it. The
 // browser is closed on every path.
@@ -162,6 +163,16 @@ async function addNet(page, seen) {
   await page.click("#t-NEW-t1 rect", { force: true });
   await page.click("#p-NEW-idle circle", { force: true });
   await page.waitForFunction((s) => !!document.querySelector(s), newSvg + ' .arc[data-transition="t1"][data-input="false"]', { timeout: 20000 });
+  // The check after the arcs: dead when a catastrophe locks the
+  // transition out (as any net without a final place). idle made final.
+  seen.arcs_check = await verdict(page);
+  await page.click("#tool-select");
+  await page.click("#p-NEW-idle circle", { force: true });
+  await page.waitForSelector("#f-final", { timeout: 20000 });
+  await page.check("#f-final");
+  // Drawn final (the page redrawn after the edit: the verdict below is
+  // the new check's).
+  await page.waitForSelector('#p-NEW-idle circle[stroke-width="3"]', { timeout: 20000 });
   seen.problems_after = await page.$$eval("#problems .problem-row", (els) => els.length);
   seen.check = await verdict(page);
   await page.screenshot({ path: path.join(out, "edit-net-checked.png") });
