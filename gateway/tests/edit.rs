@@ -759,8 +759,16 @@ fn a_net_added_in_the_page_is_written_checked_and_undone() {
     );
     // With its transition, still dead once a catastrophe locks it out
     // (nothing final): as any net.
-    assert_eq!(seen["arcs_check"]["state"], "violated", "{}", seen["arcs_check"]);
-    assert_eq!(seen["arcs_check"]["title"], "net NEW: a deadlock", "{}", seen["arcs_check"]);
+    assert_eq!(
+        seen["arcs_check"]["state"], "violated",
+        "{}",
+        seen["arcs_check"]
+    );
+    assert_eq!(
+        seen["arcs_check"]["title"], "net NEW: a deadlock",
+        "{}",
+        seen["arcs_check"]
+    );
     assert_eq!(seen["problems_after"], 0);
     assert_eq!(seen["check"]["state"], "holds", "{}", seen["check"]);
 
@@ -796,7 +804,11 @@ fn a_net_added_in_the_page_is_written_checked_and_undone() {
     );
     let mut arcs = strings(&seen["arcs_after_ctrl_z"]);
     arcs.sort();
-    assert_eq!(arcs, ["idle->t1", "idle<-t1"], "Ctrl-Z undid the final place only");
+    assert_eq!(
+        arcs,
+        ["idle->t1", "idle<-t1"],
+        "Ctrl-Z undid the final place only"
+    );
     assert!(!strings(&seen["nets"]).contains(&"NEW".to_owned()));
     assert_eq!(seen["undo_disabled"], true);
     assert_eq!(files(dir), original, "the example back, byte for byte");

@@ -10,6 +10,10 @@
 //! transition, then its arcs, passes through such states) and shown with
 //! the loader's problems on their elements.
 //!
+//! Each edit written is kept (its files' texts before and after) so that
+//! it can be undone: the files restored to their exact bytes, under the
+//! same rule (refused when one changed on disk since).
+//!
 //! The check is a child `petrel check --json` on the folder; an edit of a
 //! net kills the one still running (the newer draft supersedes it) and
 //! starts another. The page never waits for it.
@@ -385,7 +389,12 @@ impl Session {
                 s.broken = Some(e);
             }
         }
-        self.load_and_check(&mut s);
+        // A move undone changes no net: nothing to load or check again.
+        if change.files.iter().all(|(f, _, _)| f == positions::FILE) {
+            s.version += 1;
+        } else {
+            self.load_and_check(&mut s);
+        }
         Ok(change.what)
     }
 
