@@ -482,8 +482,8 @@ fn post_edit(url: &str, op: &str) -> (u16, Json) {
 /// name is bad or taken, its file exists, or project.toml changed on
 /// disk; else its file written and its `[[net]]` table appended, every
 /// other byte of project.toml kept), then edits undone one at a time,
-/// each restoring every file to its exact bytes before it, refused when
-/// a file changed on disk since.
+/// each restoring every file to its exact bytes before it, and redone,
+/// both refused when a file changed on disk since.
 #[test]
 fn a_net_added_and_edits_undone_through_the_routes() {
     let tmp = Scratch::new("edit-undo");
@@ -618,6 +618,7 @@ fn a_net_added_and_edits_undone_through_the_routes() {
     );
 
     // Undone one at a time: each time every file as it was before.
+    let all = states.clone();
     let mut names = Vec::new();
     for _ in 0..3 {
         let (status, a) = http(&url, "POST", "/undo", "{}");
@@ -638,6 +639,22 @@ fn a_net_added_and_edits_undone_through_the_routes() {
         ]
     );
     assert!(!dir.join("LATER.toml").exists());
+    // Redone: the bytes the edits wrote, again (LATER.toml made anew);
+    // then undone again.
+    let k = states.len() - 1;
+    for (i, want) in ["move COMMUNICATION.spare", "add net LATER"]
+        .iter()
+        .enumerate()
+    {
+        let (status, a) = http(&url, "POST", "/redo", "{}");
+        assert_eq!((status, a["redone"].as_str()), (200, Some(*want)), "{a}");
+        assert_eq!(files(dir), all[k + 1 + i]);
+    }
+    for i in (0..2).rev() {
+        let (status, a) = http(&url, "POST", "/undo", "{}");
+        assert_eq!(status, 200, "{a}");
+        assert_eq!(files(dir), all[k + i]);
+    }
 
     // Someone else changes a file the next undo restores: refused, their
     // change kept, nothing else written; the edit stays undoable.
@@ -685,14 +702,44 @@ fn a_net_added_and_edits_undone_through_the_routes() {
     assert_eq!(page["nets"].as_array().map(Vec::len), Some(8));
     assert_eq!(page["undo"], Json::Null);
 
-    // A reload after someone else's change forgets the history (what it
-    // would undo is no longer on disk); one that finds nothing changed
-    // keeps it.
+    // Redo refused while a file is in the way of the net's (their file
+    // kept), made once it is gone.
+    assert_eq!(page["redo"], "add net NEW");
+    std::fs::write(dir.join("NEW.toml"), "# mine\n").unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = http(&url, "POST", "/redo", "{}");
+    assert_eq!((status, a["conflict"].as_bool()), (409, Some(true)), "{a}");
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .starts_with("NEW.toml changed on disk"),
+        "{a}"
+    );
+    assert_eq!(read(&dir.join("NEW.toml")), "# mine\n");
+    assert_eq!(read(&dir.join("project.toml")), project);
+    std::fs::remove_file(dir.join("NEW.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = http(&url, "POST", "/redo", "{}");
+    assert_eq!(
+        (status, a["redone"].as_str()),
+        (200, Some("add net NEW")),
+        "{a}"
+    );
+    assert_eq!(files(dir), all[1]);
+    // An edit made: nothing left to redo.
     let (status, _) = post_edit(
         &url,
         r#"{"op":"add_place","net":"COMMUNICATION","name":"spare"}"#,
     );
     assert_eq!(status, 200);
+    let (status, a) = http(&url, "POST", "/redo", "{}");
+    assert_eq!(
+        (status, a["error"].as_str()),
+        (400, Some("nothing to redo"))
+    );
+
+    // A reload after someone else's change forgets the history (what it
+    // would undo is no longer on disk); one that finds nothing changed
+    // keeps it.
     assert_eq!(http(&url, "POST", "/reload", "{}").0, 200);
     let (_, page) = http(&url, "GET", "/page.json", "");
     assert_eq!(page["undo"], "add place COMMUNICATION.spare");
@@ -707,8 +754,8 @@ fn a_net_added_and_edits_undone_through_the_routes() {
 /// refused with the reason shown), drawn at once, checked (dead at the
 /// start), given a transition (still dead after a catastrophe: nothing
 /// final) and its place made final: the files on disk, a fresh `petrel
-/// check` holds. Then undone with Ctrl-Z and the Undo button until the example
-/// is back byte for byte.
+/// check` holds. Then undone with Ctrl-Z and the Undo button until the
+/// example is back byte for byte (a redo and an undo on the way).
 #[test]
 fn a_net_added_in_the_page_is_written_checked_and_undone() {
     let Some(tools) = require() else { return };
@@ -811,5 +858,18 @@ fn a_net_added_in_the_page_is_written_checked_and_undone() {
     );
     assert!(!strings(&seen["nets"]).contains(&"NEW".to_owned()));
     assert_eq!(seen["undo_disabled"], true);
+    assert_eq!(
+        strings(&seen["nets_after_redo"]).last().map(String::as_str),
+        Some("NEW")
+    );
+    assert!(
+        seen["redo_title"]
+            .as_str()
+            .unwrap_or("")
+            .starts_with("redo: add transition NEW.t1"),
+        "{}",
+        seen["redo_title"]
+    );
+    assert_eq!(seen["nets_at_end"], seen["nets"]);
     assert_eq!(files(dir), original, "the example back, byte for byte");
 }

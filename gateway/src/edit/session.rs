@@ -11,8 +11,8 @@
 //! the loader's problems on their elements.
 //!
 //! Each edit written is kept (its files' texts before and after) so that
-//! it can be undone: the files restored to their exact bytes, under the
-//! same rule (refused when one changed on disk since).
+//! it can be undone (and redone): the files restored to their exact
+//! bytes, under the same rule (refused when one changed on disk since).
 //!
 //! The check is a child `petrel check --json` on the folder; an edit of a
 //! net kills the one still running (the newer draft supersedes it) and
@@ -44,6 +44,8 @@ pub enum Refusal {
     Io(String),
     #[error("nothing to undo")]
     NothingToUndo,
+    #[error("nothing to redo")]
+    NothingToRedo,
 }
 
 /// How many edits can be undone (the oldest forgotten beyond): each
@@ -103,6 +105,8 @@ struct State {
     version: u64,
     /// The edits of this session that can be undone, the last on top.
     undo: Vec<Change>,
+    /// The edits undone that can be made again, the last undone on top.
+    redo: Vec<Change>,
 }
 
 /// A project being edited.
@@ -207,6 +211,7 @@ impl Session {
                 child: None,
                 version: 0,
                 undo: Vec::new(),
+                redo: Vec::new(),
             }),
             checker: std::env::current_exe().ok(),
         });
@@ -250,6 +255,7 @@ impl Session {
         // longer what is on disk.
         if s.read != before {
             s.undo.clear();
+            s.redo.clear();
         }
         self.load_and_check(&mut s);
     }
@@ -330,6 +336,7 @@ impl Session {
                 .push((file.clone(), before, Some(text.clone())));
         }
         if !change.files.is_empty() {
+            s.redo.clear();
             s.undo.push(change);
             if s.undo.len() > UNDO_DEPTH {
                 s.undo.remove(0);
@@ -350,35 +357,69 @@ impl Session {
     /// of them changed on disk since; the edit stays undoable. Returns what
     /// was undone.
     pub fn undo(self: &Arc<Self>) -> Result<String, Refusal> {
+        self.step(false)
+    }
+
+    /// Makes again the edit undone last (none once an edit is made after
+    /// it): each file back to the bytes the edit wrote, under the same
+    /// rule.
+    pub fn redo(self: &Arc<Self>) -> Result<String, Refusal> {
+        self.step(true)
+    }
+
+    fn step(self: &Arc<Self>, redo: bool) -> Result<String, Refusal> {
         let mut s = self.lock();
-        let Some(change) = s.undo.last().cloned() else {
-            return Err(Refusal::NothingToUndo);
+        let top = if redo { s.redo.last() } else { s.undo.last() };
+        let Some(change) = top.cloned() else {
+            return Err(if redo {
+                Refusal::NothingToRedo
+            } else {
+                Refusal::NothingToUndo
+            });
         };
-        for (file, _, after) in &change.files {
+        // (file, its text on disk now, its text to write). Undone: the
+        // last written first (project.toml before the net's file goes).
+        let files: Vec<(&String, &Option<String>, &Option<String>)> = if redo {
+            change.files.iter().map(|(f, b, a)| (f, b, a)).collect()
+        } else {
+            change
+                .files
+                .iter()
+                .rev()
+                .map(|(f, b, a)| (f, a, b))
+                .collect()
+        };
+        for (file, now, _) in &files {
             let on_disk = read_file(&self.dir, file).map_err(Refusal::Io)?;
-            if on_disk != *after {
-                return Err(Refusal::Conflict(file.clone()));
+            if on_disk != **now {
+                return Err(Refusal::Conflict((*file).clone()));
             }
         }
-        // Last written first: project.toml before the net's file goes.
-        for (file, before, _) in change.files.iter().rev() {
+        for (file, now, to) in &files {
             let path = self.dir.join(file);
-            let restored = match before {
-                Some(text) => write_atomic(&path, text),
-                None => std::fs::remove_file(&path),
+            let restored = match (now, to) {
+                (None, Some(text)) => write_new(&path, text),
+                (Some(_), Some(text)) => write_atomic(&path, text),
+                (_, None) => std::fs::remove_file(&path),
             };
             if let Err(e) = restored {
                 drop(s);
                 self.reload();
                 return Err(Refusal::Io(format!("cannot restore {file}: {e}")));
             }
-            if before.is_none() && file != positions::FILE {
-                s.read.remove(file);
+            if to.is_none() && *file != positions::FILE {
+                s.read.remove(*file);
             } else {
-                s.read.insert(file.clone(), before.clone());
+                s.read.insert((*file).clone(), (*to).clone());
             }
         }
-        s.undo.pop();
+        if redo {
+            s.redo.pop();
+            s.undo.push(change.clone());
+        } else {
+            s.undo.pop();
+            s.redo.push(change.clone());
+        }
         match draft_from(&s.read) {
             Ok(d) => {
                 s.draft = Some(d);
@@ -583,6 +624,7 @@ impl Session {
                "globals": s.draft.as_ref().map(|d| d.globals.clone()).unwrap_or_default(),
                "events": events, "loads": s.project.is_some(), "problems": s.problems,
                "check": check, "undo": s.undo.last().map(|c| c.what.clone()),
+               "redo": s.redo.last().map(|c| c.what.clone()),
                "undo_depth": s.undo.len(), "petrel": env!("CARGO_PKG_VERSION")})
     }
 

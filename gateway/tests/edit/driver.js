@@ -10,7 +10,8 @@
 //          refused, the reason shown), the check's verdict on it, then a
 //          transition given to it with its event and arcs, the verdict,
 //          its place made final, and the verdict.
-//   undo:  Ctrl-Z once, then the Undo button until the added net is gone.
+//   undo:  Ctrl-Z once, then the Undo button until the added net is gone;
+//          Redo (the net back), Ctrl-Z (gone again).
 // Prints one JSON object with what it saw; the Rust test judges it. The
 // browser is closed on every path.
 "use strict";
@@ -200,6 +201,15 @@ async function undoIt(page, seen) {
   }
   seen.nets = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
   seen.undo_disabled = await page.$eval("#undo", (b) => b.disabled);
+  // Redo brings the net back; Ctrl-Z takes it away again.
+  await page.click("#redo");
+  await page.waitForFunction(() => document.getElementById("edit-message").textContent.startsWith("redone: add net NEW "), null, { timeout: 20000 });
+  await page.waitForSelector(newSvg, { timeout: 20000 });
+  seen.redo_title = await page.$eval("#redo", (b) => b.title);
+  seen.nets_after_redo = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
+  await page.keyboard.press("Control+z");
+  await wait("add net NEW");
+  seen.nets_at_end = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
   await page.screenshot({ path: path.join(out, "edit-undone.png") });
 }
 

@@ -43,6 +43,7 @@ function editorFrame() {
       return '<button id="tool-' + k + '" data-tool="' + k + '">' + label + "</button>";
     }).join("") + "</span>" +
     '<button id="undo" title="nothing to undo" disabled>Undo</button>' +
+    '<button id="redo" title="nothing to redo" disabled>Redo</button>' +
     '<span id="hint" class="muted"></span>' +
     '<button id="net-add-open" title="add a net to the project: a new file NAME.toml">+ net</button>' +
     '<span id="net-add" hidden><input id="net-name" placeholder="NAME" size="14" spellcheck="false"> ' +
@@ -53,6 +54,7 @@ function editorFrame() {
   bar.querySelectorAll("[data-tool]").forEach((b) => { b.onclick = () => setTool(b.dataset.tool); });
   $("reload").onclick = () => post("reload", {});
   $("undo").onclick = undo;
+  $("redo").onclick = redo;
   $("net-add-open").onclick = () => { $("net-add").hidden = false; $("net-add-open").hidden = true; $("net-name").focus(); };
   $("net-add-close").onclick = () => { $("net-add").hidden = true; $("net-add-open").hidden = false; };
   $("net-add-go").onclick = addNet;
@@ -77,7 +79,11 @@ function editorFrame() {
   document.addEventListener("keydown", (ev) => {
     // In a field, Ctrl-Z is the field's own.
     if (ev.target.closest("input, textarea, select")) return;
-    if ((ev.ctrlKey || ev.metaKey) && !ev.shiftKey && ev.key.toLowerCase() === "z") { ev.preventDefault(); undo(); return; }
+    if ((ev.ctrlKey || ev.metaKey) && !ev.altKey) {
+      const k = ev.key.toLowerCase();
+      if (k === "z" && !ev.shiftKey) { ev.preventDefault(); undo(); return; }
+      if ((k === "z" && ev.shiftKey) || k === "y") { ev.preventDefault(); redo(); return; }
+    }
     if ((ev.key === "Delete" || ev.key === "Backspace") && ED.sel) remove(ED.sel);
     if (ev.key === "Escape") { ED.arcFrom = null; select(null); }
   });
@@ -132,6 +138,12 @@ async function undo() {
   if (!page.undo) return;
   const a = await post("undo", {});
   if (a.ok) say("undone: " + a.undone);
+}
+
+async function redo() {
+  if (!page.redo) return;
+  const a = await post("redo", {});
+  if (a.ok) say("redone: " + a.redone);
 }
 
 async function addNet() {
@@ -257,6 +269,8 @@ function draw() {
   if (page.broken) say(page.broken + " — fix it and reload", true);
   $("undo").disabled = !page.undo;
   $("undo").title = page.undo ? "undo: " + page.undo + " (Ctrl-Z; " + page.undo_depth + " in all)" : "nothing to undo";
+  $("redo").disabled = !page.redo;
+  $("redo").title = page.redo ? "redo: " + page.redo + " (Ctrl-Shift-Z or Ctrl-Y)" : "nothing to redo";
   for (const n of page.nets) {
     const div = document.createElement("div");
     div.className = "net";
