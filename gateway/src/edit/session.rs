@@ -773,6 +773,31 @@ mod tests {
     }
 
     #[test]
+    fn a_new_file_is_written_whole_and_never_replaces_one() {
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let path = dir.path().join("N.toml");
+        write_new(&path, "name = \"N\"\n").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            std::fs::read_to_string(&path).ok().as_deref(),
+            Some("name = \"N\"\n")
+        );
+        // There already: refused, theirs kept.
+        std::fs::write(&path, "theirs").unwrap_or_else(|e| panic!("{e}"));
+        let e = write_new(&path, "ours").err().map(|e| e.kind());
+        assert_eq!(e, Some(std::io::ErrorKind::AlreadyExists));
+        assert_eq!(
+            std::fs::read_to_string(&path).ok().as_deref(),
+            Some("theirs")
+        );
+        let names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .filter_map(Result::ok)
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, vec!["N.toml"], "no temporary file left");
+    }
+
+    #[test]
     fn the_counterexample_shown_is_the_projects_first_then_a_nets() {
         let r = json!({"unsafe_example": null, "deadlock_example": ["a → N.t"], "livelocks": [],
                        "nets": {"N": {"unsafe_example": ["b"]}}});
