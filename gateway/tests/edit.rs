@@ -736,6 +736,14 @@ fn a_net_added_and_edits_undone_through_the_routes() {
         (status, a["error"].as_str()),
         (400, Some("nothing to redo"))
     );
+    // That edit was made on the draft the undos left: the file on disk.
+    assert_eq!(
+        read(&dir.join("communication.toml")),
+        original["communication.toml"].replace(
+            "places = [\"proceeding\"]",
+            "places = [\"proceeding\", \"spare\"]"
+        )
+    );
 
     // A reload after someone else's change forgets the history (what it
     // would undo is no longer on disk); one that finds nothing changed

@@ -264,6 +264,23 @@ impl Draft {
         })
     }
 
+    /// The draft with `files` (net files, the layout file) read again
+    /// from `text`: None when project.toml is among them, or one is not
+    /// the draft's, absent or not TOML (the caller parses the whole
+    /// project then).
+    pub fn reread(&self, files: &[&str], text: impl Fn(&str) -> Option<String>) -> Option<Draft> {
+        let mut next = self.clone();
+        for file in files {
+            if *file == super::positions::FILE {
+                next.positions = Positions::parse(&text(file).unwrap_or_default()).ok()?;
+            } else {
+                let net = next.nets.iter_mut().find(|n| n.file == *file)?;
+                net.doc = parse(file, &text(file)?).ok()?;
+            }
+        }
+        Some(next)
+    }
+
     /// The net files project.toml lists, in its order.
     pub fn net_files(project: &str) -> Result<Vec<String>, EditError> {
         let p = parse(nets::load::PROJECT_FILE, project)?;

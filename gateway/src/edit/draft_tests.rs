@@ -930,3 +930,45 @@ fn a_net_added_loads_and_is_dead_until_given_a_transition() {
     let project = nets::load(&files).unwrap_or_else(|e| panic!("{e:?}"));
     assert!(project.nets.iter().any(|n| n.name == "NEW"));
 }
+
+#[test]
+fn a_draft_reread_is_the_draft_parsed_anew() {
+    let mut d = draft();
+    ok(
+        &mut d,
+        Op::AddPlace {
+            net: "A".into(),
+            name: "spare".into(),
+            at: Some((10.0, 20.0)),
+        },
+    );
+    let (net, layout) = (text(&d), d.positions.text());
+    // The files as they were, read again over the edited draft: the
+    // original draft's texts.
+    let back = d
+        .reread(&["a.toml", "layout.toml"], |f| match f {
+            "a.toml" => Some(A.to_owned()),
+            _ => None,
+        })
+        .unwrap_or_else(|| panic!("not reread"));
+    assert_eq!(text(&back), A);
+    assert_eq!(back.positions.text(), draft().positions.text());
+    // And forward again.
+    let again = back
+        .reread(&["a.toml", "layout.toml"], |f| match f {
+            "a.toml" => Some(net.clone()),
+            _ => Some(layout.clone()),
+        })
+        .unwrap_or_else(|| panic!("not reread"));
+    assert_eq!(text(&again), net);
+    assert_eq!(again.positions.text(), layout);
+    // project.toml, a file not the draft's, one gone or not TOML: None.
+    assert!(d
+        .reread(&["project.toml"], |_| Some(PROJECT.into()))
+        .is_none());
+    assert!(d.reread(&["b.toml"], |_| Some(A.into())).is_none());
+    assert!(d.reread(&["a.toml"], |_| None).is_none());
+    assert!(d
+        .reread(&["a.toml"], |_| Some("name = \n".into()))
+        .is_none());
+}

@@ -420,7 +420,12 @@ impl Session {
             s.undo.pop();
             s.redo.push(change.clone());
         }
-        match draft_from(&s.read) {
+        let files_changed: Vec<&str> = change.files.iter().map(|(f, _, _)| f.as_str()).collect();
+        let next = match &s.draft {
+            Some(d) => d.reread(&files_changed, |f| s.read.get(f).cloned().flatten()),
+            None => None,
+        };
+        match next.map_or_else(|| draft_from(&s.read), Ok) {
             Ok(d) => {
                 s.draft = Some(d);
                 s.broken = None;
