@@ -556,16 +556,14 @@ fn a_net_added_and_edits_undone_through_the_routes() {
         new_net,
         "# NEW: a net added by `petrel edit`.\nname = \"NEW\"\nplaces = [\"idle\"]\ninitial = [\"idle\"]\n"
     );
-    // The new file loads with the nets loader (in a project of its own:
-    // the example needs its profile's events).
-    let mut alone = std::collections::BTreeMap::new();
-    alone.insert(
-        "project.toml".to_owned(),
-        "[[net]]\nfile = \"NEW.toml\"\nactive = true\n".to_owned(),
-    );
-    alone.insert("NEW.toml".to_owned(), new_net.clone());
-    let loaded = nets::load(&alone).unwrap_or_else(|e| panic!("{e:?}"));
-    assert_eq!(loaded.nets.len(), 1);
+    // The copy loads with the nets loader, the new net last, inactive.
+    let loaded = nets::load(&files(dir)).unwrap_or_else(|e| panic!("{e:?}"));
+    let last = loaded
+        .nets
+        .last()
+        .map(|n| (n.name.as_str(), n.file.as_str(), n.active_at_start));
+    assert_eq!(loaded.nets.len(), 9);
+    assert_eq!(last, Some(("NEW", "NEW.toml", false)));
     // The page has it, editable; the whole project loads and is checked.
     let (_, page) = http(&url, "GET", "/page.json", "");
     let new = page["nets"]
