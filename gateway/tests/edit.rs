@@ -443,3 +443,439 @@ fn the_editor_never_overwrites_a_file_changed_on_disk() {
         "petrel --help lists edit"
     );
 }
+
+/// Every regular file of the folder, by name (what an undo must restore,
+/// absent files included).
+fn files(dir: &Path) -> std::collections::BTreeMap<String, String> {
+    std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .filter_map(Result::ok)
+        .filter(|e| e.path().is_file())
+        .map(|e| {
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                read(&e.path()),
+            )
+        })
+        .collect()
+}
+
+/// The `[[net]]` table the editor appends for an added net.
+fn net_entry(name: &str, active: bool) -> String {
+    format!("\n[[net]]\nfile = \"{name}.toml\"\nactive = {active}\n")
+}
+
+/// project.toml with `entry` right after its last `[[net]]` table (the
+/// example's: operations.toml, before the globals' comment).
+fn with_entry(project: &str, entry: &str) -> String {
+    let last =
+        "file = \"operations.toml\"        # activated by FLIGHT on entering the operations area\n";
+    assert_eq!(project.matches(last).count(), 1);
+    project.replace(last, &format!("{last}{entry}"))
+}
+
+fn post_edit(url: &str, op: &str) -> (u16, Json) {
+    http(url, "POST", "/edit", op)
+}
+
+/// Without a browser: a net added through the routes (refused when its
+/// name is bad or taken, its file exists, or project.toml changed on
+/// disk; else its file written and its `[[net]]` table appended, every
+/// other byte of project.toml kept), then edits undone one at a time,
+/// each restoring every file to its exact bytes before it, and redone,
+/// both refused when a file changed on disk since.
+#[test]
+fn a_net_added_and_edits_undone_through_the_routes() {
+    let tmp = Scratch::new("edit-undo");
+    let dir = tmp.path();
+    copy_example(dir);
+    let original = files(dir);
+    let project = original["project.toml"].clone();
+    let (_editor, url) = edit(dir);
+
+    // Nothing to undo yet.
+    let (status, a) = http(&url, "POST", "/undo", "{}");
+    assert_eq!(
+        (status, a["error"].as_str()),
+        (400, Some("nothing to undo"))
+    );
+    // Refused, nothing written: a bad name, a name taken, a file there.
+    let (status, a) = post_edit(&url, r#"{"op":"add_net","name":"2nd","active":true}"#);
+    assert_eq!(status, 400, "{a}");
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .contains("invalid net name `2nd`"),
+        "{a}"
+    );
+    let (status, a) = post_edit(&url, r#"{"op":"add_net","name":"COMMUNICATION"}"#);
+    assert_eq!(
+        (status, a["error"].as_str()),
+        (400, Some("the project already has a net `COMMUNICATION`"))
+    );
+    std::fs::write(dir.join("MINE.toml"), "# mine\n").unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = post_edit(&url, r#"{"op":"add_net","name":"MINE"}"#);
+    assert_eq!(status, 400, "{a}");
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .contains("MINE.toml exists already"),
+        "{a}"
+    );
+    assert_eq!(read(&dir.join("MINE.toml")), "# mine\n");
+    std::fs::remove_file(dir.join("MINE.toml")).unwrap_or_else(|e| panic!("{e}"));
+    // project.toml changed on disk: 409, theirs kept, no net file.
+    let theirs = format!("{project}# theirs\n");
+    std::fs::write(dir.join("project.toml"), &theirs).unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = post_edit(&url, r#"{"op":"add_net","name":"NEW","active":true}"#);
+    assert_eq!((status, a["conflict"].as_bool()), (409, Some(true)), "{a}");
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .starts_with("project.toml changed on disk"),
+        "{a}"
+    );
+    assert_eq!(read(&dir.join("project.toml")), theirs);
+    assert!(!dir.join("NEW.toml").exists());
+    std::fs::write(dir.join("project.toml"), &project).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(files(dir), original, "nothing written by the refusals");
+
+    // Made: the new file, and the entry after the last [[net]].
+    let mut states = vec![files(dir)];
+    let (status, a) = post_edit(&url, r#"{"op":"add_net","name":"NEW"}"#);
+    assert_eq!(status, 200, "{a}");
+    assert_eq!(
+        read(&dir.join("project.toml")),
+        with_entry(&project, &net_entry("NEW", false))
+    );
+    let new_net = read(&dir.join("NEW.toml"));
+    assert_eq!(
+        new_net,
+        "# NEW: a net added by `petrel edit`.\nname = \"NEW\"\nplaces = [\"idle\"]\ninitial = [\"idle\"]\n"
+    );
+    // The copy loads with the nets loader, the new net last, inactive.
+    let loaded = nets::load(&files(dir)).unwrap_or_else(|e| panic!("{e:?}"));
+    let last = loaded
+        .nets
+        .last()
+        .map(|n| (n.name.as_str(), n.file.as_str(), n.active_at_start));
+    assert_eq!(loaded.nets.len(), 9);
+    assert_eq!(last, Some(("NEW", "NEW.toml", false)));
+    // The page has it, editable; the whole project loads and is checked.
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    let new = page["nets"]
+        .as_array()
+        .and_then(|n| n.iter().find(|n| n["name"] == "NEW"))
+        .cloned()
+        .unwrap_or_else(|| panic!("no NEW in {}", page["nets"]));
+    assert_eq!(new["places"][0]["name"], "idle");
+    assert_eq!(new["places"][0]["initial"], true);
+    assert_eq!(page["loads"], true, "{}", page["problems"]);
+    assert_eq!(page["check"]["state"], "running", "{}", page["check"]);
+    assert_eq!(page["undo"], "add net NEW");
+    states.push(files(dir));
+
+    // Several edits in a row, of several files (layout.toml created).
+    for op in [
+        r#"{"op":"add_transition","net":"NEW","name":"t1","at":[120,60]}"#,
+        r#"{"op":"add_arc","net":"NEW","transition":"t1","place":"idle","input":true}"#,
+        r#"{"op":"set_transition","net":"NEW","name":"t1","on":"link_lost","when":"","do":[]}"#,
+        r#"{"op":"add_place","net":"COMMUNICATION","name":"spare"}"#,
+        r#"{"op":"move","net":"COMMUNICATION","kind":"place","name":"spare","x":300,"y":80}"#,
+        r#"{"op":"add_net","name":"LATER","active":true}"#,
+        r#"{"op":"rename_place","net":"NEW","name":"idle","to":"waiting"}"#,
+    ] {
+        let (status, a) = post_edit(&url, op);
+        assert_eq!(status, 200, "{op}: {a}");
+        states.push(files(dir));
+    }
+    assert!(states.last().is_some_and(|s| s.contains_key("layout.toml")));
+    assert!(!original.contains_key("layout.toml"));
+    assert_eq!(
+        read(&dir.join("project.toml")),
+        with_entry(
+            &project,
+            &format!("{}{}", net_entry("NEW", false), net_entry("LATER", true))
+        )
+    );
+    // An edit refused is not undone: it made nothing.
+    let (status, _) = post_edit(&url, r#"{"op":"add_place","net":"NEW","name":"waiting"}"#);
+    assert_eq!(status, 400);
+    // An edit that changes nothing is not on the stack either.
+    let (status, _) = post_edit(
+        &url,
+        r#"{"op":"set_place","net":"NEW","name":"waiting","initial":true}"#,
+    );
+    assert_eq!(status, 200);
+    assert_eq!(
+        &files(dir),
+        states.last().unwrap_or_else(|| panic!("no state"))
+    );
+
+    // Undone one at a time: each time every file as it was before.
+    let all = states.clone();
+    let mut names = Vec::new();
+    for _ in 0..3 {
+        let (status, a) = http(&url, "POST", "/undo", "{}");
+        assert_eq!(status, 200, "{a}");
+        names.push(a["undone"].as_str().unwrap_or("").to_owned());
+        states.pop();
+        assert_eq!(
+            &files(dir),
+            states.last().unwrap_or_else(|| panic!("no state"))
+        );
+    }
+    assert_eq!(
+        names,
+        [
+            "rename place NEW.idle to waiting",
+            "add net LATER",
+            "move COMMUNICATION.spare"
+        ]
+    );
+    assert!(!dir.join("LATER.toml").exists());
+    // Redone: the bytes the edits wrote, again (LATER.toml made anew);
+    // then undone again.
+    let k = states.len() - 1;
+    for (i, want) in ["move COMMUNICATION.spare", "add net LATER"]
+        .iter()
+        .enumerate()
+    {
+        let (status, a) = http(&url, "POST", "/redo", "{}");
+        assert_eq!((status, a["redone"].as_str()), (200, Some(*want)), "{a}");
+        assert_eq!(files(dir), all[k + 1 + i]);
+    }
+    for i in (0..2).rev() {
+        let (status, a) = http(&url, "POST", "/undo", "{}");
+        assert_eq!(status, 200, "{a}");
+        assert_eq!(files(dir), all[k + i]);
+    }
+
+    // Someone else changes a file the next undo restores: refused, their
+    // change kept, nothing else written; the edit stays undoable.
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    assert_eq!(page["undo"], "add place COMMUNICATION.spare");
+    let ours = read(&dir.join("communication.toml"));
+    let theirs = format!("{ours}# theirs\n");
+    std::fs::write(dir.join("communication.toml"), &theirs).unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = http(&url, "POST", "/undo", "{}");
+    assert_eq!((status, a["conflict"].as_bool()), (409, Some(true)), "{a}");
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .starts_with("communication.toml changed on disk"),
+        "{a}"
+    );
+    let mut expected = states.last().cloned().unwrap_or_default();
+    expected.insert("communication.toml".into(), theirs.clone());
+    assert_eq!(files(dir), expected, "nothing written by the refused undo");
+    // A foreign page cannot undo.
+    let (status, _) = http_with(&url, "POST", "/undo", "{}", "text/plain", None);
+    assert_eq!(status, 403);
+    std::fs::write(dir.join("communication.toml"), &ours).unwrap_or_else(|e| panic!("{e}"));
+    // Back to the bytes the editor wrote: the undo is made.
+    while states.len() > 1 {
+        let (status, a) = http(&url, "POST", "/undo", "{}");
+        assert_eq!(status, 200, "{a}");
+        states.pop();
+        assert_eq!(
+            &files(dir),
+            states.last().unwrap_or_else(|| panic!("no state")),
+            "after undoing {}",
+            a["undone"]
+        );
+    }
+    // The added net undone: its file gone, project.toml byte for byte.
+    assert_eq!(files(dir), original);
+    let (status, a) = http(&url, "POST", "/undo", "{}");
+    assert_eq!(
+        (status, a["error"].as_str()),
+        (400, Some("nothing to undo"))
+    );
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    assert_eq!(page["nets"].as_array().map(Vec::len), Some(8));
+    assert_eq!(page["undo"], Json::Null);
+
+    // Redo refused while a file is in the way of the net's (their file
+    // kept), made once it is gone.
+    assert_eq!(page["redo"], "add net NEW");
+    std::fs::write(dir.join("NEW.toml"), "# mine\n").unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = http(&url, "POST", "/redo", "{}");
+    assert_eq!((status, a["conflict"].as_bool()), (409, Some(true)), "{a}");
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .starts_with("NEW.toml changed on disk"),
+        "{a}"
+    );
+    assert_eq!(read(&dir.join("NEW.toml")), "# mine\n");
+    assert_eq!(read(&dir.join("project.toml")), project);
+    std::fs::remove_file(dir.join("NEW.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = http(&url, "POST", "/redo", "{}");
+    assert_eq!(
+        (status, a["redone"].as_str()),
+        (200, Some("add net NEW")),
+        "{a}"
+    );
+    assert_eq!(files(dir), all[1]);
+    // An edit made: nothing left to redo.
+    let (status, _) = post_edit(
+        &url,
+        r#"{"op":"add_place","net":"COMMUNICATION","name":"spare"}"#,
+    );
+    assert_eq!(status, 200);
+    let (status, a) = http(&url, "POST", "/redo", "{}");
+    assert_eq!(
+        (status, a["error"].as_str()),
+        (400, Some("nothing to redo"))
+    );
+    // That edit was made on the draft the undos left: the file on disk.
+    assert_eq!(
+        read(&dir.join("communication.toml")),
+        original["communication.toml"].replace(
+            "places = [\"proceeding\"]",
+            "places = [\"proceeding\", \"spare\"]"
+        )
+    );
+
+    // A reload after someone else's change forgets the history (what it
+    // would undo is no longer on disk); one that finds nothing changed
+    // keeps it.
+    assert_eq!(http(&url, "POST", "/reload", "{}").0, 200);
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    assert_eq!(page["undo"], "add place COMMUNICATION.spare");
+    let theirs = format!("{}# theirs\n", read(&dir.join("safety.toml")));
+    std::fs::write(dir.join("safety.toml"), &theirs).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(http(&url, "POST", "/reload", "{}").0, 200);
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    assert_eq!(page["undo"], Json::Null);
+}
+
+/// In the browser: a net added with the toolbar's form (a name taken
+/// refused with the reason shown), drawn at once, checked (dead at the
+/// start), given a transition (still dead after a catastrophe: nothing
+/// final) and its place made final: the files on disk, a fresh `petrel
+/// check` holds. Then undone with Ctrl-Z and the Undo button until the
+/// example is back byte for byte (a redo and an undo on the way).
+#[test]
+fn a_net_added_in_the_page_is_written_checked_and_undone() {
+    let Some(tools) = require() else { return };
+    let shots = browser::shots();
+    let tmp = Scratch::new("edit-net");
+    let dir = tmp.path();
+    copy_example(dir);
+    let original = files(dir);
+    let (editor, url) = edit(dir);
+
+    let seen = drive(&tools, "net", &url, &shots);
+    assert!(seen.get("failure").is_none(), "{}", seen["failure"]);
+    assert_eq!(seen["undo_at_start"], true, "nothing to undo at first");
+    assert!(
+        seen["taken"]
+            .as_str()
+            .unwrap_or("")
+            .contains("the project already has a net `COMMUNICATION`"),
+        "{}",
+        seen["taken"]
+    );
+    assert_eq!(seen["active_ticked"], true);
+    assert_eq!(seen["message_after"], true, "the refusal cleared");
+    assert_eq!(
+        strings(&seen["nets"]).last().map(String::as_str),
+        Some("NEW")
+    );
+    assert_eq!(strings(&seen["new_ids"]), ["p-NEW-idle"]);
+    assert_eq!(seen["new_marked_at_start"], 1);
+    assert!(
+        seen["undo_title"]
+            .as_str()
+            .unwrap_or("")
+            .starts_with("undo: add net NEW"),
+        "{}",
+        seen["undo_title"]
+    );
+    // The check judges the new net as any: dead at the start.
+    assert_eq!(
+        seen["first_check"]["state"], "violated",
+        "{}",
+        seen["first_check"]
+    );
+    assert_eq!(
+        seen["first_check"]["title"], "net NEW: a deadlock",
+        "{}",
+        seen["first_check"]
+    );
+    // With its transition, still dead once a catastrophe locks it out
+    // (nothing final): as any net.
+    assert_eq!(
+        seen["arcs_check"]["state"], "violated",
+        "{}",
+        seen["arcs_check"]
+    );
+    assert_eq!(
+        seen["arcs_check"]["title"], "net NEW: a deadlock",
+        "{}",
+        seen["arcs_check"]
+    );
+    assert_eq!(seen["problems_after"], 0);
+    assert_eq!(seen["check"]["state"], "holds", "{}", seen["check"]);
+
+    let project = &original["project.toml"];
+    assert_eq!(
+        read(&dir.join("project.toml")),
+        with_entry(project, &net_entry("NEW", true))
+    );
+    assert_eq!(
+        read(&dir.join("NEW.toml")),
+        "# NEW: a net added by `petrel edit`.\nname = \"NEW\"\nplaces = [\"idle\"]\ninitial = [\"idle\"]\nfinal = [\"idle\"]\n\n[[transition]]\nname = \"t1\"\nfrom = [\"idle\"]\nto = [\"idle\"]\non = \"link_lost\"\n"
+    );
+    for (name, text) in &original {
+        if name != "project.toml" {
+            assert_eq!(&read(&dir.join(name)), text, "{name} changed");
+        }
+    }
+    assert_eq!(check(dir), Some(0), "a fresh petrel check of the copy");
+
+    let seen = drive(&tools, "undo", &url, &shots);
+    drop(editor);
+    assert!(seen.get("failure").is_none(), "{}", seen["failure"]);
+    assert_eq!(
+        strings(&seen["undone"]),
+        [
+            "set place NEW.idle",
+            "add arc NEW.t1 → idle",
+            "add arc idle → NEW.t1",
+            "set transition NEW.t1",
+            "add transition NEW.t1",
+            "add net NEW"
+        ]
+    );
+    let mut arcs = strings(&seen["arcs_after_ctrl_z"]);
+    arcs.sort();
+    assert_eq!(
+        arcs,
+        ["idle->t1", "idle<-t1"],
+        "Ctrl-Z undid the final place only"
+    );
+    assert!(!strings(&seen["nets"]).contains(&"NEW".to_owned()));
+    assert_eq!(seen["undo_disabled"], true);
+    assert_eq!(
+        strings(&seen["nets_after_redo"]).last().map(String::as_str),
+        Some("NEW")
+    );
+    assert!(
+        seen["redo_title"]
+            .as_str()
+            .unwrap_or("")
+            .starts_with("redo: add transition NEW.t1"),
+        "{}",
+        seen["redo_title"]
+    );
+    assert_eq!(seen["nets_at_end"], seen["nets"]);
+    assert_eq!(files(dir), original, "the example back, byte for byte");
+}

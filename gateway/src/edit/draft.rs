@@ -35,6 +35,8 @@ impl NetText {
 pub struct Draft {
     /// project.toml's `name` (empty when it has none).
     pub name: String,
+    /// project.toml itself (a net added appends its `[[net]]` table).
+    pub project: DocumentMut,
     pub nets: Vec<NetText>,
     /// project.toml's global places, without `@`.
     pub globals: Vec<String>,
@@ -48,6 +50,17 @@ pub struct Applied {
     pub net_file: Option<usize>,
     /// The layout file.
     pub layout: bool,
+    /// project.toml, and the net file is new (a net added).
+    pub project: bool,
+}
+
+/// The text of a net added by the editor: one place, marked initially.
+/// It loads; `petrel check` finds it dead at the start (nothing moves
+/// the token) until a transition is given to it, or `idle` made final.
+pub fn new_net_text(name: &str) -> String {
+    format!(
+        "# {name}: a net added by `petrel edit`.\nname = \"{name}\"\nplaces = [\"idle\"]\ninitial = [\"idle\"]\n"
+    )
 }
 
 fn parse(file: &str, text: &str) -> Result<DocumentMut, EditError> {
@@ -244,10 +257,28 @@ impl Draft {
                 .and_then(Item::as_str)
                 .unwrap_or("")
                 .to_owned(),
+            project: p,
             nets,
             globals,
             positions: Positions::parse(layout)?,
         })
+    }
+
+    /// The draft with `files` (net files, the layout file) read again
+    /// from `text`: None when project.toml is among them, or one is not
+    /// the draft's, absent or not TOML (the caller parses the whole
+    /// project then).
+    pub fn reread(&self, files: &[&str], text: impl Fn(&str) -> Option<String>) -> Option<Draft> {
+        let mut next = self.clone();
+        for file in files {
+            if *file == super::positions::FILE {
+                next.positions = Positions::parse(&text(file).unwrap_or_default()).ok()?;
+            } else {
+                let net = next.nets.iter_mut().find(|n| n.file == *file)?;
+                net.doc = parse(file, &text(file)?).ok()?;
+            }
+        }
+        Some(next)
     }
 
     /// The net files project.toml lists, in its order.
@@ -355,18 +386,68 @@ impl Draft {
             .flat_map(|a| a.iter_mut())
     }
 
+    /// A new net `name` in `NAME.toml`, its `[[net]]` table appended to
+    /// project.toml after the last one (every other byte kept).
+    fn add_net(&mut self, name: &str, active: bool) -> Result<Applied, EditError> {
+        if !valid_name(name) {
+            return Err(EditError::BadName {
+                kind: "net",
+                name: name.to_owned(),
+            });
+        }
+        if self.nets.iter().any(|n| n.name() == name) {
+            return Err(EditError::DuplicateNet(name.to_owned()));
+        }
+        let file = format!("{name}.toml");
+        if file == nets::load::PROJECT_FILE
+            || file == super::positions::FILE
+            || self.nets.iter().any(|n| n.file == file)
+        {
+            return Err(EditError::FileExists(file));
+        }
+        let doc = parse(&file, &new_net_text(name))?;
+        let root = self.project.as_table_mut();
+        if root.get("net").is_none() {
+            root.insert("net", Item::ArrayOfTables(ArrayOfTables::new()));
+        }
+        let entries = root
+            .get_mut("net")
+            .and_then(Item::as_array_of_tables_mut)
+            .ok_or_else(|| {
+                shape(
+                    nets::load::PROJECT_FILE,
+                    "`net` is not [[net]] tables: add the net there by hand",
+                )
+            })?;
+        let mut t = Table::new();
+        t.insert("file", value(file.as_str()));
+        t.insert("active", value(active));
+        t.decor_mut().set_prefix("\n");
+        entries.push(t);
+        self.nets.push(NetText { file, doc });
+        Ok(Applied {
+            net_file: Some(self.nets.len() - 1),
+            layout: false,
+            project: true,
+        })
+    }
+
     /// Makes the edit, or refuses it with nothing changed.
     pub fn apply(&mut self, op: &Op) -> Result<Applied, EditError> {
+        if let Op::AddNet { name, active } = op {
+            return self.add_net(name, *active);
+        }
         let n = self.net(op.net())?;
         let net_name = self.nets[n].name().to_owned();
         let file_name = self.nets[n].file.clone();
         let file = Applied {
             net_file: Some(n),
-            layout: false,
+            ..Applied::default()
         };
         let both = Applied {
             net_file: Some(n),
             layout: true,
+            project: false,
         };
         match op {
             Op::AddPlace { name, at, .. } => {
@@ -410,6 +491,7 @@ impl Draft {
                 Ok(Applied {
                     net_file: Some(n),
                     layout,
+                    project: false,
                 })
             }
             Op::DeletePlace { name, .. } => {
@@ -441,6 +523,7 @@ impl Draft {
                 Ok(Applied {
                     net_file: Some(n),
                     layout,
+                    project: false,
                 })
             }
             Op::SetPlace {
@@ -510,6 +593,7 @@ impl Draft {
                 Ok(Applied {
                     net_file: Some(n),
                     layout,
+                    project: false,
                 })
             }
             Op::DeleteTransition { name, .. } => {
@@ -525,6 +609,7 @@ impl Draft {
                 Ok(Applied {
                     net_file: Some(n),
                     layout,
+                    project: false,
                 })
             }
             Op::SetTransition {
@@ -607,12 +692,15 @@ impl Draft {
                 Ok(Applied {
                     net_file: None,
                     layout: true,
+                    project: false,
                 })
             }
             Op::Relayout { .. } => Ok(Applied {
                 net_file: None,
                 layout: self.positions.clear(&net_name),
+                project: false,
             }),
+            Op::AddNet { .. } => Ok(Applied::default()), // made above
         }
     }
 }

@@ -92,7 +92,8 @@ fn a_transition_is_appended_after_the_others_and_the_rest_is_unchanged() {
         a,
         Applied {
             net_file: Some(0),
-            layout: true
+            layout: true,
+            project: false
         }
     );
     ok(
@@ -151,7 +152,8 @@ fn a_place_joins_a_list_written_one_a_line() {
         a,
         Applied {
             net_file: Some(0),
-            layout: false
+            layout: false,
+            project: false
         }
     );
     assert_eq!(
@@ -210,7 +212,8 @@ fn renaming_a_place_renames_it_everywhere_and_only_there() {
         a,
         Applied {
             net_file: Some(0),
-            layout: true
+            layout: true,
+            project: false
         }
     );
     assert_eq!(text(&d), A.replace("\"idle\"", "\"waiting\""));
@@ -422,7 +425,8 @@ fn a_place_in_use_is_not_deleted_and_a_free_one_is() {
         a,
         Applied {
             net_file: Some(0),
-            layout: true
+            layout: true,
+            project: false
         }
     );
     assert_eq!(text(&d), A);
@@ -446,7 +450,8 @@ fn moves_touch_the_layout_only() {
         a,
         Applied {
             net_file: None,
-            layout: true
+            layout: true,
+            project: false
         }
     );
     ok(
@@ -469,7 +474,8 @@ fn moves_touch_the_layout_only() {
         a,
         Applied {
             net_file: None,
-            layout: true
+            layout: true,
+            project: false
         }
     );
     assert_eq!(d.positions.get("A", Kind::Transition, "go"), None);
@@ -781,4 +787,188 @@ fn a_file_that_is_not_toml_is_reported_with_its_name() {
         Err(EditError::Shape { file, .. }) => assert_eq!(file, "a.toml"),
         other => panic!("{other:?}"),
     }
+}
+
+#[test]
+fn a_net_added_gets_its_file_and_a_net_table_after_the_last_one() {
+    // A commented project.toml with tables after the nets.
+    let project = "# The project.\nname = \"p\"\n\n[[net]]\nfile = \"a.toml\"   # first\nactive = true\n\n# Globals: shared.\n[globals]\ng = false\n\n[events]\nx = {}\n";
+    let mut d =
+        Draft::parse(project, &[("a.toml".into(), A.into())], "").unwrap_or_else(|e| panic!("{e}"));
+    let a = ok(
+        &mut d,
+        Op::AddNet {
+            name: "NEW".into(),
+            active: true,
+        },
+    );
+    assert_eq!(
+        a,
+        Applied {
+            net_file: Some(1),
+            layout: false,
+            project: true
+        }
+    );
+    assert_eq!(
+        d.project.to_string(),
+        project.replace(
+            "# first\nactive = true\n",
+            "# first\nactive = true\n\n[[net]]\nfile = \"NEW.toml\"\nactive = true\n"
+        )
+    );
+    assert_eq!(d.nets[1].file, "NEW.toml");
+    assert_eq!(d.nets[1].name(), "NEW");
+    assert_eq!(d.nets[1].doc.to_string(), new_net_text("NEW"));
+    assert_eq!(text(&d), A, "the other net untouched");
+    // Editable at once: a transition on it.
+    ok(
+        &mut d,
+        Op::AddTransition {
+            net: "NEW".into(),
+            name: "t1".into(),
+            at: None,
+        },
+    );
+    assert!(d.nets[1]
+        .doc
+        .to_string()
+        .ends_with("\n[[transition]]\nname = \"t1\"\nfrom = []\nto = []\n"));
+    // A second one, inactive, goes after the first added.
+    ok(
+        &mut d,
+        Op::AddNet {
+            name: "_later".into(),
+            active: false,
+        },
+    );
+    assert!(d.project.to_string().contains(
+        "active = true\n\n[[net]]\nfile = \"NEW.toml\"\nactive = true\n\n[[net]]\nfile = \"_later.toml\"\nactive = false\n\n# Globals: shared.\n"
+    ), "{}", d.project);
+
+    // Refused, nothing changed: a name taken, malformed, or whose file is
+    // the project's.
+    let before = d.project.to_string();
+    for (name, want) in [
+        ("A", EditError::DuplicateNet("A".into())),
+        ("NEW", EditError::DuplicateNet("NEW".into())),
+        (
+            "1st",
+            EditError::BadName {
+                kind: "net",
+                name: "1st".into(),
+            },
+        ),
+        (
+            "a b",
+            EditError::BadName {
+                kind: "net",
+                name: "a b".into(),
+            },
+        ),
+        (
+            "",
+            EditError::BadName {
+                kind: "net",
+                name: "".into(),
+            },
+        ),
+        ("project", EditError::FileExists("project.toml".into())),
+        ("layout", EditError::FileExists("layout.toml".into())),
+        ("a", EditError::FileExists("a.toml".into())),
+    ] {
+        let e = d.apply(&Op::AddNet {
+            name: name.into(),
+            active: true,
+        });
+        assert_eq!(e, Err(want), "{name}");
+        assert_eq!(d.project.to_string(), before);
+        assert_eq!(d.nets.len(), 3);
+    }
+    // A project.toml whose `net` is not [[net]] tables: refused.
+    let mut odd = Draft::parse("net = 3\n", &[], "").unwrap_or_else(|e| panic!("{e}"));
+    assert!(matches!(
+        odd.apply(&Op::AddNet {
+            name: "N".into(),
+            active: true
+        }),
+        Err(EditError::Shape { .. })
+    ));
+    assert_eq!(odd.project.to_string(), "net = 3\n");
+    assert!(odd.nets.is_empty());
+    // The op as the page sends it; `active` defaults to false.
+    let op: Op =
+        serde_json::from_str(r#"{"op":"add_net","name":"N"}"#).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        op,
+        Op::AddNet {
+            name: "N".into(),
+            active: false
+        }
+    );
+    assert_eq!(op.describe(), "add net N");
+}
+
+#[test]
+fn a_net_added_loads_and_is_dead_until_given_a_transition() {
+    let project = "name = \"p\"\n\n[[net]]\nfile = \"a.toml\"\nactive = true\n\n[globals]\ng = false\n\n[events]\nx = {}\ny = {}\n";
+    let mut d =
+        Draft::parse(project, &[("a.toml".into(), A.into())], "").unwrap_or_else(|e| panic!("{e}"));
+    ok(
+        &mut d,
+        Op::AddNet {
+            name: "NEW".into(),
+            active: true,
+        },
+    );
+    let mut files: std::collections::BTreeMap<String, String> = d
+        .nets
+        .iter()
+        .map(|n| (n.file.clone(), n.doc.to_string()))
+        .collect();
+    files.insert("project.toml".into(), d.project.to_string());
+    let project = nets::load(&files).unwrap_or_else(|e| panic!("{e:?}"));
+    assert!(project.nets.iter().any(|n| n.name == "NEW"));
+}
+
+#[test]
+fn a_draft_reread_is_the_draft_parsed_anew() {
+    let mut d = draft();
+    ok(
+        &mut d,
+        Op::AddPlace {
+            net: "A".into(),
+            name: "spare".into(),
+            at: Some((10.0, 20.0)),
+        },
+    );
+    let (net, layout) = (text(&d), d.positions.text());
+    // The files as they were, read again over the edited draft: the
+    // original draft's texts.
+    let back = d
+        .reread(&["a.toml", "layout.toml"], |f| match f {
+            "a.toml" => Some(A.to_owned()),
+            _ => None,
+        })
+        .unwrap_or_else(|| panic!("not reread"));
+    assert_eq!(text(&back), A);
+    assert_eq!(back.positions.text(), draft().positions.text());
+    // And forward again.
+    let again = back
+        .reread(&["a.toml", "layout.toml"], |f| match f {
+            "a.toml" => Some(net.clone()),
+            _ => Some(layout.clone()),
+        })
+        .unwrap_or_else(|| panic!("not reread"));
+    assert_eq!(text(&again), net);
+    assert_eq!(again.positions.text(), layout);
+    // project.toml, a file not the draft's, one gone or not TOML: None.
+    assert!(d
+        .reread(&["project.toml"], |_| Some(PROJECT.into()))
+        .is_none());
+    assert!(d.reread(&["b.toml"], |_| Some(A.into())).is_none());
+    assert!(d.reread(&["a.toml"], |_| None).is_none());
+    assert!(d
+        .reread(&["a.toml"], |_| Some("name = \n".into()))
+        .is_none());
 }

@@ -6,7 +6,9 @@
 //! a person gave kept in the project's `layout.toml`, then the project
 //! loaded again (its errors shown on the elements) and checked in the
 //! background (`petrel check`, its counterexample stepped through on the
-//! nets).
+//! nets). A net can be added (its own file, its `[[net]]` table appended
+//! to project.toml), and the session's edits undone one at a time, each
+//! file back to its exact bytes.
 //!
 //! Pure: the edits (`op.rs`), the edit core over `toml_edit` documents
 //! (`draft.rs`), the layout file (`positions.rs`), the drawing of a draft

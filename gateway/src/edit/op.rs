@@ -103,6 +103,14 @@ pub enum Op {
     Relayout {
         net: String,
     },
+    /// A new net `name` in a new file `NAME.toml` beside project.toml (one
+    /// place, `idle`, marked initially), listed last in project.toml's
+    /// `[[net]]` tables, active at start or not.
+    AddNet {
+        name: String,
+        #[serde(default)]
+        active: bool,
+    },
 }
 
 impl Op {
@@ -121,6 +129,51 @@ impl Op {
             | Op::DeleteArc { net, .. }
             | Op::Move { net, .. }
             | Op::Relayout { net } => net,
+            Op::AddNet { name, .. } => name,
+        }
+    }
+
+    /// The edit in a few words, as the page's *Undo* names it.
+    pub fn describe(&self) -> String {
+        let net = self.net();
+        match self {
+            Op::AddPlace { name, .. } => format!("add place {net}.{name}"),
+            Op::RenamePlace { name, to, .. } => format!("rename place {net}.{name} to {to}"),
+            Op::DeletePlace { name, .. } => format!("delete place {net}.{name}"),
+            Op::SetPlace { name, .. } => format!("set place {net}.{name}"),
+            Op::AddTransition { name, .. } => format!("add transition {net}.{name}"),
+            Op::RenameTransition { name, to, .. } => {
+                format!("rename transition {net}.{name} to {to}")
+            }
+            Op::DeleteTransition { name, .. } => format!("delete transition {net}.{name}"),
+            Op::SetTransition { name, .. } => format!("set transition {net}.{name}"),
+            Op::AddArc {
+                transition,
+                place,
+                input,
+                ..
+            } => {
+                if *input {
+                    format!("add arc {place} → {net}.{transition}")
+                } else {
+                    format!("add arc {net}.{transition} → {place}")
+                }
+            }
+            Op::DeleteArc {
+                transition,
+                place,
+                input,
+                ..
+            } => {
+                if *input {
+                    format!("delete arc {place} → {net}.{transition}")
+                } else {
+                    format!("delete arc {net}.{transition} → {place}")
+                }
+            }
+            Op::Move { name, .. } => format!("move {net}.{name}"),
+            Op::Relayout { .. } => format!("re-layout {net}"),
+            Op::AddNet { .. } => format!("add net {net}"),
         }
     }
 }
@@ -130,6 +183,10 @@ impl Op {
 pub enum EditError {
     #[error("no net named `{0}`")]
     UnknownNet(String),
+    #[error("the project already has a net `{0}`")]
+    DuplicateNet(String),
+    #[error("{0} exists already: a new net gets a file of its own (nothing written)")]
+    FileExists(String),
     #[error("net {net} has no {kind} `{name}`")]
     Unknown {
         net: String,

@@ -1,6 +1,6 @@
 //! The editing page's routes: the monitor's page and assets, the draft as
 //! drawn (`/page.json`), its version (`/version`, polled by the page), and
-//! the actions (`POST /edit`, `/reload`, `/stubs`), answered with
+//! the actions (`POST /edit`, `/undo`, `/redo`, `/reload`, `/stubs`), answered with
 //! `{"ok": true}` or `{"ok": false, "error": "…", "conflict": bool}`.
 
 use std::sync::Arc;
@@ -67,9 +67,39 @@ async fn edit(State(session): State<Arc<Session>>, headers: HeaderMap, body: Str
     };
     match session.apply(&op) {
         Ok(()) => answer(StatusCode::OK, json!({"ok": true})),
-        Err(e @ Refusal::Conflict(_)) => refused(StatusCode::CONFLICT, e.to_string(), true),
-        Err(e @ Refusal::Edit(_)) => refused(StatusCode::BAD_REQUEST, e.to_string(), false),
-        Err(e @ Refusal::Io(_)) => refused(StatusCode::INTERNAL_SERVER_ERROR, e.to_string(), false),
+        Err(e) => refusal(e),
+    }
+}
+
+fn refusal(e: Refusal) -> Response {
+    match e {
+        Refusal::Conflict(_) => refused(StatusCode::CONFLICT, e.to_string(), true),
+        Refusal::Edit(_) | Refusal::NothingToUndo | Refusal::NothingToRedo => {
+            refused(StatusCode::BAD_REQUEST, e.to_string(), false)
+        }
+        Refusal::Io(_) => refused(StatusCode::INTERNAL_SERVER_ERROR, e.to_string(), false),
+    }
+}
+
+/// Undoes the session's last edit: `{"ok": true, "undone": "…"}`.
+async fn undo(State(session): State<Arc<Session>>, headers: HeaderMap) -> Response {
+    if !from_the_page(&headers) {
+        return foreign();
+    }
+    match session.undo() {
+        Ok(what) => answer(StatusCode::OK, json!({"ok": true, "undone": what})),
+        Err(e) => refusal(e),
+    }
+}
+
+/// Makes the last edit undone again: `{"ok": true, "redone": "…"}`.
+async fn redo(State(session): State<Arc<Session>>, headers: HeaderMap) -> Response {
+    if !from_the_page(&headers) {
+        return foreign();
+    }
+    match session.redo() {
+        Ok(what) => answer(StatusCode::OK, json!({"ok": true, "redone": what})),
+        Err(e) => refusal(e),
     }
 }
 
@@ -122,5 +152,7 @@ pub fn router(session: Arc<Session>) -> Router {
             ),
         )
         .route("/stubs", post(stubs))
+        .route("/undo", post(undo))
+        .route("/redo", post(redo))
         .with_state(session)
 }

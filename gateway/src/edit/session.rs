@@ -10,6 +10,10 @@
 //! transition, then its arcs, passes through such states) and shown with
 //! the loader's problems on their elements.
 //!
+//! Each edit written is kept (its files' texts before and after) so that
+//! it can be undone (and redone): the files restored to their exact
+//! bytes, under the same rule (refused when one changed on disk since).
+//!
 //! The check is a child `petrel check --json` on the folder; an edit of a
 //! net kills the one still running (the newer draft supersedes it) and
 //! starts another. The page never waits for it.
@@ -38,6 +42,22 @@ pub enum Refusal {
     Conflict(String),
     #[error("{0}")]
     Io(String),
+    #[error("nothing to undo")]
+    NothingToUndo,
+    #[error("nothing to redo")]
+    NothingToRedo,
+}
+
+/// How many edits can be undone (the oldest forgotten beyond): each
+/// keeps the whole text of the files it changed, before and after.
+pub const UNDO_DEPTH: usize = 200;
+
+/// One edit as written: each file it changed, in the order written, with
+/// its text before and after (None: absent).
+#[derive(Debug, Clone)]
+struct Change {
+    what: String,
+    files: Vec<(String, Option<String>, Option<String>)>,
 }
 
 /// One load problem, and the element it concerns.
@@ -83,6 +103,10 @@ struct State {
     child: Option<Child>,
     /// Bumped whenever what the page shows changes.
     version: u64,
+    /// The edits of this session that can be undone, the last on top.
+    undo: Vec<Change>,
+    /// The edits undone that can be made again, the last undone on top.
+    redo: Vec<Change>,
 }
 
 /// A project being edited.
@@ -126,6 +150,42 @@ pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
     result
 }
 
+/// Writes `text` to `path`, which must not exist: a temporary file beside
+/// it, synced, then linked to `path` (which fails if `path` appeared
+/// meanwhile: nothing of anyone's is overwritten) and unlinked.
+pub fn write_new(path: &Path, text: &str) -> std::io::Result<()> {
+    use std::io::Write;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.petrel-edit-{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(text.as_bytes())?;
+        f.sync_all()?;
+        std::fs::hard_link(&tmp, path)
+    })();
+    let _ = std::fs::remove_file(&tmp);
+    result
+}
+
+/// The draft of the files as last read or written.
+fn draft_from(read: &BTreeMap<String, Option<String>>) -> Result<Draft, String> {
+    let text = |file: &str| read.get(file).cloned().flatten();
+    let project =
+        text(nets::load::PROJECT_FILE).ok_or_else(|| "project.toml is gone".to_owned())?;
+    let mut nets_read = Vec::new();
+    for file in Draft::net_files(&project).map_err(|e| e.to_string())? {
+        let t =
+            text(&file).ok_or_else(|| format!("{file}: no such file (project.toml lists it)"))?;
+        nets_read.push((file, t));
+    }
+    let layout = text(positions::FILE).unwrap_or_default();
+    Draft::parse(&project, &nets_read, &layout).map_err(|e| e.to_string())
+}
+
 impl Session {
     /// Opens the project in `dir`: an error when it has no project.toml or
     /// that file is not TOML.
@@ -150,6 +210,8 @@ impl Session {
                 generation: 0,
                 child: None,
                 version: 0,
+                undo: Vec::new(),
+                redo: Vec::new(),
             }),
             checker: std::env::current_exe().ok(),
         });
@@ -165,7 +227,7 @@ impl Session {
     /// written as it is made), loads and checks.
     pub fn reload(self: &Arc<Self>) {
         let mut s = self.lock();
-        s.read.clear();
+        let before = std::mem::take(&mut s.read);
         s.draft = None;
         s.broken = None;
         let result = (|| -> Result<Draft, String> {
@@ -189,6 +251,12 @@ impl Session {
             Ok(d) => s.draft = Some(d),
             Err(e) => s.broken = Some(e),
         }
+        // Files changed by someone else: what the history would undo is no
+        // longer what is on disk.
+        if s.read != before {
+            s.undo.clear();
+            s.redo.clear();
+        }
         self.load_and_check(&mut s);
     }
 
@@ -202,29 +270,77 @@ impl Session {
         };
         let mut next = draft.clone();
         let applied = next.apply(op)?;
-        let mut writes: Vec<(String, String)> = Vec::new();
+        // (file, text, new): a net added's file first, then project.toml.
+        let mut writes: Vec<(String, String, bool)> = Vec::new();
         if let Some(n) = applied.net_file {
-            writes.push((next.nets[n].file.clone(), next.nets[n].doc.to_string()));
+            writes.push((
+                next.nets[n].file.clone(),
+                next.nets[n].doc.to_string(),
+                applied.project,
+            ));
         }
         if applied.layout {
-            writes.push((positions::FILE.to_owned(), next.positions.text()));
+            writes.push((positions::FILE.to_owned(), next.positions.text(), false));
         }
-        // Refused if any file to write is not what it was when read.
-        for (file, _) in &writes {
+        if applied.project {
+            writes.push((
+                nets::load::PROJECT_FILE.to_owned(),
+                next.project.to_string(),
+                false,
+            ));
+        }
+        // Refused if any file to write is not what it was when read, or a
+        // new one exists.
+        for (file, _, new) in &writes {
             let on_disk = read_file(&self.dir, file).map_err(Refusal::Io)?;
-            if s.read.get(file) != Some(&on_disk) {
+            if *new {
+                if on_disk.is_some() || self.dir.join(file).exists() {
+                    return Err(EditError::FileExists(file.clone()).into());
+                }
+            } else if s.read.get(file) != Some(&on_disk) {
                 return Err(Refusal::Conflict(file.clone()));
             }
         }
-        for (file, text) in &writes {
-            if let Err(e) = write_atomic(&self.dir.join(file), text) {
+        let mut change = Change {
+            what: op.describe(),
+            files: Vec::new(),
+        };
+        for (file, text, new) in &writes {
+            let path = self.dir.join(file);
+            let written = if *new {
+                write_new(&path, text)
+            } else {
+                write_atomic(&path, text)
+            };
+            if let Err(e) = written {
+                // A net's new file without its entry in project.toml:
+                // removed, so that nothing is left of the refused edit.
+                for (done, before, _) in &change.files {
+                    if before.is_none() {
+                        let _ = std::fs::remove_file(self.dir.join(done));
+                    }
+                }
                 // Some files may be written, others not: the disk is the
                 // truth, read again.
                 drop(s);
                 self.reload();
-                return Err(Refusal::Io(format!("cannot write {file}: {e}")));
+                return Err(if *new && e.kind() == std::io::ErrorKind::AlreadyExists {
+                    EditError::FileExists(file.clone()).into()
+                } else {
+                    Refusal::Io(format!("cannot write {file}: {e}"))
+                });
             }
-            s.read.insert(file.clone(), Some(text.clone()));
+            let before = s.read.insert(file.clone(), Some(text.clone())).flatten();
+            change
+                .files
+                .push((file.clone(), before, Some(text.clone())));
+        }
+        if !change.files.is_empty() {
+            s.redo.clear();
+            s.undo.push(change);
+            if s.undo.len() > UNDO_DEPTH {
+                s.undo.remove(0);
+            }
         }
         s.draft = Some(next);
         s.version += 1;
@@ -233,6 +349,99 @@ impl Session {
             self.load_and_check(&mut s);
         }
         Ok(())
+    }
+
+    /// Undoes the last edit of the session not undone yet: each file it
+    /// wrote back to its exact previous bytes (a net added: its file
+    /// removed, project.toml as it was). Refused, nothing written, when one
+    /// of them changed on disk since; the edit stays undoable. Returns what
+    /// was undone.
+    pub fn undo(self: &Arc<Self>) -> Result<String, Refusal> {
+        self.step(false)
+    }
+
+    /// Makes again the edit undone last (none once an edit is made after
+    /// it): each file back to the bytes the edit wrote, under the same
+    /// rule.
+    pub fn redo(self: &Arc<Self>) -> Result<String, Refusal> {
+        self.step(true)
+    }
+
+    fn step(self: &Arc<Self>, redo: bool) -> Result<String, Refusal> {
+        let mut s = self.lock();
+        let top = if redo { s.redo.last() } else { s.undo.last() };
+        let Some(change) = top.cloned() else {
+            return Err(if redo {
+                Refusal::NothingToRedo
+            } else {
+                Refusal::NothingToUndo
+            });
+        };
+        // (file, its text on disk now, its text to write). Undone: the
+        // last written first (project.toml before the net's file goes).
+        let files: Vec<(&String, &Option<String>, &Option<String>)> = if redo {
+            change.files.iter().map(|(f, b, a)| (f, b, a)).collect()
+        } else {
+            change
+                .files
+                .iter()
+                .rev()
+                .map(|(f, b, a)| (f, a, b))
+                .collect()
+        };
+        for (file, now, _) in &files {
+            let on_disk = read_file(&self.dir, file).map_err(Refusal::Io)?;
+            if on_disk != **now {
+                return Err(Refusal::Conflict((*file).clone()));
+            }
+        }
+        for (file, now, to) in &files {
+            let path = self.dir.join(file);
+            let restored = match (now, to) {
+                (None, Some(text)) => write_new(&path, text),
+                (Some(_), Some(text)) => write_atomic(&path, text),
+                (_, None) => std::fs::remove_file(&path),
+            };
+            if let Err(e) = restored {
+                drop(s);
+                self.reload();
+                return Err(Refusal::Io(format!("cannot restore {file}: {e}")));
+            }
+            if to.is_none() && *file != positions::FILE {
+                s.read.remove(*file);
+            } else {
+                s.read.insert((*file).clone(), (*to).clone());
+            }
+        }
+        if redo {
+            s.redo.pop();
+            s.undo.push(change.clone());
+        } else {
+            s.undo.pop();
+            s.redo.push(change.clone());
+        }
+        let files_changed: Vec<&str> = change.files.iter().map(|(f, _, _)| f.as_str()).collect();
+        let next = match &s.draft {
+            Some(d) => d.reread(&files_changed, |f| s.read.get(f).cloned().flatten()),
+            None => None,
+        };
+        match next.map_or_else(|| draft_from(&s.read), Ok) {
+            Ok(d) => {
+                s.draft = Some(d);
+                s.broken = None;
+            }
+            Err(e) => {
+                s.draft = None;
+                s.broken = Some(e);
+            }
+        }
+        // A move undone changes no net: nothing to load or check again.
+        if change.files.iter().all(|(f, _, _)| f == positions::FILE) {
+            s.version += 1;
+        } else {
+            self.load_and_check(&mut s);
+        }
+        Ok(change.what)
     }
 
     /// Loads the project as `petrel check` does, keeps its problems, and
@@ -419,7 +628,9 @@ impl Session {
                "version": s.version, "nets": nets, "broken": s.broken,
                "globals": s.draft.as_ref().map(|d| d.globals.clone()).unwrap_or_default(),
                "events": events, "loads": s.project.is_some(), "problems": s.problems,
-               "check": check, "petrel": env!("CARGO_PKG_VERSION")})
+               "check": check, "undo": s.undo.last().map(|c| c.what.clone()),
+               "redo": s.redo.last().map(|c| c.what.clone()),
+               "undo_depth": s.undo.len(), "petrel": env!("CARGO_PKG_VERSION")})
     }
 
     pub fn version(&self) -> u64 {
@@ -564,6 +775,31 @@ mod tests {
         assert_eq!(names, vec!["a.toml"]);
         // A folder that does not exist: an error, no panic.
         assert!(write_atomic(&dir.path().join("no/such/b.toml"), "x").is_err());
+    }
+
+    #[test]
+    fn a_new_file_is_written_whole_and_never_replaces_one() {
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let path = dir.path().join("N.toml");
+        write_new(&path, "name = \"N\"\n").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            std::fs::read_to_string(&path).ok().as_deref(),
+            Some("name = \"N\"\n")
+        );
+        // There already: refused, theirs kept.
+        std::fs::write(&path, "theirs").unwrap_or_else(|e| panic!("{e}"));
+        let e = write_new(&path, "ours").err().map(|e| e.kind());
+        assert_eq!(e, Some(std::io::ErrorKind::AlreadyExists));
+        assert_eq!(
+            std::fs::read_to_string(&path).ok().as_deref(),
+            Some("theirs")
+        );
+        let names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .filter_map(Result::ok)
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, vec!["N.toml"], "no temporary file left");
     }
 
     #[test]

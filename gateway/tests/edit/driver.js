@@ -1,11 +1,17 @@
 // Drives Debian's chromium with playwright-core for gateway/tests/edit.rs:
 // the editor (`petrel edit`) used as a person does, with clicks and typing.
-// Usage: node driver.js add|break URL OUT_DIR
+// Usage: node driver.js add|break|net|undo URL OUT_DIR
 //   add:   a transition added to COMMUNICATION (first without arcs: the
 //          loader's problem shown on it), named, given its event and arcs;
 //          its place dragged; wait for the check's verdict.
 //   break: a place added and an output arc to it that makes the check fail;
 //          its counterexample stepped through to the end.
+//   net:   a net added with the toolbar's form (first with a name taken:
+//          refused, the reason shown), the check's verdict on it, then a
+//          transition given to it with its event and arcs, the verdict,
+//          its place made final, and the verdict.
+//   undo:  Ctrl-Z once, then the Undo button until the added net is gone;
+//          Redo (the net back), Ctrl-Z (gone again).
 // Prints one JSON object with what it saw; the Rust test judges it. The
 // browser is closed on every path.
 "use strict";
@@ -19,7 +25,7 @@ const FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", 
 const CHECK_MS = 400000;
 
 // A spot of the net's drawing at least 45 units from every node.
-async function emptySpot(page) {
+async function emptySpot(page, net = NET) {
   return page.evaluate(async (net) => {
     const p = await (await fetch("page.json")).json();
     const n = p.nets.find((x) => x.name === net);
@@ -30,7 +36,7 @@ async function emptySpot(page) {
       }
     }
     return { x: n.width - 10, y: n.height - 10 };
-  }, NET);
+  }, net);
 }
 
 const svg = '#nets .net[data-net="' + NET + '"] svg';
@@ -110,6 +116,103 @@ async function breakIt(page, seen) {
   seen.back = await page.$eval("#cx-pos", (e) => e.textContent);
 }
 
+const VERDICT = '#check-state[data-state="holds"], #check-state[data-state="violated"], #check-state[data-state="failed"]';
+const NEW = "NEW";
+const newSvg = '#nets .net[data-net="' + NEW + '"] svg';
+
+async function verdict(page) {
+  await page.waitForSelector(VERDICT, { timeout: CHECK_MS });
+  return page.$eval("#check-state", (e) => ({ state: e.dataset.state, text: e.textContent,
+    title: document.getElementById("cx-title").textContent }));
+}
+
+async function addNet(page, seen) {
+  await page.goto(url);
+  await page.waitForSelector(svg, { timeout: 30000 });
+  seen.undo_at_start = await page.$eval("#undo", (b) => b.disabled);
+  await page.click("#net-add-open");
+  // A name taken: refused, the reason shown.
+  await page.fill("#net-name", NET);
+  await page.click("#net-add-go");
+  await page.waitForSelector("#edit-message:not([hidden])", { timeout: 20000 });
+  seen.taken = await page.$eval("#edit-message", (e) => e.textContent);
+  // NEW, active at start (ticked unless unticked).
+  seen.active_ticked = await page.$eval("#net-active", (c) => c.checked);
+  await page.fill("#net-name", NEW);
+  await page.click("#net-add-go");
+  await page.waitForSelector(newSvg, { timeout: 20000 });
+  seen.message_after = await page.$eval("#edit-message", (e) => e.hidden);
+  seen.nets = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
+  seen.new_ids = await page.$$eval('#nets .net[data-net="NEW"] g.place, #nets .net[data-net="NEW"] g.transition', (els) => els.map((e) => e.id));
+  seen.new_marked_at_start = await page.$$eval("#p-NEW-idle .start", (els) => els.length);
+  seen.undo_title = await page.$eval("#undo", (b) => b.title);
+  // The background check covers it: dead at the start.
+  seen.first_check = await verdict(page);
+  await page.screenshot({ path: path.join(out, "edit-net-added.png") });
+  // A transition on link_lost, from idle back to idle.
+  await page.click("#tool-transition");
+  await page.click(newSvg, { position: await emptySpot(page, NEW) });
+  await page.waitForSelector("#t-NEW-t1", { timeout: 20000 });
+  await page.fill("#f-on", "link_lost");
+  await page.click("#f-apply");
+  await page.waitForFunction(() => fetch("page.json").then((r) => r.json()).then((p) =>
+    p.nets.find((n) => n.name === "NEW").transitions.some((t) => t.on === "link_lost")), null, { timeout: 20000 });
+  await page.click("#tool-arc");
+  await page.click("#p-NEW-idle circle", { force: true });
+  await page.click("#t-NEW-t1 rect", { force: true });
+  await page.waitForFunction((s) => !!document.querySelector(s), newSvg + ' .arc[data-transition="t1"][data-input="true"]', { timeout: 20000 });
+  await page.click("#t-NEW-t1 rect", { force: true });
+  await page.click("#p-NEW-idle circle", { force: true });
+  await page.waitForFunction((s) => !!document.querySelector(s), newSvg + ' .arc[data-transition="t1"][data-input="false"]', { timeout: 20000 });
+  // The check after the arcs: dead when a catastrophe locks the
+  // transition out (as any net without a final place). idle made final.
+  seen.arcs_check = await verdict(page);
+  await page.click("#tool-select");
+  await page.click("#p-NEW-idle circle", { force: true });
+  await page.waitForSelector("#f-final", { timeout: 20000 });
+  await page.check("#f-final");
+  // Drawn final (the page redrawn after the edit: the verdict below is
+  // the new check's).
+  await page.waitForSelector('#p-NEW-idle circle[stroke-width="3"]', { timeout: 20000 });
+  seen.problems_after = await page.$$eval("#problems .problem-row", (els) => els.length);
+  seen.check = await verdict(page);
+  await page.screenshot({ path: path.join(out, "edit-net-checked.png") });
+}
+
+async function undoIt(page, seen) {
+  await page.goto(url);
+  await page.waitForSelector(newSvg, { timeout: 30000 });
+  seen.undone = [];
+  // Ctrl-Z on the page (not in a field): the last edit undone.
+  const what = async () => (await page.$eval("#undo", (b) => b.title)).replace(/^undo: /, "").replace(/ \(Ctrl-Z.*$/, "");
+  const wait = (w) => page.waitForFunction((w) => document.getElementById("edit-message").textContent.startsWith("undone: " + w + " "),
+    w, { timeout: 20000 });
+  let w = await what();
+  await page.keyboard.press("Control+z");
+  await wait(w);
+  seen.undone.push(w);
+  seen.arcs_after_ctrl_z = await page.$$eval(newSvg + " .arc", (els) => els.map((e) => e.dataset.place + (e.dataset.input === "true" ? "->" : "<-") + e.dataset.transition));
+  // Then the button, until the net is gone.
+  for (let i = 0; i < 20 && await page.$(newSvg); i++) {
+    w = await what();
+    await page.click("#undo");
+    await wait(w);
+    seen.undone.push(w);
+  }
+  seen.nets = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
+  seen.undo_disabled = await page.$eval("#undo", (b) => b.disabled);
+  // Redo brings the net back; Ctrl-Z takes it away again.
+  await page.click("#redo");
+  await page.waitForFunction(() => document.getElementById("edit-message").textContent.startsWith("redone: add net NEW "), null, { timeout: 20000 });
+  await page.waitForSelector(newSvg, { timeout: 20000 });
+  seen.redo_title = await page.$eval("#redo", (b) => b.title);
+  seen.nets_after_redo = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
+  await page.keyboard.press("Control+z");
+  await wait("add net NEW");
+  seen.nets_at_end = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
+  await page.screenshot({ path: path.join(out, "edit-undone.png") });
+}
+
 (async () => {
   const seen = { errors: [] };
   const browser = await chromium.launch({
@@ -120,7 +223,8 @@ async function breakIt(page, seen) {
   try {
     const page = await browser.newPage({ viewport: { width: 1600, height: 1000 } });
     page.on("pageerror", (e) => seen.errors.push(String(e)));
-    if (mode === "add") await add(page, seen); else await breakIt(page, seen);
+    const modes = { add, break: breakIt, net: addNet, undo: undoIt };
+    await modes[mode](page, seen);
   } catch (e) {
     seen.failure = String(e && e.stack || e);
   } finally {

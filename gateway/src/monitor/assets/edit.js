@@ -42,11 +42,23 @@ function editorFrame() {
       const [k, label] = x.split(":");
       return '<button id="tool-' + k + '" data-tool="' + k + '">' + label + "</button>";
     }).join("") + "</span>" +
+    '<button id="undo" title="nothing to undo" disabled>Undo</button>' +
+    '<button id="redo" title="nothing to redo" disabled>Redo</button>' +
     '<span id="hint" class="muted"></span>' +
+    '<button id="net-add-open" title="add a net to the project: a new file NAME.toml">+ net</button>' +
+    '<span id="net-add" hidden><input id="net-name" placeholder="NAME" size="14" spellcheck="false"> ' +
+    '<label><input type="checkbox" id="net-active" checked> active at start</label> ' +
+    '<button id="net-add-go">add</button><button id="net-add-close" title="cancel">×</button></span>' +
     '<button id="reload" title="read every file again from disk">Reload</button>';
   $("left").prepend(bar);
   bar.querySelectorAll("[data-tool]").forEach((b) => { b.onclick = () => setTool(b.dataset.tool); });
   $("reload").onclick = () => post("reload", {});
+  $("undo").onclick = undo;
+  $("redo").onclick = redo;
+  $("net-add-open").onclick = () => { $("net-add").hidden = false; $("net-add-open").hidden = true; $("net-name").focus(); };
+  $("net-add-close").onclick = () => { $("net-add").hidden = true; $("net-add-open").hidden = false; };
+  $("net-add-go").onclick = addNet;
+  $("net-name").onkeydown = (ev) => { if (ev.key === "Enter") addNet(); if (ev.key === "Escape") $("net-add-close").onclick(); };
   const msg = document.createElement("div");
   msg.id = "edit-message"; msg.hidden = true;
   $("left").prepend(msg);
@@ -65,7 +77,13 @@ function editorFrame() {
   $("cx-next").onclick = () => { showStep(ED.step + 1); reveal(); };
   $("stubs-go").onclick = stubs;
   document.addEventListener("keydown", (ev) => {
+    // In a field, Ctrl-Z is the field's own.
     if (ev.target.closest("input, textarea, select")) return;
+    if ((ev.ctrlKey || ev.metaKey) && !ev.altKey) {
+      const k = ev.key.toLowerCase();
+      if (k === "z" && !ev.shiftKey) { ev.preventDefault(); undo(); return; }
+      if ((k === "z" && ev.shiftKey) || k === "y") { ev.preventDefault(); redo(); return; }
+    }
     if ((ev.key === "Delete" || ev.key === "Backspace") && ED.sel) remove(ED.sel);
     if (ev.key === "Escape") { ED.arcFrom = null; select(null); }
   });
@@ -114,6 +132,29 @@ async function post(path, body) {
   return a;
 }
 function edit(op) { return post("edit", op); }
+
+// The session's last edit undone: its files back to their bytes before it.
+async function undo() {
+  if (!page.undo) return;
+  const a = await post("undo", {});
+  if (a.ok) say("undone: " + a.undone);
+}
+
+async function redo() {
+  if (!page.redo) return;
+  const a = await post("redo", {});
+  if (a.ok) say("redone: " + a.redone);
+}
+
+async function addNet() {
+  const name = $("net-name").value.trim();
+  const a = await edit({ op: "add_net", name, active: $("net-active").checked });
+  if (!a.ok) return;
+  $("net-name").value = "";
+  $("net-add-close").onclick();
+  const div = document.querySelector('#nets .net[data-net="' + CSS.escape(name) + '"]');
+  if (div) div.scrollIntoView({ block: "nearest" });
+}
 
 async function refresh() {
   const p = await (await fetch("page.json")).json();
@@ -226,6 +267,10 @@ function draw() {
   nets.innerHTML = "";
   $("globals").innerHTML = page.globals.length ? '<span class="muted">global places:</span>' + page.globals.map((g) => '<span class="chip">@' + esc(g) + "</span>").join("") : "";
   if (page.broken) say(page.broken + " — fix it and reload", true);
+  $("undo").disabled = !page.undo;
+  $("undo").title = page.undo ? "undo: " + page.undo + " (Ctrl-Z; " + page.undo_depth + " in all)" : "nothing to undo";
+  $("redo").disabled = !page.redo;
+  $("redo").title = page.redo ? "redo: " + page.redo + " (Ctrl-Shift-Z or Ctrl-Y)" : "nothing to redo";
   for (const n of page.nets) {
     const div = document.createElement("div");
     div.className = "net";
