@@ -125,9 +125,9 @@ fn read_file(dir: &Path, file: &str) -> Result<Option<String>, String> {
     }
 }
 
-/// Writes `text` to `path` atomically: a temporary file in the same
-/// folder, synced, then renamed over it (keeping its permissions).
-pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
+/// `text` in a temporary file beside `path` (hidden, named after it and
+/// this process), synced: its path.
+fn synced_beside(path: &Path, text: &str) -> std::io::Result<PathBuf> {
     use std::io::Write;
     let dir = path.parent().unwrap_or(Path::new("."));
     let name = path
@@ -135,10 +135,25 @@ pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let tmp = dir.join(format!(".{name}.petrel-edit-{}", std::process::id()));
-    let result = (|| {
+    let written = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(text.as_bytes())?;
-        f.sync_all()?;
+        f.sync_all()
+    })();
+    match written {
+        Ok(()) => Ok(tmp),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(e)
+        }
+    }
+}
+
+/// Writes `text` to `path` atomically: a temporary file in the same
+/// folder, synced, then renamed over it (keeping its permissions).
+pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
+    let tmp = synced_beside(path, text)?;
+    let result = (|| {
         if let Ok(meta) = std::fs::metadata(path) {
             std::fs::set_permissions(&tmp, meta.permissions())?;
         }
@@ -154,19 +169,8 @@ pub fn write_atomic(path: &Path, text: &str) -> std::io::Result<()> {
 /// it, synced, then linked to `path` (which fails if `path` appeared
 /// meanwhile: nothing of anyone's is overwritten) and unlinked.
 pub fn write_new(path: &Path, text: &str) -> std::io::Result<()> {
-    use std::io::Write;
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.petrel-edit-{}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(text.as_bytes())?;
-        f.sync_all()?;
-        std::fs::hard_link(&tmp, path)
-    })();
+    let tmp = synced_beside(path, text)?;
+    let result = std::fs::hard_link(&tmp, path);
     let _ = std::fs::remove_file(&tmp);
     result
 }
