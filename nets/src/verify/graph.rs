@@ -557,6 +557,16 @@ fn reaching_together(
 /// or when the sweeps did not settle. `candidates` holds every node `node`
 /// may reach, `node` last (a breadth-first order: the sweeps go down
 /// first).
+///
+/// On one thread, the nodes `node` reaches are searched first and only
+/// they are swept. With `threads` above 1 the search and the sweeps run at
+/// once, one on each core: the sweeps then go over all the candidates (a
+/// few more nodes than `node` reaches, when transient ones lead into its
+/// component) on this thread, which is cheaper than sharing the sweeps
+/// between the two cores after the search (BENCHMARKS.md, stop 30); if
+/// they do not settle, the nodes reached are swept alone, as on one
+/// thread. Every way gives the same set: the nodes `node` reaches, when
+/// all of them reach it back.
 fn terminal_component(
     g: &(impl Adjacency + Sync),
     node: u32,
@@ -564,12 +574,38 @@ fn terminal_component(
     n: usize,
     threads: usize,
 ) -> Option<Vec<u64>> {
-    let seen = reached_by_levels(g, node, n);
+    let mut back = vec![0u64; n.div_ceil(64)];
+    set_bit(&mut back, node);
+    let seen = if threads > 1 {
+        // A path from a candidate to `node` never leaves the candidates
+        // (the caller's: a node from which the root's component can be
+        // reached is in it), so the sweeps over all of them give the same
+        // answer for the nodes `node` reaches as sweeps over these alone.
+        let all = candidates.clone();
+        let (seen, settled) = std::thread::scope(|scope| {
+            let search = scope.spawn(|| reached_by_levels(g, node, n));
+            let settled = reaching(g, &mut back, all, n, Direction::Down, 1).is_some();
+            match search.join() {
+                Ok(seen) => (seen, settled),
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        });
+        if settled {
+            // terminal when every node reached reaches `node` back
+            let all_back = seen.iter().zip(&back).all(|(&s, &b)| s & !b == 0);
+            return all_back.then_some(seen);
+        }
+        // the sweeps over all the candidates ran out of budget (most of
+        // them lead into a small component): sweep the nodes reached alone
+        back.fill(0);
+        set_bit(&mut back, node);
+        seen
+    } else {
+        reached_by_levels(g, node, n)
+    };
     // the nodes it reaches, in the candidates' order
     candidates.retain(|&v| bit(&seen, v));
     drop(seen);
-    let mut back = vec![0u64; n.div_ceil(64)];
-    set_bit(&mut back, node);
     let rest = reaching(g, &mut back, candidates, n, Direction::Down, threads)?;
     rest.is_empty().then_some(back)
 }
@@ -1053,6 +1089,46 @@ mod tests {
             assert_eq!(from.sizes[ring], ring_end - 3);
             assert!(from.cyclic[ring]);
             assert_eq!(from.count(), 4 + usize::from(exit));
+        }
+    }
+
+    #[test]
+    fn a_small_terminal_component_at_the_end_of_a_path_walked_against_the_sweeps() {
+        // 0 -> 1 -> n-2 -> 2 -> n-3 -> ... (a zig-zag numbering) -> n-1,
+        // a sink: on two threads the sweeps over all the candidates add a
+        // node or two each and run out of budget, and the sink (the last
+        // node, its own terminal component) is found by sweeping the nodes
+        // it reaches alone; one thread sweeps these from the start.
+        for n in [8u32, 64, 301] {
+            let inner: Vec<u32> = (0..n - 2)
+                .map(|i| if i % 2 == 0 { 1 + i / 2 } else { n - 2 - i / 2 })
+                .collect();
+            let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n as usize];
+            let path: Vec<u32> = std::iter::once(0)
+                .chain(inner)
+                .chain(std::iter::once(n - 1))
+                .collect();
+            for step in path.windows(2) {
+                lists[step[0] as usize].push(step[1]);
+            }
+            let mut g = Csr::default();
+            for l in lists {
+                g.push_node(l.into_iter().map(|t| ((), t)));
+            }
+            let tarjan = strongly_connected_components(&g);
+            for threads in [1, 2] {
+                let from = strongly_connected_components_from(
+                    &g,
+                    0,
+                    false,
+                    &[],
+                    (0..n).collect(),
+                    threads,
+                );
+                same_components(&g, &tarjan, &from);
+                assert_eq!(from.count(), n as usize);
+                assert!(from.cyclic.iter().all(|&c| !c));
+            }
         }
     }
 
