@@ -685,6 +685,7 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
     );
     let start = observer.truth().t;
     let mut finished_at: Option<f64> = None;
+    let ended: &str;
     loop {
         std::thread::sleep(Duration::from_millis(100));
         let truth = observer.truth();
@@ -716,16 +717,22 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
         if finished_at.is_none() && done(&truth) {
             finished_at = Some(truth.t);
         }
-        if finished_at.is_some_and(|t| truth.t > t + 3.0)
-            || truth.t - start > max_sim_s
-            || started.elapsed() > max_wall
-            || !sitl.running()
-        {
-            break;
-        }
-        if petrel.exited() {
-            break;
-        }
+        // Why the flight ended, said with the figures (a test that fails
+        // after an early end says which side stopped).
+        ended = if finished_at.is_some_and(|t| truth.t > t + 3.0) {
+            "done"
+        } else if truth.t - start > max_sim_s {
+            "max_sim_s reached"
+        } else if started.elapsed() > max_wall {
+            "max_wall reached"
+        } else if !sitl.running() {
+            "PX4 exited"
+        } else if petrel.exited() {
+            "the gateway exited"
+        } else {
+            continue;
+        };
+        break;
     }
     let wall = started.elapsed();
     let (stdout, stderr, code) = petrel.stop();
@@ -737,7 +744,7 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
     let _ = std::fs::write(dir.join("timeline.jsonl"), &stdout);
     let _ = std::fs::write(dir.join("petrel.err"), &stderr);
     eprintln!(
-        "{name}: {:.0} s simulated in {:.1} s; in {}",
+        "{name}: {:.0} s simulated in {:.1} s, ended: {ended} (gateway exit code {code:?}); in {}",
         truth.t,
         wall.as_secs_f64(),
         dir.display()
