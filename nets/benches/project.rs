@@ -26,7 +26,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use divan::Bencher;
-use nets::verify::project::{check, Options, ProjectReport, Steps};
+use nets::verify::project::{check, Options, ProjectReport};
 use nets::Project;
 
 #[path = "../../gateway/benches/support/busy.rs"]
@@ -93,17 +93,9 @@ fn project() -> Arc<Project> {
     Arc::new(project)
 }
 
-/// `PETREL_PROJECT_BENCH_STEPS=run|compare`: how step outcomes are reused
-/// (reused by default, as `petrel check` does).
 fn options(threads: usize) -> Options<'static> {
-    let steps = match std::env::var("PETREL_PROJECT_BENCH_STEPS").as_deref() {
-        Ok("run") => Steps::Run,
-        Ok("compare") => Steps::Compare,
-        _ => Steps::Reuse,
-    };
     Options {
         threads,
-        steps,
         ..Options::default()
     }
 }

@@ -50,7 +50,6 @@ use super::graph::{self, Csr};
 use super::levels;
 pub use super::levels::Proviso;
 use super::project_states::{Abs, Codec, Scratch};
-use super::project_steps::{projection, Delta, Ident};
 use super::stubborn::{Class, Stubborn};
 use super::symmetry::Symmetry;
 use crate::event::Event;
@@ -96,25 +95,6 @@ pub struct Options<'a> {
     /// for ever around a cycle of reduced states (no effect without
     /// `partial_order`).
     pub proviso: Proviso,
-    /// Whether a step's outcome is reused for states that differ only in
-    /// what the player cannot read (see [`Steps`]); the report is the same
-    /// either way.
-    pub steps: Steps,
-}
-
-/// How the explorer reuses step outcomes (`project_steps`): a state whose
-/// calls of different nets were issued in another order, or whose timers
-/// started in another order, takes the same step as one already run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Steps {
-    /// Run the player for every step.
-    Run,
-    /// Reuse an outcome when the state's projection was seen.
-    #[default]
-    Reuse,
-    /// Run the player for every step and compare with the outcome that
-    /// would have been reused: panics on a difference (for tests).
-    Compare,
 }
 
 impl Default for Options<'_> {
@@ -129,7 +109,6 @@ impl Default for Options<'_> {
             partial_order: true,
             compare_unreduced: false,
             proviso: Proviso::default(),
-            steps: Steps::default(),
         }
     }
 }
@@ -259,9 +238,12 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
         walker.shorten_report(project, &mut whole);
     }
     if options.compare_unreduced && (whole.reduction.group > 1 || whole.reduction.partial_order) {
-        let plain = Explorer::new(project.clone(), false, false)
-            .steps(options.steps)
-            .run(options.max_states, options.threads, options.proviso, None);
+        let plain = Explorer::new(project.clone(), false, false).run(
+            options.max_states,
+            options.threads,
+            options.proviso,
+            None,
+        );
         whole.reduction.unreduced_states = Some(plain.space.store.len());
     } else if options.compare_unreduced {
         whole.reduction.unreduced_states = Some(whole.states);
@@ -303,21 +285,19 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
                 report(offset + k);
             }
         };
-        let explored = Explorer::new(copy, options.symmetry, options.partial_order)
-            .steps(options.steps)
-            .run(
-                options.max_states,
-                options.threads,
-                options.proviso,
-                options.progress.map(|_| &progress as &dyn Fn(usize)),
-            );
-        let explored = match explored.symmetry_broken() {
-            // The copy's symmetry does not hold for the player: whole.
-            Some(_) => Explorer::new(explored.project.clone(), false, options.partial_order)
-                .steps(options.steps)
-                .run(options.max_states, options.threads, options.proviso, None),
-            None => explored,
-        };
+        let explored = Explorer::new(copy, options.symmetry, options.partial_order).run(
+            options.max_states,
+            options.threads,
+            options.proviso,
+            options.progress.map(|_| &progress as &dyn Fn(usize)),
+        );
+        let explored =
+            match explored.symmetry_broken() {
+                // The copy's symmetry does not hold for the player: whole.
+                Some(_) => Explorer::new(explored.project.clone(), false, options.partial_order)
+                    .run(options.max_states, options.threads, options.proviso, None),
+                None => explored,
+            };
         done += explored.space.store.len();
         // Static warnings of the copy (events the absent nets emit look
         // produced by nothing) say nothing of the net: left out.
@@ -540,28 +520,24 @@ pub fn dead_markings(project: &Arc<Project>, options: &Options) -> Vec<Vec<usize
 /// Explores `project` with the reductions `options` asks for; when the
 /// player breaks the symmetry the model has, explores again without it.
 fn explore_reduced(project: &Arc<Project>, options: &Options) -> (Explored, Reduction) {
-    let explored = Explorer::new(project.clone(), options.symmetry, options.partial_order)
-        .steps(options.steps)
-        .run(
-            options.max_states,
-            options.threads,
-            options.proviso,
-            options.progress,
-        );
+    let explored = Explorer::new(project.clone(), options.symmetry, options.partial_order).run(
+        options.max_states,
+        options.threads,
+        options.proviso,
+        options.progress,
+    );
     let mut notes = Vec::new();
     let explored = match explored.symmetry_broken() {
         Some(why) => {
             notes.push(format!(
                 "symmetry not used: the player's order of vehicles decides a step ({why})"
             ));
-            Explorer::new(project.clone(), false, options.partial_order)
-                .steps(options.steps)
-                .run(
-                    options.max_states,
-                    options.threads,
-                    options.proviso,
-                    options.progress,
-                )
+            Explorer::new(project.clone(), false, options.partial_order).run(
+                options.max_states,
+                options.threads,
+                options.proviso,
+                options.progress,
+            )
         }
         None => explored,
     };
@@ -705,9 +681,6 @@ struct Explorer {
     /// A step whose outcome the player's order of vehicles decided (the
     /// first found): the symmetry does not hold, the exploration stops.
     broken: Mutex<Option<String>>,
-    /// Whether step outcomes are reused (never with a symmetry: its
-    /// canonical images read the player's effects).
-    steps: Steps,
 }
 
 #[derive(Default)]
@@ -748,31 +721,7 @@ struct Worker {
     /// The canonical key of a successor, and a buffer for its images.
     canon: Vec<u8>,
     image: Vec<u8>,
-    /// Step outcomes by projection (see [`Steps`]): an index into
-    /// `outcomes`, and about how many bytes they hold.
-    seen: FastMap<Vec<u8>, u32>,
-    outcomes: Vec<Vec<Reused>>,
-    outcome_bytes: usize,
-    /// The projection of the state and input being expanded, the outcomes
-    /// of its answer sequences as they run, and the state a reused outcome
-    /// rebuilds.
-    projection: Vec<u8>,
-    running: Vec<Reused>,
-    after: Option<State>,
 }
-
-/// One answer sequence's outcome, for reuse: its label (`None` for a step
-/// that changed nothing), whether it fired or faulted, and what it did.
-#[derive(Debug, PartialEq)]
-struct Reused {
-    label: Option<u32>,
-    plain: bool,
-    delta: Delta,
-}
-
-/// The most bytes of step outcomes a worker keeps (past it, outcomes are
-/// still reused, no new ones kept).
-const OUTCOME_BYTES: usize = 64 << 20;
 
 /// An exploration, ready for verdicts.
 struct Explored {
@@ -815,12 +764,6 @@ impl levels::Explore for Explorer {
             used: Vec::new(),
             canon: Vec::new(),
             image: Vec::new(),
-            seen: FastMap::default(),
-            outcomes: Vec::new(),
-            outcome_bytes: 0,
-            projection: Vec::new(),
-            running: Vec::new(),
-            after: None,
         }
     }
 
@@ -895,7 +838,6 @@ impl Explorer {
             symmetry: None,
             stubborn: None,
             broken: Mutex::new(None),
-            steps: Steps::Reuse,
         };
         // What is known of every result the nets' actions can await.
         let project = explorer.project.clone();
@@ -961,12 +903,6 @@ impl Explorer {
             explorer.stubborn = Some(stubborn);
         }
         explorer
-    }
-
-    /// How step outcomes are reused (see [`Steps`]).
-    fn steps(mut self, steps: Steps) -> Explorer {
-        self.steps = steps;
-        self
     }
 
     fn run(
@@ -1253,229 +1189,126 @@ impl Explorer {
     ) -> bool {
         let mut known = false;
         let mut pushed = false;
-        w.this_input.clear();
-        w.this_input_keys.clear();
-        let concrete = w.concrete.get_or_insert_with(|| abs.state.clone());
-        let (seq_before, pending_changed) = set_concrete(abs, input, concrete, w.concrete_current);
-        w.concrete_current = true;
-        w.pending_number += u64::from(pending_changed);
-        let concrete = &*concrete;
-        // Reuse an outcome when the state's projection was seen (see
-        // [`Steps`]); the symmetry's images read the player's effects.
-        let reuse = self.steps != Steps::Run && self.symmetry.is_none() && {
-            let ident = match input {
-                Input::Event(i) => Ident::Event(*i),
-                Input::Timer(i) => {
-                    let t = &abs.state.timers[*i];
-                    Ident::Timer(t.net, t.timer)
+        {
+            w.this_input.clear();
+            w.this_input_keys.clear();
+            let concrete = w.concrete.get_or_insert_with(|| abs.state.clone());
+            let (seq_before, pending_changed) =
+                set_concrete(abs, input, concrete, w.concrete_current);
+            w.concrete_current = true;
+            w.pending_number += u64::from(pending_changed);
+            let concrete = &*concrete;
+            // Every sequence of oracle answers, depth first: a stack of
+            // ranges of `todo_bits`.
+            w.todo.clear();
+            w.todo_bits.clear();
+            w.todo.push(0..0);
+            while let Some(range) = w.todo.pop() {
+                w.answers.clear();
+                w.answers.extend_from_slice(&w.todo_bits[range.clone()]);
+                w.todo_bits.truncate(range.start);
+                let answers = &w.answers;
+                let Some(player) =
+                    self.step(&mut w.player, concrete, w.pending_number, input, answers)
+                else {
+                    continue;
+                };
+                // Read where the player recorded them (its next restore
+                // clears them).
+                let effects: &[Effect] = player.recorded();
+                let questions: &[Question] = player.oracle().map_or(&[], |o| &o.questions);
+                let asked = questions.len();
+                for k in answers.len()..asked {
+                    let start = w.todo_bits.len();
+                    w.todo_bits.extend_from_slice(answers);
+                    w.todo_bits.resize(start + k, false);
+                    w.todo_bits.push(true);
+                    w.todo.push(start..w.todo_bits.len());
                 }
-                Input::Result { id, reason } => Ident::Result {
-                    id: *id,
-                    reason: *reason,
-                },
-            };
-            projection(&ident, concrete, &mut w.projection).is_some()
-        };
-        let cached = if reuse {
-            w.seen.get(&w.projection).map(|&i| i as usize)
-        } else {
-            None
-        };
-        if let (Some(i), Steps::Reuse) = (cached, self.steps) {
-            let after = w.after.get_or_insert_with(|| concrete.clone());
-            let mut ok = true;
-            for o in &w.outcomes[i] {
-                if o.delta.apply(concrete, after).is_none() {
-                    ok = false;
-                    break;
-                }
+                w.used.clear();
+                w.used.extend_from_slice(answers);
+                w.used.resize(asked, false);
+                let used = &w.used;
                 self.codec.encode(
-                    after,
+                    player.state(),
                     seq_before,
                     T + 1,
                     Some(abs),
-                    &|id, p| id < abs.state.next_id || self.relevant(p),
+                    &|id, p| {
+                        // The state's own pending calls are in its key, so
+                        // relevant (relevance depends on a call's net and
+                        // kind only; without symmetry, the key is the state
+                        // encoded): only the step's new ones are looked up.
+                        (id < abs.state.next_id && self.symmetry.is_none()) || self.relevant(p)
+                    },
                     &mut w.scratch,
                     &mut w.next,
                 );
-                if o.plain && w.next == key {
+                let mut unsafe_by = None;
+                let mut livelock = None;
+                let mut fires = false;
+                for e in effects {
+                    match e {
+                        Effect::Fired { .. } => fires = true,
+                        Effect::Fault {
+                            fault: Fault::DoubleToken { net, .. },
+                            ..
+                        } => unsafe_by = unsafe_by.or(Some(*net)),
+                        Effect::Fault {
+                            fault: Fault::Livelock { net, .. },
+                            ..
+                        } => livelock = Some(Some(*net)),
+                        Effect::Fault {
+                            fault: Fault::Overflow { .. },
+                            ..
+                        } => livelock = livelock.or(Some(None)),
+                        _ => {}
+                    }
+                }
+                if !fires && unsafe_by.is_none() && livelock.is_none() && w.next == key {
                     continue; // nothing happened: not an edge
                 }
-                let Some(local) = o.label else {
-                    ok = false;
-                    break;
-                };
-                if edge(
-                    &w.labels,
-                    &mut w.this_input,
-                    &mut w.this_input_keys,
-                    &w.next,
-                    local,
-                ) {
-                    pushed = true;
-                    known |= out.push(local, &w.next, 0);
-                }
-            }
-            if ok {
-                return known || !pushed;
-            }
-            // A state the delta does not fit (never seen: the projection
-            // names what it keeps): the player runs.
-            w.this_input.clear();
-            w.this_input_keys.clear();
-            known = false;
-            pushed = false;
-        }
-        w.running.clear();
-        let mut complete = reuse;
-        // Every sequence of oracle answers, depth first: a stack of ranges
-        // of `todo_bits`.
-        w.todo.clear();
-        w.todo_bits.clear();
-        w.todo.push(0..0);
-        while let Some(range) = w.todo.pop() {
-            w.answers.clear();
-            w.answers.extend_from_slice(&w.todo_bits[range.clone()]);
-            w.todo_bits.truncate(range.start);
-            let answers = &w.answers;
-            let Some(player) = self.step(&mut w.player, concrete, w.pending_number, input, answers)
-            else {
-                complete = false;
-                continue;
-            };
-            // Read where the player recorded them (its next restore clears
-            // them).
-            let effects: &[Effect] = player.recorded();
-            let questions: &[Question] = player.oracle().map_or(&[], |o| &o.questions);
-            let asked = questions.len();
-            for k in answers.len()..asked {
-                let start = w.todo_bits.len();
-                w.todo_bits.extend_from_slice(answers);
-                w.todo_bits.resize(start + k, false);
-                w.todo_bits.push(true);
-                w.todo.push(start..w.todo_bits.len());
-            }
-            w.used.clear();
-            w.used.extend_from_slice(answers);
-            w.used.resize(asked, false);
-            let used = &w.used;
-            self.codec.encode(
-                player.state(),
-                seq_before,
-                T + 1,
-                Some(abs),
-                &|id, p| {
-                    // The state's own pending calls are in its key, so
-                    // relevant (relevance depends on a call's net and kind
-                    // only; without symmetry, the key is the state
-                    // encoded): only the step's new ones are looked up.
-                    (id < abs.state.next_id && self.symmetry.is_none()) || self.relevant(p)
-                },
-                &mut w.scratch,
-                &mut w.next,
-            );
-            let mut unsafe_by = None;
-            let mut livelock = None;
-            let mut fires = false;
-            for e in effects {
-                match e {
-                    Effect::Fired { .. } => fires = true,
-                    Effect::Fault {
-                        fault: Fault::DoubleToken { net, .. },
-                        ..
-                    } => unsafe_by = unsafe_by.or(Some(*net)),
-                    Effect::Fault {
-                        fault: Fault::Livelock { net, .. },
-                        ..
-                    } => livelock = Some(Some(*net)),
-                    Effect::Fault {
-                        fault: Fault::Overflow { .. },
-                        ..
-                    } => livelock = livelock.or(Some(None)),
-                    _ => {}
-                }
-            }
-            let plain = !fires && unsafe_by.is_none() && livelock.is_none();
-            let delta = if complete {
-                Delta::capture(concrete, player.state())
-            } else {
-                None
-            };
-            complete &= delta.is_some();
-            if plain && w.next == key {
-                if let Some(delta) = delta {
-                    w.running.push(Reused {
-                        label: None,
-                        plain,
-                        delta,
-                    });
-                }
-                continue; // nothing happened: not an edge
-            }
-            // The step's label, known by what its text says.
-            label_key(abs, input, questions, used, effects, &mut w.label_key);
-            let local = match w.index.get(&w.label_key) {
-                Some(&l) => l,
-                None => {
-                    let l = w.labels.len() as u32;
-                    let label = Label::new(
-                        self.describe(abs, input, questions, used, effects),
-                        fired_of(effects),
-                        unsafe_by,
-                        livelock,
-                    );
-                    w.labels.push((w.label_key.clone(), label));
-                    w.index.insert(w.label_key.clone(), l);
-                    w.global.push(u32::MAX);
-                    l
-                }
-            };
-            if let Some(delta) = delta {
-                w.running.push(Reused {
-                    label: Some(local),
-                    plain,
-                    delta,
-                });
-            }
-            // Answers that end alike (an event lacking `lat` or `lon` is
-            // rejected the same way) make one edge: the first.
-            if !edge(
-                &w.labels,
-                &mut w.this_input,
-                &mut w.this_input_keys,
-                &w.next,
-                local,
-            ) {
-                continue;
-            }
-            pushed = true;
-            match &self.symmetry {
-                None => known |= out.push(local, &w.next, 0),
-                Some(sym) => {
-                    if let Some(why) = sym.order_decides(&self.project, &abs.state, effects) {
-                        self.note_broken(why);
+                // The step's label, known by what its text says.
+                label_key(abs, input, questions, used, effects, &mut w.label_key);
+                let local = match w.index.get(&w.label_key) {
+                    Some(&l) => l,
+                    None => {
+                        let l = w.labels.len() as u32;
+                        let label = Label::new(
+                            self.describe(abs, input, questions, used, effects),
+                            fired_of(effects),
+                            unsafe_by,
+                            livelock,
+                        );
+                        w.labels.push((w.label_key.clone(), label));
+                        w.index.insert(w.label_key.clone(), l);
+                        w.global.push(u32::MAX);
+                        l
                     }
-                    let perm = sym.canonical(&w.next, &mut w.canon, &mut w.image);
-                    known |= out.push(local, &w.canon, perm);
+                };
+                // Answers that end alike (an event lacking `lat` or `lon`
+                // is rejected the same way) make one edge: the first.
+                let label = &w.labels[local as usize].1;
+                if w.this_input.iter().any(|(l, range)| {
+                    w.this_input_keys[range.clone()] == w.next[..]
+                        && w.labels[*l as usize].1.alike(label)
+                }) {
+                    continue;
                 }
-            }
-        }
-        if complete {
-            match cached {
-                // Compare: what would have been reused is what ran.
-                Some(i) => assert!(
-                    w.outcomes[i] == w.running,
-                    "a reused step differs from the player's: {:?} against {:?}",
-                    w.outcomes[i],
-                    w.running
-                ),
-                None if w.outcome_bytes < OUTCOME_BYTES => {
-                    w.outcome_bytes += w.projection.len()
-                        + w.running.iter().map(|o| o.delta.size()).sum::<usize>();
-                    w.seen.insert(w.projection.clone(), w.outcomes.len() as u32);
-                    w.outcomes.push(std::mem::take(&mut w.running));
+                let start = w.this_input_keys.len();
+                w.this_input_keys.extend_from_slice(&w.next);
+                w.this_input.push((local, start..w.this_input_keys.len()));
+                pushed = true;
+                match &self.symmetry {
+                    None => known |= out.push(local, &w.next, 0),
+                    Some(sym) => {
+                        if let Some(why) = sym.order_decides(&self.project, &abs.state, effects) {
+                            self.note_broken(why);
+                        }
+                        let perm = sym.canonical(&w.next, &mut w.canon, &mut w.image);
+                        known |= out.push(local, &w.canon, perm);
+                    }
                 }
-                None => {}
             }
         }
         known || !pushed
@@ -1748,28 +1581,6 @@ fn set_concrete(abs: &Abs, input: &Input, concrete: &mut State, current: bool) -
     }
     concrete.timers.sort_by_key(|t| (t.deadline, t.seq));
     (concrete.next_timer_seq, pending_changed)
-}
-
-/// Adds the step to `next` labelled `local` to the input's edges, unless an
-/// earlier answer sequence of the same input ended alike (same target, same
-/// firings and faults): whether it was added.
-fn edge(
-    labels: &[(Vec<u8>, Label)],
-    this_input: &mut Vec<(u32, std::ops::Range<usize>)>,
-    this_input_keys: &mut Vec<u8>,
-    next: &[u8],
-    local: u32,
-) -> bool {
-    let label = &labels[local as usize].1;
-    if this_input.iter().any(|(l, range)| {
-        this_input_keys[range.clone()] == *next && labels[*l as usize].1.alike(label)
-    }) {
-        return false;
-    }
-    let start = this_input_keys.len();
-    this_input_keys.extend_from_slice(next);
-    this_input.push((local, start..this_input_keys.len()));
-    true
 }
 
 /// The bytes that tell one step's label from another's: the input, the
