@@ -254,7 +254,7 @@ impl Loader {
                 file,
                 name.span(),
                 format!(
-                    "invalid {what} name `{}`: use letters, digits and `_`, starting with a letter",
+                    "invalid {what} name `{}`: use letters, digits and `_`, starting with a letter or `_`",
                     name.get_ref()
                 ),
             );

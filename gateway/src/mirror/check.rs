@@ -227,6 +227,11 @@ impl Check {
         self.ground_from.get_or_insert(time);
     }
 
+    /// Whether the ground's start is known yet ([`Check::ground_from`]).
+    pub fn knows_ground_start(&self) -> bool {
+        self.ground_from.is_some()
+    }
+
     /// Whether an event seen on one side only at `time` falls while the two
     /// views settled: within [`SETTLE`] of the later start.
     fn settling(&self, time: Micros) -> bool {

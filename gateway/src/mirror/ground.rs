@@ -297,8 +297,11 @@ impl Ground {
         to_vehicle: impl Fn(Micros) -> Option<Micros>,
     ) {
         for (c, w) in self.checks.iter_mut().zip(&self.watches) {
-            if let Some(t) = w.first_heard.and_then(&to_vehicle) {
-                c.ground_from(t);
+            // Converted once: the first time it is known.
+            if !c.knows_ground_start() {
+                if let Some(t) = w.first_heard.and_then(&to_vehicle) {
+                    c.ground_from(t);
+                }
             }
             c.advance(vehicle_known, w.last_autopilot.and_then(&to_vehicle));
         }
