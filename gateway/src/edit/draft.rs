@@ -10,6 +10,7 @@
 //! transition without input): such an edit is made, and the loader's
 //! verdict shown on the element (docs/monitor.md, "Editing").
 
+use nets::action::ActionSyntax;
 use toml_edit::{value, Array, ArrayOfTables, DocumentMut, Item, Table, Value};
 
 use super::op::{valid_name, EditError, Kind, Op};
@@ -52,6 +53,10 @@ pub struct Applied {
     pub layout: bool,
     /// project.toml, and the net file is new (a net added).
     pub project: bool,
+    /// A net deleted or renamed: project.toml, the layout and every net
+    /// file may have changed, a file gone or a new one there; the writer
+    /// compares each with the draft before the edit.
+    pub all: bool,
 }
 
 /// The text of a net added by the editor: one place, marked initially.
@@ -61,6 +66,40 @@ pub fn new_net_text(name: &str) -> String {
     format!(
         "# {name}: a net added by `petrel edit`.\nname = \"{name}\"\nplaces = [\"idle\"]\ninitial = [\"idle\"]\n"
     )
+}
+
+/// The net an action names (`activate` / `deactivate`; of an instance
+/// `NET@VEHICLE`, its template `NET`), and where that name is in the
+/// action's text. None for any other action, or one that does not parse.
+pub fn named_net(action: &str) -> Option<(String, std::ops::Range<usize>)> {
+    match nets::action::parse(action).ok()? {
+        ActionSyntax::Activate((n, at)) | ActionSyntax::Deactivate((n, at)) => {
+            let base = n.split_once('@').map_or(n.as_str(), |(b, _)| b);
+            Some((base.to_owned(), at..at + base.len()))
+        }
+        _ => None,
+    }
+}
+
+/// The net an `[[exclusive]]` place names (`TEMPLATE.place`).
+fn exclusive_net(place: &str) -> Option<&str> {
+    place.split_once('.').map(|(net, _)| net)
+}
+
+/// A net file renamed with its net: `DIR/OLD.toml` becomes `DIR/NEW.toml`;
+/// any other file name is kept (None).
+fn renamed_file(file: &str, from: &str, to: &str) -> Option<String> {
+    let (dir, base) = match file.rsplit_once('/') {
+        Some((dir, base)) => (Some(dir), base),
+        None => (None, file),
+    };
+    if base != format!("{from}.toml") {
+        return None;
+    }
+    Some(match dir {
+        Some(dir) => format!("{dir}/{to}.toml"),
+        None => format!("{to}.toml"),
+    })
 }
 
 fn parse(file: &str, text: &str) -> Result<DocumentMut, EditError> {
@@ -429,13 +468,188 @@ impl Draft {
             net_file: Some(self.nets.len() - 1),
             layout: false,
             project: true,
+            all: false,
+        })
+    }
+
+    /// Where the other nets' actions and project.toml's `[[exclusive]]`
+    /// places name net `n`, in words (`B.go: \`activate A\``).
+    pub fn uses_of_net(&self, n: usize) -> Vec<String> {
+        let name = self.nets[n].name();
+        let mut uses = Vec::new();
+        for (m, other) in self.nets.iter().enumerate() {
+            if m == n {
+                continue;
+            }
+            for t in transitions(&other.doc) {
+                for action in strings(t, "do") {
+                    if named_net(&action).is_some_and(|(net, _)| net == name) {
+                        uses.push(format!(
+                            "{}.{}: `{action}`",
+                            other.name(),
+                            transition_name(t)
+                        ));
+                    }
+                }
+            }
+        }
+        let exclusive = self
+            .project
+            .get("exclusive")
+            .and_then(Item::as_array_of_tables);
+        for r in exclusive.into_iter().flat_map(|a| a.iter()) {
+            for place in strings(r, "places") {
+                if exclusive_net(&place) == Some(name) {
+                    uses.push(format!(
+                        "{} [[exclusive]] {}: `{place}`",
+                        nets::load::PROJECT_FILE,
+                        r.get("name").and_then(Item::as_str).unwrap_or("")
+                    ));
+                }
+            }
+        }
+        uses
+    }
+
+    /// The index of net `n`'s `[[net]]` table in project.toml.
+    fn net_entry(&self, n: usize) -> Result<usize, EditError> {
+        let file = &self.nets[n].file;
+        self.project
+            .get("net")
+            .and_then(Item::as_array_of_tables)
+            .and_then(|a| {
+                a.iter()
+                    .position(|t| t.get("file").and_then(Item::as_str) == Some(file.as_str()))
+            })
+            .ok_or_else(|| {
+                shape(
+                    nets::load::PROJECT_FILE,
+                    &format!("no [[net]] table has file = \"{file}\""),
+                )
+            })
+    }
+
+    /// Net `name` gone: its `[[net]]` table and its file (every other byte
+    /// of project.toml kept), its positions.
+    fn delete_net(&mut self, name: &str) -> Result<Applied, EditError> {
+        let n = self.net(name)?;
+        if self.nets.len() == 1 {
+            return Err(EditError::LastNet(name.to_owned()));
+        }
+        let uses = self.uses_of_net(n);
+        if !uses.is_empty() {
+            return Err(EditError::NetInUse {
+                net: name.to_owned(),
+                uses,
+            });
+        }
+        let i = self.net_entry(n)?;
+        if let Some(entries) = self
+            .project
+            .get_mut("net")
+            .and_then(Item::as_array_of_tables_mut)
+        {
+            entries.remove(i);
+        }
+        self.nets.remove(n);
+        self.positions.clear(name);
+        Ok(Applied {
+            all: true,
+            ..Applied::default()
+        })
+    }
+
+    /// Net `name` called `to` everywhere the loader reads it; its file
+    /// renamed with it when named after it.
+    fn rename_net(&mut self, name: &str, to: &str) -> Result<Applied, EditError> {
+        let n = self.net(name)?;
+        if name == to {
+            return Ok(Applied::default());
+        }
+        if !valid_name(to) {
+            return Err(EditError::BadName {
+                kind: "net",
+                name: to.to_owned(),
+            });
+        }
+        if self.nets.iter().any(|x| x.name() == to) {
+            return Err(EditError::DuplicateNet(to.to_owned()));
+        }
+        let file = renamed_file(&self.nets[n].file, name, to);
+        if let Some(file) = &file {
+            if file == nets::load::PROJECT_FILE
+                || file == super::positions::FILE
+                || self.nets.iter().any(|x| x.file == *file)
+            {
+                return Err(EditError::FileExists(file.clone()));
+            }
+        }
+        let entry = self.net_entry(n)?;
+        // Made on a copy: nothing changed unless all of it is.
+        let mut next = self.clone();
+        set_text(next.nets[n].doc.as_table_mut(), "name", to);
+        for m in 0..next.nets.len() {
+            for t in next.transitions_mut(m) {
+                let Some(actions) = t.get_mut("do").and_then(Item::as_array_mut) else {
+                    continue;
+                };
+                for v in actions.iter_mut() {
+                    let Some(action) = v.as_str() else { continue };
+                    let Some((net, at)) = named_net(action) else {
+                        continue;
+                    };
+                    if net == name {
+                        let mut renamed = action.to_owned();
+                        renamed.replace_range(at, to);
+                        set_keeping_decor(v, Value::from(renamed));
+                    }
+                }
+            }
+        }
+        let exclusive = next
+            .project
+            .get_mut("exclusive")
+            .and_then(Item::as_array_of_tables_mut);
+        for r in exclusive.into_iter().flat_map(|a| a.iter_mut()) {
+            let Some(places) = r.get_mut("places").and_then(Item::as_array_mut) else {
+                continue;
+            };
+            for v in places.iter_mut() {
+                let Some(place) = v.as_str() else { continue };
+                if let (Some(net), Some((_, rest))) = (exclusive_net(place), place.split_once('.'))
+                {
+                    if net == name {
+                        let renamed = format!("{to}.{rest}");
+                        set_keeping_decor(v, Value::from(renamed));
+                    }
+                }
+            }
+        }
+        if let Some(file) = file {
+            let t = next
+                .project
+                .get_mut("net")
+                .and_then(Item::as_array_of_tables_mut)
+                .and_then(|a| a.get_mut(entry))
+                .ok_or_else(|| shape(nets::load::PROJECT_FILE, "no such [[net]] table"))?;
+            set_text(t, "file", &file);
+            next.nets[n].file = file;
+        }
+        next.positions.rename_net(name, to);
+        *self = next;
+        Ok(Applied {
+            all: true,
+            ..Applied::default()
         })
     }
 
     /// Makes the edit, or refuses it with nothing changed.
     pub fn apply(&mut self, op: &Op) -> Result<Applied, EditError> {
-        if let Op::AddNet { name, active } = op {
-            return self.add_net(name, *active);
+        match op {
+            Op::AddNet { name, active } => return self.add_net(name, *active),
+            Op::DeleteNet { name } => return self.delete_net(name),
+            Op::RenameNet { name, to } => return self.rename_net(name, to),
+            _ => {}
         }
         let n = self.net(op.net())?;
         let net_name = self.nets[n].name().to_owned();
@@ -448,6 +662,7 @@ impl Draft {
             net_file: Some(n),
             layout: true,
             project: false,
+            all: false,
         };
         match op {
             Op::AddPlace { name, at, .. } => {
@@ -492,6 +707,7 @@ impl Draft {
                     net_file: Some(n),
                     layout,
                     project: false,
+                    all: false,
                 })
             }
             Op::DeletePlace { name, .. } => {
@@ -524,6 +740,7 @@ impl Draft {
                     net_file: Some(n),
                     layout,
                     project: false,
+                    all: false,
                 })
             }
             Op::SetPlace {
@@ -594,6 +811,7 @@ impl Draft {
                     net_file: Some(n),
                     layout,
                     project: false,
+                    all: false,
                 })
             }
             Op::DeleteTransition { name, .. } => {
@@ -610,6 +828,7 @@ impl Draft {
                     net_file: Some(n),
                     layout,
                     project: false,
+                    all: false,
                 })
             }
             Op::SetTransition {
@@ -693,14 +912,19 @@ impl Draft {
                     net_file: None,
                     layout: true,
                     project: false,
+                    all: false,
                 })
             }
             Op::Relayout { .. } => Ok(Applied {
                 net_file: None,
                 layout: self.positions.clear(&net_name),
                 project: false,
+                all: false,
             }),
-            Op::AddNet { .. } => Ok(Applied::default()), // made above
+            // Made above.
+            Op::AddNet { .. } | Op::DeleteNet { .. } | Op::RenameNet { .. } => {
+                Ok(Applied::default())
+            }
         }
     }
 }

@@ -93,7 +93,8 @@ fn a_transition_is_appended_after_the_others_and_the_rest_is_unchanged() {
         Applied {
             net_file: Some(0),
             layout: true,
-            project: false
+            project: false,
+            all: false,
         }
     );
     ok(
@@ -153,7 +154,8 @@ fn a_place_joins_a_list_written_one_a_line() {
         Applied {
             net_file: Some(0),
             layout: false,
-            project: false
+            project: false,
+            all: false,
         }
     );
     assert_eq!(
@@ -213,7 +215,8 @@ fn renaming_a_place_renames_it_everywhere_and_only_there() {
         Applied {
             net_file: Some(0),
             layout: true,
-            project: false
+            project: false,
+            all: false,
         }
     );
     assert_eq!(text(&d), A.replace("\"idle\"", "\"waiting\""));
@@ -426,7 +429,8 @@ fn a_place_in_use_is_not_deleted_and_a_free_one_is() {
         Applied {
             net_file: Some(0),
             layout: true,
-            project: false
+            project: false,
+            all: false,
         }
     );
     assert_eq!(text(&d), A);
@@ -451,7 +455,8 @@ fn moves_touch_the_layout_only() {
         Applied {
             net_file: None,
             layout: true,
-            project: false
+            project: false,
+            all: false,
         }
     );
     ok(
@@ -475,7 +480,8 @@ fn moves_touch_the_layout_only() {
         Applied {
             net_file: None,
             layout: true,
-            project: false
+            project: false,
+            all: false,
         }
     );
     assert_eq!(d.positions.get("A", Kind::Transition, "go"), None);
@@ -807,7 +813,8 @@ fn a_net_added_gets_its_file_and_a_net_table_after_the_last_one() {
         Applied {
             net_file: Some(1),
             layout: false,
-            project: true
+            project: true,
+            all: false,
         }
     );
     assert_eq!(
@@ -971,4 +978,354 @@ fn a_draft_reread_is_the_draft_parsed_anew() {
     assert!(d
         .reread(&["a.toml"], |_| Some("name = \n".into()))
         .is_none());
+}
+
+// ---- nets deleted and renamed --------------------------------------------
+
+const P3: &str = "# The project.\nname = \"p\"\n\n# The main net.\n[[net]]\nfile = \"a.toml\"   # first\nactive = true\n\n# Its helper.\n[[net]]\nfile = \"nets/B.toml\"\nactive = false\n\n[[net]]\nfile = \"C.toml\"\nactive = true\n\n# Globals: shared.\n[globals]\ng = false\n\n[events]\nx = {}\ny = {}\n";
+
+const B: &str = "# B: started by A.\nname = \"B\"\nplaces = [\"wait\", \"on\"]\ninitial = [\"wait\"]\nfinal = [\"on\"]\n\n[[transition]]\nname = \"stop\"\nfrom = [\"wait\"]\nto = [\"on\"]\non = \"y\"\ndo = [\n  \"deactivate B\",   # itself\n]\n";
+
+const C: &str =
+    "name = \"C\" # alone\nplaces = [\"idle\"]\ninitial = [\"idle\"]\nfinal = [\"idle\"]\n";
+
+const LAYOUT3: &str = "# by hand\n[B.places]\nwait = [1.0, 2.0]\n\n[C.places]\nidle = [3.0, 4.0]\n";
+
+fn a3() -> String {
+    A.replace("do = [\"emit y\"]", "do = [\"emit y\", \"activate B\"]")
+}
+
+fn draft3() -> Draft {
+    Draft::parse(
+        P3,
+        &[
+            ("a.toml".into(), a3()),
+            ("nets/B.toml".into(), B.into()),
+            ("C.toml".into(), C.into()),
+        ],
+        LAYOUT3,
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Every file of the draft: (file, text), project.toml first, the layout
+/// last.
+fn files3(d: &Draft) -> Vec<(String, String)> {
+    let mut f = vec![(s("project.toml"), d.project.to_string())];
+    f.extend(d.nets.iter().map(|n| (n.file.clone(), n.doc.to_string())));
+    f.push((s("layout.toml"), d.positions.text()));
+    f
+}
+
+fn loads3(d: &Draft) -> Result<nets::Project, String> {
+    let f = files3(d);
+    let f: std::collections::BTreeMap<String, String> = f[..f.len() - 1].iter().cloned().collect();
+    nets::load(&f).map_err(|e| format!("{e:?}"))
+}
+
+fn refused3(d: &mut Draft, op: Op) -> EditError {
+    let before = files3(d);
+    let e = match d.apply(&op) {
+        Ok(a) => panic!("{op:?} was made: {a:?}"),
+        Err(e) => e,
+    };
+    assert_eq!(files3(d), before, "{op:?} refused but changed a file");
+    e
+}
+
+#[test]
+fn the_three_net_project_loads_as_written() {
+    let d = draft3();
+    assert_eq!(
+        files3(&d),
+        vec![
+            (s("project.toml"), s(P3)),
+            (s("a.toml"), a3()),
+            (s("nets/B.toml"), s(B)),
+            (s("C.toml"), s(C)),
+            (s("layout.toml"), s(LAYOUT3)),
+        ]
+    );
+    assert!(loads3(&d).is_ok(), "{:?}", loads3(&d).err());
+}
+
+#[test]
+fn a_net_deleted_leaves_every_other_byte() {
+    let mut d = draft3();
+    let a = ok(&mut d, Op::DeleteNet { name: s("C") });
+    assert_eq!(
+        a,
+        Applied {
+            all: true,
+            ..Applied::default()
+        }
+    );
+    assert_eq!(
+        files3(&d),
+        vec![
+            (
+                s("project.toml"),
+                P3.replace("\n[[net]]\nfile = \"C.toml\"\nactive = true\n", "")
+            ),
+            (s("a.toml"), a3()),
+            (s("nets/B.toml"), s(B)),
+            (
+                s("layout.toml"),
+                s("# by hand\n[B.places]\nwait = [1.0, 2.0]\n")
+            ),
+        ]
+    );
+    assert!(loads3(&d).is_ok(), "{:?}", loads3(&d).err());
+    // A net named only by itself goes too (B's own `deactivate B`), once
+    // A no longer names it; and A, named by no one, goes after it... but
+    // not the last net.
+    let mut d = draft3();
+    let go = Op::SetTransition {
+        net: s("A"),
+        name: s("go"),
+        on: s("x"),
+        when: s(""),
+        actions: vec![s("emit y")],
+    };
+    ok(&mut d, go);
+    ok(&mut d, Op::DeleteNet { name: s("B") });
+    assert_eq!(
+        d.project.to_string(),
+        P3.replace(
+            "# Its helper.\n[[net]]\nfile = \"nets/B.toml\"\nactive = false\n\n",
+            ""
+        )
+    );
+    // The comment above B's table went with it, as a `[[net]]` table's.
+    assert_eq!(d.positions.text(), "\n[C.places]\nidle = [3.0, 4.0]\n");
+    assert!(loads3(&d).is_ok(), "{:?}", loads3(&d).err());
+    ok(&mut d, Op::DeleteNet { name: s("A") });
+    assert_eq!(
+        d.nets
+            .iter()
+            .map(|n| n.name().to_owned())
+            .collect::<Vec<_>>(),
+        vec![s("C")]
+    );
+    assert_eq!(
+        refused3(&mut d, Op::DeleteNet { name: s("C") }),
+        EditError::LastNet(s("C"))
+    );
+    assert!(loads3(&d).is_ok(), "{:?}", loads3(&d).err());
+}
+
+#[test]
+fn a_net_named_by_another_or_unknown_is_not_deleted() {
+    let mut d = draft3();
+    let e = refused3(&mut d, Op::DeleteNet { name: s("B") });
+    assert_eq!(
+        e,
+        EditError::NetInUse {
+            net: s("B"),
+            uses: vec![s("A.go: `activate B`")],
+        }
+    );
+    assert_eq!(
+        e.to_string(),
+        "net B is named by A.go: `activate B`: change those first (nothing written)"
+    );
+    assert_eq!(
+        refused3(&mut d, Op::DeleteNet { name: s("Z") }),
+        EditError::UnknownNet(s("Z"))
+    );
+    // The project's only net.
+    let mut one = draft();
+    let before = (one.project.to_string(), text(&one));
+    assert_eq!(
+        one.apply(&Op::DeleteNet { name: s("A") }),
+        Err(EditError::LastNet(s("A")))
+    );
+    assert_eq!((one.project.to_string(), text(&one)), before);
+}
+
+#[test]
+fn a_net_renamed_is_renamed_where_the_loader_reads_it_and_its_file_with_it() {
+    let mut d = draft3();
+    let a = ok(
+        &mut d,
+        Op::RenameNet {
+            name: s("B"),
+            to: s("Helper"),
+        },
+    );
+    assert_eq!(
+        a,
+        Applied {
+            all: true,
+            ..Applied::default()
+        }
+    );
+    assert_eq!(
+        files3(&d),
+        vec![
+            (
+                s("project.toml"),
+                P3.replace("file = \"nets/B.toml\"", "file = \"nets/Helper.toml\"")
+            ),
+            (
+                s("a.toml"),
+                a3().replace("\"activate B\"", "\"activate Helper\"")
+            ),
+            (
+                s("nets/Helper.toml"),
+                B.replace("name = \"B\"", "name = \"Helper\"").replace(
+                    "\"deactivate B\",   # itself",
+                    "\"deactivate Helper\",   # itself"
+                )
+            ),
+            (s("C.toml"), s(C)),
+            (
+                s("layout.toml"),
+                LAYOUT3.replace("[B.places]", "[Helper.places]")
+            ),
+        ]
+    );
+    let p = loads3(&d).unwrap_or_else(|e| panic!("{e}"));
+    assert!(p.nets.iter().any(|n| n.name == "Helper"));
+    assert!(!p.nets.iter().any(|n| n.name == "B"));
+    // A net whose file is not named after it keeps its file: `a.toml`
+    // holds A.
+    ok(
+        &mut d,
+        Op::RenameNet {
+            name: s("A"),
+            to: s("Main"),
+        },
+    );
+    assert_eq!(d.nets[0].file, "a.toml");
+    assert_eq!(
+        d.nets[0].doc.to_string(),
+        a3().replace("\"activate B\"", "\"activate Helper\"")
+            .replace("name = \"A\"", "name = \"Main\"")
+    );
+    assert!(d
+        .project
+        .to_string()
+        .contains("file = \"a.toml\"   # first\n"));
+    // The same name: nothing to do, nothing written.
+    let before = files3(&d);
+    assert_eq!(
+        ok(
+            &mut d,
+            Op::RenameNet {
+                name: s("C"),
+                to: s("C"),
+            }
+        ),
+        Applied::default()
+    );
+    assert_eq!(files3(&d), before);
+    assert!(loads3(&d).is_ok(), "{:?}", loads3(&d).err());
+}
+
+#[test]
+fn a_net_is_not_renamed_to_a_name_taken_or_malformed_or_over_a_file() {
+    let mut d = draft3();
+    for (name, to, want) in [
+        ("B", "C", EditError::DuplicateNet(s("C"))),
+        ("B", "A", EditError::DuplicateNet(s("A"))),
+        (
+            "B",
+            "1st",
+            EditError::BadName {
+                kind: "net",
+                name: s("1st"),
+            },
+        ),
+        (
+            "B",
+            "B@R1",
+            EditError::BadName {
+                kind: "net",
+                name: s("B@R1"),
+            },
+        ),
+        ("C", "a", EditError::FileExists(s("a.toml"))),
+        ("C", "project", EditError::FileExists(s("project.toml"))),
+        ("C", "layout", EditError::FileExists(s("layout.toml"))),
+        ("Z", "Y", EditError::UnknownNet(s("Z"))),
+    ] {
+        let e = refused3(
+            &mut d,
+            Op::RenameNet {
+                name: s(name),
+                to: s(to),
+            },
+        );
+        assert_eq!(e, want, "{name} → {to}");
+    }
+}
+
+#[test]
+fn exclusive_places_and_instances_name_a_net_too() {
+    // Not a loadable team (no vehicles): the draft's reading only.
+    let project = format!(
+        "{P3}\n[[exclusive]]\nname = \"arm\"\nplaces = [\"B.on\", \"C.idle\"]   # shared\n"
+    );
+    let a = a3().replace("\"activate B\"", "\"activate B@R1\", \"deactivate Bx\"");
+    let mut d = Draft::parse(
+        &project,
+        &[
+            ("a.toml".into(), a.clone()),
+            ("nets/B.toml".into(), B.into()),
+            ("C.toml".into(), C.into()),
+        ],
+        "",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        refused3(&mut d, Op::DeleteNet { name: s("B") }),
+        EditError::NetInUse {
+            net: s("B"),
+            uses: vec![
+                s("A.go: `activate B@R1`"),
+                s("project.toml [[exclusive]] arm: `B.on`")
+            ],
+        }
+    );
+    ok(
+        &mut d,
+        Op::RenameNet {
+            name: s("B"),
+            to: s("Rover"),
+        },
+    );
+    assert_eq!(
+        d.project.to_string(),
+        project
+            .replace("\"B.on\", \"C.idle\"", "\"Rover.on\", \"C.idle\"")
+            .replace("nets/B.toml", "nets/Rover.toml")
+    );
+    assert_eq!(
+        d.nets[0].doc.to_string(),
+        a.replace("activate B@R1", "activate Rover@R1"),
+        "`Bx` is another net"
+    );
+    assert_eq!(named_net("activate X@R2"), Some((s("X"), 9..10)));
+    assert_eq!(named_net("  deactivate  Y"), Some((s("Y"), 14..15)));
+    assert_eq!(named_net("emit X"), None);
+    assert_eq!(named_net("activate"), None);
+}
+
+#[test]
+fn net_ops_come_from_the_page_as_json() {
+    let op: Op =
+        serde_json::from_str(r#"{"op":"delete_net","name":"B"}"#).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(op, Op::DeleteNet { name: s("B") });
+    assert_eq!(op.describe(), "delete net B");
+    let op: Op = serde_json::from_str(r#"{"op":"rename_net","name":"B","to":"H"}"#)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        op,
+        Op::RenameNet {
+            name: s("B"),
+            to: s("H")
+        }
+    );
+    assert_eq!(op.describe(), "rename net B to H");
 }

@@ -111,6 +111,21 @@ pub enum Op {
         #[serde(default)]
         active: bool,
     },
+    /// The net `name` gone: its `[[net]]` table out of project.toml, its
+    /// file removed (and its positions). Refused while another net's
+    /// actions or an `[[exclusive]]` place name it, or when it is the
+    /// project's last net.
+    DeleteNet {
+        name: String,
+    },
+    /// The net `name` called `to`: its file's `name`, every `activate` /
+    /// `deactivate` naming it, `[[exclusive]]` places `NAME.place`, its
+    /// positions; its file renamed `TO.toml` (and project.toml's `file`
+    /// with it) when it was `NAME.toml`.
+    RenameNet {
+        name: String,
+        to: String,
+    },
 }
 
 impl Op {
@@ -129,7 +144,7 @@ impl Op {
             | Op::DeleteArc { net, .. }
             | Op::Move { net, .. }
             | Op::Relayout { net } => net,
-            Op::AddNet { name, .. } => name,
+            Op::AddNet { name, .. } | Op::DeleteNet { name } | Op::RenameNet { name, .. } => name,
         }
     }
 
@@ -174,6 +189,8 @@ impl Op {
             Op::Move { name, .. } => format!("move {net}.{name}"),
             Op::Relayout { .. } => format!("re-layout {net}"),
             Op::AddNet { .. } => format!("add net {net}"),
+            Op::DeleteNet { .. } => format!("delete net {net}"),
+            Op::RenameNet { to, .. } => format!("rename net {net} to {to}"),
         }
     }
 }
@@ -187,6 +204,14 @@ pub enum EditError {
     DuplicateNet(String),
     #[error("{0} exists already: a new net gets a file of its own (nothing written)")]
     FileExists(String),
+    #[error("net {net} is named by {}: change those first (nothing written)", .uses.join("; "))]
+    NetInUse {
+        net: String,
+        /// Each use: a transition and its action, or an `[[exclusive]]` place.
+        uses: Vec<String>,
+    },
+    #[error("net {0} is the project's last net: a project needs one (nothing written)")]
+    LastNet(String),
     #[error("net {net} has no {kind} `{name}`")]
     Unknown {
         net: String,

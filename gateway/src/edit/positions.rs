@@ -140,6 +140,18 @@ impl Positions {
         }
     }
 
+    /// Carries a renamed net's positions over; true if any were stored.
+    pub fn rename_net(&mut self, from: &str, to: &str) -> bool {
+        let root = self.doc.as_table_mut();
+        match root.remove(from) {
+            Some(item) => {
+                root.insert(to, item);
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Forgets every position of `net`; true if there were any.
     pub fn clear(&mut self, net: &str) -> bool {
         self.doc.as_table_mut().remove(net).is_some()

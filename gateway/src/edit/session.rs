@@ -175,6 +175,39 @@ pub fn write_new(path: &Path, text: &str) -> std::io::Result<()> {
     result
 }
 
+/// What a net deleted or renamed writes, `before` to `after`: (file, its
+/// text, None when removed; new): new net files first, then the net files,
+/// the layout and project.toml that changed, the files gone last.
+fn all_writes(before: &Draft, after: &Draft) -> Vec<(String, Option<String>, bool)> {
+    let mut writes = Vec::new();
+    let old = |file: &str| before.nets.iter().find(|n| n.file == file);
+    for net in &after.nets {
+        if old(&net.file).is_none() {
+            writes.push((net.file.clone(), Some(net.doc.to_string()), true));
+        }
+    }
+    for net in &after.nets {
+        let text = net.doc.to_string();
+        if old(&net.file).is_some_and(|o| o.doc.to_string() != text) {
+            writes.push((net.file.clone(), Some(text), false));
+        }
+    }
+    let layout = after.positions.text();
+    if layout != before.positions.text() {
+        writes.push((positions::FILE.to_owned(), Some(layout), false));
+    }
+    let project = after.project.to_string();
+    if project != before.project.to_string() {
+        writes.push((nets::load::PROJECT_FILE.to_owned(), Some(project), false));
+    }
+    for net in &before.nets {
+        if !after.nets.iter().any(|n| n.file == net.file) {
+            writes.push((net.file.clone(), None, false));
+        }
+    }
+    writes
+}
+
 /// The draft of the files as last read or written.
 fn draft_from(read: &BTreeMap<String, Option<String>>) -> Result<Draft, String> {
     let text = |file: &str| read.get(file).cloned().flatten();
@@ -274,22 +307,31 @@ impl Session {
         };
         let mut next = draft.clone();
         let applied = next.apply(op)?;
-        // (file, text, new): a net added's file first, then project.toml.
-        let mut writes: Vec<(String, String, bool)> = Vec::new();
+        // (file, text (None: removed), new): a net added's file first, then
+        // project.toml; a net deleted or renamed: the new file first, the
+        // one gone last (so that project.toml never names a missing file).
+        let mut writes: Vec<(String, Option<String>, bool)> = Vec::new();
+        if applied.all {
+            writes = all_writes(draft, &next);
+        }
         if let Some(n) = applied.net_file {
             writes.push((
                 next.nets[n].file.clone(),
-                next.nets[n].doc.to_string(),
+                Some(next.nets[n].doc.to_string()),
                 applied.project,
             ));
         }
         if applied.layout {
-            writes.push((positions::FILE.to_owned(), next.positions.text(), false));
+            writes.push((
+                positions::FILE.to_owned(),
+                Some(next.positions.text()),
+                false,
+            ));
         }
         if applied.project {
             writes.push((
                 nets::load::PROJECT_FILE.to_owned(),
-                next.project.to_string(),
+                Some(next.project.to_string()),
                 false,
             ));
         }
@@ -311,21 +353,22 @@ impl Session {
         };
         for (file, text, new) in &writes {
             let path = self.dir.join(file);
-            let written = if *new {
-                write_new(&path, text)
-            } else {
-                write_atomic(&path, text)
+            let written = match text {
+                Some(text) if *new => write_new(&path, text),
+                Some(text) => write_atomic(&path, text),
+                None => std::fs::remove_file(&path),
             };
             if let Err(e) = written {
-                // A net's new file without its entry in project.toml:
-                // removed, so that nothing is left of the refused edit.
-                for (done, before, _) in &change.files {
-                    if before.is_none() {
-                        let _ = std::fs::remove_file(self.dir.join(done));
-                    }
+                // What was written of the refused edit is put back (a
+                // net's new file removed), as far as it can be.
+                for (done, before, _) in change.files.iter().rev() {
+                    let path = self.dir.join(done);
+                    let _ = match before {
+                        None => std::fs::remove_file(&path),
+                        Some(before) => write_atomic(&path, before),
+                    };
                 }
-                // Some files may be written, others not: the disk is the
-                // truth, read again.
+                // The disk is the truth, read again.
                 drop(s);
                 self.reload();
                 return Err(if *new && e.kind() == std::io::ErrorKind::AlreadyExists {
@@ -334,10 +377,12 @@ impl Session {
                     Refusal::Io(format!("cannot write {file}: {e}"))
                 });
             }
-            let before = s.read.insert(file.clone(), Some(text.clone())).flatten();
-            change
-                .files
-                .push((file.clone(), before, Some(text.clone())));
+            let before = match text {
+                Some(text) => s.read.insert(file.clone(), Some(text.clone())),
+                None => s.read.remove(file),
+            }
+            .flatten();
+            change.files.push((file.clone(), before, text.clone()));
         }
         if !change.files.is_empty() {
             s.redo.clear();
@@ -349,7 +394,7 @@ impl Session {
         s.draft = Some(next);
         s.version += 1;
         // A move changes no net: nothing to load or check again.
-        if applied.net_file.is_some() {
+        if applied.net_file.is_some() || applied.all {
             self.load_and_check(&mut s);
         }
         Ok(())
