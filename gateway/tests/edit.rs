@@ -879,3 +879,196 @@ fn a_net_added_in_the_page_is_written_checked_and_undone() {
     assert_eq!(seen["nets_at_end"], seen["nets"]);
     assert_eq!(files(dir), original, "the example back, byte for byte");
 }
+
+/// The files of the example with OPERATIONS renamed `to`: its own `name`,
+/// FLIGHT's `activate` and CATASTROPHIC's `deactivate` (its file keeps
+/// its name: `operations.toml` is not `OPERATIONS.toml`).
+fn operations_renamed(
+    original: &std::collections::BTreeMap<String, String>,
+    to: &str,
+) -> std::collections::BTreeMap<String, String> {
+    let mut want = original.clone();
+    for (file, from, into) in [
+        (
+            "operations.toml",
+            "name = \"OPERATIONS\"".to_owned(),
+            format!("name = \"{to}\""),
+        ),
+        (
+            "flight.toml",
+            "\"activate OPERATIONS\"".to_owned(),
+            format!("\"activate {to}\""),
+        ),
+        (
+            "catastrophic.toml",
+            "\"deactivate OPERATIONS\"".to_owned(),
+            format!("\"deactivate {to}\""),
+        ),
+    ] {
+        let text = &original[file];
+        assert!(text.contains(&from), "{file} has {from}");
+        want.insert(file.into(), text.replace(&from, &into));
+    }
+    want
+}
+
+/// Without a browser: nets deleted and renamed through the routes.
+/// Refused with the reasons and nothing written: a net other nets'
+/// actions name, a name taken or malformed, a file in the way of the
+/// renamed one. Made: OPERATIONS renamed (every action naming it with
+/// it), a net added then renamed (its file with it) and deleted (its file
+/// and its `[[net]]` table: project.toml back byte for byte); the copy
+/// loads. Then undone to the example byte for byte, an undo refused
+/// (409) while a file is in the way of one it would bring back.
+#[test]
+fn nets_deleted_and_renamed_through_the_routes() {
+    let tmp = Scratch::new("edit-netops");
+    let dir = tmp.path();
+    copy_example(dir);
+    let original = files(dir);
+    let project = original["project.toml"].clone();
+    let (_editor, url) = edit(dir);
+
+    // Refused, nothing written.
+    let (status, a) = post_edit(&url, r#"{"op":"delete_net","name":"COMMUNICATION"}"#);
+    assert_eq!(status, 400, "{a}");
+    let why = a["error"].as_str().unwrap_or("");
+    assert!(
+        why.starts_with("net COMMUNICATION is named by CATASTROPHIC.engine_failure: `deactivate COMMUNICATION`; CATASTROPHIC.engine_failure_no_position: `deactivate COMMUNICATION`;"),
+        "{why}"
+    );
+    assert_eq!(
+        why.matches("`deactivate COMMUNICATION`").count(),
+        6,
+        "{why}"
+    );
+    let (status, a) = post_edit(
+        &url,
+        r#"{"op":"rename_net","name":"OPERATIONS","to":"FLIGHT"}"#,
+    );
+    assert_eq!(
+        (status, a["error"].as_str()),
+        (400, Some("the project already has a net `FLIGHT`"))
+    );
+    let (status, a) = post_edit(
+        &url,
+        r#"{"op":"rename_net","name":"OPERATIONS","to":"op s"}"#,
+    );
+    assert_eq!(status, 400, "{a}");
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .contains("invalid net name `op s`"),
+        "{a}"
+    );
+    let (status, a) = post_edit(&url, r#"{"op":"delete_net","name":"NOPE"}"#);
+    assert_eq!(
+        (status, a["error"].as_str()),
+        (400, Some("no net named `NOPE`"))
+    );
+    assert_eq!(files(dir), original, "nothing written by the refusals");
+
+    // OPERATIONS renamed OPS: its file kept, every action naming it too.
+    let mut states = vec![files(dir)];
+    let (status, a) = post_edit(
+        &url,
+        r#"{"op":"rename_net","name":"OPERATIONS","to":"OPS"}"#,
+    );
+    assert_eq!(status, 200, "{a}");
+    assert_eq!(files(dir), operations_renamed(&original, "OPS"));
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    assert_eq!(page["loads"], true, "{}", page["problems"]);
+    assert_eq!(page["undo"], "rename net OPERATIONS to OPS");
+    states.push(files(dir));
+
+    // A net added, renamed: its file with it, project.toml's entry too.
+    let (status, a) = post_edit(&url, r#"{"op":"add_net","name":"NEW","active":true}"#);
+    assert_eq!(status, 200, "{a}");
+    states.push(files(dir));
+    std::fs::write(dir.join("MINE.toml"), "# mine\n").unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = post_edit(&url, r#"{"op":"rename_net","name":"NEW","to":"MINE"}"#);
+    assert_eq!(status, 400, "{a}");
+    assert!(
+        a["error"]
+            .as_str()
+            .unwrap_or("")
+            .contains("MINE.toml exists already"),
+        "{a}"
+    );
+    assert_eq!(read(&dir.join("MINE.toml")), "# mine\n");
+    std::fs::remove_file(dir.join("MINE.toml")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        &files(dir),
+        states.last().unwrap_or_else(|| panic!("no state"))
+    );
+    let (status, a) = post_edit(&url, r#"{"op":"rename_net","name":"NEW","to":"SPARE"}"#);
+    assert_eq!(status, 200, "{a}");
+    let mut want = operations_renamed(&original, "OPS");
+    want.insert(
+        "project.toml".into(),
+        with_entry(&project, &net_entry("SPARE", true)),
+    );
+    want.insert(
+        "SPARE.toml".into(),
+        "# NEW: a net added by `petrel edit`.\nname = \"SPARE\"\nplaces = [\"idle\"]\ninitial = [\"idle\"]\n".into(),
+    );
+    assert_eq!(files(dir), want, "NEW.toml gone, SPARE.toml there");
+    let loaded = nets::load(&files(dir)).unwrap_or_else(|e| panic!("{e:?}"));
+    let names: Vec<&str> = loaded.nets.iter().map(|n| n.name.as_str()).collect();
+    assert_eq!(names.last(), Some(&"SPARE"));
+    assert!(
+        names.contains(&"OPS") && !names.contains(&"OPERATIONS"),
+        "{names:?}"
+    );
+    states.push(files(dir));
+
+    // SPARE deleted: its file and its table gone, every other byte kept.
+    let (status, a) = post_edit(&url, r#"{"op":"delete_net","name":"SPARE"}"#);
+    assert_eq!(status, 200, "{a}");
+    assert_eq!(files(dir), operations_renamed(&original, "OPS"));
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    assert_eq!(page["nets"].as_array().map(Vec::len), Some(8));
+    assert_eq!(page["loads"], true, "{}", page["problems"]);
+    assert_eq!(page["undo"], "delete net SPARE");
+    let loaded = nets::load(&files(dir)).unwrap_or_else(|e| panic!("{e:?}"));
+    assert_eq!(loaded.nets.len(), 8);
+
+    // The undo would bring SPARE.toml back: refused while a file is there.
+    std::fs::write(dir.join("SPARE.toml"), "# mine\n").unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = http(&url, "POST", "/undo", "{}");
+    assert_eq!((status, a["conflict"].as_bool()), (409, Some(true)), "{a}");
+    assert_eq!(read(&dir.join("SPARE.toml")), "# mine\n");
+    std::fs::remove_file(dir.join("SPARE.toml")).unwrap_or_else(|e| panic!("{e}"));
+    // Undone one at a time, each back to the bytes before it.
+    let mut names = Vec::new();
+    while let Some(want) = states.pop() {
+        let (status, a) = http(&url, "POST", "/undo", "{}");
+        assert_eq!(status, 200, "{a}");
+        names.push(a["undone"].as_str().unwrap_or("").to_owned());
+        assert_eq!(files(dir), want, "after undoing {}", a["undone"]);
+    }
+    assert_eq!(
+        names,
+        [
+            "delete net SPARE",
+            "rename net NEW to SPARE",
+            "add net NEW",
+            "rename net OPERATIONS to OPS"
+        ]
+    );
+    assert_eq!(files(dir), original, "the example back, byte for byte");
+    // Redone: the rename again, then undone.
+    let (status, a) = http(&url, "POST", "/redo", "{}");
+    assert_eq!(
+        (status, a["redone"].as_str()),
+        (200, Some("rename net OPERATIONS to OPS")),
+        "{a}"
+    );
+    assert_eq!(files(dir), operations_renamed(&original, "OPS"));
+    let (status, _) = http(&url, "POST", "/undo", "{}");
+    assert_eq!(status, 200);
+    assert_eq!(files(dir), original);
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    assert_eq!(page["loads"], true, "{}", page["problems"]);
+}
