@@ -1072,3 +1072,91 @@ fn nets_deleted_and_renamed_through_the_routes() {
     let (_, page) = http(&url, "GET", "/page.json", "");
     assert_eq!(page["loads"], true, "{}", page["problems"]);
 }
+
+/// In the browser: a net's delete confirmed and refused with the reasons
+/// (other nets name it), OPERATIONS renamed (a name taken refused first),
+/// a net added, renamed (its file with it), its delete cancelled then
+/// confirmed: the files on disk, the page's check and a fresh `petrel
+/// check` hold. Then the Undo button until the example is back byte for
+/// byte.
+#[test]
+fn nets_deleted_and_renamed_in_the_page_and_undone() {
+    let Some(tools) = require() else { return };
+    let shots = browser::shots();
+    let tmp = Scratch::new("edit-netpage");
+    let dir = tmp.path();
+    copy_example(dir);
+    let original = files(dir);
+    let (editor, url) = edit(dir);
+
+    let seen = drive(&tools, "netops", &url, &shots);
+    assert!(seen.get("failure").is_none(), "{}", seen["failure"]);
+    assert_eq!(seen["errors"], Json::Array(Vec::new()), "no page error");
+    assert!(
+        seen["confirm"]
+            .as_str()
+            .unwrap_or("")
+            .starts_with("Delete net COMMUNICATION? Its [[net]] table leaves project.toml and communication.toml is removed"),
+        "{}",
+        seen["confirm"]
+    );
+    let in_use = seen["in_use"].as_str().unwrap_or("");
+    assert!(
+        in_use.starts_with("net COMMUNICATION is named by CATASTROPHIC.engine_failure: `deactivate COMMUNICATION`;"),
+        "{in_use}"
+    );
+    assert_eq!(seen["still"], 1, "COMMUNICATION still drawn");
+    assert_eq!(seen["rename_value"], "OPERATIONS");
+    assert!(
+        seen["taken"]
+            .as_str()
+            .unwrap_or("")
+            .contains("the project already has a net `FLIGHT`"),
+        "{}",
+        seen["taken"]
+    );
+    assert_eq!(
+        strings(&seen["form_after_refusal"]),
+        ["FLIGHT"],
+        "the form stays"
+    );
+    assert_eq!(seen["message_after"], true, "the refusal cleared");
+    let renamed = strings(&seen["nets_renamed"]);
+    assert!(
+        renamed.contains(&"OPS".to_owned()) && !renamed.contains(&"OPERATIONS".to_owned()),
+        "{renamed:?}"
+    );
+    assert_eq!(seen["spare_file"], "SPARE.toml");
+    assert_eq!(
+        strings(&seen["after_cancel"]).last().map(String::as_str),
+        Some("SPARE"),
+        "cancelled: kept"
+    );
+    assert_eq!(seen["nets"], seen["nets_renamed"]);
+    assert!(
+        seen["undo_title"]
+            .as_str()
+            .unwrap_or("")
+            .starts_with("undo: delete net SPARE"),
+        "{}",
+        seen["undo_title"]
+    );
+    assert_eq!(seen["check"]["state"], "holds", "{}", seen["check"]);
+    assert_eq!(files(dir), operations_renamed(&original, "OPS"));
+    assert_eq!(check(dir), Some(0), "a fresh petrel check of the copy");
+
+    let seen = drive(&tools, "netundo", &url, &shots);
+    drop(editor);
+    assert!(seen.get("failure").is_none(), "{}", seen["failure"]);
+    assert_eq!(
+        strings(&seen["undone"]),
+        [
+            "delete net SPARE",
+            "rename net NEW to SPARE",
+            "add net NEW",
+            "rename net OPERATIONS to OPS"
+        ]
+    );
+    assert!(strings(&seen["nets"]).contains(&"OPERATIONS".to_owned()));
+    assert_eq!(files(dir), original, "the example back, byte for byte");
+}

@@ -1,6 +1,6 @@
 // Drives Debian's chromium with playwright-core for gateway/tests/edit.rs:
 // the editor (`petrel edit`) used as a person does, with clicks and typing.
-// Usage: node driver.js add|break|net|undo URL OUT_DIR
+// Usage: node driver.js add|break|net|undo|netops|netundo URL OUT_DIR
 //   add:   a transition added to COMMUNICATION (first without arcs: the
 //          loader's problem shown on it), named, given its event and arcs;
 //          its place dragged; wait for the check's verdict.
@@ -12,6 +12,11 @@
 //          its place made final, and the verdict.
 //   undo:  Ctrl-Z once, then the Undo button until the added net is gone;
 //          Redo (the net back), Ctrl-Z (gone again).
+//   netops: COMMUNICATION's delete confirmed (refused: other nets name
+//          it), OPERATIONS renamed FLIGHT (refused: taken) then OPS; a
+//          net NEW added, renamed SPARE, its delete cancelled then
+//          confirmed; the check's verdict.
+//   netundo: the Undo button until there is nothing to undo.
 // Prints one JSON object with what it saw; the Rust test judges it. The
 // browser is closed on every path.
 "use strict";
@@ -213,6 +218,73 @@ async function undoIt(page, seen) {
   await page.screenshot({ path: path.join(out, "edit-undone.png") });
 }
 
+const head = (net) => '#nets .net[data-net="' + net + '"] .net-head';
+
+async function message(page) {
+  await page.waitForSelector("#edit-message:not([hidden])", { timeout: 20000 });
+  return page.$eval("#edit-message", (e) => e.textContent);
+}
+
+async function netOps(page, seen) {
+  await page.goto(url);
+  await page.waitForSelector(svg, { timeout: 30000 });
+  // Delete confirmed, refused: the reasons shown, the net still there.
+  page.once("dialog", (d) => { seen.confirm = d.message(); d.accept(); });
+  await page.click(head(NET) + " .net-delete");
+  seen.in_use = await message(page);
+  seen.still = await page.$$eval(svg, (els) => els.length);
+  // Renamed: a name taken refused (the form stays), then OPS.
+  await page.click(head("OPERATIONS") + " .net-rename");
+  await page.waitForSelector(head("OPERATIONS") + " .net-rename-to", { timeout: 20000 });
+  seen.rename_value = await page.$eval(head("OPERATIONS") + " .net-rename-to", (i) => i.value);
+  await page.fill(head("OPERATIONS") + " .net-rename-to", "FLIGHT");
+  await page.press(head("OPERATIONS") + " .net-rename-to", "Enter");
+  seen.taken = await message(page);
+  seen.form_after_refusal = await page.$$eval(head("OPERATIONS") + " .net-rename-to", (els) => els.map((e) => e.value));
+  await page.fill(head("OPERATIONS") + " .net-rename-to", "OPS");
+  await page.click(head("OPERATIONS") + " .net-rename-go");
+  await page.waitForSelector(head("OPS") + " b", { timeout: 20000 });
+  seen.message_after = await page.$eval("#edit-message", (e) => e.hidden);
+  seen.nets_renamed = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
+  // A net added, renamed (its file with it), deleted.
+  await page.click("#net-add-open");
+  await page.fill("#net-name", "NEW");
+  await page.click("#net-add-go");
+  await page.waitForSelector(head("NEW"), { timeout: 20000 });
+  await page.click(head("NEW") + " .net-rename");
+  await page.waitForSelector(head("NEW") + " .net-rename-to", { timeout: 20000 });
+  await page.fill(head("NEW") + " .net-rename-to", "SPARE");
+  await page.press(head("NEW") + " .net-rename-to", "Enter");
+  await page.waitForSelector(head("SPARE") + " b", { timeout: 20000 });
+  seen.spare_file = await page.$eval(head("SPARE") + " .muted", (e) => e.textContent);
+  await page.screenshot({ path: path.join(out, "edit-net-renamed.png") });
+  page.once("dialog", (d) => d.dismiss());
+  await page.click(head("SPARE") + " .net-delete");
+  await page.waitForTimeout(500);
+  seen.after_cancel = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
+  page.once("dialog", (d) => d.accept());
+  await page.click(head("SPARE") + " .net-delete");
+  await page.waitForFunction(() => !document.querySelector('#nets .net[data-net="SPARE"]'), null, { timeout: 20000 });
+  seen.nets = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
+  seen.undo_title = await page.$eval("#undo", (b) => b.title);
+  seen.check = await verdict(page);
+  await page.screenshot({ path: path.join(out, "edit-net-deleted.png") });
+}
+
+async function netUndo(page, seen) {
+  await page.goto(url);
+  await page.waitForSelector(svg, { timeout: 30000 });
+  seen.undone = [];
+  for (let i = 0; i < 20 && !(await page.$eval("#undo", (b) => b.disabled)); i++) {
+    const w = (await page.$eval("#undo", (b) => b.title)).replace(/^undo: /, "").replace(/ \(Ctrl-Z.*$/, "");
+    await page.click("#undo");
+    await page.waitForFunction((w) => document.getElementById("edit-message").textContent.startsWith("undone: " + w + " "),
+      w, { timeout: 20000 });
+    seen.undone.push(w);
+  }
+  seen.nets = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
+}
+
 (async () => {
   const seen = { errors: [] };
   const browser = await chromium.launch({
@@ -223,7 +295,7 @@ async function undoIt(page, seen) {
   try {
     const page = await browser.newPage({ viewport: { width: 1600, height: 1000 } });
     page.on("pageerror", (e) => seen.errors.push(String(e)));
-    const modes = { add, break: breakIt, net: addNet, undo: undoIt };
+    const modes = { add, break: breakIt, net: addNet, undo: undoIt, netops: netOps, netundo: netUndo };
     await modes[mode](page, seen);
   } catch (e) {
     seen.failure = String(e && e.stack || e);

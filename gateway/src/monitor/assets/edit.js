@@ -15,6 +15,7 @@ const ED = {
   step: 0,              // the counterexample's moment shown
   checkKey: "",
   busy: false,
+  renaming: null,       // {net, to}: a net's rename form, open
 };
 const RADIUS = 14, BAR_W = 8, BAR_H = 34;
 
@@ -156,6 +157,26 @@ async function addNet() {
   if (div) div.scrollIntoView({ block: "nearest" });
 }
 
+// A net renamed: its file's `name`, the actions naming it, its file if
+// named after it (the server's rules; a refusal says why, the form stays).
+async function renameNet(net) {
+  const to = ED.renaming ? ED.renaming.to.trim() : "";
+  const a = await edit({ op: "rename_net", name: net, to });
+  if (a.ok) {
+    ED.renaming = null;
+    draw();
+  }
+}
+
+// A net deleted, once confirmed: its [[net]] table and its file (Undo
+// brings both back). Refused by the server while other nets name it.
+async function deleteNet(n) {
+  const sure = window.confirm("Delete net " + n.name + "? Its [[net]] table leaves project.toml and " + n.file +
+    " is removed (Undo brings both back).");
+  if (!sure) return;
+  await edit({ op: "delete_net", name: n.name });
+}
+
 async function refresh() {
   const p = await (await fetch("page.json")).json();
   page = p;
@@ -261,6 +282,8 @@ function drawNet(n) {
 }
 
 function draw() {
+  // A redraw (an edit, the check's verdict) keeps the rename field's focus.
+  const typing = document.activeElement && document.activeElement.classList.contains("net-rename-to");
   $("project").textContent = page.name;
   document.title = page.name + " — Petrel editor";
   const nets = $("nets");
@@ -275,12 +298,39 @@ function draw() {
     const div = document.createElement("div");
     div.className = "net";
     div.dataset.net = n.name;
-    div.innerHTML = '<div class="net-head"><b>' + esc(n.name) + '</b><span class="muted">' + esc(n.file) + "</span>" +
+    const renaming = ED.renaming && ED.renaming.net === n.name;
+    div.innerHTML = '<div class="net-head">' +
+      (renaming
+        ? '<span class="net-rename-form"><input class="net-rename-to" size="14" spellcheck="false" value="' + attr(ED.renaming.to) + '">' +
+          '<button class="net-rename-go">rename</button><button class="net-rename-close" title="cancel">×</button></span>'
+        : "<b>" + esc(n.name) + "</b>" +
+          '<button class="net-rename" title="rename this net: every action naming it, and its file if named after it, with it">rename</button>' +
+          '<button class="net-delete danger" title="delete this net: its [[net]] table in project.toml and its file">delete</button>') +
+      '<span class="muted">' + esc(n.file) + "</span>" +
       '<button class="relayout" title="forget the positions given by hand: lay the whole net out automatically">re-layout</button></div>' +
       '<pre class="net-problems"></pre><div class="drawing"></div>';
     div.querySelector(".relayout").onclick = () => edit({ op: "relayout", net: n.name });
+    if (renaming) {
+      const input = div.querySelector(".net-rename-to");
+      input.oninput = () => { ED.renaming.to = input.value; };
+      input.onkeydown = (ev) => { if (ev.key === "Enter") renameNet(n.name); if (ev.key === "Escape") { ED.renaming = null; draw(); } };
+      div.querySelector(".net-rename-go").onclick = () => renameNet(n.name);
+      div.querySelector(".net-rename-close").onclick = () => { ED.renaming = null; draw(); };
+    } else {
+      div.querySelector(".net-rename").onclick = () => {
+        ED.renaming = { net: n.name, to: n.name };
+        draw();
+        const input = document.querySelector('#nets .net[data-net="' + CSS.escape(n.name) + '"] .net-rename-to');
+        if (input) { input.focus(); input.select(); }
+      };
+      div.querySelector(".net-delete").onclick = () => deleteNet(n);
+    }
     nets.appendChild(div);
     drawNet(n);
+  }
+  if (typing) {
+    const input = document.querySelector("#nets .net-rename-to");
+    if (input) { input.focus(); input.setSelectionRange(input.value.length, input.value.length); }
   }
   problems();
   check();
