@@ -233,6 +233,9 @@ async function netOps(page, seen) {
   await page.click(head(NET) + " .net-delete");
   seen.in_use = await message(page);
   seen.still = await page.$$eval(svg, (els) => els.length);
+  // Closed, so that the next message is the next refusal's.
+  await page.click("#message-close");
+  await page.waitForSelector("#edit-message", { state: "hidden", timeout: 20000 });
   // Renamed: a name taken refused (the form stays), then OPS.
   await page.click(head("OPERATIONS") + " .net-rename");
   await page.waitForSelector(head("OPERATIONS") + " .net-rename-to", { timeout: 20000 });
