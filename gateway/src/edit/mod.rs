@@ -7,8 +7,10 @@
 //! loaded again (its errors shown on the elements) and checked in the
 //! background (`petrel check`, its counterexample stepped through on the
 //! nets). A net can be added (its own file, its `[[net]]` table appended
-//! to project.toml), and the session's edits undone one at a time, each
-//! file back to its exact bytes.
+//! to project.toml), deleted (refused while another net names it) or
+//! renamed (with every action naming it, and its file if named after
+//! it), and the session's edits undone one at a time, each file back to
+//! its exact bytes.
 //!
 //! Pure: the edits (`op.rs`), the edit core over `toml_edit` documents
 //! (`draft.rs`), the layout file (`positions.rs`), the drawing of a draft
