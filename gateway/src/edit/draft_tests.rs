@@ -1107,6 +1107,11 @@ fn a_net_deleted_leaves_every_other_byte() {
             .collect::<Vec<_>>(),
         vec![s("C")]
     );
+    // The first table gone with its comment; the project's own kept.
+    assert_eq!(
+        d.project.to_string(),
+        "# The project.\nname = \"p\"\n\n[[net]]\nfile = \"C.toml\"\nactive = true\n\n# Globals: shared.\n[globals]\ng = false\n\n[events]\nx = {}\ny = {}\n"
+    );
     assert_eq!(
         refused3(&mut d, Op::DeleteNet { name: s("C") }),
         EditError::LastNet(s("C"))
