@@ -425,9 +425,9 @@ impl Draft {
             .flat_map(|a| a.iter_mut())
     }
 
-    /// A new net `name` in `NAME.toml`, its `[[net]]` table appended to
-    /// project.toml after the last one (every other byte kept).
-    fn add_net(&mut self, name: &str, active: bool) -> Result<Applied, EditError> {
+    /// A net's new name (added or renamed): one the loader takes, and no
+    /// other net's.
+    fn check_new_net(&self, name: &str) -> Result<(), EditError> {
         if !valid_name(name) {
             return Err(EditError::BadName {
                 kind: "net",
@@ -437,13 +437,27 @@ impl Draft {
         if self.nets.iter().any(|n| n.name() == name) {
             return Err(EditError::DuplicateNet(name.to_owned()));
         }
-        let file = format!("{name}.toml");
+        Ok(())
+    }
+
+    /// A net's new file: not project.toml, the layout file or another
+    /// net's (the writer also refuses one that exists on disk).
+    fn check_new_file(&self, file: &str) -> Result<(), EditError> {
         if file == nets::load::PROJECT_FILE
             || file == super::positions::FILE
             || self.nets.iter().any(|n| n.file == file)
         {
-            return Err(EditError::FileExists(file));
+            return Err(EditError::FileExists(file.to_owned()));
         }
+        Ok(())
+    }
+
+    /// A new net `name` in `NAME.toml`, its `[[net]]` table appended to
+    /// project.toml after the last one (every other byte kept).
+    fn add_net(&mut self, name: &str, active: bool) -> Result<Applied, EditError> {
+        self.check_new_net(name)?;
+        let file = format!("{name}.toml");
+        self.check_new_file(&file)?;
         let doc = parse(&file, &new_net_text(name))?;
         let root = self.project.as_table_mut();
         if root.get("net").is_none() {
@@ -566,23 +580,10 @@ impl Draft {
         if name == to {
             return Ok(Applied::default());
         }
-        if !valid_name(to) {
-            return Err(EditError::BadName {
-                kind: "net",
-                name: to.to_owned(),
-            });
-        }
-        if self.nets.iter().any(|x| x.name() == to) {
-            return Err(EditError::DuplicateNet(to.to_owned()));
-        }
+        self.check_new_net(to)?;
         let file = renamed_file(&self.nets[n].file, name, to);
         if let Some(file) = &file {
-            if file == nets::load::PROJECT_FILE
-                || file == super::positions::FILE
-                || self.nets.iter().any(|x| x.file == *file)
-            {
-                return Err(EditError::FileExists(file.clone()));
-            }
+            self.check_new_file(file)?;
         }
         let entry = self.net_entry(n)?;
         // Made on a copy: nothing changed unless all of it is.
