@@ -1040,6 +1040,24 @@ fn nets_deleted_and_renamed_through_the_routes() {
     assert_eq!((status, a["conflict"].as_bool()), (409, Some(true)), "{a}");
     assert_eq!(read(&dir.join("SPARE.toml")), "# mine\n");
     std::fs::remove_file(dir.join("SPARE.toml")).unwrap_or_else(|e| panic!("{e}"));
+    // Undone (SPARE.toml and its table back), redone (gone again).
+    let (status, a) = http(&url, "POST", "/undo", "{}");
+    assert_eq!(
+        (status, a["undone"].as_str()),
+        (200, Some("delete net SPARE")),
+        "{a}"
+    );
+    assert_eq!(
+        &files(dir),
+        states.last().unwrap_or_else(|| panic!("no state"))
+    );
+    let (status, a) = http(&url, "POST", "/redo", "{}");
+    assert_eq!(
+        (status, a["redone"].as_str()),
+        (200, Some("delete net SPARE")),
+        "{a}"
+    );
+    assert_eq!(files(dir), operations_renamed(&original, "OPS"));
     // Undone one at a time, each back to the bytes before it.
     let mut names = Vec::new();
     while let Some(want) = states.pop() {
