@@ -474,6 +474,12 @@ fn with_entry(project: &str, entry: &str) -> String {
     project.replace(last, &format!("{last}{entry}"))
 }
 
+/// A refusal: 400, its message holding `text`.
+fn assert_refused(status: u16, a: &Json, text: &str) {
+    assert_eq!(status, 400, "{a}");
+    assert!(a["error"].as_str().unwrap_or("").contains(text), "{a}");
+}
+
 fn post_edit(url: &str, op: &str) -> (u16, Json) {
     http(url, "POST", "/edit", op)
 }
@@ -501,14 +507,7 @@ fn a_net_added_and_edits_undone_through_the_routes() {
     );
     // Refused, nothing written: a bad name, a name taken, a file there.
     let (status, a) = post_edit(&url, r#"{"op":"add_net","name":"2nd","active":true}"#);
-    assert_eq!(status, 400, "{a}");
-    assert!(
-        a["error"]
-            .as_str()
-            .unwrap_or("")
-            .contains("invalid net name `2nd`"),
-        "{a}"
-    );
+    assert_refused(status, &a, "invalid net name `2nd`");
     let (status, a) = post_edit(&url, r#"{"op":"add_net","name":"COMMUNICATION"}"#);
     assert_eq!(
         (status, a["error"].as_str()),
@@ -516,14 +515,7 @@ fn a_net_added_and_edits_undone_through_the_routes() {
     );
     std::fs::write(dir.join("MINE.toml"), "# mine\n").unwrap_or_else(|e| panic!("{e}"));
     let (status, a) = post_edit(&url, r#"{"op":"add_net","name":"MINE"}"#);
-    assert_eq!(status, 400, "{a}");
-    assert!(
-        a["error"]
-            .as_str()
-            .unwrap_or("")
-            .contains("MINE.toml exists already"),
-        "{a}"
-    );
+    assert_refused(status, &a, "MINE.toml exists already");
     assert_eq!(read(&dir.join("MINE.toml")), "# mine\n");
     std::fs::remove_file(dir.join("MINE.toml")).unwrap_or_else(|e| panic!("{e}"));
     // project.toml changed on disk: 409, theirs kept, no net file.
@@ -954,14 +946,7 @@ fn nets_deleted_and_renamed_through_the_routes() {
         &url,
         r#"{"op":"rename_net","name":"OPERATIONS","to":"op s"}"#,
     );
-    assert_eq!(status, 400, "{a}");
-    assert!(
-        a["error"]
-            .as_str()
-            .unwrap_or("")
-            .contains("invalid net name `op s`"),
-        "{a}"
-    );
+    assert_refused(status, &a, "invalid net name `op s`");
     let (status, a) = post_edit(&url, r#"{"op":"delete_net","name":"NOPE"}"#);
     assert_eq!(
         (status, a["error"].as_str()),
@@ -988,14 +973,7 @@ fn nets_deleted_and_renamed_through_the_routes() {
     states.push(files(dir));
     std::fs::write(dir.join("MINE.toml"), "# mine\n").unwrap_or_else(|e| panic!("{e}"));
     let (status, a) = post_edit(&url, r#"{"op":"rename_net","name":"NEW","to":"MINE"}"#);
-    assert_eq!(status, 400, "{a}");
-    assert!(
-        a["error"]
-            .as_str()
-            .unwrap_or("")
-            .contains("MINE.toml exists already"),
-        "{a}"
-    );
+    assert_refused(status, &a, "MINE.toml exists already");
     assert_eq!(read(&dir.join("MINE.toml")), "# mine\n");
     std::fs::remove_file(dir.join("MINE.toml")).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(
