@@ -311,7 +311,8 @@ impl Profile {
 
     /// The ids of the messages to ask the autopilot for at a rate: those
     /// whose values the rules read as a state (conditions of rules without
-    /// `each`, any `clear`, parameters). A message only an `each` rule's
+    /// `each`, any `clear`, parameters) and the `on` messages of rules
+    /// without `each` (the frames they are evaluated on). A message only an `each` rule's
     /// condition reads (STATUSTEXT, COMMAND_ACK, MISSION_ITEM_REACHED) is
     /// an event the autopilot sends on its own: requested as a stream,
     /// ArduPilot re-sends its last one every period.
@@ -329,6 +330,7 @@ impl Profile {
             if !r.each {
                 mark(&r.when.reads);
                 mark(&r.when.ages);
+                mark(r.on.as_deref().unwrap_or_default());
             }
             // What an each rule's clear and parameters read of its own
             // triggering message is that event, not a state.
@@ -1156,6 +1158,12 @@ on = ["HEARTBEAT", 4, "NOPE"]
             ("again.toml", again),
         ])
         .expect_err("invalid");
+        // A state rule evaluated on SYSTEM_TIME only needs it streamed; an
+        // each rule's `on` message is an event, not asked for.
+        assert!(p.telemetry().contains(&2));
+        let each = "[rules.b]\ncategory = \"nominal\"\neach = true\non = \"STATUSTEXT\"\nwhen = \"true\"\n";
+        let p = Profile::load(&[("each.toml", each)]).expect("valid");
+        assert!(p.messages().contains(&253) && !p.telemetry().contains(&253));
         let got: Vec<String> = err.problems.iter().map(ToString::to_string).collect();
         assert_eq!(got.len(), 1, "{err}");
         assert!(
