@@ -312,10 +312,10 @@ impl Profile {
     /// The ids of the messages to ask the autopilot for at a rate: those
     /// whose values the rules read as a state (conditions of rules without
     /// `each`, any `clear`, parameters) and the `on` messages of rules
-    /// without `each` (the frames they are evaluated on). A message only an `each` rule's
-    /// condition reads (STATUSTEXT, COMMAND_ACK, MISSION_ITEM_REACHED) is
-    /// an event the autopilot sends on its own: requested as a stream,
-    /// ArduPilot re-sends its last one every period.
+    /// without `each` (the frames they are evaluated on). A message only
+    /// an `each` rule's condition (or `on`) reads (STATUSTEXT, COMMAND_ACK,
+    /// MISSION_ITEM_REACHED) is an event the autopilot sends on its own:
+    /// requested as a stream, ArduPilot re-sends its last one every period.
     pub fn telemetry(&self) -> Vec<u32> {
         let mut state = vec![false; self.slots.len()];
         state[HEARTBEAT_SLOT] = true;
