@@ -449,7 +449,7 @@ impl Elaborator {
         let now = self.now;
         let Some(slot) = trigger.filter(|_| rule.each) else {
             if !rule.each {
-                self.evaluate_state(r, si);
+                self.evaluate_state(r, si, trigger);
             }
             return;
         };
@@ -540,19 +540,32 @@ impl Elaborator {
         self.stats.reboots += 1;
     }
 
-    /// Evaluates a rule that is not `each`: edges, durations, clearing.
-    fn evaluate_state(&mut self, r: usize, si: usize) {
+    /// Evaluates a rule that is not `each`: edges, durations, clearing; on
+    /// a message of `trigger`'s slot or (`None`) on a tick. A rule with
+    /// `on` evaluates `when` on its `on` messages only: on another message
+    /// (one its `clear` reads) only an active rule's explicit `clear` is.
+    fn evaluate_state(&mut self, r: usize, si: usize, trigger: Option<usize>) {
         let profile = &self.profile;
         let rule = &profile.rules[r];
         let now = self.now;
         let src = &mut self.sources[si];
         let mut cx = Cx { src, profile, now };
-        let cond = expr::eval(&rule.when.node, &mut cx).truth();
-        let Some(cond) = cond else { return };
+        let cond = if trigger.is_none_or(|slot| rule.when_on(slot)) {
+            match expr::eval(&rule.when.node, &mut cx).truth() {
+                Some(c) => Some(c),
+                None => return,
+            }
+        } else {
+            let state = &cx.src.rules[r];
+            if !(state.initialized && state.active && rule.clear.is_some()) {
+                return;
+            }
+            None
+        };
         let state = &mut cx.src.rules[r];
         let mut fire = false;
         let mut clear_fire = false;
-        if !state.initialized {
+        if let (false, Some(cond)) = (state.initialized, cond) {
             state.initialized = true;
             if cond && !rule.initial {
                 state.active = true;
@@ -561,7 +574,7 @@ impl Elaborator {
                 fire = rule.for_us == 0;
                 state.pending_since = (rule.for_us > 0).then_some(now);
             }
-        } else if !state.active {
+        } else if let (false, Some(cond)) = (state.active, cond) {
             if cond {
                 let since = *state.pending_since.get_or_insert(now);
                 fire = now.saturating_sub(since) >= rule.for_us;
@@ -577,7 +590,10 @@ impl Elaborator {
                         None => return,
                     }
                 }
-                None => !cond,
+                None => match cond {
+                    Some(cond) => !cond,
+                    None => return,
+                },
             };
             let state = &mut cx.src.rules[r];
             if cleared {

@@ -118,6 +118,10 @@ pub struct Rule {
     pub reboot: bool,
     pub(crate) params: Vec<(String, Compiled)>,
     pub source: SourceFilter,
+    /// (`on`) The only messages, by slot, on whose frames `when` is
+    /// evaluated (and the rule can fire): not the others it reads, never
+    /// on ticks. `None`: every message the condition reads, and ticks.
+    pub(crate) on: Option<Vec<usize>>,
     /// Evaluated on ticks (reads `age()` or has a duration).
     pub(crate) timed: bool,
     /// Reads `age()`: evaluated on every tick, not only while a duration runs.
@@ -130,10 +134,20 @@ impl Rule {
         self.params.iter().map(|(name, _)| name.as_str())
     }
 
-    /// Whether a message in `slot` can fire the rule: its condition reads
-    /// it (fields or age). A message read by `clear` only re-arms.
+    /// Whether a message in `slot` can fire the rule: one of its `on`
+    /// messages, or without `on` one its condition reads (fields or age).
+    /// A message read by `clear` only re-arms.
     pub(crate) fn fires_on(&self, slot: usize) -> bool {
-        self.when.reads.contains(&slot) || self.when.ages.contains(&slot)
+        match &self.on {
+            Some(on) => on.contains(&slot),
+            None => self.when.reads.contains(&slot) || self.when.ages.contains(&slot),
+        }
+    }
+
+    /// Whether `when` is evaluated on a message in `slot`: one of the `on`
+    /// messages, or without `on` any message that evaluates the rule.
+    pub(crate) fn when_on(&self, slot: usize) -> bool {
+        self.on.as_ref().is_none_or(|on| on.contains(&slot))
     }
 
     /// Whether the rule reads fields of the message in `slot` (not only its
@@ -235,8 +249,16 @@ impl Profile {
         let mut by_slot = vec![Vec::new(); b.slots.len()];
         let mut timed = Vec::new();
         for (i, r) in rules.iter().enumerate() {
-            let mut reads: Vec<usize> = r.when.reads.clone();
-            reads.extend(&r.when.ages);
+            // With `on`, the condition is evaluated on those messages only;
+            // an explicit `clear` is still watched on the messages it reads.
+            let mut reads: Vec<usize> = match &r.on {
+                Some(on) => on.clone(),
+                None => {
+                    let mut v = r.when.reads.clone();
+                    v.extend(&r.when.ages);
+                    v
+                }
+            };
             if let Some(c) = &r.clear {
                 reads.extend(&c.reads);
                 reads.extend(&c.ages);
@@ -289,10 +311,11 @@ impl Profile {
 
     /// The ids of the messages to ask the autopilot for at a rate: those
     /// whose values the rules read as a state (conditions of rules without
-    /// `each`, any `clear`, parameters). A message only an `each` rule's
-    /// condition reads (STATUSTEXT, COMMAND_ACK, MISSION_ITEM_REACHED) is
-    /// an event the autopilot sends on its own: requested as a stream,
-    /// ArduPilot re-sends its last one every period.
+    /// `each`, any `clear`, parameters) and the `on` messages of rules
+    /// without `each` (the frames they are evaluated on). A message only
+    /// an `each` rule's condition (or `on`) reads (STATUSTEXT, COMMAND_ACK,
+    /// MISSION_ITEM_REACHED) is an event the autopilot sends on its own:
+    /// requested as a stream, ArduPilot re-sends its last one every period.
     pub fn telemetry(&self) -> Vec<u32> {
         let mut state = vec![false; self.slots.len()];
         state[HEARTBEAT_SLOT] = true;
@@ -307,6 +330,7 @@ impl Profile {
             if !r.each {
                 mark(&r.when.reads);
                 mark(&r.when.ages);
+                mark(r.on.as_deref().unwrap_or_default());
             }
             // What an each rule's clear and parameters read of its own
             // triggering message is that event, not a state.
@@ -405,10 +429,13 @@ struct RuleSpec {
     reboot: Option<bool>,
     enabled: Option<bool>,
     source: Option<(SourceFilter, usize, Range<usize>)>,
+    /// `on`: message names (at least one; checked against the dialect when
+    /// the rule is compiled).
+    on: Option<Vec<Text>>,
     params: BTreeMap<String, Text>,
 }
 
-const RULE_KEYS: &str = "event, category, when, clear, for, clear_for, cleared, cleared_category, initial, each, distinct, reboot, enabled, source, params";
+const RULE_KEYS: &str = "event, category, when, on, clear, for, clear_for, cleared, cleared_category, initial, each, distinct, reboot, enabled, source, params";
 
 fn read_layer(
     loc: &Locator,
@@ -498,6 +525,7 @@ fn read_rule(loc: &Locator, table: &DeTable, spec: &mut RuleSpec, problems: &mut
             "event" => spec.event = text_of(loc, v, k, problems),
             "category" => spec.category = text_of(loc, v, k, problems),
             "when" => spec.when = text_of(loc, v, k, problems),
+            "on" => spec.on = on_of(loc, v, problems),
             "clear" => spec.clear = text_of(loc, v, k, problems),
             "for" => spec.for_ = text_of(loc, v, k, problems),
             "clear_for" => spec.clear_for = text_of(loc, v, k, problems),
@@ -531,6 +559,35 @@ fn read_rule(loc: &Locator, table: &DeTable, spec: &mut RuleSpec, problems: &mut
             )),
         }
     }
+}
+
+/// `on = "MSG"` or `on = ["MSG", ...]`: at least one message name.
+fn on_of(loc: &Locator, v: &Spanned<DeValue>, problems: &mut Vec<Problem>) -> Option<Vec<Text>> {
+    if v.get_ref().as_str().is_some() {
+        return text_of(loc, v, "on", problems).map(|t| vec![t]);
+    }
+    let Some(items) = v.get_ref().as_array() else {
+        problems.push(loc.problem(
+            v.span(),
+            "`on` must be a message name or a list of them (on = \"MISSION_ITEM_REACHED\")",
+        ));
+        return None;
+    };
+    if items.is_empty() {
+        problems.push(loc.problem(
+            v.span(),
+            "`on` lists no message: name at least one (leave `on` out to evaluate the rule on every message it reads)",
+        ));
+        return None;
+    }
+    // The names that are strings are checked even when another is not, so
+    // that every problem comes at once.
+    Some(
+        items
+            .iter()
+            .filter_map(|item| text_of(loc, item, "on", problems))
+            .collect(),
+    )
 }
 
 /// `distinct = true` (the last event), `false`, or how many events (1-64).
@@ -797,13 +854,31 @@ impl Builder {
                 format!("rule `{key}`: `clear` on an `each` rule needs `distinct = true` (it re-arms a distinct rule)"),
             ));
         }
+        let on = spec.on.as_ref().map(|names| {
+            let mut slots = Vec::new();
+            for t in names {
+                match Builder::message_id(&t.value) {
+                    Ok(id) => slots.push(self.slot_for(id, false)),
+                    Err(e) => problems.push(locs[t.file].problem(t.span.clone(), e)),
+                }
+            }
+            slots.sort_unstable();
+            slots.dedup();
+            slots
+        });
         if problems.len() > before {
             return None;
         }
         let (when, category) = (when?, cat?);
-        let ages = when.timed || clear.as_ref().is_some_and(|c| c.timed);
-        let timed =
-            when.timed || clear.as_ref().is_some_and(|c| c.timed) || for_us > 0 || clear_for_us > 0;
+        // A rule with `on` is evaluated on frames of those messages only,
+        // never on ticks: `age()` and `loss()` are read there, `for` and
+        // `clear_for` measured there.
+        let ages = on.is_none() && (when.timed || clear.as_ref().is_some_and(|c| c.timed));
+        let timed = on.is_none()
+            && (when.timed
+                || clear.as_ref().is_some_and(|c| c.timed)
+                || for_us > 0
+                || clear_for_us > 0);
         Some(Rule {
             name: key.to_owned(),
             event,
@@ -823,6 +898,7 @@ impl Builder {
                 .as_ref()
                 .map(|s| s.0)
                 .unwrap_or(SourceFilter::Autopilot),
+            on,
             timed,
             ages,
         })
@@ -993,6 +1069,107 @@ mod tests {
         let p = Profile::builtin("ardupilot").expect("profile");
         // SERVO_OUTPUT_RAW (motor_imbalance), FENCE_STATUS (geofence_breach).
         assert!(p.telemetry().contains(&36) && p.telemetry().contains(&162));
+    }
+
+    #[test]
+    fn on_names_messages_of_the_dialect_and_its_problems_are_located() {
+        let text = r#"[rules.a]
+category = "nominal"
+when = "true"
+on = "NOT_A_MESSAGE"
+
+[rules.b]
+category = "nominal"
+when = "true"
+on = []
+
+[rules.c]
+category = "nominal"
+when = "true"
+on = 3
+
+[rules.d]
+category = "nominal"
+when = "true"
+on = ["HEARTBEAT", 4, "NOPE"]
+"#;
+        let err = Profile::load(&[("on.toml", text)]).expect_err("invalid");
+        let got: Vec<(usize, usize)> = err.problems.iter().map(|p| (p.line, p.col)).collect();
+        assert_eq!(got, [(4, 6), (9, 6), (14, 6), (19, 20), (19, 23)], "{err}");
+        assert!(err.problems[0]
+            .message
+            .contains("unknown message `NOT_A_MESSAGE`"));
+        assert!(
+            err.problems[1].message.contains("lists no message"),
+            "{err}"
+        );
+        assert!(
+            err.problems[2].message.contains("message name or a list"),
+            "{err}"
+        );
+        assert!(
+            err.problems[3].message.contains("must be a string"),
+            "{err}"
+        );
+        assert!(
+            err.problems[4].message.contains("unknown message `NOPE`"),
+            "{err}"
+        );
+
+        let ok = "[rules.a]\ncategory = \"nominal\"\neach = true\nwhen = 'mode() == \"GUIDED\"'\non = [\"MISSION_ITEM_REACHED\", \"STATUSTEXT\", \"STATUSTEXT\"]\n";
+        let p = Profile::load(&[("ok.toml", ok)]).expect("valid");
+        let slot = |name: &str| {
+            let id = MavMessage::message_id_from_name(name).expect("in the dialect");
+            p.slots.iter().position(|s| s.id == id)
+        };
+        let (hb, reached, text) = (
+            slot("HEARTBEAT").expect("read"),
+            slot("MISSION_ITEM_REACHED").expect("listed"),
+            slot("STATUSTEXT").expect("listed"),
+        );
+        let rule = &p.rules()[0];
+        assert_eq!(rule.on, Some(vec![reached, text]));
+        assert!(rule.fires_on(reached) && rule.fires_on(text) && !rule.fires_on(hb));
+        // Evaluated on those only (not on the HEARTBEAT mode() reads);
+        // the listed messages are not decoded for it, nothing reads them.
+        assert!(p.by_slot[hb].is_empty());
+        assert_eq!(
+            (&p.by_slot[reached], &p.by_slot[text]),
+            (&vec![0], &vec![0])
+        );
+        assert!(!p.slots[reached].decode && !p.slots[text].decode);
+    }
+
+    #[test]
+    fn on_overrides_by_layer_and_takes_the_rule_off_the_ticks() {
+        let base = "[rules.a]\ncategory = \"safety\"\nwhen = \"age(GPS_RAW_INT) > 2\"\n";
+        let p = Profile::load(&[("base.toml", base)]).expect("valid");
+        assert_eq!((p.timed.len(), p.rules()[0].on.clone()), (1, None));
+        let user = "[rules.a]\non = \"SYSTEM_TIME\"\n";
+        let p = Profile::load(&[("base.toml", base), ("user.toml", user)]).expect("valid");
+        assert!(p.timed.is_empty());
+        let on = p.rules()[0].on.clone().expect("on");
+        assert_eq!(on.len(), 1);
+        assert_eq!(p.slots[on[0]].id, 2, "SYSTEM_TIME");
+        let again = "[rules.a]\non = \"SYSTEM_TYME\"\n";
+        let err = Profile::load(&[
+            ("base.toml", base),
+            ("user.toml", user),
+            ("again.toml", again),
+        ])
+        .expect_err("invalid");
+        // A state rule evaluated on SYSTEM_TIME only needs it streamed; an
+        // each rule's `on` message is an event, not asked for.
+        assert!(p.telemetry().contains(&2));
+        let each = "[rules.b]\ncategory = \"nominal\"\neach = true\non = \"STATUSTEXT\"\nwhen = \"true\"\n";
+        let p = Profile::load(&[("each.toml", each)]).expect("valid");
+        assert!(p.messages().contains(&253) && !p.telemetry().contains(&253));
+        let got: Vec<String> = err.problems.iter().map(ToString::to_string).collect();
+        assert_eq!(got.len(), 1, "{err}");
+        assert!(
+            got[0].starts_with("again.toml:2:6: unknown message `SYSTEM_TYME`"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -1059,3 +1059,40 @@ fn chunked_statustexts_are_read_whole() {
         )]
     );
 }
+
+/// The text rules that also read a state (the receiver not reported in
+/// SYS_STATUS, BATTERY_STATUS absent or UNDEFINED) fire on the text only
+/// (`on = "STATUSTEXT"`): the SYS_STATUS and BATTERY_STATUS that keep
+/// coming after it, the last text unchanged, are not a new failsafe.
+#[test]
+fn a_failsafe_text_is_one_event_whatever_status_follows() {
+    let none = MavSysStatusSensor::empty();
+    let undefined = || {
+        battery(
+            MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_UNDEFINED,
+            90,
+        )
+    };
+    for (said, event) in [
+        ("Radio Failsafe - Continuing Guided Mode", "rc_lost"),
+        ("Battery 1 is low 10.41V used 120 mAh", "battery_low"),
+        (
+            "Battery 1 is critical 9.80V used 130 mAh",
+            "battery_critical",
+        ),
+    ] {
+        let mut r = Run::new("ardupilot");
+        r.send(0, copter(true, MavState::MAV_STATE_ACTIVE));
+        r.send(MS, sensors(none, none, none));
+        r.send(2 * MS, undefined());
+        r.send(S, text(said));
+        for t in 2..6u64 {
+            r.send(t * S, copter(true, MavState::MAV_STATE_ACTIVE));
+            r.send(t * S + MS, sensors(none, none, none));
+            r.send(t * S + 2 * MS, undefined());
+        }
+        let got = r.only(&[event]);
+        assert_eq!(got.len(), 1, "{said}: {got:?}");
+        assert_eq!(got[0].0, S, "{said}: {got:?}");
+    }
+}

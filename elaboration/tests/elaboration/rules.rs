@@ -849,3 +849,163 @@ clear = "SYS_STATUS.battery_remaining > 50"
         ]
     );
 }
+
+fn reached(seq: u16) -> MavMessage {
+    MavMessage::MISSION_ITEM_REACHED(MISSION_ITEM_REACHED_DATA { seq })
+}
+
+fn system_time() -> MavMessage {
+    MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA::DEFAULT)
+}
+
+/// `on` keeps a rule to the frames of the messages it names: a HEARTBEAT
+/// that `mode()` reads, before, after or at the very instant of the
+/// MISSION_ITEM_REACHED, does not fire it again; the same rule without
+/// `on` fires on each of them.
+#[test]
+fn on_keeps_a_rule_to_its_triggering_messages() {
+    let rules = r#"
+[rules.reached]
+category = "mission"
+each = true
+on = "MISSION_ITEM_REACHED"
+when = 'MISSION_ITEM_REACHED.seq == 0 && mode() == "GUIDED"'
+[rules.plain]
+category = "mission"
+each = true
+when = 'MISSION_ITEM_REACHED.seq == 0 && mode() == "GUIDED"'
+[rules.sampled]
+category = "mission"
+each = true
+on = ["SYSTEM_TIME", "MISSION_ITEM_REACHED"]
+when = "SYS_STATUS.battery_remaining < 20"
+"#;
+    let guided = || heartbeat(true, 4, MavState::MAV_STATE_ACTIVE);
+    let mut r = Run::new(rules);
+    r.send(0, &guided());
+    r.send(S, &reached(0));
+    r.send(2 * S, &guided());
+    r.send(3 * S, &guided());
+    r.send(4 * S, &reached(0));
+    r.send(4 * S, &guided());
+    r.send(5 * S, &sys_status(10));
+    r.send(6 * S, &system_time());
+    r.send(7 * S, &reached(3));
+    r.send(8 * S, &guided());
+    let only = |name: &str| -> Vec<u64> {
+        r.names()
+            .into_iter()
+            .filter(|(_, n)| n == name)
+            .map(|(t, _)| t / S)
+            .collect()
+    };
+    assert_eq!(only("reached"), [1, 4]);
+    assert_eq!(only("plain"), [1, 2, 3, 4, 4]);
+    // Never on the SYS_STATUS it reads; on both messages it names, read
+    // or not.
+    assert_eq!(only("sampled"), [6, 7]);
+}
+
+/// A rule with `on` is not evaluated on ticks: `age()` is read and `for`
+/// measured at its frames only.
+#[test]
+fn on_takes_a_rule_off_the_ticks() {
+    let rules = r#"
+[rules.stale]
+category = "safety"
+on = "SYSTEM_TIME"
+when = "age(GPS_RAW_INT) > 2"
+[rules.stale_ticked]
+category = "safety"
+when = "age(GPS_RAW_INT) > 2"
+[rules.low]
+category = "safety"
+on = "SYS_STATUS"
+when = "SYS_STATUS.battery_remaining < 20"
+for = "2s"
+[rules.low_ticked]
+category = "safety"
+when = "SYS_STATUS.battery_remaining < 20"
+for = "2s"
+"#;
+    let gps = MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA::DEFAULT);
+    let mut r = Run::new(rules);
+    r.send(0, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    r.send(S / 2, &gps);
+    r.send(S, &sys_status(10));
+    r.send(2 * S, &sys_status(10));
+    r.tick(3 * S + S / 2);
+    r.send(3 * S + S / 2, &sys_status(10));
+    r.tick(5 * S);
+    r.send(5 * S, &system_time());
+    let got: Vec<(u64, String)> = r
+        .names()
+        .into_iter()
+        .map(|(t, n)| (t / 100_000, n))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            // age(GPS_RAW_INT) passes 2 s at 2.5 s: the first tick after.
+            (26, "stale_ticked".to_string()),
+            // Held 2 s at 3.0 s: the tick; at 3.5 s, the SYS_STATUS.
+            (30, "low_ticked".to_string()),
+            (35, "low".to_string()),
+            (50, "stale".to_string()),
+        ]
+    );
+}
+
+/// An explicit `clear` is still watched on the messages it reads: a
+/// distinct rule is re-armed by a ready vehicle between two texts, and a
+/// state rule clears on the message that shows it; without `clear` (not
+/// `when`), a rule clears on its `on` messages only.
+#[test]
+fn on_leaves_clear_on_its_own_messages() {
+    let rules = r#"
+[rules.said]
+category = "nominal"
+each = true
+distinct = true
+on = "STATUSTEXT"
+when = 'STATUSTEXT.text ~ "^Said: (?P<what>.+)$" && mode() == "GUIDED"'
+clear = "SYS_STATUS.battery_remaining > 50"
+[rules.low]
+category = "safety"
+on = "SYSTEM_TIME"
+when = "SYS_STATUS.battery_remaining < 20"
+clear = "SYS_STATUS.battery_remaining >= 30"
+cleared = "ok"
+[rules.low2]
+category = "safety"
+on = "SYSTEM_TIME"
+when = "SYS_STATUS.battery_remaining < 20"
+cleared = "ok2"
+"#;
+    let mut r = Run::new(rules);
+    r.send(0, &heartbeat(true, 4, MavState::MAV_STATE_ACTIVE));
+    r.send(S, &sys_status(10));
+    r.send(2 * S, &text("Said: A"));
+    r.send(2 * S, &system_time());
+    // Ready between two texts: re-armed though no text came meanwhile.
+    r.send(3 * S, &sys_status(80));
+    r.send(4 * S, &sys_status(10));
+    r.send(5 * S, &text("Said: A"));
+    r.send(6 * S, &sys_status(40));
+    r.send(7 * S, &system_time());
+    r.send(8 * S, &sys_status(10));
+    r.send(9 * S, &system_time());
+    assert_eq!(
+        r.names(),
+        [
+            (2 * S, "said {what: \"A\"}".to_string()),
+            (2 * S, "low".to_string()),
+            (2 * S, "low2".to_string()),
+            (3 * S, "ok".to_string()),
+            (5 * S, "said {what: \"A\"}".to_string()),
+            (7 * S, "ok2".to_string()),
+            (9 * S, "low".to_string()),
+            (9 * S, "low2".to_string()),
+        ]
+    );
+}
