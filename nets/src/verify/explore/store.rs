@@ -182,6 +182,7 @@ impl Store {
             len + len / 2
         };
         let mut table = vec![0u64; capacity];
+        touch_for_writing(&mut table);
         for &e in &self.table {
             if e != 0 {
                 let mut slot = slot_of((e >> 32) as u32, capacity);
@@ -192,6 +193,23 @@ impl Store {
             }
         }
         self.table = table;
+    }
+}
+
+/// Writes one word of every page of `table`, a fresh zeroed allocation,
+/// before anything reads it. The system maps such memory on first touch: a
+/// read first maps the shared zero page, and the first write then replaces
+/// it (a second fault per page, and, while other threads of the process run
+/// on other cores, a flush of their address translations by an interrupt
+/// per page). The placing of entries reads each slot before writing it:
+/// untouched, that cost a fifth of a two-thread exploration
+/// (BENCHMARKS.md, stop 31). Written first, each page faults once.
+fn touch_for_writing(table: &mut [u64]) {
+    const WORDS_PER_PAGE: usize = 4096 / 8;
+    for w in table.iter_mut().step_by(WORDS_PER_PAGE) {
+        // an opaque zero: the compiler may not drop a store of the value
+        // the allocation already holds
+        *w = std::hint::black_box(0);
     }
 }
 
