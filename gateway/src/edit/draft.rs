@@ -644,12 +644,69 @@ impl Draft {
         })
     }
 
+    /// Whether net `n` is active at start: its `[[net]]` table's `active`
+    /// (absent: false, the loader's default; not a boolean: false too,
+    /// the loader says why).
+    pub fn net_active(&self, n: usize) -> bool {
+        self.net_entry(n)
+            .ok()
+            .and_then(|i| {
+                self.project
+                    .get("net")
+                    .and_then(Item::as_array_of_tables)
+                    .and_then(|a| a.get(i))
+            })
+            .and_then(|t| t.get("active"))
+            .and_then(Item::as_bool)
+            .unwrap_or(false)
+    }
+
+    /// Net `name` active at start or not: its `[[net]]` table's `active`
+    /// set (added after the table's last key when absent; `false` written,
+    /// not removed), every other byte of project.toml kept. Refused when
+    /// nothing would change.
+    fn set_active(&mut self, name: &str, active: bool) -> Result<Applied, EditError> {
+        let n = self.net(name)?;
+        if self.net_active(n) == active {
+            return Err(EditError::AlreadyActive {
+                net: name.to_owned(),
+                active,
+            });
+        }
+        let i = self.net_entry(n)?;
+        let t = self
+            .project
+            .get_mut("net")
+            .and_then(Item::as_array_of_tables_mut)
+            .and_then(|a| a.get_mut(i))
+            .ok_or_else(|| shape(nets::load::PROJECT_FILE, "no such [[net]] table"))?;
+        match t.get_mut("active") {
+            Some(Item::Value(v)) if v.as_bool().is_some() => {
+                set_keeping_decor(v, Value::from(active))
+            }
+            Some(_) => {
+                return Err(shape(
+                    nets::load::PROJECT_FILE,
+                    &format!("net {name}'s `active` is not a boolean: set it by hand"),
+                ))
+            }
+            None => {
+                t.insert("active", value(active));
+            }
+        }
+        Ok(Applied {
+            all: true,
+            ..Applied::default()
+        })
+    }
+
     /// Makes the edit, or refuses it with nothing changed.
     pub fn apply(&mut self, op: &Op) -> Result<Applied, EditError> {
         match op {
             Op::AddNet { name, active } => return self.add_net(name, *active),
             Op::DeleteNet { name } => return self.delete_net(name),
             Op::RenameNet { name, to } => return self.rename_net(name, to),
+            Op::SetActive { name, active } => return self.set_active(name, *active),
             _ => {}
         }
         let n = self.net(op.net())?;
@@ -923,9 +980,10 @@ impl Draft {
                 all: false,
             }),
             // Made above.
-            Op::AddNet { .. } | Op::DeleteNet { .. } | Op::RenameNet { .. } => {
-                Ok(Applied::default())
-            }
+            Op::AddNet { .. }
+            | Op::DeleteNet { .. }
+            | Op::RenameNet { .. }
+            | Op::SetActive { .. } => Ok(Applied::default()),
         }
     }
 }

@@ -1334,3 +1334,214 @@ fn net_ops_come_from_the_page_as_json() {
     );
     assert_eq!(op.describe(), "rename net B to H");
 }
+
+#[test]
+fn a_net_set_active_or_not_changes_only_its_active_key() {
+    let mut d = draft3();
+    assert_eq!(
+        (0..3).map(|n| d.net_active(n)).collect::<Vec<_>>(),
+        vec![true, false, true]
+    );
+    // Set: B's `active = false` becomes true, in place.
+    let set = Op::SetActive {
+        name: s("B"),
+        active: true,
+    };
+    assert_eq!(set.describe(), "set net B active at start");
+    let a = ok(&mut d, set);
+    assert_eq!(
+        a,
+        Applied {
+            all: true,
+            ..Applied::default()
+        }
+    );
+    let p_b = P3.replace(
+        "file = \"nets/B.toml\"\nactive = false\n",
+        "file = \"nets/B.toml\"\nactive = true\n",
+    );
+    assert_ne!(p_b, P3);
+    let mut want = files3(&draft3());
+    want[0].1 = p_b.clone();
+    assert_eq!(files3(&d), want);
+    assert!(d.net_active(1));
+    assert!(loads3(&d).is_ok(), "{:?}", loads3(&d).err());
+    // Unset: A's `active = true` becomes an explicit false (not removed).
+    ok(
+        &mut d,
+        Op::SetActive {
+            name: s("A"),
+            active: false,
+        },
+    );
+    want[0].1 = p_b.replace(
+        "file = \"a.toml\"   # first\nactive = true\n",
+        "file = \"a.toml\"   # first\nactive = false\n",
+    );
+    assert_ne!(want[0].1, p_b);
+    assert_eq!(files3(&d), want);
+    assert!(!d.net_active(0));
+    // And back: the original bytes.
+    ok(
+        &mut d,
+        Op::SetActive {
+            name: s("A"),
+            active: true,
+        },
+    );
+    ok(
+        &mut d,
+        Op::SetActive {
+            name: s("B"),
+            active: false,
+        },
+    );
+    assert_eq!(files3(&d), files3(&draft3()));
+}
+
+#[test]
+fn a_net_table_without_active_gets_the_key_and_its_comment_stays() {
+    // C's table has no `active` (the loader's default: not active); A's
+    // carries a comment after its value.
+    let p = P3
+        .replace("file = \"C.toml\"\nactive = true\n", "file = \"C.toml\"\n")
+        .replace(
+            "file = \"a.toml\"   # first\nactive = true\n",
+            "file = \"a.toml\"   # first\nactive = true  # starts it all\n",
+        );
+    let mut d = Draft::parse(
+        &p,
+        &[
+            ("a.toml".into(), a3()),
+            ("nets/B.toml".into(), B.into()),
+            ("C.toml".into(), C.into()),
+        ],
+        LAYOUT3,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(!d.net_active(2));
+    assert_eq!(
+        refused3(
+            &mut d,
+            Op::SetActive {
+                name: s("C"),
+                active: false,
+            }
+        ),
+        EditError::AlreadyActive {
+            net: s("C"),
+            active: false,
+        }
+    );
+    ok(
+        &mut d,
+        Op::SetActive {
+            name: s("C"),
+            active: true,
+        },
+    );
+    assert_eq!(
+        d.project.to_string(),
+        p.replace("file = \"C.toml\"\n", "file = \"C.toml\"\nactive = true\n")
+    );
+    // Set back to the default: written explicitly, not removed.
+    ok(
+        &mut d,
+        Op::SetActive {
+            name: s("C"),
+            active: false,
+        },
+    );
+    assert_eq!(
+        d.project.to_string(),
+        p.replace("file = \"C.toml\"\n", "file = \"C.toml\"\nactive = false\n")
+    );
+    ok(
+        &mut d,
+        Op::SetActive {
+            name: s("A"),
+            active: false,
+        },
+    );
+    assert!(
+        d.project
+            .to_string()
+            .contains("file = \"a.toml\"   # first\nactive = false  # starts it all\n"),
+        "{}",
+        d.project
+    );
+    assert!(loads3(&d).is_ok(), "{:?}", loads3(&d).err());
+}
+
+#[test]
+fn active_at_start_is_refused_for_an_unknown_net_or_no_change() {
+    let mut d = draft3();
+    assert_eq!(
+        refused3(
+            &mut d,
+            Op::SetActive {
+                name: s("Z"),
+                active: true,
+            }
+        ),
+        EditError::UnknownNet(s("Z"))
+    );
+    let e = refused3(
+        &mut d,
+        Op::SetActive {
+            name: s("A"),
+            active: true,
+        },
+    );
+    assert_eq!(
+        e.to_string(),
+        "net A is already active at start (nothing written)"
+    );
+    let e = refused3(
+        &mut d,
+        Op::SetActive {
+            name: s("B"),
+            active: false,
+        },
+    );
+    assert_eq!(
+        e.to_string(),
+        "net B is already not active at start (nothing written)"
+    );
+    // An `active` that is not a boolean is left to the person.
+    let mut odd = Draft::parse(
+        &P3.replace(
+            "file = \"nets/B.toml\"\nactive = false\n",
+            "file = \"nets/B.toml\"\nactive = \"no\"\n",
+        ),
+        &[
+            ("a.toml".into(), a3()),
+            ("nets/B.toml".into(), B.into()),
+            ("C.toml".into(), C.into()),
+        ],
+        LAYOUT3,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    // Read as not active: asking for false is a no-op; true is refused too.
+    assert!(matches!(
+        refused3(
+            &mut odd,
+            Op::SetActive {
+                name: s("B"),
+                active: true,
+            }
+        ),
+        EditError::Shape { .. }
+    ));
+    // From the page.
+    let op: Op = serde_json::from_str(r#"{"op":"set_active","name":"B","active":true}"#)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        op,
+        Op::SetActive {
+            name: s("B"),
+            active: true,
+        }
+    );
+    assert!(serde_json::from_str::<Op>(r#"{"op":"set_active","name":"B"}"#).is_err());
+}

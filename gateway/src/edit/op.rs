@@ -126,6 +126,13 @@ pub enum Op {
         name: String,
         to: String,
     },
+    /// Whether net `name` is active at start: the `active` key of its
+    /// `[[net]]` table in project.toml, written explicitly (added when
+    /// absent, `active = false` kept rather than removed).
+    SetActive {
+        name: String,
+        active: bool,
+    },
 }
 
 impl Op {
@@ -144,7 +151,10 @@ impl Op {
             | Op::DeleteArc { net, .. }
             | Op::Move { net, .. }
             | Op::Relayout { net } => net,
-            Op::AddNet { name, .. } | Op::DeleteNet { name } | Op::RenameNet { name, .. } => name,
+            Op::AddNet { name, .. }
+            | Op::DeleteNet { name }
+            | Op::RenameNet { name, .. }
+            | Op::SetActive { name, .. } => name,
         }
     }
 
@@ -191,6 +201,10 @@ impl Op {
             Op::AddNet { .. } => format!("add net {net}"),
             Op::DeleteNet { .. } => format!("delete net {net}"),
             Op::RenameNet { to, .. } => format!("rename net {net} to {to}"),
+            Op::SetActive { active: true, .. } => format!("set net {net} active at start"),
+            Op::SetActive { active: false, .. } => {
+                format!("set net {net} not active at start")
+            }
         }
     }
 }
@@ -210,6 +224,8 @@ pub enum EditError {
         /// Each use: a transition and its action, or an `[[exclusive]]` place.
         uses: Vec<String>,
     },
+    #[error("net {net} is already {} at start (nothing written)", if *.active { "active" } else { "not active" })]
+    AlreadyActive { net: String, active: bool },
     #[error("net {0} is the project's last net: a project needs one (nothing written)")]
     LastNet(String),
     #[error("net {net} has no {kind} `{name}`")]

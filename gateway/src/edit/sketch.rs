@@ -154,7 +154,7 @@ pub fn sketch(draft: &Draft, n: usize) -> Json {
         width = width.max(x + MARGIN);
         height = height.max(y + MARGIN);
     }
-    json!({"name": name, "file": net.file, "width": width.max(200.0), "height": height.max(120.0),
+    json!({"name": name, "file": net.file, "active": draft.net_active(n), "width": width.max(200.0), "height": height.max(120.0),
            "places": place_nodes, "transitions": transition_nodes, "arcs": arcs})
 }
 
