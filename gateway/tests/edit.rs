@@ -1069,6 +1069,156 @@ fn nets_deleted_and_renamed_through_the_routes() {
     assert_eq!(page["loads"], true, "{}", page["problems"]);
 }
 
+/// project.toml with FLIGHT's `[[net]]` table given `active = ACTIVE`
+/// (the example's table has no `active`: the key added after `file`).
+fn flight_active(project: &str, active: bool) -> String {
+    let file = "file = \"flight.toml\"            # activated by MISSION once INIT is done\n";
+    assert_eq!(project.matches(file).count(), 1);
+    project.replace(file, &format!("{file}active = {active}\n"))
+}
+
+/// The page's `active` of each net, by name.
+fn actives(url: &str) -> Vec<(String, bool)> {
+    let (_, page) = http(url, "GET", "/page.json", "");
+    page["nets"]
+        .as_array()
+        .map(|nets| {
+            nets.iter()
+                .map(|n| {
+                    (
+                        n["name"].as_str().unwrap_or("").to_owned(),
+                        n["active"].as_bool().unwrap_or_else(|| panic!("{n}")),
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Without a browser: a net's active at start set through the routes.
+/// Refused with the reason and nothing written for an unknown net or no
+/// change; FLIGHT (no `active` in its table) made active (the key added
+/// after `file`, every other byte kept), then not (`active = false`
+/// written, not removed), the page showing each; undone to the example
+/// byte for byte, redone, refused (409) when project.toml changed on disk.
+#[test]
+fn active_at_start_set_through_the_routes() {
+    let tmp = Scratch::new("edit-active");
+    let dir = tmp.path();
+    copy_example(dir);
+    let original = files(dir);
+    let project = original["project.toml"].clone();
+    let (_editor, url) = edit(dir);
+    let before = actives(&url);
+    assert_eq!(before.len(), 8);
+    let flight = |v: &[(String, bool)]| v.iter().find(|(n, _)| n == "FLIGHT").map(|(_, a)| *a);
+    assert_eq!(flight(&before), Some(false));
+    assert_eq!(
+        before.iter().filter(|(_, a)| *a).count(),
+        6,
+        "six nets active at start: {before:?}"
+    );
+
+    let (status, a) = post_edit(&url, r#"{"op":"set_active","name":"NOPE","active":true}"#);
+    assert_eq!(
+        (status, a["error"].as_str()),
+        (400, Some("no net named `NOPE`"))
+    );
+    let (status, a) = post_edit(
+        &url,
+        r#"{"op":"set_active","name":"FLIGHT","active":false}"#,
+    );
+    assert_eq!(
+        (status, a["error"].as_str()),
+        (
+            400,
+            Some("net FLIGHT is already not active at start (nothing written)")
+        )
+    );
+    let (status, a) = post_edit(&url, r#"{"op":"set_active","name":"SAFETY","active":true}"#);
+    assert_refused(status, &a, "net SAFETY is already active at start");
+    assert_eq!(files(dir), original, "nothing written by the refusals");
+
+    let (status, a) = post_edit(&url, r#"{"op":"set_active","name":"FLIGHT","active":true}"#);
+    assert_eq!(status, 200, "{a}");
+    let mut want = original.clone();
+    want.insert("project.toml".into(), flight_active(&project, true));
+    assert_eq!(files(dir), want, "project.toml only, one line added");
+    let now = actives(&url);
+    assert_eq!(flight(&now), Some(true));
+    assert_eq!(
+        now.iter()
+            .filter(|(n, _)| n != "FLIGHT")
+            .collect::<Vec<_>>(),
+        before
+            .iter()
+            .filter(|(n, _)| n != "FLIGHT")
+            .collect::<Vec<_>>()
+    );
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    assert_eq!(page["undo"], "set net FLIGHT active at start");
+    assert_eq!(page["loads"], true, "{}", page["problems"]);
+
+    let (status, a) = post_edit(
+        &url,
+        r#"{"op":"set_active","name":"FLIGHT","active":false}"#,
+    );
+    assert_eq!(status, 200, "{a}");
+    want.insert("project.toml".into(), flight_active(&project, false));
+    assert_eq!(files(dir), want, "false written, not removed");
+    assert_eq!(flight(&actives(&url)), Some(false));
+    let loaded = nets::load(&files(dir)).unwrap_or_else(|e| panic!("{e:?}"));
+    let reference = nets::load(&original).unwrap_or_else(|e| panic!("{e:?}"));
+    let active_of = |p: &nets::Project| -> Vec<(String, bool)> {
+        p.nets
+            .iter()
+            .map(|n| (n.name.clone(), n.active_at_start))
+            .collect()
+    };
+    assert_eq!(
+        active_of(&loaded),
+        active_of(&reference),
+        "the same project"
+    );
+
+    // Undone: the key's line, then the original bytes; redone.
+    let (status, a) = http(&url, "POST", "/undo", "{}");
+    assert_eq!(
+        (status, a["undone"].as_str()),
+        (200, Some("set net FLIGHT not active at start")),
+        "{a}"
+    );
+    assert_eq!(
+        read(&dir.join("project.toml")),
+        flight_active(&project, true)
+    );
+    let (status, a) = http(&url, "POST", "/undo", "{}");
+    assert_eq!(
+        (status, a["undone"].as_str()),
+        (200, Some("set net FLIGHT active at start")),
+        "{a}"
+    );
+    assert_eq!(files(dir), original, "the example back, byte for byte");
+    assert_eq!(actives(&url), before);
+    let (status, a) = http(&url, "POST", "/redo", "{}");
+    assert_eq!(status, 200, "{a}");
+    assert_eq!(
+        read(&dir.join("project.toml")),
+        flight_active(&project, true)
+    );
+    // project.toml changed on disk: the next undo refused, nothing written.
+    let mine = format!("{}# mine\n", flight_active(&project, true));
+    std::fs::write(dir.join("project.toml"), &mine).unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = http(&url, "POST", "/undo", "{}");
+    assert_eq!((status, a["conflict"].as_bool()), (409, Some(true)), "{a}");
+    assert_eq!(read(&dir.join("project.toml")), mine);
+    std::fs::write(dir.join("project.toml"), flight_active(&project, true))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let (status, a) = http(&url, "POST", "/undo", "{}");
+    assert_eq!(status, 200, "{a}");
+    assert_eq!(files(dir), original);
+}
+
 /// In the browser: a net's delete confirmed and refused with the reasons
 /// (other nets name it), OPERATIONS renamed (a name taken refused first),
 /// a net added, renamed (its file with it), its delete cancelled then

@@ -177,6 +177,12 @@ async function deleteNet(n) {
   await edit({ op: "delete_net", name: n.name });
 }
 
+// A net active at start or not: its [[net]] table's `active` in
+// project.toml (a refusal says why; the redraw shows the value on disk).
+async function setActive(net, active) {
+  await edit({ op: "set_active", name: net, active });
+}
+
 async function refresh() {
   const p = await (await fetch("page.json")).json();
   page = p;
@@ -305,7 +311,9 @@ function draw() {
           '<button class="net-rename-go">rename</button><button class="net-rename-close" title="cancel">×</button></span>'
         : "<b>" + esc(n.name) + "</b>" +
           '<button class="net-rename" title="rename this net: every action naming it, and its file if named after it, with it">rename</button>' +
-          '<button class="net-delete danger" title="delete this net: its [[net]] table in project.toml and its file">delete</button>') +
+          '<button class="net-delete danger" title="delete this net: its [[net]] table in project.toml and its file">delete</button>' +
+          '<label class="net-active-at-start" title="active at start: the `active` key of this net\'s [[net]] table in project.toml">' +
+          '<input type="checkbox" class="net-active"' + (n.active ? " checked" : "") + "> active at start</label>") +
       '<span class="muted">' + esc(n.file) + "</span>" +
       '<button class="relayout" title="forget the positions given by hand: lay the whole net out automatically">re-layout</button></div>' +
       '<pre class="net-problems"></pre><div class="drawing"></div>';
@@ -324,6 +332,7 @@ function draw() {
         if (input) { input.focus(); input.select(); }
       };
       div.querySelector(".net-delete").onclick = () => deleteNet(n);
+      div.querySelector(".net-active").onchange = (ev) => setActive(n.name, ev.target.checked);
     }
     nets.appendChild(div);
     drawNet(n);
