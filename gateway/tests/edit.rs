@@ -1221,9 +1221,10 @@ fn active_at_start_set_through_the_routes() {
 
 /// In the browser: a net's delete confirmed and refused with the reasons
 /// (other nets name it), OPERATIONS renamed (a name taken refused first),
-/// a net added, renamed (its file with it), its delete cancelled then
-/// confirmed: the files on disk, the page's check and a fresh `petrel
-/// check` hold. Then the Undo button until the example is back byte for
+/// FLIGHT's *active at start* ticked then unticked (`active = false`
+/// written), a net added, renamed (its file with it), its delete
+/// cancelled then confirmed: the files on disk, the page's check and a
+/// fresh `petrel check` hold. Then the Undo button until the example is back byte for
 /// byte.
 #[test]
 fn nets_deleted_and_renamed_in_the_page_and_undone() {
@@ -1272,6 +1273,23 @@ fn nets_deleted_and_renamed_in_the_page_and_undone() {
         renamed.contains(&"OPS".to_owned()) && !renamed.contains(&"OPERATIONS".to_owned()),
         "{renamed:?}"
     );
+    assert_eq!(
+        seen["flight_active"],
+        serde_json::json!([false, true, false]),
+        "FLIGHT's box: unticked, ticked, unticked"
+    );
+    assert_eq!(
+        strings(&seen["actives"]),
+        [
+            "CATASTROPHIC",
+            "SAFETY",
+            "PAYLOAD",
+            "COMMUNICATION",
+            "INIT",
+            "MISSION",
+            "FLIGHT"
+        ]
+    );
     assert_eq!(seen["spare_file"], "SPARE.toml");
     assert_eq!(
         strings(&seen["after_cancel"]).last().map(String::as_str),
@@ -1288,7 +1306,13 @@ fn nets_deleted_and_renamed_in_the_page_and_undone() {
         seen["undo_title"]
     );
     assert_eq!(seen["check"]["state"], "holds", "{}", seen["check"]);
-    assert_eq!(files(dir), operations_renamed(&original, "OPS"));
+    // FLIGHT not active at start again, written explicitly.
+    let mut want = operations_renamed(&original, "OPS");
+    want.insert(
+        "project.toml".into(),
+        flight_active(&original["project.toml"], false),
+    );
+    assert_eq!(files(dir), want);
     assert_eq!(check(dir), Some(0), "a fresh petrel check of the copy");
 
     let seen = drive(&tools, "netundo", &url, &shots);
@@ -1300,6 +1324,8 @@ fn nets_deleted_and_renamed_in_the_page_and_undone() {
             "delete net SPARE",
             "rename net NEW to SPARE",
             "add net NEW",
+            "set net FLIGHT not active at start",
+            "set net FLIGHT active at start",
             "rename net OPERATIONS to OPS"
         ]
     );

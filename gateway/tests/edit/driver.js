@@ -13,9 +13,10 @@
 //   undo:  Ctrl-Z once, then the Undo button until the added net is gone;
 //          Redo (the net back), Ctrl-Z (gone again).
 //   netops: COMMUNICATION's delete confirmed (refused: other nets name
-//          it), OPERATIONS renamed FLIGHT (refused: taken) then OPS; a
-//          net NEW added, renamed SPARE, its delete cancelled then
-//          confirmed; the check's verdict.
+//          it), OPERATIONS renamed FLIGHT (refused: taken) then OPS;
+//          FLIGHT's "active at start" ticked then unticked; a net NEW
+//          added, renamed SPARE, its delete cancelled then confirmed;
+//          the check's verdict.
 //   netundo: the Undo button until there is nothing to undo.
 // Prints one JSON object with what it saw; the Rust test judges it. The
 // browser is closed on every path.
@@ -249,6 +250,18 @@ async function netOps(page, seen) {
   await page.waitForSelector(head("OPS") + " b", { timeout: 20000 });
   seen.message_after = await page.$eval("#edit-message", (e) => e.hidden);
   seen.nets_renamed = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
+  // FLIGHT active at start, then not: the box shows what project.toml says.
+  const box = head("FLIGHT") + " .net-active";
+  const undoIs = (w) => page.waitForFunction((w) => document.getElementById("undo").title.startsWith("undo: " + w + " ("),
+    w, { timeout: 20000 });
+  seen.flight_active = [await page.$eval(box, (b) => b.checked)];
+  await page.click(box);
+  await undoIs("set net FLIGHT active at start");
+  seen.flight_active.push(await page.$eval(box, (b) => b.checked));
+  seen.actives = await page.$$eval("#nets .net", (els) => els.filter((e) => e.querySelector(".net-active").checked).map((e) => e.dataset.net));
+  await page.click(box);
+  await undoIs("set net FLIGHT not active at start");
+  seen.flight_active.push(await page.$eval(box, (b) => b.checked));
   // A net added, renamed (its file with it), deleted.
   await page.click("#net-add-open");
   await page.fill("#net-name", "NEW");
