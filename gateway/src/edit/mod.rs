@@ -9,8 +9,9 @@
 //! nets). A net can be added (its own file, its `[[net]]` table appended
 //! to project.toml), deleted (refused while another net names it) or
 //! renamed (with every action naming it, and its file if named after
-//! it), and the session's edits undone one at a time, each file back to
-//! its exact bytes.
+//! it), or made active at start or not (its `[[net]]` table's `active`),
+//! and the session's edits undone one at a time, each file back to its
+//! exact bytes.
 //!
 //! Pure: the edits (`op.rs`), the edit core over `toml_edit` documents
 //! (`draft.rs`), the layout file (`positions.rs`), the drawing of a draft
