@@ -3,7 +3,8 @@
 # (add_place on COMMUNICATION), in the same session: N add_place, N
 # rename_net (OPERATIONS <-> OPS: operations.toml, flight.toml and
 # catastrophic.toml written), N undos of those renames, N (add_net NEW,
-# delete_net NEW) pairs timed on the delete. Loopback only.
+# delete_net NEW) pairs timed on the delete, N set_active toggling
+# FLIGHT (project.toml only written). Loopback only.
 import http.client, json, os, shutil, subprocess, sys, tempfile, time
 petrel, example, n = sys.argv[1], sys.argv[2], int(sys.argv[3])
 d = tempfile.mkdtemp(prefix="petrel-edbench-")
@@ -35,6 +36,7 @@ try:
     u = timed("undo", lambda i: req("POST", "/undo", "{}"))
     x = timed("delete_net", lambda i: edit({"op": "delete_net", "name": "NEW"}),
               before=lambda i: edit({"op": "add_net", "name": "NEW"}))
-    print(f"ratio rename/add_place {r/e:.2f}  undo(rename)/add_place {u/e:.2f}  delete/add_place {x/e:.2f}")
+    a = timed("set_active", lambda i: edit({"op": "set_active", "name": "FLIGHT", "active": i % 2 == 0}))
+    print(f"ratio rename/add_place {r/e:.2f}  undo(rename)/add_place {u/e:.2f}  delete/add_place {x/e:.2f}  set_active/add_place {a/e:.2f}")
 finally:
     child.kill(); child.wait(); shutil.rmtree(d)
