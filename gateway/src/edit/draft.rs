@@ -172,6 +172,15 @@ fn rename_in(array: &mut Array, from: &str, to: &str) -> bool {
     any
 }
 
+/// project.toml's `[[net]]` table number `entry`, to change.
+fn net_table_mut(project: &mut DocumentMut, entry: usize) -> Result<&mut Table, EditError> {
+    project
+        .get_mut("net")
+        .and_then(Item::as_array_of_tables_mut)
+        .and_then(|a| a.get_mut(entry))
+        .ok_or_else(|| shape(nets::load::PROJECT_FILE, "no such [[net]] table"))
+}
+
 fn set_keeping_decor(v: &mut Value, new: Value) {
     let decor = v.decor().clone();
     *v = new;
@@ -627,12 +636,7 @@ impl Draft {
             }
         }
         if let Some(file) = file {
-            let t = next
-                .project
-                .get_mut("net")
-                .and_then(Item::as_array_of_tables_mut)
-                .and_then(|a| a.get_mut(entry))
-                .ok_or_else(|| shape(nets::load::PROJECT_FILE, "no such [[net]] table"))?;
+            let t = net_table_mut(&mut next.project, entry)?;
             set_text(t, "file", &file);
             next.nets[n].file = file;
         }
@@ -674,12 +678,7 @@ impl Draft {
             });
         }
         let i = self.net_entry(n)?;
-        let t = self
-            .project
-            .get_mut("net")
-            .and_then(Item::as_array_of_tables_mut)
-            .and_then(|a| a.get_mut(i))
-            .ok_or_else(|| shape(nets::load::PROJECT_FILE, "no such [[net]] table"))?;
+        let t = net_table_mut(&mut self.project, i)?;
         match t.get_mut("active") {
             Some(Item::Value(v)) if v.as_bool().is_some() => {
                 set_keeping_decor(v, Value::from(active))
