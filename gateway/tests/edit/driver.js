@@ -31,6 +31,22 @@ const FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", 
 const CHECK_MS = 400000;
 
 // A spot of the net's drawing at least 45 units from every node.
+// A click on a place or transition of a drawn net. The page draws its
+// nets again after each edit and when its 500 ms poll sees a new version,
+// so the element found may be replaced before the click lands (Playwright
+// then says "not visible" or "detached" and dispatches nothing): found
+// again and clicked, a few times at most.
+async function clickDrawn(page, selector) {
+  for (let i = 0; ; i++) {
+    try {
+      return await page.click(selector, { force: true, timeout: 5000 });
+    } catch (e) {
+      if (i >= 4 || !/not visible|detached|not attached/.test(String(e))) throw e;
+      await page.waitForTimeout(100);
+    }
+  }
+}
+
 async function emptySpot(page, net = NET) {
   return page.evaluate(async (net) => {
     const p = await (await fetch("page.json")).json();
@@ -70,11 +86,11 @@ async function add(page, seen) {
   await page.waitForSelector(el("transition", "rc_back"), { timeout: 20000 });
   // Its arcs: place then transition (input), transition then place (output).
   await page.click("#tool-arc");
-  await page.click(el("place", "proceeding") + " circle", { force: true });
-  await page.click(el("transition", "rc_back") + " rect", { force: true });
+  await clickDrawn(page, el("place", "proceeding") + " circle");
+  await clickDrawn(page, el("transition", "rc_back") + " rect");
   await page.waitForFunction((s) => !!document.querySelector(s), svg + ' .arc[data-transition="rc_back"][data-input="true"]', { timeout: 20000 });
-  await page.click(el("transition", "rc_back") + " rect", { force: true });
-  await page.click(el("place", "proceeding") + " circle", { force: true });
+  await clickDrawn(page, el("transition", "rc_back") + " rect");
+  await clickDrawn(page, el("place", "proceeding") + " circle");
   await page.waitForFunction((s) => !!document.querySelector(s), svg + ' .arc[data-transition="rc_back"][data-input="false"]', { timeout: 20000 });
   // The place dragged 60 units down.
   await page.click("#tool-select");
@@ -88,7 +104,7 @@ async function add(page, seen) {
   seen.problems_after = await page.$$eval("#problems .problem-row", (els) => els.length);
   await page.waitForSelector('#check-state[data-state="holds"], #check-state[data-state="violated"], #check-state[data-state="failed"]', { timeout: CHECK_MS });
   seen.check = await page.$eval("#check-state", (e) => ({ state: e.dataset.state, text: e.textContent }));
-  await page.click(el("transition", "rc_back") + " rect", { force: true });
+  await clickDrawn(page, el("transition", "rc_back") + " rect");
   await page.screenshot({ path: path.join(out, "edit-added.png") });
 }
 
@@ -99,8 +115,8 @@ async function breakIt(page, seen) {
   await page.click(svg, { position: await emptySpot(page) });
   await page.waitForSelector(el("place", "p1"), { timeout: 20000 });
   await page.click("#tool-arc");
-  await page.click(el("transition", "rc_back") + " rect", { force: true });
-  await page.click(el("place", "p1") + " circle", { force: true });
+  await clickDrawn(page, el("transition", "rc_back") + " rect");
+  await clickDrawn(page, el("place", "p1") + " circle");
   await page.waitForFunction((s) => !!document.querySelector(s), svg + ' .arc[data-transition="rc_back"][data-place="p1"]', { timeout: 20000 });
   await page.waitForSelector('#check-state[data-state="holds"], #check-state[data-state="violated"], #check-state[data-state="failed"]', { timeout: CHECK_MS });
   seen.check = await page.$eval("#check-state", (e) => ({ state: e.dataset.state, text: e.textContent }));
@@ -164,17 +180,17 @@ async function addNet(page, seen) {
   await page.waitForFunction(() => fetch("page.json").then((r) => r.json()).then((p) =>
     p.nets.find((n) => n.name === "NEW").transitions.some((t) => t.on === "link_lost")), null, { timeout: 20000 });
   await page.click("#tool-arc");
-  await page.click("#p-NEW-idle circle", { force: true });
-  await page.click("#t-NEW-t1 rect", { force: true });
+  await clickDrawn(page, "#p-NEW-idle circle");
+  await clickDrawn(page, "#t-NEW-t1 rect");
   await page.waitForFunction((s) => !!document.querySelector(s), newSvg + ' .arc[data-transition="t1"][data-input="true"]', { timeout: 20000 });
-  await page.click("#t-NEW-t1 rect", { force: true });
-  await page.click("#p-NEW-idle circle", { force: true });
+  await clickDrawn(page, "#t-NEW-t1 rect");
+  await clickDrawn(page, "#p-NEW-idle circle");
   await page.waitForFunction((s) => !!document.querySelector(s), newSvg + ' .arc[data-transition="t1"][data-input="false"]', { timeout: 20000 });
   // The check after the arcs: dead when a catastrophe locks the
   // transition out (as any net without a final place). idle made final.
   seen.arcs_check = await verdict(page);
   await page.click("#tool-select");
-  await page.click("#p-NEW-idle circle", { force: true });
+  await clickDrawn(page, "#p-NEW-idle circle");
   await page.waitForSelector("#f-final", { timeout: 20000 });
   await page.check("#f-final");
   // Drawn final (the page redrawn after the edit: the verdict below is
