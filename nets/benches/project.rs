@@ -19,6 +19,8 @@
 //! Run: `cargo bench -p nets --bench project`
 //! Figures only, N times (no divan): `PETREL_PROJECT_BENCH_RUNS=N`.
 //! A profiling loop: `PETREL_PROJECT_BENCH_ONLY=1` (one check, one thread).
+//! The player for every step, without reusing outcomes:
+//! `PETREL_PROJECT_BENCH_STEPS=run`.
 //! The whole report, to compare two builds: `PETREL_PROJECT_BENCH_DUMP=FILE`
 //! (written for one thread and, to `FILE.2`, for two).
 
@@ -96,7 +98,17 @@ fn project() -> Arc<Project> {
 fn options(threads: usize) -> Options<'static> {
     Options {
         threads,
+        steps: steps(),
         ..Options::default()
+    }
+}
+
+/// How steps run: `PETREL_PROJECT_BENCH_STEPS=run` runs the player for
+/// every step (the reuse of outcomes off), to compare.
+fn steps() -> nets::verify::project::Steps {
+    match std::env::var("PETREL_PROJECT_BENCH_STEPS").as_deref() {
+        Ok("run") => nets::verify::project::Steps::Run,
+        _ => nets::verify::project::Steps::Reuse,
     }
 }
 

@@ -6,7 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
-use nets::verify::project::{self, Options, Proviso, Report};
+use nets::verify::project::{self, Options, Proviso, Report, Steps};
 use nets::Project;
 use proptest::prelude::*;
 
@@ -645,6 +645,61 @@ proptest! {
             if levels { Proviso::Levels } else { Proviso::Components },
         );
     }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 16, ..ProptestConfig::default() })]
+
+    /// Unreduced, a team's states keep the order of its vehicles' calls
+    /// and timers (lockouts too): reusing steps gives the player's steps.
+    #[test]
+    fn random_small_teams_check_alike_with_steps_reused_or_run(
+        vehicles in 2usize..=3,
+        watch: bool,
+        guarded: bool,
+        blocked_frees: bool,
+        looping: bool,
+        failing: bool,
+        halting: bool,
+    ) {
+        let v = Variant { vehicles, watch, guarded, blocked_frees, looping, failing, halting };
+        let p = load(v);
+        let options = |steps| Options {
+            alone: false,
+            symmetry: false,
+            partial_order: false,
+            steps,
+            ..Options::default()
+        };
+        let reused = project::check(&p, &options(Steps::Reuse));
+        let run = project::check(&p, &options(Steps::Run));
+        prop_assert_eq!(&reused, &run, "{:?}", v);
+        if let Err(d) = project::compare_steps(&p, 1) {
+            panic!("{v:?}: {d}");
+        }
+    }
+}
+
+#[test]
+fn the_ugv_example_unreduced_reuses_the_player_s_steps() {
+    // Two robots' calls, timers and lockouts in every order: the states
+    // that differ only there reuse each other's steps.
+    let p = ugv(EXAMPLE);
+    let options = |steps| Options {
+        alone: false,
+        symmetry: false,
+        partial_order: false,
+        steps,
+        ..Options::default()
+    };
+    let run = project::check(&p, &options(Steps::Run));
+    assert_eq!(project::check(&p, &options(Steps::Reuse)), run);
+    let compared = project::compare_steps(&p, 2).unwrap_or_else(|d| panic!("{d}"));
+    assert!(
+        compared * 4 > run.project.states,
+        "{compared} of {} states",
+        run.project.states
+    );
 }
 
 #[test]

@@ -68,6 +68,7 @@ pub fn run(
         partial_order: reductions.partial_order,
         compare_unreduced: false,
         proviso: Default::default(),
+        steps: Default::default(),
         progress: if std::io::stderr().is_terminal() {
             Some(&report_progress)
         } else {

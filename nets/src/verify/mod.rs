@@ -28,6 +28,7 @@ mod levels;
 pub mod pnml;
 pub mod project;
 mod project_states;
+mod project_steps;
 pub mod ptnet;
 pub mod reference;
 mod stubborn;

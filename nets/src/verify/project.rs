@@ -50,6 +50,8 @@ use super::graph::{self, Csr};
 use super::levels;
 pub use super::levels::Proviso;
 use super::project_states::{Abs, Codec, Scratch};
+pub use super::project_steps::Steps;
+use super::project_steps::{Kept, Parts, Step};
 use super::stubborn::{Class, Stubborn};
 use super::symmetry::Symmetry;
 use crate::event::Event;
@@ -95,6 +97,10 @@ pub struct Options<'a> {
     /// for ever around a cycle of reduced states (no effect without
     /// `partial_order`).
     pub proviso: Proviso,
+    /// Whether a step's outcome is reused for states that differ only in
+    /// orders the player cannot read (see [`Steps`]); the report is the
+    /// same either way.
+    pub steps: Steps,
 }
 
 impl Default for Options<'_> {
@@ -109,6 +115,7 @@ impl Default for Options<'_> {
             partial_order: true,
             compare_unreduced: false,
             proviso: Proviso::default(),
+            steps: Steps::default(),
         }
     }
 }
@@ -238,7 +245,7 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
         walker.shorten_report(project, &mut whole);
     }
     if options.compare_unreduced && (whole.reduction.group > 1 || whole.reduction.partial_order) {
-        let plain = Explorer::new(project.clone(), false, false).run(
+        let plain = Explorer::new(project.clone(), false, false, options.steps).run(
             options.max_states,
             options.threads,
             options.proviso,
@@ -285,19 +292,24 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
                 report(offset + k);
             }
         };
-        let explored = Explorer::new(copy, options.symmetry, options.partial_order).run(
-            options.max_states,
-            options.threads,
-            options.proviso,
-            options.progress.map(|_| &progress as &dyn Fn(usize)),
-        );
-        let explored =
-            match explored.symmetry_broken() {
-                // The copy's symmetry does not hold for the player: whole.
-                Some(_) => Explorer::new(explored.project.clone(), false, options.partial_order)
-                    .run(options.max_states, options.threads, options.proviso, None),
-                None => explored,
-            };
+        let explored = Explorer::new(copy, options.symmetry, options.partial_order, options.steps)
+            .run(
+                options.max_states,
+                options.threads,
+                options.proviso,
+                options.progress.map(|_| &progress as &dyn Fn(usize)),
+            );
+        let explored = match explored.symmetry_broken() {
+            // The copy's symmetry does not hold for the player: whole.
+            Some(_) => Explorer::new(
+                explored.project.clone(),
+                false,
+                options.partial_order,
+                options.steps,
+            )
+            .run(options.max_states, options.threads, options.proviso, None),
+            None => explored,
+        };
         done += explored.space.store.len();
         // Static warnings of the copy (events the absent nets emit look
         // produced by nothing) say nothing of the net: left out.
@@ -368,7 +380,7 @@ struct Walker {
 
 impl Walker {
     fn new(project: &Arc<Project>) -> Walker {
-        let explorer = Explorer::new(project.clone(), false, false);
+        let explorer = Explorer::new(project.clone(), false, false, Steps::Run);
         let mut player = Player::start(project.clone(), T);
         player.set_oracle(Some(Oracle::default()));
         let mut initial = Vec::new();
@@ -520,7 +532,13 @@ pub fn dead_markings(project: &Arc<Project>, options: &Options) -> Vec<Vec<usize
 /// Explores `project` with the reductions `options` asks for; when the
 /// player breaks the symmetry the model has, explores again without it.
 fn explore_reduced(project: &Arc<Project>, options: &Options) -> (Explored, Reduction) {
-    let explored = Explorer::new(project.clone(), options.symmetry, options.partial_order).run(
+    let explored = Explorer::new(
+        project.clone(),
+        options.symmetry,
+        options.partial_order,
+        options.steps,
+    )
+    .run(
         options.max_states,
         options.threads,
         options.proviso,
@@ -532,7 +550,7 @@ fn explore_reduced(project: &Arc<Project>, options: &Options) -> (Explored, Redu
             notes.push(format!(
                 "symmetry not used: the player's order of vehicles decides a step ({why})"
             ));
-            Explorer::new(project.clone(), false, options.partial_order).run(
+            Explorer::new(project.clone(), false, options.partial_order, options.steps).run(
                 options.max_states,
                 options.threads,
                 options.proviso,
@@ -559,6 +577,23 @@ fn explore_reduced(project: &Arc<Project>, options: &Options) -> (Explored, Redu
         unreduced_states: None,
     };
     (explored, reduction)
+}
+
+/// Explores `project` (without reductions) running the player for every
+/// step, and working out besides what reusing the outcomes kept for states
+/// with the same projection gives ([`Steps::Compare`]): the number of
+/// states compared, or the first difference found.
+pub fn compare_steps(project: &Arc<Project>, threads: usize) -> Result<usize, String> {
+    let explored = Explorer::new(project.clone(), false, false, Steps::Compare).run(
+        MAX_STATES,
+        threads,
+        Proviso::default(),
+        None,
+    );
+    match explored.compared {
+        (n, None) => Ok(n),
+        (_, Some(difference)) => Err(difference),
+    }
 }
 
 /// Loops listed in a report, at most (the same loop seen from different
@@ -681,6 +716,12 @@ struct Explorer {
     /// A step whose outcome the player's order of vehicles decided (the
     /// first found): the symmetry does not hold, the exploration stops.
     broken: Mutex<Option<String>>,
+    /// How steps run: [`Steps::Run`] whenever the keys keep no order (a
+    /// team's reduced exploration), which reuse needs.
+    steps: Steps,
+    /// With [`Steps::Compare`]: the states compared, and the first
+    /// difference found.
+    compared: Mutex<(usize, Option<String>)>,
 }
 
 #[derive(Default)]
@@ -721,6 +762,14 @@ struct Worker {
     /// The canonical key of a successor, and a buffer for its images.
     canon: Vec<u8>,
     image: Vec<u8>,
+    /// The outcomes kept for reuse, the state's key read, its projection
+    /// and a buffer.
+    kept: Kept,
+    parts: Parts,
+    projection: Vec<u8>,
+    entry: Vec<u8>,
+    /// With [`Steps::Compare`]: the edges the player's runs gave.
+    log: Vec<(u32, Vec<u8>)>,
 }
 
 /// An exploration, ready for verdicts.
@@ -736,6 +785,9 @@ struct Explored {
     symmetry: Option<Symmetry>,
     partial_order: bool,
     broken: Option<String>,
+    /// With [`Steps::Compare`]: the states compared, and the first
+    /// difference.
+    compared: (usize, Option<String>),
     /// The warnings found without exploring that the exploration does not
     /// disprove, worked out for the first verdict that asks.
     statics: std::sync::OnceLock<Vec<Warning>>,
@@ -764,6 +816,11 @@ impl levels::Explore for Explorer {
             used: Vec::new(),
             canon: Vec::new(),
             image: Vec::new(),
+            kept: Kept::default(),
+            parts: Parts::default(),
+            projection: Vec::new(),
+            entry: Vec::new(),
+            log: Vec::new(),
         }
     }
 
@@ -793,7 +850,7 @@ impl levels::Explore for Explorer {
 }
 
 impl Explorer {
-    fn new(project: Arc<Project>, symmetry: bool, partial_order: bool) -> Explorer {
+    fn new(project: Arc<Project>, symmetry: bool, partial_order: bool, steps: Steps) -> Explorer {
         let externals = external_events(&project)
             .into_iter()
             .map(|name| {
@@ -838,6 +895,8 @@ impl Explorer {
             symmetry: None,
             stubborn: None,
             broken: Mutex::new(None),
+            steps,
+            compared: Mutex::new((0, None)),
         };
         // What is known of every result the nets' actions can await.
         let project = explorer.project.clone();
@@ -901,6 +960,10 @@ impl Explorer {
                 .collect();
             let stubborn = Stubborn::new(&project, &names);
             explorer.stubborn = Some(stubborn);
+        }
+        if explorer.symmetry.is_some() || explorer.stubborn.is_some() || explorer.codec.order_free()
+        {
+            explorer.steps = Steps::Run;
         }
         explorer
     }
@@ -986,6 +1049,10 @@ impl Explorer {
             symmetry: self.symmetry,
             partial_order: self.stubborn.is_some(),
             broken: self.broken.into_inner().unwrap_or_else(|e| e.into_inner()),
+            compared: self
+                .compared
+                .into_inner()
+                .unwrap_or_else(|e| e.into_inner()),
             statics: std::sync::OnceLock::new(),
         }
     }
@@ -1138,6 +1205,29 @@ impl Explorer {
         if self.symmetry.is_some() && self.broken.lock().map_or(true, |b| b.is_some()) {
             return; // the exploration is given up: no need to go on
         }
+        // A state whose projection was expanded before: its outcomes again,
+        // without the player.
+        let mut kept = None;
+        w.log.clear();
+        let reuse = self.steps != Steps::Run && w.parts.read(&self.codec, key);
+        let h = if reuse {
+            super::project_steps::projection(key, &w.parts, &mut w.projection);
+            let h = Kept::hash(&w.projection);
+            kept = w.kept.find(&w.projection, h);
+            match kept {
+                Some(e) if self.steps == Steps::Reuse => {
+                    Self::reuse(w, key, e, &mut |label, next| {
+                        out.push(label, next, 0);
+                    });
+                    return;
+                }
+                Some(_) => {}
+                None => w.kept.begin(w.parts.pending()),
+            }
+            h
+        } else {
+            0
+        };
         let abs = self.codec.decode(key);
         w.concrete_current = false;
         let inputs = self.inputs(&abs);
@@ -1174,6 +1264,82 @@ impl Explorer {
         for input in &inputs {
             self.input_successors(w, key, &abs, input, out);
         }
+        if let Some(e) = kept {
+            self.compare(w, key, e);
+        }
+        if reuse {
+            w.kept.finish(&w.projection, h);
+        }
+    }
+
+    /// The edges of the state `key` (read into `w.parts`) by the outcomes
+    /// kept in entry `e`, in the order the player's runs would give them.
+    fn reuse(w: &mut Worker, key: &[u8], e: u32, push: &mut dyn FnMut(u32, &[u8])) {
+        let Worker {
+            kept,
+            parts,
+            next,
+            labels,
+            this_input,
+            this_input_keys,
+            ..
+        } = w;
+        for j in 0..=parts.pending() {
+            // The events and timers, then the results in the key's order.
+            let group = if j == 0 { 0 } else { 1 + parts.canon(j - 1) };
+            for input in kept.group(e, group) {
+                this_input.clear();
+                this_input_keys.clear();
+                for o in kept.outcomes(input) {
+                    kept.apply(o, key, parts, next);
+                    if !o.flagged && next[..] == *key {
+                        continue; // nothing happened: not an edge
+                    }
+                    let label = &labels[o.label as usize].1;
+                    if this_input.iter().any(|(l, range)| {
+                        this_input_keys[range.clone()] == next[..]
+                            && labels[*l as usize].1.alike(label)
+                    }) {
+                        continue;
+                    }
+                    let start = this_input_keys.len();
+                    this_input_keys.extend_from_slice(next);
+                    this_input.push((o.label, start..this_input_keys.len()));
+                    push(o.label, next);
+                }
+            }
+        }
+    }
+
+    /// Compares the edges the player's runs gave (`w.log`) with what
+    /// reusing entry `e` gives ([`Steps::Compare`]).
+    fn compare(&self, w: &mut Worker, key: &[u8], e: u32) {
+        let mut reused: Vec<(u32, Vec<u8>)> = Vec::new();
+        Self::reuse(w, key, e, &mut |label, next| {
+            reused.push((label, next.to_vec()))
+        });
+        let mut compared = self.compared.lock().unwrap_or_else(|e| e.into_inner());
+        compared.0 += 1;
+        if reused != w.log && compared.1.is_none() {
+            let text = |edges: &[(u32, Vec<u8>)]| -> Vec<String> {
+                edges
+                    .iter()
+                    .map(|(l, k)| {
+                        format!(
+                            "{} → {:?}",
+                            w.labels[*l as usize].1.text,
+                            self.codec.decode(k).state
+                        )
+                    })
+                    .collect()
+            };
+            compared.1 = Some(format!(
+                "state {:?}: the player gives {:#?}, reuse gives {:#?}",
+                self.codec.decode(key).state,
+                text(&w.log),
+                text(&reused)
+            ));
+        }
     }
 
     /// The successors of the state `key` (decoded: `abs`) by one input;
@@ -1198,6 +1364,14 @@ impl Explorer {
             w.concrete_current = true;
             w.pending_number += u64::from(pending_changed);
             let concrete = &*concrete;
+            if w.kept.building() {
+                w.kept.input(match input {
+                    Input::Result { id, .. } => {
+                        1 + w.parts.canon(usize::try_from(id - 1).unwrap_or(usize::MAX))
+                    }
+                    _ => 0,
+                });
+            }
             // Every sequence of oracle answers, depth first: a stack of
             // ranges of `todo_bits`.
             w.todo.clear();
@@ -1211,6 +1385,7 @@ impl Explorer {
                 let Some(player) =
                     self.step(&mut w.player, concrete, w.pending_number, input, answers)
                 else {
+                    w.kept.abandon();
                     continue;
                 };
                 // Read where the player recorded them (its next restore
@@ -1265,7 +1440,8 @@ impl Explorer {
                         _ => {}
                     }
                 }
-                if !fires && unsafe_by.is_none() && livelock.is_none() && w.next == key {
+                let flagged = fires || unsafe_by.is_some() || livelock.is_some();
+                if !flagged && w.next == key && !w.kept.building() {
                     continue; // nothing happened: not an edge
                 }
                 // The step's label, known by what its text says.
@@ -1286,6 +1462,23 @@ impl Explorer {
                         l
                     }
                 };
+                if w.kept.building() {
+                    let step = Step {
+                        key,
+                        parts: &w.parts,
+                        after: player.state(),
+                        seq_before,
+                        next_id: abs.state.next_id,
+                        step_time: T + 1,
+                        next: &w.next,
+                        relevant: &|p| self.relevant(p),
+                    };
+                    w.kept
+                        .capture(&self.codec, &step, local, flagged, &mut w.entry);
+                    if !flagged && w.next == key {
+                        continue; // nothing happened: not an edge
+                    }
+                }
                 // Answers that end alike (an event lacking `lat` or `lon`
                 // is rejected the same way) make one edge: the first.
                 let label = &w.labels[local as usize].1;
@@ -1299,6 +1492,9 @@ impl Explorer {
                 w.this_input_keys.extend_from_slice(&w.next);
                 w.this_input.push((local, start..w.this_input_keys.len()));
                 pushed = true;
+                if self.steps == Steps::Compare {
+                    w.log.push((local, w.next.clone()));
+                }
                 match &self.symmetry {
                     None => known |= out.push(local, &w.next, 0),
                     Some(sym) => {
@@ -1310,6 +1506,9 @@ impl Explorer {
                     }
                 }
             }
+        }
+        if w.kept.building() {
+            w.kept.end_input();
         }
         known || !pushed
     }

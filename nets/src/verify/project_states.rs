@@ -114,6 +114,19 @@ impl Codec {
         key[self.words * 8 + n] != 0
     }
 
+    /// The length of `key`'s marking, active nets and lockouts (where its
+    /// timers begin).
+    pub fn head_len(&self, key: &[u8]) -> usize {
+        let at = self.words * 8 + self.nets;
+        if key[at] & 2 == 0 {
+            at + 1
+        } else {
+            let mut b = [0; 4];
+            b.copy_from_slice(&key[at + 1..at + 5]);
+            at + 5 + 4 * u32::from_le_bytes(b) as usize
+        }
+    }
+
     /// Writes the abstract form of the player's `state` into `out`.
     /// `prev` is the state the step ran on (`None` at start-up): its timers
     /// keep their group and duration; timers numbered from `seq_before` on
@@ -225,7 +238,7 @@ impl Codec {
     }
 
     /// One pending call, command or question, as a key holds it.
-    fn write_pending(&self, p: &Pending, out: &mut Vec<u8>) {
+    pub fn write_pending(&self, p: &Pending, out: &mut Vec<u8>) {
         out.extend_from_slice(&(p.net as u32).to_le_bytes());
         out.push(u8::from(p.catastrophic));
         match &p.kind {

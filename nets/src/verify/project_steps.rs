@@ -1,0 +1,566 @@
+//! Step outcomes, kept so that a state which differs from one already
+//! expanded only in orders the player cannot read is expanded without the
+//! player, from key to key.
+//!
+//! A step of the project explorer runs the player on a concrete state (see
+//! [`super::project`]). Its outcome depends on the marking, the active
+//! nets, the lockouts, which timers run (net, timer, duration, category)
+//! and which results are pending (each net's, in the order they were
+//! issued), and on the input. It does not depend on how the pending calls
+//! of *different* nets interleave in issue order, nor on the start order
+//! of timers: only the expiring timer is due in a step, and the player
+//! reads a call by its id only to answer it. Keys keep those orders (later
+//! steps report them), so many keys share one [`projection`]: on
+//! `examples/uav-flight-test`, about one state in seven has a projection
+//! not seen before. The inputs of a state are a function of its projection
+//! too: a timer can expire first when no timer started by the same step
+//! is due before it, which the projection keeps (each timer's group and
+//! its start order within it).
+//!
+//! An [`Outcome`] says what a step made of a key in the projection's
+//! terms: the marking, active nets and lockouts whole; which of the key's
+//! timers (by position, in net and timer order) and pending results (by
+//! their place in the projection) are left; the timers and results the
+//! step started, in order. [`Outcome::apply`] writes the successor's key
+//! from another key with the same projection, exactly as
+//! [`Codec::encode`](super::project_states::Codec::encode) would have
+//! written it after running the player. The explorer checks every
+//! outcome it keeps against the key the player's run gave, and a test
+//! mode ([`Steps::Compare`]) runs the player for every reused outcome too.
+//!
+//! Pure data and bytes: no player runs here.
+
+use std::ops::Range;
+
+use hashbrown::HashTable;
+use smallvec::SmallVec;
+
+use super::project_states::{hash, Codec, MAX_SAME_PENDING};
+use crate::player::{Pending, State};
+use crate::time::Micros;
+
+/// How the project explorer runs its steps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Steps {
+    /// Reuse the outcomes of a state with the same projection (the
+    /// default; the report is the same as [`Steps::Run`]'s).
+    #[default]
+    Reuse,
+    /// Run the player for every step.
+    Run,
+    /// Run the player for every step, and also work out from kept outcomes
+    /// what reuse would have given, comparing the two (for tests: see
+    /// [`super::project::compare_steps`]).
+    Compare,
+}
+
+/// A timer entry's size in a key: `u32 net, u32 timer, u64 duration, u32
+/// rank, u8 catastrophic, u32 group`.
+const TIMER: usize = 25;
+/// The group of a timer the step started (before groups are renumbered).
+const FRESH: u32 = u32::MAX;
+/// The most timers, or pending results, a key may hold to be reused (each
+/// kept one is a bit of a `u64`).
+const MOST: usize = 64;
+
+/// One timer entry of a key.
+#[derive(Clone, Copy)]
+struct TimerAt {
+    at: u32,
+    net: u32,
+    timer: u32,
+    rank: u32,
+    group: u32,
+}
+
+/// A key's sections, as offsets into it.
+#[derive(Default)]
+pub(super) struct Parts {
+    /// The end of the marking, active nets and lockouts.
+    head: usize,
+    timers: SmallVec<[TimerAt; 16]>,
+    /// Each pending result's entry, in the key's order, with its net.
+    pending: SmallVec<[(Range<u32>, u32); 16]>,
+    /// Per pending result (in the key's order), its place in the
+    /// projection.
+    canon: SmallVec<[u8; 16]>,
+}
+
+fn u32_at(key: &[u8], at: usize) -> u32 {
+    let mut b = [0; 4];
+    b.copy_from_slice(&key[at..at + 4]);
+    u32::from_le_bytes(b)
+}
+
+impl Parts {
+    /// Reads the sections of `key` (written by `codec`, never from
+    /// outside); `false` when it holds too many timers or results to be
+    /// reused.
+    pub fn read(&mut self, codec: &Codec, key: &[u8]) -> bool {
+        self.head = codec.head_len(key);
+        self.timers.clear();
+        self.pending.clear();
+        self.canon.clear();
+        let mut at = self.head;
+        let n = u32_at(key, at) as usize;
+        at += 4;
+        if n > MOST {
+            return false;
+        }
+        for _ in 0..n {
+            self.timers.push(TimerAt {
+                at: at as u32,
+                net: u32_at(key, at),
+                timer: u32_at(key, at + 4),
+                rank: u32_at(key, at + 16),
+                group: u32_at(key, at + 21),
+            });
+            at += TIMER;
+        }
+        let n = u32_at(key, at) as usize;
+        at += 4;
+        if n > MOST {
+            return false;
+        }
+        for _ in 0..n {
+            let start = at;
+            let net = u32_at(key, at);
+            at += 5;
+            let kind = key[at];
+            at += 1;
+            at += match kind {
+                0 => 8,
+                1 | 3 => 4,
+                _ => 4 + u32_at(key, at) as usize,
+            };
+            self.pending.push((start as u32..at as u32, net));
+        }
+        // The projection's order of results: by net, each net's in issue
+        // order.
+        let mut order: SmallVec<[u8; 16]> = (0..n as u8).collect();
+        order.sort_by_key(|&j| self.pending[j as usize].1);
+        self.canon.resize(n, 0);
+        for (c, &j) in order.iter().enumerate() {
+            self.canon[j as usize] = c as u8;
+        }
+        true
+    }
+
+    /// How many pending results the key holds.
+    pub fn pending(&self) -> usize {
+        self.pending.len()
+    }
+
+    /// The projection's place of the key's pending result number `j`.
+    pub fn canon(&self, j: usize) -> usize {
+        usize::from(self.canon[j])
+    }
+}
+
+/// Writes the projection of `key` (read into `parts`) into `out`: the key
+/// without the start order of timers across groups and without the issue
+/// order of results across nets.
+pub(super) fn projection(key: &[u8], parts: &Parts, out: &mut Vec<u8>) {
+    out.clear();
+    out.extend_from_slice(&key[..parts.head]);
+    out.extend_from_slice(&(parts.timers.len() as u32).to_le_bytes());
+    for t in &parts.timers {
+        let at = t.at as usize;
+        // Net, timer, duration; the category and the group.
+        out.extend_from_slice(&key[at..at + 16]);
+        out.extend_from_slice(&key[at + 20..at + TIMER]);
+        let within = parts
+            .timers
+            .iter()
+            .filter(|u| u.group == t.group && u.rank < t.rank)
+            .count() as u32;
+        out.extend_from_slice(&within.to_le_bytes());
+    }
+    out.extend_from_slice(&(parts.pending.len() as u32).to_le_bytes());
+    let mut order: SmallVec<[u8; 16]> = (0..parts.pending.len() as u8).collect();
+    order.sort_by_key(|&j| parts.canon[j as usize]);
+    for j in order {
+        let r = &parts.pending[j as usize].0;
+        out.extend_from_slice(&key[r.start as usize..r.end as usize]);
+    }
+}
+
+/// The start order of the `k`-th timer a step started, after every timer
+/// of the key it ran from (whose start orders are their ranks, below
+/// [`MOST`]).
+fn new_seq(k: usize) -> u32 {
+    (MOST + k) as u32
+}
+
+/// A timer a step started.
+#[derive(Clone, Copy)]
+struct NewTimer {
+    net: u32,
+    timer: u32,
+    duration: u64,
+    catastrophic: bool,
+}
+
+/// What one run of the player (one input, one sequence of answers) made of
+/// a key, in the projection's terms.
+#[derive(Clone)]
+pub(super) struct Outcome {
+    /// The step's label (the worker's own number).
+    pub label: u32,
+    /// The step fired a transition or faulted (an edge even if the key
+    /// stays the same).
+    pub flagged: bool,
+    /// The marking, active nets and lockouts after it (in `bytes`).
+    head: Range<u32>,
+    /// The key's timers left, by position.
+    timers_kept: u64,
+    /// The timers started, in start order (in `new_timers`).
+    new_timers: Range<u32>,
+    /// The key's results left, by place in the projection.
+    pending_kept: u64,
+    /// The results issued that something awaits, in issue order: entries
+    /// as keys hold them (ranges of `bytes`, in `new_pending`).
+    new_pending: Range<u32>,
+}
+
+/// An expanded projection: for each group of inputs (the events and
+/// timers, then each pending result by its place in the projection), the
+/// outcomes of its inputs.
+struct Entry {
+    hash: u64,
+    projection: Range<u32>,
+    /// Into `groups`: one range of `inputs` per group.
+    groups: Range<u32>,
+}
+
+/// The outcomes kept by one worker.
+#[derive(Default)]
+pub(super) struct Kept {
+    table: HashTable<u32>,
+    entries: Vec<Entry>,
+    groups: Vec<Range<u32>>,
+    /// Per input, its outcomes' range.
+    inputs: Vec<Range<u32>>,
+    outcomes: Vec<Outcome>,
+    new_timers: Vec<NewTimer>,
+    new_pending: Vec<Range<u32>>,
+    bytes: Vec<u8>,
+    /// The entry being built (see [`Kept::begin`]).
+    building: Option<Building>,
+}
+
+/// Where the arenas stood when an entry began (to drop it if it cannot be
+/// kept), and its groups' ranges so far.
+struct Building {
+    marks: [usize; 5],
+    groups: Vec<Range<u32>>,
+    /// The group of the input being captured.
+    group: usize,
+    input_start: u32,
+}
+
+/// What [`Kept::capture`] needs of the step.
+pub(super) struct Step<'a> {
+    /// The key the step ran from, and its parts.
+    pub key: &'a [u8],
+    pub parts: &'a Parts,
+    /// The player's state after it.
+    pub after: &'a State,
+    /// The timers numbered from `seq_before` on, and the results from
+    /// `next_id` on, are the step's.
+    pub seq_before: u64,
+    pub next_id: u64,
+    /// The instant the step ran at.
+    pub step_time: Micros,
+    /// The successor's key, as encoded.
+    pub next: &'a [u8],
+    pub relevant: &'a dyn Fn(&Pending) -> bool,
+}
+
+impl Kept {
+    /// The entry of `projection` (of hash `h`), if kept.
+    pub fn find(&self, projection: &[u8], h: u64) -> Option<u32> {
+        self.table
+            .find(h, |&e| {
+                let r = &self.entries[e as usize].projection;
+                &self.bytes[r.start as usize..r.end as usize] == projection
+            })
+            .copied()
+    }
+
+    /// The inputs of group `g` of entry `e`, as ranges of outcomes.
+    pub fn group(&self, e: u32, g: usize) -> &[Range<u32>] {
+        let groups = &self.entries[e as usize].groups;
+        match self.groups.get(groups.start as usize + g) {
+            Some(r) if groups.start as usize + g < groups.end as usize => {
+                &self.inputs[r.start as usize..r.end as usize]
+            }
+            _ => &[],
+        }
+    }
+
+    pub fn outcomes(&self, r: &Range<u32>) -> &[Outcome] {
+        &self.outcomes[r.start as usize..r.end as usize]
+    }
+
+    /// Starts keeping the outcomes of a state with `pending` results.
+    pub fn begin(&mut self, pending: usize) {
+        self.building = Some(Building {
+            marks: [
+                self.inputs.len(),
+                self.outcomes.len(),
+                self.new_timers.len(),
+                self.new_pending.len(),
+                self.bytes.len(),
+            ],
+            groups: vec![0..0; pending + 1],
+            group: 0,
+            input_start: self.outcomes.len() as u32,
+        });
+    }
+
+    /// Whether a state's outcomes are being kept.
+    pub fn building(&self) -> bool {
+        self.building.is_some()
+    }
+
+    /// The next outcomes captured belong to an input of group `g`.
+    pub fn input(&mut self, g: usize) {
+        let start = self.outcomes.len() as u32;
+        if let Some(b) = &mut self.building {
+            if g >= b.groups.len() {
+                self.building = None;
+                return;
+            }
+            b.group = g;
+            b.input_start = start;
+        }
+    }
+
+    /// Ends the input begun by [`Kept::input`].
+    pub fn end_input(&mut self) {
+        let end = self.outcomes.len() as u32;
+        let i = self.inputs.len() as u32;
+        if let Some(b) = &mut self.building {
+            let r = &mut b.groups[b.group];
+            if r.start == r.end {
+                *r = i..i;
+            }
+            if r.end != i {
+                // Inputs of one group are listed together: anything else
+                // is not kept.
+                self.drop_building();
+                return;
+            }
+            r.end = i + 1;
+            self.inputs.push(b.input_start..end);
+        }
+    }
+
+    /// Drops the state's outcomes kept so far (they cannot all be kept).
+    pub fn abandon(&mut self) {
+        self.drop_building();
+    }
+
+    fn drop_building(&mut self) {
+        if let Some(b) = self.building.take() {
+            self.inputs.truncate(b.marks[0]);
+            self.outcomes.truncate(b.marks[1]);
+            self.new_timers.truncate(b.marks[2]);
+            self.new_pending.truncate(b.marks[3]);
+            self.bytes.truncate(b.marks[4]);
+        }
+    }
+
+    /// Keeps the outcome of one run of the player, checked: the outcome
+    /// applied to the key it ran from must give the key the player's state
+    /// was encoded to, or the state's outcomes are not kept.
+    pub fn capture(
+        &mut self,
+        codec: &Codec,
+        s: &Step<'_>,
+        label: u32,
+        flagged: bool,
+        scratch: &mut Vec<u8>,
+    ) {
+        if self.building.is_none() {
+            return;
+        }
+        let head_len = codec.head_len(s.next);
+        let head = self.push_bytes(&s.next[..head_len]);
+        let mut timers_kept = 0u64;
+        let mut fresh: SmallVec<[(u64, NewTimer); 4]> = SmallVec::new();
+        for t in &s.after.timers {
+            if t.seq < s.seq_before {
+                match s
+                    .parts
+                    .timers
+                    .iter()
+                    .position(|o| o.net as usize == t.net && o.timer as usize == t.timer)
+                {
+                    Some(i) => timers_kept |= 1 << i,
+                    None => return self.drop_building(),
+                }
+            } else {
+                fresh.push((
+                    t.seq,
+                    NewTimer {
+                        net: t.net as u32,
+                        timer: t.timer as u32,
+                        duration: t.deadline.saturating_sub(s.step_time.min(t.deadline)),
+                        catastrophic: t.catastrophic,
+                    },
+                ));
+            }
+        }
+        fresh.sort_by_key(|(seq, _)| *seq);
+        let start = self.new_timers.len() as u32;
+        self.new_timers.extend(fresh.iter().map(|(_, t)| *t));
+        let new_timers = start..self.new_timers.len() as u32;
+        let mut pending_kept = 0u64;
+        let start = self.new_pending.len() as u32;
+        for (&id, p) in &s.after.pending {
+            if id < s.next_id {
+                let j = id.wrapping_sub(1) as usize;
+                if j >= s.parts.pending() {
+                    return self.drop_building();
+                }
+                pending_kept |= 1 << s.parts.canon(j);
+            } else if (s.relevant)(p) {
+                scratch.clear();
+                codec.write_pending(p, scratch);
+                let r = self.push_bytes(&scratch[..]);
+                self.new_pending.push(r);
+            }
+        }
+        let new_pending = start..self.new_pending.len() as u32;
+        let outcome = Outcome {
+            label,
+            flagged,
+            head,
+            timers_kept,
+            new_timers,
+            pending_kept,
+            new_pending,
+        };
+        scratch.clear();
+        self.apply(&outcome, s.key, s.parts, scratch);
+        if scratch[..] != *s.next {
+            return self.drop_building();
+        }
+        self.outcomes.push(outcome);
+    }
+
+    fn push_bytes(&mut self, b: &[u8]) -> Range<u32> {
+        let start = self.bytes.len() as u32;
+        self.bytes.extend_from_slice(b);
+        start..self.bytes.len() as u32
+    }
+
+    /// Keeps the state's outcomes under its `projection` (of hash `h`).
+    pub fn finish(&mut self, projection: &[u8], h: u64) {
+        let Some(b) = self.building.take() else {
+            return;
+        };
+        let p = self.push_bytes(projection);
+        let start = self.groups.len() as u32;
+        self.groups.extend(b.groups);
+        let e = self.entries.len() as u32;
+        self.entries.push(Entry {
+            hash: h,
+            projection: p,
+            groups: start..self.groups.len() as u32,
+        });
+        let entries = &self.entries;
+        self.table
+            .insert_unique(h, e, |&i| entries[i as usize].hash);
+    }
+
+    /// Writes into `out` the key `outcome` makes of `key` (read into
+    /// `parts`), whose projection is the one the outcome was kept for.
+    pub fn apply(&self, outcome: &Outcome, key: &[u8], parts: &Parts, out: &mut Vec<u8>) {
+        out.clear();
+        let h = &outcome.head;
+        out.extend_from_slice(&self.bytes[h.start as usize..h.end as usize]);
+        // Timers: the kept ones and the new, in net and timer order, start
+        // order renumbered by rank, groups by first appearance.
+        // (net, timer, position: a kept one's, or 64 + a new one's.)
+        let mut timers: SmallVec<[(u32, u32, u32); 16]> = SmallVec::new();
+        let mut seqs: SmallVec<[u32; 16]> = SmallVec::new();
+        for (i, t) in parts.timers.iter().enumerate() {
+            if outcome.timers_kept & 1 << i != 0 {
+                timers.push((t.net, t.timer, i as u32));
+                seqs.push(t.rank);
+            }
+        }
+        let fresh =
+            &self.new_timers[outcome.new_timers.start as usize..outcome.new_timers.end as usize];
+        for (k, t) in fresh.iter().enumerate() {
+            timers.push((t.net, t.timer, (MOST + k) as u32));
+            seqs.push(new_seq(k));
+        }
+        if !fresh.is_empty() {
+            // (The kept ones alone are in net and timer order already.)
+            timers.sort_unstable_by_key(|&(net, timer, _)| (net, timer));
+        }
+        seqs.sort_unstable();
+        let mut groups: SmallVec<[u32; 16]> = SmallVec::new();
+        out.extend_from_slice(&(timers.len() as u32).to_le_bytes());
+        for &(_, _, i) in &timers {
+            let i = i as usize;
+            // Net, timer, duration; the start order (`seq`, ranked below),
+            // the category and the group.
+            let (seq, catastrophic, group) = if i < MOST {
+                let t = &parts.timers[i];
+                let at = t.at as usize;
+                out.extend_from_slice(&key[at..at + 16]);
+                (t.rank, key[at + 20], t.group)
+            } else {
+                let t = &fresh[i - MOST];
+                out.extend_from_slice(&t.net.to_le_bytes());
+                out.extend_from_slice(&t.timer.to_le_bytes());
+                out.extend_from_slice(&t.duration.to_le_bytes());
+                (new_seq(i - MOST), u8::from(t.catastrophic), FRESH)
+            };
+            let rank = seqs.binary_search(&seq).unwrap_or(0) as u32;
+            out.extend_from_slice(&rank.to_le_bytes());
+            out.push(catastrophic);
+            let g = match groups.iter().position(|&old| old == group) {
+                Some(g) => g,
+                None => {
+                    groups.push(group);
+                    groups.len() - 1
+                }
+            };
+            out.extend_from_slice(&(g as u32).to_le_bytes());
+        }
+        // Pending results: the kept ones in the key's order, then the new
+        // ones, at most `MAX_SAME_PENDING` alike.
+        let count_at = out.len();
+        out.extend_from_slice(&0u32.to_le_bytes());
+        let mut kept: SmallVec<[Range<usize>; 16]> = SmallVec::new();
+        for (j, (r, _)) in parts.pending.iter().enumerate() {
+            if outcome.pending_kept & 1 << parts.canon(j) != 0 {
+                let start = out.len();
+                out.extend_from_slice(&key[r.start as usize..r.end as usize]);
+                kept.push(start..out.len());
+            }
+        }
+        let news =
+            &self.new_pending[outcome.new_pending.start as usize..outcome.new_pending.end as usize];
+        for r in news {
+            let entry = &self.bytes[r.start as usize..r.end as usize];
+            if kept.iter().filter(|k| out[(*k).clone()] == *entry).count() < MAX_SAME_PENDING {
+                let start = out.len();
+                out.extend_from_slice(entry);
+                kept.push(start..out.len());
+            }
+        }
+        out[count_at..count_at + 4].copy_from_slice(&(kept.len() as u32).to_le_bytes());
+    }
+
+    /// The hash [`Kept::find`] and [`Kept::finish`] take.
+    pub fn hash(projection: &[u8]) -> u64 {
+        hash(projection)
+    }
+}
