@@ -12,7 +12,7 @@ use nets::verify::project::{
 /// The check of a project, made sure to be the same whether or not steps'
 /// outcomes are reused, and every reused outcome the player's.
 fn verify(files: &[(&str, &str)]) -> ProjectReport {
-    let project = std::sync::Arc::new(common::project(files));
+    let project = common::project(files);
     let report = check(&project, &Options::default());
     same_with_steps_run(&project, &report);
     report
@@ -440,7 +440,7 @@ fn reusing_steps_gives_the_player_s_steps_on_the_examples() {
             .iter()
             .map(|(a, b)| (a.as_str(), b.as_str()))
             .collect();
-        let project = std::sync::Arc::new(common::project(&refs));
+        let project = common::project(&refs);
         let options = |steps| Options {
             alone: false,
             threads,

@@ -722,6 +722,8 @@ struct Explorer {
     /// With [`Steps::Compare`]: the states compared, and the first
     /// difference found.
     compared: Mutex<(usize, Option<String>)>,
+    /// The most each worker's kept outcomes take.
+    budget: usize,
 }
 
 #[derive(Default)]
@@ -816,7 +818,7 @@ impl levels::Explore for Explorer {
             used: Vec::new(),
             canon: Vec::new(),
             image: Vec::new(),
-            kept: Kept::default(),
+            kept: Kept::new(self.budget),
             parts: Parts::default(),
             projection: Vec::new(),
             entry: Vec::new(),
@@ -897,6 +899,7 @@ impl Explorer {
             broken: Mutex::new(None),
             steps,
             compared: Mutex::new((0, None)),
+            budget: super::project_steps::BUDGET,
         };
         // What is known of every result the nets' actions can await.
         let project = explorer.project.clone();
@@ -2576,4 +2579,40 @@ pub fn token_game(project: &Project) -> super::ptnet::PtNet {
         }
     }
     net
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The example the reuse of steps is measured on, without a profile.
+    fn flight_test() -> Arc<Project> {
+        let dir =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-flight-test");
+        let mut files = std::collections::BTreeMap::new();
+        for entry in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if name.ends_with(".toml") {
+                let text = std::fs::read_to_string(entry.path()).unwrap_or_default();
+                files.insert(name, text);
+            }
+        }
+        Arc::new(crate::load(&files).unwrap_or_else(|e| panic!("{e}")))
+    }
+
+    #[test]
+    fn past_the_budget_the_player_expands_new_projections_and_the_report_is_the_same() {
+        let project = flight_test();
+        let explore = |steps, budget| {
+            let mut explorer = Explorer::new(project.clone(), false, false, steps);
+            explorer.budget = budget;
+            explorer.run(MAX_STATES, 1, Proviso::default(), None)
+        };
+        let run = explore(Steps::Run, 0);
+        // A megabyte keeps the outcomes of a few hundred projections of
+        // the 8,791 the example has.
+        let small = explore(Steps::Reuse, 1 << 20);
+        assert_eq!(small.space.store.len(), run.space.store.len());
+        assert_eq!(small.verdict(None, true), run.verdict(None, true));
+    }
 }

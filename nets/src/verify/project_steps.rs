@@ -59,6 +59,12 @@ pub enum Steps {
 const TIMER: usize = 25;
 /// The group of a timer the step started (before groups are renumbered).
 const FRESH: u32 = u32::MAX;
+/// The most a worker's kept outcomes take: past it, states with a new
+/// projection are expanded by the player without keeping their outcomes
+/// (those kept are still reused). `examples/uav-flight-test` keeps 25 MB
+/// for its 55,326 states; a project whose states share few projections
+/// would otherwise keep several kilobytes per state.
+pub(super) const BUDGET: usize = 64 << 20;
 /// The most timers, or pending results, a key may hold to be reused (each
 /// kept one is a bit of a `u64`).
 const MOST: usize = 64;
@@ -234,8 +240,9 @@ struct Entry {
 }
 
 /// The outcomes kept by one worker.
-#[derive(Default)]
 pub(super) struct Kept {
+    /// The most they may take (see [`BUDGET`]).
+    budget: usize,
     table: HashTable<u32>,
     entries: Vec<Entry>,
     groups: Vec<Range<u32>>,
@@ -278,6 +285,22 @@ pub(super) struct Step<'a> {
 }
 
 impl Kept {
+    /// Nothing kept yet; at most `budget` bytes will be.
+    pub fn new(budget: usize) -> Kept {
+        Kept {
+            budget,
+            table: HashTable::new(),
+            entries: Vec::new(),
+            groups: Vec::new(),
+            inputs: Vec::new(),
+            outcomes: Vec::new(),
+            new_timers: Vec::new(),
+            new_pending: Vec::new(),
+            bytes: Vec::new(),
+            building: None,
+        }
+    }
+
     /// The entry of `projection` (of hash `h`), if kept.
     pub fn find(&self, projection: &[u8], h: u64) -> Option<u32> {
         self.table
@@ -303,8 +326,12 @@ impl Kept {
         &self.outcomes[r.start as usize..r.end as usize]
     }
 
-    /// Starts keeping the outcomes of a state with `pending` results.
+    /// Starts keeping the outcomes of a state with `pending` results,
+    /// unless the outcomes kept already take their budget.
     pub fn begin(&mut self, pending: usize) {
+        if self.size() >= self.budget {
+            return;
+        }
         self.building = Some(Building {
             marks: [
                 self.inputs.len(),
@@ -559,8 +586,42 @@ impl Kept {
         out[count_at..count_at + 4].copy_from_slice(&(kept.len() as u32).to_le_bytes());
     }
 
+    /// The bytes the kept outcomes take (their arenas' lengths).
+    fn size(&self) -> usize {
+        self.bytes.len()
+            + self.outcomes.len() * std::mem::size_of::<Outcome>()
+            + (self.inputs.len() + self.groups.len() + self.new_pending.len())
+                * std::mem::size_of::<Range<u32>>()
+            + self.new_timers.len() * std::mem::size_of::<NewTimer>()
+            + self.entries.len() * (std::mem::size_of::<Entry>() + 5)
+    }
+
     /// The hash [`Kept::find`] and [`Kept::finish`] take.
     pub fn hash(projection: &[u8]) -> u64 {
         hash(projection)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nothing_is_kept_past_the_budget() {
+        let mut kept = Kept::new(0);
+        kept.begin(0);
+        assert!(!kept.building());
+        let mut kept = Kept::new(BUDGET);
+        kept.begin(2);
+        assert!(kept.building());
+        // A group of inputs met twice apart is not kept.
+        kept.input(0);
+        kept.end_input();
+        kept.input(1);
+        kept.end_input();
+        kept.input(0);
+        kept.end_input();
+        assert!(!kept.building());
+        assert_eq!(kept.size(), 0, "what it began is dropped");
     }
 }
