@@ -1332,3 +1332,53 @@ fn nets_deleted_and_renamed_in_the_page_and_undone() {
     assert!(strings(&seen["nets"]).contains(&"OPERATIONS".to_owned()));
     assert_eq!(files(dir), original, "the example back, byte for byte");
 }
+
+/// The page draws once per edit, and once per change made by another
+/// client: page.json answered late (longer than the page's 500 ms poll),
+/// so that the poll asks `/version` while an edit's own refresh is on its
+/// way and sees the edit's version (the race that drew the page twice).
+/// Three places dragged (moves: no check, one version each), then a
+/// fourth moved through the routes as another tab would.
+#[test]
+fn the_page_draws_once_per_edit_and_once_per_change_from_outside() {
+    let Some(tools) = require() else { return };
+    let shots = browser::shots();
+    let tmp = Scratch::new("edit-draws");
+    let dir = tmp.path();
+    copy_example(dir);
+    let (editor, url) = edit(dir);
+
+    let seen = drive(&tools, "draws", &url, &shots);
+    drop(editor);
+    assert!(seen.get("failure").is_none(), "{}", seen["failure"]);
+    assert_eq!(seen["errors"], Json::Array(Vec::new()), "no page error");
+    let edits = seen["edits"].as_array().cloned().unwrap_or_default();
+    assert_eq!(edits.len(), 3, "{}", seen["edits"]);
+    for e in &edits {
+        assert_eq!(e["versions"], 1, "one version per move: {e}");
+        assert_eq!(e["draws"], 1, "one draw per edit: {}", seen["edits"]);
+    }
+    assert_eq!(seen["outside_answer"]["ok"], true, "{}", seen["outside_answer"]);
+    assert_eq!(seen["outside"]["versions"], 1, "{}", seen["outside"]);
+    assert_eq!(
+        seen["outside"]["draws"], 1,
+        "one draw for a change from outside: {}",
+        seen["outside"]
+    );
+    // Soon: a poll period and the late page.json, with room.
+    let ms = seen["outside_ms"].as_u64().unwrap_or(u64::MAX);
+    assert!(ms < 3000, "drawn {ms} ms after the change");
+    // The four moves on disk.
+    let layout = read(&dir.join("layout.toml"));
+    assert!(layout.contains("[INIT.places]"), "{layout}");
+    let at = &seen["outside"]["at"];
+    let fourth = seen["outside"]["place"].as_str().unwrap_or("?");
+    assert!(
+        layout.contains(&format!("{fourth} = [{}.0, {}.0]", at[0], at[1])),
+        "{layout}"
+    );
+    for e in &edits {
+        let place = e["place"].as_str().unwrap_or("?");
+        assert!(layout.contains(&format!("\n{place} = [")), "{layout}");
+    }
+}

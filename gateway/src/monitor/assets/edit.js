@@ -16,6 +16,7 @@ const ED = {
   checkKey: "",
   busy: false,
   renaming: null,       // {net, to}: a net's rename form, open
+  draws: 0,             // times the nets were drawn (the browser test counts them)
 };
 const RADIUS = 14, BAR_W = 8, BAR_H = 34;
 
@@ -288,6 +289,7 @@ function drawNet(n) {
 }
 
 function draw() {
+  ED.draws++;
   // A redraw (an edit, the check's verdict) keeps the rename field's focus.
   const typing = document.activeElement && document.activeElement.classList.contains("net-rename-to");
   $("project").textContent = page.name;
