@@ -1350,6 +1350,10 @@ fn the_page_draws_once_per_edit_and_once_per_change_from_outside() {
 
     let seen = drive(&tools, "draws", &url, &shots);
     drop(editor);
+    eprintln!(
+        "moves: {}; from outside: {}, drawn after {} ms",
+        seen["edits"], seen["outside"], seen["outside_ms"]
+    );
     assert!(seen.get("failure").is_none(), "{}", seen["failure"]);
     assert_eq!(seen["errors"], Json::Array(Vec::new()), "no page error");
     let edits = seen["edits"].as_array().cloned().unwrap_or_default();
@@ -1358,7 +1362,11 @@ fn the_page_draws_once_per_edit_and_once_per_change_from_outside() {
         assert_eq!(e["versions"], 1, "one version per move: {e}");
         assert_eq!(e["draws"], 1, "one draw per edit: {}", seen["edits"]);
     }
-    assert_eq!(seen["outside_answer"]["ok"], true, "{}", seen["outside_answer"]);
+    assert_eq!(
+        seen["outside_answer"]["ok"], true,
+        "{}",
+        seen["outside_answer"]
+    );
     assert_eq!(seen["outside"]["versions"], 1, "{}", seen["outside"]);
     assert_eq!(
         seen["outside"]["draws"], 1,

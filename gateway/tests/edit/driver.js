@@ -36,8 +36,9 @@ const CHECK_MS = 400000;
 
 // A spot of the net's drawing at least 45 units from every node.
 // A click on a place or transition of a drawn net. The page draws its
-// nets again after each edit and when its 500 ms poll sees a new version,
-// so the element found may be replaced before the click lands (Playwright
+// nets again after each edit and when its 500 ms poll sees a version it
+// did not make (the check's verdict, another client's change), so the
+// element found may be replaced before the click lands (Playwright
 // then says "not visible" or "detached" and dispatches nothing): found
 // again and clicked, a few times at most.
 async function clickDrawn(page, selector) {
