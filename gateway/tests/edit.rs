@@ -1338,7 +1338,9 @@ fn nets_deleted_and_renamed_in_the_page_and_undone() {
 /// so that the poll asks `/version` while an edit's own refresh is on its
 /// way and sees the edit's version (the race that drew the page twice).
 /// Three places dragged (moves: no check, one version each), then a
-/// fourth moved through the routes as another tab would.
+/// fourth moved through the routes as another tab would; last,
+/// layout.toml changed on disk by another program and reloaded from
+/// another tab: drawn, then the check's verdict, no version twice.
 #[test]
 fn the_page_draws_once_per_edit_and_once_per_change_from_outside() {
     let Some(tools) = require() else { return };
@@ -1348,11 +1350,17 @@ fn the_page_draws_once_per_edit_and_once_per_change_from_outside() {
     copy_example(dir);
     let (editor, url) = edit(dir);
 
-    let seen = drive(&tools, "draws", &url, &shots);
+    let seen = browser::drive_script(
+        &tools,
+        "gateway/tests/edit/driver.js",
+        &["draws", &url, &shots.to_string_lossy()],
+        &[("PROJECT_DIR", &dir.to_string_lossy())],
+        Duration::from_secs(600),
+    );
     drop(editor);
     eprintln!(
-        "moves: {}; from outside: {}, drawn after {} ms",
-        seen["edits"], seen["outside"], seen["outside_ms"]
+        "moves: {}; from outside: {}, drawn after {} ms; reloaded: {}, drawn after {} ms",
+        seen["edits"], seen["outside"], seen["outside_ms"], seen["reload"], seen["reload_ms"]
     );
     assert!(seen.get("failure").is_none(), "{}", seen["failure"]);
     assert_eq!(seen["errors"], Json::Array(Vec::new()), "no page error");
@@ -1376,10 +1384,23 @@ fn the_page_draws_once_per_edit_and_once_per_change_from_outside() {
     // Soon: a poll period and the late page.json, with room.
     let ms = seen["outside_ms"].as_u64().unwrap_or(u64::MAX);
     assert!(ms < 3000, "drawn {ms} ms after the change");
-    // The four moves on disk.
+    // Reloaded: the reload's version and the check's verdict, each
+    // drawn at most once (the verdict may come before the poll asks).
+    assert_eq!(
+        seen["reload_answer"]["ok"], true,
+        "{}",
+        seen["reload_answer"]
+    );
+    assert_eq!(seen["reload"]["versions"], 2, "{}", seen["reload"]);
+    let draws = seen["reload"]["draws"].as_u64().unwrap_or(0);
+    assert!((1..=2).contains(&draws), "{}", seen["reload"]);
+    assert_eq!(seen["reload"]["check"], "holds", "{}", seen["reload"]);
+    let ms = seen["reload_ms"].as_u64().unwrap_or(u64::MAX);
+    assert!(ms < 3000, "drawn {ms} ms after the reload");
+    // The moves on disk, the last one as the other program wrote it.
     let layout = read(&dir.join("layout.toml"));
     assert!(layout.contains("[INIT.places]"), "{layout}");
-    let at = &seen["outside"]["at"];
+    let at = &seen["reload"]["at"];
     let fourth = seen["outside"]["place"].as_str().unwrap_or("?");
     assert!(
         layout.contains(&format!("{fourth} = [{}.0, {}.0]", at[0], at[1])),

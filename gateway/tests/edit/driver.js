@@ -21,10 +21,13 @@
 //   draws: page.json answered late (longer than the page's poll period);
 //          three places of INIT dragged (a move: no check), then
 //          a fourth moved by another client of the editor (POST /edit, as
-//          another tab): the page's draws counted across each.
+//          another tab), then layout.toml changed on disk by another
+//          program (PROJECT_DIR) and reloaded from another tab: the
+//          page's draws counted across each.
 // Prints one JSON object with what it saw; the Rust test judges it. The
 // browser is closed on every path.
 "use strict";
+const fs = require("fs");
 const path = require("path");
 const { chromium } = require(process.env.PLAYWRIGHT_CORE || "playwright-core");
 
@@ -385,6 +388,27 @@ async function drawsPerEdit(page, seen) {
   seen.outside_ms = Date.now() - t0;
   const after = await settled(page);
   seen.outside = { place: fourth, at, draws: after.draws - before.draws, versions: after.version - before.version };
+  // layout.toml changed on disk by another program (the fourth place's
+  // line, as a text editor would), then Reload from another tab: drawn
+  // soon, then the new check's verdict.
+  const file = path.join(process.env.PROJECT_DIR || ".", "layout.toml");
+  const text = fs.readFileSync(file, "utf8");
+  const line = fourth + " = [" + at[0] + ".0, " + at[1] + ".0]";
+  if (!text.includes(line)) throw new Error("layout.toml has no line " + line + ":\n" + text);
+  const moved = [at[0] + 50, at[1] + 40];
+  fs.writeFileSync(file, text.replace(line, fourth + " = [" + moved[0] + ".0, " + moved[1] + ".0]"));
+  const t1 = Date.now();
+  const r2 = await fetch(new URL("reload", url), { method: "POST", headers: { "content-type": "application/json" }, body: "{}" });
+  seen.reload_answer = await r2.json();
+  await page.waitForFunction((a) => {
+    const c = document.querySelector(a.sel);
+    return !!c && Number(c.getAttribute("cx")) === a.at[0] && Number(c.getAttribute("cy")) === a.at[1];
+  }, { sel: circle(fourth), at: moved }, { timeout: 20000 });
+  seen.reload_ms = Date.now() - t1;
+  await page.waitForFunction(() => page.check.state === "done", null, { timeout: CHECK_MS });
+  const last = await settled(page);
+  seen.reload = { at: moved, draws: last.draws - after.draws, versions: last.version - after.version,
+    check: await page.$eval("#check-state", (e) => e.dataset.state) };
 }
 
 (async () => {
