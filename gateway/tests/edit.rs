@@ -1332,3 +1332,82 @@ fn nets_deleted_and_renamed_in_the_page_and_undone() {
     assert!(strings(&seen["nets"]).contains(&"OPERATIONS".to_owned()));
     assert_eq!(files(dir), original, "the example back, byte for byte");
 }
+
+/// The page draws once per edit, and once per change made by another
+/// client: page.json answered late (longer than the page's 500 ms poll),
+/// so that the poll asks `/version` while an edit's own refresh is on its
+/// way and sees the edit's version (the race that drew the page twice).
+/// Three places dragged (moves: no check, one version each), then a
+/// fourth moved through the routes as another tab would; last,
+/// layout.toml changed on disk by another program and reloaded from
+/// another tab: drawn, then the check's verdict, no version twice.
+#[test]
+fn the_page_draws_once_per_edit_and_once_per_change_from_outside() {
+    let Some(tools) = require() else { return };
+    let shots = browser::shots();
+    let tmp = Scratch::new("edit-draws");
+    let dir = tmp.path();
+    copy_example(dir);
+    let (editor, url) = edit(dir);
+
+    let seen = browser::drive_script(
+        &tools,
+        "gateway/tests/edit/driver.js",
+        &["draws", &url, &shots.to_string_lossy()],
+        &[("PROJECT_DIR", &dir.to_string_lossy())],
+        Duration::from_secs(600),
+    );
+    drop(editor);
+    eprintln!(
+        "moves: {}; from outside: {}, drawn after {} ms; reloaded: {}, drawn after {} ms",
+        seen["edits"], seen["outside"], seen["outside_ms"], seen["reload"], seen["reload_ms"]
+    );
+    assert!(seen.get("failure").is_none(), "{}", seen["failure"]);
+    assert_eq!(seen["errors"], Json::Array(Vec::new()), "no page error");
+    let edits = seen["edits"].as_array().cloned().unwrap_or_default();
+    assert_eq!(edits.len(), 3, "{}", seen["edits"]);
+    for e in &edits {
+        assert_eq!(e["versions"], 1, "one version per move: {e}");
+        assert_eq!(e["draws"], 1, "one draw per edit: {}", seen["edits"]);
+    }
+    assert_eq!(
+        seen["outside_answer"]["ok"], true,
+        "{}",
+        seen["outside_answer"]
+    );
+    assert_eq!(seen["outside"]["versions"], 1, "{}", seen["outside"]);
+    assert_eq!(
+        seen["outside"]["draws"], 1,
+        "one draw for a change from outside: {}",
+        seen["outside"]
+    );
+    // Soon: a poll period and the late page.json, with room.
+    let ms = seen["outside_ms"].as_u64().unwrap_or(u64::MAX);
+    assert!(ms < 3000, "drawn {ms} ms after the change");
+    // Reloaded: the reload's version and the check's verdict, each
+    // drawn at most once (the verdict may come before the poll asks).
+    assert_eq!(
+        seen["reload_answer"]["ok"], true,
+        "{}",
+        seen["reload_answer"]
+    );
+    assert_eq!(seen["reload"]["versions"], 2, "{}", seen["reload"]);
+    let draws = seen["reload"]["draws"].as_u64().unwrap_or(0);
+    assert!((1..=2).contains(&draws), "{}", seen["reload"]);
+    assert_eq!(seen["reload"]["check"], "holds", "{}", seen["reload"]);
+    let ms = seen["reload_ms"].as_u64().unwrap_or(u64::MAX);
+    assert!(ms < 3000, "drawn {ms} ms after the reload");
+    // The moves on disk, the last one as the other program wrote it.
+    let layout = read(&dir.join("layout.toml"));
+    assert!(layout.contains("[INIT.places]"), "{layout}");
+    let at = &seen["reload"]["at"];
+    let fourth = seen["outside"]["place"].as_str().unwrap_or("?");
+    assert!(
+        layout.contains(&format!("{fourth} = [{}.0, {}.0]", at[0], at[1])),
+        "{layout}"
+    );
+    for e in &edits {
+        let place = e["place"].as_str().unwrap_or("?");
+        assert!(layout.contains(&format!("\n{place} = [")), "{layout}");
+    }
+}

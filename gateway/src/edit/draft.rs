@@ -172,6 +172,15 @@ fn rename_in(array: &mut Array, from: &str, to: &str) -> bool {
     any
 }
 
+/// project.toml's `[[net]]` table number `entry`.
+fn net_table(project: &DocumentMut, entry: usize) -> Result<&Table, EditError> {
+    project
+        .get("net")
+        .and_then(Item::as_array_of_tables)
+        .and_then(|a| a.get(entry))
+        .ok_or_else(|| shape(nets::load::PROJECT_FILE, "no such [[net]] table"))
+}
+
 /// project.toml's `[[net]]` table number `entry`, to change.
 fn net_table_mut(project: &mut DocumentMut, entry: usize) -> Result<&mut Table, EditError> {
     project
@@ -653,13 +662,8 @@ impl Draft {
     /// the loader says why).
     pub fn net_active(&self, n: usize) -> bool {
         self.net_entry(n)
+            .and_then(|i| net_table(&self.project, i))
             .ok()
-            .and_then(|i| {
-                self.project
-                    .get("net")
-                    .and_then(Item::as_array_of_tables)
-                    .and_then(|a| a.get(i))
-            })
             .and_then(|t| t.get("active"))
             .and_then(Item::as_bool)
             .unwrap_or(false)

@@ -18,9 +18,16 @@
 //          added, renamed SPARE, its delete cancelled then confirmed;
 //          the check's verdict.
 //   netundo: the Undo button until there is nothing to undo.
+//   draws: page.json answered late (longer than the page's poll period);
+//          three places of INIT dragged (a move: no check), then
+//          a fourth moved by another client of the editor (POST /edit, as
+//          another tab), then layout.toml changed on disk by another
+//          program (PROJECT_DIR) and reloaded from another tab: the
+//          page's draws counted across each.
 // Prints one JSON object with what it saw; the Rust test judges it. The
 // browser is closed on every path.
 "use strict";
+const fs = require("fs");
 const path = require("path");
 const { chromium } = require(process.env.PLAYWRIGHT_CORE || "playwright-core");
 
@@ -32,8 +39,9 @@ const CHECK_MS = 400000;
 
 // A spot of the net's drawing at least 45 units from every node.
 // A click on a place or transition of a drawn net. The page draws its
-// nets again after each edit and when its 500 ms poll sees a new version,
-// so the element found may be replaced before the click lands (Playwright
+// nets again after each edit and when its 500 ms poll sees a version it
+// did not make (the check's verdict, another client's change), so the
+// element found may be replaced before the click lands (Playwright
 // then says "not visible" or "detached" and dispatches nothing): found
 // again and clicked, a few times at most.
 async function clickDrawn(page, selector) {
@@ -317,6 +325,92 @@ async function netUndo(page, seen) {
   seen.nets = await page.$$eval("#nets .net", (els) => els.map((e) => e.dataset.net));
 }
 
+// The page settled: it has drawn the editor's version, and neither has
+// changed for longer than a poll period and a late page.json together.
+async function settled(page) {
+  let last = null;
+  for (let i = 0; i < 60; i++) {
+    const s = await page.evaluate(async () => ({ server: (await (await fetch("version")).json()).version,
+      version: ED.version, draws: ED.draws }));
+    if (last && s.server === s.version && s.version === last.version && s.draws === last.draws) return s;
+    last = s;
+    await page.waitForTimeout(1500);
+  }
+  throw new Error("the page never settled: " + JSON.stringify(last));
+}
+
+const LATE_MS = 700;
+
+async function drawsPerEdit(page, seen) {
+  // page.json answered 700 ms late: an edit's own refresh is still on its
+  // way when the 500 ms poll next asks /version and finds the edit's
+  // version (the race that drew the page twice, made certain).
+  await page.route("**/page.json", async (route) => {
+    await new Promise((r) => setTimeout(r, LATE_MS));
+    await route.continue();
+  });
+  const net = "INIT";
+  const circle = (name) => "#p-" + net + "-" + name + " circle";
+  await page.goto(url);
+  await page.waitForSelector(circle("start"), { timeout: 30000 });
+  await verdict(page);
+  let before = await settled(page);
+  seen.edits = [];
+  await page.click("#tool-select");
+  const places = await page.evaluate((net) => page.nets.find((n) => n.name === net).places.map((p) => p.name), net);
+  for (const name of places.slice(0, 3)) {
+    await page.$eval(circle(name), (c) => c.scrollIntoView({ block: "center" }));
+    const c = await page.$eval(circle(name), (c) => { const r = c.getBoundingClientRect(); return { x: r.x + r.width / 2, y: r.y + r.height / 2 }; });
+    await page.mouse.move(c.x, c.y);
+    await page.mouse.down();
+    for (let i = 1; i <= 4; i++) await page.mouse.move(c.x + 5 * i, c.y + 5 * i);
+    await page.mouse.up();
+    await page.waitForFunction((v) => ED.version > v, before.version, { timeout: 20000 });
+    const after = await settled(page);
+    seen.edits.push({ place: name, draws: after.draws - before.draws, versions: after.version - before.version });
+    before = after;
+  }
+  // Another client moves the fourth place (the layout file changes on
+  // disk, not through this page): drawn once, soon.
+  const fourth = places[3];
+  const at = await page.evaluate((a) => {
+    const p = page.nets.find((n) => n.name === a.net).places.find((x) => x.name === a.name);
+    return [Math.round(p.x) + 30, Math.round(p.y) + 20];
+  }, { net, name: fourth });
+  const t0 = Date.now();
+  const r = await fetch(new URL("edit", url), { method: "POST", headers: { "content-type": "application/json" },
+    body: JSON.stringify({ op: "move", net, kind: "place", name: fourth, x: at[0], y: at[1] }) });
+  seen.outside_answer = await r.json();
+  await page.waitForFunction((a) => {
+    const c = document.querySelector(a.sel);
+    return !!c && Number(c.getAttribute("cx")) === a.at[0] && Number(c.getAttribute("cy")) === a.at[1];
+  }, { sel: circle(fourth), at }, { timeout: 20000 });
+  seen.outside_ms = Date.now() - t0;
+  const after = await settled(page);
+  seen.outside = { place: fourth, at, draws: after.draws - before.draws, versions: after.version - before.version };
+  // layout.toml changed on disk by another program (the fourth place's
+  // line, as a text editor would), then Reload from another tab: drawn
+  // soon, then the new check's verdict.
+  const file = path.join(process.env.PROJECT_DIR || ".", "layout.toml");
+  const text = fs.readFileSync(file, "utf8");
+  const line = fourth + " = [" + at[0] + ".0, " + at[1] + ".0]";
+  if (!text.includes(line)) throw new Error("layout.toml has no line " + line + ":\n" + text);
+  const moved = [at[0] + 50, at[1] + 40];
+  fs.writeFileSync(file, text.replace(line, fourth + " = [" + moved[0] + ".0, " + moved[1] + ".0]"));
+  const t1 = Date.now();
+  const r2 = await fetch(new URL("reload", url), { method: "POST", headers: { "content-type": "application/json" }, body: "{}" });
+  seen.reload_answer = await r2.json();
+  await page.waitForFunction((a) => {
+    const c = document.querySelector(a.sel);
+    return !!c && Number(c.getAttribute("cx")) === a.at[0] && Number(c.getAttribute("cy")) === a.at[1];
+  }, { sel: circle(fourth), at: moved }, { timeout: 20000 });
+  seen.reload_ms = Date.now() - t1;
+  await page.waitForFunction(() => page.check.state === "done", null, { timeout: CHECK_MS });
+  const last = await settled(page);
+  seen.reload = { at: moved, draws: last.draws - after.draws, versions: last.version - after.version,
+    check: await page.$eval("#check-state", (e) => e.dataset.state) };
+}
+
 (async () => {
   const seen = { errors: [] };
   const browser = await chromium.launch({
@@ -327,7 +421,7 @@ async function netUndo(page, seen) {
   try {
     const page = await browser.newPage({ viewport: { width: 1600, height: 1000 } });
     page.on("pageerror", (e) => seen.errors.push(String(e)));
-    const modes = { add, break: breakIt, net: addNet, undo: undoIt, netops: netOps, netundo: netUndo };
+    const modes = { add, break: breakIt, net: addNet, undo: undoIt, netops: netOps, netundo: netUndo, draws: drawsPerEdit };
     await modes[mode](page, seen);
   } catch (e) {
     seen.failure = String(e && e.stack || e);

@@ -1,8 +1,9 @@
 // Petrel editor (`petrel edit`): the monitor's page in editing mode. Loaded
 // by monitor.js when /page.json says mode "edit"; draws each net from the
 // draft (positions from the server: stored or laid out), sends each edit
-// to POST /edit, and redraws from /page.json when /version changes (an
-// edit, a reload, the background check's verdict).
+// to POST /edit and redraws once it is answered, and redraws from
+// /page.json when /version changes otherwise (the background check's
+// verdict, another client's edit or reload).
 // Plain JavaScript, no library, no build step.
 "use strict";
 
@@ -16,6 +17,9 @@ const ED = {
   checkKey: "",
   busy: false,
   renaming: null,       // {net, to}: a net's rename form, open
+  draws: 0,             // times the nets were drawn (the browser test counts them)
+  posts: 0,             // requests of this page in flight: each draws what it did
+  loads: 0,             // page.json fetches started (the last one's wins)
 };
 const RADIUS = 14, BAR_W = 8, BAR_H = 34;
 
@@ -122,17 +126,27 @@ function say(text, conflict) {
 
 // ---- talking to the server ----------------------------------------------
 
-async function post(path, body) {
-  let r;
+// A request of the page's own, then one redraw (also after a refusal: a
+// node dragged goes back). `answered(a)`, if given, runs before it. While
+// it is in flight the poll draws nothing: the version it would see is
+// this request's.
+async function post(path, body, answered) {
+  ED.posts++;
   try {
-    r = await fetch(path, { method: "POST", headers: { "content-type": "application/json" }, body: JSON.stringify(body) });
-  } catch (e) { say("the editor is not answering: " + e); return false; }
-  const a = await r.json().catch(() => ({ ok: false, error: "HTTP " + r.status }));
-  if (a.ok) say(null); else say(a.error, a.conflict);
-  await refresh();
-  return a;
+    let r;
+    try {
+      r = await fetch(path, { method: "POST", headers: { "content-type": "application/json" }, body: JSON.stringify(body) });
+    } catch (e) { say("the editor is not answering: " + e); return false; }
+    const a = await r.json().catch(() => ({ ok: false, error: "HTTP " + r.status }));
+    if (a.ok) say(null); else say(a.error, a.conflict);
+    if (answered) answered(a);
+    await refresh(true);
+    return a;
+  } finally {
+    ED.posts--;
+  }
 }
-function edit(op) { return post("edit", op); }
+function edit(op, answered) { return post("edit", op, answered); }
 
 // The session's last edit undone: its files back to their bytes before it.
 async function undo() {
@@ -161,11 +175,8 @@ async function addNet() {
 // named after it (the server's rules; a refusal says why, the form stays).
 async function renameNet(net) {
   const to = ED.renaming ? ED.renaming.to.trim() : "";
-  const a = await edit({ op: "rename_net", name: net, to });
-  if (a.ok) {
-    ED.renaming = null;
-    draw();
-  }
+  // Closed before the edit's redraw (one draw, without the form).
+  await edit({ op: "rename_net", name: net, to }, (a) => { if (a.ok) ED.renaming = null; });
 }
 
 // A net deleted, once confirmed: its [[net]] table and its file (Undo
@@ -183,8 +194,14 @@ async function setActive(net, active) {
   await edit({ op: "set_active", name: net, active });
 }
 
-async function refresh() {
+// The page drawn again from /page.json: always for the page's own request
+// (`own`); for the poll's, not when a request of the page's is in flight
+// or has fetched since (it draws what it did, a newer page), nor for the
+// version drawn already, nor under a node being dragged.
+async function refresh(own) {
+  const load = ++ED.loads;
   const p = await (await fetch("page.json")).json();
+  if (!own && (ED.posts || load !== ED.loads || p.version === ED.version || ED.drag)) return;
   page = p;
   ED.version = p.version;
   draw();
@@ -193,7 +210,7 @@ async function refresh() {
 async function poll() {
   try {
     const v = await (await fetch("version")).json();
-    if (v.version !== ED.version && !ED.drag) await refresh();
+    if (v.version !== ED.version && !ED.drag && !ED.posts) await refresh(false);
   } catch (e) { /* the editor stopped: keep trying */ }
   setTimeout(poll, 500);
 }
@@ -288,6 +305,7 @@ function drawNet(n) {
 }
 
 function draw() {
+  ED.draws++;
   // A redraw (an edit, the check's verdict) keeps the rename field's focus.
   const typing = document.activeElement && document.activeElement.classList.contains("net-rename-to");
   $("project").textContent = page.name;
