@@ -9,8 +9,10 @@
 //!   bitset engine for 1-safe nets, a counting engine for the others, both
 //!   parallel); [`reference`](mod@reference): a plain explorer the tests compare it with.
 //! - [`project`]: the project-level verifier (the player's own semantics;
-//!   its states kept as bytes by `project_states`, searched breadth-first
-//!   on several threads by `levels`); [`alone`]: each net explored alone, the
+//!   its states kept as bytes by `project_states`, a step's outcome reused
+//!   from key to key by `project_steps` for states that differ only in
+//!   orders the player cannot read, searched breadth-first on several
+//!   threads by `levels`); [`alone`]: each net explored alone, the
 //!   single-procedure level; [`export`]: Petrel nets as PNML. Teams are
 //!   reduced by `symmetry` (one representative per orbit of
 //!   interchangeable vehicles) and `stubborn` (partial-order reduction).
