@@ -183,8 +183,8 @@ fn main() {
         }
         return;
     }
-    if std::env::var("PETREL_PROJECT_BENCH_ONLY").is_ok() {
-        let (r, wall, cpu) = timed(&project, 1);
+    if let Ok(only) = std::env::var("PETREL_PROJECT_BENCH_ONLY") {
+        let (r, wall, cpu) = timed(&project, only.parse().unwrap_or(1));
         println!(
             "{} states, {} steps, wall {wall:.2} s, CPU {cpu:.2} s",
             r.project.states, r.project.edges

@@ -54,6 +54,10 @@ pub enum Steps {
     Compare,
 }
 
+/// The tag of a label number that names a label of the outcomes shared
+/// between workers, not one of the worker's own.
+pub(super) const SHARED: u32 = 1 << 31;
+
 /// A timer entry's size in a key: `u32 net, u32 timer, u64 duration, u32
 /// rank, u8 catastrophic, u32 group`.
 const TIMER: usize = 25;
@@ -216,6 +220,9 @@ pub(super) struct Outcome {
     /// The step fired a transition or faulted (an edge even if the key
     /// stays the same).
     pub flagged: bool,
+    /// The earlier outcomes of the same input whose labels end alike (see
+    /// [`Kept::edges`]), by position.
+    alike: u64,
     /// The marking, active nets and lockouts after it (in `bytes`).
     head: Range<u32>,
     /// The key's timers left, by position.
@@ -327,9 +334,10 @@ impl Kept {
     }
 
     /// Starts keeping the outcomes of a state with `pending` results,
-    /// unless the outcomes kept already take their budget.
-    pub fn begin(&mut self, pending: usize) {
-        if self.size() >= self.budget {
+    /// unless the outcomes kept already, with `elsewhere` bytes kept
+    /// elsewhere, take the budget.
+    pub fn begin(&mut self, pending: usize, elsewhere: usize) {
+        if self.size() + elsewhere >= self.budget {
             return;
         }
         self.building = Some(Building {
@@ -401,18 +409,29 @@ impl Kept {
 
     /// Keeps the outcome of one run of the player, checked: the outcome
     /// applied to the key it ran from must give the key the player's state
-    /// was encoded to, or the state's outcomes are not kept.
+    /// was encoded to, or the state's outcomes are not kept. `alike` says
+    /// whether two labels end alike.
     pub fn capture(
         &mut self,
         codec: &Codec,
         s: &Step<'_>,
         label: u32,
         flagged: bool,
+        alike: &dyn Fn(u32, u32) -> bool,
         scratch: &mut Vec<u8>,
     ) {
-        if self.building.is_none() {
+        let Some(b) = &self.building else {
             return;
+        };
+        let earlier = &self.outcomes[b.input_start as usize..];
+        if earlier.len() >= MOST {
+            return self.drop_building();
         }
+        let alike = earlier
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| alike(o.label, label))
+            .fold(0u64, |bits, (k, _)| bits | 1 << k);
         let head_len = codec.head_len(s.next);
         let head = self.push_bytes(&s.next[..head_len]);
         let mut timers_kept = 0u64;
@@ -464,6 +483,7 @@ impl Kept {
         let outcome = Outcome {
             label,
             flagged,
+            alike,
             head,
             timers_kept,
             new_timers,
@@ -586,8 +606,126 @@ impl Kept {
         out[count_at..count_at + 4].copy_from_slice(&(kept.len() as u32).to_le_bytes());
     }
 
+    /// The edges of the state `key` (read into `parts`) by the outcomes of
+    /// entry `e`, in the order the player's runs would give them, to
+    /// `push` (label, successor's key). Of the outcomes of one input that
+    /// end alike (same label but for the oracle's answers, same successor),
+    /// only the first is an edge. `next`, `pushed` and `keys` are buffers.
+    #[allow(clippy::too_many_arguments)]
+    pub fn edges(
+        &self,
+        e: u32,
+        key: &[u8],
+        parts: &Parts,
+        next: &mut Vec<u8>,
+        pushed: &mut Vec<(usize, Range<usize>)>,
+        keys: &mut Vec<u8>,
+        push: &mut dyn FnMut(u32, &[u8]),
+    ) {
+        for j in 0..=parts.pending() {
+            // The events and timers, then the results in the key's order.
+            let group = if j == 0 { 0 } else { 1 + parts.canon(j - 1) };
+            for input in self.group(e, group) {
+                pushed.clear();
+                keys.clear();
+                for (k, o) in self.outcomes(input).iter().enumerate() {
+                    self.apply(o, key, parts, next);
+                    if !o.flagged && next[..] == *key {
+                        continue; // nothing happened: not an edge
+                    }
+                    if pushed
+                        .iter()
+                        .any(|(i, range)| o.alike & 1 << i != 0 && keys[range.clone()] == next[..])
+                    {
+                        continue;
+                    }
+                    let start = keys.len();
+                    keys.extend_from_slice(next);
+                    pushed.push((k, start..keys.len()));
+                    push(o.label, next);
+                }
+            }
+        }
+    }
+
+    /// Moves the entries of `other` here (those whose projection is not
+    /// here yet, while within the budget), their labels renamed by
+    /// `relabel`; `other` is left empty.
+    pub fn absorb(&mut self, other: &mut Kept, relabel: &mut dyn FnMut(u32) -> u32) {
+        for entry in &other.entries {
+            let p = &entry.projection;
+            let projection = &other.bytes[p.start as usize..p.end as usize];
+            if self.size() >= self.budget || self.find(projection, entry.hash).is_some() {
+                continue;
+            }
+            let groups = self.groups.len() as u32;
+            for g in &other.groups[entry.groups.start as usize..entry.groups.end as usize] {
+                let inputs = self.inputs.len() as u32;
+                for r in &other.inputs[g.start as usize..g.end as usize] {
+                    let outcomes = self.outcomes.len() as u32;
+                    for o in other.outcomes(r) {
+                        let head = self
+                            .push_bytes(&other.bytes[o.head.start as usize..o.head.end as usize]);
+                        let start = self.new_timers.len() as u32;
+                        self.new_timers.extend_from_slice(
+                            &other.new_timers
+                                [o.new_timers.start as usize..o.new_timers.end as usize],
+                        );
+                        let new_timers = start..self.new_timers.len() as u32;
+                        let start = self.new_pending.len() as u32;
+                        for b in &other.new_pending
+                            [o.new_pending.start as usize..o.new_pending.end as usize]
+                        {
+                            let b = self.push_bytes(&other.bytes[b.start as usize..b.end as usize]);
+                            self.new_pending.push(b);
+                        }
+                        let new_pending = start..self.new_pending.len() as u32;
+                        self.outcomes.push(Outcome {
+                            label: relabel(o.label),
+                            head,
+                            new_timers,
+                            new_pending,
+                            ..o.clone()
+                        });
+                    }
+                    self.inputs.push(outcomes..self.outcomes.len() as u32);
+                }
+                // (An empty group stays empty.)
+                self.groups.push(if g.start == g.end {
+                    0..0
+                } else {
+                    inputs..self.inputs.len() as u32
+                });
+            }
+            let projection = self.push_bytes(projection);
+            let e = self.entries.len() as u32;
+            self.entries.push(Entry {
+                hash: entry.hash,
+                projection,
+                groups: groups..self.groups.len() as u32,
+            });
+            let entries = &self.entries;
+            self.table
+                .insert_unique(entry.hash, e, |&i| entries[i as usize].hash);
+        }
+        other.clear();
+    }
+
+    /// Keeps nothing (the buffers stay).
+    fn clear(&mut self) {
+        self.table.clear();
+        self.entries.clear();
+        self.groups.clear();
+        self.inputs.clear();
+        self.outcomes.clear();
+        self.new_timers.clear();
+        self.new_pending.clear();
+        self.bytes.clear();
+        self.building = None;
+    }
+
     /// The bytes the kept outcomes take (their arenas' lengths).
-    fn size(&self) -> usize {
+    pub fn size(&self) -> usize {
         self.bytes.len()
             + self.outcomes.len() * std::mem::size_of::<Outcome>()
             + (self.inputs.len() + self.groups.len() + self.new_pending.len())
@@ -609,10 +747,12 @@ mod tests {
     #[test]
     fn nothing_is_kept_past_the_budget() {
         let mut kept = Kept::new(0);
-        kept.begin(0);
+        kept.begin(0, 0);
         assert!(!kept.building());
         let mut kept = Kept::new(BUDGET);
-        kept.begin(2);
+        kept.begin(2, BUDGET);
+        assert!(!kept.building(), "what is kept elsewhere counts");
+        kept.begin(2, 0);
         assert!(kept.building());
         // A group of inputs met twice apart is not kept.
         kept.input(0);
