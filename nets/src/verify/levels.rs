@@ -34,8 +34,6 @@ pub(super) trait Explore: Sync {
     /// The search's number for a worker's label `local` (called in merge
     /// order, so that labels are numbered as one thread would).
     fn label(&self, worker: &mut Self::Worker, local: u32) -> u32;
-    /// Called after each level is merged, with every worker.
-    fn level_done(&self, _workers: &mut [Self::Worker]) {}
 }
 
 /// A target already stored, or a new key's place in [`Chunk::bytes`].
@@ -244,7 +242,6 @@ pub(super) fn explore<E: Explore>(
                     progress(expanded);
                 },
             );
-            space.level_done(&mut workers);
             level = (from as u32..out.store.len() as u32).collect();
         }
         if proviso != Proviso::Components || !out.complete {
@@ -271,7 +268,6 @@ pub(super) fn explore<E: Explore>(
                 reduced[node as usize] = r;
             },
         );
-        space.level_done(&mut workers);
         replace_edges(&mut out, &again, replaced);
         level = (from as u32..out.store.len() as u32).collect();
     }

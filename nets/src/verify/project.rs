@@ -51,7 +51,7 @@ use super::levels;
 pub use super::levels::Proviso;
 use super::project_states::{Abs, Codec, Scratch};
 pub use super::project_steps::Steps;
-use super::project_steps::{Kept, Parts, Step, SHARED};
+use super::project_steps::{Kept, Parts, Step};
 use super::stubborn::{Class, Stubborn};
 use super::symmetry::Symmetry;
 use crate::event::Event;
@@ -722,18 +722,8 @@ struct Explorer {
     /// With [`Steps::Compare`]: the states compared, and the first
     /// difference found.
     compared: Mutex<(usize, Option<String>)>,
-    /// The most the kept outcomes take.
+    /// The most each worker's kept outcomes take.
     budget: usize,
-    /// The outcomes kept in the levels before (see [`Shared`]).
-    shared: Mutex<Arc<Shared>>,
-}
-
-/// The outcomes the workers kept in the levels before, with the labels
-/// they name (`SHARED | number`), read by every worker during a level.
-struct Shared {
-    kept: Kept,
-    labels: Vec<(Vec<u8>, Label)>,
-    index: FastMap<Vec<u8>, u32>,
 }
 
 #[derive(Default)]
@@ -777,10 +767,6 @@ struct Worker {
     /// The outcomes kept for reuse, the state's key read, its projection
     /// and a buffer.
     kept: Kept,
-    /// The outcomes kept in the levels before, and the search's number of
-    /// each of their labels once known.
-    shared: Option<Arc<Shared>>,
-    shared_global: Vec<u32>,
     /// The edges of the input being reused: outcome and target key.
     reused: Vec<(usize, std::ops::Range<usize>)>,
     parts: Parts,
@@ -835,8 +821,6 @@ impl levels::Explore for Explorer {
             canon: Vec::new(),
             image: Vec::new(),
             kept: Kept::new(self.budget),
-            shared: None,
-            shared_global: Vec::new(),
             reused: Vec::new(),
             parts: Parts::default(),
             projection: Vec::new(),
@@ -850,21 +834,11 @@ impl levels::Explore for Explorer {
     }
 
     fn label(&self, worker: &mut Worker, local: u32) -> u32 {
-        let (key, label) = if local & SHARED != 0 {
-            let s = (local & !SHARED) as usize;
-            match (worker.shared_global.get(s), worker.shared.as_ref()) {
-                (Some(&g), _) if g != u32::MAX => return g,
-                (Some(_), Some(shared)) => &shared.labels[s],
-                // Never: a shared label comes from the worker's snapshot.
-                _ => return u32::MAX,
-            }
-        } else {
-            let g = worker.global[local as usize];
-            if g != u32::MAX {
-                return g;
-            }
-            &worker.labels[local as usize]
-        };
+        let g = worker.global[local as usize];
+        if g != u32::MAX {
+            return g;
+        }
+        let (key, label) = &worker.labels[local as usize];
         let mut table = self.labels.lock().unwrap_or_else(|e| e.into_inner());
         let g = match table.index.get(key) {
             Some(&g) => g,
@@ -875,49 +849,8 @@ impl levels::Explore for Explorer {
                 g
             }
         };
-        if local & SHARED != 0 {
-            worker.shared_global[(local & !SHARED) as usize] = g;
-        } else {
-            worker.global[local as usize] = g;
-        }
+        worker.global[local as usize] = g;
         g
-    }
-
-    /// Moves the outcomes each worker kept in the level into those shared
-    /// with every worker for the next ones.
-    fn level_done(&self, workers: &mut [Worker]) {
-        if self.steps == Steps::Run {
-            return;
-        }
-        let mut guard = self.shared.lock().unwrap_or_else(|e| e.into_inner());
-        for w in workers.iter_mut() {
-            w.shared = None;
-        }
-        // Every worker's snapshot is dropped: the only one left.
-        let Some(shared) = Arc::get_mut(&mut guard) else {
-            return;
-        };
-        for w in workers.iter_mut() {
-            let Shared {
-                kept,
-                labels,
-                index,
-            } = shared;
-            let own = &w.labels;
-            kept.absorb(&mut w.kept, &mut |local| {
-                let (key, label) = &own[local as usize];
-                let s = *index.entry(key.clone()).or_insert_with(|| {
-                    labels.push((key.clone(), label.clone()));
-                    labels.len() as u32 - 1
-                });
-                s | SHARED
-            });
-        }
-        let n = shared.labels.len();
-        for w in workers.iter_mut() {
-            w.shared = Some(guard.clone());
-            w.shared_global.resize(n, u32::MAX);
-        }
     }
 }
 
@@ -970,11 +903,6 @@ impl Explorer {
             steps,
             compared: Mutex::new((0, None)),
             budget: super::project_steps::BUDGET,
-            shared: Mutex::new(Arc::new(Shared {
-                kept: Kept::new(super::project_steps::BUDGET),
-                labels: Vec::new(),
-                index: FastMap::default(),
-            })),
         };
         // What is known of every result the nets' actions can await.
         let project = explorer.project.clone();
@@ -1291,28 +1219,16 @@ impl Explorer {
         let h = if reuse {
             super::project_steps::projection(key, &w.parts, &mut w.projection);
             let h = Kept::hash(&w.projection);
-            // Kept by the levels before (every worker's), or by this
-            // worker in this level.
-            kept = match w
-                .shared
-                .as_ref()
-                .and_then(|s| s.kept.find(&w.projection, h))
-            {
-                Some(e) => Some((true, e)),
-                None => w.kept.find(&w.projection, h).map(|e| (false, e)),
-            };
+            kept = w.kept.find(&w.projection, h);
             match kept {
-                Some((shared, e)) if self.steps == Steps::Reuse => {
-                    Self::reuse(w, shared, key, e, &mut |label, next| {
+                Some(e) if self.steps == Steps::Reuse => {
+                    Self::reuse(w, key, e, &mut |label, next| {
                         out.push(label, next, 0);
                     });
                     return;
                 }
                 Some(_) => {}
-                None => {
-                    let elsewhere = w.shared.as_ref().map_or(0, |s| s.kept.size());
-                    w.kept.begin(w.parts.pending(), elsewhere);
-                }
+                None => w.kept.begin(w.parts.pending()),
             }
             h
         } else {
@@ -1354,8 +1270,8 @@ impl Explorer {
         for input in &inputs {
             self.input_successors(w, key, &abs, input, out);
         }
-        if let Some((shared, e)) = kept {
-            self.compare(w, shared, key, e);
+        if let Some(e) = kept {
+            self.compare(w, key, e);
         }
         if reuse {
             w.kept.finish(&w.projection, h);
@@ -1363,41 +1279,29 @@ impl Explorer {
     }
 
     /// The edges of the state `key` (read into `w.parts`) by the outcomes
-    /// kept in entry `e` (of the outcomes `shared` between workers, or of
-    /// the worker's own), in the order the player's runs would give them.
-    fn reuse(w: &mut Worker, shared: bool, key: &[u8], e: u32, push: &mut dyn FnMut(u32, &[u8])) {
+    /// kept in entry `e`, in the order the player's runs would give them.
+    fn reuse(w: &mut Worker, key: &[u8], e: u32, push: &mut dyn FnMut(u32, &[u8])) {
         let Worker {
             kept,
-            shared: snapshot,
             parts,
             next,
             reused,
             this_input_keys,
             ..
         } = w;
-        let kept = match (shared, snapshot.as_ref()) {
-            (true, Some(s)) => &s.kept,
-            _ => &*kept,
-        };
         kept.edges(e, key, parts, next, reused, this_input_keys, push);
     }
 
     /// Compares the edges the player's runs gave (`w.log`) with what
     /// reusing entry `e` gives ([`Steps::Compare`]).
-    fn compare(&self, w: &mut Worker, shared: bool, key: &[u8], e: u32) {
+    fn compare(&self, w: &mut Worker, key: &[u8], e: u32) {
         let mut reused: Vec<(u32, Vec<u8>)> = Vec::new();
-        Self::reuse(w, shared, key, e, &mut |label, next| {
+        Self::reuse(w, key, e, &mut |label, next| {
             reused.push((label, next.to_vec()))
         });
         let mut compared = self.compared.lock().unwrap_or_else(|e| e.into_inner());
         compared.0 += 1;
-        // Labels compared by their keys (a shared one has its own number).
-        let label = |l: u32| -> &(Vec<u8>, Label) {
-            match (l & SHARED != 0, w.shared.as_ref()) {
-                (true, Some(s)) => &s.labels[(l & !SHARED) as usize],
-                _ => &w.labels[l as usize],
-            }
-        };
+        let label = |l: u32| &w.labels[l as usize];
         let same = reused.len() == w.log.len()
             && reused
                 .iter()

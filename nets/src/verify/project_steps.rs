@@ -54,10 +54,6 @@ pub enum Steps {
     Compare,
 }
 
-/// The tag of a label number that names a label of the outcomes shared
-/// between workers, not one of the worker's own.
-pub(super) const SHARED: u32 = 1 << 31;
-
 /// A timer entry's size in a key: `u32 net, u32 timer, u64 duration, u32
 /// rank, u8 catastrophic, u32 group`.
 const TIMER: usize = 25;
@@ -334,10 +330,9 @@ impl Kept {
     }
 
     /// Starts keeping the outcomes of a state with `pending` results,
-    /// unless the outcomes kept already, with `elsewhere` bytes kept
-    /// elsewhere, take the budget.
-    pub fn begin(&mut self, pending: usize, elsewhere: usize) {
-        if self.size() + elsewhere >= self.budget {
+    /// unless the outcomes kept already take the budget.
+    pub fn begin(&mut self, pending: usize) {
+        if self.size() >= self.budget {
             return;
         }
         self.building = Some(Building {
@@ -648,84 +643,8 @@ impl Kept {
         }
     }
 
-    /// Moves the entries of `other` here (those whose projection is not
-    /// here yet, while within the budget), their labels renamed by
-    /// `relabel`; `other` is left empty.
-    pub fn absorb(&mut self, other: &mut Kept, relabel: &mut dyn FnMut(u32) -> u32) {
-        for entry in &other.entries {
-            let p = &entry.projection;
-            let projection = &other.bytes[p.start as usize..p.end as usize];
-            if self.size() >= self.budget || self.find(projection, entry.hash).is_some() {
-                continue;
-            }
-            let groups = self.groups.len() as u32;
-            for g in &other.groups[entry.groups.start as usize..entry.groups.end as usize] {
-                let inputs = self.inputs.len() as u32;
-                for r in &other.inputs[g.start as usize..g.end as usize] {
-                    let outcomes = self.outcomes.len() as u32;
-                    for o in other.outcomes(r) {
-                        let head = self
-                            .push_bytes(&other.bytes[o.head.start as usize..o.head.end as usize]);
-                        let start = self.new_timers.len() as u32;
-                        self.new_timers.extend_from_slice(
-                            &other.new_timers
-                                [o.new_timers.start as usize..o.new_timers.end as usize],
-                        );
-                        let new_timers = start..self.new_timers.len() as u32;
-                        let start = self.new_pending.len() as u32;
-                        for b in &other.new_pending
-                            [o.new_pending.start as usize..o.new_pending.end as usize]
-                        {
-                            let b = self.push_bytes(&other.bytes[b.start as usize..b.end as usize]);
-                            self.new_pending.push(b);
-                        }
-                        let new_pending = start..self.new_pending.len() as u32;
-                        self.outcomes.push(Outcome {
-                            label: relabel(o.label),
-                            head,
-                            new_timers,
-                            new_pending,
-                            ..o.clone()
-                        });
-                    }
-                    self.inputs.push(outcomes..self.outcomes.len() as u32);
-                }
-                // (An empty group stays empty.)
-                self.groups.push(if g.start == g.end {
-                    0..0
-                } else {
-                    inputs..self.inputs.len() as u32
-                });
-            }
-            let projection = self.push_bytes(projection);
-            let e = self.entries.len() as u32;
-            self.entries.push(Entry {
-                hash: entry.hash,
-                projection,
-                groups: groups..self.groups.len() as u32,
-            });
-            let entries = &self.entries;
-            self.table
-                .insert_unique(entry.hash, e, |&i| entries[i as usize].hash);
-        }
-        other.clear();
-    }
-
-    /// Keeps nothing (the buffers stay).
-    fn clear(&mut self) {
-        self.table.clear();
-        self.entries.clear();
-        self.groups.clear();
-        self.inputs.clear();
-        self.outcomes.clear();
-        self.new_timers.clear();
-        self.new_pending.clear();
-        self.bytes.clear();
-        self.building = None;
-    }
-
     /// The bytes the kept outcomes take (their arenas' lengths).
-    pub fn size(&self) -> usize {
+    fn size(&self) -> usize {
         self.bytes.len()
             + self.outcomes.len() * std::mem::size_of::<Outcome>()
             + (self.inputs.len() + self.groups.len() + self.new_pending.len())
@@ -747,12 +666,10 @@ mod tests {
     #[test]
     fn nothing_is_kept_past_the_budget() {
         let mut kept = Kept::new(0);
-        kept.begin(0, 0);
+        kept.begin(0);
         assert!(!kept.building());
         let mut kept = Kept::new(BUDGET);
-        kept.begin(2, BUDGET);
-        assert!(!kept.building(), "what is kept elsewhere counts");
-        kept.begin(2, 0);
+        kept.begin(2);
         assert!(kept.building());
         // A group of inputs met twice apart is not kept.
         kept.input(0);
