@@ -1349,9 +1349,7 @@ impl Explorer {
             let concrete = &*concrete;
             if w.kept.building() {
                 w.kept.input(match input {
-                    Input::Result { id, .. } => {
-                        1 + w.parts.canon(usize::try_from(id - 1).unwrap_or(usize::MAX))
-                    }
+                    Input::Result { id, .. } => 1 + w.parts.canon(id.wrapping_sub(1) as usize),
                     _ => 0,
                 });
             }

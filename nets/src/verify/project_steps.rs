@@ -157,9 +157,10 @@ impl Parts {
         self.pending.len()
     }
 
-    /// The projection's place of the key's pending result number `j`.
+    /// The projection's place of the key's pending result number `j`
+    /// (past every place if the key has no such result).
     pub fn canon(&self, j: usize) -> usize {
-        usize::from(self.canon[j])
+        self.canon.get(j).map_or(MOST, |&c| usize::from(c))
     }
 }
 
@@ -359,8 +360,7 @@ impl Kept {
         let start = self.outcomes.len() as u32;
         if let Some(b) = &mut self.building {
             if g >= b.groups.len() {
-                self.building = None;
-                return;
+                return self.drop_building();
             }
             b.group = g;
             b.input_start = start;
@@ -671,6 +671,11 @@ mod tests {
         let mut kept = Kept::new(BUDGET);
         kept.begin(2);
         assert!(kept.building());
+        // An input of a group the state does not have: nothing kept.
+        kept.input(3);
+        assert!(!kept.building());
+        assert_eq!(kept.size(), 0);
+        kept.begin(2);
         // A group of inputs met twice apart is not kept.
         kept.input(0);
         kept.end_input();
