@@ -51,7 +51,7 @@ use super::levels;
 pub use super::levels::Proviso;
 use super::project_states::{Abs, Codec, Scratch};
 pub use super::project_steps::Steps;
-use super::project_steps::{Kept, Parts, Step};
+use super::project_steps::{Capture, Entry, Kept, Parts, Step};
 use super::stubborn::{Class, Stubborn};
 use super::symmetry::Symmetry;
 use crate::event::Event;
@@ -409,8 +409,7 @@ impl Walker {
             let mut next: Vec<Vec<u8>> = Vec::new();
             for key in &frontier {
                 for (local, target) in levels::expand_one(&self.explorer, &mut self.worker, key) {
-                    if self.worker.labels[local as usize].1.text == *step && !next.contains(&target)
-                    {
+                    if self.explorer.label_text(local) == *step && !next.contains(&target) {
                         next.push(target);
                     }
                 }
@@ -722,8 +721,10 @@ struct Explorer {
     /// With [`Steps::Compare`]: the states compared, and the first
     /// difference found.
     compared: Mutex<(usize, Option<String>)>,
-    /// The most each worker's kept outcomes take.
-    budget: usize,
+    /// The steps' outcomes kept for reuse, for every worker.
+    kept: Kept,
+    /// Every label the workers made, by the number they give it.
+    registry: Mutex<Registry>,
 }
 
 #[derive(Default)]
@@ -732,12 +733,23 @@ struct LabelTable {
     index: HashMap<Vec<u8>, u32>,
 }
 
-/// One worker's buffers and labels (see [`levels::Explore`]).
-struct Worker {
-    /// Labels by the worker's own number, with their keys.
+/// Labels numbered as the workers make them (so that an outcome kept by
+/// one worker names its label for all), with their keys; the search
+/// numbers them again in merge order ([`LabelTable`]).
+#[derive(Default)]
+struct Registry {
     labels: Vec<(Vec<u8>, Label)>,
     index: FastMap<Vec<u8>, u32>,
-    /// The search's number of each, once known.
+}
+
+/// One worker's buffers and labels (see [`levels::Explore`]).
+struct Worker {
+    /// The labels the worker made, by their number in the registry, and
+    /// the numbers of their keys.
+    labels: Vec<Option<Label>>,
+    index: FastMap<Vec<u8>, u32>,
+    /// The search's number of each label (by its registry number), once
+    /// known.
     global: Vec<u32>,
     scratch: Scratch,
     next: Vec<u8>,
@@ -766,7 +778,7 @@ struct Worker {
     image: Vec<u8>,
     /// The outcomes kept for reuse, the state's key read, its projection
     /// and a buffer.
-    kept: Kept,
+    capture: Capture,
     /// The edges of the input being reused: outcome and target key.
     reused: Vec<(usize, std::ops::Range<usize>)>,
     parts: Parts,
@@ -820,7 +832,7 @@ impl levels::Explore for Explorer {
             used: Vec::new(),
             canon: Vec::new(),
             image: Vec::new(),
-            kept: Kept::new(self.budget),
+            capture: Capture::default(),
             reused: Vec::new(),
             parts: Parts::default(),
             projection: Vec::new(),
@@ -834,21 +846,32 @@ impl levels::Explore for Explorer {
     }
 
     fn label(&self, worker: &mut Worker, local: u32) -> u32 {
-        let g = worker.global[local as usize];
-        if g != u32::MAX {
-            return g;
+        if let Some(&g) = worker.global.get(local as usize) {
+            if g != u32::MAX {
+                return g;
+            }
         }
-        let (key, label) = &worker.labels[local as usize];
+        let (key, label) = {
+            let registry = self.registry.lock().unwrap_or_else(|e| e.into_inner());
+            match registry.labels.get(local as usize) {
+                Some(entry) => entry.clone(),
+                // Never: the workers' labels are all registered.
+                None => return u32::MAX,
+            }
+        };
         let mut table = self.labels.lock().unwrap_or_else(|e| e.into_inner());
-        let g = match table.index.get(key) {
+        let g = match table.index.get(&key) {
             Some(&g) => g,
             None => {
                 let g = table.labels.len() as u32;
-                table.labels.push(label.clone());
-                table.index.insert(key.clone(), g);
+                table.labels.push(label);
+                table.index.insert(key, g);
                 g
             }
         };
+        if worker.global.len() <= local as usize {
+            worker.global.resize(local as usize + 1, u32::MAX);
+        }
         worker.global[local as usize] = g;
         g
     }
@@ -902,7 +925,8 @@ impl Explorer {
             broken: Mutex::new(None),
             steps,
             compared: Mutex::new((0, None)),
-            budget: super::project_steps::BUDGET,
+            kept: Kept::new(super::project_steps::BUDGET),
+            registry: Mutex::new(Registry::default()),
         };
         // What is known of every result the nets' actions can await.
         let project = explorer.project.clone();
@@ -1213,22 +1237,23 @@ impl Explorer {
         }
         // A state whose projection was expanded before: its outcomes again,
         // without the player.
-        let mut kept = None;
+        let mut found = None;
         w.log.clear();
         let reuse = self.steps != Steps::Run && w.parts.read(&self.codec, key);
         let h = if reuse {
             super::project_steps::projection(key, &w.parts, &mut w.projection);
             let h = Kept::hash(&w.projection);
-            kept = w.kept.find(&w.projection, h);
-            match kept {
-                Some(e) if self.steps == Steps::Reuse => {
-                    Self::reuse(w, key, e, &mut |label, next| {
+            found = self.kept.find(&w.projection, h);
+            match &found {
+                Some(entry) if self.steps == Steps::Reuse => {
+                    Self::reuse(w, entry, key, &mut |label, next| {
                         out.push(label, next, 0);
                     });
                     return;
                 }
                 Some(_) => {}
-                None => w.kept.begin(w.parts.pending()),
+                None if self.kept.full() => {}
+                None => w.capture.begin(w.parts.pending()),
             }
             h
         } else {
@@ -1270,49 +1295,67 @@ impl Explorer {
         for input in &inputs {
             self.input_successors(w, key, &abs, input, out);
         }
-        if let Some(e) = kept {
-            self.compare(w, key, e);
+        if let Some(entry) = found {
+            self.compare(w, &entry, key);
         }
-        if reuse {
-            w.kept.finish(&w.projection, h);
+        if let Some(entry) = w.capture.finish() {
+            self.kept.insert(&w.projection, h, entry);
         }
     }
 
+    /// The registry's number of the label of key `key` (made by `make` if
+    /// no worker made it before), and the label.
+    fn register(&self, key: &[u8], make: impl FnOnce() -> Label) -> (u32, Label) {
+        let mut registry = self.registry.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(&l) = registry.index.get(key) {
+            return (l, registry.labels[l as usize].1.clone());
+        }
+        let label = make();
+        let l = registry.labels.len() as u32;
+        registry.labels.push((key.to_vec(), label.clone()));
+        registry.index.insert(key.to_vec(), l);
+        (l, label)
+    }
+
+    /// The text of the label numbered `l` in the registry.
+    fn label_text(&self, l: u32) -> String {
+        let registry = self.registry.lock().unwrap_or_else(|e| e.into_inner());
+        registry
+            .labels
+            .get(l as usize)
+            .map_or_else(String::new, |(_, label)| label.text.clone())
+    }
+
     /// The edges of the state `key` (read into `w.parts`) by the outcomes
-    /// kept in entry `e`, in the order the player's runs would give them.
-    fn reuse(w: &mut Worker, key: &[u8], e: u32, push: &mut dyn FnMut(u32, &[u8])) {
-        let Worker {
-            kept,
-            parts,
-            next,
-            reused,
-            this_input_keys,
-            ..
-        } = w;
-        kept.edges(e, key, parts, next, reused, this_input_keys, push);
+    /// kept in `entry`, in the order the player's runs would give them.
+    fn reuse(w: &mut Worker, entry: &Entry, key: &[u8], push: &mut dyn FnMut(u32, &[u8])) {
+        entry.edges(
+            key,
+            &w.parts,
+            &mut w.next,
+            &mut w.reused,
+            &mut w.this_input_keys,
+            push,
+        );
     }
 
     /// Compares the edges the player's runs gave (`w.log`) with what
     /// reusing entry `e` gives ([`Steps::Compare`]).
-    fn compare(&self, w: &mut Worker, key: &[u8], e: u32) {
+    fn compare(&self, w: &mut Worker, entry: &Entry, key: &[u8]) {
         let mut reused: Vec<(u32, Vec<u8>)> = Vec::new();
-        Self::reuse(w, key, e, &mut |label, next| {
+        Self::reuse(w, entry, key, &mut |label, next| {
             reused.push((label, next.to_vec()))
         });
         let mut compared = self.compared.lock().unwrap_or_else(|e| e.into_inner());
         compared.0 += 1;
-        let label = |l: u32| &w.labels[l as usize];
-        let same = reused.len() == w.log.len()
-            && reused
-                .iter()
-                .zip(&w.log)
-                .all(|((a, k), (b, l))| label(*a).0 == label(*b).0 && k == l);
+        // (Labels are the registry's numbers: equal when their keys are.)
+        let same = reused == w.log;
         if !same && compared.1.is_none() {
             let text = |edges: &[(u32, Vec<u8>)]| -> Vec<String> {
                 edges
                     .iter()
                     .map(|(l, k)| {
-                        format!("{} → {:?}", label(*l).1.text, self.codec.decode(k).state)
+                        format!("{} → {:?}", self.label_text(*l), self.codec.decode(k).state)
                     })
                     .collect()
             };
@@ -1347,8 +1390,8 @@ impl Explorer {
             w.concrete_current = true;
             w.pending_number += u64::from(pending_changed);
             let concrete = &*concrete;
-            if w.kept.building() {
-                w.kept.input(match input {
+            if w.capture.active() {
+                w.capture.input(match input {
                     Input::Result { id, .. } => 1 + w.parts.canon(id.wrapping_sub(1) as usize),
                     _ => 0,
                 });
@@ -1366,7 +1409,7 @@ impl Explorer {
                 let Some(player) =
                     self.step(&mut w.player, concrete, w.pending_number, input, answers)
                 else {
-                    w.kept.abandon();
+                    w.capture.abandon();
                     continue;
                 };
                 // Read where the player recorded them (its next restore
@@ -1422,7 +1465,7 @@ impl Explorer {
                     }
                 }
                 let flagged = fires || unsafe_by.is_some() || livelock.is_some();
-                if !flagged && w.next == key && !w.kept.building() {
+                if !flagged && w.next == key && !w.capture.active() {
                     continue; // nothing happened: not an edge
                 }
                 // The step's label, known by what its text says.
@@ -1430,20 +1473,23 @@ impl Explorer {
                 let local = match w.index.get(&w.label_key) {
                     Some(&l) => l,
                     None => {
-                        let l = w.labels.len() as u32;
-                        let label = Label::new(
-                            self.describe(abs, input, questions, used, effects),
-                            fired_of(effects),
-                            unsafe_by,
-                            livelock,
-                        );
-                        w.labels.push((w.label_key.clone(), label));
+                        let (l, label) = self.register(&w.label_key, || {
+                            Label::new(
+                                self.describe(abs, input, questions, used, effects),
+                                fired_of(effects),
+                                unsafe_by,
+                                livelock,
+                            )
+                        });
+                        if w.labels.len() <= l as usize {
+                            w.labels.resize(l as usize + 1, None);
+                        }
+                        w.labels[l as usize] = Some(label);
                         w.index.insert(w.label_key.clone(), l);
-                        w.global.push(u32::MAX);
                         l
                     }
                 };
-                if w.kept.building() {
+                if w.capture.active() {
                     let step = Step {
                         key,
                         parts: &w.parts,
@@ -1455,19 +1501,25 @@ impl Explorer {
                         relevant: &|p| self.relevant(p),
                     };
                     let labels = &w.labels;
-                    let alike = |a: u32, b: u32| labels[a as usize].1.alike(&labels[b as usize].1);
-                    w.kept
-                        .capture(&self.codec, &step, local, flagged, &alike, &mut w.entry);
+                    let alike = |a: u32, b: u32| match (&labels[a as usize], &labels[b as usize]) {
+                        (Some(a), Some(b)) => a.alike(b),
+                        _ => false,
+                    };
+                    w.capture
+                        .outcome(&self.codec, &step, local, flagged, &alike, &mut w.entry);
                     if !flagged && w.next == key {
                         continue; // nothing happened: not an edge
                     }
                 }
                 // Answers that end alike (an event lacking `lat` or `lon`
                 // is rejected the same way) make one edge: the first.
-                let label = &w.labels[local as usize].1;
+                let labels = &w.labels;
                 if w.this_input.iter().any(|(l, range)| {
                     w.this_input_keys[range.clone()] == w.next[..]
-                        && w.labels[*l as usize].1.alike(label)
+                        && match (&labels[*l as usize], &labels[local as usize]) {
+                            (Some(a), Some(b)) => a.alike(b),
+                            _ => false,
+                        }
                 }) {
                     continue;
                 }
@@ -1490,9 +1542,7 @@ impl Explorer {
                 }
             }
         }
-        if w.kept.building() {
-            w.kept.end_input();
-        }
+        w.capture.end_input();
         known || !pushed
     }
 
@@ -2585,7 +2635,7 @@ mod tests {
         let project = flight_test();
         let explore = |steps, budget| {
             let mut explorer = Explorer::new(project.clone(), false, false, steps);
-            explorer.budget = budget;
+            explorer.kept = Kept::new(budget);
             explorer.run(MAX_STATES, 1, Proviso::default(), None)
         };
         let run = explore(Steps::Run, 0);

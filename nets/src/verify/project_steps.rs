@@ -21,16 +21,21 @@
 //! terms: the marking, active nets and lockouts whole; which of the key's
 //! timers (by position, in net and timer order) and pending results (by
 //! their place in the projection) are left; the timers and results the
-//! step started, in order. [`Outcome::apply`] writes the successor's key
-//! from another key with the same projection, exactly as
+//! step started, in order. An [`Entry`] holds the outcomes of every input
+//! of a projection; [`Entry::edges`] writes the successors' keys from
+//! another key with the same projection, exactly as
 //! [`Codec::encode`](super::project_states::Codec::encode) would have
-//! written it after running the player. The explorer checks every
-//! outcome it keeps against the key the player's run gave, and a test
-//! mode ([`Steps::Compare`]) runs the player for every reused outcome too.
+//! written them after running the player. A worker builds an entry with a
+//! [`Capture`], checking every outcome against the key the player's run
+//! gave; [`Kept`] keeps the entries once for every worker. A test mode
+//! ([`Steps::Compare`]) runs the player for every reused outcome too.
 //!
-//! Pure data and bytes: no player runs here.
+//! Pure data and bytes: no player runs here (the locks of [`Kept`] are
+//! held only to find or add an entry).
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 
 use hashbrown::HashTable;
 use smallvec::SmallVec;
@@ -59,11 +64,11 @@ pub enum Steps {
 const TIMER: usize = 25;
 /// The group of a timer the step started (before groups are renumbered).
 const FRESH: u32 = u32::MAX;
-/// The most a worker's kept outcomes take: past it, states with a new
-/// projection are expanded by the player without keeping their outcomes
-/// (those kept are still reused). `examples/uav-flight-test` keeps 25 MB
-/// for its 55,326 states; a project whose states share few projections
-/// would otherwise keep several kilobytes per state.
+/// The most the kept outcomes take: past it, states with a new projection
+/// are expanded by the player without keeping their outcomes (those kept
+/// are still reused). `examples/uav-flight-test` keeps 25 MB for its 55,326
+/// states; a project whose states share few projections would otherwise
+/// keep several kilobytes per state.
 pub(super) const BUDGET: usize = 64 << 20;
 /// The most timers, or pending results, a key may hold to be reused (each
 /// kept one is a bit of a `u64`).
@@ -212,13 +217,14 @@ struct NewTimer {
 /// a key, in the projection's terms.
 #[derive(Clone)]
 pub(super) struct Outcome {
-    /// The step's label (the worker's own number).
+    /// The step's label (its number in the explorer's registry, the same
+    /// for every worker).
     pub label: u32,
     /// The step fired a transition or faulted (an edge even if the key
     /// stays the same).
     pub flagged: bool,
     /// The earlier outcomes of the same input whose labels end alike (see
-    /// [`Kept::edges`]), by position.
+    /// [`Entry::edges`]), by position.
     alike: u64,
     /// The marking, active nets and lockouts after it (in `bytes`).
     head: Range<u32>,
@@ -233,264 +239,31 @@ pub(super) struct Outcome {
     new_pending: Range<u32>,
 }
 
-/// An expanded projection: for each group of inputs (the events and
-/// timers, then each pending result by its place in the projection), the
-/// outcomes of its inputs.
-struct Entry {
-    hash: u64,
-    projection: Range<u32>,
-    /// Into `groups`: one range of `inputs` per group.
-    groups: Range<u32>,
-}
-
-/// The outcomes kept by one worker.
-pub(super) struct Kept {
-    /// The most they may take (see [`BUDGET`]).
-    budget: usize,
-    table: HashTable<u32>,
-    entries: Vec<Entry>,
+/// The outcomes of the inputs of one projection, in groups: the events and
+/// timers, then each pending result by its place in the projection. Kept
+/// once for every worker.
+#[derive(Default)]
+pub(super) struct Entry {
+    /// Per group, its inputs (a range of `inputs`).
     groups: Vec<Range<u32>>,
-    /// Per input, its outcomes' range.
+    /// Per input, its outcomes (a range of `outcomes`).
     inputs: Vec<Range<u32>>,
     outcomes: Vec<Outcome>,
     new_timers: Vec<NewTimer>,
     new_pending: Vec<Range<u32>>,
     bytes: Vec<u8>,
-    /// The entry being built (see [`Kept::begin`]).
-    building: Option<Building>,
 }
 
-/// Where the arenas stood when an entry began (to drop it if it cannot be
-/// kept), and its groups' ranges so far.
-struct Building {
-    marks: [usize; 5],
-    groups: Vec<Range<u32>>,
-    /// The group of the input being captured.
-    group: usize,
-    input_start: u32,
-}
-
-/// What [`Kept::capture`] needs of the step.
-pub(super) struct Step<'a> {
-    /// The key the step ran from, and its parts.
-    pub key: &'a [u8],
-    pub parts: &'a Parts,
-    /// The player's state after it.
-    pub after: &'a State,
-    /// The timers numbered from `seq_before` on, and the results from
-    /// `next_id` on, are the step's.
-    pub seq_before: u64,
-    pub next_id: u64,
-    /// The instant the step ran at.
-    pub step_time: Micros,
-    /// The successor's key, as encoded.
-    pub next: &'a [u8],
-    pub relevant: &'a dyn Fn(&Pending) -> bool,
-}
-
-impl Kept {
-    /// Nothing kept yet; at most `budget` bytes will be.
-    pub fn new(budget: usize) -> Kept {
-        Kept {
-            budget,
-            table: HashTable::new(),
-            entries: Vec::new(),
-            groups: Vec::new(),
-            inputs: Vec::new(),
-            outcomes: Vec::new(),
-            new_timers: Vec::new(),
-            new_pending: Vec::new(),
-            bytes: Vec::new(),
-            building: None,
-        }
+impl Entry {
+    /// The inputs of group `g`, as ranges of outcomes.
+    fn group(&self, g: usize) -> &[Range<u32>] {
+        self.groups
+            .get(g)
+            .map_or(&[], |r| &self.inputs[r.start as usize..r.end as usize])
     }
 
-    /// The entry of `projection` (of hash `h`), if kept.
-    pub fn find(&self, projection: &[u8], h: u64) -> Option<u32> {
-        self.table
-            .find(h, |&e| {
-                let r = &self.entries[e as usize].projection;
-                &self.bytes[r.start as usize..r.end as usize] == projection
-            })
-            .copied()
-    }
-
-    /// The inputs of group `g` of entry `e`, as ranges of outcomes.
-    pub fn group(&self, e: u32, g: usize) -> &[Range<u32>] {
-        let groups = &self.entries[e as usize].groups;
-        match self.groups.get(groups.start as usize + g) {
-            Some(r) if groups.start as usize + g < groups.end as usize => {
-                &self.inputs[r.start as usize..r.end as usize]
-            }
-            _ => &[],
-        }
-    }
-
-    pub fn outcomes(&self, r: &Range<u32>) -> &[Outcome] {
+    fn outcomes(&self, r: &Range<u32>) -> &[Outcome] {
         &self.outcomes[r.start as usize..r.end as usize]
-    }
-
-    /// Starts keeping the outcomes of a state with `pending` results,
-    /// unless the outcomes kept already take the budget.
-    pub fn begin(&mut self, pending: usize) {
-        if self.size() >= self.budget {
-            return;
-        }
-        self.building = Some(Building {
-            marks: [
-                self.inputs.len(),
-                self.outcomes.len(),
-                self.new_timers.len(),
-                self.new_pending.len(),
-                self.bytes.len(),
-            ],
-            groups: vec![0..0; pending + 1],
-            group: 0,
-            input_start: self.outcomes.len() as u32,
-        });
-    }
-
-    /// Whether a state's outcomes are being kept.
-    pub fn building(&self) -> bool {
-        self.building.is_some()
-    }
-
-    /// The next outcomes captured belong to an input of group `g`.
-    pub fn input(&mut self, g: usize) {
-        let start = self.outcomes.len() as u32;
-        if let Some(b) = &mut self.building {
-            if g >= b.groups.len() {
-                return self.drop_building();
-            }
-            b.group = g;
-            b.input_start = start;
-        }
-    }
-
-    /// Ends the input begun by [`Kept::input`].
-    pub fn end_input(&mut self) {
-        let end = self.outcomes.len() as u32;
-        let i = self.inputs.len() as u32;
-        if let Some(b) = &mut self.building {
-            let r = &mut b.groups[b.group];
-            if r.start == r.end {
-                *r = i..i;
-            }
-            if r.end != i {
-                // Inputs of one group are listed together: anything else
-                // is not kept.
-                self.drop_building();
-                return;
-            }
-            r.end = i + 1;
-            self.inputs.push(b.input_start..end);
-        }
-    }
-
-    /// Drops the state's outcomes kept so far (they cannot all be kept).
-    pub fn abandon(&mut self) {
-        self.drop_building();
-    }
-
-    fn drop_building(&mut self) {
-        if let Some(b) = self.building.take() {
-            self.inputs.truncate(b.marks[0]);
-            self.outcomes.truncate(b.marks[1]);
-            self.new_timers.truncate(b.marks[2]);
-            self.new_pending.truncate(b.marks[3]);
-            self.bytes.truncate(b.marks[4]);
-        }
-    }
-
-    /// Keeps the outcome of one run of the player, checked: the outcome
-    /// applied to the key it ran from must give the key the player's state
-    /// was encoded to, or the state's outcomes are not kept. `alike` says
-    /// whether two labels end alike.
-    pub fn capture(
-        &mut self,
-        codec: &Codec,
-        s: &Step<'_>,
-        label: u32,
-        flagged: bool,
-        alike: &dyn Fn(u32, u32) -> bool,
-        scratch: &mut Vec<u8>,
-    ) {
-        let Some(b) = &self.building else {
-            return;
-        };
-        let earlier = &self.outcomes[b.input_start as usize..];
-        if earlier.len() >= MOST {
-            return self.drop_building();
-        }
-        let alike = earlier
-            .iter()
-            .enumerate()
-            .filter(|(_, o)| alike(o.label, label))
-            .fold(0u64, |bits, (k, _)| bits | 1 << k);
-        let head_len = codec.head_len(s.next);
-        let head = self.push_bytes(&s.next[..head_len]);
-        let mut timers_kept = 0u64;
-        let mut fresh: SmallVec<[(u64, NewTimer); 4]> = SmallVec::new();
-        for t in &s.after.timers {
-            if t.seq < s.seq_before {
-                match s
-                    .parts
-                    .timers
-                    .iter()
-                    .position(|o| o.net as usize == t.net && o.timer as usize == t.timer)
-                {
-                    Some(i) => timers_kept |= 1 << i,
-                    None => return self.drop_building(),
-                }
-            } else {
-                fresh.push((
-                    t.seq,
-                    NewTimer {
-                        net: t.net as u32,
-                        timer: t.timer as u32,
-                        duration: t.deadline.saturating_sub(s.step_time.min(t.deadline)),
-                        catastrophic: t.catastrophic,
-                    },
-                ));
-            }
-        }
-        fresh.sort_by_key(|(seq, _)| *seq);
-        let start = self.new_timers.len() as u32;
-        self.new_timers.extend(fresh.iter().map(|(_, t)| *t));
-        let new_timers = start..self.new_timers.len() as u32;
-        let mut pending_kept = 0u64;
-        let start = self.new_pending.len() as u32;
-        for (&id, p) in &s.after.pending {
-            if id < s.next_id {
-                let j = id.wrapping_sub(1) as usize;
-                if j >= s.parts.pending() {
-                    return self.drop_building();
-                }
-                pending_kept |= 1 << s.parts.canon(j);
-            } else if (s.relevant)(p) {
-                scratch.clear();
-                codec.write_pending(p, scratch);
-                let r = self.push_bytes(&scratch[..]);
-                self.new_pending.push(r);
-            }
-        }
-        let new_pending = start..self.new_pending.len() as u32;
-        let outcome = Outcome {
-            label,
-            flagged,
-            alike,
-            head,
-            timers_kept,
-            new_timers,
-            pending_kept,
-            new_pending,
-        };
-        scratch.clear();
-        self.apply(&outcome, s.key, s.parts, scratch);
-        if scratch[..] != *s.next {
-            return self.drop_building();
-        }
-        self.outcomes.push(outcome);
     }
 
     fn push_bytes(&mut self, b: &[u8]) -> Range<u32> {
@@ -499,23 +272,54 @@ impl Kept {
         start..self.bytes.len() as u32
     }
 
-    /// Keeps the state's outcomes under its `projection` (of hash `h`).
-    pub fn finish(&mut self, projection: &[u8], h: u64) {
-        let Some(b) = self.building.take() else {
-            return;
-        };
-        let p = self.push_bytes(projection);
-        let start = self.groups.len() as u32;
-        self.groups.extend(b.groups);
-        let e = self.entries.len() as u32;
-        self.entries.push(Entry {
-            hash: h,
-            projection: p,
-            groups: start..self.groups.len() as u32,
-        });
-        let entries = &self.entries;
-        self.table
-            .insert_unique(h, e, |&i| entries[i as usize].hash);
+    /// The bytes it takes, about.
+    fn size(&self) -> usize {
+        self.bytes.len()
+            + self.outcomes.len() * std::mem::size_of::<Outcome>()
+            + (self.inputs.len() + self.groups.len() + self.new_pending.len())
+                * std::mem::size_of::<Range<u32>>()
+            + self.new_timers.len() * std::mem::size_of::<NewTimer>()
+            + std::mem::size_of::<Entry>()
+    }
+
+    /// The edges of the state `key` (read into `parts`) by these outcomes,
+    /// in the order the player's runs would give them, to `push` (label,
+    /// successor's key). Of the outcomes of one input that end alike (same
+    /// label but for the oracle's answers, same successor), only the first
+    /// is an edge. `next`, `pushed` and `keys` are buffers.
+    pub fn edges(
+        &self,
+        key: &[u8],
+        parts: &Parts,
+        next: &mut Vec<u8>,
+        pushed: &mut Vec<(usize, Range<usize>)>,
+        keys: &mut Vec<u8>,
+        push: &mut dyn FnMut(u32, &[u8]),
+    ) {
+        for j in 0..=parts.pending() {
+            // The events and timers, then the results in the key's order.
+            let group = if j == 0 { 0 } else { 1 + parts.canon(j - 1) };
+            for input in self.group(group) {
+                pushed.clear();
+                keys.clear();
+                for (k, o) in self.outcomes(input).iter().enumerate() {
+                    self.apply(o, key, parts, next);
+                    if !o.flagged && next[..] == *key {
+                        continue; // nothing happened: not an edge
+                    }
+                    if pushed
+                        .iter()
+                        .any(|(i, range)| o.alike & 1 << i != 0 && keys[range.clone()] == next[..])
+                    {
+                        continue;
+                    }
+                    let start = keys.len();
+                    keys.extend_from_slice(next);
+                    pushed.push((k, start..keys.len()));
+                    push(o.label, next);
+                }
+            }
+        }
     }
 
     /// Writes into `out` the key `outcome` makes of `key` (read into
@@ -600,60 +404,272 @@ impl Kept {
         }
         out[count_at..count_at + 4].copy_from_slice(&(kept.len() as u32).to_le_bytes());
     }
+}
 
-    /// The edges of the state `key` (read into `parts`) by the outcomes of
-    /// entry `e`, in the order the player's runs would give them, to
-    /// `push` (label, successor's key). Of the outcomes of one input that
-    /// end alike (same label but for the oracle's answers, same successor),
-    /// only the first is an edge. `next`, `pushed` and `keys` are buffers.
-    #[allow(clippy::too_many_arguments)]
-    pub fn edges(
-        &self,
-        e: u32,
-        key: &[u8],
-        parts: &Parts,
-        next: &mut Vec<u8>,
-        pushed: &mut Vec<(usize, Range<usize>)>,
-        keys: &mut Vec<u8>,
-        push: &mut dyn FnMut(u32, &[u8]),
+/// The entry of one state being captured by a worker (see
+/// [`Capture::begin`]).
+#[derive(Default)]
+pub(super) struct Capture {
+    entry: Entry,
+    /// A state's outcomes are being captured.
+    active: bool,
+    /// The group of the input being captured, and its first outcome.
+    group: usize,
+    input_start: u32,
+}
+
+/// What [`Capture::outcome`] needs of the step.
+pub(super) struct Step<'a> {
+    /// The key the step ran from, and its parts.
+    pub key: &'a [u8],
+    pub parts: &'a Parts,
+    /// The player's state after it.
+    pub after: &'a State,
+    /// The timers numbered from `seq_before` on, and the results from
+    /// `next_id` on, are the step's.
+    pub seq_before: u64,
+    pub next_id: u64,
+    /// The instant the step ran at.
+    pub step_time: Micros,
+    /// The successor's key, as encoded.
+    pub next: &'a [u8],
+    pub relevant: &'a dyn Fn(&Pending) -> bool,
+}
+
+impl Capture {
+    /// Starts capturing the outcomes of a state with `pending` results.
+    pub fn begin(&mut self, pending: usize) {
+        let e = &mut self.entry;
+        e.inputs.clear();
+        e.outcomes.clear();
+        e.new_timers.clear();
+        e.new_pending.clear();
+        e.bytes.clear();
+        e.groups.clear();
+        e.groups.resize(pending + 1, 0..0);
+        self.active = true;
+        self.group = 0;
+        self.input_start = 0;
+    }
+
+    /// Whether a state's outcomes are being captured.
+    pub fn active(&self) -> bool {
+        self.active
+    }
+
+    /// The next outcomes captured belong to an input of group `g`.
+    pub fn input(&mut self, g: usize) {
+        if !self.active {
+            return;
+        }
+        if g >= self.entry.groups.len() {
+            self.active = false;
+            return;
+        }
+        self.group = g;
+        self.input_start = self.entry.outcomes.len() as u32;
+    }
+
+    /// Ends the input begun by [`Capture::input`].
+    pub fn end_input(&mut self) {
+        if !self.active {
+            return;
+        }
+        let e = &mut self.entry;
+        let end = e.outcomes.len() as u32;
+        let i = e.inputs.len() as u32;
+        let r = &mut e.groups[self.group];
+        if r.start == r.end {
+            *r = i..i;
+        }
+        if r.end != i {
+            // Inputs of one group are listed together: anything else is
+            // not kept.
+            self.active = false;
+            return;
+        }
+        r.end = i + 1;
+        e.inputs.push(self.input_start..end);
+    }
+
+    /// Gives up the state's outcomes (they cannot all be kept).
+    pub fn abandon(&mut self) {
+        self.active = false;
+    }
+
+    /// Captures the outcome of one run of the player, checked: the outcome
+    /// applied to the key it ran from must give the key the player's state
+    /// was encoded to, or the state's outcomes are not kept. `alike` says
+    /// whether two labels end alike.
+    pub fn outcome(
+        &mut self,
+        codec: &Codec,
+        s: &Step<'_>,
+        label: u32,
+        flagged: bool,
+        alike: &dyn Fn(u32, u32) -> bool,
+        scratch: &mut Vec<u8>,
     ) {
-        for j in 0..=parts.pending() {
-            // The events and timers, then the results in the key's order.
-            let group = if j == 0 { 0 } else { 1 + parts.canon(j - 1) };
-            for input in self.group(e, group) {
-                pushed.clear();
-                keys.clear();
-                for (k, o) in self.outcomes(input).iter().enumerate() {
-                    self.apply(o, key, parts, next);
-                    if !o.flagged && next[..] == *key {
-                        continue; // nothing happened: not an edge
+        if !self.active {
+            return;
+        }
+        let e = &mut self.entry;
+        let earlier = &e.outcomes[self.input_start as usize..];
+        if earlier.len() >= MOST {
+            self.active = false;
+            return;
+        }
+        let alike = earlier
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| alike(o.label, label))
+            .fold(0u64, |bits, (k, _)| bits | 1 << k);
+        let head_len = codec.head_len(s.next);
+        let head = e.push_bytes(&s.next[..head_len]);
+        let mut timers_kept = 0u64;
+        let mut fresh: SmallVec<[(u64, NewTimer); 4]> = SmallVec::new();
+        for t in &s.after.timers {
+            if t.seq < s.seq_before {
+                match s
+                    .parts
+                    .timers
+                    .iter()
+                    .position(|o| o.net as usize == t.net && o.timer as usize == t.timer)
+                {
+                    Some(i) => timers_kept |= 1 << i,
+                    None => {
+                        self.active = false;
+                        return;
                     }
-                    if pushed
-                        .iter()
-                        .any(|(i, range)| o.alike & 1 << i != 0 && keys[range.clone()] == next[..])
-                    {
-                        continue;
-                    }
-                    let start = keys.len();
-                    keys.extend_from_slice(next);
-                    pushed.push((k, start..keys.len()));
-                    push(o.label, next);
                 }
+            } else {
+                fresh.push((
+                    t.seq,
+                    NewTimer {
+                        net: t.net as u32,
+                        timer: t.timer as u32,
+                        duration: t.deadline.saturating_sub(s.step_time.min(t.deadline)),
+                        catastrophic: t.catastrophic,
+                    },
+                ));
             }
+        }
+        fresh.sort_by_key(|(seq, _)| *seq);
+        let start = e.new_timers.len() as u32;
+        e.new_timers.extend(fresh.iter().map(|(_, t)| *t));
+        let new_timers = start..e.new_timers.len() as u32;
+        let mut pending_kept = 0u64;
+        let start = e.new_pending.len() as u32;
+        for (&id, p) in &s.after.pending {
+            if id < s.next_id {
+                let j = id.wrapping_sub(1) as usize;
+                if j >= s.parts.pending() {
+                    self.active = false;
+                    return;
+                }
+                pending_kept |= 1 << s.parts.canon(j);
+            } else if (s.relevant)(p) {
+                scratch.clear();
+                codec.write_pending(p, scratch);
+                let r = e.push_bytes(&scratch[..]);
+                e.new_pending.push(r);
+            }
+        }
+        let new_pending = start..e.new_pending.len() as u32;
+        let outcome = Outcome {
+            label,
+            flagged,
+            alike,
+            head,
+            timers_kept,
+            new_timers,
+            pending_kept,
+            new_pending,
+        };
+        scratch.clear();
+        e.apply(&outcome, s.key, s.parts, scratch);
+        if scratch[..] != *s.next {
+            self.active = false;
+            return;
+        }
+        e.outcomes.push(outcome);
+    }
+
+    /// The state's entry, if every outcome of it was captured (in
+    /// allocations of its size: the capture's own are used again).
+    pub fn finish(&mut self) -> Option<Entry> {
+        let active = std::mem::replace(&mut self.active, false);
+        let e = &self.entry;
+        active.then(|| Entry {
+            groups: e.groups.clone(),
+            inputs: e.inputs.clone(),
+            outcomes: e.outcomes.clone(),
+            new_timers: e.new_timers.clone(),
+            new_pending: e.new_pending.clone(),
+            bytes: e.bytes.clone(),
+        })
+    }
+}
+
+/// Shards of [`Kept`] (each behind its own lock).
+const SHARDS: usize = 64;
+
+/// A kept entry: its projection's hash and bytes, and its outcomes.
+type Kept1 = (u64, Box<[u8]>, Arc<Entry>);
+
+/// The outcomes kept, by projection, for every worker: shards of a hash
+/// table each behind a lock, held only to find or add an entry.
+pub(super) struct Kept {
+    shards: Vec<Mutex<HashTable<Kept1>>>,
+    /// The bytes kept, and the most that may be.
+    size: AtomicUsize,
+    budget: usize,
+}
+
+impl Kept {
+    /// Nothing kept yet; at most `budget` bytes will be.
+    pub fn new(budget: usize) -> Kept {
+        Kept {
+            shards: (0..SHARDS).map(|_| Mutex::new(HashTable::new())).collect(),
+            size: AtomicUsize::new(0),
+            budget,
         }
     }
 
-    /// The bytes the kept outcomes take (their arenas' lengths).
-    fn size(&self) -> usize {
-        self.bytes.len()
-            + self.outcomes.len() * std::mem::size_of::<Outcome>()
-            + (self.inputs.len() + self.groups.len() + self.new_pending.len())
-                * std::mem::size_of::<Range<u32>>()
-            + self.new_timers.len() * std::mem::size_of::<NewTimer>()
-            + self.entries.len() * (std::mem::size_of::<Entry>() + 5)
+    fn shard(&self, h: u64) -> std::sync::MutexGuard<'_, HashTable<Kept1>> {
+        // The high bits choose the shard (the table uses the low ones).
+        self.shards[(h >> 58) as usize % SHARDS]
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
     }
 
-    /// The hash [`Kept::find`] and [`Kept::finish`] take.
+    /// The entry of `projection` (of hash `h`), if kept.
+    pub fn find(&self, projection: &[u8], h: u64) -> Option<Arc<Entry>> {
+        self.shard(h)
+            .find(h, |(g, p, _)| *g == h && **p == *projection)
+            .map(|(_, _, e)| e.clone())
+    }
+
+    /// Whether the outcomes kept take the budget (no more are kept).
+    pub fn full(&self) -> bool {
+        self.size.load(Ordering::Relaxed) >= self.budget
+    }
+
+    /// Keeps `entry` under `projection` (of hash `h`), unless another
+    /// worker kept it meanwhile.
+    pub fn insert(&self, projection: &[u8], h: u64, entry: Entry) {
+        let size = entry.size() + projection.len();
+        let mut shard = self.shard(h);
+        if shard
+            .find(h, |(g, p, _)| *g == h && **p == *projection)
+            .is_none()
+        {
+            shard.insert_unique(h, (h, projection.into(), Arc::new(entry)), |(g, _, _)| *g);
+            self.size.fetch_add(size, Ordering::Relaxed);
+        }
+    }
+
+    /// The hash [`Kept::find`] and [`Kept::insert`] take.
     pub fn hash(projection: &[u8]) -> u64 {
         hash(projection)
     }
@@ -664,26 +680,37 @@ mod tests {
     use super::*;
 
     #[test]
-    fn nothing_is_kept_past_the_budget() {
-        let mut kept = Kept::new(0);
-        kept.begin(0);
-        assert!(!kept.building());
-        let mut kept = Kept::new(BUDGET);
-        kept.begin(2);
-        assert!(kept.building());
+    fn past_the_budget_nothing_is_kept_and_a_group_met_twice_apart_is_not_kept() {
+        let kept = Kept::new(0);
+        assert!(kept.full());
+        let kept = Kept::new(BUDGET);
+        assert!(!kept.full());
+        kept.insert(b"p", Kept::hash(b"p"), Entry::default());
+        assert!(kept.find(b"p", Kept::hash(b"p")).is_some());
+        assert!(kept.find(b"q", Kept::hash(b"q")).is_none());
+        let mut capture = Capture::default();
+        capture.begin(2);
+        assert!(capture.active());
         // An input of a group the state does not have: nothing kept.
-        kept.input(3);
-        assert!(!kept.building());
-        assert_eq!(kept.size(), 0);
-        kept.begin(2);
+        capture.input(3);
+        assert!(capture.finish().is_none());
+        capture.begin(2);
         // A group of inputs met twice apart is not kept.
-        kept.input(0);
-        kept.end_input();
-        kept.input(1);
-        kept.end_input();
-        kept.input(0);
-        kept.end_input();
-        assert!(!kept.building());
-        assert_eq!(kept.size(), 0, "what it began is dropped");
+        capture.input(0);
+        capture.end_input();
+        capture.input(1);
+        capture.end_input();
+        capture.input(0);
+        capture.end_input();
+        assert!(capture.finish().is_none());
+        capture.begin(2);
+        capture.input(0);
+        capture.end_input();
+        capture.input(2);
+        capture.end_input();
+        let entry = capture.finish().unwrap_or_default();
+        assert_eq!(entry.inputs.len(), 2);
+        assert!(entry.group(1).is_empty());
+        assert_eq!(entry.group(2).len(), 1);
     }
 }
