@@ -462,60 +462,37 @@ fn reaching(
             return None;
         }
         work += rest.len();
+        let mut changed = false;
+        // every successor is looked at, without a branch per successor:
+        // whether a node joins is unpredictable, and most candidates of
+        // the first sweeps do not (so read all their successors anyway)
+        let mut join = |v: u32, reach: &mut [u64]| {
+            let mut hit = 0u64;
+            for w in g.targets(v) {
+                hit |= reach[(w >> 6) as usize] >> (w & 63);
+            }
+            let hit = hit & 1;
+            reach[(v >> 6) as usize] |= hit << (v & 63);
+            changed |= hit != 0;
+        };
         let up = (sweep % 2 == 0) == (first == Direction::Up);
-        let changed = sweep_once(g, reach, &mut rest, up);
+        if !up {
+            for &v in rest.iter().rev() {
+                join(v, reach);
+            }
+        } else {
+            for &v in rest.iter() {
+                join(v, reach);
+            }
+        }
+        if changed {
+            rest.retain(|&v| !bit(reach, v));
+        }
         if !changed || rest.is_empty() {
             return Some(rest);
         }
     }
     None
-}
-
-/// One sweep of [`reaching`] over `rest`, up (in its order) or down
-/// (against it): a node joins `reach` when one of its successors has
-/// joined; the nodes that join leave `rest` as they are swept (a node's
-/// bit is set only when it is swept, so whether it stays is known then),
-/// without a second pass over `rest`. True when some node joined.
-fn sweep_once(g: &impl Adjacency, reach: &mut [u64], rest: &mut Vec<u32>, up: bool) -> bool {
-    // every successor is looked at, without a branch per successor:
-    // whether a node joins is unpredictable, and most candidates of the
-    // first sweeps do not (so read all their successors anyway); the
-    // node is written back where the kept ones go, whether it stays or
-    // not (overwritten by the next one kept if not)
-    let len = rest.len();
-    let mut joined = 0u64;
-    let mut join = |v: u32, reach: &mut [u64]| -> u64 {
-        let mut hit = 0u64;
-        for w in g.targets(v) {
-            hit |= reach[(w >> 6) as usize] >> (w & 63);
-        }
-        let hit = hit & 1;
-        reach[(v >> 6) as usize] |= hit << (v & 63);
-        joined += hit;
-        hit
-    };
-    if up {
-        // kept nodes go to the front: `k` never passes `i`
-        let mut k = 0usize;
-        for i in 0..len {
-            let v = rest[i];
-            let hit = join(v, reach);
-            rest[k] = v;
-            k += (hit ^ 1) as usize;
-        }
-        rest.truncate(k);
-    } else {
-        // kept nodes go to the back: `k` never falls below `i + 1`
-        let mut k = len;
-        for i in (0..len).rev() {
-            let v = rest[i];
-            let hit = join(v, reach);
-            rest[k - 1] = v;
-            k -= (hit ^ 1) as usize;
-        }
-        rest.drain(..k);
-    }
-    joined != 0
 }
 
 /// Candidates from which two threads sweep at once (below, one is faster).
