@@ -405,12 +405,7 @@ fn example_files() -> Vec<(String, String)> {
 fn exported_pnml_is_a_plain_pt_net_with_globals_resolved() {
     use nets::verify::export::export_net;
     use nets::verify::pnml::read_ptnet;
-    let files = example_files();
-    let refs: Vec<(&str, &str)> = files
-        .iter()
-        .map(|(a, b)| (a.as_str(), b.as_str()))
-        .collect();
-    let project = common::project(&refs);
+    let project = common::project_from(&example_files());
     let events = project.net("EVENTS").expect("EVENTS");
     let pt = read_ptnet(&export_net(&project, events)).expect("other tools can read it");
     let net = &project.nets[events];
@@ -435,12 +430,7 @@ fn exported_pnml_is_a_plain_pt_net_with_globals_resolved() {
 #[test]
 fn reusing_steps_gives_the_player_s_steps_on_the_examples() {
     for (name, threads) in [("uav-survey", 1), ("uav-flight-test", 2)] {
-        let files = example(name);
-        let refs: Vec<(&str, &str)> = files
-            .iter()
-            .map(|(a, b)| (a.as_str(), b.as_str()))
-            .collect();
-        let project = common::project(&refs);
+        let project = common::project_from(&example(name));
         let options = |steps| Options {
             alone: false,
             threads,
@@ -473,11 +463,7 @@ fn importing_what_we_export_gives_the_same_nets_back() {
 
 fn round_trip(files: &[(String, String)]) {
     use nets::verify::export::{export_net, import_net};
-    let refs: Vec<(&str, &str)> = files
-        .iter()
-        .map(|(a, b)| (a.as_str(), b.as_str()))
-        .collect();
-    let original = common::project(&refs);
+    let original = common::project_from(files);
     let mut back: Vec<(String, String)> = vec![files[0].clone()];
     for (file, text) in &files[1..] {
         let name = toml::from_str::<toml::Table>(text).expect("toml")["name"]
@@ -490,8 +476,7 @@ fn round_trip(files: &[(String, String)]) {
         assert_eq!(active, original.nets[n].active_at_start);
         back.push((file.clone(), imported));
     }
-    let refs: Vec<(&str, &str)> = back.iter().map(|(a, b)| (a.as_str(), b.as_str())).collect();
-    let again = common::project(&refs);
+    let again = common::project_from(&back);
     assert_eq!(again.nets.len(), original.nets.len());
     for (a, b) in original.nets.iter().zip(&again.nets) {
         assert_eq!(a.name, b.name);
@@ -1319,12 +1304,7 @@ fn two_threads_give_the_same_report_as_one() {
     // states (player states with timers, calls and guards answered both
     // ways; the cut itself must fall at the same state).
     let switches = switches();
-    let files = example("uav-flight-test");
-    let refs: Vec<(&str, &str)> = files
-        .iter()
-        .map(|(a, b)| (a.as_str(), b.as_str()))
-        .collect();
-    let flight = common::project(&refs);
+    let flight = common::project_from(&example("uav-flight-test"));
     for (project, max_states, states) in [(switches, 1_000_000, Some(1024)), (flight, 3000, None)] {
         let options = |threads| Options {
             threads,

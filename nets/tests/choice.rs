@@ -196,13 +196,7 @@ fn example(name: &str) -> Vec<(String, String)> {
 #[test]
 fn a_genuine_conflict_added_to_the_example_is_the_one_warning() {
     let mut files = example("uav-survey");
-    let before = {
-        let refs: Vec<(&str, &str)> = files
-            .iter()
-            .map(|(a, b)| (a.as_str(), b.as_str()))
-            .collect();
-        check(&common::project(&refs), &Options::default())
-    };
+    let before = check(&common::project_from(&files), &Options::default());
     assert!(
         before.project.warnings.is_empty(),
         "{:#?}",
@@ -217,11 +211,7 @@ fn a_genuine_conflict_added_to_the_example_is_the_one_warning() {
     events.1.push_str(
         "\n[[transition]]\nname = \"log_payload_failure\"\nfrom = [\"watching\"]\nto = [\"watching\"]\non = \"payload_failure\"\n",
     );
-    let refs: Vec<(&str, &str)> = files
-        .iter()
-        .map(|(a, b)| (a.as_str(), b.as_str()))
-        .collect();
-    let after = check(&common::project(&refs), &Options::default());
+    let after = check(&common::project_from(&files), &Options::default());
     assert_eq!(
         after.project.warnings,
         ["conflict on `payload_failure`: EVENTS.payload_failure and EVENTS.log_payload_failure share input place EVENTS.watching; EVENTS.payload_failure is declared first and wins"],
@@ -233,12 +223,7 @@ fn the_examples_declarations_keep_the_declaration_order() {
     // Their `else` and priorities state what the first declared winning
     // already did: the player tries every event's transitions in file order.
     for name in ["uav-survey", "uav-flight-test"] {
-        let files = example(name);
-        let refs: Vec<(&str, &str)> = files
-            .iter()
-            .map(|(a, b)| (a.as_str(), b.as_str()))
-            .collect();
-        let project = common::project(&refs);
+        let project = common::project_from(&example(name));
         let declared = project
             .triggers
             .values()

@@ -137,6 +137,18 @@ fn options_with(symmetry: bool, partial_order: bool, proviso: Proviso) -> Option
     }
 }
 
+/// A check of each net in its project (not alone), without reductions,
+/// steps run as `steps` says.
+fn unreduced(steps: Steps) -> Options<'static> {
+    Options {
+        alone: false,
+        symmetry: false,
+        partial_order: false,
+        steps,
+        ..Options::default()
+    }
+}
+
 fn check(p: &Arc<Project>, symmetry: bool, partial_order: bool) -> Report {
     project::check(p, &options(symmetry, partial_order)).project
 }
@@ -664,15 +676,8 @@ proptest! {
     ) {
         let v = Variant { vehicles, watch, guarded, blocked_frees, looping, failing, halting };
         let p = load(v);
-        let options = |steps| Options {
-            alone: false,
-            symmetry: false,
-            partial_order: false,
-            steps,
-            ..Options::default()
-        };
-        let reused = project::check(&p, &options(Steps::Reuse));
-        let run = project::check(&p, &options(Steps::Run));
+        let reused = project::check(&p, &unreduced(Steps::Reuse));
+        let run = project::check(&p, &unreduced(Steps::Run));
         prop_assert_eq!(&reused, &run, "{:?}", v);
         if let Err(d) = project::compare_steps(&p, 1) {
             panic!("{v:?}: {d}");
@@ -685,15 +690,8 @@ fn the_ugv_example_unreduced_reuses_the_player_s_steps() {
     // Two robots' calls, timers and lockouts in every order: the states
     // that differ only there reuse each other's steps.
     let p = ugv(EXAMPLE);
-    let options = |steps| Options {
-        alone: false,
-        symmetry: false,
-        partial_order: false,
-        steps,
-        ..Options::default()
-    };
-    let run = project::check(&p, &options(Steps::Run));
-    assert_eq!(project::check(&p, &options(Steps::Reuse)), run);
+    let run = project::check(&p, &unreduced(Steps::Run));
+    assert_eq!(project::check(&p, &unreduced(Steps::Reuse)), run);
     let compared = project::compare_steps(&p, 2).unwrap_or_else(|d| panic!("{d}"));
     assert!(
         compared * 4 > run.project.states,

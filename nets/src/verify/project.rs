@@ -715,8 +715,9 @@ struct Explorer {
     /// A step whose outcome the player's order of vehicles decided (the
     /// first found): the symmetry does not hold, the exploration stops.
     broken: Mutex<Option<String>>,
-    /// How steps run: [`Steps::Run`] whenever the keys keep no order (a
-    /// team's reduced exploration), which reuse needs.
+    /// How steps run: [`Steps::Run`] under symmetry or stubborn sets, and
+    /// whenever the keys keep none of the orders a projection leaves out
+    /// (a team's reduced exploration): reuse needs them.
     steps: Steps,
     /// With [`Steps::Compare`]: the states compared, and the first
     /// difference found.
@@ -776,10 +777,10 @@ struct Worker {
     /// The canonical key of a successor, and a buffer for its images.
     canon: Vec<u8>,
     image: Vec<u8>,
-    /// The outcomes kept for reuse, the state's key read, its projection
-    /// and a buffer.
+    /// The outcomes of the state being captured for reuse, the edges of
+    /// the input being reused (outcome and target key), the state's key
+    /// read, its projection and a buffer.
     capture: Capture,
-    /// The edges of the input being reused: outcome and target key.
     reused: Vec<(usize, std::ops::Range<usize>)>,
     parts: Parts,
     projection: Vec<u8>,
@@ -1340,7 +1341,7 @@ impl Explorer {
     }
 
     /// Compares the edges the player's runs gave (`w.log`) with what
-    /// reusing entry `e` gives ([`Steps::Compare`]).
+    /// reusing `entry` gives ([`Steps::Compare`]).
     fn compare(&self, w: &mut Worker, entry: &Entry, key: &[u8]) {
         let mut reused: Vec<(u32, Vec<u8>)> = Vec::new();
         Self::reuse(w, entry, key, &mut |label, next| {

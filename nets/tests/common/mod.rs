@@ -8,6 +8,15 @@ use std::sync::Arc;
 use nets::player::{effect_text, Effect};
 use nets::{Event, Player, Project};
 
+/// Loads a project from owned (file name, text) pairs (see [`project`]).
+pub fn project_from(files: &[(String, String)]) -> Arc<Project> {
+    let refs: Vec<(&str, &str)> = files
+        .iter()
+        .map(|(a, b)| (a.as_str(), b.as_str()))
+        .collect();
+    project(&refs)
+}
+
 /// Loads a project from (file name, text) pairs; panics with the problems.
 pub fn project(files: &[(&str, &str)]) -> Arc<Project> {
     let sources: BTreeMap<String, String> = files
