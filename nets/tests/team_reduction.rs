@@ -634,11 +634,9 @@ fn each_net_in_its_project_gets_the_same_verdict_reduced() {
     }
 }
 
-proptest! {
-    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
-
-    #[test]
-    fn random_small_teams_check_alike_reduced_or_not(
+prop_compose! {
+    /// A random small team (two or three vehicles).
+    fn variant()(
         vehicles in 2usize..=3,
         watch: bool,
         guarded: bool,
@@ -646,12 +644,23 @@ proptest! {
         looping: bool,
         failing: bool,
         halting: bool,
+    ) -> Variant {
+        Variant { vehicles, watch, guarded, blocked_frees, looping, failing, halting }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_small_teams_check_alike_reduced_or_not(
+        v in variant(),
         symmetry: bool,
         partial_order: bool,
         levels: bool,
     ) {
         same_as_unreduced(
-            Variant { vehicles, watch, guarded, blocked_frees, looping, failing, halting },
+            v,
             symmetry,
             partial_order,
             if levels { Proviso::Levels } else { Proviso::Components },
@@ -665,16 +674,7 @@ proptest! {
     /// Unreduced, a team's states keep the order of its vehicles' calls
     /// and timers (lockouts too): reusing steps gives the player's steps.
     #[test]
-    fn random_small_teams_check_alike_with_steps_reused_or_run(
-        vehicles in 2usize..=3,
-        watch: bool,
-        guarded: bool,
-        blocked_frees: bool,
-        looping: bool,
-        failing: bool,
-        halting: bool,
-    ) {
-        let v = Variant { vehicles, watch, guarded, blocked_frees, looping, failing, halting };
+    fn random_small_teams_check_alike_with_steps_reused_or_run(v in variant()) {
         let p = load(v);
         let reused = project::check(&p, &unreduced(Steps::Reuse));
         let run = project::check(&p, &unreduced(Steps::Run));

@@ -1466,8 +1466,11 @@ impl Explorer {
                     }
                 }
                 let flagged = fires || unsafe_by.is_some() || livelock.is_some();
-                if !flagged && w.next == key && !w.capture.active() {
-                    continue; // nothing happened: not an edge
+                // Nothing happened: not an edge (but its outcome is captured,
+                // below, since it may change another key of the projection).
+                let nothing = !flagged && w.next == key;
+                if nothing && !w.capture.active() {
+                    continue;
                 }
                 // The step's label, known by what its text says.
                 label_key(abs, input, questions, used, effects, &mut w.label_key);
@@ -1508,8 +1511,8 @@ impl Explorer {
                     };
                     w.capture
                         .outcome(&self.codec, &step, local, flagged, &alike, &mut w.entry);
-                    if !flagged && w.next == key {
-                        continue; // nothing happened: not an edge
+                    if nothing {
+                        continue;
                     }
                 }
                 // Answers that end alike (an event lacking `lat` or `lon`
