@@ -22,7 +22,10 @@
 
 use std::collections::{HashMap, VecDeque};
 use std::hash::Hash;
-use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+use std::sync::atomic::{
+    AtomicBool, AtomicU64,
+    Ordering::{Relaxed, SeqCst},
+};
 
 /// A graph over dense node numbers `0..node_count()`.
 pub trait Successors {
@@ -419,20 +422,6 @@ fn bit(set: &[u64], v: u32) -> bool {
     (set[(v >> 6) as usize] >> (v & 63)) & 1 == 1
 }
 
-/// The nodes of a bitset, in increasing order.
-fn members(set: &[u64]) -> impl Iterator<Item = u32> + '_ {
-    set.iter().enumerate().flat_map(|(w, &bits)| {
-        let mut b = bits;
-        std::iter::from_fn(move || {
-            (b != 0).then(|| {
-                let v = (w * 64) as u32 + b.trailing_zeros();
-                b &= b - 1;
-                v
-            })
-        })
-    })
-}
-
 fn set_bit(set: &mut [u64], v: u32) {
     set[(v >> 6) as usize] |= 1 << (v & 63);
 }
@@ -552,6 +541,107 @@ fn reaching_together(
     settled.then_some(rest)
 }
 
+/// [`reaching`] on a bitset another thread may join nodes of at the same
+/// time ([`help`]), saying so through `helped`: the sweeps end with one
+/// in which neither this thread nor the helper joined anything. This
+/// thread writes its joins without a locked instruction (a join the helper
+/// made in the same word at the same moment may be overwritten; the
+/// helper then said it helped during that sweep, so another follows and
+/// joins that node again).
+fn reaching_helped(
+    g: &(impl Adjacency + Sync),
+    reach: &[AtomicU64],
+    mut rest: Vec<u32>,
+    n: usize,
+    first: Direction,
+    helped: &AtomicBool,
+) -> Option<Vec<u32>> {
+    let joined = |v: u32| (reach[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1;
+    rest.retain(|&v| !joined(v));
+    let mut work = 0usize;
+    for sweep in 0usize.. {
+        if work > SWEEP_BUDGET * n {
+            return None;
+        }
+        work += rest.len();
+        helped.store(false, SeqCst);
+        let mut changed = false;
+        let mut join = |v: u32| {
+            let mut hit = 0u64;
+            for w in g.targets(v) {
+                hit |= reach[(w >> 6) as usize].load(Relaxed) >> (w & 63);
+            }
+            if hit & 1 != 0 {
+                let word = &reach[(v >> 6) as usize];
+                word.store(word.load(Relaxed) | 1 << (v & 63), Relaxed);
+                changed = true;
+            }
+        };
+        let up = (sweep % 2 == 0) == (first == Direction::Up);
+        if up {
+            rest.iter().for_each(|&v| join(v));
+        } else {
+            rest.iter().rev().for_each(|&v| join(v));
+        }
+        // the helper's joins count too: one may have made a node this
+        // sweep passed joinable
+        changed |= helped.load(SeqCst);
+        if changed {
+            rest.retain(|&v| !joined(v));
+        }
+        if !changed || rest.is_empty() {
+            return Some(rest);
+        }
+    }
+    None
+}
+
+/// Sweeps `candidates` up and down, joining to `reach` each that has a
+/// joined successor (a locked or: never overwrites another join), and
+/// saying so through `helped`, until `done`.
+fn help(
+    g: &impl Adjacency,
+    reach: &[AtomicU64],
+    candidates: &[u32],
+    helped: &AtomicBool,
+    done: &AtomicBool,
+) {
+    let joined = |v: u32| (reach[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1;
+    let join = |v: u32| {
+        if joined(v) {
+            return;
+        }
+        if g.targets(v).any(joined) {
+            reach[(v >> 6) as usize].fetch_or(1 << (v & 63), SeqCst);
+            helped.store(true, SeqCst);
+        }
+    };
+    loop {
+        for chunk in candidates.chunks(1024) {
+            if done.load(Relaxed) {
+                return;
+            }
+            chunk.iter().for_each(|&v| join(v));
+        }
+        for chunk in candidates.rchunks(1024) {
+            if done.load(Relaxed) {
+                return;
+            }
+            chunk.iter().rev().for_each(|&v| join(v));
+        }
+    }
+}
+
+/// Sets its flag when dropped: the sweeps' end, even by a panic (the
+/// helper then stops, and the scope can join it).
+struct Done<'a>(&'a AtomicBool);
+
+impl Drop for Done<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, SeqCst);
+    }
+}
+
 /// The component of `node` as a bitset, if it is terminal (no edge leaves
 /// it): every node `node` reaches reaches it back. `None` when it is not,
 /// or when the sweeps did not settle. `candidates` holds every node `node`
@@ -563,9 +653,10 @@ fn reaching_together(
 /// once, one on each core: the sweeps then go over all the candidates (a
 /// few more nodes than `node` reaches, when transient ones lead into its
 /// component) on this thread, which is cheaper than sharing the sweeps
-/// between the two cores after the search (BENCHMARKS.md, stop 30); if
-/// they do not settle, the nodes reached are swept alone, as on one
-/// thread. Every way gives the same set: the nodes `node` reaches, when
+/// between the two cores after the search (BENCHMARKS.md, stop 30); once
+/// the search is done, its thread sweeps too, the other way, on the same
+/// bitset ([`help`]), until the sweeps settle. If they do not settle, the
+/// nodes reached are swept alone, as on one thread. Every way gives the same set: the nodes `node` reaches, when
 /// all of them reach it back.
 fn terminal_component(
     g: &(impl Adjacency + Sync),
@@ -582,14 +673,27 @@ fn terminal_component(
         // reached is in it), so the sweeps over all of them give the same
         // answer for the nodes `node` reaches as sweeps over these alone.
         let all = candidates.clone();
+        let shared: Vec<AtomicU64> = back.iter().map(|&w| AtomicU64::new(w)).collect();
+        let (helped, done) = (AtomicBool::new(false), AtomicBool::new(false));
         let (seen, settled) = std::thread::scope(|scope| {
-            let search = scope.spawn(|| reached_by_levels(g, node, n));
-            let settled = reaching(g, &mut back, all, n, Direction::Down, 1).is_some();
+            let search = scope.spawn(|| {
+                let seen = reached_by_levels(g, node, n);
+                // then help the sweeps until they settle
+                help(g, &shared, &candidates, &helped, &done);
+                seen
+            });
+            let settled = {
+                let _done = Done(&done);
+                reaching_helped(g, &shared, all, n, Direction::Down, &helped).is_some()
+            };
             match search.join() {
                 Ok(seen) => (seen, settled),
                 Err(panic) => std::panic::resume_unwind(panic),
             }
         });
+        for (w, a) in back.iter_mut().zip(&shared) {
+            *w = a.load(Relaxed);
+        }
         if settled {
             // terminal when every node reached reaches `node` back
             let all_back = seen.iter().zip(&back).all(|(&s, &b)| s & !b == 0);
@@ -682,22 +786,14 @@ fn pearce<G: Adjacency>(
     // is reachable from it
     let mut last: Option<(u32, bool)> = None;
     if let Some((r, set)) = settled {
-        let mut size = 0u32;
-        for v in members(set) {
-            rindex[v as usize] = top;
-            size += 1;
-        }
+        let size = fill(set, &mut rindex, top);
         last = Some((size, size > 1 || g.targets(r).any(|w| w == r)));
     }
     let base = if last.is_some() { top - 1 } else { top };
     let mut c = base;
     // a terminal component, numbered first: no edge leaves it
     if let Some((r, set)) = terminal {
-        let mut size = 0u32;
-        for v in members(set) {
-            rindex[v as usize] = c;
-            size += 1;
-        }
+        let size = fill(set, &mut rindex, c);
         c -= 1;
         sizes.push(size);
         cyclic.push(size > 1 || g.targets(r).any(|w| w == r));
@@ -716,8 +812,23 @@ fn pearce<G: Adjacency>(
             root[w] &= !m;
         }
     };
-    for start in 0..top {
-        if rindex[start as usize] != 0 {
+    // the nodes of neither set given: the only ones to start from
+    let given = |w: usize| {
+        settled.map_or(0, |(_, s)| s.get(w).copied().unwrap_or(0))
+            | terminal.map_or(0, |(_, s)| s.get(w).copied().unwrap_or(0))
+    };
+    let starts = (0..n.div_ceil(64)).flat_map(|w| {
+        let mut free = !given(w);
+        std::iter::from_fn(move || {
+            (free != 0).then(|| {
+                let v = (w * 64) as u32 + free.trailing_zeros();
+                free &= free - 1;
+                v
+            })
+        })
+    });
+    for start in starts {
+        if start >= top || rindex[start as usize] != 0 {
             continue;
         }
         rindex[start as usize] = index;
@@ -786,6 +897,26 @@ fn pearce<G: Adjacency>(
         sizes,
         cyclic,
     }
+}
+
+/// Sets `rindex` to `value` for the nodes of `set` (whole words at once);
+/// how many there are.
+fn fill(set: &[u64], rindex: &mut [u32], value: u32) -> u32 {
+    let mut size = 0u32;
+    for (w, &bits) in set.iter().enumerate() {
+        let base = w * 64;
+        if bits == !0 && base + 64 <= rindex.len() {
+            rindex[base..base + 64].fill(value);
+        } else {
+            let mut b = bits;
+            while b != 0 {
+                rindex[base + b.trailing_zeros() as usize] = value;
+                b &= b - 1;
+            }
+        }
+        size += bits.count_ones();
+    }
+    size
 }
 
 /// A shortest path (nodes, `from` first) from `from` to a node satisfying
@@ -1020,6 +1151,61 @@ mod tests {
         let from = strongly_connected_components_from(&g, order[0], true, &[], (0..n).collect(), 1);
         same_components(&g, &tarjan, &from);
         assert_eq!(from.sizes, vec![n]);
+    }
+
+    #[test]
+    fn two_threads_sweeping_one_bitset_find_the_same_components() {
+        // 0 -> 1 -> a strongly connected random graph on 3..n (a cycle
+        // through them in a random order, and random arcs among them),
+        // with or without an exit to node 2, which has no successor: the
+        // root is transient, and the last node's component, terminal or
+        // not, is found by the search and the sweeps at once, the
+        // search's thread then sweeping too. Run after run (other
+        // timings), Tarjan's components.
+        for (n, extra, seed, exit) in [
+            (60_000u32, 60_000u32, 21u64, false),
+            (60_000, 60_000, 22, true),
+            (200_000, 200_000, 23, false),
+            (200_000, 200_000, 24, true),
+        ] {
+            let mut x = seed;
+            let mut next = move || {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                x
+            };
+            let mut ring: Vec<u32> = (3..n).collect();
+            for i in (1..ring.len()).rev() {
+                ring.swap(i, (next() % (i as u64 + 1)) as usize);
+            }
+            let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n as usize];
+            lists[0].push(1);
+            lists[1].push(ring[0]);
+            for (i, &v) in ring.iter().enumerate() {
+                lists[v as usize].push(ring[(i + 1) % ring.len()]);
+            }
+            for _ in 0..extra {
+                let a = 3 + (next() % u64::from(n - 3)) as u32;
+                let b = 3 + (next() % u64::from(n - 3)) as u32;
+                lists[a as usize].push(b);
+            }
+            if exit {
+                lists[ring[ring.len() / 2] as usize].push(2);
+            }
+            let mut g = Csr::default();
+            for l in lists {
+                g.push_node(l.into_iter().map(|t| ((), t)));
+            }
+            let tarjan = strongly_connected_components(&g);
+            // 0, 1, 2 alone, and the ring
+            assert_eq!(tarjan.count(), 4);
+            for _ in 0..3 {
+                let from =
+                    strongly_connected_components_from(&g, 0, false, &[], (0..n).collect(), 2);
+                same_components(&g, &tarjan, &from);
+            }
+        }
     }
 
     #[test]
