@@ -677,7 +677,7 @@ fn terminal_component(
         let (helped, done) = (AtomicBool::new(false), AtomicBool::new(false));
         let (seen, settled) = std::thread::scope(|scope| {
             let search = scope.spawn(|| {
-                let seen = reached_by_levels(g, node, n);
+                let seen = reached_joining(g, node, n, &shared, &helped);
                 // then help the sweeps until they settle
                 help(g, &shared, &candidates, &helped, &done);
                 seen
@@ -722,6 +722,62 @@ fn terminal_component(
 /// places ahead are asked for in two steps (where their successors start,
 /// then these).
 fn reached_by_levels(g: &impl Adjacency, node: u32, n: usize) -> Vec<u64> {
+    search_by_levels(g, node, n, |_, _, _| {}, |_| {})
+}
+
+/// [`reached_by_levels`], joining to `reach` (nodes known to reach
+/// `node`) each node that has a joined successor, and the nodes on its
+/// path from `node` in the search (they reach it), saying so through
+/// `helped` (see [`reaching_helped`]): sweeps at the same time then find
+/// joined nodes at every depth of the search, not only near `node`.
+/// `node` must be in `reach`.
+fn reached_joining(
+    g: &impl Adjacency,
+    node: u32,
+    n: usize,
+    reach: &[AtomicU64],
+    helped: &AtomicBool,
+) -> Vec<u64> {
+    let joined = |v: u32| (reach[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1;
+    // zeroed (pages mapped as they are written); `node` has no parent but
+    // is never walked past: it is joined
+    let parent = std::cell::RefCell::new(vec![0u32; n]);
+    let hit = std::cell::Cell::new(false);
+    search_by_levels(
+        g,
+        node,
+        n,
+        |v, w, new| {
+            if new {
+                parent.borrow_mut()[w as usize] = v;
+            }
+            hit.set(hit.get() | joined(w));
+        },
+        |v| {
+            if hit.take() {
+                let parent = parent.borrow();
+                let mut u = v;
+                // the walk ends at `node` at the latest, which is joined
+                while !joined(u) {
+                    reach[(u >> 6) as usize].fetch_or(1 << (u & 63), SeqCst);
+                    helped.store(true, SeqCst);
+                    u = parent[u as usize];
+                }
+            }
+        },
+    )
+}
+
+/// The breadth-first search of [`reached_by_levels`], telling `arc` each
+/// arc it reads (whether its target is new), then `node_done` each node
+/// whose arcs were all read.
+fn search_by_levels(
+    g: &impl Adjacency,
+    node: u32,
+    n: usize,
+    mut arc: impl FnMut(u32, u32, bool),
+    mut node_done: impl FnMut(u32),
+) -> Vec<u64> {
     let words = n.div_ceil(64);
     let mut seen = vec![0u64; words];
     let mut next = vec![0u64; words];
@@ -738,13 +794,16 @@ fn reached_by_levels(g: &impl Adjacency, node: u32, n: usize) -> Vec<u64> {
             }
             for w in g.targets(v) {
                 let (at, m) = ((w >> 6) as usize, 1u64 << (w & 63));
-                if seen[at] & m == 0 {
+                let new = seen[at] & m == 0;
+                if new {
                     seen[at] |= m;
                     next[at] |= m;
                     lo = lo.min(at);
                     hi = hi.max(at + 1);
                 }
+                arc(v, w, new);
             }
+            node_done(v);
         }
         level.clear();
         for (at, word) in next.iter_mut().enumerate().take(hi).skip(lo) {
