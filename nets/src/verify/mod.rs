@@ -12,7 +12,8 @@
 //!   its states kept as bytes by `project_states`, a step's outcome reused
 //!   from key to key by `project_steps` for states that differ only in
 //!   orders the player cannot read, searched breadth-first on several
-//!   threads by `levels`); [`alone`]: each net explored alone, the
+//!   threads by `levels`; what it finds without exploring, and the token
+//!   game, by `project_warnings`); [`alone`]: each net explored alone, the
 //!   single-procedure level; [`export`]: Petrel nets as PNML. Teams are
 //!   reduced by `symmetry` (one representative per orbit of
 //!   interchangeable vehicles) and `stubborn` (partial-order reduction).
@@ -31,6 +32,7 @@ pub mod pnml;
 pub mod project;
 mod project_states;
 mod project_steps;
+mod project_warnings;
 pub mod ptnet;
 pub mod reference;
 mod stubborn;

@@ -1,0 +1,185 @@
+//! What the project verifier finds without exploring: conflicts between
+//! transitions that wait for the same event in a place (unless the net
+//! says the choice is intended), events nothing produces, events nothing
+//! consumes; and a project's plain token game (the P/T net other tools
+//! see, and what `petrel export` writes).
+//!
+//! Pure: reads the [`Project`] only.
+
+use std::collections::BTreeSet;
+
+use super::ptnet::PtNet;
+use crate::model::{names, Action, NetId, Project, TransitionId};
+
+pub(super) fn emitted_events(project: &Project) -> BTreeSet<String> {
+    project
+        .nets
+        .iter()
+        .flat_map(|n| &n.transitions)
+        .flat_map(|t| &t.actions)
+        .filter_map(|a| match a {
+            Action::Emit { event, .. } => Some(event.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// A warning found without exploring, and the nets it concerns.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Warning {
+    pub text: String,
+    pub nets: Vec<NetId>,
+    /// For a conflict: the event and the two transitions.
+    pub conflict: Option<(String, [(NetId, TransitionId); 2])>,
+}
+
+/// Warnings found without exploring: conflicts, events nothing produces,
+/// events nothing consumes.
+pub fn static_warnings(project: &Project) -> Vec<Warning> {
+    let mut out = Vec::new();
+    // Conflicts: two transitions waiting for one event share an input place,
+    // unless their guards exclude each other or they declare their ranks.
+    let mut events: Vec<&String> = project.triggers.keys().collect();
+    events.sort();
+    for e in events {
+        let list = &project.triggers[e];
+        for (i, &(n1, t1)) in list.iter().enumerate() {
+            for &(n2, t2) in &list[i + 1..] {
+                let a = &project.nets[n1].transitions[t1];
+                let b = &project.nets[n2].transitions[t2];
+                let shared = a.flat_inputs.iter().find(|p| b.flat_inputs.contains(p));
+                if let Some(&p) = shared.filter(|_| !super::exclusive::intended(a, b)) {
+                    let text = format!(
+                        "conflict on `{e}`: {}.{} and {}.{} share input place {}; {}.{} is declared first and wins",
+                        project.nets[n1].name,
+                        a.name,
+                        project.nets[n2].name,
+                        b.name,
+                        crate::player::flat_place_name(project, p),
+                        project.nets[n1].name,
+                        a.name
+                    );
+                    out.push(Warning {
+                        text,
+                        nets: vec![n1, n2],
+                        conflict: Some((e.clone(), [(n1, t1), (n2, t2)])),
+                    });
+                }
+            }
+        }
+    }
+    // Events consumed that nothing produces.
+    let emitted = emitted_events(project);
+    for (ni, net) in project.nets.iter().enumerate() {
+        for t in &net.transitions {
+            let Some(e) = &t.event else { continue };
+            let produced = crate::outside::declared(project, e)
+                || emitted.contains(e)
+                || net.timers.contains(e)
+                || e == names::NET_FAULT
+                || ((e == names::COMMAND_OK || e == names::COMMAND_FAILED)
+                    && issues(project, ni, |a| matches!(a, Action::Command { .. })))
+                || result_called(project, ni, e);
+            if !produced && crate::outside::emitted(project, e) {
+                // The family is the nets' own (outside.rs), emitted for
+                // other vehicles only: no program or script may send it.
+                let base = crate::outside::base(project, e);
+                let family: Vec<String> = emitted
+                    .iter()
+                    .filter(|x| crate::outside::base(project, x) == base)
+                    .map(|x| format!("`{x}`"))
+                    .collect();
+                out.push(Warning {
+                    text: format!(
+                        "event `{e}` (awaited by {}.{}) is produced by nothing: of its family `{base}` the nets emit {} only, and no program or script may send it ([events] does not declare `{base}`)",
+                        net.name,
+                        t.name,
+                        family.join(", ")
+                    ),
+                    nets: vec![ni],
+                    conflict: None,
+                });
+            } else if !produced {
+                out.push(Warning {
+                    text: format!(
+                        "event `{e}` (awaited by {}.{}) is produced by nothing: no elaboration rule or [events] declaration, no net emits it, and it is no timer or result of {}",
+                        net.name, t.name, net.name
+                    ),
+                    nets: vec![ni],
+                    conflict: None,
+                });
+            }
+        }
+    }
+    // Events emitted that nothing consumes.
+    for e in &emitted {
+        if !project.triggers.contains_key(e) {
+            let nets = (0..project.nets.len())
+                .filter(|&n| {
+                    issues(
+                        project,
+                        n,
+                        |a| matches!(a, Action::Emit { event, .. } if event == e),
+                    )
+                })
+                .collect();
+            out.push(Warning {
+                text: format!("event `{e}` is emitted but no transition waits for it"),
+                nets,
+                conflict: None,
+            });
+        }
+    }
+    out
+}
+
+fn issues(project: &Project, net: NetId, pred: impl Fn(&Action) -> bool) -> bool {
+    project.nets[net]
+        .transitions
+        .iter()
+        .flat_map(|t| &t.actions)
+        .any(pred)
+}
+
+/// Whether `event` is the result of a call net `n` makes.
+fn result_called(project: &Project, n: NetId, event: &str) -> bool {
+    issues(project, n, |a| match a {
+        Action::Call {
+            program, function, ..
+        } => {
+            let p = &project.programs[*program];
+            let base = format!("{}.{}", p.name, p.functions[*function].name);
+            event == format!("{base}.{}", names::DONE)
+                || event == format!("{base}.{}", names::FAILED)
+        }
+        _ => false,
+    })
+}
+
+/// The plain token game of a project: every net's places and transitions in
+/// one P/T net (global places once), events, guards, actions, activation and
+/// priorities forgotten, every net marked initially. The player's semantics
+/// can reach less than this (see the module doc): it is what other Petri net
+/// tools see of a project, and what `petrel export` writes.
+pub fn token_game(project: &Project) -> PtNet {
+    let mut net = PtNet::new(project.name.clone());
+    for g in &project.globals {
+        net.add_place(format!("@{}", g.name), u32::from(g.initial));
+    }
+    for n in &project.nets {
+        for p in &n.places {
+            net.add_place(format!("{}.{}", n.name, p.name), u32::from(p.initial));
+        }
+    }
+    for n in &project.nets {
+        for t in &n.transitions {
+            let arcs = |places: &[usize]| places.iter().map(|&p| (p, 1)).collect::<Vec<_>>();
+            net.add_transition(
+                format!("{}.{}", n.name, t.name),
+                &arcs(&t.flat_inputs),
+                &arcs(&t.flat_outputs),
+            );
+        }
+    }
+    net
+}
