@@ -216,6 +216,8 @@ struct Found {
     max_tokens: u32,
     first_dead: Option<(u32, u32)>,
     first_unsafe: Option<(u32, u32)>,
+    /// The marking `first_unsafe` names.
+    unsafe_bytes: Vec<u8>,
     stop: Option<Stop>,
     full: bool,
     new_since_report: u64,
@@ -230,8 +232,16 @@ impl Found {
         if t > self.max_tokens {
             self.max_tokens = t;
         }
-        if t >= 2 && self.first_unsafe.is_none() {
+        // at the smallest depth, the smallest marking there: the same one
+        // whatever the threads
+        if t >= 2
+            && self
+                .first_unsafe
+                .is_none_or(|(l, _)| level < l || (level == l && m < &self.unsafe_bytes[..]))
+        {
             self.first_unsafe = Some((level, index));
+            self.unsafe_bytes.clear();
+            self.unsafe_bytes.extend_from_slice(m);
         }
         self.new_since_report += 1;
     }
@@ -332,17 +342,25 @@ pub fn run<S: Semantics>(
         run.max_tokens = run.max_tokens.max(f.max_tokens);
         run.stop = run.stop.or(f.stop);
         run.full |= f.full;
-        if let Some((level, i)) = f.first_dead {
-            if dead_at.is_none_or(|(l, _)| level < l) {
-                dead_at = Some((level, state_id(part, i)));
-            }
-        }
-        if let Some((level, i)) = f.first_unsafe {
-            if unsafe_at.is_none_or(|(l, _)| level < l) {
-                unsafe_at = Some((level, state_id(part, i)));
-            }
-        }
         run.stores.push(store);
+        // the smallest depth, then the smallest marking: whatever the
+        // partitions
+        let first = |at: Option<(u32, u32)>, found: Option<(u32, u32)>, run: &Run<S>| match found {
+            Some((level, i)) => {
+                let id = state_id(part, i);
+                let better = at.is_none_or(|(l, best)| {
+                    level < l || (level == l && run.marking(id) < run.marking(best))
+                });
+                if better {
+                    Some((level, id))
+                } else {
+                    at
+                }
+            }
+            None => at,
+        };
+        dead_at = first(dead_at, f.first_dead, &run);
+        unsafe_at = first(unsafe_at, f.first_unsafe, &run);
         run.levels.push(f.levels);
         arcs.push(a);
     }
@@ -532,7 +550,10 @@ fn worker<S: Semantics>(
             match result {
                 Ok(0) => {
                     f.dead += 1;
-                    if f.first_dead.is_none() {
+                    // at the smallest depth, the smallest marking there
+                    if f.first_dead
+                        .is_none_or(|(l, i)| l == level && store.get(index) < store.get(i))
+                    {
                         f.first_dead = Some((level, index));
                     }
                 }

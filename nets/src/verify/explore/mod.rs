@@ -381,16 +381,6 @@ impl<'n> Exploration<'n> {
             Space::C16(r) => summarize(r, Engine::Counts16, threads, net.transitions.len()),
             Space::C32(r) => summarize(r, Engine::Counts32, threads, net.transitions.len()),
         };
-        let mut space = space;
-        on_space!(&mut space, r => {
-            if !r.arcs.is_empty() {
-                // the loop analysis reads the kept arcs, and counterexamples
-                // are rebuilt from the markings: nothing is looked up again
-                for store in &mut r.stores {
-                    store.drop_table();
-                }
-            }
-        });
         Exploration {
             net,
             summary,
@@ -437,7 +427,8 @@ fn summarize<S: Semantics>(
     }
 }
 
-/// The transitions along a chain of state ids.
+/// The transitions along a chain of state ids (between two markings, the
+/// transition of smallest index that leads from one to the other).
 fn firing_sequence<S: Semantics>(r: &Run<S>, chain: &[u32]) -> Vec<usize> {
     let mut child = Vec::with_capacity(r.sem.words());
     chain
@@ -450,8 +441,8 @@ fn firing_sequence<S: Semantics>(r: &Run<S>, chain: &[u32]) -> Vec<usize> {
             let _ = r
                 .sem
                 .expand(&from, r.sem.key(&from), &mut child, |t, m, _| {
-                    if found.is_none() && to_bytes(m, to.len()) == to {
-                        found = Some(t as usize);
+                    if to_bytes(m, to.len()) == to {
+                        found = Some(found.map_or(t as usize, |f: usize| f.min(t as usize)));
                     }
                 });
             found
@@ -462,11 +453,37 @@ fn firing_sequence<S: Semantics>(r: &Run<S>, chain: &[u32]) -> Vec<usize> {
 /// State ids from the initial marking to `id`: a shortest path, rebuilt
 /// backwards level by level (no parent links are stored): a predecessor of
 /// a marking of level k is a marking of level k - 1 with it as successor.
-fn chain_to<S: Semantics>(r: &Run<S>, id: u32) -> Vec<u32> {
+/// The one taken is the marking of level k - 1 from which the transition
+/// of smallest index leads there (found by firing transitions backwards
+/// and looking the result up), so that the path is the same whatever the
+/// threads that stored the markings.
+fn chain_to<S: Semantics>(r: &Run<S>, net: &PtNet, id: u32) -> Vec<u32> {
     let mut chain = vec![id];
     let mut cur = id;
     let mut child = Vec::with_capacity(r.sem.words());
     for k in (0..r.level(id)).rev() {
+        let m = r.sem.counts(r.marking(cur));
+        let before = net.transitions.iter().find_map(|t| {
+            let mut prev = m.clone();
+            for &(p, w) in &t.post {
+                let c = prev.get_mut(p)?;
+                *c = c.checked_sub(w)?;
+            }
+            for &(p, w) in &t.pre {
+                let c = prev.get_mut(p)?;
+                *c = c.checked_add(w)?;
+            }
+            let bytes = r.sem.stored(&prev)?;
+            let p = r.lookup_hashed(&bytes, mix(r.sem.key(&to_words(&bytes))))?;
+            (r.level(p) == k).then_some(p)
+        });
+        if let Some(p) = before {
+            chain.push(p);
+            cur = p;
+            continue;
+        }
+        // not found that way (the markings' table gone): the first
+        // predecessor in store order
         let target = to_words(r.marking(cur));
         let pred = r.level_ids(k).find(|&p| {
             let m = to_words(r.marking(p));
@@ -637,11 +654,11 @@ fn id_of(offsets: &[u32], node: u32) -> u32 {
     state_id(p, node - offsets[p])
 }
 
-fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize, threads: usize) -> Loops {
+fn loops_of<S: Semantics>(r: &Run<S>, net: &PtNet, max_listed: usize, threads: usize) -> Loops {
     if r.arcs.is_empty() {
         let g = Graph::new(r);
         let sccs = graph::strongly_connected_components(&g);
-        loops_in(r, &g, &sccs, max_listed, None)
+        loops_in(r, net, &g, &sccs, max_listed, None)
     } else {
         let kept = Kept {
             arcs: &r.arcs,
@@ -668,7 +685,7 @@ fn loops_of<S: Semantics>(r: &Run<S>, max_listed: usize, threads: usize) -> Loop
             &kept, initial, entered, seeds, order, threads,
         );
         let known = cycle.map(|c| (initial, c));
-        loops_in(r, &kept, &sccs, max_listed, known)
+        loops_in(r, net, &kept, &sccs, max_listed, known)
     }
 }
 
@@ -699,6 +716,7 @@ fn dense_of(offsets: &[u32], id: u32) -> u32 {
 /// shortest cycle through it, found already.
 fn loops_in<S: Semantics>(
     r: &Run<S>,
+    net: &PtNet,
     g: &impl Successors,
     sccs: &Sccs,
     max_listed: usize,
@@ -721,26 +739,47 @@ fn loops_in<S: Semantics>(
     let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
     let mut seen = vec![false; sccs.count()];
     let mut entries: Vec<(usize, u32)> = Vec::new();
-    'levels: for k in 0..depths {
+    for k in 0..depths {
         if entries.len() >= max_listed || entries.len() as u64 == cyclic_components {
             break;
         }
+        // the components first met at this level, each by its smallest
+        // marking here, listed in the order of those markings: the same
+        // whatever the threads that numbered them
+        let mut met: Vec<(usize, u32)> = Vec::new();
+        let mut at: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
         for id in r.level_ids(k) {
             let v = dense(id);
             let c = sccs.component[v as usize] as usize;
-            if sccs.cyclic[c] && !seen[c] {
-                seen[c] = true;
-                entries.push((c, v));
-                if entries.len() >= max_listed {
-                    break 'levels;
+            if !sccs.cyclic[c] || seen[c] {
+                continue;
+            }
+            match at.get(&c) {
+                Some(&i) => {
+                    if r.marking(id) < r.marking(id_of(&offsets, met[i].1)) {
+                        met[i].1 = v;
+                    }
+                }
+                None => {
+                    at.insert(c, met.len());
+                    met.push((c, v));
                 }
             }
         }
+        met.sort_by(|a, b| {
+            r.marking(id_of(&offsets, a.1))
+                .cmp(r.marking(id_of(&offsets, b.1)))
+        });
+        for &(c, _) in &met {
+            seen[c] = true;
+        }
+        entries.extend(met);
     }
+    entries.truncate(max_listed);
     let listed = entries
         .into_iter()
         .map(|(c, v)| {
-            let prefix = firing_sequence(r, &chain_to(r, id_of(&offsets, v)));
+            let prefix = firing_sequence(r, &chain_to(r, net, id_of(&offsets, v)));
             let cycle_nodes = match known.take_if(|(k, _)| *k == v) {
                 Some((_, nodes)) => nodes,
                 None => graph::shortest_cycle(g, v, |w| sccs.component[w as usize] as usize == c)
@@ -765,19 +804,19 @@ fn loops_in<S: Semantics>(
 impl Exploration<'_> {
     /// A shortest firing sequence (transition indices) to a dead marking.
     pub fn deadlock_example(&self) -> Option<Vec<usize>> {
-        on_space!(&self.space, r => r.first_dead.map(|id| firing_sequence(r, &chain_to(r, id))))
+        on_space!(&self.space, r => r.first_dead.map(|id| firing_sequence(r, &chain_to(r, self.net, id))))
     }
 
     /// A shortest firing sequence to a marking with two tokens or more in a
     /// place.
     pub fn unsafe_example(&self) -> Option<Vec<usize>> {
-        on_space!(&self.space, r => r.first_unsafe.map(|id| firing_sequence(r, &chain_to(r, id))))
+        on_space!(&self.space, r => r.first_unsafe.map(|id| firing_sequence(r, &chain_to(r, self.net, id))))
     }
 
     /// Strongly connected components of the reachability graph, listing at
     /// most `max_listed` cycles. Costs about one more exploration.
     pub fn loops(&self, max_listed: usize) -> Loops {
-        on_space!(&self.space, r => loops_of(r, max_listed, self.summary.threads))
+        on_space!(&self.space, r => loops_of(r, self.net, max_listed, self.summary.threads))
     }
 
     /// The names of transitions.

@@ -39,6 +39,9 @@ pub trait Semantics: Sync {
     fn max_tokens(&self, m: &[u8]) -> u32;
     /// Tokens in each place of stored marking `m`.
     fn counts(&self, m: &[u8]) -> Vec<u32>;
+    /// The stored form of a marking given by its counts; `None` when this
+    /// engine cannot hold it.
+    fn stored(&self, counts: &[u32]) -> Option<Vec<u8>>;
 }
 
 /// Reads stored bytes into words (the last one padded with zeros).
@@ -395,6 +398,10 @@ impl Semantics for Bits {
             .map(|p| u32::from(m[p >> 3] >> (p & 7) & 1))
             .collect()
     }
+
+    fn stored(&self, counts: &[u32]) -> Option<Vec<u8>> {
+        (counts.len() == self.places && counts.iter().all(|&c| c <= 1)).then(|| self.encode(counts))
+    }
 }
 
 // ---------------------------------------------------------------- counts
@@ -562,5 +569,12 @@ impl<const W: usize> Semantics for Counts<W> {
 
     fn counts(&self, m: &[u8]) -> Vec<u32> {
         (0..self.places).map(|p| Self::get(m, p) as u32).collect()
+    }
+
+    fn stored(&self, counts: &[u32]) -> Option<Vec<u8>> {
+        if counts.len() != self.places {
+            return None;
+        }
+        self.encode(counts)
     }
 }

@@ -3,6 +3,7 @@ use crate::verify::reference::explore_reference;
 
 fn check_against_reference(net: &PtNet) {
     let reference = explore_reference(net, 1_000_000).expect("small net");
+    let mut first = None;
     for threads in [1, 2, 3] {
         let e = explore(
             net,
@@ -30,6 +31,15 @@ fn check_against_reference(net: &PtNet) {
             reference.deadlock_depth
         );
         assert_eq!(e.unsafe_example().map(|p| p.len()), reference.unsafe_depth);
+        // the same counterexamples and loops whatever the threads (one
+        // thread keeps the sample's run, whose successors come in another
+        // order: compared from two threads on)
+        let found = (e.deadlock_example(), e.unsafe_example(), e.loops(3));
+        match &first {
+            _ if threads == 1 => {}
+            None => first = Some(found),
+            Some(two) => assert_eq!(two, &found, "threads {threads}"),
+        }
     }
 }
 
