@@ -18,7 +18,7 @@
 //! The stored state space is kept ([`Exploration`]) so counterexamples are
 //! rebuilt level by level, and loops found by strongly connected components
 //! over the arcs kept during the exploration ([`Options::keep_arcs`], see
-//! `edges.rs`; the hash tables are freed then), or else over successors
+//! `edges.rs`), or else over successors
 //! regenerated on demand.
 
 mod edges;
@@ -54,8 +54,7 @@ pub struct Options<'a> {
     /// better and wins (BENCHMARKS.md).
     pub partition_by_places: bool,
     /// Keep the successors of every marking as they are found (4 bytes per
-    /// arc and 4 per marking, see `edges.rs`; the hash tables
-    /// are freed once the exploration ends) so that [`Exploration::loops`]
+    /// arc and 4 per marking, see `edges.rs`) so that [`Exploration::loops`]
     /// need not fire every transition again. Default false: `loops` then
     /// recomputes them.
     pub keep_arcs: bool,
