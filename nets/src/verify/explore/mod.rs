@@ -18,7 +18,7 @@
 //! The stored state space is kept ([`Exploration`]) so counterexamples are
 //! rebuilt level by level, and loops found by strongly connected components
 //! over the arcs kept during the exploration ([`Options::keep_arcs`], see
-//! `edges.rs`), or else over successors
+//! `edges.rs`; the hash tables are freed then), or else over successors
 //! regenerated on demand.
 
 mod edges;
@@ -54,7 +54,8 @@ pub struct Options<'a> {
     /// better and wins (BENCHMARKS.md).
     pub partition_by_places: bool,
     /// Keep the successors of every marking as they are found (4 bytes per
-    /// arc and 4 per marking, see `edges.rs`) so that [`Exploration::loops`]
+    /// arc and 4 per marking, see `edges.rs`; the hash tables
+    /// are freed once the exploration ends) so that [`Exploration::loops`]
     /// need not fire every transition again. Default false: `loops` then
     /// recomputes them.
     pub keep_arcs: bool,
@@ -380,6 +381,16 @@ impl<'n> Exploration<'n> {
             Space::C16(r) => summarize(r, Engine::Counts16, threads, net.transitions.len()),
             Space::C32(r) => summarize(r, Engine::Counts32, threads, net.transitions.len()),
         };
+        let mut space = space;
+        on_space!(&mut space, r => {
+            if !r.arcs.is_empty() {
+                // the loop analysis and the counterexamples read the kept
+                // arcs: nothing is looked up again
+                for store in &mut r.stores {
+                    store.drop_table();
+                }
+            }
+        });
         Exploration {
             net,
             summary,
@@ -451,18 +462,56 @@ fn firing_sequence<S: Semantics>(r: &Run<S>, chain: &[u32]) -> Vec<usize> {
 
 /// State ids from the initial marking to `id`: a shortest path, rebuilt
 /// backwards level by level (no parent links are stored): a predecessor of
-/// a marking of level k is a marking of level k - 1 with it as successor.
-/// The one taken is the marking of level k - 1 from which the transition
-/// of smallest index leads there (found by firing transitions backwards
-/// and looking the result up), so that the path is the same whatever the
-/// threads that stored the markings.
+/// a marking of level k is a marking of level k - 1 with it as successor,
+/// and the one taken is the smallest (in stored form), so that the path is
+/// the same whatever the threads that stored the markings. The
+/// predecessors are found in the arcs of level k - 1 when they are kept,
+/// else by firing each transition backwards and looking the result up.
 fn chain_to<S: Semantics>(r: &Run<S>, net: &PtNet, id: u32) -> Vec<u32> {
+    let offsets = r.offsets();
     let mut chain = vec![id];
     let mut cur = id;
-    let mut child = Vec::with_capacity(r.sem.words());
     for k in (0..r.level(id)).rev() {
-        let m = r.sem.counts(r.marking(cur));
-        let before = net.transitions.iter().find_map(|t| {
+        let before = if r.arcs.is_empty() {
+            fired_backwards(r, net, cur, k)
+        } else {
+            let target = dense_of(&offsets, cur);
+            let mut found = Vec::new();
+            for (p, arcs) in r.arcs.iter().enumerate() {
+                for l in r.level_range(p, k) {
+                    if arcs.targets(l).contains(&target) {
+                        found.push(state_id(p, l));
+                    }
+                }
+            }
+            found
+        };
+        match before
+            .into_iter()
+            .min_by(|&a, &b| r.marking(a).cmp(r.marking(b)))
+        {
+            Some(p) => {
+                chain.push(p);
+                cur = p;
+            }
+            None => break,
+        }
+    }
+    chain.reverse();
+    chain
+}
+
+/// The markings of level `k` from which a transition leads to `id`: each
+/// transition fired backwards from it (when it holds what the transition
+/// puts), the result looked up.
+fn fired_backwards<S: Semantics>(r: &Run<S>, net: &PtNet, id: u32, k: usize) -> Vec<u32> {
+    let m = r.sem.counts(r.marking(id));
+    net.transitions
+        .iter()
+        .filter_map(|t| {
+            if t.post.iter().any(|&(p, w)| m.get(p).is_none_or(|&c| c < w)) {
+                return None;
+            }
             let mut prev = m.clone();
             for &(p, w) in &t.post {
                 let c = prev.get_mut(p)?;
@@ -475,33 +524,8 @@ fn chain_to<S: Semantics>(r: &Run<S>, net: &PtNet, id: u32) -> Vec<u32> {
             let bytes = r.sem.stored(&prev)?;
             let p = r.lookup_hashed(&bytes, mix(r.sem.key(&to_words(&bytes))))?;
             (r.level(p) == k).then_some(p)
-        });
-        if let Some(p) = before {
-            chain.push(p);
-            cur = p;
-            continue;
-        }
-        // not found that way (the markings' table gone): the first
-        // predecessor in store order
-        let target = to_words(r.marking(cur));
-        let pred = r.level_ids(k).find(|&p| {
-            let m = to_words(r.marking(p));
-            let mut hit = false;
-            let _ = r.sem.expand(&m, r.sem.key(&m), &mut child, |_, c, _| {
-                hit = hit || c == target.as_slice();
-            });
-            hit
-        });
-        match pred {
-            Some(p) => {
-                chain.push(p);
-                cur = p;
-            }
-            None => break,
-        }
-    }
-    chain.reverse();
-    chain
+        })
+        .collect()
 }
 
 /// Scratch space of [`Graph`]: the marking as words, a successor, the

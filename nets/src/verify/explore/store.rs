@@ -65,6 +65,13 @@ impl Store {
         &self.record_at(index)[..self.width]
     }
 
+    /// Frees the hash table once no marking will be looked up again (the
+    /// markings stay: counterexamples are rebuilt from them); later lookups
+    /// find nothing.
+    pub fn drop_table(&mut self) {
+        self.table = Vec::new();
+    }
+
     /// The index of `marking` (with hash `hash`) if stored.
     pub fn lookup(&self, marking: &[u8], hash: u64) -> Option<u32> {
         if self.table.is_empty() {
@@ -282,6 +289,8 @@ mod tests {
             assert_eq!(s.get(i), &m[..3]);
         }
         assert_eq!(s.lookup(&[1, 2, 200], 77), None);
+        s.drop_table();
+        assert_eq!(s.lookup(&[0, 0, 0], 0), None);
         assert_eq!(s.get(7), &7u32.to_le_bytes()[..3]);
     }
 
