@@ -422,6 +422,11 @@ fn bit(set: &[u64], v: u32) -> bool {
     (set[(v >> 6) as usize] >> (v & 63)) & 1 == 1
 }
 
+/// Whether `v` is in a bitset shared between threads.
+fn joined_in(set: &[AtomicU64], v: u32) -> bool {
+    (set[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1
+}
+
 fn set_bit(set: &mut [u64], v: u32) {
     set[(v >> 6) as usize] |= 1 << (v & 63);
 }
@@ -498,7 +503,7 @@ fn reaching_together(
     n: usize,
 ) -> Option<Vec<u32>> {
     let shared: Vec<AtomicU64> = reach.iter().map(|&w| AtomicU64::new(w)).collect();
-    let joined = |v: u32| (shared[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1;
+    let joined = |v: u32| joined_in(&shared, v);
     let sweep = |nodes: &mut dyn Iterator<Item = &u32>| {
         let mut changed = false;
         for &v in nodes {
@@ -556,7 +561,7 @@ fn reaching_helped(
     first: Direction,
     helped: &AtomicBool,
 ) -> Option<Vec<u32>> {
-    let joined = |v: u32| (reach[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1;
+    let joined = |v: u32| joined_in(reach, v);
     rest.retain(|&v| !joined(v));
     let mut work = 0usize;
     for sweep in 0usize.. {
@@ -606,7 +611,7 @@ fn help(
     helped: &AtomicBool,
     done: &AtomicBool,
 ) {
-    let joined = |v: u32| (reach[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1;
+    let joined = |v: u32| joined_in(reach, v);
     let join = |v: u32| {
         if joined(v) {
             return;
@@ -738,7 +743,7 @@ fn reached_joining(
     reach: &[AtomicU64],
     helped: &AtomicBool,
 ) -> Vec<u64> {
-    let joined = |v: u32| (reach[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1;
+    let joined = |v: u32| joined_in(reach, v);
     // zeroed (pages mapped as they are written); `node` has no parent but
     // is never walked past: it is joined
     let parent = std::cell::RefCell::new(vec![0u32; n]);
