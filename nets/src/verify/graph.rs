@@ -727,7 +727,7 @@ fn terminal_component(
 /// places ahead are asked for in two steps (where their successors start,
 /// then these).
 fn reached_by_levels(g: &impl Adjacency, node: u32, n: usize) -> Vec<u64> {
-    search_by_levels(g, node, n, |_, _, _| {}, |_| {})
+    search_by_levels(g, node, n, |_| {})
 }
 
 /// [`reached_by_levels`], joining to `reach` (nodes known to reach
@@ -746,21 +746,17 @@ fn reached_joining(
     let joined = |v: u32| joined_in(reach, v);
     // zeroed (pages mapped as they are written); `node` has no parent but
     // is never walked past: it is joined
-    let parent = std::cell::RefCell::new(vec![0u32; n]);
-    let hit = std::cell::Cell::new(false);
-    search_by_levels(
-        g,
-        node,
-        n,
-        |v, w, new| {
+    let mut parent = vec![0u32; n];
+    let mut hit = false;
+    search_by_levels(g, node, n, |step| match step {
+        Visit::Arc { from, to, new } => {
             if new {
-                parent.borrow_mut()[w as usize] = v;
+                parent[to as usize] = from;
             }
-            hit.set(hit.get() | joined(w));
-        },
-        |v| {
-            if hit.take() {
-                let parent = parent.borrow();
+            hit |= joined(to);
+        }
+        Visit::Done(v) => {
+            if std::mem::take(&mut hit) {
                 let mut u = v;
                 // the walk ends at `node` at the latest, which is joined
                 while !joined(u) {
@@ -769,19 +765,26 @@ fn reached_joining(
                     u = parent[u as usize];
                 }
             }
-        },
-    )
+        }
+    })
 }
 
-/// The breadth-first search of [`reached_by_levels`], telling `arc` each
-/// arc it reads (whether its target is new), then `node_done` each node
-/// whose arcs were all read.
+/// What [`search_by_levels`] tells its caller, in order: each arc it
+/// reads (whether its target is new), then that a node's arcs were all
+/// read.
+#[derive(Debug, Clone, Copy)]
+enum Visit {
+    Arc { from: u32, to: u32, new: bool },
+    Done(u32),
+}
+
+/// The breadth-first search of [`reached_by_levels`], telling `visit`
+/// each arc it reads and each node done ([`Visit`]).
 fn search_by_levels(
     g: &impl Adjacency,
     node: u32,
     n: usize,
-    mut arc: impl FnMut(u32, u32, bool),
-    mut node_done: impl FnMut(u32),
+    mut visit: impl FnMut(Visit),
 ) -> Vec<u64> {
     let words = n.div_ceil(64);
     let mut seen = vec![0u64; words];
@@ -806,9 +809,13 @@ fn search_by_levels(
                     lo = lo.min(at);
                     hi = hi.max(at + 1);
                 }
-                arc(v, w, new);
+                visit(Visit::Arc {
+                    from: v,
+                    to: w,
+                    new,
+                });
             }
-            node_done(v);
+            visit(Visit::Done(v));
         }
         level.clear();
         for (at, word) in next.iter_mut().enumerate().take(hi).skip(lo) {
