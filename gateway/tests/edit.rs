@@ -391,6 +391,43 @@ fn the_editor_never_overwrites_a_file_changed_on_disk() {
             "places = [\"proceeding\", \"spare\"]"
         )
     );
+    // Written again by someone else, then the page polls the version (as
+    // it does every half second): the file is read again without Reload,
+    // the page shows it, and the next edit is made on it.
+    let (_, v0) = http(&url, "GET", "/version", "");
+    let theirs = now.replace(
+        "places = [\"proceeding\", \"spare\"]",
+        "places = [\"proceeding\", \"spare\", \"outside\"]",
+    );
+    assert_ne!(theirs, now);
+    std::fs::write(dir.join("communication.toml"), &theirs).unwrap_or_else(|e| panic!("{e}"));
+    let (status, v1) = http(&url, "GET", "/version", "");
+    assert_eq!(status, 200);
+    assert!(
+        v1["version"].as_u64() > v0["version"].as_u64(),
+        "a change on disk is a new version: {v0} then {v1}"
+    );
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    let places: Vec<String> = page["nets"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter(|n| n["name"] == "COMMUNICATION")
+        .flat_map(|n| n["places"].as_array().cloned().unwrap_or_default())
+        .filter_map(|p| p["name"].as_str().map(str::to_owned))
+        .collect();
+    assert!(places.contains(&"outside".to_owned()), "{places:?}");
+    let (status, a) = http(
+        &url,
+        "POST",
+        "/edit",
+        r#"{"op":"add_place","net":"COMMUNICATION","name":"spare2"}"#,
+    );
+    assert_eq!(status, 200, "made on their text, no conflict: {a}");
+    assert_eq!(
+        read(&dir.join("communication.toml")),
+        theirs.replace("\"outside\"]", "\"outside\", \"spare2\"]")
+    );
     let leftovers: Vec<_> = std::fs::read_dir(dir)
         .unwrap_or_else(|e| panic!("{e}"))
         .filter_map(Result::ok)
@@ -1359,8 +1396,8 @@ fn the_page_draws_once_per_edit_and_once_per_change_from_outside() {
     );
     drop(editor);
     eprintln!(
-        "moves: {}; from outside: {}, drawn after {} ms; reloaded: {}, drawn after {} ms",
-        seen["edits"], seen["outside"], seen["outside_ms"], seen["reload"], seen["reload_ms"]
+        "moves: {}; from outside: {}, drawn after {} ms; on disk: {}, drawn after {} ms; reloaded: {}, drawn after {} ms",
+        seen["edits"], seen["outside"], seen["outside_ms"], seen["disk"], seen["disk_ms"], seen["reload"], seen["reload_ms"]
     );
     assert!(seen.get("failure").is_none(), "{}", seen["failure"]);
     assert_eq!(seen["errors"], Json::Array(Vec::new()), "no page error");
@@ -1384,8 +1421,16 @@ fn the_page_draws_once_per_edit_and_once_per_change_from_outside() {
     // Soon: a poll period and the late page.json, with room.
     let ms = seen["outside_ms"].as_u64().unwrap_or(u64::MAX);
     assert!(ms < 3000, "drawn {ms} ms after the change");
-    // Reloaded: the reload's version and the check's verdict, each
-    // drawn at most once (the verdict may come before the poll asks).
+    // Changed on disk, no Reload: read again at the page's poll; the
+    // reload's version and the check's verdict, each drawn at most once
+    // (the verdict may come before the poll asks).
+    assert_eq!(seen["disk"]["versions"], 2, "{}", seen["disk"]);
+    let draws = seen["disk"]["draws"].as_u64().unwrap_or(0);
+    assert!((1..=2).contains(&draws), "{}", seen["disk"]);
+    assert_eq!(seen["disk"]["check"], "holds", "{}", seen["disk"]);
+    let ms = seen["disk_ms"].as_u64().unwrap_or(u64::MAX);
+    assert!(ms < 3000, "drawn {ms} ms after the change on disk");
+    // Reloaded, nothing changed: the same, a version and a verdict.
     assert_eq!(
         seen["reload_answer"]["ok"], true,
         "{}",
@@ -1400,7 +1445,7 @@ fn the_page_draws_once_per_edit_and_once_per_change_from_outside() {
     // The moves on disk, the last one as the other program wrote it.
     let layout = read(&dir.join("layout.toml"));
     assert!(layout.contains("[INIT.places]"), "{layout}");
-    let at = &seen["reload"]["at"];
+    let at = &seen["disk"]["at"];
     let fourth = seen["outside"]["place"].as_str().unwrap_or("?");
     assert!(
         layout.contains(&format!("{fourth} = [{}.0, {}.0]", at[0], at[1])),

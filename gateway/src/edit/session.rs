@@ -5,7 +5,9 @@
 //! Writes are atomic (a temporary file beside the target, then a rename)
 //! and refused when the file on disk is no longer the text the draft was
 //! read from (someone else wrote it): the page says so and offers to
-//! reload; nothing of theirs is overwritten. An edit after which the
+//! reload; nothing of theirs is overwritten. Such files are read again at
+//! the page's next poll of the version anyway (half a second), so a
+//! conflict needs an edit made within that time. An edit after which the
 //! project no longer loads is still written (a person adding a
 //! transition, then its arcs, passes through such states) and shown with
 //! the loader's problems on their elements.
@@ -682,8 +684,26 @@ impl Session {
                "undo_depth": s.undo.len(), "petrel": env!("CARGO_PKG_VERSION")})
     }
 
-    pub fn version(&self) -> u64 {
+    /// What the page polls (every half second): the version of what it
+    /// shows. A file changed on disk since it was read or written here
+    /// (by a text editor, `git checkout`…) is read again first, as Reload
+    /// does: the page then shows it within a poll, and the next edit is
+    /// made on it.
+    pub fn version(self: &Arc<Self>) -> u64 {
+        if self.changed_on_disk() {
+            self.reload();
+        }
         self.lock().version
+    }
+
+    /// Whether a file the draft was read from is no longer on disk as it
+    /// was read or written (or has appeared, or is gone). A file that
+    /// cannot be read now does not count: the next edit reports it.
+    fn changed_on_disk(&self) -> bool {
+        let s = self.lock();
+        s.read
+            .iter()
+            .any(|(file, text)| read_file(&self.dir, file).is_ok_and(|now| now != *text))
     }
 
     /// Generates the programs' skeletons (as `petrel stubs`) in `out`

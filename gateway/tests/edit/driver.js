@@ -22,8 +22,8 @@
 //          three places of INIT dragged (a move: no check), then
 //          a fourth moved by another client of the editor (POST /edit, as
 //          another tab), then layout.toml changed on disk by another
-//          program (PROJECT_DIR) and reloaded from another tab: the
-//          page's draws counted across each.
+//          program (PROJECT_DIR: read again at the page's poll), then a
+//          Reload from another tab: the page's draws counted across each.
 // Prints one JSON object with what it saw; the Rust test judges it. The
 // browser is closed on every path.
 "use strict";
@@ -389,25 +389,36 @@ async function drawsPerEdit(page, seen) {
   const after = await settled(page);
   seen.outside = { place: fourth, at, draws: after.draws - before.draws, versions: after.version - before.version };
   // layout.toml changed on disk by another program (the fourth place's
-  // line, as a text editor would), then Reload from another tab: drawn
-  // soon, then the new check's verdict.
+  // line, as a text editor saves: a whole new file renamed over it): the
+  // page's poll reads it again, no Reload: drawn soon, then the new
+  // check's verdict.
   const file = path.join(process.env.PROJECT_DIR || ".", "layout.toml");
   const text = fs.readFileSync(file, "utf8");
   const line = fourth + " = [" + at[0] + ".0, " + at[1] + ".0]";
   if (!text.includes(line)) throw new Error("layout.toml has no line " + line + ":\n" + text);
   const moved = [at[0] + 50, at[1] + 40];
-  fs.writeFileSync(file, text.replace(line, fourth + " = [" + moved[0] + ".0, " + moved[1] + ".0]"));
+  fs.writeFileSync(file + ".saving", text.replace(line, fourth + " = [" + moved[0] + ".0, " + moved[1] + ".0]"));
+  fs.renameSync(file + ".saving", file);
   const t1 = Date.now();
-  const r2 = await fetch(new URL("reload", url), { method: "POST", headers: { "content-type": "application/json" }, body: "{}" });
-  seen.reload_answer = await r2.json();
   await page.waitForFunction((a) => {
     const c = document.querySelector(a.sel);
     return !!c && Number(c.getAttribute("cx")) === a.at[0] && Number(c.getAttribute("cy")) === a.at[1];
   }, { sel: circle(fourth), at: moved }, { timeout: 20000 });
-  seen.reload_ms = Date.now() - t1;
+  seen.disk_ms = Date.now() - t1;
   await page.waitForFunction(() => page.check.state === "done", null, { timeout: CHECK_MS });
+  const read = await settled(page);
+  seen.disk = { at: moved, draws: read.draws - after.draws, versions: read.version - after.version,
+    check: await page.$eval("#check-state", (e) => e.dataset.state) };
+  // Then Reload from another tab, nothing changed: the reload's version
+  // and the new check's verdict.
+  const t2 = Date.now();
+  const r2 = await fetch(new URL("reload", url), { method: "POST", headers: { "content-type": "application/json" }, body: "{}" });
+  seen.reload_answer = await r2.json();
+  await page.waitForFunction((v) => ED.version > v, read.version, { timeout: 20000 });
+  seen.reload_ms = Date.now() - t2;
+  await page.waitForFunction((v) => ED.version >= v + 2, read.version, { timeout: CHECK_MS });
   const last = await settled(page);
-  seen.reload = { at: moved, draws: last.draws - after.draws, versions: last.version - after.version,
+  seen.reload = { draws: last.draws - read.draws, versions: last.version - read.version,
     check: await page.$eval("#check-state", (e) => e.dataset.state) };
 }
 
