@@ -424,10 +424,26 @@ fn the_editor_never_overwrites_a_file_changed_on_disk() {
         r#"{"op":"add_place","net":"COMMUNICATION","name":"spare2"}"#,
     );
     assert_eq!(status, 200, "made on their text, no conflict: {a}");
+    let edited = read(&dir.join("communication.toml"));
     assert_eq!(
-        read(&dir.join("communication.toml")),
+        edited,
         theirs.replace("\"outside\"]", "\"outside\", \"spare2\"]")
     );
+    // A net's file gone, then back (a branch switched and back): broken
+    // at the next poll, editable again at the one after its return.
+    std::fs::remove_file(dir.join("communication.toml")).unwrap_or_else(|e| panic!("{e}"));
+    http(&url, "GET", "/version", "");
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    let broken = page["broken"].as_str().unwrap_or("");
+    assert!(
+        broken.contains("communication.toml: no such file"),
+        "{page}"
+    );
+    std::fs::write(dir.join("communication.toml"), &edited).unwrap_or_else(|e| panic!("{e}"));
+    http(&url, "GET", "/version", "");
+    let (_, page) = http(&url, "GET", "/page.json", "");
+    assert_eq!(page["broken"], Json::Null, "{page}");
+    assert_eq!(page["loads"], true, "{}", page["problems"]);
     let leftovers: Vec<_> = std::fs::read_dir(dir)
         .unwrap_or_else(|e| panic!("{e}"))
         .filter_map(Result::ok)

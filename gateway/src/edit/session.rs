@@ -276,9 +276,12 @@ impl Session {
                 .insert(nets::load::PROJECT_FILE.into(), Some(project.clone()));
             let mut nets_read = Vec::new();
             for file in Draft::net_files(&project).map_err(|e| e.to_string())? {
-                let text = read_file(&self.dir, &file)?
-                    .ok_or_else(|| format!("{file}: no such file (project.toml lists it)"))?;
-                s.read.insert(file.clone(), Some(text.clone()));
+                // a file missing is remembered as such: the next poll
+                // notices it back
+                let text = read_file(&self.dir, &file)?;
+                s.read.insert(file.clone(), text.clone());
+                let text =
+                    text.ok_or_else(|| format!("{file}: no such file (project.toml lists it)"))?;
                 nets_read.push((file, text));
             }
             let layout = read_file(&self.dir, positions::FILE)?;
