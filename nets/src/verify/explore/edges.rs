@@ -12,8 +12,10 @@
 //!
 //! During the exploration a successor is its state id (partition and
 //! index); those in another partition are stored by that partition's
-//! thread, which answers with their id at the end of the level (until then
-//! their slot holds [`PENDING`]). Once every partition's size is known,
+//! thread, which answers with their ids at the end of the level, in the
+//! order they were sent: the sender keeps their slots (until answered a
+//! slot holds [`PENDING`]), and the mail carries the same records as an
+//! exploration that keeps no arcs. Once every partition's size is known,
 //! [`Edges::number`] turns the ids into dense node numbers (all partitions
 //! one after the other).
 

@@ -190,11 +190,11 @@ struct Shared<'a> {
     n: usize,
     partitioner: &'a Partitioner,
     barrier: Barrier,
-    /// outboxes[from * n + to]: records (marking words, hash, and with
-    /// `keep_arcs` the sender's slot for its id).
+    /// outboxes[from * n + to]: records (marking words, hash).
     outboxes: Vec<Mutex<Vec<u8>>>,
-    /// replies[from * n + to]: (slot, id) for the markings `to` sent.
-    replies: Vec<Mutex<Vec<(u32, u32)>>>,
+    /// replies[from * n + to], with `keep_arcs`: the ids of the markings
+    /// `to` sent, in the order of its records (it keeps their slots).
+    replies: Vec<Mutex<Vec<u32>>>,
     keep_arcs: bool,
     /// The smallest level at which some thread asked to stop.
     stop_level: AtomicU32,
@@ -405,33 +405,29 @@ pub fn run<S: Semantics>(
 /// loaded first, all together (independent loads overlap), then stored.
 const BATCH: usize = 512;
 
-/// Parses a record (marking padded to whole words, hash, and in mail with
-/// kept arcs the sender's slot): the stored marking, its hash, the slot.
+/// Parses a record (marking padded to whole words, hash): the stored
+/// marking, its hash.
 #[inline]
-fn parse_record(r: &[u8], width: usize, words: usize) -> (&[u8], u64, u32) {
+fn parse_record(r: &[u8], width: usize, words: usize) -> (&[u8], u64) {
     let at = words * 8;
     let mut h = [0u8; 8];
     h.copy_from_slice(&r[at..at + 8]);
-    let mut s = [0u8; 4];
-    if let Some(b) = r.get(at + 8..at + 12) {
-        s.copy_from_slice(b);
-    }
-    (&r[..width], u64::from_le_bytes(h), u32::from_le_bytes(s))
+    (&r[..width], u64::from_le_bytes(h))
 }
 
 /// Where a batch comes from.
 enum Source<'a> {
     /// This thread's own expansions: successors of other partitions go to
-    /// `outs`; with `arcs`, every successor takes the next slot.
+    /// `outs`; with `arcs`, every successor takes the next slot, and those
+    /// sent away have theirs noted in `sent` (one list per partition, in
+    /// the order of their records).
     Own {
         outs: &'a mut [Vec<u8>],
-        arcs: Option<&'a mut Edges>,
+        arcs: Option<(&'a mut Edges, &'a mut [Vec<u32>])>,
     },
     /// Another thread's mail (all for this partition); with `replies`, each
-    /// stored or found id goes back with the sender's slot.
-    Mail {
-        replies: Option<&'a mut Vec<(u32, u32)>>,
-    },
+    /// stored or found id goes back, in the order of the records.
+    Mail { replies: Option<&'a mut Vec<u32>> },
 }
 
 /// Stores the successors in `batch` that belong to partition `me` and moves
@@ -458,20 +454,20 @@ fn store_batch<S: Semantics>(
     const D: usize = 8;
     for i in 0..count + 2 * D {
         if i < count {
-            let (m, h, _) = parse_record(at(i), width, words);
+            let (m, h) = parse_record(at(i), width, words);
             if part(m, h) == me {
                 store.prefetch_slot(h);
             }
         }
         if i >= D && i - D < count {
-            let (m, h, _) = parse_record(at(i - D), width, words);
+            let (m, h) = parse_record(at(i - D), width, words);
             if part(m, h) == me {
                 store.prefetch_record(h);
             }
         }
         if i >= 2 * D {
             let r = at(i - 2 * D);
-            let (m, h, slot) = parse_record(r, width, words);
+            let (m, h) = parse_record(r, width, words);
             let p = part(m, h);
             if p == me {
                 let local = match store.insert(m, h) {
@@ -485,20 +481,20 @@ fn store_batch<S: Semantics>(
                 let id = state_id(me, local);
                 match &mut source {
                     Source::Own {
-                        arcs: Some(arcs), ..
+                        arcs: Some((arcs, _)),
+                        ..
                     } => {
                         arcs.push(id);
                     }
                     Source::Mail {
                         replies: Some(replies),
-                    } => replies.push((slot, id)),
+                    } => replies.push(id),
                     _ => {}
                 }
             } else if let Source::Own { outs, arcs } = &mut source {
                 outs[p].extend_from_slice(r);
-                if let Some(arcs) = arcs {
-                    let slot = arcs.push(PENDING);
-                    outs[p].extend_from_slice(&slot.to_le_bytes());
+                if let Some((arcs, sent)) = arcs {
+                    sent[p].push(arcs.push(PENDING));
                 }
             }
         }
@@ -515,11 +511,12 @@ fn worker<S: Semantics>(
     let n = sh.n;
     let words = sem.words();
     let record = words * 8 + 8;
-    // a record in the mail also carries the sender's slot when arcs are kept
-    let mail_record = record + if sh.keep_arcs { 4 } else { 0 };
     let mut f = Found::default();
     let mut arcs = Edges::new();
-    let mut replies: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
+    // with kept arcs: the slots of the successors sent to each partition,
+    // in the order sent (its replies come in that order)
+    let mut sent: Vec<Vec<u32>> = vec![Vec::new(); n];
+    let mut replies: Vec<Vec<u32>> = vec![Vec::new(); n];
     let mut cur = vec![0u64; words];
     let mut child: Vec<u64> = Vec::with_capacity(words);
     let mut outs: Vec<Vec<u8>> = vec![Vec::new(); n];
@@ -580,7 +577,7 @@ fn worker<S: Semantics>(
                     me,
                     Source::Own {
                         outs: &mut outs,
-                        arcs: sh.keep_arcs.then_some(&mut arcs),
+                        arcs: sh.keep_arcs.then_some((&mut arcs, &mut sent)),
                     },
                     level,
                 );
@@ -615,14 +612,14 @@ fn worker<S: Semantics>(
                 }
                 let mut inbox = std::mem::take(&mut *lock(&sh.outboxes[from * n + me]));
                 answers.clear();
-                for part in inbox.chunks(BATCH * mail_record) {
+                for part in inbox.chunks(BATCH * record) {
                     if !store_batch(
                         sem,
                         sh.partitioner,
                         &mut store,
                         &mut f,
                         part,
-                        mail_record,
+                        record,
                         me,
                         Source::Mail {
                             replies: sh.keep_arcs.then_some(&mut *answers),
@@ -646,12 +643,14 @@ fn worker<S: Semantics>(
             sh.barrier.wait();
             if sh.keep_arcs {
                 // the ids of the markings this thread sent, stored by their
-                // partitions' threads before the barrier
-                for from in 0..n {
+                // partitions' threads before the barrier, in the order sent
+                for (from, slots) in sent.iter_mut().enumerate() {
                     if from != me {
-                        for &(slot, id) in lock(&sh.replies[from * n + me]).iter() {
+                        let ids = lock(&sh.replies[from * n + me]);
+                        for (&slot, &id) in slots.iter().zip(ids.iter()) {
                             arcs.answer(slot, id);
                         }
+                        slots.clear();
                     }
                 }
             }
