@@ -450,37 +450,99 @@ fn reaching(
     if threads > 1 && rest.len() >= PARALLEL_SWEEPS {
         return reaching_together(g, reach, rest, n);
     }
+    sweeps(g, reach, rest, n, first, None)
+}
+
+/// A bitset the sweeps join nodes to: plain, or shared with a thread
+/// that joins nodes at the same time ([`help`]).
+trait Joined {
+    /// The word holding nodes `64 at` to `64 at + 63`.
+    fn word(&self, at: usize) -> u64;
+    /// Joins `v` if `hit` is 1 (it is 0 or 1).
+    fn join(&mut self, v: u32, hit: u64);
+}
+
+impl Joined for &mut [u64] {
+    #[inline]
+    fn word(&self, at: usize) -> u64 {
+        self[at]
+    }
+
+    /// Without a branch: whether a node joins is unpredictable.
+    #[inline]
+    fn join(&mut self, v: u32, hit: u64) {
+        self[(v >> 6) as usize] |= hit << (v & 63);
+    }
+}
+
+impl Joined for &[AtomicU64] {
+    #[inline]
+    fn word(&self, at: usize) -> u64 {
+        self[at].load(Relaxed)
+    }
+
+    /// Written only when it joins (a store to a word the other thread
+    /// reads takes the line from its cache), without a locked instruction:
+    /// a join the helper made in the same word at the same moment may be
+    /// overwritten; the helper then said it helped during that sweep, so
+    /// another follows and joins that node again.
+    #[inline]
+    fn join(&mut self, v: u32, hit: u64) {
+        if hit != 0 {
+            let word = &self[(v >> 6) as usize];
+            word.store(word.load(Relaxed) | 1 << (v & 63), Relaxed);
+        }
+    }
+}
+
+/// The sweeps of [`reaching`] over `reach`; with `helped`, another thread
+/// may join nodes at the same time and says so there: the sweeps then end
+/// with one in which neither joined anything.
+fn sweeps(
+    g: &impl Adjacency,
+    mut reach: impl Joined,
+    mut rest: Vec<u32>,
+    n: usize,
+    first: Direction,
+    helped: Option<&AtomicBool>,
+) -> Option<Vec<u32>> {
     let mut work = 0usize;
     for sweep in 0usize.. {
         if work > SWEEP_BUDGET * n {
             return None;
         }
         work += rest.len();
+        if let Some(h) = helped {
+            h.store(false, SeqCst);
+        }
         let mut changed = false;
         // every successor is looked at, without a branch per successor:
         // whether a node joins is unpredictable, and most candidates of
         // the first sweeps do not (so read all their successors anyway)
-        let mut join = |v: u32, reach: &mut [u64]| {
-            let mut hit = 0u64;
-            for w in g.targets(v) {
-                hit |= reach[(w >> 6) as usize] >> (w & 63);
-            }
-            let hit = hit & 1;
-            reach[(v >> 6) as usize] |= hit << (v & 63);
-            changed |= hit != 0;
-        };
         let up = (sweep % 2 == 0) == (first == Direction::Up);
-        if !up {
-            for &v in rest.iter().rev() {
-                join(v, reach);
-            }
-        } else {
-            for &v in rest.iter() {
-                join(v, reach);
+        {
+            let mut one = |v: u32| {
+                let mut hit = 0u64;
+                for w in g.targets(v) {
+                    hit |= reach.word((w >> 6) as usize) >> (w & 63);
+                }
+                let hit = hit & 1;
+                reach.join(v, hit);
+                changed |= hit != 0;
+            };
+            if up {
+                rest.iter().for_each(|&v| one(v));
+            } else {
+                rest.iter().rev().for_each(|&v| one(v));
             }
         }
+        // the helper's joins count too: one may have made a node this
+        // sweep passed joinable
+        if let Some(h) = helped {
+            changed |= h.load(SeqCst);
+        }
         if changed {
-            rest.retain(|&v| !bit(reach, v));
+            rest.retain(|&v| (reach.word((v >> 6) as usize) >> (v & 63)) & 1 == 0);
         }
         if !changed || rest.is_empty() {
             return Some(rest);
@@ -548,11 +610,8 @@ fn reaching_together(
 
 /// [`reaching`] on a bitset another thread may join nodes of at the same
 /// time ([`help`]), saying so through `helped`: the sweeps end with one
-/// in which neither this thread nor the helper joined anything. This
-/// thread writes its joins without a locked instruction (a join the helper
-/// made in the same word at the same moment may be overwritten; the
-/// helper then said it helped during that sweep, so another follows and
-/// joins that node again).
+/// in which neither this thread nor the helper joined anything (see
+/// [`Joined`] for `&[AtomicU64]`).
 fn reaching_helped(
     g: &(impl Adjacency + Sync),
     reach: &[AtomicU64],
@@ -561,44 +620,8 @@ fn reaching_helped(
     first: Direction,
     helped: &AtomicBool,
 ) -> Option<Vec<u32>> {
-    let joined = |v: u32| joined_in(reach, v);
-    rest.retain(|&v| !joined(v));
-    let mut work = 0usize;
-    for sweep in 0usize.. {
-        if work > SWEEP_BUDGET * n {
-            return None;
-        }
-        work += rest.len();
-        helped.store(false, SeqCst);
-        let mut changed = false;
-        let mut join = |v: u32| {
-            let mut hit = 0u64;
-            for w in g.targets(v) {
-                hit |= reach[(w >> 6) as usize].load(Relaxed) >> (w & 63);
-            }
-            if hit & 1 != 0 {
-                let word = &reach[(v >> 6) as usize];
-                word.store(word.load(Relaxed) | 1 << (v & 63), Relaxed);
-                changed = true;
-            }
-        };
-        let up = (sweep % 2 == 0) == (first == Direction::Up);
-        if up {
-            rest.iter().for_each(|&v| join(v));
-        } else {
-            rest.iter().rev().for_each(|&v| join(v));
-        }
-        // the helper's joins count too: one may have made a node this
-        // sweep passed joinable
-        changed |= helped.load(SeqCst);
-        if changed {
-            rest.retain(|&v| !joined(v));
-        }
-        if !changed || rest.is_empty() {
-            return Some(rest);
-        }
-    }
-    None
+    rest.retain(|&v| !joined_in(reach, v));
+    sweeps(g, reach, rest, n, first, Some(helped))
 }
 
 /// Sweeps `candidates` up and down, joining to `reach` each that has a
