@@ -761,7 +761,10 @@ fn loops_in<S: Semantics>(
     let dense = |id: u32| dense_of(&offsets, id);
     let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
     let mut seen = vec![false; sccs.count()];
+    // where each component met at the current level is in `met`
+    let mut at = vec![usize::MAX; sccs.count()];
     let mut entries: Vec<(usize, u32)> = Vec::new();
+    let mut met: Vec<(usize, u32)> = Vec::new();
     for k in 0..depths {
         if entries.len() >= max_listed || entries.len() as u64 == cyclic_components {
             break;
@@ -769,23 +772,22 @@ fn loops_in<S: Semantics>(
         // the components first met at this level, each by its smallest
         // marking here, listed in the order of those markings: the same
         // whatever the threads that numbered them
-        let mut met: Vec<(usize, u32)> = Vec::new();
-        let mut at: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
+        met.clear();
         for id in r.level_ids(k) {
             let v = dense(id);
             let c = sccs.component[v as usize] as usize;
             if !sccs.cyclic[c] || seen[c] {
                 continue;
             }
-            match at.get(&c) {
-                Some(&i) => {
+            match at[c] {
+                usize::MAX => {
+                    at[c] = met.len();
+                    met.push((c, v));
+                }
+                i => {
                     if r.marking(id) < r.marking(id_of(&offsets, met[i].1)) {
                         met[i].1 = v;
                     }
-                }
-                None => {
-                    at.insert(c, met.len());
-                    met.push((c, v));
                 }
             }
         }
@@ -795,8 +797,9 @@ fn loops_in<S: Semantics>(
         });
         for &(c, _) in &met {
             seen[c] = true;
+            at[c] = usize::MAX;
         }
-        entries.extend(met);
+        entries.extend_from_slice(&met);
     }
     entries.truncate(max_listed);
     let listed = entries
