@@ -8,7 +8,8 @@
 //! - [`explore`]: explicit-state exploration of a P/T net's token game (a
 //!   bitset engine for 1-safe nets, a counting engine for the others, both
 //!   parallel); [`reference`](mod@reference): a plain explorer the tests compare it with.
-//! - [`project`]: the project-level verifier (the player's own semantics;
+//! - [`project`]: the project-level verifier (the player's own semantics,
+//!   its steps in `project::explorer`, its verdicts in `project::verdict`;
 //!   its states kept as bytes by `project_states`, a step's outcome reused
 //!   from key to key by `project_steps` for states that differ only in
 //!   orders the player cannot read, searched breadth-first on several
