@@ -505,19 +505,7 @@ pub fn dead_markings(project: &Arc<Project>, options: &Options) -> Vec<Vec<usize
             }
         }
     }
-    let finals: Vec<usize> = project
-        .nets
-        .iter()
-        .enumerate()
-        .flat_map(|(ni, nt)| {
-            let offset = project.place_offsets[ni];
-            nt.places
-                .iter()
-                .enumerate()
-                .filter(|(_, p)| p.is_final)
-                .map(move |(i, _)| offset + i)
-        })
-        .collect();
+    let finals = final_places(project, None);
     let codec = &explored.codec;
     (0..n as u32)
         .filter(|&s| {
@@ -813,6 +801,25 @@ struct Explored {
     /// The warnings found without exploring that the exploration does not
     /// disprove, worked out for the first verdict that asks.
     statics: std::sync::OnceLock<Vec<Warning>>,
+}
+
+/// The final places of the project's nets (of `scope` alone, if given), as
+/// indices among all places.
+fn final_places(project: &Project, scope: Option<NetId>) -> Vec<usize> {
+    project
+        .nets
+        .iter()
+        .enumerate()
+        .filter(|(ni, _)| scope.is_none_or(|x| x == *ni))
+        .flat_map(|(ni, nt)| {
+            let offset = project.place_offsets[ni];
+            nt.places
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.is_final)
+                .map(move |(i, _)| offset + i)
+        })
+        .collect()
 }
 
 /// The predecessors of each of the `n` nodes of `g`.

@@ -201,23 +201,7 @@ impl Explored {
                 }
             }
         }
-        let finals_of = |scope: Option<NetId>| -> Vec<usize> {
-            project
-                .nets
-                .iter()
-                .enumerate()
-                .filter(|(ni, _)| scope.is_none_or(|x| x == *ni))
-                .flat_map(|(ni, nt)| {
-                    let offset = project.place_offsets[ni];
-                    nt.places
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, p)| p.is_final)
-                        .map(move |(i, _)| offset + i)
-                })
-                .collect()
-        };
-        let finals: Vec<Vec<usize>> = orbit.iter().map(|m| finals_of(*m)).collect();
+        let finals: Vec<Vec<usize>> = orbit.iter().map(|&m| final_places(project, m)).collect();
         let dead: Vec<u32> = (0..nodes as u32)
             .filter(|&u| {
                 let st = key(state_of(u));
