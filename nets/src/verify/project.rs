@@ -386,18 +386,7 @@ struct Walker {
 impl Walker {
     fn new(project: &Arc<Project>) -> Walker {
         let explorer = Explorer::new(project.clone(), false, false, Steps::Run);
-        let mut player = Player::start(project.clone(), T);
-        player.set_oracle(Some(Oracle::default()));
-        let mut initial = Vec::new();
-        explorer.codec.encode(
-            player.state(),
-            0,
-            T,
-            None,
-            &|_, p| explorer.relevant(p),
-            &mut Scratch::default(),
-            &mut initial,
-        );
+        let (_, initial) = explorer.start();
         let worker = levels::Explore::worker(&explorer);
         Walker {
             explorer,

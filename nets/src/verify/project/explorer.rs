@@ -200,17 +200,11 @@ impl Explorer {
         explorer
     }
 
-    pub(super) fn run(
-        self,
-        max_states: usize,
-        threads: usize,
-        proviso: Proviso,
-        progress: Option<&dyn Fn(usize)>,
-    ) -> Explored {
+    /// The player started at the exploration's instant, answering guards
+    /// through the oracle, and the key of its initial state.
+    pub(super) fn start(&self) -> (Player, Vec<u8>) {
         let mut player = Player::start(self.project.clone(), T);
         player.set_oracle(Some(Oracle::default()));
-        let effects: Vec<Effect> = player.effects().collect();
-        let initial_fired = fired_of(&effects);
         let mut initial = Vec::new();
         self.codec.encode(
             player.state(),
@@ -221,6 +215,19 @@ impl Explorer {
             &mut Scratch::default(),
             &mut initial,
         );
+        (player, initial)
+    }
+
+    pub(super) fn run(
+        self,
+        max_states: usize,
+        threads: usize,
+        proviso: Proviso,
+        progress: Option<&dyn Fn(usize)>,
+    ) -> Explored {
+        let (mut player, initial) = self.start();
+        let effects: Vec<Effect> = player.effects().collect();
+        let initial_fired = fired_of(&effects);
         let mut tell = |expanded: usize| {
             if let Some(report) = progress {
                 if expanded.is_multiple_of(PROGRESS_EVERY) {
@@ -328,7 +335,7 @@ impl Explorer {
         )
     }
 
-    pub(super) fn relevant(&self, pending: &crate::player::Pending) -> bool {
+    fn relevant(&self, pending: &crate::player::Pending) -> bool {
         self.known(pending).0
     }
     /// Whether the result of a pending call or command can ever fire a
