@@ -355,7 +355,10 @@ const SWEEP_BUDGET: usize = 8;
 /// the root's component is small (a net that leaves its initial marking for
 /// good), the last node's component is found the same way if it is
 /// terminal — the nodes it reaches, all of which reach it back — and
-/// Pearce's algorithm runs on the nodes left. If the sweeps have not
+/// Pearce's algorithm runs on the nodes left. Before that, with a
+/// `prefix` (the nodes the root passes through before its cycles, see
+/// [`peel`]), the nodes after it are tried as one terminal component
+/// first ([`component_after`]): without a search of the whole graph. If the sweeps have not
 /// settled within their budget ([`SWEEP_BUDGET`]), Pearce's algorithm runs
 /// on the whole graph. Components are numbered in reverse topological
 /// order, as by [`strongly_connected_components`], but the numbers may
@@ -367,9 +370,16 @@ pub fn strongly_connected_components_from(
     seeds: &[u32],
     mut order: Vec<u32>,
     threads: usize,
+    prefix: Option<&Prefix>,
 ) -> Sccs {
     let n = g.nodes();
-    if n == 0 || root as usize >= n || order.len() != n || seeds.iter().any(|&s| s as usize >= n) {
+    let outside = |v: &u32| *v as usize >= n;
+    if n == 0
+        || root as usize >= n
+        || order.len() != n
+        || seeds.iter().any(outside)
+        || prefix.is_some_and(|p| p.transient.iter().chain(&p.entries).any(outside))
+    {
         return pearce(g, None, None);
     }
     let mut reach = vec![0u64; n.div_ceil(64)];
@@ -396,9 +406,14 @@ pub fn strongly_connected_components_from(
     // component, found the same way: the nodes it reaches, all of which
     // reach it back.
     let terminal = if rest.len() > n / 2 {
-        rest.last()
-            .copied()
-            .and_then(|last| terminal_component(g, last, rest, n, threads).map(|set| (last, set)))
+        prefix
+            .filter(|_| !entered)
+            .and_then(|p| component_after(g, p, &rest, n, threads))
+            .or_else(|| {
+                rest.last().copied().and_then(|last| {
+                    terminal_component(g, last, rest, n, threads).map(|set| (last, set))
+                })
+            })
     } else {
         None
     };
@@ -407,6 +422,160 @@ pub fn strongly_connected_components_from(
         Some((root, &reach)),
         terminal.as_ref().map(|(r, set)| (*r, set.as_slice())),
     )
+}
+
+/// The nodes a reachability graph passes through from its root before it
+/// enters its cycles, and where it enters them: found by [`peel`].
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Prefix {
+    /// Nodes on no cycle, closed under predecessors (no arc leads into
+    /// them from a node outside), the root among them.
+    pub transient: Vec<u32>,
+    /// The nodes outside `transient` that its arcs lead to, in increasing
+    /// order: every node outside `transient` is reached from one of them.
+    pub entries: Vec<u32>,
+}
+
+/// Peels a graph from `root` as Kahn's topological sort does: `root` first
+/// (no arc may lead to it), then every node all of whose arcs in come from
+/// peeled nodes. Only the nodes `counted` gives an index are peeled;
+/// `arcs_in` holds, at that index, how many arcs lead to the node
+/// (duplicates included). Peeling stops at the first cycle met on each
+/// path: a node on a cycle waits for a node that waits for it.
+pub fn peel(
+    g: &impl Adjacency,
+    root: u32,
+    counted: impl Fn(u32) -> Option<usize>,
+    mut arcs_in: Vec<u32>,
+) -> Prefix {
+    let n = g.nodes();
+    let none = Prefix::default();
+    if root as usize >= n || counted(root).is_none_or(|i| arcs_in.get(i) != Some(&0)) {
+        return none;
+    }
+    let mut peeled = vec![0u64; n.div_ceil(64)];
+    let mut transient = Vec::new();
+    let mut next = vec![root];
+    while let Some(v) = next.pop() {
+        set_bit(&mut peeled, v);
+        transient.push(v);
+        for w in g.targets(v) {
+            if w as usize >= n {
+                return none;
+            }
+            if let Some(c) = counted(w).and_then(|i| arcs_in.get_mut(i)) {
+                // more arcs in than counted: the counts are wrong
+                let Some(left) = c.checked_sub(1) else {
+                    return none;
+                };
+                *c = left;
+                if left == 0 {
+                    next.push(w);
+                }
+            }
+        }
+    }
+    let mut entries: Vec<u32> = transient
+        .iter()
+        .flat_map(|&v| g.targets(v))
+        .filter(|&w| !bit(&peeled, w))
+        .collect();
+    entries.sort_unstable();
+    entries.dedup();
+    Prefix { transient, entries }
+}
+
+/// The nodes after `prefix` (every node but its transient ones) as one
+/// terminal component, with the entry it is named by, if they are one:
+/// the first entry reaches every other (a search that stops as soon as it
+/// has found them, within a budget), so it reaches every node after the
+/// prefix, which no arc leaves; and every one of them reaches it (sweeps
+/// over `rest`, every node but the root, on `threads`). `None` when they
+/// are not one component, or that was not shown within the budgets.
+fn component_after(
+    g: &(impl Adjacency + Sync),
+    prefix: &Prefix,
+    rest: &[u32],
+    n: usize,
+    threads: usize,
+) -> Option<(u32, Vec<u64>)> {
+    let &entry = prefix.entries.first()?;
+    if !reaches_all(g, entry, &prefix.entries, n / ENTRY_SEARCH + 64) {
+        return None;
+    }
+    // No arc leads from a node after the prefix into it: marking the
+    // transient nodes joined changes nothing the sweeps find there, and
+    // keeps them out of the candidates.
+    let mut reach = vec![0u64; n.div_ceil(64)];
+    for &v in prefix.transient.iter().chain([&entry]) {
+        set_bit(&mut reach, v);
+    }
+    let left = if threads > 1 && rest.len() >= PARALLEL_SWEEPS {
+        reaching_in_parts(
+            g,
+            &mut reach,
+            rest,
+            n,
+            Direction::Down,
+            threads.min(MAX_PARTS),
+        )?
+    } else {
+        let candidates = rest.iter().copied().filter(|&v| !bit(&reach, v)).collect();
+        sweeps(g, &mut reach[..], candidates, n, Direction::Down, None)?
+    };
+    if !left.is_empty() {
+        return None;
+    }
+    for &v in &prefix.transient {
+        reach[(v >> 6) as usize] &= !(1 << (v & 63));
+    }
+    Some((entry, reach))
+}
+
+/// The search of [`component_after`] from the first entry to the others
+/// stops after `n / ENTRY_SEARCH` nodes (then the last node's component
+/// is searched as before).
+const ENTRY_SEARCH: usize = 16;
+
+/// Whether `from` reaches every node of `targets` (sorted), found by a
+/// breadth-first search that stops once it has, or after `budget` nodes.
+fn reaches_all(g: &impl Adjacency, from: u32, targets: &[u32], budget: usize) -> bool {
+    let n = g.nodes();
+    let mut seen = vec![0u64; n.div_ceil(64)];
+    let mut wanted = vec![0u64; n.div_ceil(64)];
+    for &t in targets {
+        if t as usize >= n {
+            return false;
+        }
+        set_bit(&mut wanted, t);
+    }
+    let mut left = targets.len();
+    let mut queue = VecDeque::from([from]);
+    set_bit(&mut seen, from);
+    if bit(&wanted, from) {
+        left -= 1;
+    }
+    let mut visited = 0usize;
+    while let Some(v) = queue.pop_front() {
+        if left == 0 {
+            return true;
+        }
+        visited += 1;
+        if visited > budget {
+            return false;
+        }
+        for w in g.targets(v) {
+            if w as usize >= n || bit(&seen, w) {
+                continue;
+            }
+            set_bit(&mut seen, w);
+            if bit(&wanted, w) {
+                left -= 1;
+            }
+            queue.push_back(w);
+        }
+    }
+    left == 0
 }
 
 /// Which way the first sweep goes over the candidates.
@@ -446,10 +615,10 @@ fn reaching(
     first: Direction,
     threads: usize,
 ) -> Option<Vec<u32>> {
-    rest.retain(|&v| !bit(reach, v));
     if threads > 1 && rest.len() >= PARALLEL_SWEEPS {
-        return reaching_together(g, reach, rest, n);
+        return reaching_in_parts(g, reach, &rest, n, first, threads.min(MAX_PARTS));
     }
+    rest.retain(|&v| !bit(reach, v));
     sweeps(g, reach, rest, n, first, None)
 }
 
@@ -551,61 +720,164 @@ fn sweeps(
     None
 }
 
-/// Candidates from which two threads sweep at once (below, one is faster).
+/// Candidates from which several threads sweep at once (below, one is
+/// faster).
 const PARALLEL_SWEEPS: usize = 1 << 16;
 
-/// [`reaching`] on two threads: in each round one sweeps up the
-/// candidates and the other down, on one bitset, each seeing what the
-/// other joins as it goes; the rounds end when neither joined anything
-/// (the bitset did not change during the round: nothing more can join).
-fn reaching_together(
+/// At most this many threads sweep at once.
+const MAX_PARTS: usize = 16;
+
+/// [`reaching`] on `threads` threads, each owning a range of node numbers
+/// (equal ranges of whole bitset words): each sweeps its own candidates,
+/// in their order and against it in turn, on one bitset that all read and
+/// each writes only in its own words (no locked instruction, no join
+/// lost). A thread whose sweep joined nothing waits; the sweeps end when
+/// every thread has swept all its candidates since the last join anywhere.
+/// After an exploration on as many threads, a range is about one
+/// partition: each thread reads its own partition's arcs, about in the
+/// order of the levels, as one thread sweeping them all would.
+fn reaching_in_parts(
     g: &(impl Adjacency + Sync),
     reach: &mut [u64],
-    mut rest: Vec<u32>,
+    rest: &[u32],
     n: usize,
+    first: Direction,
+    threads: usize,
 ) -> Option<Vec<u32>> {
+    let per = reach.len().div_ceil(threads).max(1);
     let shared: Vec<AtomicU64> = reach.iter().map(|&w| AtomicU64::new(w)).collect();
-    let joined = |v: u32| joined_in(&shared, v);
-    let sweep = |nodes: &mut dyn Iterator<Item = &u32>| {
-        let mut changed = false;
-        for &v in nodes {
-            let mut hit = 0u64;
-            for w in g.targets(v) {
-                hit |= shared[(w >> 6) as usize].load(Relaxed) >> (w & 63);
-            }
-            if hit & 1 == 1 {
-                shared[(v >> 6) as usize].fetch_or(1 << (v & 63), Relaxed);
-                changed = true;
-            }
-        }
-        changed
+    let sweeps = Sweeps {
+        joins: AtomicU64::new(0),
+        quiet: (0..threads).map(|_| AtomicU64::new(NOT_QUIET)).collect(),
+        stop: AtomicBool::new(false),
+        budget: SWEEP_BUDGET * n,
+        work: AtomicU64::new(0),
+        left: AtomicU64::new(0),
     };
-    let mut work = 0usize;
-    let settled = loop {
-        if work > SWEEP_BUDGET * n {
-            break false;
-        }
-        work += rest.len();
-        let (up, down) = std::thread::scope(|scope| {
-            let other = scope.spawn(|| sweep(&mut rest.iter()));
-            let down = sweep(&mut rest.iter().rev());
-            match other.join() {
-                Ok(up) => (up, down),
+    // each thread picks its own candidates (the words it owns)
+    let owner = move |v: u32| ((v >> 6) as usize / per).min(threads - 1);
+    let settled = std::thread::scope(|scope| {
+        let (sweeps, shared) = (&sweeps, &shared);
+        let handles: Vec<_> = (1..threads)
+            .map(|i| scope.spawn(move || sweeps.run(g, shared, rest, |v| owner(v) == i, i, first)))
+            .collect();
+        let mut all = sweeps.run(g, shared, rest, |v| owner(v) == 0, 0, first);
+        for h in handles {
+            match h.join() {
+                Ok(settled) => all &= settled,
                 Err(panic) => std::panic::resume_unwind(panic),
             }
-        });
-        if !up && !down {
-            break true;
         }
-        rest.retain(|&v| !joined(v));
-        if rest.is_empty() {
-            break true;
-        }
-    };
+        all
+    });
     for (w, a) in reach.iter_mut().zip(&shared) {
         *w = a.load(Relaxed);
     }
-    settled.then_some(rest)
+    match settled {
+        false => None,
+        true if sweeps.left.load(SeqCst) == 0 => Some(Vec::new()),
+        true => Some(rest.iter().copied().filter(|&v| !bit(reach, v)).collect()),
+    }
+}
+
+/// A thread of [`reaching_in_parts`] that has joined something since its
+/// last sweep, or is sweeping.
+const NOT_QUIET: u64 = u64::MAX;
+
+/// What the threads of [`reaching_in_parts`] share besides the bitset.
+struct Sweeps {
+    /// Nodes joined so far, added by each thread at the end of each sweep.
+    joins: AtomicU64,
+    /// For each thread, `joins` when it began its last sweep if that
+    /// sweep joined nothing, else [`NOT_QUIET`].
+    quiet: Vec<AtomicU64>,
+    /// Set when a thread gives up (budget spent) or panics: all stop.
+    stop: AtomicBool,
+    /// Nodes looked at, all threads together, before giving up.
+    budget: usize,
+    work: AtomicU64,
+    /// Candidates left when the sweeps settled, all threads together.
+    left: AtomicU64,
+}
+
+impl Sweeps {
+    /// One thread's sweeps over the candidates it owns (`mine`), not
+    /// joined yet: whether they settled.
+    fn run(
+        &self,
+        g: &impl Adjacency,
+        reach: &[AtomicU64],
+        candidates: &[u32],
+        mine: impl Fn(u32) -> bool,
+        me: usize,
+        first: Direction,
+    ) -> bool {
+        // a panic here stops the others too
+        let _stop = Done(&self.stop);
+        let joined = |v: u32| (reach[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1;
+        let mut nodes: Vec<u32> = candidates
+            .iter()
+            .copied()
+            .filter(|&v| mine(v) && !joined(v))
+            .collect();
+        let mut up = first == Direction::Up;
+        loop {
+            if self.stop.load(Relaxed) {
+                return false;
+            }
+            self.quiet[me].store(NOT_QUIET, SeqCst);
+            let start = self.joins.load(SeqCst);
+            let work = self.work.fetch_add(nodes.len() as u64, Relaxed) as usize;
+            if work > self.budget {
+                return false;
+            }
+            let mut count = 0u64;
+            let mut one = |v: u32| {
+                let mut hit = 0u64;
+                for w in g.targets(v) {
+                    hit |= reach[(w >> 6) as usize].load(Relaxed) >> (w & 63);
+                }
+                if hit & 1 == 1 {
+                    // this thread alone writes this word
+                    let word = &reach[(v >> 6) as usize];
+                    word.store(word.load(Relaxed) | 1 << (v & 63), Relaxed);
+                    count += 1;
+                }
+            };
+            if up {
+                nodes.iter().for_each(|&v| one(v));
+            } else {
+                nodes.iter().rev().for_each(|&v| one(v));
+            }
+            up = !up;
+            if count > 0 {
+                self.joins.fetch_add(count, SeqCst);
+                nodes.retain(|&v| !joined(v));
+                continue;
+            }
+            // nothing joined here: settled once every thread has swept
+            // since the last join, else sweep again after the next one
+            self.quiet[me].store(start, SeqCst);
+            loop {
+                if self.stop.load(Relaxed) {
+                    return false;
+                }
+                let now = self.joins.load(SeqCst);
+                if now != start {
+                    break;
+                }
+                if self.quiet.iter().all(|q| q.load(SeqCst) == now) {
+                    self.left.fetch_add(nodes.len() as u64, SeqCst);
+                    // the others may still be checking: leave them the
+                    // same answer (nothing sets `stop` on the way out)
+                    std::mem::forget(_stop);
+                    return true;
+                }
+                std::hint::spin_loop();
+                std::thread::yield_now();
+            }
+        }
+    }
 }
 
 /// [`reaching`] on a bitset another thread may join nodes of at the same
@@ -1187,14 +1459,14 @@ mod tests {
             same_components(
                 &g,
                 &tarjan,
-                &strongly_connected_components_from(&g, 0, true, &[], (0..n).collect(), 1),
+                &strongly_connected_components_from(&g, 0, true, &[], (0..n).collect(), 1, None),
             );
             // seeded by a cycle through the root
             let cycle = shortest_cycle(&g, 0, |_| true).unwrap_or_default();
             same_components(
                 &g,
                 &tarjan,
-                &strongly_connected_components_from(&g, 0, true, &cycle, (0..n).collect(), 1),
+                &strongly_connected_components_from(&g, 0, true, &cycle, (0..n).collect(), 1, None),
             );
             // any order of the nodes, root first, gives the same components
             let mut shuffled: Vec<u32> = (1..n).collect();
@@ -1209,7 +1481,7 @@ mod tests {
             same_components(
                 &g,
                 &tarjan,
-                &strongly_connected_components_from(&g, 0, true, &[], shuffled, 1),
+                &strongly_connected_components_from(&g, 0, true, &[], shuffled, 1, None),
             );
         }
         // large enough for two threads to sweep
@@ -1221,7 +1493,15 @@ mod tests {
                 same_components(
                     &g,
                     &tarjan,
-                    &strongly_connected_components_from(&g, 0, true, seeds, (0..n).collect(), 2),
+                    &strongly_connected_components_from(
+                        &g,
+                        0,
+                        true,
+                        seeds,
+                        (0..n).collect(),
+                        2,
+                        None,
+                    ),
                 );
             }
         }
@@ -1242,7 +1522,8 @@ mod tests {
             g.push_node(l.into_iter().map(|t| ((), t)));
         }
         let tarjan = strongly_connected_components(&g);
-        let from = strongly_connected_components_from(&g, order[0], true, &[], (0..n).collect(), 1);
+        let from =
+            strongly_connected_components_from(&g, order[0], true, &[], (0..n).collect(), 1, None);
         same_components(&g, &tarjan, &from);
         assert_eq!(from.sizes, vec![n]);
     }
@@ -1294,10 +1575,38 @@ mod tests {
             let tarjan = strongly_connected_components(&g);
             // 0, 1, 2 alone, and the ring
             assert_eq!(tarjan.count(), 4);
+            // and after the prefix 0 -> 1 (one entry), swept on two and
+            // three threads at once, each its own range of nodes
+            let prefix = prefix_of(&g, u32::MAX);
+            assert_eq!(prefix.entries, vec![ring[0]]);
             for _ in 0..3 {
-                let from =
-                    strongly_connected_components_from(&g, 0, false, &[], (0..n).collect(), 2);
+                let from = strongly_connected_components_from(
+                    &g,
+                    0,
+                    false,
+                    &[],
+                    (0..n).collect(),
+                    2,
+                    None,
+                );
                 same_components(&g, &tarjan, &from);
+                for threads in [2, 3] {
+                    let rest: Vec<u32> = (1..n).collect();
+                    // never the ring with node 2 (unreached without the
+                    // exit, its own component with it)
+                    let after = component_after(&g, &prefix, &rest, n as usize, threads);
+                    assert!(after.is_none());
+                    let from = strongly_connected_components_from(
+                        &g,
+                        0,
+                        false,
+                        &[],
+                        (0..n).collect(),
+                        threads,
+                        Some(&prefix),
+                    );
+                    same_components(&g, &tarjan, &from);
+                }
             }
         }
     }
@@ -1358,18 +1667,188 @@ mod tests {
                 g.push_node(l.into_iter().map(|t| ((), t)));
             }
             let tarjan = strongly_connected_components(&g);
-            let from =
-                strongly_connected_components_from(&g, 0, true, &[], (0..n).collect(), threads);
+            let from = strongly_connected_components_from(
+                &g,
+                0,
+                true,
+                &[],
+                (0..n).collect(),
+                threads,
+                None,
+            );
             same_components(&g, &tarjan, &from);
             // nothing leads back to 0: the same without sweeping for it
-            let unentered =
-                strongly_connected_components_from(&g, 0, false, &[], (0..n).collect(), threads);
+            let unentered = strongly_connected_components_from(
+                &g,
+                0,
+                false,
+                &[],
+                (0..n).collect(),
+                threads,
+                None,
+            );
             same_components(&g, &tarjan, &unentered);
             let ring = from.component[10] as usize;
             assert_eq!(from.sizes[ring], ring_end - 3);
             assert!(from.cyclic[ring]);
             assert_eq!(from.count(), 4 + usize::from(exit));
         }
+    }
+
+    /// The prefix of `g` from node 0, every node's arcs in counted but
+    /// those of `uncounted`.
+    fn prefix_of(g: &Csr<()>, uncounted: u32) -> Prefix {
+        let n = Adjacency::nodes(g);
+        let mut arcs_in = vec![0u32; n];
+        for v in 0..n as u32 {
+            for w in Adjacency::targets(g, v) {
+                arcs_in[w as usize] += 1;
+            }
+        }
+        peel(g, 0, |v| (v != uncounted).then_some(v as usize), arcs_in)
+    }
+
+    #[test]
+    fn the_nodes_after_a_prefix_as_one_terminal_component_or_not() {
+        // 0 -> 1, 2 -> 3 (a diamond, transient), 3 -> several nodes of a
+        // ring 4..n with chords (one component); then: a transient node
+        // that leads into it, its arcs in not counted (an entry the ring
+        // never reaches back), an exit from the ring to a sink (not one
+        // component), a cycle in the prefix (peeling stops there)
+        for (case, n, threads) in [
+            ("ring", 400u32, 1),
+            ("ring", 100_000, 2),
+            ("ring", 100_000, 3),
+            ("transient entry", 400, 1),
+            ("transient entry", 100_000, 2),
+            ("exit", 400, 1),
+            ("exit", 100_000, 2),
+            ("cycle in the prefix", 100_000, 2),
+            ("far entries", 100_000, 2),
+        ] {
+            let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n as usize];
+            lists[0] = vec![1, 2];
+            lists[1] = vec![3];
+            lists[2] = vec![3];
+            let ring = 4..n - 2;
+            for v in ring.clone() {
+                let next = if v + 1 == ring.end { ring.start } else { v + 1 };
+                lists[v as usize].push(next);
+                if v % 5 == 0 {
+                    lists[v as usize].push(ring.start + (v * 7919) % (ring.end - ring.start));
+                }
+            }
+            let entries = if case == "far entries" {
+                vec![4, 9, n / 2, n - 3]
+            } else {
+                vec![4, 5, 7, 9]
+            };
+            lists[3] = entries.clone();
+            // n - 2: in the ring's component unless a case says otherwise
+            lists[n as usize - 2] = vec![5];
+            lists[10].push(n - 2);
+            // n - 1: the last node, in the ring too
+            lists[n as usize - 1] = vec![6];
+            lists[11].push(n - 1);
+            match case {
+                "transient entry" => {
+                    lists[10].retain(|&w| w != n - 2);
+                    lists[3].push(n - 2);
+                }
+                "exit" => {
+                    lists[n as usize - 1].clear();
+                }
+                "cycle in the prefix" => {
+                    lists[1].push(2);
+                    lists[2].push(1);
+                }
+                _ => {}
+            }
+            let mut g = Csr::default();
+            for l in lists {
+                g.push_node(l.into_iter().map(|t| ((), t)));
+            }
+            let prefix = prefix_of(&g, n - 2);
+            match case {
+                "cycle in the prefix" => assert_eq!(prefix.transient, vec![0]),
+                _ => {
+                    let mut t = prefix.transient.clone();
+                    t.sort_unstable();
+                    assert_eq!(t, vec![0, 1, 2, 3], "{case}");
+                    let mut e = entries.clone();
+                    if case == "transient entry" {
+                        e.push(n - 2);
+                    }
+                    e.sort_unstable();
+                    assert_eq!(prefix.entries, e, "{case}");
+                }
+            }
+            // found without a search of the whole graph, or not at all
+            let rest: Vec<u32> = (1..n).collect();
+            let after = component_after(&g, &prefix, &rest, n as usize, threads);
+            match case {
+                "ring" => {
+                    let (entry, set) = after.unwrap_or_else(|| panic!("{case} {n} {threads}"));
+                    assert_eq!(entry, 4);
+                    for v in 0..n {
+                        assert_eq!(bit(&set, v), v >= 4, "{case} {v}");
+                    }
+                }
+                // not one component ("cycle in the prefix": 1 <-> 2 are
+                // after the prefix), or not shown so within the budget
+                // ("far entries": the search from 4 to the others)
+                _ => assert!(after.is_none(), "{case}"),
+            }
+            let tarjan = strongly_connected_components(&g);
+            let from = strongly_connected_components_from(
+                &g,
+                0,
+                false,
+                &[],
+                (0..n).collect(),
+                threads,
+                Some(&prefix),
+            );
+            same_components(&g, &tarjan, &from);
+            let big = from.component[100] as usize;
+            let expected = match case {
+                "ring" | "cycle in the prefix" | "far entries" => n - 4,
+                _ => n - 5,
+            };
+            assert_eq!(from.sizes[big], expected, "{case} {n} {threads}");
+            assert!(from.cyclic[big]);
+        }
+    }
+
+    #[test]
+    fn peeling_stops_at_what_it_did_not_count_and_at_wrong_counts() {
+        // 0 -> 1 -> 2 -> 3 -> 1
+        let g = csr(&[&[1], &[2], &[3], &[1]]);
+        // 1 has two arcs in (0 and 3): peeling stops after 0
+        assert_eq!(
+            peel(&g, 0, |v| Some(v as usize), vec![0, 2, 1, 1]),
+            Prefix {
+                transient: vec![0],
+                entries: vec![1]
+            }
+        );
+        // only 0 counted
+        assert_eq!(
+            peel(&g, 0, |v| (v == 0).then_some(0), vec![0]),
+            Prefix {
+                transient: vec![0],
+                entries: vec![1]
+            }
+        );
+        // an arc into the root, or fewer arcs counted than there are
+        assert_eq!(
+            peel(&g, 1, |v| Some(v as usize), vec![0, 2, 1, 1]),
+            Prefix::default()
+        );
+        assert_eq!(
+            peel(&g, 0, |v| Some(v as usize), vec![0, 0, 1, 1]),
+            Prefix::default()
+        );
     }
 
     #[test]
@@ -1404,6 +1883,7 @@ mod tests {
                     &[],
                     (0..n).collect(),
                     threads,
+                    None,
                 );
                 same_components(&g, &tarjan, &from);
                 assert_eq!(from.count(), n as usize);

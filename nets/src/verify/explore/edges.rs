@@ -159,6 +159,11 @@ impl Edges {
         &self.targets[a as usize..b as usize]
     }
 
+    /// Every successor kept, marking after marking.
+    pub fn all_targets(&self) -> &[u32] {
+        &self.targets
+    }
+
     /// A hint to load where the successors of local marking `i` start.
     #[inline]
     pub fn prefetch_start(&self, i: u32) {

@@ -704,13 +704,119 @@ fn loops_of<S: Semantics>(r: &Run<S>, net: &PtNet, max_listed: usize, threads: u
             None
         };
         let seeds = cycle.as_deref().unwrap_or_default();
+        let prefix = (!entered).then(|| prefix_of(r, &kept, initial, threads));
         let sccs = graph::strongly_connected_components_from(
-            &kept, initial, entered, seeds, order, threads,
+            &kept,
+            initial,
+            entered,
+            seeds,
+            order,
+            threads,
+            prefix.as_ref(),
         );
         let known = cycle.map(|c| (initial, c));
         loops_in(r, net, &kept, &sccs, max_listed, known)
     }
 }
+
+/// The markings the initial one passes through before the net's cycles,
+/// and where it enters them ([`graph::Prefix`]), when no arc leads back to
+/// it: the arcs into the markings of the first levels (up to [`SHALLOW`]
+/// markings, at least the first level) counted in one pass over the arcs
+/// (each partition's on its own thread), then [`graph::peel`]ed. A
+/// marking past those levels is never transient here.
+fn prefix_of<S: Semantics>(r: &Run<S>, kept: &Kept, initial: u32, threads: usize) -> graph::Prefix {
+    let n = kept.nodes();
+    let cap = (n / SHALLOW).max(SHALLOW_MIN);
+    let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
+    // the first `m` levels, m at least 1
+    let (mut m, mut total) = (0, 0usize);
+    while m < depths {
+        let size: usize = (0..r.levels.len()).map(|p| r.level_range(p, m).len()).sum();
+        if m > 0 && total + size > cap {
+            break;
+        }
+        total += size;
+        m += 1;
+    }
+    // (first dense number, how many, first index) for each partition
+    let mut ranges = Vec::with_capacity(r.levels.len());
+    let mut base = 0u32;
+    if r.levels.is_empty() {
+        return graph::Prefix::default();
+    }
+    for (p, &start) in kept.offsets.iter().enumerate().take(r.levels.len()) {
+        let len = r.levels[p]
+            .get(m)
+            .copied()
+            .unwrap_or_else(|| r.stores.get(p).map_or(0, store::Store::len));
+        ranges.push((start, len, base));
+        base += len;
+    }
+    let index = |t: u32| {
+        ranges
+            .iter()
+            .find(|&&(o, len, _)| t.wrapping_sub(o) < len)
+            .map(|&(o, _, b)| (b + (t - o)) as usize)
+    };
+    // two partitions at most (or more, each tested): most chunks of arcs
+    // lead into none of the first levels, tested without a branch per arc
+    let two = ranges.len() <= 2;
+    let (a, b) = (ranges[0], ranges.get(1).copied().unwrap_or((0, 0, 0)));
+    let any_in = |chunk: &[u32]| {
+        if two {
+            chunk.iter().fold(false, |hit, &t| {
+                hit | (t.wrapping_sub(a.0) < a.1) | (t.wrapping_sub(b.0) < b.1)
+            })
+        } else {
+            chunk.iter().any(|&t| index(t).is_some())
+        }
+    };
+    let count = |targets: &[u32]| {
+        let mut arcs_in = vec![0u32; base as usize];
+        for chunk in targets.chunks(64) {
+            if any_in(chunk) {
+                for &t in chunk {
+                    if let Some(i) = index(t) {
+                        arcs_in[i] += 1;
+                    }
+                }
+            }
+        }
+        arcs_in
+    };
+    let counts: Vec<Vec<u32>> = if threads > 1 && kept.arcs.len() > 1 {
+        std::thread::scope(|scope| {
+            let handles: Vec<_> = kept
+                .arcs
+                .iter()
+                .map(|a| scope.spawn(move || count(a.all_targets())))
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_default())
+                .collect()
+        })
+    } else {
+        kept.arcs.iter().map(|a| count(a.all_targets())).collect()
+    };
+    let mut arcs_in = vec![0u32; base as usize];
+    for c in &counts {
+        if c.len() != arcs_in.len() {
+            // a thread failed: no prefix
+            return graph::Prefix::default();
+        }
+        for (a, b) in arcs_in.iter_mut().zip(c) {
+            *a += b;
+        }
+    }
+    graph::peel(kept, initial, index, arcs_in)
+}
+
+/// [`prefix_of`] counts the arcs into the first levels' markings, up to
+/// one in `SHALLOW` of them (and at least [`SHALLOW_MIN`]).
+const SHALLOW: usize = 64;
+const SHALLOW_MIN: usize = 4096;
 
 /// Every dense node number once, in breadth-first order over all
 /// partitions: level by level, each level's markings partition after
