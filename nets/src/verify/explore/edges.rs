@@ -164,6 +164,16 @@ impl Edges {
         &self.targets
     }
 
+    /// The successors of local markings `nodes` (consecutive), all
+    /// together; empty for markings not kept.
+    pub fn span(&self, nodes: std::ops::Range<u32>) -> &[u32] {
+        let at = |i: u32| self.starts.get(i as usize).map(|&s| s as usize);
+        match (at(nodes.start), at(nodes.end)) {
+            (Some(a), Some(b)) if a <= b => self.targets.get(a..b).unwrap_or_default(),
+            _ => &[],
+        }
+    }
+
     /// A hint to load where the successors of local marking `i` start.
     #[inline]
     pub fn prefetch_start(&self, i: u32) {

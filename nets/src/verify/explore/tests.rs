@@ -222,3 +222,58 @@ fn the_breadth_first_order_is_level_by_level() {
         });
     }
 }
+
+/// The cycle through the initial marking found from the levels is a
+/// cycle, as short as a search finds, and the same markings whatever the
+/// threads, where several are as short (two rings of three places share
+/// the initial one's place, and a longer third).
+#[test]
+fn the_cycle_through_the_initial_marking_from_the_levels() {
+    let mut net = PtNet::new("rings");
+    let a = net.add_place("a", 1);
+    let places: Vec<usize> = ["b1", "b2", "c1", "c2", "d1", "d2", "d3"]
+        .iter()
+        .map(|&n| net.add_place(n, 0))
+        .collect();
+    for ring in [&places[0..2], &places[2..4], &places[4..7]] {
+        let mut from = a;
+        for &p in ring {
+            net.add_transition(&format!("to{p}"), &[(from, 1)], &[(p, 1)]);
+            from = p;
+        }
+        net.add_transition(&format!("back{from}"), &[(from, 1)], &[(a, 1)]);
+    }
+    let mut first: Option<Vec<Vec<u8>>> = None;
+    for threads in [1, 2, 3] {
+        let e = explore(
+            &net,
+            &Options {
+                threads,
+                parallel_from: 0,
+                keep_arcs: true,
+                ..Options::default()
+            },
+        );
+        on_space!(&e.space, r => {
+            let kept = Kept { arcs: &r.arcs, offsets: r.offsets() };
+            let initial = dense_of(&kept.offsets, r.level_ids(0).next().expect("a marking"));
+            let cycle = cycle_through_initial(r, &net, &kept, initial).expect("a cycle");
+            let searched = graph::shortest_cycle(&kept, initial, |_| true).expect("a cycle");
+            assert_eq!(cycle.len(), 3);
+            assert_eq!(cycle.len(), searched.len());
+            assert_eq!(cycle[0], initial);
+            for (i, &v) in cycle.iter().enumerate() {
+                let next = cycle.get(i + 1).copied().unwrap_or(initial);
+                assert!(kept.targets(v).any(|w| w == next), "an arc {v} -> {next}");
+            }
+            let markings: Vec<Vec<u8>> = cycle
+                .iter()
+                .map(|&v| r.marking(id_of(&kept.offsets, v)).to_vec())
+                .collect();
+            match &first {
+                None => first = Some(markings),
+                Some(one) => assert_eq!(one, &markings, "threads {threads}"),
+            }
+        });
+    }
+}
