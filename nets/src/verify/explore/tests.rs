@@ -238,10 +238,10 @@ fn the_cycle_through_the_initial_marking_from_the_levels() {
     for ring in [&places[0..2], &places[2..4], &places[4..7]] {
         let mut from = a;
         for &p in ring {
-            net.add_transition(&format!("to{p}"), &[(from, 1)], &[(p, 1)]);
+            net.add_transition(format!("to{p}"), &[(from, 1)], &[(p, 1)]);
             from = p;
         }
-        net.add_transition(&format!("back{from}"), &[(from, 1)], &[(a, 1)]);
+        net.add_transition(format!("back{from}"), &[(from, 1)], &[(a, 1)]);
     }
     let mut first: Option<Vec<Vec<u8>>> = None;
     for threads in [1, 2, 3] {
