@@ -346,7 +346,7 @@ const SWEEP_BUDGET: usize = 8;
 /// without a sweep); true when some may. `seeds` are nodes known to reach
 /// `root` (e.g. a cycle through it: nodes at many depths, from which the
 /// first sweep joins many more); they may be empty. With `threads` above
-/// 1, large sweeps run on two threads.
+/// 1, large sweeps run on `threads` threads, each over its own nodes.
 ///
 /// The root's component is then exactly the set of nodes from which the
 /// root can be reached: it is found first by sweeps over the nodes (see
