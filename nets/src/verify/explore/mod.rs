@@ -806,7 +806,10 @@ fn prefix_of<S: Semantics>(r: &Run<S>, kept: &Kept, initial: u32, threads: usize
     // two partitions at most (or more, each tested): most chunks of arcs
     // lead into none of the first levels, tested without a branch per arc
     let two = ranges.len() <= 2;
-    let (a, b) = (ranges[0], ranges.get(1).copied().unwrap_or((0, 0, 0)));
+    let Some(&a) = ranges.first() else {
+        return graph::Prefix::default();
+    };
+    let b = ranges.get(1).copied().unwrap_or((0, 0, 0));
     let any_in = |chunk: &[u32]| {
         if two {
             chunk.iter().fold(false, |hit, &t| {
