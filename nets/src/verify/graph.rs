@@ -510,19 +510,7 @@ fn component_after(
     for &v in prefix.transient.iter().chain([&entry]) {
         set_bit(&mut reach, v);
     }
-    let left = if threads > 1 && rest.len() >= PARALLEL_SWEEPS {
-        reaching_in_parts(
-            g,
-            &mut reach,
-            rest,
-            n,
-            Direction::Down,
-            threads.min(MAX_PARTS),
-        )?
-    } else {
-        let candidates = rest.iter().copied().filter(|&v| !bit(&reach, v)).collect();
-        sweeps(g, &mut reach[..], candidates, n, Direction::Down, None)?
-    };
+    let left = reaching_among(g, &mut reach, rest, n, Direction::Down, threads)?;
     if !left.is_empty() {
         return None;
     }
@@ -622,6 +610,23 @@ fn reaching(
     sweeps(g, reach, rest, n, first, None)
 }
 
+/// [`reaching`] over candidates it may not reorder or drop from (a copy
+/// of the ones not joined yet is swept on one thread).
+fn reaching_among(
+    g: &(impl Adjacency + Sync),
+    reach: &mut [u64],
+    rest: &[u32],
+    n: usize,
+    first: Direction,
+    threads: usize,
+) -> Option<Vec<u32>> {
+    if threads > 1 && rest.len() >= PARALLEL_SWEEPS {
+        return reaching_in_parts(g, reach, rest, n, first, threads.min(MAX_PARTS));
+    }
+    let candidates = rest.iter().copied().filter(|&v| !bit(reach, v)).collect();
+    sweeps(g, reach, candidates, n, first, None)
+}
+
 /// A bitset the sweeps join nodes to: plain, or shared with a thread
 /// that joins nodes at the same time ([`help`]).
 trait Joined {
@@ -684,27 +689,8 @@ fn sweeps(
         if let Some(h) = helped {
             h.store(false, SeqCst);
         }
-        let mut changed = false;
-        // every successor is looked at, without a branch per successor:
-        // whether a node joins is unpredictable, and most candidates of
-        // the first sweeps do not (so read all their successors anyway)
         let up = (sweep % 2 == 0) == (first == Direction::Up);
-        {
-            let mut one = |v: u32| {
-                let mut hit = 0u64;
-                for w in g.targets(v) {
-                    hit |= reach.word((w >> 6) as usize) >> (w & 63);
-                }
-                let hit = hit & 1;
-                reach.join(v, hit);
-                changed |= hit != 0;
-            };
-            if up {
-                rest.iter().for_each(|&v| one(v));
-            } else {
-                rest.iter().rev().for_each(|&v| one(v));
-            }
-        }
+        let mut changed = pass(g, &mut reach, &rest, up) > 0;
         // the helper's joins count too: one may have made a node this
         // sweep passed joinable
         if let Some(h) = helped {
@@ -718,6 +704,30 @@ fn sweeps(
         }
     }
     None
+}
+
+/// One sweep over `nodes`, in their order (`up`) or against it: each
+/// joins `reach` when one of its successors has; how many joined. Every
+/// successor is looked at, without a branch per successor: whether a node
+/// joins is unpredictable, and most candidates of the first sweeps do not
+/// (so read all their successors anyway).
+fn pass(g: &impl Adjacency, reach: &mut impl Joined, nodes: &[u32], up: bool) -> u64 {
+    let mut joined = 0u64;
+    let mut one = |v: u32| {
+        let mut hit = 0u64;
+        for w in g.targets(v) {
+            hit |= reach.word((w >> 6) as usize) >> (w & 63);
+        }
+        let hit = hit & 1;
+        reach.join(v, hit);
+        joined += hit;
+    };
+    if up {
+        nodes.iter().for_each(|&v| one(v));
+    } else {
+        nodes.iter().rev().for_each(|&v| one(v));
+    }
+    joined
 }
 
 /// Candidates from which several threads sweep at once (below, one is
@@ -814,7 +824,7 @@ impl Sweeps {
     ) -> bool {
         // a panic here stops the others too
         let _stop = Done(&self.stop);
-        let joined = |v: u32| (reach[(v >> 6) as usize].load(Relaxed) >> (v & 63)) & 1 == 1;
+        let joined = |v: u32| joined_in(reach, v);
         let mut nodes: Vec<u32> = candidates
             .iter()
             .copied()
@@ -831,24 +841,8 @@ impl Sweeps {
             if work > self.budget {
                 return false;
             }
-            let mut count = 0u64;
-            let mut one = |v: u32| {
-                let mut hit = 0u64;
-                for w in g.targets(v) {
-                    hit |= reach[(w >> 6) as usize].load(Relaxed) >> (w & 63);
-                }
-                if hit & 1 == 1 {
-                    // this thread alone writes this word
-                    let word = &reach[(v >> 6) as usize];
-                    word.store(word.load(Relaxed) | 1 << (v & 63), Relaxed);
-                    count += 1;
-                }
-            };
-            if up {
-                nodes.iter().for_each(|&v| one(v));
-            } else {
-                nodes.iter().rev().for_each(|&v| one(v));
-            }
+            // this thread alone writes its nodes' words: a plain store
+            let count = pass(g, &mut { reach }, &nodes, up);
             up = !up;
             if count > 0 {
                 self.joins.fetch_add(count, SeqCst);

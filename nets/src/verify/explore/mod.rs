@@ -475,21 +475,7 @@ fn chain_to<S: Semantics>(r: &Run<S>, net: &PtNet, id: u32) -> Vec<u32> {
         let before = if r.arcs.is_empty() {
             fired_backwards(r, net, cur, k)
         } else {
-            let target = dense_of(&offsets, cur);
-            let mut found = Vec::new();
-            for (p, arcs) in r.arcs.iter().enumerate() {
-                let range = r.level_range(p, k);
-                // the level's arcs at once first: most hold none to it
-                if !arcs.span(range.clone()).contains(&target) {
-                    continue;
-                }
-                for l in range {
-                    if arcs.targets(l).contains(&target) {
-                        found.push(state_id(p, l));
-                    }
-                }
-            }
-            found
+            leading_to(r, k, dense_of(&offsets, cur)).collect()
         };
         match before
             .into_iter()
@@ -504,6 +490,20 @@ fn chain_to<S: Semantics>(r: &Run<S>, net: &PtNet, id: u32) -> Vec<u32> {
     }
     chain.reverse();
     chain
+}
+
+/// The ids of the markings of level `k` with a kept arc to dense node
+/// `target`: each partition's arcs of that level looked at all at once
+/// first (most hold none to it), then marking by marking.
+fn leading_to<S: Semantics>(r: &Run<S>, k: usize, target: u32) -> impl Iterator<Item = u32> + '_ {
+    r.arcs.iter().enumerate().flat_map(move |(p, arcs)| {
+        let range = r.level_range(p, k);
+        let any = arcs.span(range.clone()).contains(&target);
+        range
+            .filter(move |_| any)
+            .filter(move |&l| arcs.targets(l).contains(&target))
+            .map(move |l| state_id(p, l))
+    })
 }
 
 /// The markings of level `k` from which a transition leads to `id`: each
@@ -739,20 +739,7 @@ fn cycle_through_initial<S: Semantics>(
 ) -> Option<Vec<u32>> {
     let depths = r.levels.iter().map(Vec::len).max().unwrap_or(0);
     (0..depths).find_map(|k| {
-        let back = r
-            .arcs
-            .iter()
-            .enumerate()
-            .flat_map(|(p, arcs)| {
-                let range = r.level_range(p, k);
-                // the level's arcs at once first: few lead back
-                let any = arcs.span(range.clone()).contains(&initial);
-                range
-                    .filter(move |_| any)
-                    .filter(move |&l| arcs.targets(l).contains(&initial))
-                    .map(move |l| state_id(p, l))
-            })
-            .min_by(|&a, &b| r.marking(a).cmp(r.marking(b)))?;
+        let back = leading_to(r, k, initial).min_by(|&a, &b| r.marking(a).cmp(r.marking(b)))?;
         let chain = chain_to(r, net, back);
         Some(
             chain
