@@ -1320,6 +1320,10 @@ fn nets_deleted_and_renamed_in_the_page_and_undone() {
         ["FLIGHT"],
         "the form stays"
     );
+    assert_eq!(
+        seen["typed_over"], "OPS",
+        "a redraw keeps the rename field's selection"
+    );
     assert_eq!(seen["message_after"], true, "the refusal cleared");
     let renamed = strings(&seen["nets_renamed"]);
     assert!(

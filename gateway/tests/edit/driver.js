@@ -269,7 +269,16 @@ async function netOps(page, seen) {
   await page.press(head("OPERATIONS") + " .net-rename-to", "Enter");
   seen.taken = await message(page);
   seen.form_after_refusal = await page.$$eval(head("OPERATIONS") + " .net-rename-to", (els) => els.map((e) => e.value));
-  await page.fill(head("OPERATIONS") + " .net-rename-to", "OPS");
+  // The refusal's own redraw done; then a redraw while the name is
+  // selected to be typed over (a check's verdict arriving under a person's
+  // hands, which once made "FLIGHTOPS"): what is typed replaces it.
+  await page.waitForFunction(() => ED.posts === 0, null, { timeout: 20000 });
+  const field = head("OPERATIONS") + " .net-rename-to";
+  await page.focus(field);
+  await page.$eval(field, (i) => i.select());
+  await page.evaluate(() => draw());
+  await page.keyboard.insertText("OPS");
+  seen.typed_over = await page.$eval(field, (i) => i.value);
   await page.click(head("OPERATIONS") + " .net-rename-go");
   await page.waitForSelector(head("OPS") + " b", { timeout: 20000 });
   seen.message_after = await page.$eval("#edit-message", (e) => e.hidden);

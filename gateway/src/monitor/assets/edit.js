@@ -306,8 +306,11 @@ function drawNet(n) {
 
 function draw() {
   ED.draws++;
-  // A redraw (an edit, the check's verdict) keeps the rename field's focus.
-  const typing = document.activeElement && document.activeElement.classList.contains("net-rename-to");
+  // A redraw (an edit, the check's verdict) keeps the rename field's focus
+  // and its selection: text selected to be typed over stays selected.
+  const active = document.activeElement;
+  const typing = active && active.classList.contains("net-rename-to")
+    ? [active.selectionStart, active.selectionEnd, active.selectionDirection] : null;
   $("project").textContent = page.name;
   document.title = page.name + " — Petrel editor";
   const nets = $("nets");
@@ -357,7 +360,7 @@ function draw() {
   }
   if (typing) {
     const input = document.querySelector("#nets .net-rename-to");
-    if (input) { input.focus(); input.setSelectionRange(input.value.length, input.value.length); }
+    if (input) { input.focus(); input.setSelectionRange(typing[0], typing[1], typing[2]); }
   }
   problems();
   check();
