@@ -312,6 +312,45 @@ pub trait Adjacency {
     /// (`near` true, after their start). Nothing by default.
     #[inline]
     fn prefetch(&self, _node: u32, _near: bool) {}
+    /// The successors of `nodes` as stored, when they are stored node
+    /// after node: stretches in increasing order that cover `nodes`
+    /// exactly. The sweeps then read them without looking each node up.
+    /// `None` by default (the sweeps read [`Adjacency::targets`]).
+    fn stretches(&self, _nodes: std::ops::Range<u32>) -> Option<Vec<Stretch<'_>>> {
+        None
+    }
+}
+
+/// Nodes whose successors are stored one after the other: node
+/// `first + i`'s are `targets[starts[i]..starts[i + 1]]`.
+#[derive(Debug, Clone, Copy)]
+pub struct Stretch<'a> {
+    /// The first node.
+    pub first: u32,
+    /// Where each node's successors start in `targets`, then where the
+    /// last one's end: one more than the nodes.
+    pub starts: &'a [u32],
+    /// Successors.
+    pub targets: &'a [u32],
+}
+
+impl Stretch<'_> {
+    /// The nodes it holds.
+    fn nodes(&self) -> std::ops::Range<u32> {
+        let len = self.starts.len().saturating_sub(1) as u32;
+        self.first..self.first.saturating_add(len)
+    }
+
+    /// The successors of `v`, one of its nodes (none if it is not, or if
+    /// its starts lie outside `targets`).
+    #[inline]
+    fn of(&self, v: u32) -> &[u32] {
+        let i = v.wrapping_sub(self.first) as usize;
+        match (self.starts.get(i), self.starts.get(i + 1)) {
+            (Some(&a), Some(&b)) => self.targets.get(a as usize..b as usize).unwrap_or(&[]),
+            _ => &[],
+        }
+    }
 }
 
 impl<L> Adjacency for Csr<L> {
@@ -339,9 +378,12 @@ const SWEEP_BUDGET: usize = 8;
 /// Strongly connected components of a graph whose nodes are all reachable
 /// from `root` (a reachability graph from its initial state), as
 /// [`strongly_connected_components`] finds them, in a cheaper way when the
-/// root's component is large. `order` lists every node once, best in
-/// breadth-first order from `root` (as an exploration stores them; the
-/// sweeps settle in few passes then), `root` first. `entered` is false when
+/// root's component is large. The sweeps go over the node numbers, best
+/// given in breadth-first order from `root` (as an exploration stores each
+/// partition's; the sweeps settle in few passes then). `order` gives every
+/// node once, in such an order, `root` first: it is built only if the last
+/// node's component is searched (it is the last one there; a list of
+/// another length is not searched). `entered` is false when
 /// no arc leads to `root` (then its component is itself alone, found
 /// without a sweep); true when some may. `seeds` are nodes known to reach
 /// `root` (e.g. a cycle through it: nodes at many depths, from which the
@@ -368,7 +410,7 @@ pub fn strongly_connected_components_from(
     root: u32,
     entered: bool,
     seeds: &[u32],
-    mut order: Vec<u32>,
+    order: impl FnOnce() -> Vec<u32>,
     threads: usize,
     prefix: Option<&Prefix>,
 ) -> Sccs {
@@ -376,7 +418,6 @@ pub fn strongly_connected_components_from(
     let outside = |v: &u32| *v as usize >= n;
     if n == 0
         || root as usize >= n
-        || order.len() != n
         || seeds.iter().any(outside)
         || prefix.is_some_and(|p| p.transient.iter().chain(&p.entries).any(outside))
     {
@@ -391,28 +432,32 @@ pub fn strongly_connected_components_from(
     }
     // most arcs lead forward in a breadth-first order: the first sweep goes
     // down, so that a path forward then back to the root joins in one go
-    let rest = if entered {
-        let Some(rest) = reaching(g, &mut reach, order, n, Direction::Down, threads) else {
+    let left = if entered {
+        let Some(left) = reaching_everywhere(g, &mut reach, n, Direction::Down, threads) else {
             return pearce(g, None, None);
         };
-        rest
+        left as usize
     } else {
-        order.retain(|&v| v != root);
-        order
+        n - 1
     };
     // A root alone (or nearly: a few transient markings before the net
     // settles into its cycles) leaves Pearce's search the whole graph. The
     // last node (of the deepest level) is then likely in a terminal
     // component, found the same way: the nodes it reaches, all of which
     // reach it back.
-    let terminal = if rest.len() > n / 2 {
+    let terminal = if left > n / 2 {
         prefix
             .filter(|_| !entered)
-            .and_then(|p| component_after(g, p, &rest, n, threads))
+            .and_then(|p| component_after(g, p, n, threads))
             .or_else(|| {
-                rest.last().copied().and_then(|last| {
-                    terminal_component(g, last, rest, n, threads).map(|set| (last, set))
-                })
+                // the nodes left, in `order` (not a permutation: no search)
+                let mut rest = order();
+                if rest.len() != n {
+                    return None;
+                }
+                rest.retain(|&v| !bit(&reach, v));
+                let last = rest.last().copied()?;
+                terminal_component(g, last, rest, n, threads).map(|set| (last, set))
             })
     } else {
         None
@@ -490,12 +535,11 @@ pub fn peel(
 /// the first entry reaches every other (a search that stops as soon as it
 /// has found them, within a budget), so it reaches every node after the
 /// prefix, which no arc leaves; and every one of them reaches it (sweeps
-/// over `rest`, every node but the root, on `threads`). `None` when they
+/// over every node, on `threads`). `None` when they
 /// are not one component, or that was not shown within the budgets.
 fn component_after(
     g: &(impl Adjacency + Sync),
     prefix: &Prefix,
-    rest: &[u32],
     n: usize,
     threads: usize,
 ) -> Option<(u32, Vec<u64>)> {
@@ -510,8 +554,7 @@ fn component_after(
     for &v in prefix.transient.iter().chain([&entry]) {
         set_bit(&mut reach, v);
     }
-    let left = reaching_among(g, &mut reach, rest, n, Direction::Down, threads)?;
-    if !left.is_empty() {
+    if reaching_everywhere(g, &mut reach, n, Direction::Down, threads)? > 0 {
         return None;
     }
     for &v in &prefix.transient {
@@ -604,27 +647,61 @@ fn reaching(
     threads: usize,
 ) -> Option<Vec<u32>> {
     if threads > 1 && rest.len() >= PARALLEL_SWEEPS {
-        return reaching_in_parts(g, reach, &rest, n, first, threads.min(MAX_PARTS));
+        let budget = (SWEEP_BUDGET * n) as u64;
+        let left = reaching_in_parts(g, reach, Some(&rest), first, threads.min(MAX_PARTS), budget)?;
+        if left > 0 {
+            rest.retain(|&v| !bit(reach, v));
+        } else {
+            rest.clear();
+        }
+        return Some(rest);
     }
     rest.retain(|&v| !bit(reach, v));
     sweeps(g, reach, rest, n, first, None)
 }
 
-/// [`reaching`] over candidates it may not reorder or drop from (a copy
-/// of the ones not joined yet is swept on one thread).
-fn reaching_among(
+/// [`reaching`] with every node a candidate, swept in the order of their
+/// numbers (a breadth-first order within each partition of an
+/// exploration), reading the successors as stored where the graph gives
+/// them so ([`Adjacency::stretches`]) and skipping 64 joined nodes at a
+/// time: how many nodes do not reach `reach`, or `None` when the sweeps
+/// did not settle within their budget.
+fn reaching_everywhere(
     g: &(impl Adjacency + Sync),
     reach: &mut [u64],
-    rest: &[u32],
     n: usize,
     first: Direction,
     threads: usize,
-) -> Option<Vec<u32>> {
-    if threads > 1 && rest.len() >= PARALLEL_SWEEPS {
-        return reaching_in_parts(g, reach, rest, n, first, threads.min(MAX_PARTS));
+) -> Option<u64> {
+    let budget = (SWEEP_BUDGET * n) as u64;
+    reaching_everywhere_within(g, reach, n, first, threads, budget)
+}
+
+/// [`reaching_everywhere`] within `budget` nodes looked at.
+fn reaching_everywhere_within(
+    g: &(impl Adjacency + Sync),
+    reach: &mut [u64],
+    n: usize,
+    first: Direction,
+    threads: usize,
+    budget: u64,
+) -> Option<u64> {
+    if threads > 1 && n >= PARALLEL_SWEEPS {
+        return reaching_in_parts(g, reach, None, first, threads.min(MAX_PARTS), budget);
     }
-    let candidates = rest.iter().copied().filter(|&v| !bit(reach, v)).collect();
-    sweeps(g, reach, candidates, n, first, None)
+    let mut work = 0u64;
+    let mut up = first == Direction::Up;
+    loop {
+        let (joined, looked) = pass_range(g, &mut { &mut *reach }, 0..n as u32, up);
+        work += looked;
+        if joined == 0 || joined == looked {
+            return Some(looked - joined);
+        }
+        if work > budget {
+            return None;
+        }
+        up = !up;
+    }
 }
 
 /// A bitset the sweeps join nodes to: plain, or shared with a thread
@@ -730,6 +807,86 @@ fn pass(g: &impl Adjacency, reach: &mut impl Joined, nodes: &[u32], up: bool) ->
     joined
 }
 
+/// One sweep over the nodes `nodes` not joined in `reach`, in increasing
+/// order (`up`) or decreasing, as [`pass`]: how many joined, and how many
+/// were looked at. Successors are read as stored when the graph gives
+/// them so ([`Adjacency::stretches`]).
+fn pass_range(
+    g: &impl Adjacency,
+    reach: &mut impl Joined,
+    nodes: std::ops::Range<u32>,
+    up: bool,
+) -> (u64, u64) {
+    let Some(stretches) = g.stretches(nodes.clone()) else {
+        return pass_bits(reach, nodes, up, |v| g.targets(v));
+    };
+    let (mut joined, mut looked) = (0, 0);
+    let mut each = |s: &Stretch| {
+        let held = s.nodes();
+        let part = held.start.max(nodes.start)..held.end.min(nodes.end);
+        let (j, l) = pass_bits(reach, part, up, |v| s.of(v).iter().copied());
+        joined += j;
+        looked += l;
+    };
+    if up {
+        stretches.iter().for_each(&mut each);
+    } else {
+        stretches.iter().rev().for_each(&mut each);
+    }
+    (joined, looked)
+}
+
+/// [`pass_range`] over the nodes `nodes` with successors `targets`: the
+/// nodes not joined are found 64 at a time in `reach`'s words, and each
+/// joins when one of its successors has (all read, without a branch).
+#[inline]
+fn pass_bits<I: Iterator<Item = u32>>(
+    reach: &mut impl Joined,
+    nodes: std::ops::Range<u32>,
+    up: bool,
+    mut targets: impl FnMut(u32) -> I,
+) -> (u64, u64) {
+    let (lo, hi) = (nodes.start, nodes.end);
+    if lo >= hi {
+        return (0, 0);
+    }
+    let (mut joined, mut looked) = (0u64, 0u64);
+    let mut word = |k: usize| {
+        let base = (k as u32) << 6;
+        let mut left = !reach.word(k);
+        if base < lo {
+            left &= u64::MAX << (lo - base);
+        }
+        if hi - base < 64 {
+            left &= (1u64 << (hi - base)) - 1;
+        }
+        looked += u64::from(left.count_ones());
+        while left != 0 {
+            let b = if up {
+                left.trailing_zeros()
+            } else {
+                63 - left.leading_zeros()
+            };
+            left &= !(1u64 << b);
+            let v = base + b;
+            let mut hit = 0u64;
+            for w in targets(v) {
+                hit |= reach.word((w >> 6) as usize) >> (w & 63);
+            }
+            let hit = hit & 1;
+            reach.join(v, hit);
+            joined += hit;
+        }
+    };
+    let words = (lo >> 6) as usize..=((hi - 1) >> 6) as usize;
+    if up {
+        words.for_each(&mut word);
+    } else {
+        words.rev().for_each(&mut word);
+    }
+    (joined, looked)
+}
+
 /// Candidates from which several threads sweep at once (below, one is
 /// faster).
 const PARALLEL_SWEEPS: usize = 1 << 16;
@@ -738,40 +895,80 @@ const PARALLEL_SWEEPS: usize = 1 << 16;
 const MAX_PARTS: usize = 16;
 
 /// [`reaching`] on `threads` threads, each owning a range of node numbers
-/// (equal ranges of whole bitset words): each sweeps its own candidates,
-/// in their order and against it in turn, on one bitset that all read and
-/// each writes only in its own words (no locked instruction, no join
-/// lost). A thread whose sweep joined nothing waits; the sweeps end when
-/// every thread has swept all its candidates since the last join anywhere.
-/// After an exploration on as many threads, a range is about one
-/// partition: each thread reads its own partition's arcs, about in the
-/// order of the levels, as one thread sweeping them all would.
+/// (equal ranges of whole bitset words): each sweeps its own candidates
+/// (those `rest` lists, or with `None` every node of its range, as
+/// [`reaching_everywhere`]), in their order and against it in turn, on
+/// one bitset that all read and each writes only in its own words (no
+/// locked instruction, no join lost). A thread whose sweep joined nothing
+/// waits; the sweeps end when every thread has swept all its candidates
+/// since the last join anywhere: how many candidates are left then, or
+/// `None` if the budget ran out. After an exploration on as many threads,
+/// a range is about one partition: each thread reads its own partition's
+/// arcs, about in the order of the levels, as one thread sweeping them all
+/// would.
 fn reaching_in_parts(
     g: &(impl Adjacency + Sync),
     reach: &mut [u64],
-    rest: &[u32],
-    n: usize,
+    rest: Option<&[u32]>,
     first: Direction,
     threads: usize,
-) -> Option<Vec<u32>> {
+    budget: u64,
+) -> Option<u64> {
+    let n = g.nodes();
     let per = reach.len().div_ceil(threads).max(1);
     let shared: Vec<AtomicU64> = reach.iter().map(|&w| AtomicU64::new(w)).collect();
     let sweeps = Sweeps {
         joins: AtomicU64::new(0),
         quiet: (0..threads).map(|_| AtomicU64::new(NOT_QUIET)).collect(),
         stop: AtomicBool::new(false),
-        budget: SWEEP_BUDGET * n,
+        budget,
         work: AtomicU64::new(0),
         left: AtomicU64::new(0),
     };
     // each thread picks its own candidates (the words it owns)
     let owner = move |v: u32| ((v >> 6) as usize / per).min(threads - 1);
+    let part = |i: usize| {
+        let (lo, hi) = (
+            i * per * 64,
+            if i + 1 == threads {
+                n
+            } else {
+                (i + 1) * per * 64
+            },
+        );
+        lo.min(n) as u32..hi.min(n) as u32
+    };
+    let run = |i: usize| {
+        let reach = shared.as_slice();
+        match rest {
+            Some(rest) => {
+                let mut nodes: Vec<u32> = rest
+                    .iter()
+                    .copied()
+                    .filter(|&v| owner(v) == i && !joined_in(reach, v))
+                    .collect();
+                sweeps.run(i, first, |up| {
+                    let looked = nodes.len() as u64;
+                    // this thread alone writes its nodes' words: a plain store
+                    let joined = pass(g, &mut { reach }, &nodes, up);
+                    if joined > 0 {
+                        nodes.retain(|&v| !joined_in(reach, v));
+                    }
+                    (joined, looked)
+                })
+            }
+            None => {
+                let nodes = part(i);
+                sweeps.run(i, first, |up| {
+                    pass_range(g, &mut { reach }, nodes.clone(), up)
+                })
+            }
+        }
+    };
     let settled = std::thread::scope(|scope| {
-        let (sweeps, shared) = (&sweeps, &shared);
-        let handles: Vec<_> = (1..threads)
-            .map(|i| scope.spawn(move || sweeps.run(g, shared, rest, |v| owner(v) == i, i, first)))
-            .collect();
-        let mut all = sweeps.run(g, shared, rest, |v| owner(v) == 0, 0, first);
+        let run = &run;
+        let handles: Vec<_> = (1..threads).map(|i| scope.spawn(move || run(i))).collect();
+        let mut all = run(0);
         for h in handles {
             match h.join() {
                 Ok(settled) => all &= settled,
@@ -783,11 +980,7 @@ fn reaching_in_parts(
     for (w, a) in reach.iter_mut().zip(&shared) {
         *w = a.load(Relaxed);
     }
-    match settled {
-        false => None,
-        true if sweeps.left.load(SeqCst) == 0 => Some(Vec::new()),
-        true => Some(rest.iter().copied().filter(|&v| !bit(reach, v)).collect()),
-    }
+    settled.then(|| sweeps.left.load(SeqCst))
 }
 
 /// A thread of [`reaching_in_parts`] that has joined something since its
@@ -804,32 +997,18 @@ struct Sweeps {
     /// Set when a thread gives up (budget spent) or panics: all stop.
     stop: AtomicBool,
     /// Nodes looked at, all threads together, before giving up.
-    budget: usize,
+    budget: u64,
     work: AtomicU64,
     /// Candidates left when the sweeps settled, all threads together.
     left: AtomicU64,
 }
 
 impl Sweeps {
-    /// One thread's sweeps over the candidates it owns (`mine`), not
-    /// joined yet: whether they settled.
-    fn run(
-        &self,
-        g: &impl Adjacency,
-        reach: &[AtomicU64],
-        candidates: &[u32],
-        mine: impl Fn(u32) -> bool,
-        me: usize,
-        first: Direction,
-    ) -> bool {
+    /// Thread `me`'s sweeps, `sweep(up)` each (how many of its candidates
+    /// joined, and how many it looked at): whether they settled.
+    fn run(&self, me: usize, first: Direction, mut sweep: impl FnMut(bool) -> (u64, u64)) -> bool {
         // a panic here stops the others too
         let _stop = Done(&self.stop);
-        let joined = |v: u32| joined_in(reach, v);
-        let mut nodes: Vec<u32> = candidates
-            .iter()
-            .copied()
-            .filter(|&v| mine(v) && !joined(v))
-            .collect();
         let mut up = first == Direction::Up;
         loop {
             if self.stop.load(Relaxed) {
@@ -837,16 +1016,13 @@ impl Sweeps {
             }
             self.quiet[me].store(NOT_QUIET, SeqCst);
             let start = self.joins.load(SeqCst);
-            let work = self.work.fetch_add(nodes.len() as u64, Relaxed) as usize;
-            if work > self.budget {
+            let (count, looked) = sweep(up);
+            up = !up;
+            if self.work.fetch_add(looked, Relaxed).saturating_add(looked) > self.budget {
                 return false;
             }
-            // this thread alone writes its nodes' words: a plain store
-            let count = pass(g, &mut { reach }, &nodes, up);
-            up = !up;
             if count > 0 {
                 self.joins.fetch_add(count, SeqCst);
-                nodes.retain(|&v| !joined(v));
                 continue;
             }
             // nothing joined here: settled once every thread has swept
@@ -861,7 +1037,7 @@ impl Sweeps {
                     break;
                 }
                 if self.quiet.iter().all(|q| q.load(SeqCst) == now) {
-                    self.left.fetch_add(nodes.len() as u64, SeqCst);
+                    self.left.fetch_add(looked, SeqCst);
                     // the others may still be checking: leave them the
                     // same answer (nothing sets `stop` on the way out)
                     std::mem::forget(_stop);
@@ -1453,14 +1629,22 @@ mod tests {
             same_components(
                 &g,
                 &tarjan,
-                &strongly_connected_components_from(&g, 0, true, &[], (0..n).collect(), 1, None),
+                &strongly_connected_components_from(&g, 0, true, &[], || (0..n).collect(), 1, None),
             );
             // seeded by a cycle through the root
             let cycle = shortest_cycle(&g, 0, |_| true).unwrap_or_default();
             same_components(
                 &g,
                 &tarjan,
-                &strongly_connected_components_from(&g, 0, true, &cycle, (0..n).collect(), 1, None),
+                &strongly_connected_components_from(
+                    &g,
+                    0,
+                    true,
+                    &cycle,
+                    || (0..n).collect(),
+                    1,
+                    None,
+                ),
             );
             // any order of the nodes, root first, gives the same components
             let mut shuffled: Vec<u32> = (1..n).collect();
@@ -1475,7 +1659,7 @@ mod tests {
             same_components(
                 &g,
                 &tarjan,
-                &strongly_connected_components_from(&g, 0, true, &[], shuffled, 1, None),
+                &strongly_connected_components_from(&g, 0, true, &[], || shuffled, 1, None),
             );
         }
         // large enough for two threads to sweep
@@ -1492,7 +1676,7 @@ mod tests {
                         0,
                         true,
                         seeds,
-                        (0..n).collect(),
+                        || (0..n).collect(),
                         2,
                         None,
                     ),
@@ -1516,8 +1700,15 @@ mod tests {
             g.push_node(l.into_iter().map(|t| ((), t)));
         }
         let tarjan = strongly_connected_components(&g);
-        let from =
-            strongly_connected_components_from(&g, order[0], true, &[], (0..n).collect(), 1, None);
+        let from = strongly_connected_components_from(
+            &g,
+            order[0],
+            true,
+            &[],
+            || (0..n).collect(),
+            1,
+            None,
+        );
         same_components(&g, &tarjan, &from);
         assert_eq!(from.sizes, vec![n]);
     }
@@ -1579,23 +1770,22 @@ mod tests {
                     0,
                     false,
                     &[],
-                    (0..n).collect(),
+                    || (0..n).collect(),
                     2,
                     None,
                 );
                 same_components(&g, &tarjan, &from);
                 for threads in [2, 3] {
-                    let rest: Vec<u32> = (1..n).collect();
                     // never the ring with node 2 (unreached without the
                     // exit, its own component with it)
-                    let after = component_after(&g, &prefix, &rest, n as usize, threads);
+                    let after = component_after(&g, &prefix, n as usize, threads);
                     assert!(after.is_none());
                     let from = strongly_connected_components_from(
                         &g,
                         0,
                         false,
                         &[],
-                        (0..n).collect(),
+                        || (0..n).collect(),
                         threads,
                         Some(&prefix),
                     );
@@ -1666,7 +1856,7 @@ mod tests {
                 0,
                 true,
                 &[],
-                (0..n).collect(),
+                || (0..n).collect(),
                 threads,
                 None,
             );
@@ -1677,7 +1867,7 @@ mod tests {
                 0,
                 false,
                 &[],
-                (0..n).collect(),
+                || (0..n).collect(),
                 threads,
                 None,
             );
@@ -1778,8 +1968,7 @@ mod tests {
                 }
             }
             // found without a search of the whole graph, or not at all
-            let rest: Vec<u32> = (1..n).collect();
-            let after = component_after(&g, &prefix, &rest, n as usize, threads);
+            let after = component_after(&g, &prefix, n as usize, threads);
             match case {
                 "ring" => {
                     let (entry, set) = after.unwrap_or_else(|| panic!("{case} {n} {threads}"));
@@ -1799,7 +1988,7 @@ mod tests {
                 0,
                 false,
                 &[],
-                (0..n).collect(),
+                || (0..n).collect(),
                 threads,
                 Some(&prefix),
             );
@@ -1875,7 +2064,7 @@ mod tests {
                     0,
                     false,
                     &[],
-                    (0..n).collect(),
+                    || (0..n).collect(),
                     threads,
                     None,
                 );
@@ -1925,5 +2114,132 @@ mod tests {
         assert_eq!(shortest_path(&only_a, 0, |v| v == 2, |_| true), None);
         assert_eq!(shortest_cycle(&g, 2, |_| true), Some(vec![2]));
         assert_eq!(shortest_cycle(&g, 0, |v| v != 1), None);
+    }
+
+    /// A graph that gives its successors as stretches (as an exploration's
+    /// partitions do), cut at `cuts`.
+    struct Cut<'g> {
+        g: &'g Csr<()>,
+        starts: Vec<u32>,
+        cuts: Vec<u32>,
+    }
+
+    impl Adjacency for Cut<'_> {
+        type Targets<'a>
+            = std::iter::Copied<std::slice::Iter<'a, u32>>
+        where
+            Self: 'a;
+        fn nodes(&self) -> usize {
+            Adjacency::nodes(self.g)
+        }
+        fn targets(&self, node: u32) -> Self::Targets<'_> {
+            self.g.targets(node)
+        }
+        fn stretches(&self, nodes: std::ops::Range<u32>) -> Option<Vec<Stretch<'_>>> {
+            let n = self.nodes() as u32;
+            let bounds: Vec<u32> = [0]
+                .into_iter()
+                .chain(self.cuts.iter().copied())
+                .chain([n])
+                .collect();
+            Some(
+                bounds
+                    .windows(2)
+                    .map(|w| (w[0].max(nodes.start), w[1].min(nodes.end)))
+                    .filter(|(a, b)| a < b)
+                    .map(|(a, b)| Stretch {
+                        first: a,
+                        starts: &self.starts[a as usize..=b as usize],
+                        targets: &self.g.targets,
+                    })
+                    .collect(),
+            )
+        }
+    }
+
+    /// The nodes with a path to one of `to`, by a search over the arcs
+    /// reversed.
+    fn reaching_by_search(g: &Csr<()>, to: &[u32]) -> Vec<u64> {
+        let n = Adjacency::nodes(g);
+        let mut into = vec![Vec::new(); n];
+        for v in 0..n as u32 {
+            for w in g.targets(v) {
+                into[w as usize].push(v);
+            }
+        }
+        let mut set = vec![0u64; n.div_ceil(64)];
+        let mut next: Vec<u32> = to.to_vec();
+        for &v in to {
+            set_bit(&mut set, v);
+        }
+        while let Some(w) = next.pop() {
+            for &v in &into[w as usize] {
+                if !bit(&set, v) {
+                    set_bit(&mut set, v);
+                    next.push(v);
+                }
+            }
+        }
+        set
+    }
+
+    #[test]
+    fn sweeps_over_every_node_by_words_node_by_node_or_by_stretches() {
+        // sizes about a bitset word, and over the threshold of the sweeps
+        // on several threads; stretches cut inside words and at their ends
+        for (n, extra) in [
+            (1u32, 0u32),
+            (63, 20),
+            (64, 30),
+            (65, 40),
+            (200, 60),
+            (70_001, 9_000),
+        ] {
+            let g = random_graph(n, extra, 0x5eed ^ u64::from(n));
+            let starts: Vec<u32> = g.offsets.iter().map(|&o| o as u32).collect();
+            let cuts: Vec<Vec<u32>> = vec![
+                Vec::new(),
+                vec![n / 3, n / 3 + 1, (n / 2) & !63],
+                vec![(n / 2).max(1)],
+            ];
+            // the root and a few nodes at every depth to reach
+            let to: Vec<u32> = (0..n).filter(|v| v % 7 == 0 || *v == n - 1).collect();
+            let want = reaching_by_search(&g, &to);
+            let count = |set: &[u64]| set.iter().map(|w| u64::from(w.count_ones())).sum::<u64>();
+            for first in [Direction::Up, Direction::Down] {
+                for threads in 1..=3 {
+                    for cut in &cuts {
+                        let c = Cut {
+                            g: &g,
+                            starts: starts.clone(),
+                            cuts: {
+                                let mut c: Vec<u32> =
+                                    cut.iter().copied().filter(|&x| x > 0 && x < n).collect();
+                                c.sort_unstable();
+                                c.dedup();
+                                c
+                            },
+                        };
+                        for by_stretches in [false, true] {
+                            let mut reach = vec![0u64; (n as usize).div_ceil(64)];
+                            for &v in &to {
+                                set_bit(&mut reach, v);
+                            }
+                            // however many sweeps it takes
+                            let (m, all) = (n as usize, u64::MAX);
+                            let left = if by_stretches {
+                                reaching_everywhere_within(&c, &mut reach, m, first, threads, all)
+                            } else {
+                                reaching_everywhere_within(&g, &mut reach, m, first, threads, all)
+                            };
+                            let what = format!("n {n}, {first:?}, {threads} threads, cut {cut:?}, by stretches {by_stretches}");
+                            assert_eq!(left, Some(u64::from(n) - count(&want)), "{what}");
+                            let wrong = reach.iter().zip(&want).position(|(a, b)| a != b);
+                            assert_eq!(wrong, None, "{what}: the first word that differs");
+                        }
+                    }
+                }
+            }
+        }
     }
 }

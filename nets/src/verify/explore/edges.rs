@@ -159,6 +159,16 @@ impl Edges {
         &self.targets[a as usize..b as usize]
     }
 
+    /// Where the successors of local markings `nodes` start, then where
+    /// the last one's end (one more than `nodes`), and every successor
+    /// kept: `None` for markings not kept.
+    pub fn stretch(&self, nodes: std::ops::Range<u32>) -> Option<(&[u32], &[u32])> {
+        let starts = self
+            .starts
+            .get(nodes.start as usize..nodes.end as usize + 1)?;
+        Some((starts, &self.targets))
+    }
+
     /// Every successor kept, marking after marking.
     pub fn all_targets(&self) -> &[u32] {
         &self.targets

@@ -652,6 +652,24 @@ impl Adjacency for Kept<'_> {
         self.of(node).iter().copied()
     }
 
+    /// Each partition's markings among `nodes`, with their arcs as kept.
+    fn stretches(&self, nodes: std::ops::Range<u32>) -> Option<Vec<graph::Stretch<'_>>> {
+        let mut out = Vec::with_capacity(self.arcs.len());
+        for (p, arcs) in self.arcs.iter().enumerate() {
+            let (lo, hi) = (*self.offsets.get(p)?, *self.offsets.get(p + 1)?);
+            let (a, b) = (nodes.start.max(lo), nodes.end.min(hi));
+            if a < b {
+                let (starts, targets) = arcs.stretch(a - lo..b - lo)?;
+                out.push(graph::Stretch {
+                    first: a,
+                    starts,
+                    targets,
+                });
+            }
+        }
+        Some(out)
+    }
+
     #[inline]
     fn prefetch(&self, node: u32, near: bool) {
         let (p, i) = self.local(node);
@@ -696,7 +714,6 @@ fn loops_of<S: Semantics>(r: &Run<S>, net: &PtNet, max_listed: usize, threads: u
         let initial = dense_of(&kept.offsets, first);
         let (p0, l0) = split_id(first);
         let entered = l0 != 0 || r.arcs.iter().any(|a| a.leads_to_first(p0));
-        let order = breadth_first_order(r, &kept.offsets);
         // A shortest cycle through the initial marking: listed first (its
         // component is the first reached), and its markings, at every
         // depth down to the deepest on the cycle, all reach the initial
@@ -715,7 +732,7 @@ fn loops_of<S: Semantics>(r: &Run<S>, net: &PtNet, max_listed: usize, threads: u
             initial,
             entered,
             seeds,
-            order,
+            || breadth_first_order(r, &kept.offsets),
             threads,
             prefix.as_ref(),
         );
