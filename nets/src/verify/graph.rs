@@ -711,6 +711,12 @@ trait Joined {
     fn word(&self, at: usize) -> u64;
     /// Joins `v` if `hit` is 1 (it is 0 or 1).
     fn join(&mut self, v: u32, hit: u64);
+    /// [`Joined::join`] by the one thread that writes `v`'s word (the
+    /// sweeps by words, [`pass_bits`]): without a branch, a store whether
+    /// it joins or not. (Written once for the word instead, the nodes of
+    /// a chain within a word would join one a sweep: a ring of 100,000
+    /// nodes ran out of budget.)
+    fn join_owned(&mut self, v: u32, hit: u64);
 }
 
 impl Joined for &mut [u64] {
@@ -723,6 +729,11 @@ impl Joined for &mut [u64] {
     #[inline]
     fn join(&mut self, v: u32, hit: u64) {
         self[(v >> 6) as usize] |= hit << (v & 63);
+    }
+
+    #[inline]
+    fn join_owned(&mut self, v: u32, hit: u64) {
+        self.join(v, hit);
     }
 }
 
@@ -743,6 +754,12 @@ impl Joined for &[AtomicU64] {
             let word = &self[(v >> 6) as usize];
             word.store(word.load(Relaxed) | 1 << (v & 63), Relaxed);
         }
+    }
+
+    #[inline]
+    fn join_owned(&mut self, v: u32, hit: u64) {
+        let word = &self[(v >> 6) as usize];
+        word.store(word.load(Relaxed) | hit << (v & 63), Relaxed);
     }
 }
 
@@ -818,13 +835,19 @@ fn pass_range(
     up: bool,
 ) -> (u64, u64) {
     let Some(stretches) = g.stretches(nodes.clone()) else {
-        return pass_bits(reach, nodes, up, |v| g.targets(v));
+        return pass_bits(reach, nodes, up, |reach, v| {
+            let mut hit = 0u64;
+            for w in g.targets(v) {
+                hit |= reach.word((w >> 6) as usize) >> (w & 63);
+            }
+            hit & 1
+        });
     };
     let (mut joined, mut looked) = (0, 0);
     let mut each = |s: &Stretch| {
         let held = s.nodes();
         let part = held.start.max(nodes.start)..held.end.min(nodes.end);
-        let (j, l) = pass_bits(reach, part, up, |v| s.of(v).iter().copied());
+        let (j, l) = pass_bits(reach, part, up, |reach, v| any_joined(reach, s.of(v)));
         joined += j;
         looked += l;
     };
@@ -836,15 +859,43 @@ fn pass_range(
     (joined, looked)
 }
 
-/// [`pass_range`] over the nodes `nodes` with successors `targets`: the
-/// nodes not joined are found 64 at a time in `reach`'s words, and each
-/// joins when one of its successors has (all read, without a branch).
+/// Whether one of `targets` has joined (1 or 0), all read without a
+/// branch; up to [`UNROLLED`] of them without a loop either (the last read
+/// again in the place of those missing): how many successors a node has
+/// is unpredictable, and a loop's exit mispredicted costs more than the
+/// few reads in cache it saves.
 #[inline]
-fn pass_bits<I: Iterator<Item = u32>>(
-    reach: &mut impl Joined,
+fn any_joined(reach: &impl Joined, targets: &[u32]) -> u64 {
+    let bit = |w: u32| reach.word((w >> 6) as usize) >> (w & 63);
+    let mut hit = 0u64;
+    match targets.len() {
+        0 => {}
+        k @ 1..=UNROLLED => {
+            for j in 0..UNROLLED {
+                hit |= bit(targets[j.min(k - 1)]);
+            }
+        }
+        _ => {
+            for &w in targets {
+                hit |= bit(w);
+            }
+        }
+    }
+    hit & 1
+}
+
+/// Successors read at once by [`any_joined`].
+const UNROLLED: usize = 6;
+
+/// [`pass_range`] over the nodes `nodes`, `hit(reach, v)` telling whether
+/// node `v` has a successor joined (1 or 0): the nodes not joined are
+/// found 64 at a time in `reach`'s words.
+#[inline]
+fn pass_bits<R: Joined>(
+    reach: &mut R,
     nodes: std::ops::Range<u32>,
     up: bool,
-    mut targets: impl FnMut(u32) -> I,
+    mut hit: impl FnMut(&R, u32) -> u64,
 ) -> (u64, u64) {
     let (lo, hi) = (nodes.start, nodes.end);
     if lo >= hi {
@@ -861,6 +912,7 @@ fn pass_bits<I: Iterator<Item = u32>>(
             left &= (1u64 << (hi - base)) - 1;
         }
         looked += u64::from(left.count_ones());
+        let mut joins = 0u64;
         while left != 0 {
             let b = if up {
                 left.trailing_zeros()
@@ -868,15 +920,11 @@ fn pass_bits<I: Iterator<Item = u32>>(
                 63 - left.leading_zeros()
             };
             left &= !(1u64 << b);
-            let v = base + b;
-            let mut hit = 0u64;
-            for w in targets(v) {
-                hit |= reach.word((w >> 6) as usize) >> (w & 63);
-            }
-            let hit = hit & 1;
-            reach.join(v, hit);
-            joined += hit;
+            let hit = hit(reach, base + b);
+            reach.join_owned(base + b, hit);
+            joins |= hit << b;
         }
+        joined += u64::from(joins.count_ones());
     };
     let words = (lo >> 6) as usize..=((hi - 1) >> 6) as usize;
     if up {
