@@ -375,6 +375,11 @@ impl<L> Adjacency for Csr<L> {
 /// the edges, costs several sweeps of the whole graph.
 const SWEEP_BUDGET: usize = 8;
 
+/// [`SWEEP_BUDGET`] for a graph of `n` nodes.
+fn sweep_budget(n: usize) -> u64 {
+    (SWEEP_BUDGET * n) as u64
+}
+
 /// Strongly connected components of a graph whose nodes are all reachable
 /// from `root` (a reachability graph from its initial state), as
 /// [`strongly_connected_components`] finds them, in a cheaper way when the
@@ -433,7 +438,9 @@ pub fn strongly_connected_components_from(
     // most arcs lead forward in a breadth-first order: the first sweep goes
     // down, so that a path forward then back to the root joins in one go
     let left = if entered {
-        let Some(left) = reaching_everywhere(g, &mut reach, n, Direction::Down, threads) else {
+        let swept =
+            reaching_everywhere(g, &mut reach, n, Direction::Down, threads, sweep_budget(n));
+        let Some(left) = swept else {
             return pearce(g, None, None);
         };
         left as usize
@@ -554,7 +561,7 @@ fn component_after(
     for &v in prefix.transient.iter().chain([&entry]) {
         set_bit(&mut reach, v);
     }
-    if reaching_everywhere(g, &mut reach, n, Direction::Down, threads)? > 0 {
+    if reaching_everywhere(g, &mut reach, n, Direction::Down, threads, sweep_budget(n))? > 0 {
         return None;
     }
     for &v in &prefix.transient {
@@ -647,13 +654,9 @@ fn reaching(
     threads: usize,
 ) -> Option<Vec<u32>> {
     if threads > 1 && rest.len() >= PARALLEL_SWEEPS {
-        let budget = (SWEEP_BUDGET * n) as u64;
-        let left = reaching_in_parts(g, reach, Some(&rest), first, threads.min(MAX_PARTS), budget)?;
-        if left > 0 {
-            rest.retain(|&v| !bit(reach, v));
-        } else {
-            rest.clear();
-        }
+        let parts = threads.min(MAX_PARTS);
+        reaching_in_parts(g, reach, Some(&rest), first, parts, sweep_budget(n))?;
+        rest.retain(|&v| !bit(reach, v));
         return Some(rest);
     }
     rest.retain(|&v| !bit(reach, v));
@@ -665,20 +668,8 @@ fn reaching(
 /// exploration), reading the successors as stored where the graph gives
 /// them so ([`Adjacency::stretches`]) and skipping 64 joined nodes at a
 /// time: how many nodes do not reach `reach`, or `None` when the sweeps
-/// did not settle within their budget.
+/// did not settle within `budget` nodes looked at ([`sweep_budget`]).
 fn reaching_everywhere(
-    g: &(impl Adjacency + Sync),
-    reach: &mut [u64],
-    n: usize,
-    first: Direction,
-    threads: usize,
-) -> Option<u64> {
-    let budget = (SWEEP_BUDGET * n) as u64;
-    reaching_everywhere_within(g, reach, n, first, threads, budget)
-}
-
-/// [`reaching_everywhere`] within `budget` nodes looked at.
-fn reaching_everywhere_within(
     g: &(impl Adjacency + Sync),
     reach: &mut [u64],
     n: usize,
@@ -776,7 +767,7 @@ fn sweeps(
 ) -> Option<Vec<u32>> {
     let mut work = 0usize;
     for sweep in 0usize.. {
-        if work > SWEEP_BUDGET * n {
+        if work as u64 > sweep_budget(n) {
             return None;
         }
         work += rest.len();
@@ -808,11 +799,7 @@ fn sweeps(
 fn pass(g: &impl Adjacency, reach: &mut impl Joined, nodes: &[u32], up: bool) -> u64 {
     let mut joined = 0u64;
     let mut one = |v: u32| {
-        let mut hit = 0u64;
-        for w in g.targets(v) {
-            hit |= reach.word((w >> 6) as usize) >> (w & 63);
-        }
-        let hit = hit & 1;
+        let hit = successor_joined(g, &*reach, v);
         reach.join(v, hit);
         joined += hit;
     };
@@ -822,6 +809,17 @@ fn pass(g: &impl Adjacency, reach: &mut impl Joined, nodes: &[u32], up: bool) ->
         nodes.iter().rev().for_each(|&v| one(v));
     }
     joined
+}
+
+/// Whether one of `v`'s successors has joined `reach` (1 or 0), every one
+/// read without a branch.
+#[inline]
+fn successor_joined(g: &impl Adjacency, reach: &impl Joined, v: u32) -> u64 {
+    let mut hit = 0u64;
+    for w in g.targets(v) {
+        hit |= reach.word((w >> 6) as usize) >> (w & 63);
+    }
+    hit & 1
 }
 
 /// One sweep over the nodes `nodes` not joined in `reach`, in increasing
@@ -835,13 +833,7 @@ fn pass_range(
     up: bool,
 ) -> (u64, u64) {
     let Some(stretches) = g.stretches(nodes.clone()) else {
-        return pass_bits(reach, nodes, up, |reach, v| {
-            let mut hit = 0u64;
-            for w in g.targets(v) {
-                hit |= reach.word((w >> 6) as usize) >> (w & 63);
-            }
-            hit & 1
-        });
+        return pass_bits(reach, nodes, up, |reach, v| successor_joined(g, reach, v));
     };
     let (mut joined, mut looked) = (0, 0);
     let mut each = |s: &Stretch| {
@@ -2276,9 +2268,9 @@ mod tests {
                             // however many sweeps it takes
                             let (m, all) = (n as usize, u64::MAX);
                             let left = if by_stretches {
-                                reaching_everywhere_within(&c, &mut reach, m, first, threads, all)
+                                reaching_everywhere(&c, &mut reach, m, first, threads, all)
                             } else {
-                                reaching_everywhere_within(&g, &mut reach, m, first, threads, all)
+                                reaching_everywhere(&g, &mut reach, m, first, threads, all)
                             };
                             let what = format!("n {n}, {first:?}, {threads} threads, cut {cut:?}, by stretches {by_stretches}");
                             assert_eq!(left, Some(u64::from(n) - count(&want)), "{what}");
