@@ -28,7 +28,7 @@ pub struct Args {
 pub fn run(args: Args) -> VerbResult {
     let name = args.file.display().to_string();
     let out_name = args.output.display().to_string();
-    let bytes = std::fs::read(&args.file)
+    let bytes = crate::record::read::whole(&args.file)
         .map_err(|e| miette::miette!("cannot read the recording {name}: {e}"))?;
     let same = match (
         std::fs::canonicalize(&args.file),

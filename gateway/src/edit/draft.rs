@@ -728,10 +728,8 @@ impl Draft {
         match op {
             Op::AddPlace { name, at, .. } => {
                 self.check_new_name(n, Kind::Place, name)?;
-                if let Some(at) = at {
-                    if !at.0.is_finite() || !at.1.is_finite() {
-                        return Err(EditError::BadPosition);
-                    }
+                if at.is_some_and(|at| !super::positions::drawable(at)) {
+                    return Err(EditError::BadPosition);
                 }
                 let places = list_mut(self.nets[n].doc.as_table_mut(), "places")
                     .ok_or_else(|| shape(&file_name, "`places` is not a list"))?;
@@ -832,10 +830,8 @@ impl Draft {
             }
             Op::AddTransition { name, at, .. } => {
                 self.check_new_name(n, Kind::Transition, name)?;
-                if let Some(at) = at {
-                    if !at.0.is_finite() || !at.1.is_finite() {
-                        return Err(EditError::BadPosition);
-                    }
+                if at.is_some_and(|at| !super::positions::drawable(at)) {
+                    return Err(EditError::BadPosition);
                 }
                 let mut t = Table::new();
                 t.insert("name", value(name.as_str()));

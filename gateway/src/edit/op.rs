@@ -268,7 +268,7 @@ pub enum EditError {
         place: String,
         input: bool,
     },
-    #[error("a position must be two finite numbers")]
+    #[error("a position must be two numbers between -1000000 and 1000000")]
     BadPosition,
     #[error("{file}: {what}")]
     Shape { file: String, what: String },

@@ -34,6 +34,19 @@ pub struct Positions {
     doc: DocumentMut,
 }
 
+/// How far from the origin a node may be drawn: far beyond any page, and
+/// small enough that rounding to a tenth stays finite (`1e308 * 10` is
+/// infinite, and was written into layout.toml as `inf`).
+pub const FARTHEST: f64 = 1e6;
+
+/// Whether `at` is a position the layout can store: two finite numbers
+/// within [`FARTHEST`] of the origin.
+pub fn drawable(at: (f64, f64)) -> bool {
+    [at.0, at.1]
+        .iter()
+        .all(|v| v.is_finite() && v.abs() <= FARTHEST)
+}
+
 impl Positions {
     /// Reads the layout file's text; entries that are not two numbers are
     /// ignored (and dropped at the next write of their table).
@@ -86,7 +99,8 @@ impl Positions {
         Some((num(0)?, num(1)?)).filter(|(x, y)| x.is_finite() && y.is_finite())
     }
 
-    /// Stores where `name` is drawn (rounded to a tenth).
+    /// Stores where `name` is drawn (rounded to a tenth; refused unless
+    /// [`drawable`]).
     pub fn set(
         &mut self,
         net: &str,
@@ -94,7 +108,7 @@ impl Positions {
         name: &str,
         at: (f64, f64),
     ) -> Result<(), EditError> {
-        if !at.0.is_finite() || !at.1.is_finite() {
+        if !drawable(at) {
             return Err(EditError::BadPosition);
         }
         let round = |v: f64| (v * 10.0).round() / 10.0;
@@ -188,6 +202,11 @@ mod tests {
         assert!(p.clear("A"));
         assert_eq!(p.get("A", Kind::Place, "rest"), None);
         assert!(p.set("A", Kind::Place, "x", (f64::NAN, 1.0)).is_err());
+        // Finite, but infinite once rounded (issue 39: `[inf, -inf]` was
+        // written), or beyond any page.
+        assert!(p.set("A", Kind::Place, "x", (1e308, -1e308)).is_err());
+        assert!(p.set("A", Kind::Place, "x", (2e6, 0.0)).is_err());
+        assert!(!p.text().contains("inf"), "{}", p.text());
     }
 
     #[test]

@@ -722,14 +722,53 @@ impl Session {
             .project
             .clone()
             .ok_or_else(|| "the project does not load: fix its problems first".to_owned())?;
-        let out = self.dir.join(if out.trim().is_empty() {
-            "stubs"
-        } else {
-            out.trim()
-        });
+        let out = inside(&self.dir, out)?;
         let written = crate::cli::stubs::write(&self.dir, &project, lang, &out, force)?;
         Ok(written.iter().map(|p| p.display().to_string()).collect())
     }
+}
+
+/// The folder of the project at `dir` that `out` names (empty: `stubs`):
+/// a relative path without `..`, which stays inside the project once its
+/// links are followed. The page may write stubs there and nowhere else.
+fn inside(dir: &Path, out: &str) -> Result<PathBuf, String> {
+    use std::path::Component;
+    let out = match out.trim() {
+        "" => "stubs",
+        out => out,
+    };
+    let relative = Path::new(out);
+    if !relative
+        .components()
+        .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        return Err(format!(
+            "stubs go into a folder of the project: `{out}` is not a path inside it (no `/` at the start, no `..`)"
+        ));
+    }
+    let root = dir
+        .canonicalize()
+        .map_err(|e| format!("cannot read {}: {e}", dir.display()))?;
+    // The deepest part that exists, with its links followed, must be in
+    // the project (a link inside it may point anywhere).
+    let wanted = dir.join(relative);
+    let mut existing = wanted.as_path();
+    while !existing.exists() {
+        match existing.parent() {
+            Some(parent) => existing = parent,
+            None => break,
+        }
+    }
+    let real = existing
+        .canonicalize()
+        .map_err(|e| format!("cannot read {}: {e}", existing.display()))?;
+    if !real.starts_with(&root) {
+        return Err(format!(
+            "stubs go into a folder of the project: `{out}` leads to {}",
+            real.display()
+        ));
+    }
+    Ok(wanted)
 }
 
 impl Drop for Session {
@@ -895,5 +934,35 @@ mod tests {
             )
         );
         assert_eq!(counterexample(&json!({"livelocks": []})).1, None);
+    }
+
+    #[test]
+    fn stubs_go_into_a_folder_of_the_project_only() {
+        let outside = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let project = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let dir = project.path();
+        std::fs::create_dir(dir.join("tools")).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(inside(dir, "").ok(), Some(dir.join("stubs")));
+        assert_eq!(inside(dir, " stubs ").ok(), Some(dir.join("stubs")));
+        assert_eq!(inside(dir, "tools/new").ok(), Some(dir.join("tools/new")));
+        assert_eq!(inside(dir, "./tools").ok(), Some(dir.join("./tools")));
+        let elsewhere = outside.path().display().to_string();
+        for out in [
+            elsewhere.as_str(),
+            "../x",
+            "../../x",
+            "tools/../../x",
+            "/tmp",
+        ] {
+            let e = inside(dir, out).err().unwrap_or_default();
+            assert!(e.contains("a folder of the project"), "{out}: {e}");
+        }
+        // A link inside the project that leads out of it.
+        std::os::unix::fs::symlink(outside.path(), dir.join("out"))
+            .unwrap_or_else(|e| panic!("{e}"));
+        for out in ["out", "out/deeper"] {
+            let e = inside(dir, out).err().unwrap_or_default();
+            assert!(e.contains("leads to"), "{out}: {e}");
+        }
     }
 }

@@ -110,14 +110,7 @@ pub fn admit(peer: SocketAddr, headers: &HeaderMap) -> Result<(), String> {
     let Some(host) = header("host") else {
         return Err("no Host".into());
     };
-    let name = match host.rsplit_once(':') {
-        Some((name, port)) if port.parse::<u16>().is_ok() => name,
-        _ => host,
-    };
-    let name = name.trim_start_matches('[').trim_end_matches(']');
-    if name != "localhost" && name.parse::<std::net::IpAddr>().is_err() {
-        return Err(format!("Host {host} is not an address of this computer"));
-    }
+    super::guard::local_host(host)?;
     if let Some(origin) = header("origin") {
         if origin != format!("http://{host}") {
             return Err(format!("a page from {origin} may not answer"));

@@ -10,7 +10,9 @@
 //! `nets::svg` and their definitions), the live board shared with the
 //! server (`live.rs`), a recording's index (`history.rs`), the axum server
 //! (`server.rs`), the mirror's panel, its board and its answer desk
-//! (`mirror.rs`, `mirror_page.rs`, `answer.rs`, for `petrel mirror --http`) and the page's assets (`assets/`, built into the binary:
+//! (`mirror.rs`, `mirror_page.rs`, `answer.rs`, for `petrel mirror --http`),
+//! the rule in front of every route of every page (`guard.rs`: this
+//! computer's own page only, bounded bodies and WebSockets) and the page's assets (`assets/`, built into the binary:
 //! no npm, no CDN, no outside fonts).
 //!
 //! It never calls into the player or the commander: the gateway's loop
@@ -20,6 +22,7 @@
 
 pub mod answer;
 pub mod board;
+pub mod guard;
 pub mod history;
 pub mod live;
 pub mod mirror;

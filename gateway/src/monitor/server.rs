@@ -1,8 +1,10 @@
 //! The web server: a thin axum router over a board owned elsewhere (the
 //! live one, or a recording's index). Read-only: GET routes and a
 //! WebSocket that sends frames; the mirror's page adds its answer desk
-//! (`answer.rs`), the only route that changes anything. It runs on its own thread and runtime, so
-//! serving pages never takes the gateway loop's thread.
+//! (`answer.rs`), the only route that changes anything. Every route of
+//! every page served here (`petrel edit`'s too) is behind `guard.rs`. It
+//! runs on its own thread and runtime, so serving pages never takes the
+//! gateway loop's thread.
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -16,6 +18,7 @@ use axum::routing::get;
 use axum::Router;
 use serde_json::Value as Json;
 
+use super::guard::{self, Sockets};
 use super::history::History;
 use super::live::{Cursor, Live};
 
@@ -68,26 +71,48 @@ pub(crate) fn page_routes<S: Clone + Send + Sync + 'static>() -> Router<S> {
         )
 }
 
+/// What the routes share: the page's source and the WebSockets open.
+#[derive(Clone)]
+struct Shared {
+    source: Source,
+    sockets: Sockets,
+}
+
 fn router(source: Source) -> Router {
+    let shared = Shared {
+        source,
+        sockets: Sockets::default(),
+    };
     page_routes()
         .route(
             "/page.json",
-            get(|State(s): State<Source>| async move {
-                ([(header::CONTENT_TYPE, "application/json")], s.page())
+            get(|State(s): State<Shared>| async move {
+                (
+                    [(header::CONTENT_TYPE, "application/json")],
+                    s.source.page(),
+                )
             }),
         )
-        .route(
-            "/ws",
-            get(|State(s): State<Source>, ws: WebSocketUpgrade| async move {
-                ws.on_upgrade(move |socket| async move {
-                    match s {
-                        Source::Live(live) => live_socket(socket, live).await,
-                        Source::Recording(h) => recording_socket(socket, h).await,
-                    }
-                })
-            }),
-        )
-        .with_state(source)
+        .route("/ws", get(socket))
+        .with_state(shared)
+}
+
+/// `GET /ws`: the page's WebSocket, while fewer than `guard::SOCKETS` are
+/// open, taking only messages of a few KiB.
+async fn socket(State(s): State<Shared>, ws: WebSocketUpgrade) -> Response {
+    let permit = match s.sockets.take() {
+        Ok(permit) => permit,
+        Err(refused) => return refused,
+    };
+    ws.max_message_size(guard::MESSAGE_LIMIT)
+        .max_frame_size(guard::MESSAGE_LIMIT)
+        .on_upgrade(move |socket| async move {
+            let _open = permit;
+            match s.source {
+                Source::Live(live) => live_socket(socket, live).await,
+                Source::Recording(h) => recording_socket(socket, h).await,
+            }
+        })
 }
 
 async fn send(socket: &mut WebSocket, frame: Json) -> bool {
@@ -186,8 +211,12 @@ impl Server {
         )
     }
 
-    /// Serves `app` on `address` (also `petrel edit`'s routes).
+    /// Serves `app` on `address` (also `petrel edit`'s routes), behind
+    /// `guard.rs`: this computer's own page only, bodies bounded.
     pub fn serve(address: SocketAddr, app: Router) -> std::io::Result<Server> {
+        let app = app
+            .layer(axum::extract::DefaultBodyLimit::max(guard::BODY_LIMIT))
+            .layer(axum::middleware::from_fn(guard::guard));
         let listener = std::net::TcpListener::bind(address)?;
         listener.set_nonblocking(true)?;
         let address = listener.local_addr()?;

@@ -65,6 +65,10 @@ pub enum ReadError {
     NotMcap(String),
     #[error("not a Petrel recording: no {} channel", layout::INPUTS)]
     NotPetrel,
+    #[error("cut short before the flight's start: {0}")]
+    CutBeforeStart(String),
+    #[error("{0}")]
+    Bomb(String),
     #[error("bad record on {topic} (message {index}): {what}")]
     Bad {
         topic: &'static str,
@@ -93,6 +97,40 @@ impl Recording {
         let time = u64::from_be_bytes(stamp.try_into().ok()?);
         Some((time, bytes))
     }
+}
+
+/// The largest file a verb reads whole (a recording or a tlog): a day of
+/// one vehicle's flights is a few hundred MB.
+pub const FILE_LIMIT: u64 = 4 << 30;
+
+/// The bytes of the file at `path`, a recording or a telemetry log read
+/// whole: a regular file (not a FIFO or a device, which might never end)
+/// of at most [`FILE_LIMIT`] bytes.
+pub fn whole(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
+    use std::io::{Error, ErrorKind, Read};
+    let file = std::fs::File::open(path)?;
+    let meta = file.metadata()?;
+    if !meta.is_file() {
+        return Err(Error::new(
+            ErrorKind::InvalidInput,
+            "not a regular file (a recording or a telemetry log is read whole)",
+        ));
+    }
+    if meta.len() > FILE_LIMIT {
+        return Err(Error::new(
+            ErrorKind::InvalidInput,
+            format!(
+                "{} MiB: larger than the {} MiB read at once",
+                meta.len() >> 20,
+                FILE_LIMIT >> 20
+            ),
+        ));
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    // The file may grow while it is read (a flight still recording): what
+    // it held when opened, at most the limit.
+    file.take(FILE_LIMIT).read_to_end(&mut bytes)?;
+    Ok(bytes)
 }
 
 /// Reads `bytes`, a Petrel MCAP; with `expectations`, also each step's
@@ -127,6 +165,7 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
     // The summary (after the data end) repeats channels: it is only read
     // through, so that a cut there is noticed too.
     let mut in_summary = false;
+    let mut expanded: u64 = 0;
     while let Some(event) = top.next_event() {
         let (opcode, data) = match event {
             Ok(LinearReadEvent::ReadRequest(_)) => {
@@ -140,6 +179,15 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
                 continue;
             }
             Ok(LinearReadEvent::Record { opcode, data }) => (opcode, data),
+            Err(mcap::McapError::RecordTooLarge { opcode, len }) => {
+                // Longer than the whole file: the file ends inside it.
+                ended = Some(format!(
+                    "the file ends inside {} of {len} bytes, in a file of {} bytes",
+                    record_name(opcode),
+                    bytes.len()
+                ));
+                break;
+            }
             Err(e) => {
                 ended = Some(e.to_string());
                 break;
@@ -148,6 +196,21 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
         match opcode {
             op::DATA_END => in_summary = true,
             op::CHUNK if !in_summary => {
+                // What the chunk says it holds once decompressed, counted
+                // before it is: a small file may not expand without bound.
+                let unpacked = data
+                    .get(16..24)
+                    .and_then(|b| b.try_into().ok())
+                    .map_or(0, u64::from_le_bytes);
+                expanded = expanded.saturating_add(unpacked);
+                if unpacked > RECORD_LIMIT as u64 || expanded > expansion_limit(bytes.len()) {
+                    return Err(ReadError::Bomb(format!(
+                        "its chunks would expand to over {} MiB from a {} KiB file (a chunk holds at most {} MiB, a recording expands at most {EXPANSION}-fold): refused as damaged",
+                        expanded >> 20,
+                        bytes.len() >> 10,
+                        RECORD_LIMIT >> 20
+                    )));
+                }
                 let mut raw = Vec::with_capacity(9 + data.len());
                 raw.push(op::CHUNK);
                 raw.extend_from_slice(&(data.len() as u64).to_le_bytes());
@@ -202,9 +265,37 @@ pub fn read(bytes: &[u8], expectations: bool) -> Result<Recording, ReadError> {
 }
 
 /// The largest record believed inside a chunk, and the largest chunk
-/// (uncompressed): Petrel closes a chunk every second; anything larger is
-/// damage, which must not be allocated.
-const RECORD_LIMIT: usize = 256 << 20;
+/// (uncompressed): Petrel closes a chunk every second (about 1 MiB for
+/// one plane's second at 20 times real time); anything larger is damage,
+/// which must not be allocated.
+const RECORD_LIMIT: usize = 64 << 20;
+
+/// How many times its size a file's chunks may expand to, all together:
+/// Petrel's own recordings expand about 6-fold (`demo.mcap`: 0.8 MB of
+/// chunks, 4.7 MB decompressed); a zstd bomb of 65 KB took `petrel view`
+/// to 926 MB.
+const EXPANSION: u64 = 100;
+
+/// What the chunks of a file of `len` bytes may expand to.
+fn expansion_limit(len: usize) -> u64 {
+    (len as u64)
+        .saturating_mul(EXPANSION)
+        .max(RECORD_LIMIT as u64)
+}
+
+/// An MCAP record's name, by opcode, for a person.
+fn record_name(opcode: u8) -> String {
+    match opcode {
+        op::HEADER => "the header".into(),
+        op::SCHEMA => "a schema".into(),
+        op::CHANNEL => "a channel".into(),
+        op::MESSAGE => "a message".into(),
+        op::CHUNK => "a chunk".into(),
+        op::DATA_END => "the data end".into(),
+        op::FOOTER => "the footer".into(),
+        other => format!("a record of opcode {other:#04x}"),
+    }
+}
 
 /// Hands each record of a chunk (given as its whole record: opcode, length,
 /// body) to `f`, after checking the chunk's CRC.
@@ -458,7 +549,7 @@ impl Reader {
     fn finish(self) -> Result<Recording, ReadError> {
         if !self.saw_inputs {
             if let Some(cut) = &self.rec.cut {
-                return Err(ReadError::NotMcap(cut.clone()));
+                return Err(ReadError::CutBeforeStart(cut.clone()));
             }
             return Err(ReadError::NotPetrel);
         }

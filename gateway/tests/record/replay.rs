@@ -277,6 +277,84 @@ fn files_that_are_not_petrel_recordings_are_refused() {
     assert!(err.contains("not a Petrel recording"), "{err}");
 }
 
+/// An MCAP of zeros on one channel, one chunk of `mib` MiB per entry.
+fn zeros(path: &std::path::Path, chunks: &[usize]) {
+    let file = std::fs::File::create(path).expect("file");
+    let mut w = mcap::WriteOptions::new()
+        .compression(Some(mcap::Compression::Zstd))
+        .chunk_size(None)
+        .create(std::io::BufWriter::new(file))
+        .expect("writer");
+    let c = w
+        .add_channel(0, "/chatter", "json", &Default::default())
+        .expect("channel");
+    for (i, mib) in chunks.iter().enumerate() {
+        w.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id: c,
+                sequence: i as u32,
+                log_time: i as u64,
+                publish_time: i as u64,
+            },
+            &vec![0u8; mib << 20],
+        )
+        .expect("written");
+        w.flush().expect("chunk closed");
+    }
+    w.finish().expect("finished");
+}
+
+/// Issue 39: a file cut before the flight's start says so (not "length
+/// exceeds limit: 1472"); a zstd bomb is refused before it is expanded
+/// (a 65 KB one took `petrel view` to 926 MB); a device is not read.
+#[test]
+fn a_cut_start_a_zstd_bomb_and_a_device_are_refused_with_their_reason() {
+    let Some(flown) = chunky_flight() else { return };
+    let bytes = std::fs::read(&flown.path).expect("recording");
+    let dir = Scratch::new("record-bombs");
+    let cut = dir.join("cut.mcap");
+    std::fs::write(&cut, &bytes[..100]).expect("written");
+    let (code, _, err) = check(&cut, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("cut short before the flight's start"), "{err}");
+    assert!(
+        err.contains("the file ends inside a chunk of") && err.contains("in a file of 100 bytes"),
+        "{err}"
+    );
+    assert!(!err.contains("exceeds limit"), "{err}");
+
+    for (name, chunks) in [("one", &[80][..]), ("many", &[40, 40])] {
+        let bomb = dir.join(format!("{name}.mcap"));
+        zeros(&bomb, chunks);
+        let size = std::fs::metadata(&bomb).expect("bomb").len();
+        assert!(size < 64 << 10, "{name}: {size} bytes");
+        let e = read::read(&std::fs::read(&bomb).expect("bomb"), false)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("refused as damaged"), "{name}: {e}");
+        let (code, _, err) = check(&bomb, &[]);
+        assert_eq!(code, 2, "{err}");
+        assert!(err.contains("would expand to over"), "{err}");
+    }
+    // Within the bounds, the same file is read (and is no Petrel
+    // recording): the bound is not a blanket refusal.
+    let small = dir.join("small.mcap");
+    zeros(&small, &[8, 8]);
+    let e = read::read(&std::fs::read(&small).expect("small"), false)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(e.contains("not a Petrel recording"), "{e}");
+
+    // A device that never ends, under a recording's name.
+    let endless = dir.join("endless.mcap");
+    std::os::unix::fs::symlink("/dev/zero", &endless).expect("link");
+    let (code, _, err) = check(&endless, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("not a regular file"), "{err}");
+}
+
 #[test]
 fn a_recording_damaged_mid_file_is_read_up_to_the_damage_or_refused() {
     let Some(flown) = chunky_flight() else { return };

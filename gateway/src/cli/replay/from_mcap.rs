@@ -40,7 +40,7 @@ pub(crate) fn open(
     expectations: bool,
 ) -> Result<Option<Opened>, miette::Report> {
     let name = file.display().to_string();
-    let bytes = std::fs::read(file)
+    let bytes = crate::record::read::whole(file)
         .map_err(|e| miette::miette!("cannot read the MCAP recording {name}: {e}"))?;
     let reading = Instant::now();
     let rec = read::read(&bytes, expectations).map_err(|e| miette::miette!("{name}: {e}"))?;
