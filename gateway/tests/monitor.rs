@@ -26,6 +26,8 @@ use serde_json::Value as Json;
 
 #[path = "monitor/browser.rs"]
 mod browser;
+#[path = "monitor/hostile.rs"]
+mod hostile;
 
 use browser::{drive, repo, require, Reaped};
 use scratch::Scratch;

@@ -538,7 +538,7 @@ fn bad_edits_are_refused_with_nothing_changed() {
                 name: s("ok"),
                 at: Some((f64::INFINITY, 0.0)),
             },
-            "a position must be two finite numbers",
+            "a position must be two numbers between",
         ),
         (
             Op::RenamePlace {
@@ -735,7 +735,17 @@ fn bad_edits_are_refused_with_nothing_changed() {
                 x: f64::NAN,
                 y: 0.0,
             },
-            "a position must be two finite numbers",
+            "a position must be two numbers between",
+        ),
+        (
+            Op::Move {
+                net: s("A"),
+                kind: Kind::Place,
+                name: s("idle"),
+                x: 1e308,
+                y: 0.0,
+            },
+            "a position must be two numbers between",
         ),
         (Op::Relayout { net: s("Z") }, "no net named `Z`"),
     ];

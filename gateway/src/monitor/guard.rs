@@ -133,18 +133,21 @@ impl Default for Sockets {
 }
 
 impl Sockets {
-    /// A place for one more WebSocket, held as long as it is open, or the
-    /// answer for a browser that finds them all taken.
-    pub fn take(&self) -> Result<OwnedSemaphorePermit, Response> {
-        self.0.clone().try_acquire_owned().map_err(|_| {
-            tracing::warn!("web: a WebSocket refused: {SOCKETS} already open");
-            (
-                StatusCode::SERVICE_UNAVAILABLE,
-                format!("{SOCKETS} pages already follow this server: close one"),
-            )
-                .into_response()
-        })
+    /// A place for one more WebSocket, held as long as it is open; none
+    /// when all are taken.
+    pub fn take(&self) -> Option<OwnedSemaphorePermit> {
+        self.0.clone().try_acquire_owned().ok()
     }
+}
+
+/// The answer for a browser that finds every WebSocket taken.
+pub fn sockets_full() -> Response {
+    tracing::warn!("web: a WebSocket refused: {SOCKETS} already open");
+    (
+        StatusCode::SERVICE_UNAVAILABLE,
+        format!("{SOCKETS} pages already follow this server: close one"),
+    )
+        .into_response()
 }
 
 #[cfg(test)]
@@ -279,10 +282,10 @@ mod tests {
     #[test]
     fn sockets_are_bounded_and_given_back() {
         let sockets = Sockets::default();
-        let held: Vec<_> = (0..SOCKETS).filter_map(|_| sockets.take().ok()).collect();
+        let held: Vec<_> = (0..SOCKETS).filter_map(|_| sockets.take()).collect();
         assert_eq!(held.len(), SOCKETS);
-        assert!(sockets.take().is_err());
+        assert!(sockets.take().is_none());
         drop(held);
-        assert!(sockets.take().is_ok());
+        assert!(sockets.take().is_some());
     }
 }

@@ -100,9 +100,8 @@ fn router(source: Source) -> Router {
 /// `GET /ws`: the page's WebSocket, while fewer than `guard::SOCKETS` are
 /// open, taking only messages of a few KiB.
 async fn socket(State(s): State<Shared>, ws: WebSocketUpgrade) -> Response {
-    let permit = match s.sockets.take() {
-        Ok(permit) => permit,
-        Err(refused) => return refused,
+    let Some(permit) = s.sockets.take() else {
+        return guard::sockets_full();
     };
     ws.max_message_size(guard::MESSAGE_LIMIT)
         .max_frame_size(guard::MESSAGE_LIMIT)
