@@ -140,7 +140,7 @@ fn params(object: &Map<String, serde_json::Value>) -> Result<Params, String> {
     }
 }
 
-fn json_params(params: &Params) -> serde_json::Value {
+pub(super) fn json_params(params: &Params) -> serde_json::Value {
     serde_json::Value::Object(
         params
             .iter()
@@ -150,9 +150,14 @@ fn json_params(params: &Params) -> serde_json::Value {
 }
 
 /// `{"welcome": "DEC", "functions": […]}`: the hello was accepted; the
-/// functions are those the nets call.
-pub fn welcome(program: &str, called: &[&str]) -> String {
-    json!({"welcome": program, "functions": called}).to_string()
+/// functions are those the nets call. With `resume` (a program that
+/// connected before in this run), `"resume": {…}` as well.
+pub fn welcome(program: &str, called: &[&str], resume: Option<serde_json::Value>) -> String {
+    let mut welcome = json!({"welcome": program, "functions": called});
+    if let Some(resume) = resume {
+        welcome["resume"] = resume;
+    }
+    welcome.to_string()
 }
 
 /// `{"call": id, "function": "…", "args": {…}}`, with `"vehicle": "R1"`
@@ -300,7 +305,8 @@ mod tests {
         );
         let v: serde_json::Value = serde_json::from_str(&error("bad", 3)).expect("json");
         assert_eq!(v, json!({"error": "bad", "line": 3}));
-        let v: serde_json::Value = serde_json::from_str(&welcome("DEC", &["a"])).expect("json");
+        let v: serde_json::Value =
+            serde_json::from_str(&welcome("DEC", &["a"], None)).expect("json");
         assert_eq!(v, json!({"welcome": "DEC", "functions": ["a"]}));
     }
 }

@@ -17,6 +17,7 @@ use tokio::task::JoinHandle;
 
 use super::address::Address;
 use super::child::{self, ChildEvent, Launch};
+use super::protocol::json_params;
 use super::roster::{Config, Roster, SettingsError};
 use super::session::{self, Output, Session};
 
@@ -151,6 +152,7 @@ impl Programs {
         for (program, settings) in roster.settings.iter().enumerate() {
             let Some(run) = &settings.run else { continue };
             slots[program].starting = true;
+            slots[program].started = true;
             let launch = Launch {
                 program,
                 name: roster.name(program).to_owned(),
@@ -180,6 +182,8 @@ impl Programs {
             waiting: Vec::new(),
             conn_tx,
             children,
+            sent: HashMap::new(),
+            parked: Vec::new(),
         };
         let task = tokio::spawn(switchboard.run(listener, commands, conn_rx, child_rx));
         Ok((
@@ -309,6 +313,75 @@ struct Slot {
     starting: bool,
     /// It said hello since it was last started.
     connected_since_start: bool,
+    /// The gateway starts it (`run`).
+    started: bool,
+    /// Whether its process exited since its last hello, and if so whether
+    /// it is started again.
+    exited: Option<bool>,
+    /// Hellos accepted in this run.
+    hellos: u64,
+    /// What it answered, oldest first, for the welcome after a restart.
+    history: History,
+    /// Calls failed as `restarted` since its last hello.
+    restarted: Vec<u64>,
+}
+
+/// The answers a program gave in this run, as a restarted program gets
+/// them back (docs/programs.md "Restarts"): at most [`HISTORY`] answers
+/// and [`HISTORY_BYTES`] of JSON, the oldest dropped first.
+#[derive(Debug, Clone, Default)]
+struct History {
+    answers: std::collections::VecDeque<(serde_json::Value, usize)>,
+    bytes: usize,
+    dropped: u64,
+}
+
+/// Answers kept per program for its restart.
+const HISTORY: usize = 256;
+/// Their JSON at most (a welcome line stays well under a program's 1 MiB).
+const HISTORY_BYTES: usize = 512 * 1024;
+/// How long a started program's closed connection waits for the process's
+/// exit, to tell a restart from a loss.
+const EXIT_WAIT: std::time::Duration = std::time::Duration::from_secs(1);
+
+impl History {
+    fn push(&mut self, answer: serde_json::Value) {
+        let size = answer.to_string().len();
+        self.answers.push_back((answer, size));
+        self.bytes += size;
+        while self.answers.len() > HISTORY || self.bytes > HISTORY_BYTES {
+            let Some((_, size)) = self.answers.pop_front() else {
+                break;
+            };
+            self.bytes -= size;
+            self.dropped += 1;
+        }
+    }
+}
+
+impl Slot {
+    /// The welcome's `resume` for a program that connected before in this
+    /// run: its hello's number, what it answered, the calls failed as
+    /// `restarted` that the nets may ask again.
+    fn resume(&self) -> Option<serde_json::Value> {
+        (self.hellos > 0).then(|| {
+            serde_json::json!({
+                "connection": self.hellos + 1,
+                "answered": self.history.answers.iter().map(|(a, _)| a).collect::<Vec<_>>(),
+                "dropped": self.history.dropped,
+                "restarted": self.restarted,
+            })
+        })
+    }
+}
+
+/// A call sent or waiting, until its outcome: what a restarted program
+/// gets back of it.
+struct Sent {
+    program: usize,
+    function: usize,
+    args: Params,
+    vehicle: Option<String>,
 }
 
 struct Connection {
@@ -337,6 +410,11 @@ struct Switchboard {
     waiting: Vec<Waiting>,
     conn_tx: mpsc::Sender<ConnEvent>,
     children: Vec<JoinHandle<()>>,
+    /// Calls without an outcome yet, by id.
+    sent: HashMap<u64, Sent>,
+    /// Closed connections of started programs waiting for the process's
+    /// exit: (connection, program, until when).
+    parked: Vec<(u64, usize, Instant)>,
 }
 
 impl Switchboard {
@@ -370,18 +448,15 @@ impl Switchboard {
                     ConnEvent::Bytes(conn, bytes) => {
                         let slots = &self.slots;
                         if let Some(c) = self.connections.get_mut(&conn) {
-                            c.session.feed(&bytes, |p| {
-                                slots.get(p).is_some_and(|s| s.connection.is_some())
-                            });
+                            c.session.feed_resuming(
+                                &bytes,
+                                |p| slots.get(p).is_some_and(|s| s.connection.is_some()),
+                                |p| slots.get(p).and_then(Slot::resume),
+                            );
                         }
                         self.drain(conn).await;
                     }
-                    ConnEvent::Closed(conn) => {
-                        if let Some(c) = self.connections.get_mut(&conn) {
-                            c.session.lost();
-                        }
-                        self.drain(conn).await;
-                    }
+                    ConnEvent::Closed(conn) => self.closed(conn).await,
                 },
                 Some(event) = child_rx.recv() => self.child(event).await,
                 _ = sleep_until(deadline), if deadline.is_some() => self.timeouts().await,
@@ -443,6 +518,9 @@ impl Switchboard {
                     if let Some(slot) = self.slots.get_mut(program) {
                         slot.connection = Some(conn);
                         slot.connected_since_start = true;
+                        slot.exited = None;
+                        slot.hellos += 1;
+                        slot.restarted.clear();
                     }
                     let now = Instant::now();
                     let (ready, rest): (Vec<_>, Vec<_>) = std::mem::take(&mut self.waiting)
@@ -461,7 +539,12 @@ impl Switchboard {
                         }
                     }
                 }
-                Output::Outcome { id, outcome } => {
+                Output::Outcome {
+                    id,
+                    outcome,
+                    answered,
+                } => {
+                    self.settled(id, &outcome, answered);
                     if let Outcome::Failed(reason) = &outcome {
                         tracing::info!(
                             program = name.as_deref().unwrap_or("?"),
@@ -531,7 +614,85 @@ impl Switchboard {
         .await;
     }
 
+    /// The connection `conn` closed. A program the gateway starts waits
+    /// (at most [`EXIT_WAIT`]) for its process's exit, which tells whether
+    /// its pending calls fail as `restarted` or `program lost`.
+    async fn closed(&mut self, conn: u64) {
+        let program = self.slots.iter().position(|s| s.connection == Some(conn));
+        let reason = match program.map(|p| &self.slots[p]) {
+            Some(slot) if slot.started => match slot.exited {
+                Some(true) => Some(session::REASON_RESTARTED),
+                Some(false) => Some(session::REASON_LOST),
+                None => None,
+            },
+            _ => Some(session::REASON_LOST),
+        };
+        match (reason, program) {
+            (None, Some(program)) => {
+                // New calls wait for the next hello meanwhile.
+                self.slots[program].connection = None;
+                self.parked
+                    .push((conn, program, Instant::now() + EXIT_WAIT));
+            }
+            (reason, _) => {
+                if let Some(c) = self.connections.get_mut(&conn) {
+                    c.session
+                        .lost_because(reason.unwrap_or(session::REASON_LOST));
+                }
+                self.drain(conn).await;
+            }
+        }
+    }
+
+    /// A parked connection's calls fail with `reason`, then the program is
+    /// lost for the nets.
+    async fn unpark(&mut self, conn: u64, program: usize, reason: &str) {
+        self.parked.retain(|(c, _, _)| *c != conn);
+        if let Some(c) = self.connections.get_mut(&conn) {
+            c.session.lost_because(reason);
+        }
+        self.drain(conn).await;
+        self.connections.remove(&conn);
+        self.lost(program).await;
+    }
+
+    /// Call `id` has its outcome: a program's own answer joins its history;
+    /// a call failed as `restarted` is named to the restarted program.
+    fn settled(&mut self, id: u64, outcome: &Outcome, answered: bool) {
+        let Some(sent) = self.sent.remove(&id) else {
+            return;
+        };
+        let Some(slot) = self.slots.get_mut(sent.program) else {
+            return;
+        };
+        if answered {
+            let function = self.roster.function_name(sent.program, sent.function);
+            let mut answer = serde_json::json!({
+                "call": id,
+                "function": function,
+                "args": json_params(&sent.args),
+            });
+            match outcome {
+                Outcome::Done(params) => {
+                    answer["event"] = "done".into();
+                    answer["params"] = json_params(params);
+                }
+                Outcome::Failed(reason) => {
+                    answer["event"] = "failed".into();
+                    answer["params"] = serde_json::json!({ "reason": reason });
+                }
+            }
+            if let Some(vehicle) = sent.vehicle {
+                answer["vehicle"] = vehicle.into();
+            }
+            slot.history.push(answer);
+        } else if matches!(outcome, Outcome::Failed(r) if r == session::REASON_RESTARTED) {
+            slot.restarted.push(id);
+        }
+    }
+
     async fn fail(&mut self, id: u64, reason: &str) {
+        self.sent.remove(&id);
         self.emit(ProgramInput::Outcome {
             id,
             outcome: Outcome::Failed(reason.to_owned()),
@@ -556,6 +717,15 @@ impl Switchboard {
         if !known {
             return self.fail(id, "unknown program or function").await;
         }
+        self.sent.insert(
+            id,
+            Sent {
+                program,
+                function,
+                args: args.clone(),
+                vehicle: vehicle.clone(),
+            },
+        );
         let slot = &self.slots[program];
         if let Some(conn) = slot.connection {
             if let Some(c) = self.connections.get_mut(&conn) {
@@ -582,6 +752,7 @@ impl Switchboard {
     }
 
     fn forget(&mut self, id: u64) {
+        self.sent.remove(&id);
         self.waiting.retain(|w| w.id != id);
         for c in self.connections.values_mut() {
             if c.session.forget(id) {
@@ -607,6 +778,24 @@ impl Switchboard {
                 let never_connected = !slot.connected_since_start;
                 slot.connected_since_start = true;
                 slot.starting = restart;
+                slot.exited = Some(restart);
+                let reason = if restart {
+                    session::REASON_RESTARTED
+                } else {
+                    session::REASON_LOST
+                };
+                let parked: Vec<u64> = self
+                    .parked
+                    .iter()
+                    .filter(|(_, p, _)| *p == program)
+                    .map(|(c, _, _)| *c)
+                    .collect();
+                for conn in parked {
+                    self.unpark(conn, program, reason).await;
+                }
+                let Some(slot) = self.slots.get_mut(program) else {
+                    return;
+                };
                 if never_connected && slot.connection.is_none() {
                     // It died before saying hello: still a loss for the nets.
                     self.lost(program).await;
@@ -630,7 +819,8 @@ impl Switchboard {
             .values()
             .filter_map(|c| c.session.poll_timeout());
         let waiting = self.waiting.iter().map(|w| w.deadline);
-        sessions.chain(waiting).min()
+        let parked = self.parked.iter().map(|(_, _, d)| *d);
+        sessions.chain(waiting).chain(parked).min()
     }
 
     async fn timeouts(&mut self) {
@@ -648,6 +838,16 @@ impl Switchboard {
         self.waiting = rest;
         for w in expired {
             self.fail(w.id, session::REASON_NOT_CONNECTED).await;
+        }
+        // A connection closed while its process goes on: lost.
+        let gone: Vec<(u64, usize)> = self
+            .parked
+            .iter()
+            .filter(|(_, _, d)| *d <= now)
+            .map(|(c, p, _)| (*c, *p))
+            .collect();
+        for (conn, program) in gone {
+            self.unpark(conn, program, session::REASON_LOST).await;
         }
     }
 

@@ -37,6 +37,10 @@ pub const SIGNATURE_REJECTED: &str = "signature_rejected";
 pub const REASON_LOST: &str = "program lost";
 pub const REASON_TIMEOUT: &str = "timeout";
 pub const REASON_NOT_CONNECTED: &str = "not connected";
+/// The program's connection closed and the gateway is starting it again
+/// (its `restart` policy): the nets may ask again, and the call waits for
+/// the new process's hello.
+pub const REASON_RESTARTED: &str = "restarted";
 
 /// How many settled call ids (timed out or forgotten) a session remembers,
 /// so that their late replies are ignored rather than answered with an error.
@@ -54,8 +58,14 @@ pub enum Output {
     Received(String),
     /// The program said hello and was accepted as this program.
     Hello { program: usize },
-    /// The outcome of a call.
-    Outcome { id: u64, outcome: Outcome },
+    /// The outcome of a call; `answered`: the program sent it (a `done` or
+    /// `failed` reply), rather than the gateway deciding it (a timeout, a
+    /// loss).
+    Outcome {
+        id: u64,
+        outcome: Outcome,
+        answered: bool,
+    },
     /// An event the program sent on its own.
     Event(Event),
     /// A reply came for a call that had timed out or was forgotten: ignored.
@@ -136,7 +146,19 @@ impl Session {
 
     /// Feeds bytes the program sent. `taken(program)` tells whether another
     /// connection already is that program (its hello is then refused).
-    pub fn feed(&mut self, mut bytes: &[u8], taken: impl Fn(usize) -> bool) {
+    pub fn feed(&mut self, bytes: &[u8], taken: impl Fn(usize) -> bool) {
+        self.feed_resuming(bytes, taken, |_| None)
+    }
+
+    /// [`Self::feed`], where `resume(program)` is what the welcome tells a
+    /// program that connected before in this run (`"resume"`,
+    /// docs/programs.md "Restarts").
+    pub fn feed_resuming(
+        &mut self,
+        mut bytes: &[u8],
+        taken: impl Fn(usize) -> bool,
+        resume: impl Fn(usize) -> Option<serde_json::Value>,
+    ) {
         while !bytes.is_empty() && self.state != State::Closed {
             let newline = bytes.iter().position(|&b| b == b'\n');
             let (chunk, rest) = match newline {
@@ -165,7 +187,7 @@ impl Session {
                 } else {
                     let line = std::mem::take(&mut self.buffer);
                     self.lines += 1;
-                    self.line(&line, &taken);
+                    self.line(&line, &taken, &resume);
                 }
             }
         }
@@ -176,7 +198,12 @@ impl Session {
             .push_back(Output::Send(protocol::error(message, self.lines)));
     }
 
-    fn line(&mut self, raw: &[u8], taken: &impl Fn(usize) -> bool) {
+    fn line(
+        &mut self,
+        raw: &[u8],
+        taken: &impl Fn(usize) -> bool,
+        resume: &impl Fn(usize) -> Option<serde_json::Value>,
+    ) {
         let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
         let parsed = std::str::from_utf8(raw).map(|text| (text, protocol::parse(text)));
         // What is logged and recorded: the line, with a hello's token
@@ -210,7 +237,7 @@ impl Session {
                         "unauthorised: the gateway requires a `token` in the hello, and this one is missing or wrong",
                     );
                 }
-                self.hello(&program, &functions, taken)
+                self.hello(&program, &functions, taken, resume)
             }
             (Incoming::Hello { .. }, _) => {
                 self.error("hello again: this connection already said hello")
@@ -224,6 +251,7 @@ impl Session {
                     self.outputs.push_back(Output::Outcome {
                         id,
                         outcome: Outcome::Failed(reason),
+                        answered: true,
                     });
                 }
             }
@@ -232,7 +260,13 @@ impl Session {
         }
     }
 
-    fn hello(&mut self, name: &str, functions: &[String], taken: &impl Fn(usize) -> bool) {
+    fn hello(
+        &mut self,
+        name: &str,
+        functions: &[String],
+        taken: &impl Fn(usize) -> bool,
+        resume: &impl Fn(usize) -> Option<serde_json::Value>,
+    ) {
         let roster = Arc::clone(&self.roster);
         let Some(program) = roster.program(name) else {
             let known: Vec<&str> = roster
@@ -268,6 +302,7 @@ impl Session {
         self.outputs.push_back(Output::Send(protocol::welcome(
             name,
             &roster.called_names(program),
+            resume(program),
         )));
         self.outputs.push_back(Output::Hello { program });
     }
@@ -337,6 +372,7 @@ impl Session {
             self.outputs.push_back(Output::Outcome {
                 id,
                 outcome: Outcome::Done(params),
+                answered: true,
             });
         }
     }
@@ -456,17 +492,27 @@ impl Session {
             self.outputs.push_back(Output::Outcome {
                 id,
                 outcome: Outcome::Failed(REASON_TIMEOUT.into()),
+                answered: false,
             });
         }
     }
 
     /// The connection is gone: every pending call fails with "program lost".
     pub fn lost(&mut self) {
+        self.lost_because(REASON_LOST);
+    }
+
+    /// The connection is gone: every pending call fails with `reason`
+    /// ([`REASON_LOST`], or [`REASON_RESTARTED`] when the gateway starts
+    /// the program again).
+    pub fn lost_because(&mut self, reason: &str) {
         self.state = State::Closed;
         for id in std::mem::take(&mut self.pending).into_keys() {
+            self.remember(id);
             self.outputs.push_back(Output::Outcome {
                 id,
-                outcome: Outcome::Failed(REASON_LOST.into()),
+                outcome: Outcome::Failed(reason.into()),
+                answered: false,
             });
         }
     }

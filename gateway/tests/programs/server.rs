@@ -15,7 +15,10 @@ fn check_indices(h: &Harness) {
         .iter()
         .map(|f| f.name.as_str())
         .collect();
-    assert_eq!(names, ["crash", "echo", "emit", "garbage", "quit", "slow"]);
+    assert_eq!(
+        names,
+        ["crash", "echo", "emit", "garbage", "hangup", "quit", "slow"]
+    );
 }
 
 #[tokio::test]
@@ -106,9 +109,10 @@ async fn a_crash_fails_the_pending_call_emits_program_lost_and_restarts_on_failu
     h.programs
         .call(1, 0, SLOW, params(&[("delay", Value::Float(0.3))]));
     h.programs.call(2, 0, CRASH, Params::new());
-    // The slow call is answered, then the crash fails the pending one.
+    // The slow call is answered, then the crash fails the pending one:
+    // the gateway starts P again, so the nets may ask again.
     assert_eq!(h.outcome(1).await, Outcome::Done(Params::new()));
-    assert_eq!(h.outcome(2).await, failed("program lost"));
+    assert_eq!(h.outcome(2).await, failed("restarted"));
     assert!(matches!(h.next().await, ProgramInput::Lost { program, .. } if program == "P"));
     // Restarted: a call made now waits for the new hello and is answered.
     let reply = Value::Map(params(&[("value", Value::Int(2))]));
@@ -116,6 +120,26 @@ async fn a_crash_fails_the_pending_call_emits_program_lost_and_restarts_on_failu
     assert_eq!(
         h.outcome(3).await,
         Outcome::Done(params(&[("value", Value::Int(2))]))
+    );
+    // The new process was welcomed with what the first one answered and
+    // the call its crash failed (docs/programs.md "Restarts").
+    let welcomes: Vec<serde_json::Value> = h
+        .lines(Direction::Out)
+        .into_iter()
+        .filter(|l| l.contains("\"welcome\""))
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    assert_eq!(welcomes.len(), 2, "{welcomes:?}");
+    assert!(welcomes[0].get("resume").is_none(), "{}", welcomes[0]);
+    assert_eq!(
+        welcomes[1]["resume"],
+        serde_json::json!({
+            "connection": 2,
+            "answered": [{"call": 1, "function": "slow", "args": {"delay": 0.3},
+                          "event": "done", "params": {}}],
+            "dropped": 0,
+            "restarted": [2],
+        })
     );
     let starts = h.starts();
     assert_eq!(starts.len(), 2, "{starts:?}");
@@ -131,12 +155,35 @@ async fn a_crash_fails_the_pending_call_emits_program_lost_and_restarts_on_failu
     h.programs.shutdown().await;
 }
 
+/// A started program that closes its connection but goes on running is
+/// lost, not restarted: its calls fail as `program lost` once its process
+/// has not exited within a second.
+#[tokio::test]
+async fn a_program_that_hangs_up_but_runs_on_is_lost_not_restarted() {
+    let mut h = Harness::start(&fixture_program("on-failure", "5s", ALL), FUNCTIONS).await;
+    h.connected().await;
+    let reply = Value::Map(params(&[("value", Value::Int(1))]));
+    h.programs.call(1, 0, ECHO, params(&[("reply", reply)]));
+    assert_eq!(
+        h.outcome(1).await,
+        Outcome::Done(params(&[("value", Value::Int(1))]))
+    );
+    h.programs.call(2, 0, HANGUP, Params::new());
+    h.programs
+        .call(3, 0, SLOW, params(&[("delay", Value::Float(0.1))]));
+    assert_eq!(h.outcome(2).await, failed("program lost"));
+    assert_eq!(h.outcome(3).await, failed("program lost"));
+    assert!(matches!(h.next().await, ProgramInput::Lost { .. }));
+    assert_eq!(h.starts().len(), 1, "not restarted");
+    h.programs.shutdown().await;
+}
+
 #[tokio::test]
 async fn restart_always_restarts_after_a_clean_exit_and_never_does_not() {
     let mut h = Harness::start(&fixture_program("always", "5s", ALL), FUNCTIONS).await;
     h.connected().await;
     h.programs.call(1, 0, QUIT, Params::new());
-    assert_eq!(h.outcome(1).await, failed("program lost"));
+    assert_eq!(h.outcome(1).await, failed("restarted"));
     assert!(matches!(h.next().await, ProgramInput::Lost { .. }));
     h.programs.call(2, 0, EMIT, Params::new());
     assert!(matches!(h.next().await, ProgramInput::Event { .. }));

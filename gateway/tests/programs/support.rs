@@ -26,6 +26,7 @@ pub const FUNCTIONS: &str = "[programs.P.functions]\n\
     garbage = { returns = [\"error\", \"line\"] }\n\
     emit = {}\n\
     crash = {}\n\
+    hangup = {}\n\
     quit = {}\n";
 
 /// Function indices (the loader orders them by name).
@@ -33,8 +34,9 @@ pub const CRASH: usize = 0;
 pub const ECHO: usize = 1;
 pub const EMIT: usize = 2;
 pub const GARBAGE: usize = 3;
-pub const QUIT: usize = 4;
-pub const SLOW: usize = 5;
+pub const HANGUP: usize = 4;
+pub const QUIT: usize = 5;
+pub const SLOW: usize = 6;
 
 /// A project whose net calls every function of `P`; `programs` is the rest
 /// of its project.toml ([programs.P] settings, more programs).
@@ -74,7 +76,7 @@ pub fn fixture_program(restart: &str, timeout: &str, functions: &[&str]) -> Stri
     )
 }
 
-pub const ALL: &[&str] = &["echo", "slow", "garbage", "emit", "crash", "quit"];
+pub const ALL: &[&str] = &["echo", "slow", "garbage", "emit", "crash", "quit", "hangup"];
 
 pub fn config() -> Config {
     Config {

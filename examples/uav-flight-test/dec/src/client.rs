@@ -333,9 +333,19 @@ fn session(
             continue;
         }
         let reply = match protocol::parse(&line) {
-            Ok(FromGateway::Welcome { functions }) => {
+            Ok(FromGateway::Welcome {
+                functions,
+                answered,
+            }) => {
                 welcomed = true;
                 tracing::info!(?functions, "welcomed by the gateway");
+                // A new process after a restart: what the one before
+                // answered rebuilds the state (a reconnection of this
+                // process keeps its own).
+                if dec.calls() == 0 && !answered.is_empty() {
+                    dec.resume(&answered);
+                    tracing::info!(calls = answered.len(), "resumed the flight's decisions");
+                }
                 continue;
             }
             Ok(FromGateway::Error { message, line }) if !welcomed => {

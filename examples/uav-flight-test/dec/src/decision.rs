@@ -41,6 +41,8 @@ pub struct Dec {
     failed: BTreeSet<String>,
     proposed: Option<Plan>,
     emergency: Option<Choice>,
+    /// Calls answered by this process.
+    calls: u64,
 }
 
 impl Dec {
@@ -53,6 +55,23 @@ impl Dec {
             failed: BTreeSet::new(),
             proposed: None,
             emergency: None,
+            calls: 0,
+        }
+    }
+
+    /// Calls answered by this process so far.
+    pub fn calls(&self) -> u64 {
+        self.calls
+    }
+
+    /// After a restart: answers again, in order, the calls the process
+    /// before it answered (the welcome's `resume.answered`), so that the
+    /// plan, the progress, the failed payloads and the emergency site are
+    /// what they were. DEC's answers depend only on the calls it answered
+    /// before, so replaying them rebuilds its state exactly.
+    pub fn resume(&mut self, answered: &[(String, Map<String, Value>)]) {
+        for (function, args) in answered {
+            let _ = self.call(function, args);
         }
     }
 
@@ -67,6 +86,7 @@ impl Dec {
 
     /// Answers a call of `function` with `args` (a JSON object).
     pub fn call(&mut self, function: &str, args: &Map<String, Value>) -> Answer {
+        self.calls += 1;
         match function {
             "plan" => self.plan(),
             "item" => {
@@ -341,6 +361,35 @@ mod tests {
         let a = ok(call(&mut dec, "item", json!({"seq": 3})));
         assert_eq!(a["waypoint"], "O1");
         assert_eq!(a["seq"], 3);
+    }
+
+    #[test]
+    fn a_restarted_dec_replaying_its_answers_decides_as_before() {
+        let mut dec = Dec::new(example());
+        let mut answered = Vec::new();
+        let mut ask = |dec: &mut Dec, f: &str, args: Value| {
+            answered.push((f.to_owned(), args.as_object().cloned().unwrap_or_default()));
+            call(dec, f, args)
+        };
+        ok(ask(&mut dec, "plan", json!({})));
+        ok(ask(&mut dec, "item", json!({"seq": 3})));
+        ok(ask(&mut dec, "payload_failed", json!({"failed": "camera"})));
+        ok(ask(&mut dec, "replan", json!({})));
+        // A fresh process knows nothing; replayed, it answers as the first.
+        let mut fresh = Dec::new(example());
+        assert!(call(&mut fresh, "adopt", json!({})).is_err());
+        let mut restarted = Dec::new(example());
+        restarted.resume(&answered);
+        assert_eq!(restarted.calls(), 4);
+        assert_eq!(
+            call(&mut restarted, "adopt", json!({})),
+            call(&mut dec, "adopt", json!({}))
+        );
+        assert_eq!(
+            call(&mut restarted, "item", json!({"seq": 4})),
+            call(&mut dec, "item", json!({"seq": 4}))
+        );
+        assert_eq!(restarted.failed().collect::<Vec<_>>(), ["camera"]);
     }
 
     #[test]

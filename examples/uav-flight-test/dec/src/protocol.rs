@@ -7,8 +7,13 @@ use serde_json::{json, Map, Value};
 /// A line from the gateway.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FromGateway {
-    /// The hello was accepted; the functions the nets call.
-    Welcome { functions: Vec<String> },
+    /// The hello was accepted; the functions the nets call, and, after a
+    /// restart, the calls this program answered earlier in the flight
+    /// (function and args, oldest first: the welcome's `resume.answered`).
+    Welcome {
+        functions: Vec<String>,
+        answered: Vec<(String, Map<String, Value>)>,
+    },
     /// A line of ours the gateway could not take (`line` counts our lines
     /// from 1; 0 for no hello in time).
     Error { message: String, line: Option<u64> },
@@ -53,7 +58,24 @@ pub fn parse(line: &[u8]) -> Result<FromGateway, BadLine> {
                     .collect()
             })
             .unwrap_or_default();
-        return Ok(FromGateway::Welcome { functions });
+        let answered = obj
+            .get("resume")
+            .and_then(|r| r.get("answered"))
+            .and_then(Value::as_array)
+            .map(|a| {
+                a.iter()
+                    .filter_map(|c| {
+                        let function = c.get("function")?.as_str()?.to_owned();
+                        let args = c.get("args")?.as_object()?.clone();
+                        Some((function, args))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        return Ok(FromGateway::Welcome {
+            functions,
+            answered,
+        });
     }
     if let Some(e) = obj.get("error") {
         return Ok(FromGateway::Error {
@@ -121,7 +143,23 @@ mod tests {
         assert_eq!(
             parse(br#"{"welcome": "DEC", "functions": ["item", "plan"]}"#),
             Ok(FromGateway::Welcome {
-                functions: vec!["item".into(), "plan".into()]
+                functions: vec!["item".into(), "plan".into()],
+                answered: vec![],
+            })
+        );
+        // After a restart: what DEC answered before, to replay.
+        assert_eq!(
+            parse(
+                br#"{"welcome": "DEC", "functions": ["item"], "resume": {"connection": 2,
+                    "answered": [{"call": 3, "function": "item", "args": {"seq": 2},
+                                  "event": "done", "params": {}}], "dropped": 0, "restarted": [4]}}"#
+            ),
+            Ok(FromGateway::Welcome {
+                functions: vec!["item".into()],
+                answered: vec![(
+                    "item".into(),
+                    json!({"seq": 2}).as_object().cloned().unwrap_or_default()
+                )],
             })
         );
         assert_eq!(

@@ -203,7 +203,8 @@ fn malformed_lines_get_an_error_with_their_number_and_the_connection_stays() {
             outcome: Outcome::Done(Params::from([
                 ("lat".into(), Value::Int(1)),
                 ("lon".into(), Value::Float(2.5))
-            ]))
+            ])),
+            answered: true,
         }]
     );
 }
@@ -230,11 +231,13 @@ fn a_call_is_sent_and_its_replies_become_outcomes() {
         vec![
             Output::Outcome {
                 id: 8,
-                outcome: Outcome::Failed("no plan".into())
+                outcome: Outcome::Failed("no plan".into()),
+                answered: true,
             },
             Output::Outcome {
                 id: 7,
-                outcome: Outcome::Done(Params::new())
+                outcome: Outcome::Done(Params::new()),
+                answered: true,
             }
         ]
     );
@@ -285,7 +288,8 @@ fn a_call_times_out_after_the_program_timeout_and_its_late_reply_is_ignored() {
         actions(&mut s),
         vec![Output::Outcome {
             id: 3,
-            outcome: Outcome::Failed("timeout".into())
+            outcome: Outcome::Failed("timeout".into()),
+            answered: false,
         }]
     );
     assert_eq!(s.poll_timeout(), Some(t0 + Duration::from_secs(3)));
@@ -323,6 +327,7 @@ fn a_lost_connection_fails_every_pending_call() {
     let failed = |id| Output::Outcome {
         id,
         outcome: Outcome::Failed("program lost".into()),
+        answered: false,
     };
     assert_eq!(actions(&mut s), vec![failed(1), failed(2)]);
     assert!(s.is_closed());
@@ -468,4 +473,45 @@ fn a_connection_without_hello_is_closed_after_the_hello_timeout() {
     assert_eq!(s.poll_timeout(), None);
     s.handle_timeout(t0 + HELLO_TIMEOUT * 2);
     assert!(!s.is_closed());
+}
+
+#[test]
+fn a_program_that_connected_before_is_welcomed_with_its_resume() {
+    let mut s = Session::new(roster(), Instant::now());
+    let resume = json!({"connection": 2, "answered": [], "dropped": 0, "restarted": [4]});
+    let given = resume.clone();
+    s.feed_resuming(
+        b"{\"hello\": \"DEC\", \"functions\": [\"replan\", \"next\"]}\n",
+        free,
+        move |p| (p == DEC).then(|| given.clone()),
+    );
+    let out = drain(&mut s);
+    assert_eq!(
+        sent_json(&out[1]),
+        json!({"welcome": "DEC", "functions": ["next", "replan"], "resume": resume})
+    );
+}
+
+#[test]
+fn calls_pending_when_a_restarted_program_goes_fail_as_restarted() {
+    let now = Instant::now();
+    let mut s = Session::new(roster(), now);
+    s.feed(
+        b"{\"hello\": \"DEC\", \"functions\": [\"replan\", \"next\"]}\n",
+        free,
+    );
+    drain(&mut s);
+    assert!(s.call(5, 0, &Params::new(), now));
+    drain(&mut s);
+    s.lost_because(REASON_RESTARTED);
+    assert_eq!(
+        actions(&mut s),
+        vec![Output::Outcome {
+            id: 5,
+            outcome: Outcome::Failed("restarted".into()),
+            answered: false,
+        }]
+    );
+    assert!(s.is_closed());
+    assert_eq!(s.pending(), 0);
 }
