@@ -7,7 +7,8 @@
 //! (`"..."`), `true`, `false`, constants (`MAV_STATE_CRITICAL`), fields
 //! (`SYS_STATUS.battery_remaining`, `ESC_TELEMETRY_1_TO_4.rpm[0]`), calls
 //! (`age(HEARTBEAT)`, `seen(MSG)`, `mode()`, `firmware()`, `loss()`,
-//! `changed(e)`, `prev(e)`, `prev(e, default)`, `abs(e)`, `name(e, ENUM)`, `sysid()`, `compid()`)
+//! `changed(e)`, `prev(e)`, `prev(e, default)`, `abs(e)`, `cos(e)` (of radians), `name(e, ENUM)`,
+//! `sysid()`, `compid()`)
 //! and parentheses.
 
 use std::borrow::Cow;
@@ -152,6 +153,8 @@ pub enum Node {
         default: Option<Box<Node>>,
     },
     Abs(Box<Node>),
+    /// The cosine of an angle in radians (always a float).
+    Cos(Box<Node>),
     /// The name of an enum value (`name(COMMAND_ACK.result, MAV_RESULT)`
     /// is `"DENIED"`); a value the enum does not name gives its number as
     /// text.
@@ -677,7 +680,7 @@ impl<R: Resolver> Parser<'_, '_, R> {
                 self.expect(")")?;
                 Ok(Node::Name { inner, names })
             }
-            "changed" | "prev" | "abs" => {
+            "changed" | "prev" | "abs" | "cos" => {
                 self.expect("(")?;
                 let inner = Box::new(self.or()?);
                 // prev(e, d): d when there is no previous value.
@@ -698,13 +701,14 @@ impl<R: Resolver> Parser<'_, '_, R> {
                         inner,
                         default,
                     },
+                    "cos" => Node::Cos(inner),
                     _ => Node::Abs(inner),
                 })
             }
             _ => Err(self.error_at(
                 at,
                 len,
-                format!("unknown function `{name}` (known: age, seen, mode, firmware, loss, changed, prev, abs, name, sysid, compid)"),
+                format!("unknown function `{name}` (known: age, seen, mode, firmware, loss, changed, prev, abs, cos, name, sysid, compid)"),
             )),
         }
     }
@@ -828,6 +832,11 @@ pub fn eval<'n, C: Context>(node: &'n Node, cx: &mut C) -> V<'n> {
             V::Float(f) => V::Float(f.abs()),
             _ => V::Missing,
         },
+        Node::Cos(inner) => match eval(inner, cx) {
+            V::Int(i) => V::Float((i as f64).cos()),
+            V::Float(f) => V::Float(f.cos()),
+            _ => V::Missing,
+        },
         Node::Name { inner, names } => match eval(inner, cx) {
             V::Int(i) => V::Str(match names.get(&i) {
                 Some(name) => Cow::Borrowed(name.as_str()),
@@ -911,7 +920,9 @@ pub fn captures<C: Context>(node: &Node, cx: &mut C, out: &mut nets::Params) {
             captures(a, cx, out);
             captures(b, cx, out);
         }
-        Node::Unary(_, a) | Node::Abs(a) | Node::Name { inner: a, .. } => captures(a, cx, out),
+        Node::Unary(_, a) | Node::Abs(a) | Node::Cos(a) | Node::Name { inner: a, .. } => {
+            captures(a, cx, out)
+        }
         _ => {}
     }
 }
@@ -1019,6 +1030,13 @@ mod tests {
         assert_eq!(run("M.a / 0", &mut m), V::Missing);
         assert_eq!(run("0x10 + 1", &mut m), V::Int(17));
         assert_eq!(run("abs(-3)", &mut m), V::Int(3));
+        assert_eq!(run("cos(0)", &mut m), V::Float(1.0));
+        assert_eq!(run("cos(M.b - M.b)", &mut m), V::Float(1.0));
+        assert!(
+            matches!(run("cos(3.14159265 / 3)", &mut m), V::Float(c) if (c - 0.5).abs() < 1e-6)
+        );
+        assert_eq!(run("cos(\"x\")", &mut m), V::Missing);
+        assert_eq!(run("cos(M.a / 0)", &mut m), V::Missing);
     }
 
     #[test]

@@ -1067,8 +1067,12 @@ mod tests {
             }
         }
         let p = Profile::builtin("ardupilot").expect("profile");
-        // SERVO_OUTPUT_RAW (motor_imbalance), FENCE_STATUS (geofence_breach).
-        assert!(p.telemetry().contains(&36) && p.telemetry().contains(&162));
+        // SERVO_OUTPUT_RAW (motor_imbalance), FENCE_STATUS (geofence_breach),
+        // ATTITUDE (loss_of_control's `on`) and NAV_CONTROLLER_OUTPUT (its
+        // attitude target).
+        for id in [36, 162, 30, 62] {
+            assert!(p.telemetry().contains(&id), "{id}");
+        }
     }
 
     #[test]

@@ -330,19 +330,35 @@ fn fly_copter(link: &mut Link) -> Result<Vec<Window>, String> {
     link.param("SIM_ENGINE_MUL", 0.0)?;
     link.param("SIM_ENGINE_FAIL", 1.0)?;
     link.wait("down", 20.0, |s| s.altitude < 1.0)?;
-    // The quad tumbles to the ground in about 2.5 s. SITL's copter
-    // reports no ESC rpm (all 0), so nothing but ArduCopter's own
-    // "Potential Thrust Loss (n)" can say it, and that text came 2 to 10 s
-    // after the impact in some runs, not at all in others. What the
-    // autopilot reported is what is expected: `engine_failure` when it
-    // said so, and in any case no false alarm of another failure.
+    let down = link.now_us();
+    // The quad tumbles to the ground in about 2.8 s. SITL's copter
+    // reports no ESC rpm (all 0), and ArduCopter's own "Potential Thrust
+    // Loss (n)" came 2 to 10 s after the impact in some runs, not at all
+    // in others: `loss_of_control` (its attitude far off its target) must
+    // tell it before the impact. `engine_failure` when ArduCopter said
+    // so, and in any case no false alarm of another failure.
     link.hold(15.0)?;
     let to = link.now_us();
-    let thrust_loss = link
-        .texts_between(from, to)
+    let said = link.texts_between(from, to);
+    let thrust_loss = said.iter().any(|t| t.starts_with("Potential Thrust Loss"));
+    // The impact: SITL's own "SIM Hit ground", else the altitude under 1 m.
+    let impact = link
+        .said
+        .texts
         .iter()
-        .any(|t| t.starts_with("Potential Thrust Loss"));
-    eprintln!("motor 1 killed: ArduCopter said it lost thrust: {thrust_loss}");
+        .find(|(at, t)| (from..=to).contains(at) && t.starts_with("SIM Hit ground"))
+        .map_or(down, |(at, _)| (*at).min(down));
+    eprintln!(
+        "motor 1 killed: ArduCopter said it lost thrust: {thrust_loss}; impact {:.3} s after the kill",
+        (impact - from) as f64 / 1e6
+    );
+    windows.push(Window {
+        what: "motor 1 killed, before impact",
+        from_us: from,
+        to_us: impact,
+        expect: &["loss_of_control"],
+        allow: &[],
+    });
     windows.push(Window {
         what: "motor 1 killed",
         from_us: from,
@@ -416,6 +432,23 @@ fn copter_failures_one_after_another() {
     assert!(events.iter().any(|e| e.name == "motor_imbalance"
         && e.params["motor"] == 1
         && (weak.from_us..=weak.to_us).contains(&e.at_us)));
+    // The killed motor is a loss of control before the impact, once.
+    let killed = windows
+        .iter()
+        .find(|w| w.what == "motor 1 killed, before impact")
+        .expect("the motor-kill window");
+    let lost: Vec<&Event> = events
+        .iter()
+        .filter(|e| e.name == "loss_of_control")
+        .collect();
+    assert_eq!(lost.len(), 1, "one loss of control: {lost:?}");
+    assert_eq!(lost[0].category, "catastrophic");
+    eprintln!(
+        "copter: loss_of_control {:.3} s after the motor kill, {:.3} s before the impact {}",
+        (lost[0].at_us - killed.from_us) as f64 / 1e6,
+        (killed.to_us - lost[0].at_us) as f64 / 1e6,
+        lost[0].params
+    );
     eprintln!(
         "copter: done in {:.1} s wall",
         started.elapsed().as_secs_f64()

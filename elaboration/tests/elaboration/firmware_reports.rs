@@ -689,6 +689,213 @@ fn motor_imbalance_from_one_output_far_above_the_others() {
     assert_eq!(r.only(&["motor_imbalance"]), []);
 }
 
+/// ATTITUDE, angles in degrees.
+fn attitude(roll: f32, pitch: f32) -> MavMessage {
+    let mut d = ATTITUDE_DATA::DEFAULT;
+    d.roll = roll.to_radians();
+    d.pitch = pitch.to_radians();
+    MavMessage::ATTITUDE(d)
+}
+
+/// NAV_CONTROLLER_OUTPUT: ArduCopter's attitude target, in degrees.
+fn target(roll: f32, pitch: f32) -> MavMessage {
+    let mut d = NAV_CONTROLLER_OUTPUT_DATA::DEFAULT;
+    d.nav_roll = roll;
+    d.nav_pitch = pitch;
+    MavMessage::NAV_CONTROLLER_OUTPUT(d)
+}
+
+/// The attitude more than 80° off its target for 0.2 s (two samples at
+/// 4 Hz), armed and flying: what real ArduCopter SITL showed with a motor
+/// killed (87-100° off on two samples in a row, then spinning down 60-75°
+/// off). Not a hard move tracked, not STABILIZE flown at 50° with the
+/// target reported level (APM 2.x), not 1 s at 70° off, not one sample at
+/// 95°, not ACRO inverted, not a copter lying on its side landed or
+/// disarmed; and one loss is one event.
+#[test]
+fn loss_of_control_from_the_attitude_far_from_its_target() {
+    use MavState::*;
+    const GUIDED: u32 = 4;
+    const STABILIZE: u32 = 0;
+    const ACRO: u32 = 1;
+    // (from, to in 250 ms steps, mode, armed, status, attitude, target)
+    type Phase = (u64, u64, u32, bool, MavState, (f32, f32), (f32, f32));
+    let phases: [Phase; 14] = [
+        (
+            0,
+            40,
+            GUIDED,
+            true,
+            MAV_STATE_ACTIVE,
+            (0.0, 0.0),
+            (0.0, 0.0),
+        ),
+        // A hard move, tracked.
+        (
+            40,
+            56,
+            GUIDED,
+            true,
+            MAV_STATE_ACTIVE,
+            (2.0, -42.0),
+            (0.0, -45.0),
+        ),
+        // STABILIZE flown hard, the target reported level (APM 2.x).
+        (
+            56,
+            80,
+            STABILIZE,
+            true,
+            MAV_STATE_ACTIVE,
+            (20.0, -50.0),
+            (0.0, 0.0),
+        ),
+        // 1 s at 70° off, then one sample at 95°.
+        (
+            80,
+            84,
+            STABILIZE,
+            true,
+            MAV_STATE_ACTIVE,
+            (70.0, -10.0),
+            (0.0, 0.0),
+        ),
+        (
+            84,
+            85,
+            STABILIZE,
+            true,
+            MAV_STATE_ACTIVE,
+            (95.0, 0.0),
+            (0.0, 0.0),
+        ),
+        (
+            85,
+            100,
+            STABILIZE,
+            true,
+            MAV_STATE_ACTIVE,
+            (0.0, 0.0),
+            (0.0, 0.0),
+        ),
+        // ACRO, inverted on purpose.
+        (
+            100,
+            120,
+            ACRO,
+            true,
+            MAV_STATE_ACTIVE,
+            (180.0, 0.0),
+            (0.0, 0.0),
+        ),
+        // Landed on its side, still armed.
+        (
+            120,
+            132,
+            GUIDED,
+            true,
+            MAV_STATE_STANDBY,
+            (90.0, 0.0),
+            (0.0, 0.0),
+        ),
+        (
+            132,
+            140,
+            GUIDED,
+            true,
+            MAV_STATE_ACTIVE,
+            (0.0, 0.0),
+            (0.0, 0.0),
+        ),
+        // A motor lost in a failsafe's return (CRITICAL): the tumble, then
+        // spinning down 70° off, a moment level, 90° off again.
+        (
+            140,
+            143,
+            GUIDED,
+            true,
+            MAV_STATE_CRITICAL,
+            (85.0, 30.0),
+            (-5.0, 5.0),
+        ),
+        (
+            143,
+            148,
+            GUIDED,
+            true,
+            MAV_STATE_CRITICAL,
+            (70.0, 20.0),
+            (0.0, 0.0),
+        ),
+        (
+            148,
+            149,
+            GUIDED,
+            true,
+            MAV_STATE_CRITICAL,
+            (0.0, 0.0),
+            (0.0, 0.0),
+        ),
+        (
+            149,
+            152,
+            GUIDED,
+            true,
+            MAV_STATE_CRITICAL,
+            (90.0, 0.0),
+            (0.0, 0.0),
+        ),
+        // On the ground, disarmed, upside down.
+        (
+            152,
+            170,
+            GUIDED,
+            false,
+            MAV_STATE_STANDBY,
+            (180.0, 0.0),
+            (0.0, 0.0),
+        ),
+    ];
+    let mut r = Run::new("ardupilot");
+    for step in 0..170u64 {
+        let t = step * 250 * MS;
+        let Some(&(_, _, mode, armed, status, (roll, pitch), (troll, tpitch))) =
+            phases.iter().find(|p| p.0 <= step && step < p.1)
+        else {
+            continue;
+        };
+        if step % 4 == 0 || phases.iter().any(|p| p.0 == step) {
+            r.send(
+                t,
+                heartbeat_in(
+                    MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+                    mode,
+                    armed,
+                    status,
+                ),
+            );
+        }
+        r.send(t + MS, target(troll, tpitch));
+        r.send(t + 2 * MS, attitude(roll, pitch));
+    }
+    let got: Vec<&Elaborated> = r
+        .out
+        .iter()
+        .filter(|e| e.event.name == "loss_of_control")
+        .collect();
+    assert_eq!(got.len(), 1, "{got:?}");
+    // 90° off its target from 35.0 s: fired on the next sample.
+    assert_eq!(got[0].time_us, 35 * S + 250 * MS + 2 * MS, "{got:?}");
+    assert_eq!(got[0].event.category, nets::Category::Catastrophic);
+    let param = |name: &str| match got[0].event.params.get(name) {
+        Some(nets::Value::Float(f)) => *f,
+        other => panic!("{name}: {other:?}"),
+    };
+    assert!((param("roll") - 85.0).abs() < 0.01, "{got:?}");
+    assert!((param("pitch") - 30.0).abs() < 0.01, "{got:?}");
+    assert!((param("target_roll") + 5.0).abs() < 0.01, "{got:?}");
+}
+
 fn sensors(
     present: MavSysStatusSensor,
     enabled: MavSysStatusSensor,

@@ -595,3 +595,66 @@ fn every_shared_recording_has_a_timeline() {
         );
     }
 }
+
+/// No loss of control on any recording of ../shared/telemetry — every
+/// `.tlog` there, new ones included: the APM 2.x flights (STABILIZE flown
+/// hard, 45-50° of pitch for seconds and 70° off level on two samples in a
+/// row, the target reported as 0), the SITL
+/// copter, plane and flood flights, the subs and the PX4 bench. And the
+/// rule does read them: with any attitude error at all taken as a loss of
+/// control, it fires on each copter flight that flies (so "never" above
+/// is not for want of data), and on nothing else.
+#[test]
+fn no_loss_of_control_on_any_shared_recording() {
+    let Some(dir) = shared() else { return };
+    let mut logs: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "tlog"))
+        .collect();
+    logs.sort();
+    assert!(logs.len() >= 9, "{logs:?}");
+    let base = elaboration::profile::ARDUPILOT;
+    let threshold = "< 0.17364818\n\"\"\"\nfor = \"0.2s\"";
+    assert_eq!(
+        base.matches(threshold).count(),
+        1,
+        "loss_of_control's threshold"
+    );
+    let any_error = base.replace(threshold, "< 1.0\n\"\"\"\nfor = \"0.2s\"");
+    let mut judged = Vec::new();
+    for path in &logs {
+        let name = path.file_name().unwrap_or_default().to_string_lossy();
+        let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let (events, _, _) = elaborate(
+            &bytes,
+            Profile::builtin("ardupilot").expect("built-in profile"),
+            Config::default(),
+        );
+        let lost: Vec<String> = events
+            .iter()
+            .filter(|(_, e)| e.event.name == "loss_of_control")
+            .map(|(t, e)| format!("{t:.3} {:?}", e.event.params))
+            .collect();
+        assert!(lost.is_empty(), "{name}: loss_of_control at {lost:?}");
+        let profile = Profile::load(&[("ardupilot.toml", &any_error)]).expect("profile");
+        let (events, _, _) = elaborate(&bytes, profile, Config::default());
+        if events
+            .iter()
+            .any(|(_, e)| e.event.name == "loss_of_control")
+        {
+            judged.push(name.into_owned());
+        }
+    }
+    assert_eq!(
+        judged,
+        [
+            "SITL_arducopter-4.7.0dev_guided_takeoff_land.tlog",
+            "SITL_dvd_2026-04-05_copter_udpflood_linkloss.tlog",
+            "codelever_2013-10-13_16-58-51_copter_apm.tlog",
+            "codelever_2013-10-13_18-31-24_copter_apm.tlog",
+            "codelever_2013-10-13_18-50-10_copter_apm.tlog",
+        ]
+    );
+}

@@ -464,7 +464,9 @@ fn both_builtin_profiles_define_the_whole_vocabulary_with_its_categories() {
         | "payload_failure" => Mission,
         "battery_low" | "gps_lost" | "gps_restored" | "ekf_unhealthy" | "geofence_breach"
         | "rc_lost" | "autopilot_failsafe" | "motor_imbalance" | "autopilot_rebooted" => Safety,
-        "battery_critical" | "engine_failure" | "vehicle_emergency" => Catastrophic,
+        "battery_critical" | "engine_failure" | "vehicle_emergency" | "loss_of_control" => {
+            Catastrophic
+        }
         _ => Communication,
     };
     for name in ["ardupilot", "px4"] {
