@@ -64,6 +64,12 @@ pub struct Args {
     /// sent up signed with it (docs/mirror.md, "Operator dialog").
     #[arg(long, value_name = "FILE")]
     pub operator_key: Option<PathBuf>,
+    /// The vehicle's MAVLink signing key (the file `petrel run
+    /// --signing-key` reads): downlink records are taken only in frames
+    /// signed with it; unsigned, altered, replayed or stale ones are
+    /// refused and counted (docs/mirror.md, "A signed downlink").
+    #[arg(long, value_name = "FILE")]
+    pub signing_key: Option<PathBuf>,
     /// Record the mirror to this MCAP file: `run`'s layout, the replica's
     /// calls as its steps, plus the mirror's channels (docs/mirror.md,
     /// "The mirror's recording"); `petrel replay --check-against` replays
@@ -127,6 +133,12 @@ pub fn run(args: Args) -> VerbResult {
             Some(crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
         }
     };
+    let signing = match &args.signing_key {
+        None => None,
+        Some(path) => {
+            Some(crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
+        }
+    };
     let http = match &args.http {
         Some(a) => Some(crate::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?),
         None => None,
@@ -162,6 +174,7 @@ pub fn run(args: Args) -> VerbResult {
         time_scale: args.time_scale,
         duration: args.duration.map(Duration::from_secs_f64),
         operator,
+        signing,
         record,
         layers,
         http,
@@ -184,6 +197,8 @@ struct Setup {
     duration: Option<Duration>,
     /// The operator key: the dialog is on.
     operator: Option<crate::link::signing::Key>,
+    /// The vehicle's signing key: the downlink must be signed with it.
+    signing: Option<crate::link::signing::Key>,
     /// Where to record.
     record: Option<PathBuf>,
     /// The profile's layers, recorded with the start.
@@ -323,6 +338,13 @@ async fn mirror(setup: Setup) -> VerbResult {
     // The onboard gateway's address, from its first record (the vehicles'
     // systems and heartbeats are the ground's: `ground`).
     let mut onboard: Option<(u8, u8)> = None;
+    let mut signed = setup
+        .signing
+        .clone()
+        .map(crate::mirror::signed::SignedDownlink::new);
+    // The first refusal of each reason is said; the rest are counted.
+    let mut said_refused: std::collections::HashSet<crate::link::signing::Rejection> =
+        Default::default();
     let mut sent = 0u64;
     // The gap open: its first missing record and when it was seen (vehicle
     // time), for the detection time once that record comes.
@@ -358,8 +380,21 @@ async fn mirror(setup: Setup) -> VerbResult {
                         Some(t) if t.target_system == setup.system
                             && (t.target_component == 0 || t.target_component == uplink.identity().1) =>
                         {
-                            onboard = Some((frame.system_id(), frame.component_id()));
-                            replica.receive(now, &t.payload);
+                            let admitted = match &mut signed {
+                                Some(s) => s.admit(&rx.bytes, crate::link::unix_us()),
+                                None => Ok(()),
+                            };
+                            match admitted {
+                                Ok(()) => {
+                                    onboard = Some((frame.system_id(), frame.component_id()));
+                                    replica.receive(now, &t.payload);
+                                }
+                                Err(why) => {
+                                    if said_refused.insert(why) {
+                                        say!("petrel mirror: a downlink record from system {} refused: {why} (the downlink must be signed with --signing-key's key; every refusal is counted)", frame.system_id());
+                                    }
+                                }
+                            }
                         }
                         Some(_) => {}
                         None => ground.elaborate(now, &frame),
@@ -604,6 +639,9 @@ async fn mirror(setup: Setup) -> VerbResult {
         }
         // The page last, off the path from a packet to its request.
         if let Some(page) = &mut page {
+            if let Some(s) = &signed {
+                page.signatures(s.refusals());
+            }
             page.settle(now, &replica, &dialog, &ground);
         }
         let _ = out.out.flush();
@@ -657,8 +695,18 @@ async fn mirror(setup: Setup) -> VerbResult {
         sent,
         ground.events,
     );
+    let signatures = signed.as_ref().map(|s| s.refusals());
+    if let Some(r) = &signatures {
+        say!(
+            "downlink signatures: {} frames signed with the key, {}",
+            r.accepted,
+            r.words()
+        );
+    }
     if out.json {
-        let _ = writeln!(out.out, "{}", summary_json(&ground, &replica, sent));
+        let mut summary = summary_json(&ground, &replica, sent);
+        summary["signatures"] = json!(signatures);
+        let _ = writeln!(out.out, "{summary}");
     }
     if let Some(rec) = recorder {
         let dropped = rec.dropped();

@@ -222,6 +222,32 @@ pub struct Setup {
     pub timestamp_file: std::path::PathBuf,
 }
 
+/// The whole MAVLink 2 frame in `bytes` as rust-mavlink's raw frame, to
+/// verify; `None` for a MAVLink 1 frame or bytes that are no whole frame.
+pub fn raw_frame(bytes: &[u8]) -> Option<MAVLinkMessageRaw> {
+    use mavlink::consts::v2::SIGNATURE_SIZE;
+    const HEADER: usize = 9;
+    let (&stx, rest) = bytes.split_first()?;
+    let (&len, rest) = rest.split_first()?;
+    let &flags = rest.first()?;
+    if stx != mavlink::MAV_STX_V2 {
+        return None;
+    }
+    let signature = if flags & IFLAG_SIGNED != 0 {
+        SIGNATURE_SIZE
+    } else {
+        0
+    };
+    let whole = 1 + HEADER + usize::from(len) + 2 + signature;
+    let mut raw = MAVLinkV2MessageRaw::new();
+    let buffer = raw.as_mut_slice();
+    if bytes.len() < whole || whole > buffer.len() {
+        return None;
+    }
+    buffer[..whole].copy_from_slice(&bytes[..whole]);
+    Some(MAVLinkMessageRaw::V2(raw))
+}
+
 /// Why a received frame is rejected.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Rejection {

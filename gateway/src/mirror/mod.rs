@@ -15,6 +15,8 @@
 //! - `replica`: on the ground, sans-IO — plays the records, compares
 //!   digests, sees gaps, asks for what it lacks, reports
 //!   `mirror_resynced` / `mirror_diverged`.
+//! - `signed`: on the ground, sans-IO — with the vehicle's signing key,
+//!   only downlink frames signed with it, fresh, reach the replica.
 //!
 //! Neither opens a socket or reads a clock; `petrel run` and `petrel mirror`
 //! carry their packets.
@@ -26,6 +28,7 @@ pub mod ground;
 pub mod publisher;
 pub mod record;
 pub mod replica;
+pub mod signed;
 pub mod tunnel;
 pub mod uplink;
 

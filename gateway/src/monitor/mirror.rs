@@ -108,6 +108,8 @@ pub struct Mirror {
     heard: Option<Micros>,
     /// The team's vehicles as the ground follows them (`vehicles`).
     vehicles: Vec<Json>,
+    /// The downlink's signatures, when the mirror requires them.
+    pub signatures: Option<crate::mirror::signed::Refusals>,
 }
 
 impl Mirror {
@@ -132,6 +134,7 @@ impl Mirror {
             packets: 0,
             heard: None,
             vehicles: Vec::new(),
+            signatures: None,
         }
     }
 
@@ -391,6 +394,7 @@ impl Mirror {
             "answering": self.answering.is_ok(),
             "read_only": self.answering.as_ref().err(),
             "vehicles": self.vehicles,
+            "signatures": self.signatures,
         })
     }
 }

@@ -23,6 +23,7 @@ use crate::mirror::dialog::Dialog;
 use crate::mirror::ground::Ground;
 use crate::mirror::record::Input as RecordInput;
 use crate::mirror::replica::{Replica, Report};
+use crate::mirror::signed::Refusals;
 use crate::supervisor::{Input, Step};
 
 /// `petrel mirror --http`: the board fed from the mirror's loop, once per
@@ -36,6 +37,8 @@ pub struct Page {
     frames: Vec<(Micros, Vec<u8>)>,
     reports: Vec<Report>,
     disagreements: Vec<Disagreement>,
+    /// The downlink's signatures, when the mirror requires them.
+    signatures: Option<Refusals>,
 }
 
 impl Page {
@@ -71,6 +74,7 @@ impl Page {
             frames: Vec::new(),
             reports: Vec::new(),
             disagreements: Vec::new(),
+            signatures: None,
         };
         Ok((page, answers))
     }
@@ -90,11 +94,17 @@ impl Page {
         self.disagreements.push(d.clone());
     }
 
+    /// The downlink's signatures as they stand (with `--signing-key`).
+    pub fn signatures(&mut self, refusals: Refusals) {
+        self.signatures = Some(refusals);
+    }
+
     /// The end of a turn of the mirror's loop at ground time `now`: what
     /// it brought, the replica and the dialog as they stand, on the board.
     pub fn settle(&mut self, now: Micros, replica: &Replica, dialog: &Dialog, ground: &Ground) {
         let shown = replica.shown();
         let (frames, reports, disagreements) = (&self.frames, &self.reports, &self.disagreements);
+        let signatures = self.signatures;
         self.feed.update(|b| {
             b.vehicle.changed = false;
             for (t, bytes) in frames {
@@ -120,6 +130,7 @@ impl Page {
                 m.replica(replica.exact_time().is_some(), shown.is_some(), digest);
                 m.clocks(replica.vehicle_time(now), now);
                 m.downlink(replica.counts.packets, now);
+                m.signatures = signatures;
                 if let Some(step) = m.step() {
                     b.marking.seq = b.marking.seq.max(step);
                 }

@@ -522,8 +522,12 @@ function mirror(m) {
     const silent = "nothing heard from the vehicle for " + m.silent_s.toFixed(0) + " s · shown as of step " + (m.step === null ? "–" : m.step);
     if (m.agreement === "exact") { state = "NO DOWNLINK"; detail = silent + " · last agreed " + agreed; } else detail = silent + " · " + detail;
   }
+  // A signed downlink: what was refused (forged, replayed) is said.
+  const signed = !m.signatures ? "" : " · downlink signed: " + (m.signatures.unsigned + m.signatures.bad_signature + m.signatures.replayed + m.signatures.stale === 0 ? "none refused" :
+    [["unsigned", m.signatures.unsigned], ["bad signature", m.signatures.bad_signature], ["replayed", m.signatures.replayed], ["stale", m.signatures.stale]]
+      .filter((r) => r[1] > 0).map((r) => r[1] + " " + r[0]).join(", ") + " refused");
   $("agreement-state").textContent = state;
-  $("agreement-detail").textContent = detail + (m.vehicle_t === null ? "" : " · vehicle t = " + m.vehicle_t.toFixed(1) + " s");
+  $("agreement-detail").textContent = detail + (m.vehicle_t === null ? "" : " · vehicle t = " + m.vehicle_t.toFixed(1) + " s") + signed;
   questions(m);
   const box = $("disagreements");
   const key = JSON.stringify(m.disagreements);
