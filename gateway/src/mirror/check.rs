@@ -60,10 +60,10 @@ pub const WINDOW: Window = Window {
 /// may end after it): it is not judged.
 pub const SILENCE: Micros = 20_000_000;
 
-/// A loss leaves a hole in the ground's view when nothing of the
-/// autopilot's stream came for this long (between the frames heard on
-/// either side of the gap): long enough for a silence or a debounce the
-/// vehicle did not see. A frame lost here and there (the radio's usual
+/// A loss leaves a hole in the ground's view when the autopilot's frames
+/// it lost would have taken this long to send (as many frames as its
+/// numbers skipped, at its rate on the ground's link): long enough for a
+/// silence or a debounce the vehicle did not see. A frame lost here and there (the radio's usual
 /// loss: the autopilot sends tens of frames a second) leaves no hole: the
 /// ground's rules read the next frame a period later, which the window
 /// covers. Shorter than any silence a compared rule waits for (5 s at
@@ -165,8 +165,10 @@ pub struct Check {
     recent: VecDeque<(Side, Seen)>,
     reports: VecDeque<Disagreement>,
     /// Spans of vehicle time in which the ground lost the autopilot's
-    /// frames: from the last frame heard before a gap to the first after.
-    lost: VecDeque<(Micros, Micros)>,
+    /// frames: from the last frame heard before a gap to the first after,
+    /// and how long the frames lost would have taken to send (the hole
+    /// they left in the ground's view).
+    lost: VecDeque<(Micros, Micros, Micros)>,
     /// Event names (unqualified) elaborated only from frames addressed to
     /// one link ([`elaboration::Profile::addressed_events`]): not compared.
     addressed: Vec<String>,
@@ -230,10 +232,11 @@ impl Check {
     }
 
     /// The ground lost autopilot frames (a gap in their sequence numbers)
-    /// between vehicle times `from` and `to`: what it elaborated around
-    /// then may come late or not at all.
-    pub fn lost(&mut self, from: Micros, to: Micros) {
-        self.lost.push_back((from, to));
+    /// between vehicle times `from` and `to`, `hole` long at the
+    /// autopilot's rate: what it elaborated around then may come late or
+    /// not at all.
+    pub fn lost(&mut self, from: Micros, to: Micros, hole: Micros) {
+        self.lost.push_back((from, to, hole));
         while self.lost.len() > 1024 {
             self.lost.pop_front();
         }
@@ -269,7 +272,7 @@ impl Check {
 
     /// Whether the ground lost frames between `from` and `to`.
     fn losing(&self, from: Micros, to: Micros) -> bool {
-        self.lost.iter().any(|(a, b)| *a <= to && *b >= from)
+        self.lost.iter().any(|(a, b, _)| *a <= to && *b >= from)
     }
 
     /// Whether a ground event at `time` may come from a hole in the
@@ -277,9 +280,9 @@ impl Check {
     /// at most. A frame lost here and there is no reason not to judge: the
     /// vehicle's engine failure is as visible at 10 % loss as at none.
     fn in_hole(&self, time: Micros) -> bool {
-        self.lost.iter().any(|(a, b)| {
-            b.saturating_sub(*a) >= HOLE && *a <= time && b.saturating_add(SILENCE) >= time
-        })
+        self.lost
+            .iter()
+            .any(|(a, b, hole)| *hole >= HOLE && *a <= time && b.saturating_add(SILENCE) >= time)
     }
 
     /// How long, within `from..to` (vehicle time), a ground event would not
@@ -289,8 +292,8 @@ impl Check {
         let mut spans: Vec<(Micros, Micros)> = self
             .lost
             .iter()
-            .filter(|(a, b)| b.saturating_sub(*a) >= HOLE)
-            .map(|(a, b)| ((*a).max(from), b.saturating_add(SILENCE).min(to)))
+            .filter(|(_, _, hole)| *hole >= HOLE)
+            .map(|(a, b, _)| ((*a).max(from), b.saturating_add(SILENCE).min(to)))
             .filter(|(a, b)| a < b)
             .collect();
         spans.sort_unstable();
@@ -309,7 +312,7 @@ impl Check {
     /// start of the losses just before it.
     fn earliest(&self, time: Micros) -> Micros {
         let mut earliest = time;
-        for (a, b) in self.lost.iter().rev() {
+        for (a, b, _) in self.lost.iter().rev() {
             if *b + self.window.ground_late >= earliest && *a < earliest {
                 earliest = *a;
             }
@@ -580,7 +583,7 @@ mod tests {
         // its `mission_item_reached` at 43 s never does.
         c.vehicle(41_000_000, &ev("disarmed", Category::Nominal));
         c.vehicle(43_000_000, &ev("mission_item_reached", Category::Mission));
-        c.lost(40_000_000, 45_000_000);
+        c.lost(40_000_000, 45_000_000, 5_000_000);
         c.ground(45_500_000, &ev("disarmed", Category::Nominal));
         c.advance(Some(60_000_000), Some(60_000_000));
         assert_eq!(c.poll(), None);
@@ -599,7 +602,7 @@ mod tests {
         let mut c = Check::new(WINDOW);
         // The camera's frames lost from 30 to 40 s: the ground hears its
         // silence as a payload failure at 45 s; the vehicle heard it.
-        c.lost(30_000_000, 40_000_000);
+        c.lost(30_000_000, 40_000_000, 10_000_000);
         c.ground(45_000_000, &ev("payload_failure", Category::Mission));
         // Before the snapshot the replica restored at 10 s.
         c.ground(9_000_000, &ev("takeoff", Category::Mission));
@@ -617,7 +620,7 @@ mod tests {
         // for 20 s: an engine failure the vehicle missed went unreported.
         let mut c = Check::new(WINDOW);
         for i in 0..200u64 {
-            c.lost(i * 200_000, i * 200_000 + 30_000);
+            c.lost(i * 200_000, i * 200_000 + 30_000, 30_000);
         }
         c.ground(30_010_000, &ev("engine_failure", Category::Catastrophic));
         c.advance(Some(40_000_000), Some(40_000_000));
@@ -635,7 +638,7 @@ mod tests {
         assert_eq!(c.counts.unjudged, 1);
         // A hole of a second or more hides the ground's events for 20 s
         // after it, and the check says how long it was blind.
-        c.lost(50_000_000, 51_000_000);
+        c.lost(50_000_000, 51_000_000, 1_000_000);
         c.ground(70_000_000, &ev("engine_failure", Category::Catastrophic));
         c.ground(71_500_000, &ev("payload_failure", Category::Mission));
         c.advance(Some(80_000_000), Some(80_000_000));

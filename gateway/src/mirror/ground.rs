@@ -52,6 +52,9 @@ pub struct Watch {
     /// gateway's).
     autopilot_seq: Option<(u8, Micros)>,
     system_seq: Option<u8>,
+    /// The autopilot's frames since its first heard, lost ones included
+    /// (by its numbers): with the time since, its period on this link.
+    autopilot_sent: u64,
     /// The last autopilot frame heard (ground time): how far the ground's
     /// view of this vehicle reaches.
     last_autopilot: Option<Micros>,
@@ -221,9 +224,29 @@ impl Ground {
             return;
         }
         if let Some((last, at)) = w.autopilot_seq {
-            if seq != last.wrapping_add(1) && system_gap {
+            let missing = seq.wrapping_sub(last).wrapping_sub(1);
+            w.autopilot_sent += u64::from(missing) + 1;
+            if missing > 0 && system_gap {
                 if let (Some(a), Some(b)) = (to_vehicle(at), to_vehicle(now)) {
-                    self.checks[i].lost(a, b);
+                    // How long the ground's view went without the
+                    // autopilot: the frames missing at its period here,
+                    // not the time between the frames heard, which batches
+                    // of frames (a serial port read, a simulator at 10x)
+                    // stretch to a second around one lost frame. A silence
+                    // longer than the numbers wrap (256 frames) is the
+                    // time between.
+                    let period = w
+                        .first_heard
+                        .map_or(0, |first| now.saturating_sub(first))
+                        .checked_div(w.autopilot_sent)
+                        .unwrap_or(0);
+                    let span = b.saturating_sub(a);
+                    let hole = if span > 256 * period {
+                        span
+                    } else {
+                        u64::from(missing) * period
+                    };
+                    self.checks[i].lost(a, b, hole);
                 }
             }
         }
