@@ -937,7 +937,8 @@ fn a_vehicle_that_misses_engine_failure_is_reported_within_2_s_at_0_and_10_perce
         };
         // The vehicle never heard it; the camera was being commanded
         // around the failure (the onboard gateway's traffic the ground
-        // never sees).
+        // never sees: ArduPlane refuses each IMAGE_START_CAPTURE, once a
+        // second, to the onboard gateway alone).
         assert!(
             !f.run
                 .iter()
@@ -948,13 +949,13 @@ fn a_vehicle_that_misses_engine_failure_is_reported_within_2_s_at_0_and_10_perce
         let commands = f
             .run
             .iter()
-            .filter(|l| l["effect"] == "command")
+            .filter(|l| l["input"] == "event" && l["event"] == "command_rejected")
             .filter_map(|l| l["t"].as_f64())
             .filter(|t| (at - 3.0..=at).contains(t))
             .count();
         let Some(d) = engine.first() else {
             problems.push(format!(
-                "engine failure at {loss} % (at {injected:.1} s, {commands} commands in the 3 s before): not reported; check {summary}\n{}",
+                "engine failure at {loss} % (at {injected:.1} s, {commands} commands answered in the 3 s before): not reported; check {summary}\n{}",
                 f.mirror_err
             ));
             continue;
@@ -962,7 +963,7 @@ fn a_vehicle_that_misses_engine_failure_is_reported_within_2_s_at_0_and_10_perce
         let seen = d["t"].as_f64().unwrap_or(f64::NAN);
         let reported = d["reported_t"].as_f64().unwrap_or(f64::NAN);
         eprintln!(
-            "engine failure at {loss} %: failed at {at:.2} s ({commands} commands in the 3 s before), seen by the ground at {seen:.2} s, reported at {reported:.2} s: {:.2} s after the ground saw it, {:.2} s after the failure",
+            "engine failure at {loss} %: failed at {at:.2} s ({commands} commands answered in the 3 s before), seen by the ground at {seen:.2} s, reported at {reported:.2} s: {:.2} s after the ground saw it, {:.2} s after the failure",
             reported - seen,
             reported - at,
         );
@@ -972,9 +973,9 @@ fn a_vehicle_that_misses_engine_failure_is_reported_within_2_s_at_0_and_10_perce
                 reported - seen
             ));
         }
-        if commands == 0 {
+        if commands < 2 {
             problems.push(format!(
-                "engine failure at {loss} %: no command in the 3 s before the failure (at {at:.2} s of the player)"
+                "engine failure at {loss} %: {commands} command answered in the 3 s before the failure (at {at:.2} s of the player)"
             ));
         }
     }
