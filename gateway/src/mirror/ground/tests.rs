@@ -521,7 +521,7 @@ fn a_frame_lost_between_two_batches_leaves_no_hole() {
         for _ in 0..30 {
             let bytes = plane_in_auto(seq);
             seq = seq.wrapping_add(1);
-            if seq % 30 != 0 {
+            if !seq.is_multiple_of(30) {
                 for e in elaborate(&mut g, t, &bytes) {
                     g.vehicle_event(t, &e);
                 }
