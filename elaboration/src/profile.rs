@@ -370,6 +370,51 @@ impl Profile {
         v.dedup();
         v
     }
+
+    /// The events this profile elaborates only from frames addressed to one
+    /// system and component: every rule producing one fires on frames of
+    /// messages with `target_system` and `target_component` fields
+    /// (COMMAND_ACK), never on ticks nor on another message. An autopilot
+    /// sends those to the link of the one they answer, so two receivers on
+    /// two links never see the same ones (the onboard gateway hears the
+    /// acknowledgements of its own commands, a ground station its own): the
+    /// ground mirror's independent check does not compare them.
+    pub fn addressed_events(&self) -> Vec<&str> {
+        let addressed = |slot: &usize| {
+            self.slots.get(*slot).is_some_and(|s| {
+                s.fields.iter().any(|f| f == "target_system")
+                    && s.fields.iter().any(|f| f == "target_component")
+            })
+        };
+        let only_addressed = |r: &Rule| {
+            let mut triggers = match &r.on {
+                Some(on) => on.clone(),
+                None => [r.when.reads.as_slice(), r.when.ages.as_slice()].concat(),
+            };
+            triggers.dedup();
+            r.each
+                && !r.timed
+                && r.for_us == 0
+                && !r.when.timed
+                && !triggers.is_empty()
+                && triggers.iter().all(addressed)
+        };
+        let mut v: Vec<&str> = self
+            .rules
+            .iter()
+            .filter(|r| only_addressed(r))
+            .map(|r| r.event.as_str())
+            .filter(|name| {
+                self.rules.iter().all(|r| {
+                    (r.event != *name || only_addressed(r))
+                        && r.cleared.as_ref().is_none_or(|c| c.0 != *name)
+                })
+            })
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
 }
 
 // ------------------------------------------------------------ reading TOML
@@ -1049,6 +1094,17 @@ mod tests {
             err.problems[1].message.contains("needs `distinct = true`"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn only_acknowledgements_are_addressed_events() {
+        // COMMAND_ACK has target fields: its acknowledgements go to the
+        // link of the command's sender alone. STATUSTEXT and
+        // MISSION_ITEM_REACHED go to every link; state rules tick.
+        for name in ["ardupilot", "px4"] {
+            let p = Profile::builtin(name).expect("builtin");
+            assert_eq!(p.addressed_events(), ["command_rejected"], "{name}");
+        }
     }
 
     #[test]

@@ -651,15 +651,22 @@ async fn mirror(setup: Setup) -> VerbResult {
         t.abort();
     }
     let total = ground.total();
+    let blind = ground.blind(|t| replica.vehicle_time(t));
+    let (followed, blind_for) = blind
+        .iter()
+        .fold((0, 0), |(f, b), (f1, b1)| (f + f1, b + b1));
     say!(
-        "independent check: {} events matched (the vehicle at most {:.2} s after the ground, the ground at most {:.2} s after the vehicle), {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames), {} link events not compared",
+        "independent check: {} events matched (the vehicle at most {:.2} s after the ground, the ground at most {:.2} s after the vehicle), {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames, or settling), {} link events and {} addressed to one link not compared; blind to ground events {:.1} s of {:.1} s followed",
         total.matched,
         total.vehicle_late_max as f64 / 1e6,
         total.ground_late_max as f64 / 1e6,
         total.ground_only,
         total.vehicle_only,
         total.unjudged,
-        total.skipped
+        total.skipped,
+        total.addressed,
+        blind_for as f64 / 1e6,
+        followed as f64 / 1e6
     );
     if ground.team() {
         for (w, c) in ground.watches().iter().zip(ground.counts()) {
@@ -704,7 +711,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         );
     }
     if out.json {
-        let mut summary = summary_json(&ground, &replica, sent);
+        let mut summary = summary_json(&ground, &replica, sent, &blind);
         summary["signatures"] = json!(signatures);
         let _ = writeln!(out.out, "{summary}");
     }
@@ -736,16 +743,23 @@ async fn mirror(setup: Setup) -> VerbResult {
 /// The closing summary (`--json`): each vehicle's frames received and its
 /// independent check, systems heard that are no vehicle of the team, and
 /// the replica's counts.
-fn summary_json(ground: &Ground, replica: &Replica, sent: u64) -> serde_json::Value {
+fn summary_json(
+    ground: &Ground,
+    replica: &Replica,
+    sent: u64,
+    blind: &[(Micros, Micros)],
+) -> serde_json::Value {
     let vehicles: Vec<serde_json::Value> = ground
         .watches()
         .iter()
         .zip(ground.counts())
-        .map(|(w, c)| {
+        .zip(blind)
+        .map(|((w, c), (followed, blind))| {
             json!({
                 "vehicle": w.name, "system": w.system, "frames": w.frames, "heard": w.heard,
                 "matched": c.matched, "ground_only": c.ground_only, "vehicle_only": c.vehicle_only,
-                "unjudged": c.unjudged, "skipped": c.skipped,
+                "unjudged": c.unjudged, "skipped": c.skipped, "addressed": c.addressed,
+                "followed_s": *followed as f64 / 1e6, "blind_s": *blind as f64 / 1e6,
                 "vehicle_late_max_s": c.vehicle_late_max as f64 / 1e6,
                 "ground_late_max_s": c.ground_late_max as f64 / 1e6,
             })

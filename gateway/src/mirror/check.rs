@@ -54,10 +54,21 @@ pub const WINDOW: Window = Window {
     ground_late: 2_000_000,
 };
 
-/// A ground event within this after the ground lost frames may come from
-/// the loss itself (rules on a component's silence wait up to 15 s, the
-/// flight-test example's camera): it is not judged.
+/// A ground event within this after a [`HOLE`] in the ground's view may
+/// come from the hole itself (rules on a component's silence wait up to
+/// 15 s, the flight-test example's camera, and a debounce started before
+/// may end after it): it is not judged.
 pub const SILENCE: Micros = 20_000_000;
+
+/// A loss leaves a hole in the ground's view when the autopilot's frames
+/// it lost would have taken this long to send (as many frames as its
+/// numbers skipped, at its rate on the ground's link): long enough for a
+/// silence or a debounce the vehicle did not see. A frame lost here and there (the radio's usual
+/// loss: the autopilot sends tens of frames a second) leaves no hole: the
+/// ground's rules read the next frame a period later, which the window
+/// covers. Shorter than any silence a compared rule waits for (5 s at
+/// least in the ArduPilot and PX4 profiles).
+pub const HOLE: Micros = 1_000_000;
 
 /// Events of either side within this after the later of the two views'
 /// starts (the vehicle's player, or the snapshot the replica was restored
@@ -128,9 +139,14 @@ pub struct Counts {
     pub vehicle_only: u64,
     /// Link events, not compared.
     pub skipped: u64,
-    /// Events not judged: seen by one side while the ground was losing the
-    /// vehicle's frames, by the ground before the replica's snapshot, or by
-    /// either while the two views settled ([`SETTLE`]).
+    /// Events elaborated from frames addressed to one link alone (the
+    /// acknowledgements of a side's own commands: `command_rejected`), not
+    /// compared: the other side never receives them.
+    pub addressed: u64,
+    /// Events not judged: seen by the vehicle while the ground lost the
+    /// autopilot's frames, by the ground within [`SILENCE`] after a
+    /// [`HOLE`] or before the replica's snapshot, or by either while the
+    /// two views settled ([`SETTLE`]).
     pub unjudged: u64,
     /// The longest the vehicle saw a matched event after the ground, and
     /// the ground after the vehicle (vehicle time): the margins the window
@@ -148,8 +164,14 @@ pub struct Check {
     /// Every event seen on each side lately, matched or not, as evidence.
     recent: VecDeque<(Side, Seen)>,
     reports: VecDeque<Disagreement>,
-    /// Spans of vehicle time in which the ground lost the vehicle's frames.
-    lost: VecDeque<(Micros, Micros)>,
+    /// Spans of vehicle time in which the ground lost the autopilot's
+    /// frames: from the last frame heard before a gap to the first after,
+    /// and how long the frames lost would have taken to send (the hole
+    /// they left in the ground's view).
+    lost: VecDeque<(Micros, Micros, Micros)>,
+    /// Event names (unqualified) elaborated only from frames addressed to
+    /// one link ([`elaboration::Profile::addressed_events`]): not compared.
+    addressed: Vec<String>,
     /// The vehicle's events before this time are unknown (the replica was
     /// restored from a snapshot taken then).
     known_from: Micros,
@@ -172,11 +194,19 @@ impl Check {
             recent: VecDeque::new(),
             reports: VecDeque::new(),
             lost: VecDeque::new(),
+            addressed: Vec::new(),
             known_from: 0,
             ground_from: None,
             wanted: VecDeque::new(),
             counts: Counts::default(),
         }
+    }
+
+    /// The events (unqualified names) elaborated only from frames addressed
+    /// to one link, which the other side never receives: not compared.
+    pub fn with_addressed(mut self, names: impl IntoIterator<Item = impl Into<String>>) -> Check {
+        self.addressed = names.into_iter().map(Into::into).collect();
+        self
     }
 
     /// A vehicle time a heartbeat is wanted at, `now` being the vehicle's
@@ -202,10 +232,11 @@ impl Check {
     }
 
     /// The ground lost autopilot frames (a gap in their sequence numbers)
-    /// between vehicle times `from` and `to`: what it elaborated around
-    /// then may come late or not at all.
-    pub fn lost(&mut self, from: Micros, to: Micros) {
-        self.lost.push_back((from, to));
+    /// between vehicle times `from` and `to`, `hole` long at the
+    /// autopilot's rate: what it elaborated around then may come late or
+    /// not at all.
+    pub fn lost(&mut self, from: Micros, to: Micros, hole: Micros) {
+        self.lost.push_back((from, to, hole));
         while self.lost.len() > 1024 {
             self.lost.pop_front();
         }
@@ -241,14 +272,47 @@ impl Check {
 
     /// Whether the ground lost frames between `from` and `to`.
     fn losing(&self, from: Micros, to: Micros) -> bool {
-        self.lost.iter().any(|(a, b)| *a <= to && *b >= from)
+        self.lost.iter().any(|(a, b, _)| *a <= to && *b >= from)
+    }
+
+    /// Whether a ground event at `time` may come from a hole in the
+    /// ground's view: one at least [`HOLE`] long, ended [`SILENCE`] before
+    /// at most. A frame lost here and there is no reason not to judge: the
+    /// vehicle's engine failure is as visible at 10 % loss as at none.
+    fn in_hole(&self, time: Micros) -> bool {
+        self.lost
+            .iter()
+            .any(|(a, b, hole)| *hole >= HOLE && *a <= time && b.saturating_add(SILENCE) >= time)
+    }
+
+    /// How long, within `from..to` (vehicle time), a ground event would not
+    /// have been judged for a hole in the ground's view ([`Check::in_hole`]):
+    /// the check's blind time.
+    pub fn blind(&self, from: Micros, to: Micros) -> Micros {
+        let mut spans: Vec<(Micros, Micros)> = self
+            .lost
+            .iter()
+            .filter(|(_, _, hole)| *hole >= HOLE)
+            .map(|(a, b, _)| ((*a).max(from), b.saturating_add(SILENCE).min(to)))
+            .filter(|(a, b)| a < b)
+            .collect();
+        spans.sort_unstable();
+        let (mut total, mut reached) = (0, from);
+        for (a, b) in spans {
+            let a = a.max(reached);
+            if b > a {
+                total += b - a;
+                reached = b;
+            }
+        }
+        total
     }
 
     /// How far back a ground event seen at `time` may have happened: the
     /// start of the losses just before it.
     fn earliest(&self, time: Micros) -> Micros {
         let mut earliest = time;
-        for (a, b) in self.lost.iter().rev() {
+        for (a, b, _) in self.lost.iter().rev() {
             if *b + self.window.ground_late >= earliest && *a < earliest {
                 earliest = *a;
             }
@@ -269,6 +333,11 @@ impl Check {
     fn seen(&mut self, side: Side, time: Micros, event: &Event) {
         if event.category == Category::Communication {
             self.counts.skipped += 1;
+            return;
+        }
+        let unqualified = nets::model::split_vehicle(&event.name).0;
+        if self.addressed.iter().any(|a| a == unqualified) {
+            self.counts.addressed += 1;
             return;
         }
         if side == Side::Ground && time < self.known_from {
@@ -347,7 +416,7 @@ impl Check {
                 .is_some_and(|g| g.time.saturating_add(vehicle_late) < v)
             {
                 let g = self.ground.pop_front().expect("checked");
-                if self.losing(g.time.saturating_sub(SILENCE), g.time) || self.settling(g.time) {
+                if self.in_hole(g.time) || self.settling(g.time) {
                     self.counts.unjudged += 1;
                     continue;
                 }
@@ -514,7 +583,7 @@ mod tests {
         // its `mission_item_reached` at 43 s never does.
         c.vehicle(41_000_000, &ev("disarmed", Category::Nominal));
         c.vehicle(43_000_000, &ev("mission_item_reached", Category::Mission));
-        c.lost(40_000_000, 45_000_000);
+        c.lost(40_000_000, 45_000_000, 5_000_000);
         c.ground(45_500_000, &ev("disarmed", Category::Nominal));
         c.advance(Some(60_000_000), Some(60_000_000));
         assert_eq!(c.poll(), None);
@@ -533,7 +602,7 @@ mod tests {
         let mut c = Check::new(WINDOW);
         // The camera's frames lost from 30 to 40 s: the ground hears its
         // silence as a payload failure at 45 s; the vehicle heard it.
-        c.lost(30_000_000, 40_000_000);
+        c.lost(30_000_000, 40_000_000, 10_000_000);
         c.ground(45_000_000, &ev("payload_failure", Category::Mission));
         // Before the snapshot the replica restored at 10 s.
         c.ground(9_000_000, &ev("takeoff", Category::Mission));
@@ -542,6 +611,54 @@ mod tests {
         c.advance(Some(90_000_000), Some(90_000_000));
         assert_eq!(c.poll(), None);
         assert_eq!(c.counts.unjudged, 3);
+    }
+
+    #[test]
+    fn a_frame_lost_here_and_there_leaves_the_check_judging() {
+        // 10 % loss: a frame of the autopilot's lost every 0.2 s, 30 ms
+        // without it each time. Before, each loss hid every ground event
+        // for 20 s: an engine failure the vehicle missed went unreported.
+        let mut c = Check::new(WINDOW);
+        for i in 0..200u64 {
+            c.lost(i * 200_000, i * 200_000 + 30_000, 30_000);
+        }
+        c.ground(30_010_000, &ev("engine_failure", Category::Catastrophic));
+        c.advance(Some(40_000_000), Some(40_000_000));
+        let d = c.poll().expect("reported");
+        assert_eq!(
+            (d.event.as_str(), d.seen_by),
+            ("engine_failure", Side::Ground)
+        );
+        assert_eq!(c.blind(0, 40_000_000), 0);
+        // A vehicle event during those losses is still not judged: the
+        // one frame it came from may be the one the radio lost.
+        c.vehicle(20_000_000, &ev("mission_item_reached", Category::Mission));
+        c.advance(Some(40_000_000), Some(40_000_000));
+        assert_eq!(c.poll(), None);
+        assert_eq!(c.counts.unjudged, 1);
+        // A hole of a second or more hides the ground's events for 20 s
+        // after it, and the check says how long it was blind.
+        c.lost(50_000_000, 51_000_000, 1_000_000);
+        c.ground(70_000_000, &ev("engine_failure", Category::Catastrophic));
+        c.ground(71_500_000, &ev("payload_failure", Category::Mission));
+        c.advance(Some(80_000_000), Some(80_000_000));
+        let d = c.poll().expect("the second, after the hole's 20 s");
+        assert_eq!(d.event, "payload_failure");
+        assert_eq!(c.counts.unjudged, 2);
+        assert_eq!(c.blind(0, 80_000_000), 21_000_000);
+        assert_eq!(c.blind(60_000_000, 65_000_000), 5_000_000);
+    }
+
+    #[test]
+    fn events_from_frames_addressed_to_one_link_are_never_compared() {
+        // ArduPilot acknowledges the onboard gateway's commands to it
+        // alone, and a ground station's to the ground's link alone.
+        let mut c = Check::new(WINDOW).with_addressed(["command_rejected"]);
+        c.vehicle(10_000_000, &ev("command_rejected", Category::Mission));
+        c.ground(20_000_000, &ev("command_rejected@R1", Category::Mission));
+        c.advance(Some(60_000_000), Some(60_000_000));
+        assert_eq!(c.poll(), None);
+        assert_eq!((c.counts.addressed, c.counts.unjudged), (2, 0));
     }
 
     #[test]

@@ -47,10 +47,14 @@ pub struct Watch {
     /// When it was first heard (ground time): where the ground's view of
     /// the vehicle starts.
     first_heard: Option<Micros>,
-    /// Each component's last sequence number and when it came (ground
-    /// time), and the system's last.
-    last_seqs: BTreeMap<u8, (u8, Micros)>,
+    /// The autopilot's last sequence number and when it came (ground
+    /// time), and the system's last (its components but the onboard
+    /// gateway's).
+    autopilot_seq: Option<(u8, Micros)>,
     system_seq: Option<u8>,
+    /// The autopilot's frames since its first heard, lost ones included
+    /// (by its numbers): with the time since, its period on this link.
+    autopilot_sent: u64,
     /// The last autopilot frame heard (ground time): how far the ground's
     /// view of this vehicle reaches.
     last_autopilot: Option<Micros>,
@@ -92,7 +96,13 @@ impl Ground {
                 ..Watch::default()
             })
             .collect::<Vec<_>>();
-        let checks = watches.iter().map(|_| Check::new(window)).collect();
+        // Each vehicle's events elaborated only from frames addressed to
+        // one link (the acknowledgements of the onboard gateway's own
+        // commands): never compared.
+        let checks = lanes
+            .iter()
+            .map(|l| Check::new(window).with_addressed(l.profile.addressed_events()))
+            .collect();
         Ground {
             lanes: Lanes::new(lanes),
             watches,
@@ -130,6 +140,7 @@ impl Ground {
             t.ground_only += c.ground_only;
             t.vehicle_only += c.vehicle_only;
             t.skipped += c.skipped;
+            t.addressed += c.addressed;
             t.unjudged += c.unjudged;
             t.vehicle_late_max = t.vehicle_late_max.max(c.vehicle_late_max);
             t.ground_late_max = t.ground_late_max.max(c.ground_late_max);
@@ -187,31 +198,60 @@ impl Ground {
             w.heard = true;
             w.first_heard.get_or_insert(now);
         }
-        // In a team the onboard gateway speaks as each vehicle's companion
-        // (vehicle, 191) with one sequence counter for all it sends, most
-        // of it never reaching the ground (commands to the vehicles): its
-        // numbers say nothing of the radio's losses.
-        if self.team && component == crate::mirror::COMPANION {
+        // The onboard gateway (vehicle, 191) numbers everything it sends
+        // with one counter, and most of it never reaches the ground: its
+        // commands, mission items and parameter reads go to the autopilot,
+        // which keeps them. Its numbers say nothing of the radio (they
+        // left a gap at every command: the check was blind most of the
+        // flight). The downlink's own losses are the replica's, by record
+        // number: the check judges the vehicle's side only once the
+        // replica holds every record.
+        if component == crate::mirror::COMPANION {
             return;
         }
-        // The vehicle's frames the radio lost: a gap in a component's
-        // sequence numbers, between the last one heard and this — and in
-        // the system's, for vehicles whose components share one counter
-        // (the simulator) rather than one each (ArduPilot and its camera).
+        // The frames the radio lost: a gap in the autopilot's sequence
+        // numbers, which it sends whole to the ground's link (its own
+        // stream on that port: what it addresses to another link is
+        // numbered on that link). And a gap in the system's too, for
+        // vehicles whose components share one counter (the simulator)
+        // rather than one each (ArduPilot and its camera). Another
+        // component's own numbers are not read: a camera answering the
+        // companion alone would leave gaps the radio did not.
         let seq = frame.sequence();
         let system_gap = w.system_seq.is_some_and(|s| seq != s.wrapping_add(1));
         w.system_seq = Some(seq);
-        if let Some((last, at)) = w.last_seqs.get(&component) {
-            if seq != last.wrapping_add(1) && system_gap {
-                if let (Some(a), Some(b)) = (to_vehicle(*at), to_vehicle(now)) {
-                    self.checks[i].lost(a, b);
+        if component != w.autopilot {
+            return;
+        }
+        if let Some((last, at)) = w.autopilot_seq {
+            let missing = seq.wrapping_sub(last).wrapping_sub(1);
+            w.autopilot_sent += u64::from(missing) + 1;
+            if missing > 0 && system_gap {
+                if let (Some(a), Some(b)) = (to_vehicle(at), to_vehicle(now)) {
+                    // How long the ground's view went without the
+                    // autopilot: the frames missing at its period here,
+                    // not the time between the frames heard, which batches
+                    // of frames (a serial port read, a simulator at 10x)
+                    // stretch to a second around one lost frame. A silence
+                    // longer than the numbers wrap (256 frames) is the
+                    // time between.
+                    let period = w
+                        .first_heard
+                        .map_or(0, |first| now.saturating_sub(first))
+                        .checked_div(w.autopilot_sent)
+                        .unwrap_or(0);
+                    let span = b.saturating_sub(a);
+                    let hole = if span > 256 * period {
+                        span
+                    } else {
+                        u64::from(missing) * period
+                    };
+                    self.checks[i].lost(a, b, hole);
                 }
             }
         }
-        w.last_seqs.insert(component, (seq, now));
-        if component == w.autopilot {
-            w.last_autopilot = Some(now);
-        }
+        w.autopilot_seq = Some((seq, now));
+        w.last_autopilot = Some(now);
     }
 
     /// A telemetry frame (not a downlink TUNNEL) to elaborate, at `now`.
@@ -305,6 +345,25 @@ impl Ground {
             }
             c.advance(vehicle_known, w.last_autopilot.and_then(&to_vehicle));
         }
+    }
+
+    /// Each vehicle's ground view, followed and blind: the vehicle time
+    /// from its autopilot's first frame heard to its last, and how much of
+    /// it a ground event would not have been judged for a hole in the
+    /// ground's view (`Check::blind`), in team order.
+    pub fn blind(&self, to_vehicle: impl Fn(Micros) -> Option<Micros>) -> Vec<(Micros, Micros)> {
+        self.checks
+            .iter()
+            .zip(&self.watches)
+            .map(|(c, w)| {
+                let from = w.first_heard.and_then(&to_vehicle);
+                let to = w.last_autopilot.and_then(&to_vehicle);
+                match (from, to) {
+                    (Some(from), Some(to)) if to > from => (to - from, c.blind(from, to)),
+                    _ => (0, 0),
+                }
+            })
+            .collect()
     }
 
     /// A disagreement, with its vehicle's name (`None` without a team).

@@ -114,9 +114,11 @@ mod tests {
             component_id: 191,
             sequence: seq,
         };
-        let mut data = TUNNEL_DATA::default();
-        data.target_system = 245;
-        data.payload_length = 3;
+        let mut data = TUNNEL_DATA {
+            target_system: 245,
+            payload_length: 3,
+            ..Default::default()
+        };
         data.payload[..3].copy_from_slice(b"rec");
         (header, MavMessage::TUNNEL(data))
     }

@@ -333,3 +333,211 @@ fn a_mode_change_the_ground_alone_heard_at_boot_is_not_judged() {
         ("mode_changed", Side::Ground)
     );
 }
+
+/// A frame of (1, `component`), sequence `seq`.
+fn of(component: u8, seq: u8, message: &MavMessage) -> Vec<u8> {
+    let header = MavHeader {
+        system_id: 1,
+        component_id: component,
+        sequence: seq,
+    };
+    elaboration::frame::serialize(header, MavlinkVersion::V2, message)
+}
+
+/// ArduPlane armed in AUTO, its HEARTBEAT of sequence `seq`.
+fn plane_in_auto(seq: u8) -> Vec<u8> {
+    let hb = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 10,
+        mavtype: MavType::MAV_TYPE_FIXED_WING,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+            | MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED,
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    });
+    of(1, seq, &hb)
+}
+
+/// The onboard gateway's HEARTBEAT (1, 191), sequence `seq`.
+fn companion(seq: u8) -> Vec<u8> {
+    let hb = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: MavModeFlag::empty(),
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    });
+    of(crate::mirror::COMPANION, seq, &hb)
+}
+
+/// ArduPlane's STATUSTEXT `text`, sequence `seq`.
+fn says(seq: u8, text: &str) -> Vec<u8> {
+    use mavlink::dialects::ardupilotmega::{MavSeverity, STATUSTEXT_DATA};
+    let msg = MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+        severity: MavSeverity::MAV_SEVERITY_CRITICAL,
+        text: text.into(),
+        id: 0,
+        chunk_seq: 0,
+    });
+    of(1, seq, &msg)
+}
+
+/// A flight in the operations area on the ground's link: the autopilot's
+/// heartbeat every 0.25 s from 0.15 s to `until`, its frames numbered
+/// whole but for those `lost` drops (by the autopilot's own count), and
+/// the onboard gateway's heartbeat every 0.25 s whose numbers jump by 4 (a
+/// camera command a second and its mission and parameter traffic, which
+/// the autopilot keeps). The vehicle publishes every event the ground
+/// elaborates but those named in `missed`. Returns the autopilot's next
+/// sequence number.
+fn operations(
+    g: &mut Ground,
+    until: Micros,
+    lost: impl Fn(u32) -> bool,
+    missed: &[&str],
+    mut extra: impl FnMut(Micros) -> Option<String>,
+) -> u32 {
+    let mut seq = 0u32;
+    let mut t = 150_000;
+    let mut k = 0u8;
+    while t < until {
+        let mut frames = vec![plane_in_auto(seq as u8)];
+        seq += 1;
+        if let Some(text) = extra(t) {
+            frames.push(says(seq as u8, &text));
+            seq += 1;
+        }
+        for (n, bytes) in frames.iter().enumerate() {
+            if lost(seq - (frames.len() - n) as u32) {
+                continue;
+            }
+            for e in elaborate(g, t, bytes) {
+                if !missed.contains(&e.name.as_str()) {
+                    g.vehicle_event(t, &e);
+                }
+            }
+        }
+        feed(g, t + 1_000, &companion(k));
+        k = k.wrapping_add(4);
+        g.advance(Some(t), same);
+        t += 250_000;
+    }
+    seq
+}
+
+#[test]
+fn the_onboard_gateways_numbers_are_no_loss_and_a_missed_engine_failure_is_reported() {
+    // The companion's numbers jump at every command it sends the
+    // autopilot (which keeps it): before, each jump counted as radio
+    // loss and the check ignored ground-only events for 20 s, so an
+    // engine failure the vehicle missed in the operations area (a camera
+    // command a second) was never reported.
+    let (project, _) = crate::mirror::tests::example();
+    for (loss, lost) in [
+        ("no loss", (|_| false) as fn(u32) -> bool),
+        // A frame of the autopilot's in ten lost: no hole in the ground's view.
+        ("10 % loss", |s| s % 10 == 7),
+    ] {
+        let mut g = ground_of(&project);
+        operations(&mut g, 20_000_000, lost, &["engine_failure"], |t| {
+            (t == 12_150_000).then(|| "Potential Thrust Loss (3)".to_owned())
+        });
+        g.advance(Some(20_000_000), same);
+        let total = g.total();
+        let (_, d) = g
+            .poll_disagreement()
+            .unwrap_or_else(|| panic!("{loss}: no disagreement; {total:?}"));
+        assert_eq!(
+            (d.event.as_str(), d.seen_by, d.time),
+            ("engine_failure", Side::Ground, 12_150_000),
+            "{loss}"
+        );
+        assert!(g.poll_disagreement().is_none(), "{loss}");
+        // And the check was never blind (no hole in the ground's view).
+        assert_eq!(g.blind(same), [(19_750_000, 0)], "{loss}");
+    }
+}
+
+#[test]
+fn a_hole_in_the_grounds_view_is_not_judged_for_a_while() {
+    // The radio down from 5 s to 8 s (the autopilot's numbers jump by
+    // twelve): an event the ground alone elaborates 10 s later may come
+    // from that silence, and is not judged; 30 s later it is.
+    let (project, _) = crate::mirror::tests::example();
+    let mut g = ground_of(&project);
+    let texts = |t: Micros| {
+        [18_150_000, 35_150_000]
+            .contains(&t)
+            .then(|| "Potential Thrust Loss (3)".to_owned())
+    };
+    operations(
+        &mut g,
+        40_000_000,
+        |s| (20..32).contains(&s),
+        &["engine_failure"],
+        texts,
+    );
+    g.advance(Some(40_000_000), same);
+    let mut reported = Vec::new();
+    while let Some((_, d)) = g.poll_disagreement() {
+        reported.push(d.time);
+    }
+    assert_eq!(reported, [35_150_000]);
+    assert_eq!(g.total().unjudged, 1);
+    // Blind from the last frame before the hole (4.9 s) to 20 s after
+    // the first after it (8.15 s).
+    let (followed, blind) = g.blind(same)[0];
+    assert_eq!((followed, blind), (39_750_000, 28_150_000 - 4_900_000));
+}
+
+#[test]
+fn acknowledgements_to_the_onboard_gateway_alone_raise_no_alarm() {
+    // The vehicle's `command_rejected` comes from a COMMAND_ACK the
+    // autopilot sent the onboard gateway alone: the ground never sees it.
+    let (project, _) = crate::mirror::tests::example();
+    let mut g = ground_of(&project);
+    operations(&mut g, 10_000_000, |_| false, &[], |_| None);
+    let rejected = Event::new("command_rejected")
+        .param("command", "MAV_CMD_IMAGE_START_CAPTURE")
+        .param("result", "MAV_RESULT_UNSUPPORTED");
+    g.vehicle_event(5_000_000, &rejected);
+    g.advance(Some(10_000_000), same);
+    assert!(g.poll_disagreement().is_none());
+    assert_eq!(g.total().addressed, 1);
+}
+
+#[test]
+fn a_frame_lost_between_two_batches_leaves_no_hole() {
+    // ArduPlane SITL at 10x, read through TCP: the autopilot's 30 frames
+    // of a second come in one batch. One lost at the end of a batch is a
+    // second between the frames heard on either side, but one frame
+    // missing: no hole in the ground's view, the check still judges.
+    let (project, _) = crate::mirror::tests::example();
+    let mut g = ground_of(&project);
+    let mut seq = 0u8;
+    for second in 0..20u64 {
+        let t = 150_000 + second * 1_000_000;
+        for _ in 0..30 {
+            let bytes = plane_in_auto(seq);
+            seq = seq.wrapping_add(1);
+            if !seq.is_multiple_of(30) {
+                for e in elaborate(&mut g, t, &bytes) {
+                    g.vehicle_event(t, &e);
+                }
+            }
+        }
+        if second == 12 {
+            elaborate(&mut g, t, &says(seq, "Potential Thrust Loss (3)"));
+            seq = seq.wrapping_add(1);
+        }
+        g.advance(Some(t), same);
+    }
+    g.advance(Some(20_000_000), same);
+    let (_, d) = g.poll_disagreement().expect("the engine failure");
+    assert_eq!(
+        (d.event.as_str(), d.seen_by),
+        ("engine_failure", Side::Ground)
+    );
+    assert_eq!(g.blind(same)[0].1, 0);
+}
