@@ -16,15 +16,19 @@ mod process;
 mod router;
 #[path = "support/scratch.rs"]
 mod scratch;
+// The mirror's TUNNEL framing, to forge records as a transmitter would.
+#[path = "../src/mirror/tunnel.rs"]
+mod tunnel;
 #[path = "mirror/wire.rs"]
 mod wire;
 
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+use elaboration::Frame;
 use flight::{free_port, petrel_run, project, start_sim, stop, timeline, Dec, Killed, SPEED};
 use process::petrel_mirror;
-use router::{Loss, Router, Traffic};
+use router::{Forger, Loss, Router, Traffic};
 use scratch::Scratch;
 use sitl_tests::SimState;
 use wire::{check_recording, fired, only_resync_requests, the_recording_checks_out};
@@ -69,17 +73,20 @@ fn fly_mirrored(name: &str, faults: &[&str], loss: Loss) -> Mirrored {
 
 /// A flight whose `petrel run` gets `run_args` besides the usual ones.
 fn fly_mirrored_with(name: &str, faults: &[&str], loss: Loss, run_args: &[&str]) -> Mirrored {
-    fly_mirrored_full(name, faults, loss, run_args, None)
+    fly_mirrored_full(name, faults, loss, (run_args, &[]), None, None)
 }
 
-/// A flight in which the router forgets its routes (an autopilot's
-/// reboot) once `forget_at` wall seconds have passed.
+/// A flight in which `petrel run` and `petrel mirror` get `args` besides
+/// the usual ones, the router forgets its routes (an autopilot's reboot)
+/// once `forget_at` wall seconds have passed, and a hostile transmitter
+/// forges downlink frames while `forge`.
 fn fly_mirrored_full(
     name: &str,
     faults: &[&str],
     loss: Loss,
-    run_args: &[&str],
+    (run_args, mirror_args): (&[&str], &[&str]),
     forget_at: Option<f64>,
+    forge: Option<Forger>,
 ) -> Mirrored {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = Scratch::new(&format!("mirror-{name}"));
@@ -94,9 +101,10 @@ fn fly_mirrored_full(
         &recording,
         SPEED,
         max_wall + Duration::from_secs(10),
-        &[],
+        mirror_args,
     );
     let mut mirror = Killed(Some(mirror));
+    router.forge_downlink(forge);
     let run = petrel_run(
         &format!("tcpout:127.0.0.1:{}", router.companion_port),
         &programs,
@@ -301,6 +309,100 @@ fn the_mirror_agrees_with_the_vehicle_over_the_nominal_mission() {
     );
     a_tampered_mirror_recording_fails_its_check(&m);
     the_python_mcap_reader_reads_the_mirrors_recording(&m);
+}
+
+/// What anyone on the radio can make of a signed downlink frame: the same
+/// bytes again (a replay), the same record re-sent unsigned, and the
+/// record altered under the original signature — each with a valid
+/// checksum, so that only the signature tells them from the vehicle's.
+fn forgeries(signed: &[u8]) -> Vec<Vec<u8>> {
+    use mavlink::MAVLinkV2MessageRaw;
+    const SIGNATURE: usize = 13;
+    if signed.len() < 3 + SIGNATURE || signed[2] & 0x01 == 0 {
+        return Vec::new();
+    }
+    let mut forged = vec![signed.to_vec()];
+    let Some(record) = Frame::parse(signed)
+        .ok()
+        .and_then(|f| tunnel::Tunnel::from_frame(&f))
+    else {
+        return forged;
+    };
+    let header = mavlink::MavHeader {
+        system_id: u32::from(signed[5]),
+        component_id: signed[6],
+        sequence: signed[4],
+    };
+    let mut unsigned = MAVLinkV2MessageRaw::new();
+    unsigned.serialize_message_data(header, &record);
+    forged.push(unsigned.raw_bytes().to_vec());
+    let mut altered_record = record;
+    if let Some(b) = altered_record.payload.first_mut() {
+        *b ^= 0x01;
+    }
+    let mut altered = MAVLinkV2MessageRaw::new();
+    *altered.incompatibility_flags_mut() = mavlink::consts::v2::IFLAG_SIGNED;
+    altered.serialize_message_data(header, &altered_record);
+    let signature = &signed[signed.len() - SIGNATURE..];
+    *altered.signature_link_id_mut() = signature[0];
+    altered
+        .signature_timestamp_bytes_mut()
+        .copy_from_slice(&signature[1..7]);
+    altered
+        .signature_value_mut()
+        .copy_from_slice(&signature[7..]);
+    forged.push(altered.raw_bytes().to_vec());
+    forged
+}
+
+/// Issue 39: with the vehicle's signing key on both sides, the downlink's
+/// records are signed, and a hostile transmitter on the radio — replaying
+/// each record, re-sending it unsigned, altering it under its signature —
+/// is refused and counted, while the replica follows the vehicle exactly.
+#[test]
+fn a_signed_downlink_refuses_forged_records_and_the_replica_stays_exact() {
+    let keys = Scratch::new("mirror-key");
+    let key = keys.join("vehicle.key");
+    std::fs::write(&key, [0x3cu8; 32]).expect("key written");
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o600))
+            .expect("key private");
+    }
+    let key = key.to_string_lossy().to_string();
+    let m = fly_mirrored_full(
+        "signed",
+        &[],
+        Loss::default(),
+        (&["--signing-key", &key], &["--signing-key", &key]),
+        None,
+        Some(forgeries),
+    );
+    ended_equal("signed", &m);
+    let summary = m
+        .mirror
+        .iter()
+        .find(|l| l["summary"] == "mirror")
+        .expect("the mirror's summary");
+    let s = &summary["signatures"];
+    let n = |k: &str| s[k].as_u64().unwrap_or(0);
+    eprintln!("signed: {s}");
+    assert_eq!(s["required"], true, "{s}");
+    assert!(n("accepted") > 50, "{s}");
+    // Every forgery of every record is refused, by its reason.
+    assert!(n("replayed") > 50, "{s}");
+    assert!(n("unsigned") > 50, "{s}");
+    assert!(n("bad_signature") > 50, "{s}");
+    assert!(
+        m.mirror_err.contains("refused: replayed") && m.mirror_err.contains("refused: unsigned"),
+        "{}",
+        m.mirror_err
+    );
+    assert!(
+        m.mirror_err.contains("downlink signatures:"),
+        "{}",
+        m.mirror_err
+    );
 }
 
 /// A recorded digest, a recorded downlink input and a recorded snapshot
@@ -536,7 +638,7 @@ fn low_battery_at_ten_percent_loss_and_a_burst() {
 fn after_an_autopilot_reboot_the_mirror_is_heard_again_and_resyncs() {
     // The routes forgotten 6 wall seconds in (60 simulated s, in flight):
     // the records to the mirror go nowhere until the mirror speaks.
-    let m = fly_mirrored_full("reboot", &[], Loss::default(), &[], Some(6.0));
+    let m = fly_mirrored_full("reboot", &[], Loss::default(), (&[], &[]), Some(6.0), None);
     ended_equal("reboot", &m);
     let forgot = m.forgot_at.expect("the routes were forgotten");
     // The mirror hailed the vehicle (a heartbeat request, `8 heartbeat? 0`).

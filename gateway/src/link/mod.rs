@@ -338,16 +338,17 @@ impl LinkWriter {
     }
 
     /// Sends a message that the dialect's types cannot hold (the mirror's
-    /// TUNNEL with a private payload type), framed by rust-mavlink. Never
-    /// signed: rust-mavlink frames such data for signing only through the
-    /// dialect's types (docs/mirror.md).
+    /// TUNNEL with a private payload type), framed by rust-mavlink, and
+    /// signed when the link is (the downlink's records: docs/mirror.md, "A
+    /// signed downlink").
     pub async fn send_data<D: MessageData>(
         &self,
         from: (u8, u8),
         data: &D,
     ) -> Result<Vec<u8>, LinkError> {
-        self.send_with(from, |header, raw, _| {
-            raw.serialize_message_data(header, data)
+        self.send_with(from, |header, raw, signer| match signer {
+            Some(signer) => *raw = signer.sign_data(header, data, unix_us()),
+            None => raw.serialize_message_data(header, data),
         })
         .await
     }

@@ -59,9 +59,15 @@ pub struct Router {
     up_muted: Arc<AtomicBool>,
     /// Set: the routes learned are forgotten (an autopilot that rebooted).
     forget: Arc<AtomicBool>,
+    /// Set: a hostile transmitter on the radio sends, after each downlink
+    /// frame, what this makes of it.
+    forge: Arc<Mutex<Option<Forger>>>,
     traffic: Arc<Mutex<Traffic>>,
     thread: Option<JoinHandle<()>>,
 }
+
+/// Forged frames made of a downlink frame.
+pub type Forger = fn(&[u8]) -> Vec<Vec<u8>>;
 
 const VEHICLE: u8 = 1;
 const TUNNEL: u32 = 385;
@@ -215,6 +221,8 @@ impl Router {
         let up_mute = up_muted.clone();
         let forget = Arc::new(AtomicBool::new(false));
         let forgetting = forget.clone();
+        let forge: Arc<Mutex<Option<Forger>>> = Arc::new(Mutex::new(None));
+        let forging = forge.clone();
         let mut radio = Radio {
             seed: loss.seed | 1,
             loss,
@@ -265,6 +273,12 @@ impl Router {
                     };
                     if to_ground {
                         downlink(&mut ground, &bytes, target.is_some());
+                        let forger = *forging.lock().expect("forger");
+                        if let (Some(_), Some(forger)) = (target, forger) {
+                            for forged in forger(&bytes) {
+                                downlink(&mut ground, &forged, true);
+                            }
+                        }
                     }
                     if target.is_none() || target.is_some_and(|(s, _)| s == VEHICLE || s == 0) {
                         vehicle.write(&bytes);
@@ -306,6 +320,7 @@ impl Router {
             muted,
             up_muted,
             forget,
+            forge,
             traffic,
             thread: Some(thread),
         }
@@ -330,6 +345,12 @@ impl Router {
     /// again.
     pub fn forget_routes(&self) {
         self.forget.store(true, Ordering::Relaxed);
+    }
+
+    /// From now on, a hostile transmitter follows every downlink frame
+    /// with what `forger` makes of it (none: it stops).
+    pub fn forge_downlink(&self, forger: Option<Forger>) {
+        *self.forge.lock().expect("forger") = forger;
     }
 
     pub fn stop(&mut self) {
