@@ -231,6 +231,12 @@ async fn mirror(setup: Setup) -> VerbResult {
             return Ok(super::Outcome::Success);
         }
     };
+    // With the vehicle's key, the mirror's requests go up signed with it
+    // too: a vehicle that requires signatures (`run --require-signed`)
+    // takes them.
+    if let Some(key) = &setup.signing {
+        writer.sign(crate::link::signing::Signer::new(key.clone(), 0, None));
+    }
     let uplink = UplinkWriter::new(writer, setup.system);
     // The recording is created once the link is open, as `run`'s.
     let recorder = match &setup.record {
