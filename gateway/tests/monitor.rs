@@ -29,7 +29,7 @@ mod browser;
 #[path = "monitor/hostile.rs"]
 mod hostile;
 
-use browser::{drive, repo, require, Reaped};
+use browser::{assert_readable, drive, repo, require, Reaped};
 use scratch::Scratch;
 
 const PETREL: &str = env!("CARGO_BIN_EXE_petrel");
@@ -309,6 +309,7 @@ fn the_flight_live_in_the_browser_then_its_recording_scrubbed() {
         seen["enabled"].as_u64() > Some(0),
         "enabled transitions outlined"
     );
+    assert_readable(&seen);
     let definition = seen["definition"].as_str().unwrap_or("");
     assert!(
         definition.contains(&format!("FLIGHT.{first_flight}"))

@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 use serde_json::Value as Json;
 use sitl_tests::Fault;
 
-use browser::{drive_script, require, strings};
+use browser::{assert_readable, drive_script, require, strings};
 use scratch::Scratch;
 use team::Team;
 
@@ -97,6 +97,7 @@ fn each_rover_its_group_and_marker_and_a_motor_failure_locks_out_its_rover_only(
         );
     }
     assert_eq!(strings(&groups[2]["nets"]), ["SYNC"]);
+    assert_readable(&seen);
     assert_eq!(
         seen["strip_hidden"], true,
         "a team's strips are its groups'"

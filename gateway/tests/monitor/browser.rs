@@ -137,3 +137,25 @@ pub fn drive_script(
     assert_eq!(seen["errors"], serde_json::json!([]), "the page threw");
     seen
 }
+
+/// Issue 40: every net's labels render at 8 px or more at the page's
+/// default size, and each active net's marked places are in its card's
+/// view (a long net scrolls and follows its marking).
+pub fn assert_readable(seen: &Json) {
+    let nets = seen["readable"].as_array().cloned().unwrap_or_default();
+    assert!(!nets.is_empty(), "no nets measured: {seen}");
+    for n in &nets {
+        let px = n["px"].as_f64().unwrap_or(0.0);
+        assert!(
+            px >= 8.0,
+            "net {} drawn with {px:.1} px labels: {nets:?}",
+            n["net"]
+        );
+        assert_eq!(
+            n["out"].as_array().map(Vec::len),
+            Some(0),
+            "net {}: marked places out of view: {nets:?}",
+            n["net"]
+        );
+    }
+}

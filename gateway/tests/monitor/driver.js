@@ -15,6 +15,24 @@ const [mode, url, out, ...rest] = process.argv.slice(2);
 const FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
   "--disable-background-networking", "--disable-component-update", "--disable-sync"];
 
+// Every net's labels as rendered (10 drawing units: px on the page) and
+// the marked places of each active net outside its card's view.
+function readability() {
+  return [...document.querySelectorAll("#nets div.net")].map((n) => {
+    const svg = n.querySelector("svg");
+    if (!svg) return { net: n.dataset.net, px: 0, out: ["no drawing"] };
+    const body = svg.parentElement;
+    const px = svg.getBoundingClientRect().width / svg.viewBox.baseVal.width * 10;
+    const box = body.getBoundingClientRect();
+    const out = n.classList.contains("inactive") ? [] : [...body.querySelectorAll("g.place.marked")]
+      .filter((m) => {
+        const r = m.getBoundingClientRect();
+        return r.left < box.left - 1 || r.right > box.right + 1 || r.top < box.top - 1 || r.bottom > box.bottom + 1;
+      }).map((m) => m.id);
+    return { net: n.dataset.net, px, out };
+  });
+}
+
 async function live(page, seen) {
   await page.goto(url);
   await page.waitForFunction(() => document.querySelectorAll("#nets g.net").length > 0 &&
@@ -47,6 +65,10 @@ async function live(page, seen) {
   seen.strip_mode = await page.$eval("#v-mode b", (b) => b.textContent);
   seen.enabled = await page.$$eval("#nets g.transition.enabled", (els) => els.length);
   await page.screenshot({ path: path.join(out, "monitor-live.png") });
+  // Legible at the page's size, the marking in view as the flight goes on
+  // (read after the next frames: the page follows on each frame).
+  await page.waitForTimeout(600);
+  seen.readable = await page.evaluate(readability);
   // Click a transition: its definition; open its net alone.
   const t = process.env.MONITOR_CLICK_TRANSITION;
   // The click is dispatched on the bar itself: a click at its position
@@ -244,6 +266,7 @@ async function team(page, seen) {
     vehicle: e.dataset.vehicle, stroke: e.getAttribute("stroke"), points: e.getAttribute("points").split(" ").length })));
   seen.modes = await page.$$eval("#nets > .group[data-vehicle]", (els) => els.map((g) => g.querySelector(".g-mode b").textContent));
   await page.screenshot({ path: path.join(out, "monitor-team.png") });
+  seen.readable = await page.evaluate(readability);
   tell("moved");
   await page.waitForFunction(() => {
     const g = document.querySelector("#nets > .group[data-vehicle='R1']");

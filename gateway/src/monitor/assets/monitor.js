@@ -172,15 +172,52 @@ function card(i) {
     '<span class="now"></span><span class="activates">' + (n.activates.length ? "activates " + esc(n.activates.join(", ")) : "") +
     (by.length ? (n.activates.length ? " · " : "") + "activated by " + esc(by.join(", ")) : "") + "</span></div>" + n.svg;
   div.querySelector(".net-head").onclick = () => zoom(i);
-  // Drawn at most 300 px high and as wide as the page allows.
+  // Drawn at most 300 px high and as wide as the page allows, but never
+  // below a scale its labels can be read at: a longer net scrolls in its
+  // card, which follows its marked places (`follow`).
   const svg = div.querySelector("svg");
   const w = +svg.getAttribute("width"), h = +svg.getAttribute("height");
   const room = Math.max(($("left").clientWidth || 1000) - 30, 300);
-  const k = Math.min(1, room / w, 300 / h);
+  const k = Math.max(READABLE, Math.min(1, room / w, 300 / h));
   svg.setAttribute("width", (w * k).toFixed(0));
   svg.setAttribute("height", (h * k).toFixed(0));
+  const body = document.createElement("div");
+  body.className = "net-body";
+  svg.replaceWith(body);
+  body.appendChild(svg);
+  // A person scrolling a net is left alone for a while.
+  for (const ev of ["wheel", "pointerdown", "touchstart", "keydown"]) {
+    body.addEventListener(ev, () => { body.dataset.touched = performance.now(); }, { passive: true });
+  }
   div.addEventListener("click", pick);
   return div;
+}
+
+// The smallest scale a net is drawn at in its card: its 10-unit labels
+// at 8.5 px or more.
+const READABLE = 0.85;
+// How long a net a person scrolled is not scrolled for them (ms).
+const LEFT_ALONE_MS = 10000;
+
+// Scrolls each net's card to its marked places when they leave its view
+// (a long net is wider than the page at a readable scale).
+function follow() {
+  const now = performance.now();
+  for (const body of document.querySelectorAll("#nets .net-body")) {
+    if (body.scrollWidth <= body.clientWidth + 1 && body.scrollHeight <= body.clientHeight + 1) continue;
+    if (now - (+body.dataset.touched || -1e9) < LEFT_ALONE_MS) continue;
+    const marked = [...body.querySelectorAll("g.place.marked")];
+    if (!marked.length) continue;
+    const box = body.getBoundingClientRect();
+    const rects = marked.map((m) => m.getBoundingClientRect());
+    const left = Math.min(...rects.map((r) => r.left)), right = Math.max(...rects.map((r) => r.right));
+    const top = Math.min(...rects.map((r) => r.top)), bottom = Math.max(...rects.map((r) => r.bottom));
+    const inView = left >= box.left && right <= box.right && top >= box.top && bottom <= box.bottom;
+    if (inView) continue;
+    // The marked places' middle in the middle of the card.
+    body.scrollLeft += (left + right) / 2 - (box.left + box.right) / 2;
+    body.scrollTop += (top + bottom) / 2 - (box.top + box.bottom) / 2;
+  }
 }
 
 function linkGlobal(name, on) {
@@ -280,6 +317,7 @@ function apply(f) {
   });
   for (const g of page.globals) $("g-" + g.flat).classList.toggle("marked", f.marked.includes(g.flat));
   paint(document);
+  follow();
   const vs = f.vehicles || [];
   for (const v of vs) {
     const key = v.name || "";
