@@ -16,13 +16,51 @@ impl Sources for Folder {
     }
 }
 
-/// Loads and checks the project in `dir`; problems come back ready for
-/// people (file:line:col, with the line and a caret).
-pub fn load(dir: &Path) -> Result<Arc<Project>, miette::Report> {
-    load_with(dir, &nets::load::Catalog::new())
+/// Events the gateway raises itself, beside elaboration's: a program lost
+/// (`program_lost {name}`, `programs::session`) and frames refused for
+/// their signature (`signature_rejected`, `link::rejections`). Their
+/// categories and parameters are the project's declaration, else the
+/// gateway's defaults: the catalog names them only as produced.
+pub const RAISED: [&str; 2] = ["program_lost", "signature_rejected"];
+
+/// Every event that may come from outside the project's nets when it runs
+/// with `profile`, besides its `[events]`: the profile's catalog and the
+/// events the gateway raises ([`RAISED`]). A transition waiting for
+/// anything else waits for nothing the gateway delivers: a load error.
+pub fn catalog(profile: &elaboration::Profile) -> nets::load::Catalog {
+    let mut catalog = profile.catalog();
+    for name in RAISED {
+        catalog.entry(name.to_owned()).or_default();
+    }
+    catalog
 }
 
-/// Loads the project knowing the events an elaboration profile produces.
+/// Loads and checks the project in `dir` without knowing its elaboration
+/// profile (any event it waits for may come from outside; see
+/// `cli::load_profiled`); problems come back ready for people
+/// (file:line:col, with the line and a caret).
+pub fn load(dir: &Path) -> Result<Arc<Project>, miette::Report> {
+    if !dir.join(nets::load::PROJECT_FILE).is_file() {
+        return Err(not_a_project(dir));
+    }
+    nets::load(&Folder(dir.to_path_buf()))
+        .map(Arc::new)
+        .map_err(|e| {
+            miette::Report::new(e).context(format!("cannot load project {}", dir.display()))
+        })
+}
+
+fn not_a_project(dir: &Path) -> miette::Report {
+    miette::miette!(
+        "{} is not a Petrel project: it holds no {}",
+        dir.display(),
+        nets::load::PROJECT_FILE
+    )
+}
+
+/// Loads the project knowing the events that may come from outside its
+/// nets ([`catalog`]): a transition waiting for an event nothing produces
+/// is a load error.
 pub fn load_with(
     dir: &Path,
     catalog: &nets::load::Catalog,
@@ -41,11 +79,7 @@ pub fn load_read(
     catalog: &nets::load::Catalog,
 ) -> Result<(Arc<Project>, Files), miette::Report> {
     if !dir.join(nets::load::PROJECT_FILE).is_file() {
-        return Err(miette::miette!(
-            "{} is not a Petrel project: it holds no {}",
-            dir.display(),
-            nets::load::PROJECT_FILE
-        ));
+        return Err(not_a_project(dir));
     }
     let sources = Recorded {
         folder: Folder(dir.to_path_buf()),

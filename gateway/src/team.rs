@@ -273,7 +273,10 @@ pub(crate) mod supervised {
         let profile = crate::profile::Layers::builtin("ardupilot")
             .load()
             .expect("profile");
-        Arc::new(nets::load::load_with(&sources, &profile.catalog()).expect("the team loads"))
+        Arc::new(
+            nets::load::load_with(&sources, &crate::project::catalog(&profile))
+                .expect("the team loads"),
+        )
     }
 
     fn heartbeat(system: u8, armed: bool) -> Vec<u8> {

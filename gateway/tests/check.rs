@@ -332,24 +332,21 @@ fn a_project_is_checked_with_the_events_its_profile_produces() {
     }
     assert_eq!(j["nets"].as_object().map(|m| m.len()), Some(1));
     // ArduPilot's alone (`--profile`, as `petrel run`): nothing produces
-    // `strike`, which is then a nominal event: no lockout after it.
+    // `strike`, which A.struck then waits for in vain: the project does
+    // not load (bad input), pointing at the `on`.
     let (code, out, err) = petrel(&["check", d, "--json", "--profile", "ardupilot"]);
-    assert_eq!(code, 1, "{out}{err}");
-    let j = json_of(&out);
-    assert_eq!(j["safe"], false);
-    assert_eq!(
-        j["unsafe_example"],
-        serde_json::json!([
-            "takeoff → A.up",
-            "strike → A.struck",
-            "landed ✗ A.late would put a second token in A.home"
-        ])
+    assert_eq!(code, 2, "{out}{err}");
+    let on = ELABORATED
+        .lines()
+        .position(|l| l == "on = \"strike\"")
+        .expect("A.struck")
+        + 1;
+    assert!(
+        plain(&err).contains(&format!(
+            "a.toml:{on}:6: event `strike` (awaited by A.struck) is produced by nothing: no elaboration rule or [events] declaration"
+        )),
+        "{err}"
     );
-    let w = warnings(&j);
-    assert_eq!(w.len(), 2, "{w:#?}");
-    // (`late` is attempted, and the player rejects it)
-    assert_eq!(w[1], "transition A.late can never fire");
-    assert!(w[0].starts_with("event `strike` (awaited by A.struck) is produced by nothing: no elaboration rule or [events] declaration"), "{w:#?}");
     // A profile that cannot be read is bad input.
     let (code, out, err) = petrel(&["check", d, "--profile", "no-such-layer.toml"]);
     assert_eq!(code, 2, "{out}");
@@ -368,7 +365,8 @@ fn a_project_is_checked_with_the_events_its_profile_produces() {
 #[test]
 fn each_net_is_checked_alone_too() {
     // A fills @ready on `go`; B waits for it: alone, B is dead at the start
-    // (a warning: it relies on A); the project holds.
+    // (information, no warning: it relies on A by design); the project
+    // holds.
     let (_scratch, dir) = project_dir(
         "alone",
         &[
@@ -392,8 +390,10 @@ fn each_net_is_checked_alone_too() {
     let j = json_of(&out);
     assert_eq!(j["holds"], true, "{j}");
     let relies = "B alone can reach a dead marking (it relies on other nets): at the start";
-    assert_eq!(j["warnings"], serde_json::json!([relies]), "{j}");
-    assert_eq!(j["nets"]["B"]["warnings"], serde_json::json!([relies]));
+    assert_eq!(j["relies"], serde_json::json!([relies]), "{j}");
+    assert_eq!(j["nets"]["B"]["relies"], serde_json::json!([relies]));
+    assert_eq!(j["warnings"], serde_json::json!([]), "{j}");
+    assert_eq!(j["nets"]["B"]["warnings"], serde_json::json!([]));
     for net in ["A", "B"] {
         let alone = &j["nets"][net]["alone"];
         for key in [
@@ -439,10 +439,19 @@ fn each_net_is_checked_alone_too() {
         "{out}"
     );
     assert!(
-        out.contains("  alone: 1 states, 0 steps; safe, DEADLOCK, no livelock\n"),
+        out.contains(
+            "  alone: 1 states, 0 steps; safe, dead without the other nets, no livelock\n"
+        ),
         "{out}"
     );
-    assert!(out.contains(&format!("  warning: {relies}\n")), "{out}");
+    assert!(
+        out.contains(&format!(
+            "  nets relying on others (information): 1\n    - {relies}\n"
+        )),
+        "{out}"
+    );
+    assert!(!out.contains("warning"), "{out}");
+    assert!(!out.contains("DEADLOCK"), "{out}");
 }
 
 #[test]
@@ -513,4 +522,63 @@ fn a_team_project_reports_two_vehicles_in_a_shared_resource_step_by_step() {
         serde_json::json!(["R1", "R2"]),
         "{report}"
     );
+}
+
+/// examples/uav-survey with one letter missing from an awaited event, in a
+/// scratch copy: the copy and the `on`'s line.
+fn survey_with_a_typo() -> (Scratch, PathBuf, usize) {
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-survey");
+    let read = |f: &str| std::fs::read_to_string(example.join(f)).expect("the example");
+    let events = read("events.toml");
+    let line = events
+        .lines()
+        .position(|l| l == "on = \"engine_failure\"")
+        .expect("EVENTS waits for engine_failure")
+        + 1;
+    let typo = events.replacen("on = \"engine_failure\"", "on = \"engine_failur\"", 1);
+    let (scratch, dir) = project_dir(
+        "typo",
+        &[
+            ("project.toml", &read("project.toml")),
+            ("mission.toml", &read("mission.toml")),
+            ("events.toml", &typo),
+        ],
+    );
+    (scratch, dir, line)
+}
+
+#[test]
+fn a_typo_in_an_awaited_event_is_refused_with_the_name_meant() {
+    let (_scratch, dir, line) = survey_with_a_typo();
+    let d = dir.to_str().unwrap();
+    let expected = format!(
+        "events.toml:{line}:6: event `engine_failur` (awaited by EVENTS.engine_failure) is produced by nothing: no elaboration rule or [events] declaration, no net emits it, and it is no timer, answer or result of EVENTS; did you mean `engine_failure`?"
+    );
+    // `petrel check`: bad input, before exploring.
+    let (code, out, err) = petrel(&["check", d]);
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(plain(&err).contains(&expected), "{err}");
+    assert!(!out.contains("every property holds"), "{out}");
+    // `petrel run`, even unchecked, refuses it before any link opens; so
+    // do `play` and `draw`.
+    let (code, _, err) = petrel(&[
+        "run",
+        d,
+        "--mavlink",
+        "udpin:127.0.0.1:0",
+        "--duration",
+        "0.3",
+        "--no-record",
+        "--unchecked",
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(plain(&err).contains(&expected), "{err}");
+    let script =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-survey/scripts/nominal.jsonl");
+    let (code, _, err) = petrel(&["play", d, "--events", script.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(plain(&err).contains(&expected), "{err}");
+    let (code, _, err) = petrel(&["draw", d]);
+    assert_eq!(code, 2, "{err}");
+    assert!(plain(&err).contains(&expected), "{err}");
 }

@@ -170,7 +170,7 @@ fn check_project_reports_for_people_and_as_json_with_exit_codes() {
     let dir = Scratch::new("check");
     std::fs::write(
         dir.join("project.toml"),
-        "[programs.DEC.functions]\nplan = {}\n[[net]]\nfile = \"a.toml\"\nactive = true\n",
+        "[events]\nready = \"nominal\"\n[programs.DEC.functions]\nplan = {}\n[[net]]\nfile = \"a.toml\"\nactive = true\n",
     )
     .expect("write");
     std::fs::write(
@@ -291,9 +291,10 @@ fn replay_runs_a_recorded_flight_through_elaboration_and_the_nets() {
 #[test]
 fn play_prints_every_line_in_time_order_with_expiries_before_the_input_that_let_them_fire() {
     let dir = Scratch::new("play-order");
+    // `go` and `next` come from the script: declared.
     std::fs::write(
         dir.join("project.toml"),
-        "[[net]]\nfile = \"n.toml\"\nactive = true\n",
+        "[events]\ngo = \"nominal\"\nnext = \"nominal\"\n[[net]]\nfile = \"n.toml\"\nactive = true\n",
     )
     .expect("write");
     std::fs::write(

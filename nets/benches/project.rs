@@ -58,14 +58,11 @@ impl nets::source::Sources for Folder {
 }
 
 /// The catalog the environment names, if any (see the module's text).
-fn catalog() -> nets::load::Catalog {
+fn catalog() -> Option<nets::load::Catalog> {
     let mut out = nets::load::Catalog::new();
-    let Some(path) = std::env::var("PETREL_PROJECT_BENCH_CATALOG")
+    let path = std::env::var("PETREL_PROJECT_BENCH_CATALOG")
         .ok()
-        .filter(|p| !p.is_empty())
-    else {
-        return out;
-    };
+        .filter(|p| !p.is_empty())?;
     let text = std::fs::read_to_string(path).expect("the catalog file");
     for line in text.lines() {
         let mut words = line.split_whitespace();
@@ -86,13 +83,19 @@ fn catalog() -> nets::load::Catalog {
             },
         );
     }
-    out
+    Some(out)
 }
 
+/// The example, with the catalog when one is named (a catalog is every
+/// event from outside: `load_with` refuses an awaited event it lacks),
+/// else without (`load`: any awaited event may come from outside).
 fn project() -> Arc<Project> {
-    let project =
-        nets::load::load_with(&Folder(example()), &catalog()).unwrap_or_else(|e| panic!("{e:?}"));
-    Arc::new(project)
+    let folder = Folder(example());
+    let project = match catalog() {
+        Some(catalog) => nets::load::load_with(&folder, &catalog),
+        None => nets::load::load(&folder),
+    };
+    Arc::new(project.unwrap_or_else(|e| panic!("{e:?}")))
 }
 
 fn options(threads: usize) -> Options<'static> {

@@ -145,18 +145,35 @@ struct RawTransition {
     priority: Option<Spanned<i64>>,
 }
 
-/// Loads and checks a project.
+/// Loads and checks a project, knowing nothing of what elaboration
+/// produces: any event a transition waits for may come from outside (the
+/// verifier explores it so), and `petrel check`'s static warnings say which
+/// ones nothing in the project itself produces.
 pub fn load(sources: &dyn Sources) -> Result<Project, LoadError> {
-    load_with(sources, &Catalog::new())
+    load_as(sources, &Catalog::new(), false)
 }
 
 /// Loads and checks a project, knowing the events an elaboration profile
-/// produces (their parameters and default categories).
+/// produces (their parameters and default categories): with the project's
+/// `[events]`, the `catalog` is every event that may come from outside the
+/// nets. A transition waiting for an event nothing produces — no rule of
+/// the catalog, no `[events]` entry, no net's `emit`, no timer, answer or
+/// result of its own net ([`crate::outside::produced`]) — can never fire:
+/// a load error, with the nearest event that is produced when it looks
+/// like a typo.
 pub fn load_with(sources: &dyn Sources, catalog: &Catalog) -> Result<Project, LoadError> {
+    load_as(sources, catalog, true)
+}
+
+fn load_as(
+    sources: &dyn Sources,
+    catalog: &Catalog,
+    outside_known: bool,
+) -> Result<Project, LoadError> {
     let mut loader = Loader {
         problems: Vec::new(),
     };
-    let project = loader.project(sources, catalog);
+    let project = loader.project(sources, catalog, outside_known);
     if loader.problems.is_empty() {
         if let Some(project) = project {
             return Ok(project);
@@ -261,7 +278,12 @@ impl Loader {
         }
     }
 
-    fn project(&mut self, sources: &dyn Sources, catalog: &Catalog) -> Option<Project> {
+    fn project(
+        &mut self,
+        sources: &dyn Sources,
+        catalog: &Catalog,
+        outside_known: bool,
+    ) -> Option<Project> {
         let text = match sources.read(PROJECT_FILE) {
             Ok(t) => t,
             Err(reason) => {
@@ -598,7 +620,51 @@ impl Loader {
             self.problems
                 .retain(|p| !p.message.starts_with("unknown net "));
         }
+        if outside_known && self.problems.is_empty() {
+            // Only in a project otherwise sound: an action refused above
+            // would make the event it emits look produced by nothing.
+            self.unproduced(&project, &units, &raw_nets);
+        }
         Some(project)
+    }
+
+    /// Every transition waiting for an event nothing produces
+    /// ([`crate::outside::produced_by_nothing`]), reported at its `on`
+    /// value once for a template's instances.
+    fn unproduced(
+        &mut self,
+        project: &Project,
+        units: &[Unit],
+        raw_nets: &[(SourceFile, RawNet, bool)],
+    ) {
+        // (raw net, transition) → the first instance's text, the others'
+        // names.
+        let mut found: BTreeMap<(usize, usize), (String, Vec<String>)> = BTreeMap::new();
+        for (n, unit) in units.iter().enumerate() {
+            let Some(net) = project.nets.get(n) else {
+                continue;
+            };
+            for (j, t) in net.transitions.iter().enumerate() {
+                let Some(e) = &t.event else { continue };
+                let Some(text) = crate::outside::produced_by_nothing(project, n, &t.name, e) else {
+                    continue;
+                };
+                found
+                    .entry((unit.raw, j))
+                    .and_modify(|(_, others)| others.push(net.name.clone()))
+                    .or_insert((text, Vec::new()));
+            }
+        }
+        for ((raw, j), (mut text, others)) in found {
+            let (file, net, _) = &raw_nets[raw];
+            let Some(on) = net.transitions.get(j).and_then(|t| t.on.as_ref()) else {
+                continue;
+            };
+            if !others.is_empty() {
+                text.push_str(&format!("; so too in {}", others.join(", ")));
+            }
+            self.problem(file, on.span(), text);
+        }
     }
 
     /// The team declared by `[[vehicle]]`: names and MAVLink ids unique.

@@ -16,9 +16,10 @@
 //! The verifier explores exactly the rest as outside events, so that its
 //! proof covers every event the gateway can deliver.
 
+use std::collections::BTreeSet;
 use std::fmt;
 
-use crate::model::{names, Action, Project};
+use crate::model::{names, Action, NetId, Project};
 
 /// Why an event cannot come from outside the nets.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -133,6 +134,165 @@ pub fn emitted(project: &Project, name: &str) -> bool {
 /// The base of a vehicle's event (`detour` of `detour@R3`), else the name.
 pub fn base<'a>(project: &Project, name: &'a str) -> &'a str {
     project.vehicle_event(name).map_or(name, |(base, _)| base)
+}
+
+/// Whether something can deliver `name` to the transitions of net `net`
+/// that wait for it: elaboration or the project's `[events]` (per base,
+/// as [`declared`] reads them), an `emit` of some net, one of the net's
+/// own timers, an answer to one of its questions, the result of one of
+/// its calls or commands, or `net_fault`. Only as true as the project's
+/// events are complete: loaded knowing its elaboration profile
+/// (`nets::load_with`), an event awaited that nothing produces is a load
+/// error ([`produced_by_nothing`] says why).
+pub fn produced(project: &Project, net: NetId, name: &str) -> bool {
+    declared(project, name)
+        || emits(project, name)
+        || own_timer(project, net, name)
+        || name == names::NET_FAULT
+        || ((name == names::COMMAND_OK || name == names::COMMAND_FAILED) && commands(project, net))
+        || results_of(project, net).any(|r| r == name)
+        || answers_of(project, net).any(|a| a == name)
+}
+
+/// Why nothing produces `name` for transition `transition` of net `net`
+/// (see [`produced`]), with the nearest event that is produced when one
+/// is close (a typo); `None` when something produces it.
+pub fn produced_by_nothing(
+    project: &Project,
+    net: NetId,
+    transition: &str,
+    name: &str,
+) -> Option<String> {
+    if produced(project, net, name) {
+        return None;
+    }
+    let n = &project.nets[net];
+    let awaited = format!(
+        "event `{name}` (awaited by {}.{transition}) is produced by nothing",
+        n.name
+    );
+    if emitted(project, name) {
+        // The family is the nets' own, emitted for other vehicles only:
+        // no program or script may send it.
+        let family = base(project, name);
+        let emitted: BTreeSet<String> = emits_all(project)
+            .filter(|x| base(project, x) == family)
+            .map(|x| format!("`{x}`"))
+            .collect();
+        let emitted: Vec<String> = emitted.into_iter().collect();
+        return Some(format!(
+            "{awaited}: of its family `{family}` the nets emit {} only, and no program or script may send it ([events] does not declare `{family}`)",
+            emitted.join(", ")
+        ));
+    }
+    let mut text = format!(
+        "{awaited}: no elaboration rule or [events] declaration, no net emits it, and it is no timer, answer or result of {}",
+        n.name
+    );
+    if let Some(meant) = nearest_produced(project, net, name) {
+        text.push_str(&format!("; did you mean `{meant}`?"));
+    }
+    text.push_str(" (an event a program or another outside source sends is declared in project.toml's [events])");
+    Some(text)
+}
+
+/// The produced event nearest `name` as net `net`'s file writes it, if
+/// close: a template's instance writes its vehicle's events unqualified,
+/// a team net qualified (`engine_failure@R2`).
+fn nearest_produced(project: &Project, net: NetId, name: &str) -> Option<String> {
+    let written = if project.nets[net].vehicle.is_some() {
+        base(project, name)
+    } else {
+        name
+    };
+    let (word, vehicle) = match project.vehicle_event(written) {
+        Some((b, v)) => (b, Some(project.vehicles[v].name.as_str())),
+        None => (written, None),
+    };
+    // A vehicle's event: its base among the events that have vehicles'.
+    let mut known: BTreeSet<String> = project
+        .events
+        .keys()
+        .cloned()
+        .chain(emits_all(project).map(|e| base(project, e).to_owned()))
+        .collect();
+    if vehicle.is_none() {
+        let n = &project.nets[net];
+        known.extend(n.timers.iter().cloned());
+        known.extend(results_of(project, net));
+        known.extend(answers_of(project, net));
+        known.insert(names::NET_FAULT.to_owned());
+        if commands(project, net) {
+            known.insert(names::COMMAND_OK.to_owned());
+            known.insert(names::COMMAND_FAILED.to_owned());
+        }
+    }
+    let meant = crate::suggest::nearest(word, known.iter().map(String::as_str))?;
+    Some(match vehicle {
+        Some(v) => crate::model::qualify(meant, v),
+        None => meant.to_owned(),
+    })
+}
+
+/// Every event some net emits, as written (qualified when it names a
+/// vehicle).
+fn emits_all(project: &Project) -> impl Iterator<Item = &str> {
+    project
+        .nets
+        .iter()
+        .flat_map(|n| &n.transitions)
+        .flat_map(|t| &t.actions)
+        .filter_map(|a| match a {
+            Action::Emit { event, .. } => Some(event.as_str()),
+            _ => None,
+        })
+}
+
+/// Whether some net emits exactly `name`.
+fn emits(project: &Project, name: &str) -> bool {
+    emits_all(project).any(|e| e == name)
+}
+
+/// Whether net `net` commands the vehicle (and so hears `command.ok` and
+/// `command.failed`).
+fn commands(project: &Project, net: NetId) -> bool {
+    project.nets[net]
+        .transitions
+        .iter()
+        .flat_map(|t| &t.actions)
+        .any(|a| matches!(a, Action::Command { .. }))
+}
+
+/// `PROGRAM.FUNCTION.done` and `.failed` of each call net `net` makes.
+fn results_of(project: &Project, net: NetId) -> impl Iterator<Item = String> + '_ {
+    project.nets[net]
+        .transitions
+        .iter()
+        .flat_map(|t| &t.actions)
+        .filter_map(|a| match a {
+            Action::Call {
+                program, function, ..
+            } => {
+                let p = &project.programs[*program];
+                Some(format!("{}.{}", p.name, p.functions[*function].name))
+            }
+            _ => None,
+        })
+        .flat_map(|f| {
+            [
+                format!("{f}.{}", names::DONE),
+                format!("{f}.{}", names::FAILED),
+            ]
+        })
+}
+
+/// `NAME.CHOICE` of each question net `net` asks (the timeouts are its
+/// timers).
+fn answers_of(project: &Project, net: NetId) -> impl Iterator<Item = String> + '_ {
+    project.nets[net]
+        .asks
+        .iter()
+        .flat_map(|a| a.choices.iter().map(|c| a.answer_event(c)))
 }
 
 #[cfg(test)]

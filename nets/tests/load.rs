@@ -417,3 +417,169 @@ fn choices_that_decide_nothing_report_the_exact_problem_and_position() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Loads `project.toml` and `n.toml` knowing the outside: an elaboration
+/// catalog of `ready_for_takeoff` only; "file:line:col: message" for every
+/// problem.
+fn problems_knowing_the_outside(project: &str, net: &str) -> Vec<String> {
+    let files: BTreeMap<String, String> = [
+        ("project.toml".to_owned(), project.to_owned()),
+        ("n.toml".to_owned(), net.to_owned()),
+    ]
+    .into();
+    let mut catalog = nets::load::Catalog::new();
+    catalog.insert("ready_for_takeoff".to_owned(), Default::default());
+    match nets::load_with(&files, &catalog) {
+        Ok(_) => Vec::new(),
+        Err(e) => e.problems.iter().map(|p| p.to_string()).collect(),
+    }
+}
+
+const OUTSIDE_PROJECT: &str = r#"[events]
+engine_failure = "catastrophic"
+[programs.DEC.functions]
+next = { returns = ["lat"] }
+[[net]]
+file = "n.toml"
+active = true
+"#;
+
+/// A net N whose transition `t` waits for `on`, with a transition `u`
+/// doing `u_do` on `ready_for_takeoff` beside it.
+fn awaiting(on: &str, u_do: &str) -> String {
+    format!(
+        "{HEAD}[[transition]]\nname = \"u\"\nfrom = [\"a\"]\nto = [\"a\"]\non = \"ready_for_takeoff\"\ndo = [{u_do}]\n\n[[transition]]\nname = \"t\"\nfrom = [\"a\"]\nto = [\"b\"]\non = \"{on}\"\n"
+    )
+}
+
+#[test]
+fn a_typo_in_an_awaited_event_is_a_load_error_with_the_name_meant() {
+    let net = awaiting("engine_failur", "");
+    assert_eq!(
+        problems_knowing_the_outside(OUTSIDE_PROJECT, &net),
+        ["n.toml:15:6: event `engine_failur` (awaited by N.t) is produced by nothing: no elaboration rule or [events] declaration, no net emits it, and it is no timer, answer or result of N; did you mean `engine_failure`? (an event a program or another outside source sends is declared in project.toml's [events])"]
+    );
+    // The catalog's events are suggested too; a name far from every
+    // produced one gets no suggestion.
+    let p = problems_knowing_the_outside(OUTSIDE_PROJECT, &awaiting("ready_for_takeof", ""));
+    assert!(p[0].contains("did you mean `ready_for_takeoff`?"), "{p:?}");
+    let p = problems_knowing_the_outside(OUTSIDE_PROJECT, &awaiting("battery_low", ""));
+    assert_eq!(p.len(), 1, "{p:?}");
+    assert!(
+        p[0].starts_with(
+            "n.toml:15:6: event `battery_low` (awaited by N.t) is produced by nothing"
+        ),
+        "{p:?}"
+    );
+    assert!(!p[0].contains("did you mean"), "{p:?}");
+    // Not knowing the outside (`load`, no profile), it may come from
+    // elaboration: it loads, and `petrel check`'s warning is the same text.
+    let files: BTreeMap<String, String> = [
+        ("project.toml".to_owned(), OUTSIDE_PROJECT.to_owned()),
+        ("n.toml".to_owned(), net),
+    ]
+    .into();
+    let project = nets::load(&files).expect("loads without a profile");
+    let warnings = nets::verify::project::static_warnings(&project);
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.text.contains("did you mean `engine_failure`?")),
+        "{warnings:?}"
+    );
+}
+
+#[test]
+fn every_producer_of_an_awaited_event_is_known_to_the_loader() {
+    // (the event `t` waits for, what `u` does on ready_for_takeoff)
+    let produced = [
+        // [events] and the catalog (elaboration).
+        ("engine_failure", ""),
+        ("ready_for_takeoff", ""),
+        // A net's emit.
+        ("go", "\"emit go\""),
+        // Its own timer, its own question's answer and timeout.
+        ("w", "\"timer w after 5s\""),
+        (
+            "q.yes",
+            r#""ask q \"Go?\" {choices: [yes, no]} timeout 10s""#,
+        ),
+        (
+            "q.timeout",
+            r#""ask q \"Go?\" {choices: [yes, no]} timeout 10s""#,
+        ),
+        // The results of its own call and command; net_fault.
+        ("DEC.next.done", "\"call DEC.next\""),
+        ("DEC.next.failed", "\"call DEC.next\""),
+        ("command.ok", "\"command arm\""),
+        ("command.failed", "\"command arm\""),
+        ("net_fault", ""),
+    ];
+    for (on, u_do) in produced {
+        assert_eq!(
+            problems_knowing_the_outside(OUTSIDE_PROJECT, &awaiting(on, u_do)),
+            Vec::<String>::new(),
+            "{on} after {u_do}"
+        );
+    }
+    // Results and answers nobody asked for, another question's answer: a
+    // net hears only its own.
+    let unproduced = [
+        ("DEC.next.done", ""),
+        ("command.ok", "\"call DEC.next\""),
+        (
+            "q.maybe",
+            r#""ask q \"Go?\" {choices: [yes, no]} timeout 10s""#,
+        ),
+        ("w", "\"emit go\""),
+    ];
+    for (on, u_do) in unproduced {
+        let p = problems_knowing_the_outside(OUTSIDE_PROJECT, &awaiting(on, u_do));
+        assert_eq!(p.len(), 1, "{on} after {u_do}: {p:?}");
+        assert!(
+            p[0].starts_with(&format!(
+                "n.toml:15:6: event `{on}` (awaited by N.t) is produced by nothing"
+            )),
+            "{p:?}"
+        );
+    }
+    // A program or a script sending it: declared in [events], it loads.
+    let declared = format!("[events.obstacle]\nparams = [\"range\"]\n{OUTSIDE_PROJECT}");
+    assert_eq!(
+        problems_knowing_the_outside(&declared, &awaiting("obstacle", "")),
+        Vec::<String>::new()
+    );
+}
+
+#[test]
+fn a_vehicle_s_event_of_a_family_the_nets_emit_for_others_only_is_a_load_error() {
+    // The four-robot fixture: SYNC tells R1 and R2 only to `detour` and
+    // `resume`; R3's and R4's CORRIDOR wait in vain. One problem per `on`,
+    // naming every instance.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/ugv4");
+    let files: BTreeMap<String, String> = std::fs::read_dir(&dir)
+        .expect("the fixture")
+        .filter_map(|e| e.ok())
+        .filter_map(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let text = std::fs::read_to_string(e.path()).ok()?;
+            name.ends_with(".toml").then_some((name, text))
+        })
+        .collect();
+    assert!(nets::load(&files).is_ok(), "without a profile, it loads");
+    let e = nets::load_with(&files, &nets::load::Catalog::new()).expect_err("refused");
+    let p: Vec<String> = e.problems.iter().map(|p| p.to_string()).collect();
+    assert_eq!(p.len(), 4, "{p:#?}");
+    assert_eq!(
+        p[0],
+        "corridor.toml:100:6: event `detour@R3` (awaited by CORRIDOR@R3.told) is produced by nothing: of its family `detour` the nets emit `detour@R1`, `detour@R2` only, and no program or script may send it ([events] does not declare `detour`); so too in CORRIDOR@R4"
+    );
+}
+
+#[test]
+fn a_team_net_s_typo_is_suggested_with_its_vehicle() {
+    let project = "[events]\nengine_failure = \"catastrophic\"\n[[vehicle]]\nname = \"R1\"\nsystem = 1\n[[net]]\nfile = \"n.toml\"\nactive = true\n";
+    let p = problems_knowing_the_outside(project, &awaiting("engine_failur@R1", ""));
+    assert_eq!(p.len(), 1, "{p:?}");
+    assert!(p[0].contains("did you mean `engine_failure@R1`?"), "{p:?}");
+}

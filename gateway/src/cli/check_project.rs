@@ -47,7 +47,7 @@ pub fn run(
     let Some(profile) = layers.load() else {
         return Ok(Outcome::BadInput);
     };
-    let (project, files) = crate::project::load_read(dir, &profile.catalog())?;
+    let (project, files) = crate::project::load_read(dir, &crate::project::catalog(&profile))?;
     let name = if project.name.is_empty() {
         dir.file_name().map_or_else(
             || dir.display().to_string(),
@@ -149,6 +149,7 @@ pub fn report_json(r: &Report, seconds: f64) -> Value {
         "unsafe_example": r.unsafe_example,
         "livelocks": r.livelocks,
         "loops": r.loops,
+        "relies": r.relies,
         "warnings": r.warnings,
         "complete": r.complete,
         "seconds": seconds,
@@ -293,23 +294,45 @@ fn section(out: &mut String, title: &str, r: &Report, loops: bool) {
             out.push_str(&format!("    - {}\n", l.join("  ⟶  ")));
         }
     }
+    if !r.relies.is_empty() {
+        // By design, usually: the project level above is the verdict.
+        out.push_str(&format!(
+            "  nets relying on others (information): {}\n",
+            r.relies.len()
+        ));
+        for w in &r.relies {
+            out.push_str(&format!("    - {w}\n"));
+        }
+    }
     for w in &r.warnings {
         out.push_str(&format!("  warning: {w}\n"));
     }
 }
 
 /// One line for a net alone (the single-procedure level), with the
-/// examples of what fails and its own warnings.
-fn alone_section(out: &mut String, r: &Report) {
+/// examples of what fails and its own warnings. What it shows alone and
+/// not in its project (`in_project`) it owes to the other nets: said in
+/// lower case, as information.
+fn alone_section(out: &mut String, r: &Report, in_project: &Report) {
     let mut verdicts = vec![
-        if r.safe { "safe" } else { "UNSAFE" },
+        if r.safe {
+            "safe"
+        } else if in_project.safe {
+            "a double token without the other nets"
+        } else {
+            "UNSAFE"
+        },
         if r.dead_markings == 0 {
             "no deadlock"
+        } else if in_project.dead_markings == 0 {
+            "dead without the other nets"
         } else {
             "DEADLOCK"
         },
         if r.livelocks.is_empty() {
             "no livelock"
+        } else if in_project.livelocks.is_empty() {
+            "a livelock without the other nets"
         } else {
             "LIVELOCK"
         },
@@ -366,11 +389,12 @@ pub fn human(name: &str, report: &ProjectReport, seconds: f64) -> String {
     for (i, (net, r)) in report.nets.iter().enumerate() {
         out.push('\n');
         let mut r = r.clone();
-        // Warnings already printed for the project.
+        // Warnings and information already printed for the project.
         r.warnings.retain(|w| !report.project.warnings.contains(w));
+        r.relies.retain(|w| !report.project.relies.contains(w));
         section(&mut out, &format!("net {net}"), &r, true);
         if let Some(alone) = report.alone.get(i) {
-            alone_section(&mut out, alone);
+            alone_section(&mut out, alone, &r);
         }
     }
     out.push_str(&format!(

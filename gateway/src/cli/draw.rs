@@ -29,7 +29,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> VerbResult {
-    let project = crate::project::load(&args.project)?;
+    let Some(project) = super::load_profiled(&args.project)? else {
+        return Ok(Outcome::BadInput);
+    };
     let net = match &args.net {
         None => None,
         Some(name) => Some(project.net(name).ok_or_else(|| {

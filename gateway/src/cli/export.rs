@@ -18,7 +18,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> VerbResult {
-    let project = crate::project::load(&args.project)?;
+    let Some(project) = super::load_profiled(&args.project)? else {
+        return Ok(Outcome::BadInput);
+    };
     std::fs::create_dir_all(&args.pnml)
         .map_err(|e| miette::miette!("cannot create {}: {e}", args.pnml.display()))?;
     for (n, net) in project.nets.iter().enumerate() {

@@ -107,7 +107,7 @@ pub fn run(args: Args) -> VerbResult {
     let Some(profile) = layers.load() else {
         return Ok(super::Outcome::BadInput);
     };
-    let project = crate::project::load_with(&args.project, &profile.catalog())?;
+    let project = crate::project::load_with(&args.project, &crate::project::catalog(&profile))?;
     let Some(address) = args.mavlink.clone().or_else(|| get("mirror_mavlink")) else {
         return Err(miette::miette!(
             "no MAVLink link: give --mavlink ADDRESS (the ground's telemetry, e.g. udpin:0.0.0.0:14551 from mavlink-router or MAVProxy --out)"

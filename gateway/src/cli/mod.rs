@@ -42,3 +42,39 @@ impl From<Outcome> for ExitCode {
 /// A verb's result: an outcome, or an error for people (printed with miette,
 /// exit status 2).
 pub type VerbResult = Result<Outcome, miette::Report>;
+
+/// Loads the project knowing the events of its elaboration profile
+/// (`[gateway] profile`, else ArduPilot's), as `petrel check` does without
+/// `--profile`: for the verbs that take no profile (`draw`, `export`,
+/// `stubs`). `None`: the profile does not load (already said).
+pub fn load_profiled(
+    dir: &std::path::Path,
+) -> Result<Option<std::sync::Arc<nets::Project>>, miette::Report> {
+    let setting = match crate::project::gateway_setting(dir, "profile") {
+        Ok(s) => s,
+        Err(e) => {
+            // No project, or broken TOML: the loader says it best.
+            crate::project::load(dir)?;
+            return Err(e);
+        }
+    };
+    let layers = crate::profile::Layers::pick(None, Some((dir, setting.as_deref())), "ardupilot")?;
+    let Some(profile) = layers.load() else {
+        return Ok(None);
+    };
+    crate::project::load_with(dir, &crate::project::catalog(&profile)).map(Some)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_loader_knows_every_event_the_gateway_raises() {
+        assert_eq!(
+            crate::project::RAISED,
+            [
+                crate::programs::session::PROGRAM_LOST,
+                crate::link::rejections::SIGNATURE_REJECTED
+            ]
+        );
+    }
+}

@@ -50,7 +50,7 @@ pub fn run(args: Args) -> VerbResult {
     let Some(profile) = layers.load() else {
         return Ok(Outcome::BadInput);
     };
-    let project = crate::project::load_with(&args.project, &profile.catalog())?;
+    let project = crate::project::load_with(&args.project, &crate::project::catalog(&profile))?;
     let text = std::fs::read_to_string(&args.events)
         .map_err(|e| miette::miette!("cannot read {}: {e}", args.events.display()))?;
     let lines = script::parse(&text)

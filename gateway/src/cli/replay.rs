@@ -82,7 +82,7 @@ pub fn run(args: Args) -> VerbResult {
     else {
         return Ok(Outcome::BadInput);
     };
-    let project = crate::project::load_with(&args.project, &profile.catalog())?;
+    let project = crate::project::load_with(&args.project, &crate::project::catalog(&profile))?;
     let records: Vec<_> = TlogReader::new(&bytes).collect();
     let Some(first) = records.first() else {
         return Err(miette::miette!(

@@ -206,7 +206,8 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     let Some(profile) = layers.load() else {
         return Ok(Err(Outcome::BadInput));
     };
-    let (project, files) = crate::project::load_read(&args.project, &profile.catalog())?;
+    let (project, files) =
+        crate::project::load_read(&args.project, &crate::project::catalog(&profile))?;
     if !project.vehicles.is_empty() && vehicle.system.is_some() {
         say!(
             "warning: [gateway] system_id is not used by a team project: each [[vehicle]] names its system"

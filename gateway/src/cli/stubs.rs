@@ -35,7 +35,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> VerbResult {
-    let project = crate::project::load(&args.project)?;
+    let Some(project) = super::load_profiled(&args.project)? else {
+        return Ok(Outcome::BadInput);
+    };
     let lang = match args.lang {
         Language::Python => Lang::Python,
         Language::Rust => Lang::Rust,

@@ -818,7 +818,7 @@ fn load(dir: &Path) -> Result<Arc<Project>, Loaded> {
     })?;
     nets::load_with(
         &crate::project::Folder(dir.to_path_buf()),
-        &profile.catalog(),
+        &crate::project::catalog(&profile),
     )
     .map(Arc::new)
     .map_err(Loaded::Problems)

@@ -21,7 +21,8 @@ pub(crate) fn example() -> (Arc<Project>, elaboration::Profile) {
     let layers =
         crate::profile::Layers::pick(None, Some((&dir, given)), "ardupilot").expect("profile");
     let profile = layers.load().expect("profile loads");
-    let project = crate::project::load_with(&dir, &profile.catalog()).expect("project loads");
+    let project =
+        crate::project::load_with(&dir, &crate::project::catalog(&profile)).expect("project loads");
     (project, profile)
 }
 

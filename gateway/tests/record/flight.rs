@@ -42,8 +42,11 @@ pub fn tlog() -> Option<Vec<u8>> {
 
 pub fn project() -> Arc<Project> {
     let profile = Profile::builtin("ardupilot").expect("the built-in profile");
-    crate::project::load_with(&root().join("examples/uav-survey"), &profile.catalog())
-        .expect("the example project loads")
+    crate::project::load_with(
+        &root().join("examples/uav-survey"),
+        &crate::project::catalog(&profile),
+    )
+    .expect("the example project loads")
 }
 
 /// What the flight fed the Supervisor.

@@ -16,8 +16,11 @@
 //! explored as in the project.
 //!
 //! [`relies`] compares the two levels: a violation found alone that the net
-//! in its project does not show means the net relies on the other nets; it
-//! is reported as a warning, the project level staying authoritative.
+//! in its project does not show means the net relies on the other nets;
+//! it is reported as information (a design usually intends it: a net
+//! waiting for a global place another fills is dead alone), the project
+//! level staying authoritative. An alone exploration cut short by the
+//! state limit is a warning ([`incomplete`]).
 
 use crate::model::{Action, NetId, Project};
 
@@ -56,9 +59,8 @@ pub(super) fn project_alone(project: &Project, x: NetId) -> Project {
     alone
 }
 
-/// The warnings for net `name` when it alone shows a violation that it does
-/// not show in its project (it relies on the other nets), or when its alone
-/// exploration was cut short.
+/// What net `name` alone shows that it does not show in its project: it
+/// relies on the other nets (information, see the module doc).
 pub(super) fn relies(name: &str, alone: &Report, in_project: &Report) -> Vec<String> {
     let mut out = Vec::new();
     let because = |what: &str, steps: &[String]| {
@@ -80,12 +82,14 @@ pub(super) fn relies(name: &str, alone: &Report, in_project: &Report) -> Vec<Str
             out.push(because("livelock", first));
         }
     }
-    if !alone.complete {
-        out.push(format!(
-            "{name} alone: state limit reached: its single-procedure verdict is incomplete"
-        ));
-    }
     out
+}
+
+/// The warning for net `name` when its alone exploration was cut short.
+pub(super) fn incomplete(name: &str, alone: &Report) -> Option<String> {
+    (!alone.complete).then(|| {
+        format!("{name} alone: state limit reached: its single-procedure verdict is incomplete")
+    })
 }
 
 /// A sequence of steps on one line.

@@ -154,6 +154,11 @@ pub struct Report {
     pub livelocks: Vec<Vec<String>>,
     /// Other cycles of firing steps (information: a waypoint loop).
     pub loops: Vec<Vec<String>>,
+    /// What a net alone shows that it does not show in its project: it
+    /// relies on the other nets (information, as a design usually
+    /// intends: a net waiting for a global place another fills is dead
+    /// alone). The whole project's report lists every net's.
+    pub relies: Vec<String>,
     pub warnings: Vec<String>,
     /// False when the state limit stopped the exploration.
     pub complete: bool,
@@ -320,6 +325,10 @@ pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
         // produced by nothing) say nothing of the net: left out.
         let a = explored.verdict(Some(n), false);
         for w in super::alone::relies(name, &a, in_project) {
+            in_project.relies.push(w.clone());
+            whole.relies.push(w);
+        }
+        if let Some(w) = super::alone::incomplete(name, &a) {
             in_project.warnings.push(w.clone());
             whole.warnings.push(w);
         }

@@ -9,7 +9,7 @@
 use std::collections::BTreeSet;
 
 use super::ptnet::PtNet;
-use crate::model::{names, Action, NetId, Project, TransitionId};
+use crate::model::{Action, NetId, Project, TransitionId};
 
 pub(super) fn emitted_events(project: &Project) -> BTreeSet<String> {
     project
@@ -68,43 +68,15 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
             }
         }
     }
-    // Events consumed that nothing produces.
-    let emitted = emitted_events(project);
+    // Events consumed that nothing produces: a load error when the project
+    // was loaded knowing its elaboration profile (`load_with`), so found
+    // here only in a project loaded without (`load`).
     for (ni, net) in project.nets.iter().enumerate() {
         for t in &net.transitions {
             let Some(e) = &t.event else { continue };
-            let produced = crate::outside::declared(project, e)
-                || emitted.contains(e)
-                || net.timers.contains(e)
-                || e == names::NET_FAULT
-                || ((e == names::COMMAND_OK || e == names::COMMAND_FAILED)
-                    && issues(project, ni, |a| matches!(a, Action::Command { .. })))
-                || result_called(project, ni, e);
-            if !produced && crate::outside::emitted(project, e) {
-                // The family is the nets' own (outside.rs), emitted for
-                // other vehicles only: no program or script may send it.
-                let base = crate::outside::base(project, e);
-                let family: Vec<String> = emitted
-                    .iter()
-                    .filter(|x| crate::outside::base(project, x) == base)
-                    .map(|x| format!("`{x}`"))
-                    .collect();
+            if let Some(text) = crate::outside::produced_by_nothing(project, ni, &t.name, e) {
                 out.push(Warning {
-                    text: format!(
-                        "event `{e}` (awaited by {}.{}) is produced by nothing: of its family `{base}` the nets emit {} only, and no program or script may send it ([events] does not declare `{base}`)",
-                        net.name,
-                        t.name,
-                        family.join(", ")
-                    ),
-                    nets: vec![ni],
-                    conflict: None,
-                });
-            } else if !produced {
-                out.push(Warning {
-                    text: format!(
-                        "event `{e}` (awaited by {}.{}) is produced by nothing: no elaboration rule or [events] declaration, no net emits it, and it is no timer or result of {}",
-                        net.name, t.name, net.name
-                    ),
+                    text,
                     nets: vec![ni],
                     conflict: None,
                 });
@@ -112,7 +84,7 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
         }
     }
     // Events emitted that nothing consumes.
-    for e in &emitted {
+    for e in &emitted_events(project) {
         if !project.triggers.contains_key(e) {
             let nets = (0..project.nets.len())
                 .filter(|&n| {
@@ -139,21 +111,6 @@ fn issues(project: &Project, net: NetId, pred: impl Fn(&Action) -> bool) -> bool
         .iter()
         .flat_map(|t| &t.actions)
         .any(pred)
-}
-
-/// Whether `event` is the result of a call net `n` makes.
-fn result_called(project: &Project, n: NetId, event: &str) -> bool {
-    issues(project, n, |a| match a {
-        Action::Call {
-            program, function, ..
-        } => {
-            let p = &project.programs[*program];
-            let base = format!("{}.{}", p.name, p.functions[*function].name);
-            event == format!("{base}.{}", names::DONE)
-                || event == format!("{base}.{}", names::FAILED)
-        }
-        _ => false,
-    })
 }
 
 /// The plain token game of a project: every net's places and transitions in

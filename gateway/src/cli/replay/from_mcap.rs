@@ -99,7 +99,7 @@ pub(crate) fn open(
         return Ok(None);
     };
     let dir = project;
-    let project = crate::project::load_with(dir, &profile.catalog())?;
+    let project = crate::project::load_with(dir, &crate::project::catalog(&profile))?;
     let family = if setup.layers.is_empty() {
         if setup.profile == "px4" {
             "px4"

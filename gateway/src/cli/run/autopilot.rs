@@ -91,7 +91,7 @@ pub(super) fn adopt(
     let Some(profile) = layers.load() else {
         return Err(miette::miette!("the {base} profile does not load"));
     };
-    setup.project = crate::project::load_with(&setup.dir, &profile.catalog())?;
+    setup.project = crate::project::load_with(&setup.dir, &crate::project::catalog(&profile))?;
     setup.profile = profile;
     setup.layers = layers;
     Ok(())

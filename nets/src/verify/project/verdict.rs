@@ -386,6 +386,7 @@ impl Explored {
             unsafe_example: first_unsafe.map(with_step),
             livelocks: livelocks.into_iter().map(with_step).collect(),
             loops,
+            relies: Vec::new(),
             warnings,
             complete: space.complete,
             reduction: Reduction::default(),
