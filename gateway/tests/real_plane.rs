@@ -280,6 +280,7 @@ fn engine_failure_glides_to_the_site_dec_picked_and_another_position_picks_anoth
         return;
     };
     let mut sites = Vec::new();
+    let mut unreachable = Vec::new();
     for (name, f) in [("engine-early", &early), ("engine-late", &late)] {
         ended_well(name, f);
         let heard = events(f);
@@ -310,11 +311,35 @@ fn engine_failure_glides_to_the_site_dec_picked_and_another_position_picks_anoth
             "{name}: landed {distance:.0} m from {site_name}"
         );
         sites.push(site_name);
+        // DEC's answer says whether the site is within the glide; when it
+        // is not, CATASTROPHIC says so (issue 40: it was only a parameter
+        // in the log) and flies to the nearest all the same.
+        let reachable = f.flown.timeline.iter().find_map(|l| {
+            (l["input"] == "reply")
+                .then(|| l["params"]["reachable"].as_bool())
+                .flatten()
+        });
+        let said = f
+            .flown
+            .timeline
+            .iter()
+            .any(|l| l["event"] == "site_out_of_reach");
+        eprintln!("{name}: DEC's site reachable: {reachable:?}; site_out_of_reach said: {said}");
+        assert_eq!(
+            said,
+            reachable == Some(false),
+            "{name}: reachable {reachable:?}"
+        );
+        unreachable.push(reachable == Some(false));
     }
     assert_ne!(
         sites[0], sites[1],
         "both engine failures landed at {}",
         sites[0]
+    );
+    assert!(
+        unreachable.contains(&true),
+        "no engine failure out of every site's reach: {unreachable:?}"
     );
 }
 

@@ -302,7 +302,7 @@ on = "ghost"
     assert!(has("transition A.second can never fire"), "{w:#?}");
     assert!(has("transition A.dead can never fire"), "{w:#?}");
     assert!(
-        has("event `shout` is emitted but no transition waits for it"),
+        has("event `shout` is emitted but no transition waits for it (declare it in [events] if it is meant for the crew or a program)"),
         "{w:#?}"
     );
     assert!(
@@ -318,6 +318,39 @@ on = "ghost"
         b.warnings
     );
     assert!(report.holds(), "warnings do not fail a check");
+}
+
+/// An event emitted for the crew (the timeline, the page) and declared in
+/// `[events]` is intended: no warning (the flight-test example's
+/// `site_out_of_reach`).
+#[test]
+fn an_emitted_event_declared_for_the_crew_is_no_warning() {
+    let net = r#"name = "A"
+places = ["p", "q"]
+initial = ["p"]
+final = ["q"]
+[[transition]]
+name = "first"
+from = ["p"]
+to = ["q"]
+on = "e"
+do = ["emit shout"]
+"#;
+    let declared = verify(&[
+        (
+            "project.toml",
+            "[events]
+e = \"nominal\"
+shout = \"mission\"
+[[net]]
+file = \"a.toml\"
+active = true
+",
+        ),
+        ("a.toml", net),
+    ]);
+    let w = &declared.project.warnings;
+    assert!(w.iter().all(|x| !x.contains("shout")), "{w:#?}");
 }
 
 #[test]

@@ -83,9 +83,11 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
             }
         }
     }
-    // Events emitted that nothing consumes.
+    // Events emitted that nothing consumes, unless declared in `[events]`:
+    // an event meant for the crew (the timeline, the page, the mirror) or
+    // for a program, not a misspelt one.
     for e in &emitted_events(project) {
-        if !project.triggers.contains_key(e) {
+        if !project.triggers.contains_key(e) && !project.events.contains_key(e) {
             let nets = (0..project.nets.len())
                 .filter(|&n| {
                     issues(
@@ -96,7 +98,7 @@ pub fn static_warnings(project: &Project) -> Vec<Warning> {
                 })
                 .collect();
             out.push(Warning {
-                text: format!("event `{e}` is emitted but no transition waits for it"),
+                text: format!("event `{e}` is emitted but no transition waits for it (declare it in [events] if it is meant for the crew or a program)"),
                 nets,
                 conflict: None,
             });
