@@ -164,8 +164,15 @@ fn a_project_that_does_not_load_prints_each_problem_once_with_its_caret_and_one_
         let (code, out, err) = petrel(&args);
         assert_eq!(code, 2, "{args:?}: {out}{err}");
         assert_eq!(err.matches(problem).count(), 1, "{args:?}: once:\n{err}");
-        assert_eq!(err.matches("zzz").count(), 2, "{args:?}: the message and the line:\n{err}");
-        assert!(err.contains(" 7 │ to = [\"zzz\"]"), "{args:?}: the line:\n{err}");
+        assert_eq!(
+            err.matches("zzz").count(),
+            2,
+            "{args:?}: the message and the line:\n{err}"
+        );
+        assert!(
+            err.contains(" 7 │ to = [\"zzz\"]"),
+            "{args:?}: the line:\n{err}"
+        );
         assert!(err.contains("╰── here"), "{args:?}: the caret:\n{err}");
         assert_eq!(err.matches(&closing).count(), 1, "{args:?}:\n{err}");
         let last = err.trim_end().lines().last().unwrap_or("");
