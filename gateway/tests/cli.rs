@@ -272,15 +272,18 @@ fn export_writes_pnml_that_check_reads_and_draw_writes_dot() {
 
 /// `../shared` beside the workspace root, or why the test cannot run.
 fn shared() -> Option<PathBuf> {
-    let dir = root().join("../shared");
-    if dir.is_dir() {
+    let dir = sitl_tests::skip::shared_dir();
+    if dir.join("telemetry").is_dir() {
         return Some(dir);
     }
     assert!(
         std::env::var("CI").as_deref() != Ok("true"),
         "../shared is missing beside the workspace root, and CI=true"
     );
-    eprintln!("skipped: ../shared is missing beside the workspace root");
+    sitl_tests::skip::skip(&format!(
+        "{} is missing (../shared beside the workspace root)",
+        dir.join("telemetry").display()
+    ));
     None
 }
 
@@ -394,7 +397,7 @@ fn no_verb_panics_when_stdout_and_stderr_cannot_be_written() {
             std::env::var("CI").as_deref() != Ok("true"),
             "/dev/full is missing"
         );
-        eprintln!("skipped: no /dev/full on this system");
+        sitl_tests::skip::skip("no /dev/full on this system");
         return;
     }
     let dir = Scratch::new("full");
