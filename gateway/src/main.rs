@@ -138,7 +138,7 @@ fn main() -> ExitCode {
     match outcome {
         Ok(code) => code.into(),
         Err(failure) => {
-            say!("{failure:?}");
+            say!("{}", project::for_people(&failure));
             cli::Outcome::BadInput.into()
         }
     }

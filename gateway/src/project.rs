@@ -85,11 +85,55 @@ pub fn load_read(
         folder: Folder(dir.to_path_buf()),
         read: std::sync::Mutex::new(Vec::new()),
     };
-    let project = nets::load_with(&sources, catalog).map_err(|e| {
-        miette::Report::new(e).context(format!("cannot load project {}", dir.display()))
+    let project = nets::load_with(&sources, catalog).map_err(|e| Unloadable {
+        dir: dir.to_path_buf(),
+        problems: e.problems,
     })?;
     let read = sources.read.into_inner().unwrap_or_else(|e| e.into_inner());
     Ok((Arc::new(project), read))
+}
+
+/// A project that does not load: every problem the loader found. Printed
+/// for people by [`for_people`]: each problem once, with its line and
+/// caret, then this one closing line.
+#[derive(Debug)]
+pub struct Unloadable {
+    pub dir: PathBuf,
+    pub problems: Vec<nets::source::Problem>,
+}
+
+impl std::fmt::Display for Unloadable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = self.problems.len();
+        write!(
+            f,
+            "cannot load project {}: {n} problem{} in the project",
+            self.dir.display(),
+            if n == 1 { "" } else { "s" }
+        )
+    }
+}
+
+impl std::error::Error for Unloadable {}
+
+impl miette::Diagnostic for Unloadable {}
+
+/// A verb's failure as people read it: a project that does not load is
+/// each of its problems (`file:line:col`, the line and a caret), then one
+/// closing line; anything else as miette renders it.
+pub fn for_people(failure: &miette::Report) -> String {
+    let Some(unloadable) = failure.downcast_ref::<Unloadable>() else {
+        return format!("{failure:?}").trim_end().to_owned();
+    };
+    let mut text = String::new();
+    for problem in &unloadable.problems {
+        text.push_str(&format!("{:?}", miette::Report::new(problem.clone())));
+        if !text.ends_with('\n') {
+            text.push('\n');
+        }
+    }
+    text.push_str(format!("{failure:?}").trim_end());
+    text
 }
 
 /// A folder that remembers what was read from it.

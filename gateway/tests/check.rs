@@ -46,16 +46,14 @@ fn pnml_file(name: &str, body: &str) -> (Scratch, PathBuf) {
 }
 
 fn shared_pnml(file: &str) -> Option<String> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/pnml")
-        .join(file);
+    let path = sitl_tests::skip::shared_dir().join("pnml").join(file);
     if path.is_file() {
         return Some(path.display().to_string());
     }
     if std::env::var("CI").as_deref() == Ok("true") {
         panic!("{} is missing (CI=true)", path.display());
     }
-    eprintln!("SKIPPED: {} not found", path.display());
+    sitl_tests::skip::skip(&format!("{} not found", path.display()));
     None
 }
 

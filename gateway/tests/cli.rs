@@ -139,6 +139,52 @@ fn play_reports_bad_input_with_exit_2() {
 }
 
 #[test]
+fn a_project_that_does_not_load_prints_each_problem_once_with_its_caret_and_one_closing_line() {
+    let dir = Scratch::new("unloadable");
+    std::fs::write(
+        dir.join("project.toml"),
+        "[[net]]\nfile = \"m.toml\"\nactive = true\n",
+    )
+    .expect("write");
+    std::fs::write(
+        dir.join("m.toml"),
+        "name = \"M\"\nplaces = [\"a\", \"b\"]\ninitial = [\"a\"]\n[[transition]]\nname = \"go\"\nfrom = [\"a\"]\nto = [\"zzz\"]\non = \"go\"\n",
+    )
+    .expect("write");
+    let script = dir.join("s.jsonl");
+    std::fs::write(&script, "{\"t\": 1, \"event\": \"go\"}\n").expect("write");
+    let project = dir.to_str().expect("utf-8");
+    let problem = "m.toml:7:7: unknown place `zzz` in `to` of net `M`";
+    let closing = format!("cannot load project {project}: 1 problem in the project");
+    for args in [
+        vec!["check", project],
+        vec!["play", project, "--events", script.to_str().expect("utf-8")],
+        vec!["draw", project],
+    ] {
+        let (code, out, err) = petrel(&args);
+        assert_eq!(code, 2, "{args:?}: {out}{err}");
+        assert_eq!(err.matches(problem).count(), 1, "{args:?}: once:\n{err}");
+        assert_eq!(
+            err.matches("zzz").count(),
+            2,
+            "{args:?}: the message and the line:\n{err}"
+        );
+        assert!(
+            err.contains(" 7 │ to = [\"zzz\"]"),
+            "{args:?}: the line:\n{err}"
+        );
+        assert!(err.contains("╰── here"), "{args:?}: the caret:\n{err}");
+        assert_eq!(err.matches(&closing).count(), 1, "{args:?}:\n{err}");
+        let last = err.trim_end().lines().last().unwrap_or("");
+        assert!(last.ends_with(&closing), "{args:?}: closes with it:\n{err}");
+        assert!(
+            !err.lines().any(|l| l.trim() == "Error:"),
+            "{args:?}: no empty `Error:` line:\n{err}"
+        );
+    }
+}
+
+#[test]
 fn check_project_reports_for_people_and_as_json_with_exit_codes() {
     let (code, out, err) = petrel(&["check", "examples/uav-survey"]);
     assert_eq!(code, 0, "{out}{err}");
@@ -226,15 +272,18 @@ fn export_writes_pnml_that_check_reads_and_draw_writes_dot() {
 
 /// `../shared` beside the workspace root, or why the test cannot run.
 fn shared() -> Option<PathBuf> {
-    let dir = root().join("../shared");
-    if dir.is_dir() {
+    let dir = sitl_tests::skip::shared_dir();
+    if dir.join("telemetry").is_dir() {
         return Some(dir);
     }
     assert!(
         std::env::var("CI").as_deref() != Ok("true"),
         "../shared is missing beside the workspace root, and CI=true"
     );
-    eprintln!("skipped: ../shared is missing beside the workspace root");
+    sitl_tests::skip::skip(&format!(
+        "{} is missing (../shared beside the workspace root)",
+        dir.join("telemetry").display()
+    ));
     None
 }
 
@@ -349,7 +398,7 @@ fn no_verb_panics_when_stdout_and_stderr_cannot_be_written() {
             std::env::var("CI").as_deref() != Ok("true"),
             "/dev/full is missing"
         );
-        eprintln!("skipped: no /dev/full on this system");
+        sitl_tests::skip::skip("no /dev/full on this system");
         return;
     }
     let dir = Scratch::new("full");

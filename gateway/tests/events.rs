@@ -303,9 +303,7 @@ fn garbage_is_counted_not_fatal() {
 }
 
 fn shared_log(name: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/telemetry")
-        .join(name);
+    let path = sitl_tests::skip::shared_dir().join("telemetry").join(name);
     if path.is_file() {
         return Some(path);
     }
@@ -314,7 +312,7 @@ fn shared_log(name: &str) -> Option<PathBuf> {
         "{} is missing (CI=true)",
         path.display()
     );
-    println!("SKIPPED: {} is not there", path.display());
+    sitl_tests::skip::skip(&format!("{} is not there", path.display()));
     None
 }
 

@@ -695,14 +695,15 @@ fn payload_names_agree() {
 /// the built-in profile, and `emergency_landed` comes with `landed`.
 #[test]
 fn the_profile_layer_on_the_sitl_plane_flight() {
-    let tlog = root().join("../shared/telemetry/SITL_arduplane-4.7.0dev_auto_mission_land.tlog");
+    let tlog = sitl_tests::skip::shared_dir()
+        .join("telemetry/SITL_arduplane-4.7.0dev_auto_mission_land.tlog");
     if !tlog.is_file() {
         assert!(
             std::env::var("CI").as_deref() != Ok("true"),
             "{} is missing (CI=true)",
             tlog.display()
         );
-        println!("SKIPPED: {} is not there", tlog.display());
+        sitl_tests::skip::skip(&format!("{} is not there", tlog.display()));
         return;
     }
     let profile = format!("{PROJECT}/profile.toml");

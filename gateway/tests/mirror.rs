@@ -487,7 +487,7 @@ fn the_python_mcap_reader_reads_the_mirrors_recording(m: &Mirrored) {
     let probe = Command::new("python3").args(["-c", "import mcap"]).output();
     if !probe.is_ok_and(|o| o.status.success()) {
         assert!(!required, "the Python mcap package is missing, and CI=true");
-        eprintln!("skipped: python3 with the mcap package is not installed (pip install mcap)");
+        sitl_tests::skip::skip("python3 with the mcap package is not installed (pip install mcap)");
         return;
     }
     let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/record/read_mcap.py");

@@ -50,7 +50,7 @@ fn python_mcap() -> bool {
             !required(),
             "the Python mcap package is missing (pip install mcap), and CI=true"
         );
-        eprintln!("skipped the Python reader's checks: python3 with the mcap package is not installed (pip install mcap)");
+        sitl_tests::skip::skip("the Python reader's checks: python3 with the mcap package is not installed (pip install mcap)");
     }
     ok
 }
@@ -321,9 +321,10 @@ fn a_full_disk_stops_the_recording_and_the_flight_goes_on() {
                 std::env::var("CI").as_deref() != Ok("true"),
                 "cannot mount a small tmpfs (unshare --mount; mount -t tmpfs), and CI=true: {why}"
             );
-            eprintln!(
-                "skipped: cannot mount a small tmpfs here (unshare --mount; mount -t tmpfs): {why}"
-            );
+            sitl_tests::skip::skip(&format!(
+                "cannot mount a small tmpfs here (unshare --mount; mount -t tmpfs): {}",
+                why.trim()
+            ));
             return;
         }
     };

@@ -332,7 +332,7 @@ fn pln_speaks_the_program_protocol() {
             Ok("true"),
             "python3 missing (CI=true)"
         );
-        eprintln!("SKIPPED: python3 not found");
+        sitl_tests::skip::skip("python3 not found");
         return;
     }
     let server = std::net::TcpListener::bind("127.0.0.1:0").expect("a port");

@@ -850,6 +850,58 @@ fn deactivation_removes_tokens_cancels_timers_forgets_calls_and_drops_late_resul
 }
 
 #[test]
+fn a_deactivated_net_reads_deactivated_not_as_an_empty_marking() {
+    // An active net may hold no token: its marking line is `(empty)`. A
+    // deactivation's marking says `deactivated`, as text and as JSON.
+    let p = project(&[
+        ("project.toml", LIFECYCLE),
+        ("boss.toml", BOSS),
+        ("worker.toml", WORKER),
+    ]);
+    let mut player = Player::start(p.clone(), 0);
+    fire(&mut player, &ev("hire"), S);
+    player.handle(&ev("fire"), 2 * S);
+    let effects = drain_effects(&mut player);
+    let text: Vec<String> = effects
+        .iter()
+        .map(|e| nets::player::effect_text(&p, e))
+        .collect();
+    assert!(
+        text.contains(&"mark   WORKER: deactivated".to_owned()),
+        "{text:?}"
+    );
+    let json: Vec<serde_json::Value> = effects
+        .iter()
+        .map(|e| nets::player::effect_json(&p, e))
+        .collect();
+    let mark = json
+        .iter()
+        .find(|j| j["effect"] == "marking" && j["net"] == "WORKER")
+        .expect("a marking for WORKER");
+    assert_eq!(mark["active"], false, "{mark}");
+    assert_eq!(mark["marked"], serde_json::json!([]));
+
+    // Back: an ordinary marking, without the field.
+    player.handle(&ev("hire"), 3 * S);
+    let effects = drain_effects(&mut player);
+    let mark = effects
+        .iter()
+        .map(|e| nets::player::effect_json(&p, e))
+        .find(|j| j["effect"] == "marking" && j["net"] == "WORKER")
+        .expect("a marking for WORKER");
+    assert_eq!(mark.get("active"), None, "{mark}");
+    assert!(effects
+        .iter()
+        .map(|e| nets::player::effect_text(&p, e))
+        .any(|l| l == "mark   WORKER: start"));
+    assert_eq!(
+        nets::player::marking_words::<&str>(true, &[], " "),
+        "(empty)",
+        "an active net without a token"
+    );
+}
+
+#[test]
 fn a_net_that_deactivates_itself_still_acts_but_a_new_activation_inherits_none_of_it() {
     // WORKER's `quit` deactivates WORKER, then starts a timer and calls DEC:
     // the call goes out (the world must hear it), but the net is inactive,

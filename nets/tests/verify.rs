@@ -14,20 +14,23 @@ use nets::verify::ptnet::PtNet;
 use nets::verify::reference::explore_reference;
 use proptest::prelude::*;
 
+#[path = "../../sitl-tests/src/skip.rs"]
+mod skip;
+
 /// `../shared/pnml` beside the workspace, or `None` (with the reason
 /// printed) when it is absent outside CI.
 fn pnml_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/pnml");
+    let dir = skip::shared_dir().join("pnml");
     if dir.join("INDEX.md").is_file() {
         return Some(dir);
     }
     if std::env::var("CI").as_deref() == Ok("true") {
         panic!("{} is missing (CI=true)", dir.display());
     }
-    eprintln!(
-        "SKIPPED: {} not found; the MCC nets were not checked",
+    skip::skip(&format!(
+        "{} not found; the MCC nets were not checked",
         dir.display()
-    );
+    ));
     None
 }
 

@@ -72,9 +72,10 @@ pub struct Located {
     pub defaults: PathBuf,
 }
 
-/// `shared/` beside the repository (the workspace's parent folder).
+/// `shared/` beside the repository (the workspace's parent folder), or
+/// `PETREL_SHARED`.
 pub fn shared_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared")
+    crate::skip::shared_dir()
 }
 
 /// Finds the binary and its defaults, or says why not.
@@ -107,7 +108,7 @@ pub fn locate(firmware: Firmware) -> Result<Located, String> {
 
 /// True when a missing peer must fail the test rather than skip it.
 pub fn in_ci() -> bool {
-    std::env::var("CI").is_ok_and(|v| v == "true")
+    crate::skip::in_ci()
 }
 
 /// The SITL binary for `firmware`, or `None` after printing why the test
@@ -117,7 +118,7 @@ pub fn require(firmware: Firmware, test: &str) -> Option<Located> {
         Ok(l) => Some(l),
         Err(why) if in_ci() => panic!("{test}: ArduPilot SITL is required in CI: {why}"),
         Err(why) => {
-            eprintln!("skipped {test}: {why}");
+            crate::skip::skip(&format!("no ArduPilot SITL: {why}"));
             None
         }
     }

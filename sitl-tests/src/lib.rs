@@ -88,6 +88,7 @@ pub mod params;
 pub mod px4;
 mod rover;
 mod runner;
+pub mod skip;
 pub mod state;
 pub mod streams;
 mod telemetry;

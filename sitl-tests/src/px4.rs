@@ -80,7 +80,7 @@ pub fn require(test: &str) -> Option<Located> {
             panic!("{test}: PX4 SITL is required in CI: {why}")
         }
         Err(why) => {
-            eprintln!("skipped {test}: {why}");
+            crate::skip::skip(&format!("no PX4 SITL: {why}"));
             None
         }
     }

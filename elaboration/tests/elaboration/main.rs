@@ -5,6 +5,8 @@ mod firmware_reports;
 mod properties;
 mod real_flights;
 mod rules;
+#[path = "../../../sitl-tests/src/skip.rs"]
+mod skip;
 mod vocabulary;
 
 use elaboration::{Config, Elaborated, Elaborator, Profile, ReadStats, Stats, TlogReader};

@@ -8,14 +8,14 @@
 //! events must match to the millisecond; timeouts are evaluated on a
 //! 100 ms grid and must fire within 0.1 s after their deadline.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use elaboration::{Config, Profile};
 
 use crate::{elaborate, summary};
 
 fn shared() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/telemetry");
+    let dir = crate::skip::shared_dir().join("telemetry");
     if dir.is_dir() {
         return Some(dir);
     }
@@ -25,10 +25,10 @@ fn shared() -> Option<PathBuf> {
             dir.display()
         );
     }
-    eprintln!(
-        "skipped: {} not found (real-flight tests need ../shared)",
+    crate::skip::skip(&format!(
+        "{} not found (real-flight tests need ../shared)",
         dir.display()
-    );
+    ));
     None
 }
 

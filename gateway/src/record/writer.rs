@@ -477,7 +477,10 @@ impl<W: Write + Seek> Writer<W> {
                         c
                     }
                 };
-                let m = json!({"seq": seq, "time_us": time, "marked": v["marked"], "tokens": marked.len()});
+                let mut m = json!({"seq": seq, "time_us": time, "marked": v["marked"], "tokens": marked.len()});
+                if let Some(active) = v.get("active") {
+                    m["active"] = active.clone();
+                }
                 self.write_json(channel, seq, time, &m)?;
             }
             Effect::Command { id, .. } => {

@@ -29,7 +29,7 @@ pub fn require_program(name: &str, test: &str, install: &str) -> Option<PathBuf>
             panic!("{test}: {name} is required in CI ({install})")
         }
         None => {
-            eprintln!("skipped {test}: {name} is not on the PATH ({install})");
+            sitl_tests::skip::skip(&format!("{name} is not on the PATH ({install})"));
             None
         }
     }

@@ -72,7 +72,7 @@ pub fn require() -> Option<(PathBuf, PathBuf, PathBuf)> {
             panic!("CI=true but the browser tests cannot run: {why}")
         }
         Err(why) => {
-            eprintln!("skipped: {why}");
+            sitl_tests::skip::skip(&why);
             None
         }
     }

@@ -26,7 +26,7 @@ pub fn mavproxy(test: &str) -> Option<PathBuf> {
         Some(p) => Some(p),
         None if ardupilot::in_ci() => panic!("{test}: MAVProxy (mavproxy.py) is required in CI"),
         None => {
-            eprintln!("skipped {test}: mavproxy.py is not on the PATH (pip install MAVProxy)");
+            sitl_tests::skip::skip("mavproxy.py is not on the PATH (pip install MAVProxy)");
             None
         }
     }

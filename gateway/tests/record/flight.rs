@@ -21,15 +21,18 @@ pub fn root() -> PathBuf {
 /// `../shared` beside the workspace root; `None` (with the reason printed)
 /// when it is absent, a failure when CI=true.
 pub fn shared() -> Option<PathBuf> {
-    let dir = root().join("../shared");
-    if dir.is_dir() {
+    let dir = sitl_tests::skip::shared_dir();
+    if dir.join("telemetry").is_dir() {
         return Some(dir);
     }
     assert!(
         std::env::var("CI").as_deref() != Ok("true"),
         "../shared is missing beside the workspace root, and CI=true"
     );
-    eprintln!("skipped: ../shared is missing beside the workspace root");
+    sitl_tests::skip::skip(&format!(
+        "{} is missing (../shared beside the workspace root)",
+        dir.join("telemetry").display()
+    ));
     None
 }
 

@@ -16,9 +16,7 @@ pub struct Exchange {
 
 /// The shared telemetry folder beside the workspace root.
 pub fn telemetry(name: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/telemetry")
-        .join(name);
+    let path = sitl_tests::skip::shared_dir().join("telemetry").join(name);
     if path.is_file() {
         return Some(path);
     }
@@ -28,7 +26,7 @@ pub fn telemetry(name: &str) -> Option<PathBuf> {
             path.display()
         );
     }
-    println!("SKIPPED: {} is absent", path.display());
+    sitl_tests::skip::skip(&format!("{} is absent", path.display()));
     None
 }
 

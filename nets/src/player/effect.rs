@@ -28,6 +28,10 @@ pub enum Effect {
         time: Micros,
         net: Option<NetId>,
         marked: Marked,
+        /// False when the net was just deactivated (its marking is then
+        /// empty): what tells a deactivation from an active net left
+        /// without a token. Always true for the global places.
+        active: bool,
     },
     /// A net was activated: it received its initial marking.
     Activated { time: Micros, net: NetId },

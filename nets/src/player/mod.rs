@@ -25,7 +25,7 @@ pub use digest::{canonical_bytes, Digest, DIGEST_ALGORITHM};
 pub use effect::{AnswerRefusal, DropReason, Effect, Fault, Marked};
 pub use oracle::{Oracle, Question};
 
-pub use render::{effect_json, effect_text};
+pub use render::{effect_json, effect_text, marking_words};
 pub use state::{Pending, PendingKind, Queued, State, Timer};
 
 use crate::event::{Category, Event};
@@ -1417,10 +1417,12 @@ impl Player {
             .filter(|i| self.state.marked(offset + i))
             .map(|i| i as u16)
             .collect();
+        let active = net.is_none_or(|n| self.state.active[n]);
         self.effects.push(Effect::Marking {
             time: now,
             net,
             marked,
+            active,
         });
     }
 }

@@ -59,13 +59,23 @@ pub fn effect_json(project: &Project, effect: &Effect) -> Json {
                 "event": project.nets[*net].transitions[*transition].event,
             }),
         ),
-        Effect::Marking { net, marked, .. } => (
-            "marking",
-            json!({
+        Effect::Marking {
+            net,
+            marked,
+            active,
+            ..
+        } => {
+            let mut fields = json!({
                 "net": net.map(|n| net_name(project, n)),
                 "marked": marked_names(project, *net, marked),
-            }),
-        ),
+            });
+            if !active {
+                // Only a deactivation's marking says so: an empty `marked`
+                // alone is also an active net without a token.
+                fields["active"] = json!(false);
+            }
+            ("marking", fields)
+        }
         Effect::Activated { net, .. } => ("activated", json!({ "net": net_name(project, *net) })),
         Effect::Deactivated { net, .. } => {
             ("deactivated", json!({ "net": net_name(project, *net) }))
@@ -267,6 +277,24 @@ impl std::fmt::Display for P<'_> {
     }
 }
 
+/// What a marking line says after the net's name, in every verb's
+/// timeline (`run`, `demo`, `play`, `replay`, `mirror`): `deactivated` for
+/// a net no longer active, `(empty)` for an active net without a token,
+/// else the marked places joined by `sep`.
+pub fn marking_words<S: AsRef<str>>(active: bool, names: &[S], sep: &str) -> String {
+    if !active {
+        "deactivated".to_owned()
+    } else if names.is_empty() {
+        "(empty)".to_owned()
+    } else {
+        names
+            .iter()
+            .map(AsRef::as_ref)
+            .collect::<Vec<_>>()
+            .join(sep)
+    }
+}
+
 /// One effect as a line for people (without the time, which the caller
 /// prints in its own column).
 pub fn effect_text(project: &Project, effect: &Effect) -> String {
@@ -280,13 +308,15 @@ pub fn effect_text(project: &Project, effect: &Effect) -> String {
                 None => format!("fire   {}.{} (immediate)", net_name(project, *net), tr.name),
             }
         }
-        Effect::Marking { net, marked, .. } => format!(
+        Effect::Marking {
+            net,
+            marked,
+            active,
+            ..
+        } => format!(
             "mark   {}: {}",
             net.map_or("@globals", |n| net_name(project, n)),
-            match marked_names(project, *net, marked) {
-                names if names.is_empty() => "(empty)".to_owned(),
-                names => names.join(" "),
-            }
+            marking_words(*active, &marked_names(project, *net, marked), " ")
         ),
         Effect::Activated { net, .. } => format!("net    {} activated", net_name(project, *net)),
         Effect::Deactivated { net, .. } => {

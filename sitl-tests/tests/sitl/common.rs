@@ -2,7 +2,7 @@
 
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -19,8 +19,7 @@ pub static SITL_INSTANCE_8: Mutex<()> = Mutex::new(());
 /// `../shared` beside the workspace, or `None` (with the reason printed)
 /// when it is absent; absent under CI=true is a failure.
 pub fn shared_file(relative: &str) -> Option<PathBuf> {
-    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared");
-    let path = shared.join(relative);
+    let path = sitl_tests::skip::shared_dir().join(relative);
     if path.is_file() {
         return Some(path);
     }
@@ -31,7 +30,7 @@ pub fn shared_file(relative: &str) -> Option<PathBuf> {
     if std::env::var("CI").is_ok_and(|v| v == "true") {
         panic!("{reason}: required under CI=true");
     }
-    println!("SKIPPED: {reason}");
+    sitl_tests::skip::skip(&reason);
     None
 }
 

@@ -1,6 +1,7 @@
 //! The live log for people: the gateway's timeline lines, read as they
 //! come, printed when they are worth it and counted for the summary.
 
+use nets::player::marking_words;
 use serde_json::Value as Json;
 
 /// What the live log has counted.
@@ -11,6 +12,8 @@ pub(super) struct Log {
     pub calls: u64,
     pub dropped: u64,
     pub phase: std::collections::BTreeMap<String, String>,
+    /// The nets deactivated, until they come back.
+    deactivated: std::collections::BTreeSet<String>,
     /// From the timeline's closing line: the lockout on, and the vehicles
     /// locked out (a team's).
     pub lockout: bool,
@@ -20,6 +23,13 @@ pub(super) struct Log {
 impl Log {
     /// Prints one timeline line for people, if it is worth it.
     pub fn line(&mut self, v: &Json) {
+        if let Some(text) = self.text(v) {
+            show!("{text}");
+        }
+    }
+
+    /// One timeline line for people, if it is worth it, counted.
+    fn text(&mut self, v: &Json) -> Option<String> {
         let t = v["t"].as_f64().unwrap_or(0.0);
         let s = |k: &str| v[k].as_str().unwrap_or("").to_owned();
         if v["end"] == true {
@@ -33,34 +43,36 @@ impl Log {
                         .collect()
                 })
                 .unwrap_or_default();
-            return;
+            return None;
         }
         if v["input"] == "event" {
             let category = s("category");
             *self.events.entry(category.clone()).or_default() += 1;
             let params = params_text(&v["params"]);
-            show!("{t:>8.1}s  event    {}{params}  [{category}]", s("event"));
-            return;
+            return Some(format!(
+                "{t:>8.1}s  event    {}{params}  [{category}]",
+                s("event")
+            ));
         }
         match v["effect"].as_str() {
             Some("command") => {
                 self.commands += 1;
-                show!(
+                Some(format!(
                     "{t:>8.1}s  command  {}{}  ({})",
                     s("verb"),
                     params_text(&v["args"]),
                     s("net")
-                );
+                ))
             }
             Some("call") => {
                 self.calls += 1;
-                show!(
+                Some(format!(
                     "{t:>8.1}s  call     {}.{}{}  ({})",
                     s("program"),
                     s("function"),
                     params_text(&v["args"]),
                     s("net")
-                );
+                ))
             }
             Some("marking") => {
                 let net = s("net");
@@ -73,18 +85,33 @@ impl Log {
                             .collect()
                     })
                     .unwrap_or_default();
-                let now = marked.join(", ");
-                if !net.is_empty() && self.phase.get(&net) != Some(&now) {
-                    show!("{t:>8.1}s  {net:<8} {now}");
-                    self.phase.insert(net, now);
+                // A deactivation's marking says so (`"active": false`).
+                let active = v["active"] != false;
+                let now = marking_words(active, &marked, ", ");
+                if net.is_empty() || self.phase.get(&net) == Some(&now) {
+                    return None;
                 }
+                let back = if active {
+                    self.deactivated.remove(&net)
+                } else {
+                    self.deactivated.insert(net.clone());
+                    false
+                };
+                let back = if back { "activated: " } else { "" };
+                let line = format!("{t:>8.1}s  {net:<8} {back}{now}");
+                self.phase.insert(net, now);
+                Some(line)
             }
             Some("dropped") => {
                 self.dropped += 1;
-                show!("{t:>8.1}s  dropped  {} ({})", s("event"), s("reason"));
+                Some(format!(
+                    "{t:>8.1}s  dropped  {} ({})",
+                    s("event"),
+                    s("reason")
+                ))
             }
-            Some("fault") => show!("{t:>8.1}s  FAULT    {v}"),
-            _ => {}
+            Some("fault") => Some(format!("{t:>8.1}s  FAULT    {v}")),
+            _ => None,
         }
     }
 }
@@ -139,5 +166,45 @@ impl Log {
             self.calls,
             self.dropped
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn marking(log: &mut Log, t: f64, net: &str, marked: &[&str], active: bool) -> Option<String> {
+        let mut v = json!({"t": t, "effect": "marking", "net": net, "marked": marked});
+        if !active {
+            v["active"] = json!(false);
+        }
+        log.text(&v)
+    }
+
+    #[test]
+    fn a_deactivated_net_says_so_and_says_activated_when_it_comes_back() {
+        let mut log = Log::default();
+        assert_eq!(
+            marking(&mut log, 1.0, "FLIGHT", &["climb"], true).as_deref(),
+            Some("     1.0s  FLIGHT   climb")
+        );
+        assert_eq!(
+            marking(&mut log, 44.8, "FLIGHT", &[], false).as_deref(),
+            Some("    44.8s  FLIGHT   deactivated")
+        );
+        assert_eq!(
+            marking(&mut log, 50.0, "FLIGHT", &["checks"], true).as_deref(),
+            Some("    50.0s  FLIGHT   activated: checks")
+        );
+        assert_eq!(
+            marking(&mut log, 51.0, "FLIGHT", &["auto_1", "@airborne"], true).as_deref(),
+            Some("    51.0s  FLIGHT   auto_1")
+        );
+        // An active net without a token is not a deactivation.
+        assert_eq!(
+            marking(&mut log, 52.0, "FLIGHT", &[], true).as_deref(),
+            Some("    52.0s  FLIGHT   (empty)")
+        );
     }
 }
