@@ -783,3 +783,51 @@ fn without_recording_the_replica_keeps_no_calls() {
     );
     assert!(f.replica.poll_played().is_none());
 }
+
+#[test]
+fn a_sessions_first_packet_is_played_without_a_gap() {
+    // As in `petrel run`: the first turn of the loop steps the player
+    // before the publisher's first tick, so the first packet holds record
+    // 0 and then the first heartbeat (next: 1).
+    let (project, profile) = example();
+    let (mut supervisor, _) =
+        Supervisor::start(project.clone(), profile, elaboration::Config::default(), 0);
+    let mut publisher = Publisher::new(3, publisher::Config::default(), 0);
+    let mut replica = Replica::new(project.clone(), replica::Config::default());
+    let name = project.events.keys().next().expect("an event").clone();
+    let input = Input::Event(Event::new(name));
+    let step = supervisor.step(200_000, input.clone());
+    let inputs = step_inputs(&input, &step).expect("a program's event is published");
+    publisher.step(step.seq, 0, step.time, inputs, &supervisor.player().digest());
+    publisher.tick(200_000, supervisor.seq(), supervisor.player());
+    let packet = publisher.poll_transmit().expect("a packet");
+    let records = record::decode_packet(&packet).expect("decodes");
+    assert!(
+        matches!(records.as_slice(), [Record::Step(s), Record::Heartbeat(h)] if s.number == 0 && h.next == 1),
+        "{records:?}"
+    );
+    replica.receive(1_000, &packet);
+    let reports: Vec<Report> = std::iter::from_fn(|| replica.poll_report()).collect();
+    let named: Vec<String> = reports
+        .iter()
+        .map(|r| match r {
+            Report::Resynced { how, .. } => format!("resynced {}", how.name()),
+            Report::Gap { from, to, .. } => format!("gap {from}..{to}"),
+            Report::Step { number, .. } => format!("record {number}"),
+            Report::Agreed { step } => format!("agreed {step}"),
+            Report::Timers { .. } => "timers".into(),
+            Report::Diverged { .. } => "diverged".into(),
+        })
+        .collect();
+    assert_eq!(
+        named,
+        ["resynced start", "record 0", "agreed 1", "agreed 1"],
+        "{reports:?}"
+    );
+    assert_eq!(replica.counts.gaps, 0);
+    assert!(replica.poll_transmit().is_none(), "nothing asked");
+    assert_eq!(
+        replica.exact().map(|p| p.digest()),
+        Some(supervisor.player().digest())
+    );
+}
