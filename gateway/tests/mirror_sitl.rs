@@ -399,9 +399,10 @@ impl Tap {
             for r in records {
                 used += r.len;
                 match r.kind {
-                    1 | 3 | 9 => {
+                    1 | 3 => {
                         let n = r.number.unwrap_or(0);
-                        let fresh = highest.is_none_or(|h| n > h) || (r.kind == 3 && highest == Some(n));
+                        let fresh =
+                            highest.is_none_or(|h| n > h) || (r.kind == 3 && highest == Some(n));
                         if fresh {
                             b.steps += r.len;
                             if r.kind != 3 {
@@ -439,7 +440,7 @@ impl Tap {
         b.worst_10s = worst as f64 / 10.0;
         let mut by: Vec<(String, usize, usize)> =
             inputs.into_iter().map(|(k, (n, s))| (k, n, s)).collect();
-        by.sort_by(|a, b| b.2.cmp(&a.2));
+        by.sort_by_key(|e| std::cmp::Reverse(e.2));
         b.by_input = by;
         b
     }

@@ -154,9 +154,9 @@ pub fn fired(lines: &[serde_json::Value]) -> Vec<String> {
 /// One downlink record, as the budget counts it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Down {
-    /// 1 step, 2 heartbeat, 3 fragment, 4 snapshot chunk, 9 packed steps.
+    /// 1 step, 2 heartbeat, 3 fragment, 4 snapshot chunk.
     pub kind: u8,
-    /// A step's or fragment's record number (the first, for packed steps).
+    /// A step's or fragment's record number.
     pub number: Option<u64>,
     /// The record's bytes, its kind byte included.
     pub len: usize,
@@ -191,20 +191,6 @@ pub fn downlink_records(p: &[u8]) -> Option<Vec<Down>> {
             1 => {
                 number = Some(uvarint(b, &mut at)?);
                 first = step_rest(b, &mut at)?;
-            }
-            9 => {
-                number = Some(uvarint(b, &mut at)?);
-                let n = uvarint(b, &mut at)?;
-                uvarint(b, &mut at)?; // the first step
-                uvarint(b, &mut at)?; // the first before
-                for i in 0..n {
-                    if i > 0 {
-                        uvarint(b, &mut at)?; // step − the last one's
-                        ivarint(b, &mut at)?; // before − the last one's time
-                    }
-                    let f = step_inputs(b, &mut at)?;
-                    first = first.or(f);
-                }
             }
             2 => {
                 at += 4;
