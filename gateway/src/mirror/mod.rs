@@ -42,14 +42,65 @@ pub const MIRROR_SYSTEM: u8 = 245;
 pub const COMPANION: u8 = 191;
 use record::Input;
 
+/// The events the downlink may leave out of a step when they changed
+/// nothing: those the ground's independent check never compares because
+/// each side hears only its own (elaborated only from frames addressed
+/// to one system and component, [`elaboration::Profile::addressed_events`]:
+/// `command_rejected`, the autopilot's answers to the onboard gateway's
+/// commands), per vehicle of the team.
+#[derive(Debug, Clone, Default)]
+pub struct Unread {
+    /// Each lane's vehicle (`None` without a team) and its addressed
+    /// events' names, unqualified.
+    lanes: Vec<(Option<String>, Vec<String>)>,
+}
+
+impl Unread {
+    /// Nothing left out.
+    #[cfg(test)]
+    pub fn none() -> Unread {
+        Unread::default()
+    }
+
+    /// The lanes' addressed events.
+    pub fn of(lanes: &[crate::supervisor::Lane]) -> Unread {
+        Unread {
+            lanes: lanes
+                .iter()
+                .map(|l| {
+                    let names = l.profile.addressed_events();
+                    (
+                        l.vehicle.clone(),
+                        names.into_iter().map(str::to_owned).collect(),
+                    )
+                })
+                .collect(),
+        }
+    }
+
+    /// Whether the ground never compares `event` (a vehicle's event,
+    /// qualified in a team).
+    pub fn unread(&self, event: &nets::Event) -> bool {
+        let (name, vehicle) = nets::model::split_vehicle(&event.name);
+        self.lanes
+            .iter()
+            .find(|(v, _)| v.as_deref() == vehicle)
+            .is_some_and(|(_, names)| names.iter().any(|n| n == name))
+    }
+}
+
 /// The inputs of a supervisor step that reached the player, as the
 /// downlink carries them; `None` for a step that only let time pass (a
-/// frame or tick that elaborated nothing).
-pub fn step_inputs(input: &SupervisorInput, step: &Step) -> Option<Vec<Input>> {
+/// frame or tick that elaborated nothing, or only events `unread` by the
+/// ground that changed nothing: no firing, no timer, no fault, no effect
+/// at all — the replica's player, advanced to the next record's time,
+/// is the same without them, and the digests say so).
+pub fn step_inputs(input: &SupervisorInput, step: &Step, unread: &Unread) -> Option<Vec<Input>> {
     let inputs: Vec<Input> = match input {
         SupervisorInput::Frame(_) | SupervisorInput::Tick => step
             .events
             .iter()
+            .filter(|(e, effects)| !(effects.is_empty() && unread.unread(&e.event)))
             .map(|(e, _)| Input::Elaborated {
                 time: e.time_us,
                 event: e.event.clone(),

@@ -480,6 +480,10 @@ impl Replica {
         self.offset = recent.get(recent.len() / 2).copied();
         self.known = self.known.max(h.next);
         self.oldest = h.oldest;
+        // The records that came before this heartbeat, in its packet
+        // (the session's first records, held until the session was
+        // known), are played before it is judged: none is missing.
+        self.play_held();
         if self.player.is_some() && self.next < h.next {
             self.open_gap();
         }

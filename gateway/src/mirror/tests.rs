@@ -131,7 +131,7 @@ impl Flight {
     fn feed(&mut self, input: Input) {
         let before = self.supervisor.player().state().now;
         let step = self.supervisor.step(self.now, input.clone());
-        if let Some(inputs) = step_inputs(&input, &step) {
+        if let Some(inputs) = step_inputs(&input, &step, &super::Unread::none()) {
             self.publisher.step(
                 step.seq,
                 before,
@@ -783,4 +783,148 @@ fn without_recording_the_replica_keeps_no_calls() {
         Loss::none(),
     );
     assert!(f.replica.poll_played().is_none());
+}
+
+#[test]
+fn a_sessions_first_packet_is_played_without_a_gap() {
+    // As in `petrel run`: the first turn of the loop steps the player
+    // before the publisher's first tick, so the first packet holds record
+    // 0 and then the first heartbeat (next: 1).
+    let (project, profile) = example();
+    let (mut supervisor, _) =
+        Supervisor::start(project.clone(), profile, elaboration::Config::default(), 0);
+    let mut publisher = Publisher::new(3, publisher::Config::default(), 0);
+    let mut replica = Replica::new(project.clone(), replica::Config::default());
+    let name = project.events.keys().next().expect("an event").clone();
+    let input = Input::Event(Event::new(name));
+    let step = supervisor.step(200_000, input.clone());
+    let inputs =
+        step_inputs(&input, &step, &super::Unread::none()).expect("a program's event is published");
+    publisher.step(
+        step.seq,
+        0,
+        step.time,
+        inputs,
+        &supervisor.player().digest(),
+    );
+    publisher.tick(200_000, supervisor.seq(), supervisor.player());
+    let packet = publisher.poll_transmit().expect("a packet");
+    let records = record::decode_packet(&packet).expect("decodes");
+    assert!(
+        matches!(records.as_slice(), [Record::Step(s), Record::Heartbeat(h)] if s.number == 0 && h.next == 1),
+        "{records:?}"
+    );
+    replica.receive(1_000, &packet);
+    let reports: Vec<Report> = std::iter::from_fn(|| replica.poll_report()).collect();
+    let named: Vec<String> = reports
+        .iter()
+        .map(|r| match r {
+            Report::Resynced { how, .. } => format!("resynced {}", how.name()),
+            Report::Gap { from, to, .. } => format!("gap {from}..{to}"),
+            Report::Step { number, .. } => format!("record {number}"),
+            Report::Agreed { step } => format!("agreed {step}"),
+            Report::Timers { .. } => "timers".into(),
+            Report::Diverged { .. } => "diverged".into(),
+        })
+        .collect();
+    assert_eq!(
+        named,
+        ["resynced start", "record 0", "agreed 1", "agreed 1"],
+        "{reports:?}"
+    );
+    assert_eq!(replica.counts.gaps, 0);
+    assert!(replica.poll_transmit().is_none(), "nothing asked");
+    assert_eq!(
+        replica.exact().map(|p| p.digest()),
+        Some(supervisor.player().digest())
+    );
+}
+
+#[test]
+fn a_refused_command_the_nets_do_not_await_costs_no_record_and_the_replica_stays_exact() {
+    // ArduPlane refuses the onboard gateway's IMAGE_START_CAPTURE once a
+    // second: `command_rejected`, which the ground never compares (the
+    // acknowledgement goes to the onboard gateway alone) and no
+    // transition of the example awaits, changes nothing but the clock.
+    use mavlink::dialects::ardupilotmega::{
+        MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavResult, MavState, MavType,
+        COMMAND_ACK_DATA, HEARTBEAT_DATA,
+    };
+    let frame = |component: u8, seq: u8, message: &MavMessage| {
+        let header = mavlink::MavHeader {
+            system_id: 1,
+            component_id: component,
+            sequence: seq,
+        };
+        elaboration::frame::serialize(header, mavlink::MavlinkVersion::V2, message)
+    };
+    let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_FIXED_WING,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+        system_status: MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    });
+    let refused = MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+        command: MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+        result: MavResult::MAV_RESULT_DENIED,
+        target_system: 1,
+        target_component: 191,
+        ..Default::default()
+    });
+    let (project, profile) = example();
+    let config = elaboration::Config::default();
+    let unread = super::Unread::of(&[crate::supervisor::Lane {
+        vehicle: None,
+        profile: profile.clone(),
+        config: config.clone(),
+    }]);
+    let (mut supervisor, _) = Supervisor::start(project.clone(), profile, config, 0);
+    let mut publisher = Publisher::new(5, publisher::Config::default(), 0);
+    let mut replica = Replica::new(project.clone(), replica::Config::default());
+    let (mut left_out, mut now) = (0, 0);
+    for i in 0..40u8 {
+        now += 250_000;
+        let bytes = if i % 4 == 3 {
+            frame(1, i, &refused)
+        } else {
+            frame(1, i, &heartbeat)
+        };
+        let before = supervisor.player().state().now;
+        let input = Input::Frame(&bytes);
+        let step = supervisor.step(now, input.clone());
+        let rejected = step
+            .events
+            .iter()
+            .any(|(e, _)| e.event.name == "command_rejected");
+        if rejected {
+            assert!(step_inputs(&input, &step, &super::Unread::none()).is_some());
+        }
+        match step_inputs(&input, &step, &unread) {
+            Some(inputs) => publisher.step(
+                step.seq,
+                before,
+                step.time,
+                inputs,
+                &supervisor.player().digest(),
+            ),
+            None => left_out += u64::from(rejected),
+        }
+        publisher.tick(now, supervisor.seq(), supervisor.player());
+        while let Some(p) = publisher.poll_transmit() {
+            replica.receive(now, &p);
+        }
+    }
+    assert_eq!(left_out, 10, "every refusal left out");
+    let reports: Vec<Report> = std::iter::from_fn(|| replica.poll_report()).collect();
+    assert!(
+        !reports
+            .iter()
+            .any(|r| matches!(r, Report::Diverged { .. } | Report::Gap { .. })),
+        "{reports:?}"
+    );
+    let mut exact = replica.exact().expect("exact").clone();
+    exact.advance(supervisor.player().state().now);
+    assert_eq!(exact.digest(), supervisor.player().digest());
 }

@@ -150,3 +150,175 @@ pub fn fired(lines: &[serde_json::Value]) -> Vec<String> {
         .map(|l| format!("{} {} {}", l["t"], l["net"], l["transition"]))
         .collect()
 }
+
+/// One downlink record, as the budget counts it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Down {
+    /// 1 step, 2 heartbeat, 3 fragment, 4 snapshot chunk.
+    pub kind: u8,
+    /// A step's or fragment's record number.
+    pub number: Option<u64>,
+    /// The record's bytes, its kind byte included.
+    pub len: usize,
+    /// The name of a step's first input's event (`result` for an outcome,
+    /// `answered` for an answer).
+    pub first: Option<String>,
+}
+
+/// The records of a downlink TUNNEL (the frame's payload: payload type,
+/// target system and component, length, payload), read by the documented
+/// encoding (docs/mirror.md) independently of the gateway's code; `None`
+/// when it is not Petrel's downlink or does not read.
+pub fn downlink_records(p: &[u8]) -> Option<Vec<Down>> {
+    if p.len() < 5 || u16::from_le_bytes([p[0], p[1]]) != PAYLOAD_TYPE {
+        return None;
+    }
+    let len = usize::from(p[4]);
+    let mut payload = p[5..].to_vec();
+    payload.resize(128, 0);
+    let b = &payload[..len];
+    if b.first() != Some(&1) {
+        return None;
+    }
+    let mut at = 1;
+    let mut out = Vec::new();
+    while at < b.len() {
+        let start = at;
+        let kind = b[at];
+        at += 1;
+        let (mut number, mut first) = (None, None);
+        match kind {
+            1 => {
+                number = Some(uvarint(b, &mut at)?);
+                first = step_rest(b, &mut at)?;
+            }
+            2 => {
+                at += 4;
+                for _ in 0..4 {
+                    uvarint(b, &mut at)?;
+                }
+                at += 16;
+            }
+            3 => {
+                number = Some(uvarint(b, &mut at)?);
+                at += 2;
+                let n = uvarint(b, &mut at)? as usize;
+                at += n;
+            }
+            4 => {
+                at += 4;
+                uvarint(b, &mut at)?;
+                at += 2;
+                let n = uvarint(b, &mut at)? as usize;
+                at += n;
+            }
+            _ => return None,
+        }
+        if at > b.len() {
+            return None;
+        }
+        out.push(Down {
+            kind,
+            number,
+            len: at - start,
+            first,
+        });
+    }
+    Some(out)
+}
+
+/// An ivarint (zigzag, then uvarint).
+pub fn ivarint(b: &[u8], at: &mut usize) -> Option<i64> {
+    let u = uvarint(b, at)?;
+    Some((u >> 1) as i64 ^ -((u & 1) as i64))
+}
+
+/// A step record after its number: step, before, time − before, inputs,
+/// digest; the first input's name.
+fn step_rest(b: &[u8], at: &mut usize) -> Option<Option<String>> {
+    uvarint(b, at)?;
+    uvarint(b, at)?;
+    ivarint(b, at)?;
+    step_inputs(b, at)
+}
+
+/// `uvarint n, input × n, 8 bytes digest`: the first input's name.
+fn step_inputs(b: &[u8], at: &mut usize) -> Option<Option<String>> {
+    let n = uvarint(b, at)?;
+    let mut first = None;
+    for _ in 0..n {
+        let tag = *b.get(*at)?;
+        *at += 1;
+        ivarint(b, at)?;
+        let name = match tag {
+            0 | 2 | 3 => {
+                let name = string(b, at)?;
+                *at += 1; // category
+                params(b, at, 0)?;
+                name
+            }
+            1 => {
+                uvarint(b, at)?;
+                let outcome = *b.get(*at)?;
+                *at += 1;
+                if outcome == 0 {
+                    params(b, at, 0)?;
+                } else {
+                    string(b, at)?;
+                }
+                "result".to_owned()
+            }
+            4 => {
+                uvarint(b, at)?;
+                string(b, at)?;
+                "answered".to_owned()
+            }
+            _ => return None,
+        };
+        first.get_or_insert(name);
+    }
+    *at += 8;
+    Some(first)
+}
+
+fn string(b: &[u8], at: &mut usize) -> Option<String> {
+    let n = uvarint(b, at)? as usize;
+    let s = b.get(*at..*at + n)?;
+    *at += n;
+    Some(String::from_utf8_lossy(s).into_owned())
+}
+
+fn params(b: &[u8], at: &mut usize, depth: u8) -> Option<()> {
+    let n = uvarint(b, at)?;
+    for _ in 0..n {
+        string(b, at)?;
+        value(b, at, depth)?;
+    }
+    Some(())
+}
+
+fn value(b: &[u8], at: &mut usize, depth: u8) -> Option<()> {
+    if depth > 16 {
+        return None;
+    }
+    let tag = *b.get(*at)?;
+    *at += 1;
+    match tag {
+        0 => *at += 1,
+        1 => {
+            ivarint(b, at)?;
+        }
+        2 => *at += 8,
+        3 => {
+            string(b, at)?;
+        }
+        4 => {
+            for _ in 0..uvarint(b, at)? {
+                value(b, at, depth + 1)?;
+            }
+        }
+        5 => params(b, at, depth + 1)?,
+        _ => return None,
+    }
+    Some(())
+}

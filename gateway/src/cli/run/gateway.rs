@@ -57,6 +57,8 @@ pub(super) struct Gateway {
 /// The mirror's downlink on board.
 struct Downlink {
     publisher: Publisher,
+    /// The events left out of the records when they change nothing.
+    unread: crate::mirror::Unread,
     /// The mirror's system id.
     mirror: u8,
 }
@@ -152,7 +154,7 @@ impl Gateway {
         } in std::mem::take(&mut self.done)
         {
             if let (Some(d), Some(digest)) = (&mut self.downlink, &digest) {
-                if let Some(inputs) = crate::mirror::step_inputs(&input.input(), &step) {
+                if let Some(inputs) = crate::mirror::step_inputs(&input.input(), &step, &d.unread) {
                     d.publisher
                         .step(step.seq, before, step.time, inputs, digest);
                 }
@@ -326,6 +328,7 @@ impl Gateway {
                 }
             })
             .collect();
+        let unread = crate::mirror::Unread::of(&lanes);
         let (supervisor, start) = Supervisor::start_lanes(setup.project.clone(), lanes, 0);
         let mut gw = Gateway {
             clock,
@@ -337,6 +340,7 @@ impl Gateway {
             recorder,
             downlink: setup.downlink.map(|mirror| Downlink {
                 publisher: Publisher::new(session(), PublisherConfig::default(), 0),
+                unread,
                 mirror,
             }),
             answers: setup.operator.take().map(AnswerGate::new),

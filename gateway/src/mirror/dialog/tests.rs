@@ -101,7 +101,7 @@ impl Dialogue {
     fn feed(&mut self, input: Input) -> Vec<Effect> {
         let before = self.supervisor.player().state().now;
         let step = self.supervisor.step(self.now, input.clone());
-        if let Some(inputs) = step_inputs(&input, &step) {
+        if let Some(inputs) = step_inputs(&input, &step, &crate::mirror::Unread::none()) {
             self.publisher.step(
                 step.seq,
                 before,
