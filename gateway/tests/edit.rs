@@ -29,7 +29,7 @@ use serde_json::Value as Json;
 #[path = "monitor/browser.rs"]
 mod browser;
 
-use browser::{repo, require, strings, Reaped};
+use browser::{copy_example, repo, require, strings, Reaped};
 use scratch::Scratch;
 
 const PETREL: &str = env!("CARGO_BIN_EXE_petrel");
@@ -98,16 +98,6 @@ fn check(dir: &Path) -> Option<i32> {
         .output()
         .unwrap_or_else(|e| panic!("cannot run petrel check: {e}"));
     out.status.code()
-}
-
-fn copy_example(to: &Path) {
-    for entry in std::fs::read_dir(example()).unwrap_or_else(|e| panic!("{e}")) {
-        let entry = entry.unwrap_or_else(|e| panic!("{e}"));
-        if entry.path().is_file() {
-            std::fs::copy(entry.path(), to.join(entry.file_name()))
-                .unwrap_or_else(|e| panic!("{e}"));
-        }
-    }
 }
 
 fn read(path: &Path) -> String {

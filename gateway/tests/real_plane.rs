@@ -314,11 +314,7 @@ fn engine_failure_glides_to_the_site_dec_picked_and_another_position_picks_anoth
         // DEC's answer says whether the site is within the glide; when it
         // is not, CATASTROPHIC says so (issue 40: it was only a parameter
         // in the log) and flies to the nearest all the same.
-        let reachable = f.flown.timeline.iter().find_map(|l| {
-            (l["input"] == "reply")
-                .then(|| l["params"]["reachable"].as_bool())
-                .flatten()
-        });
+        let reachable = site_reachable(f);
         let said = f
             .flown
             .timeline
@@ -341,6 +337,27 @@ fn engine_failure_glides_to_the_site_dec_picked_and_another_position_picks_anoth
         unreachable.contains(&true),
         "no engine failure out of every site's reach: {unreachable:?}"
     );
+}
+
+/// Whether DEC's emergency site was within the glide, as DEC answered
+/// (its reply, which the recording holds: the run's timeline prints no
+/// replies).
+fn site_reachable(f: &RealFlown) -> Option<bool> {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("replay")
+        .arg(&f.flown.recording)
+        .arg(flight::project())
+        .arg("--json")
+        .output()
+        .ok()?;
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .find_map(|l| {
+            (l["input"] == "reply")
+                .then(|| l["params"]["reachable"].as_bool())
+                .flatten()
+        })
 }
 
 /// Some time after the failure named `what` was injected.

@@ -236,7 +236,7 @@ fn nearest_produced(project: &Project, net: NetId, name: &str) -> Option<String>
 
 /// Every event some net emits, as written (qualified when it names a
 /// vehicle).
-fn emits_all(project: &Project) -> impl Iterator<Item = &str> {
+pub(crate) fn emits_all(project: &Project) -> impl Iterator<Item = &str> {
     project
         .nets
         .iter()

@@ -159,3 +159,15 @@ pub fn assert_readable(seen: &Json) {
         );
     }
 }
+
+/// Copies the flight-test example's files (not its folders) into `to`.
+pub fn copy_example(to: &Path) {
+    let example = repo().join("examples/uav-flight-test");
+    for entry in std::fs::read_dir(example).unwrap_or_else(|e| panic!("{e}")) {
+        let entry = entry.unwrap_or_else(|e| panic!("{e}"));
+        if entry.path().is_file() {
+            std::fs::copy(entry.path(), to.join(entry.file_name()))
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+    }
+}

@@ -13,6 +13,7 @@ use std::net::TcpStream;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use super::browser::copy_example;
 use super::{example, spawn, url, Scratch};
 
 /// The address part of a page's URL (`127.0.0.1:PORT`).
@@ -154,16 +155,6 @@ fn unfinished_message(len: u64) -> Vec<u8> {
     head.extend_from_slice(&len.to_be_bytes());
     head.extend_from_slice(&[1, 2, 3, 4]);
     head
-}
-
-fn copy_example(to: &Path) {
-    for entry in std::fs::read_dir(example()).unwrap_or_else(|e| panic!("{e}")) {
-        let entry = entry.unwrap_or_else(|e| panic!("{e}"));
-        if entry.path().is_file() {
-            std::fs::copy(entry.path(), to.join(entry.file_name()))
-                .unwrap_or_else(|e| panic!("{e}"));
-        }
-    }
 }
 
 fn nets_text(dir: &Path) -> String {

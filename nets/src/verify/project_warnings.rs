@@ -12,15 +12,8 @@ use super::ptnet::PtNet;
 use crate::model::{Action, NetId, Project, TransitionId};
 
 pub(super) fn emitted_events(project: &Project) -> BTreeSet<String> {
-    project
-        .nets
-        .iter()
-        .flat_map(|n| &n.transitions)
-        .flat_map(|t| &t.actions)
-        .filter_map(|a| match a {
-            Action::Emit { event, .. } => Some(event.clone()),
-            _ => None,
-        })
+    crate::outside::emits_all(project)
+        .map(str::to_owned)
         .collect()
 }
 

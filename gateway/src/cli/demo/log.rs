@@ -110,6 +110,15 @@ impl Log {
                     s("reason")
                 ))
             }
+            // An event a net emits for the crew or the nets (the
+            // flight-test example's `site_out_of_reach`).
+            Some("emitted") => Some(format!(
+                "{t:>8.1}s  emitted  {}{}  [{}] by {}",
+                s("event"),
+                params_text(&v["params"]),
+                s("category"),
+                s("net")
+            )),
             Some("fault") => Some(format!("{t:>8.1}s  FAULT    {v}")),
             _ => None,
         }
@@ -205,6 +214,18 @@ mod tests {
         assert_eq!(
             marking(&mut log, 52.0, "FLIGHT", &[], true).as_deref(),
             Some("    52.0s  FLIGHT   (empty)")
+        );
+    }
+
+    #[test]
+    fn an_emitted_event_is_shown_with_the_net_that_emitted_it() {
+        let mut log = Log::default();
+        let v = json!({"t": 25.2, "effect": "emitted", "net": "CATASTROPHIC",
+                       "event": "site_out_of_reach", "category": "catastrophic",
+                       "params": {"distance": 275.4, "name": "North field"}});
+        assert_eq!(
+            log.text(&v).as_deref(),
+            Some("    25.2s  emitted  site_out_of_reach {distance: 275.4, name: \"North field\"}  [catastrophic] by CATASTROPHIC")
         );
     }
 }
