@@ -46,7 +46,11 @@ pub fn load(dir: &Path) -> Result<Arc<Project>, miette::Report> {
     nets::load(&Folder(dir.to_path_buf()))
         .map(Arc::new)
         .map_err(|e| {
-            miette::Report::new(e).context(format!("cannot load project {}", dir.display()))
+            Unloadable {
+                dir: dir.to_path_buf(),
+                problems: e.problems,
+            }
+            .into()
         })
 }
 
