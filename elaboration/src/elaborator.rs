@@ -24,6 +24,12 @@ use crate::statustext::{Joiner, Piece};
 pub struct Elaborated {
     /// Receive time of the frame (or tick) that fired it, microseconds.
     pub time_us: u64,
+    /// The sender's own clock when it fired, microseconds since its boot:
+    /// the last `time_boot_ms` it sent, up to and including the frame that
+    /// fired it, plus the receive time since that frame. `None` while the
+    /// sender has sent no message that carries one
+    /// ([`crate::frame::boot_ms_offset`]).
+    pub boot_us: Option<u64>,
     pub event: Event,
     pub sysid: u8,
     pub compid: u8,
@@ -113,6 +119,16 @@ struct Source {
     memos: Vec<V<'static>>,
     /// Its long STATUSTEXT under way (chunks put back together).
     statustext: Joiner,
+    /// Its last `time_boot_ms` (µs) and when it came (receive time).
+    boot: Option<(u64, u64)>,
+}
+
+impl Source {
+    /// The sender's clock at receive time `now` (see [`Elaborated::boot_us`]).
+    fn boot_at(&self, now: u64) -> Option<u64> {
+        self.boot
+            .map(|(boot, at)| boot.saturating_add(now.saturating_sub(at)))
+    }
 }
 
 const LOSS_WEIGHT: f64 = 1.0 / 32.0;
@@ -177,6 +193,17 @@ impl Elaborator {
     /// The supervised vehicle's (system, autopilot component), once known.
     pub fn vehicle(&self) -> Option<(u8, u8)> {
         self.vehicle
+    }
+
+    /// The supervised vehicle's last `time_boot_ms` heard, in µs (not
+    /// extrapolated: how far its own clock the elaboration has read).
+    pub fn vehicle_boot_us(&self) -> Option<u64> {
+        let (sysid, compid) = self.vehicle?;
+        self.sources
+            .iter()
+            .find(|s| s.sysid == sysid && s.compid == compid)?
+            .boot
+            .map(|(boot, _)| boot)
     }
 
     /// The next queued event.
@@ -290,6 +317,7 @@ impl Elaborator {
             rules: vec![RuleState::default(); p.rules.len()],
             memos: vec![V::Missing; p.memos],
             statustext: Joiner::default(),
+            boot: None,
         });
         Some(self.sources.len() - 1)
     }
@@ -316,6 +344,13 @@ impl Elaborator {
             src.loss -= LOSS_WEIGHT * src.loss;
         }
         src.last_seq = Some(seq);
+        let boot_ms = match &input {
+            Input::Frame(f) => f.time_boot_ms(),
+            Input::Message(m) => crate::frame::message_boot_ms(m),
+        };
+        if let Some(ms) = boot_ms {
+            src.boot = Some((u64::from(ms) * 1000, now));
+        }
         let slot = match self.profile.slot_of_id.get(msgid as usize) {
             Some(&0) => return,
             Some(&s) => s as usize - 1,
@@ -491,7 +526,7 @@ impl Elaborator {
             // `clear` false at this very message counts as "since".
             state.clear_was_false = clear_now == Some(false);
         }
-        let (sysid, compid) = (cx.src.sysid, cx.src.compid);
+        let (sysid, compid, boot_us) = (cx.src.sysid, cx.src.compid, cx.src.boot_at(now));
         let reboot = rule.reboot;
         self.events.push_back(Elaborated {
             time_us: now,
@@ -502,6 +537,7 @@ impl Elaborator {
             },
             sysid,
             compid,
+            boot_us,
         });
         if reboot {
             self.forget_boot(si, slot);
@@ -615,7 +651,7 @@ impl Elaborator {
             state.pending_since = None;
             state.clearing_since = None;
             let params = params(rule, &mut cx);
-            let (sysid, compid) = (cx.src.sysid, cx.src.compid);
+            let (sysid, compid, boot_us) = (cx.src.sysid, cx.src.compid, cx.src.boot_at(now));
             self.events.push_back(Elaborated {
                 time_us: now,
                 event: Event {
@@ -625,11 +661,12 @@ impl Elaborator {
                 },
                 sysid,
                 compid,
+                boot_us,
             });
         }
         if clear_fire {
             if let Some((name, category)) = &rule.cleared {
-                let (sysid, compid) = (cx.src.sysid, cx.src.compid);
+                let (sysid, compid, boot_us) = (cx.src.sysid, cx.src.compid, cx.src.boot_at(now));
                 let params = Params::new();
                 self.events.push_back(Elaborated {
                     time_us: now,
@@ -640,6 +677,7 @@ impl Elaborator {
                     },
                     sysid,
                     compid,
+                    boot_us,
                 });
             }
         }

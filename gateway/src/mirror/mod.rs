@@ -52,6 +52,7 @@ pub fn step_inputs(input: &SupervisorInput, step: &Step) -> Option<Vec<Input>> {
             .iter()
             .map(|(e, _)| Input::Elaborated {
                 time: e.time_us,
+                boot: e.boot_us,
                 event: e.event.clone(),
             })
             .collect(),

@@ -88,7 +88,7 @@ fn feed(g: &mut Ground, t: Micros, bytes: &[u8]) -> Vec<String> {
 /// elaborates the same frames): they all match.
 fn both(g: &mut Ground, t: Micros, bytes: &[u8]) {
     for e in elaborate(g, t, bytes) {
-        g.vehicle_event(t, &e);
+        g.vehicle_event(t, t, None, &e);
     }
 }
 
@@ -154,9 +154,9 @@ fn the_check_is_per_vehicle() {
     }
     // The ground saw R2's engine fail; the vehicle published R1's: the
     // same name, another vehicle's, so neither matches.
-    g.vehicle_event(10_000_000, &ev("engine_failure@R1"));
-    g.checks[1].ground(10_000_000, &ev("engine_failure@R2"));
-    g.advance(Some(29_000_000), same);
+    g.vehicle_event(10_000_000, 10_000_000, None, &ev("engine_failure@R1"));
+    g.checks[1].ground(10_000_000, None, &ev("engine_failure@R2"));
+    g.advance(Some(29_000_000), |_| None, same);
     let mut got = Vec::new();
     while let Some((vehicle, d)) = g.poll_disagreement() {
         got.push((vehicle.map(str::to_owned), d.event, d.seen_by));
@@ -203,9 +203,9 @@ fn losses_are_watched_per_vehicle() {
     };
     // The vehicle published one event of each at 12 s that the ground did
     // not see: R2's falls in R2's loss (not judged), R1's does not.
-    g.vehicle_event(12_000_000, &ev("landed@R1"));
-    g.vehicle_event(12_000_000, &ev("landed@R2"));
-    g.advance(Some(29_000_000), same);
+    g.vehicle_event(12_000_000, 12_000_000, None, &ev("landed@R1"));
+    g.vehicle_event(12_000_000, 12_000_000, None, &ev("landed@R2"));
+    g.advance(Some(29_000_000), |_| None, same);
     let (vehicle, d) = g.poll_disagreement().expect("R1's");
     assert_eq!((vehicle, d.event.as_str()), (Some("R1"), "landed@R1"));
     assert!(g.poll_disagreement().is_none());
@@ -256,6 +256,8 @@ fn events_before_the_time_base_are_judged_once_it_is_known() {
     g.drain(base, |_| {});
     g.vehicle_event(
         5_100_000,
+        5_100_000,
+        None,
         &Event {
             name: "armed@R1".to_owned(),
             category: Category::Mission,
@@ -277,7 +279,7 @@ fn events_from_before_the_vehicle_started_are_not_judged() {
     g.drain(base, |_| {});
     // The replica holds every record through 10 s: whatever the ground
     // had waiting is judged now (a ground-only event, were it kept).
-    g.advance(Some(10_000_000), base);
+    g.advance(Some(10_000_000), |_| None, base);
     assert!(g.poll_disagreement().is_none());
     let counts = g.counts().next().expect("R1's counts");
     assert_eq!(
@@ -317,7 +319,7 @@ fn a_mode_change_the_ground_alone_heard_at_boot_is_not_judged() {
     for (i, t) in (2..12u8).zip((2_150_000..).step_by(1_000_000)) {
         feed(&mut g, t, &plane(i, 0));
     }
-    g.advance(Some(11_000_000), same);
+    g.advance(Some(11_000_000), |_| None, same);
     assert!(g.poll_disagreement().is_none());
     let c = g.total();
     assert_eq!((c.ground_only, c.unjudged), (0, 1));
@@ -326,7 +328,7 @@ fn a_mode_change_the_ground_alone_heard_at_boot_is_not_judged() {
     for (i, t) in (13..20u8).zip((13_150_000..).step_by(1_000_000)) {
         feed(&mut g, t, &plane(i, 10));
     }
-    g.advance(Some(19_000_000), same);
+    g.advance(Some(19_000_000), |_| None, same);
     let (_, d) = g.poll_disagreement().expect("the later change");
     assert_eq!(
         (d.event.as_str(), d.seen_by),
@@ -414,13 +416,13 @@ fn operations(
             }
             for e in elaborate(g, t, bytes) {
                 if !missed.contains(&e.name.as_str()) {
-                    g.vehicle_event(t, &e);
+                    g.vehicle_event(t, t, None, &e);
                 }
             }
         }
         feed(g, t + 1_000, &companion(k));
         k = k.wrapping_add(4);
-        g.advance(Some(t), same);
+        g.advance(Some(t), |_| None, same);
         t += 250_000;
     }
     seq
@@ -443,7 +445,7 @@ fn the_onboard_gateways_numbers_are_no_loss_and_a_missed_engine_failure_is_repor
         operations(&mut g, 20_000_000, lost, &["engine_failure"], |t| {
             (t == 12_150_000).then(|| "Potential Thrust Loss (3)".to_owned())
         });
-        g.advance(Some(20_000_000), same);
+        g.advance(Some(20_000_000), |_| None, same);
         let total = g.total();
         let (_, d) = g
             .poll_disagreement()
@@ -478,7 +480,7 @@ fn a_hole_in_the_grounds_view_is_not_judged_for_a_while() {
         &["engine_failure"],
         texts,
     );
-    g.advance(Some(40_000_000), same);
+    g.advance(Some(40_000_000), |_| None, same);
     let mut reported = Vec::new();
     while let Some((_, d)) = g.poll_disagreement() {
         reported.push(d.time);
@@ -501,8 +503,8 @@ fn acknowledgements_to_the_onboard_gateway_alone_raise_no_alarm() {
     let rejected = Event::new("command_rejected")
         .param("command", "MAV_CMD_IMAGE_START_CAPTURE")
         .param("result", "MAV_RESULT_UNSUPPORTED");
-    g.vehicle_event(5_000_000, &rejected);
-    g.advance(Some(10_000_000), same);
+    g.vehicle_event(5_000_000, 5_000_000, None, &rejected);
+    g.advance(Some(10_000_000), |_| None, same);
     assert!(g.poll_disagreement().is_none());
     assert_eq!(g.total().addressed, 1);
 }
@@ -523,7 +525,7 @@ fn a_frame_lost_between_two_batches_leaves_no_hole() {
             seq = seq.wrapping_add(1);
             if !seq.is_multiple_of(30) {
                 for e in elaborate(&mut g, t, &bytes) {
-                    g.vehicle_event(t, &e);
+                    g.vehicle_event(t, t, None, &e);
                 }
             }
         }
@@ -531,9 +533,9 @@ fn a_frame_lost_between_two_batches_leaves_no_hole() {
             elaborate(&mut g, t, &says(seq, "Potential Thrust Loss (3)"));
             seq = seq.wrapping_add(1);
         }
-        g.advance(Some(t), same);
+        g.advance(Some(t), |_| None, same);
     }
-    g.advance(Some(20_000_000), same);
+    g.advance(Some(20_000_000), |_| None, same);
     let (_, d) = g.poll_disagreement().expect("the engine failure");
     assert_eq!(
         (d.event.as_str(), d.seen_by),
