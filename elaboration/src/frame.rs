@@ -247,6 +247,40 @@ mod tests {
     use super::*;
     use mavlink::dialects::ardupilotmega::{MavModeFlag, HEARTBEAT_DATA};
 
+    #[test]
+    fn the_autopilots_clock_is_read_where_a_message_carries_it() {
+        use mavlink::dialects::ardupilotmega::{GLOBAL_POSITION_INT_DATA, SYSTEM_TIME_DATA};
+        let header = MavHeader::default();
+        let messages = [
+            MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA {
+                time_unix_usec: u64::MAX,
+                time_boot_ms: 123_456,
+            }),
+            MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+                time_boot_ms: 123_456,
+                lat: -1,
+                ..Default::default()
+            }),
+        ];
+        for m in &messages {
+            for v in [MavlinkVersion::V1, MavlinkVersion::V2] {
+                let bytes = serialize(header, v, m);
+                let f = Frame::parse(&bytes).expect("frame");
+                assert_eq!(f.time_boot_ms(), Some(123_456), "{m:?}");
+                assert_eq!(message_boot_ms(m), Some(123_456));
+            }
+        }
+        // A small time, its high bytes cut by MAVLink 2: read as zeros.
+        let m = MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA {
+            time_unix_usec: 0,
+            time_boot_ms: 7,
+        });
+        let bytes = serialize(header, MavlinkVersion::V2, &m);
+        assert_eq!(Frame::parse(&bytes).expect("frame").time_boot_ms(), Some(7));
+        let bytes = heartbeat(MavlinkVersion::V2);
+        assert_eq!(Frame::parse(&bytes).expect("frame").time_boot_ms(), None);
+    }
+
     fn heartbeat(version: MavlinkVersion) -> Vec<u8> {
         let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
             custom_mode: 5,

@@ -170,13 +170,13 @@ pub(crate) struct Slot {
 /// The messages (ids) one rule depends on ([`Profile::event_needs`]).
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct Needs {
-    /// Messages whose fields it reads (or its `on` messages): a receiver
-    /// that does not get them now never runs the rule.
+    /// Messages whose fields it reads, its `on` messages and those it asks
+    /// `seen()` of: a receiver that does not get them now does not run the
+    /// rule as one that does (`!seen(EXTENDED_SYS_STATE)` is the rule for
+    /// a port without it, not for one with it).
     pub fields: Vec<u32>,
-    /// Messages whose age only it reads (`age()`, `seen()`): a receiver
-    /// that never got them runs another rule (`!seen(EXTENDED_SYS_STATE)`
-    /// is the rule for a port without it); once heard, their silence is
-    /// something it observes.
+    /// Messages whose age only it reads (`age()`: a silence): a receiver
+    /// must have heard them once; their silence it then observes.
     pub ages: Vec<u32>,
 }
 
@@ -405,8 +405,12 @@ impl Profile {
         };
         let mut out: Vec<(&str, Vec<Needs>)> = Vec::new();
         for r in &self.rules {
-            let when_fields =
-                [r.when.reads.as_slice(), r.on.as_deref().unwrap_or_default()].concat();
+            let when_fields = [
+                r.when.reads.as_slice(),
+                r.when.seen.as_slice(),
+                r.on.as_deref().unwrap_or_default(),
+            ]
+            .concat();
             let rule = Needs {
                 fields: ids(&when_fields),
                 ages: ids(&r.when.ages)
@@ -421,6 +425,7 @@ impl Profile {
                 let mut ages = rule.ages.clone();
                 if let Some(c) = &r.clear {
                     fields.extend(ids(&c.reads));
+                    fields.extend(ids(&c.seen));
                     ages.extend(ids(&c.ages));
                 }
                 fields.sort_unstable();

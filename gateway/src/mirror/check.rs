@@ -817,6 +817,134 @@ mod tests {
     }
 
     #[test]
+    fn on_the_autopilots_clock_a_side_that_stamps_late_raises_no_disagreement() {
+        // The ground's computer starved 3.3 s: its events come 3.3 s late
+        // in vehicle time, at the autopilot's same `time_boot_ms`.
+        let mut c = Check::new(WINDOW);
+        c.vehicle(
+            10_000_000,
+            Some(110_000_000),
+            &ev("armed", Category::Nominal),
+        );
+        c.ground(
+            13_300_000,
+            Some(110_050_000),
+            &ev("armed", Category::Nominal),
+        );
+        // The onboard gateway starved: its `takeoff` comes 3.3 s late in
+        // vehicle time. The replica's records reach 21.2 s (past the
+        // ground's event and its window in vehicle time) but the vehicle
+        // had read its autopilot's clock only to 110.5 s: not judged yet.
+        c.ground(
+            20_000_000,
+            Some(120_000_000),
+            &ev("takeoff", Category::Mission),
+        );
+        c.advance(
+            Some(21_200_000),
+            Some(110_500_000),
+            Some(21_000_000),
+            Some(121_000_000),
+        );
+        assert_eq!(c.poll(), None);
+        c.vehicle(
+            23_300_000,
+            Some(120_100_000),
+            &ev("takeoff", Category::Mission),
+        );
+        c.advance(
+            Some(40_000_000),
+            Some(140_000_000),
+            Some(40_000_000),
+            Some(140_000_000),
+        );
+        assert_eq!(c.poll(), None);
+        assert_eq!(c.counts.matched, 2);
+        assert_eq!(c.counts.ground_late_max, 50_000);
+        assert_eq!(c.counts.vehicle_late_max, 100_000);
+    }
+
+    #[test]
+    fn on_the_autopilots_clock_a_real_miss_is_still_reported_both_ways() {
+        let mut c = Check::new(WINDOW);
+        c.ground(
+            30_000_000,
+            Some(130_000_000),
+            &ev("engine_failure", Category::Catastrophic),
+        );
+        c.vehicle(
+            35_000_000,
+            Some(135_000_000),
+            &ev("battery_low", Category::Safety),
+        );
+        // Asked for half a window past its end: the vehicle reads the
+        // autopilot's clock a period behind.
+        assert_eq!(
+            c.poll_heartbeat_wanted(Some(30_500_000)),
+            Some(31_000_000 + BOOT_MARGIN + 1)
+        );
+        // The vehicle has read its clock to 131.1 s, the ground to 137.1 s.
+        c.advance(
+            Some(31_400_000),
+            Some(131_100_000),
+            Some(37_100_000),
+            Some(137_100_000),
+        );
+        let seen: Vec<(Side, String)> = std::iter::from_fn(|| c.poll())
+            .map(|d| (d.seen_by, d.event))
+            .collect();
+        assert_eq!(
+            seen,
+            [
+                (Side::Ground, "engine_failure".to_owned()),
+                (Side::Vehicle, "battery_low".to_owned())
+            ]
+        );
+        // A side that stops reading the autopilot's clock is judged on
+        // vehicle time once STALE past the window.
+        c.ground(
+            50_000_000,
+            Some(150_000_000),
+            &ev("engine_failure", Category::Catastrophic),
+        );
+        c.advance(
+            Some(60_000_000),
+            Some(140_000_000),
+            Some(60_000_000),
+            Some(160_000_000),
+        );
+        assert_eq!(c.poll(), None);
+        c.advance(
+            Some(61_000_001),
+            Some(140_000_000),
+            Some(61_000_001),
+            Some(160_000_000),
+        );
+        assert_eq!(c.poll().map(|d| d.time), Some(50_000_000));
+    }
+
+    #[test]
+    fn unobservable_events_are_matched_or_counted_never_reported() {
+        let mut c = Check::new(WINDOW);
+        c.unobservable(
+            Side::Vehicle,
+            10_000_000,
+            None,
+            &ev("landed", Category::Mission),
+        );
+        c.unobservable(
+            Side::Ground,
+            20_000_000,
+            None,
+            &ev("takeoff", Category::Mission),
+        );
+        c.vehicle(20_100_000, None, &ev("takeoff", Category::Mission));
+        c.advance(Some(60_000_000), None, Some(60_000_000), None);
+        assert_eq!(c.poll(), None);
+        assert_eq!((c.counts.unobservable, c.counts.matched), (1, 1));
+    }
+
+    #[test]
     fn link_events_are_never_compared() {
         let mut c = Check::new(WINDOW);
         c.ground(1_000_000, None, &ev("link_lost", Category::Communication));
