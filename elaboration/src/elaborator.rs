@@ -206,6 +206,35 @@ impl Elaborator {
             .map(|(boot, _)| boot)
     }
 
+    /// Whether the supervised vehicle is still in the state event `event`
+    /// announced: a rule producing it (without `each`) is active and its
+    /// condition has not turned false since. `true` for an occurrence (a
+    /// rule with `each`), a `cleared` event, an event no rule produces, or
+    /// before the vehicle is known.
+    pub fn still_holds(&self, event: &str) -> bool {
+        let Some(src) = self
+            .vehicle
+            .and_then(|(s, c)| self.sources.iter().find(|x| x.sysid == s && x.compid == c))
+        else {
+            return true;
+        };
+        let mut states = self
+            .profile
+            .rules
+            .iter()
+            .zip(&src.rules)
+            .filter(|(r, _)| r.event == event)
+            .peekable();
+        if states.peek().is_none()
+            || self.profile.rules.iter().any(|r| {
+                r.cleared.as_ref().is_some_and(|c| c.0 == event) || (r.event == event && r.each)
+            })
+        {
+            return true;
+        }
+        states.any(|(_, s)| s.active && s.clearing_since.is_none())
+    }
+
     /// The next queued event.
     pub fn poll_event(&mut self) -> Option<Elaborated> {
         self.events.pop_front()

@@ -146,6 +146,11 @@ impl Lanes {
             .collect()
     }
 
+    /// Lane `i`'s elaborator.
+    pub fn elaborator(&self, i: usize) -> &Elaborator {
+        &self.elaborators[i]
+    }
+
     /// The first lane's elaborator (the only one without a team).
     pub fn first(&self) -> &Elaborator {
         &self.elaborators[0]

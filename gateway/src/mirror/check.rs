@@ -471,12 +471,39 @@ impl Check {
     /// autopilot's time is judged once the other side has read past it
     /// (and its window) on that clock; one without, or when the other side
     /// has none, on vehicle time.
+    #[cfg(test)]
     pub fn advance(
         &mut self,
         vehicle_known: Option<Micros>,
         vehicle_boot: Option<Micros>,
         ground_known: Option<Micros>,
         ground_boot: Option<Micros>,
+    ) {
+        self.advance_holding(
+            vehicle_known,
+            vehicle_boot,
+            ground_known,
+            ground_boot,
+            |_| true,
+        );
+    }
+
+    /// [`Check::advance`], where `holds` says whether the ground is still
+    /// in the state a ground event announced (`Elaborator::still_holds`):
+    /// one it left again before it was judged (a second or two later) is
+    /// not judged. The ground samples some streams once a second or less:
+    /// a stale sample of one with a fresh one of another makes a state the
+    /// autopilot may never have been in (ArduPlane's SYS_STATUS still
+    /// "pre-arm healthy" from before its disarm, with the heartbeat that
+    /// disarms: a `ready_for_takeoff` for one second), which the vehicle,
+    /// sampling every stream at 4 Hz, does not see.
+    pub fn advance_holding(
+        &mut self,
+        vehicle_known: Option<Micros>,
+        vehicle_boot: Option<Micros>,
+        ground_known: Option<Micros>,
+        ground_boot: Option<Micros>,
+        holds: impl Fn(&str) -> bool,
     ) {
         let Window {
             vehicle_late,
@@ -499,7 +526,7 @@ impl Check {
                 .is_some_and(|g| past(g, vehicle_late, v, vehicle_boot))
             {
                 let g = self.ground.pop_front().expect("checked");
-                if self.in_hole(g.time) || self.settling(g.time) {
+                if self.in_hole(g.time) || self.settling(g.time) || !holds(&g.name) {
                     self.counts.unjudged += 1;
                     continue;
                 }
@@ -942,6 +969,37 @@ mod tests {
         c.advance(Some(60_000_000), None, Some(60_000_000), None);
         assert_eq!(c.poll(), None);
         assert_eq!((c.counts.unobservable, c.counts.matched), (1, 1));
+    }
+
+    #[test]
+    fn a_state_the_ground_left_again_before_it_was_judged_is_not_judged() {
+        // ArduPlane disarmed after its landing: the ground's 1 Hz SYS_STATUS
+        // still said "pre-arm healthy" (from while armed) with the heartbeat
+        // that disarmed, a second later not; the vehicle, at 4 Hz, never saw
+        // both together.
+        let mut c = Check::new(WINDOW);
+        c.ground(
+            122_000_000,
+            None,
+            &ev("ready_for_takeoff", Category::Nominal),
+        );
+        c.ground(
+            130_000_000,
+            None,
+            &ev("ready_for_takeoff", Category::Nominal),
+        );
+        let mut left = true;
+        c.advance_holding(Some(124_000_000), None, Some(124_000_000), None, |n| {
+            n != "ready_for_takeoff" || !left
+        });
+        assert_eq!(c.poll(), None);
+        assert_eq!(c.counts.unjudged, 1);
+        // One the ground is still in when judged is reported.
+        left = false;
+        c.advance_holding(Some(132_000_000), None, Some(132_000_000), None, |n| {
+            n != "ready_for_takeoff" || !left
+        });
+        assert_eq!(c.poll().map(|d| d.time), Some(130_000_000));
     }
 
     #[test]

@@ -441,11 +441,13 @@ impl Ground {
                     c.ground_from(t);
                 }
             }
-            c.advance(
+            let elaborator = self.lanes.elaborator(i);
+            c.advance_holding(
                 vehicle_known,
                 vehicle_boot(i),
                 w.last_autopilot.and_then(&to_vehicle),
                 w.last_boot,
+                |name| elaborator.still_holds(nets::model::split_vehicle(name).0),
             );
         }
     }
