@@ -28,7 +28,10 @@ pub struct Elaborated {
     /// the last `time_boot_ms` it sent, up to and including the frame that
     /// fired it, plus the receive time since that frame. `None` while the
     /// sender has sent no message that carries one
-    /// ([`crate::frame::boot_ms_offset`]).
+    /// ([`crate::frame::boot_ms_offset`]). The time added is at most the
+    /// sender's recent period between such messages: a computer that
+    /// stalled reads the first frame after it long after the last, and
+    /// that time is the stall's.
     pub boot_us: Option<u64>,
     pub event: Event,
     pub sysid: u8,
@@ -121,13 +124,38 @@ struct Source {
     statustext: Joiner,
     /// Its last `time_boot_ms` (µs) and when it came (receive time).
     boot: Option<(u64, u64)>,
+    /// The last gaps between its frames carrying `time_boot_ms`, on its
+    /// own clock (µs): the most the receive time since the last one may
+    /// add ([`Source::boot_at`]).
+    boot_gaps: [u64; 8],
+    boot_gap_at: usize,
 }
 
+/// Gaps of the sender's own clock longer than this are a silence or a
+/// reboot, not its period.
+const BOOT_GAP_MAX: u64 = 2_000_000;
+
 impl Source {
-    /// The sender's clock at receive time `now` (see [`Elaborated::boot_us`]).
+    /// The sender's clock at receive time `now` (see [`Elaborated::boot_us`]):
+    /// its last `time_boot_ms` plus the receive time since, at most its
+    /// recent period. A computer that stalled reads the frames of the
+    /// stall together, the first long after the last: that time is the
+    /// stall's, not the autopilot's.
     fn boot_at(&self, now: u64) -> Option<u64> {
+        let period = self.boot_gaps.iter().copied().max().unwrap_or(0);
         self.boot
-            .map(|(boot, at)| boot.saturating_add(now.saturating_sub(at)))
+            .map(|(boot, at)| boot.saturating_add(now.saturating_sub(at).min(period)))
+    }
+
+    fn boot_heard(&mut self, boot: u64, now: u64) {
+        if let Some((last, _)) = self.boot {
+            let gap = boot.saturating_sub(last);
+            if gap <= BOOT_GAP_MAX {
+                self.boot_gaps[self.boot_gap_at] = gap;
+                self.boot_gap_at = (self.boot_gap_at + 1) % self.boot_gaps.len();
+            }
+        }
+        self.boot = Some((boot, now));
     }
 }
 
@@ -347,6 +375,8 @@ impl Elaborator {
             memos: vec![V::Missing; p.memos],
             statustext: Joiner::default(),
             boot: None,
+            boot_gaps: [0; 8],
+            boot_gap_at: 0,
         });
         Some(self.sources.len() - 1)
     }
@@ -378,7 +408,7 @@ impl Elaborator {
             Input::Message(m) => crate::frame::message_boot_ms(m),
         };
         if let Some(ms) = boot_ms {
-            src.boot = Some((u64::from(ms) * 1000, now));
+            src.boot_heard(u64::from(ms) * 1000, now);
         }
         let slot = match self.profile.slot_of_id.get(msgid as usize) {
             Some(&0) => return,

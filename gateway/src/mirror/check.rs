@@ -86,10 +86,11 @@ pub const SETTLE: Micros = 2_000_000;
 pub const STALE: Micros = 10_000_000;
 
 /// A heartbeat asked for to judge a ground event on the autopilot's clock
-/// is asked this much later than its window's end: the vehicle reads the
-/// autopilot's clock a telemetry period (4 Hz) behind the frames it
-/// elaborates.
-pub const BOOT_MARGIN: Micros = 300_000;
+/// is asked this much later than its window's end: the vehicle's last
+/// `time_boot_ms` read is a telemetry period (4 Hz: 0.25 s) and its link's
+/// delay behind the frames it elaborates (0.3 s left it short on real
+/// ArduPlane SITL, the report waiting for the next periodic heartbeat).
+pub const BOOT_MARGIN: Micros = 500_000;
 
 /// Which side saw an event the other did not.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
