@@ -242,6 +242,34 @@ pub fn serialize(header: MavHeader, version: MavlinkVersion, message: &MavMessag
     out
 }
 
+/// Where a message's `time_boot_ms` (u32) sits in its payload, for the
+/// messages of the autopilot's usual telemetry that carry one (MAVLink
+/// orders fields by size: after SYSTEM_TIME's u64, first in the others).
+pub fn boot_ms_offset(id: u32) -> Option<usize> {
+    match id {
+        2 => Some(8),                                 // SYSTEM_TIME
+        29 | 30 | 31 | 32 | 33 | 65 | 251 => Some(0), // SCALED_PRESSURE, ATTITUDE, ATTITUDE_QUATERNION,
+        // LOCAL_POSITION_NED, GLOBAL_POSITION_INT, RC_CHANNELS, NAMED_VALUE_FLOAT
+        _ => None,
+    }
+}
+
+/// The same from a decoded message.
+pub fn message_boot_ms(message: &mavlink::dialects::ardupilotmega::MavMessage) -> Option<u32> {
+    use mavlink::dialects::ardupilotmega::MavMessage as M;
+    Some(match message {
+        M::SYSTEM_TIME(m) => m.time_boot_ms,
+        M::SCALED_PRESSURE(m) => m.time_boot_ms,
+        M::ATTITUDE(m) => m.time_boot_ms,
+        M::ATTITUDE_QUATERNION(m) => m.time_boot_ms,
+        M::LOCAL_POSITION_NED(m) => m.time_boot_ms,
+        M::GLOBAL_POSITION_INT(m) => m.time_boot_ms,
+        M::RC_CHANNELS(m) => m.time_boot_ms,
+        M::NAMED_VALUE_FLOAT(m) => m.time_boot_ms,
+        _ => return None,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -354,32 +382,4 @@ mod tests {
             })
         ));
     }
-}
-
-/// Where a message's `time_boot_ms` (u32) sits in its payload, for the
-/// messages of the autopilot's usual telemetry that carry one (MAVLink
-/// orders fields by size: after SYSTEM_TIME's u64, first in the others).
-pub fn boot_ms_offset(id: u32) -> Option<usize> {
-    match id {
-        2 => Some(8),                                 // SYSTEM_TIME
-        29 | 30 | 31 | 32 | 33 | 65 | 251 => Some(0), // SCALED_PRESSURE, ATTITUDE, ATTITUDE_QUATERNION,
-        // LOCAL_POSITION_NED, GLOBAL_POSITION_INT, RC_CHANNELS, NAMED_VALUE_FLOAT
-        _ => None,
-    }
-}
-
-/// The same from a decoded message.
-pub fn message_boot_ms(message: &mavlink::dialects::ardupilotmega::MavMessage) -> Option<u32> {
-    use mavlink::dialects::ardupilotmega::MavMessage as M;
-    Some(match message {
-        M::SYSTEM_TIME(m) => m.time_boot_ms,
-        M::SCALED_PRESSURE(m) => m.time_boot_ms,
-        M::ATTITUDE(m) => m.time_boot_ms,
-        M::ATTITUDE_QUATERNION(m) => m.time_boot_ms,
-        M::LOCAL_POSITION_NED(m) => m.time_boot_ms,
-        M::GLOBAL_POSITION_INT(m) => m.time_boot_ms,
-        M::RC_CHANNELS(m) => m.time_boot_ms,
-        M::NAMED_VALUE_FLOAT(m) => m.time_boot_ms,
-        _ => return None,
-    })
 }

@@ -338,7 +338,7 @@ impl Ground {
                 break;
             };
             if t > 0 {
-                self.to_check(Side::Ground, t, boot, observable, &event);
+                self.judge_later(Side::Ground, t, boot, observable, &event);
             }
         }
         let mut elaborated = std::mem::take(&mut self.elaborated);
@@ -347,7 +347,7 @@ impl Ground {
             seen(&e.event);
             let observable = self.observable(e.time_us, &e.event);
             match to_vehicle(e.time_us) {
-                Some(t) => self.to_check(Side::Ground, t, e.boot_us, observable, &e.event),
+                Some(t) => self.judge_later(Side::Ground, t, e.boot_us, observable, &e.event),
                 None => {
                     if self.untimed.len() == UNTIMED {
                         self.untimed.pop_front();
@@ -370,10 +370,10 @@ impl Ground {
         event: &Event,
     ) {
         let observable = self.observable(now, event);
-        self.to_check(Side::Vehicle, time, boot, observable, event);
+        self.judge_later(Side::Vehicle, time, boot, observable, event);
     }
 
-    fn to_check(
+    fn judge_later(
         &mut self,
         side: Side,
         time: Micros,
