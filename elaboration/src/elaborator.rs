@@ -24,6 +24,15 @@ use crate::statustext::{Joiner, Piece};
 pub struct Elaborated {
     /// Receive time of the frame (or tick) that fired it, microseconds.
     pub time_us: u64,
+    /// The sender's own clock when it fired, microseconds since its boot:
+    /// the last `time_boot_ms` it sent, up to and including the frame that
+    /// fired it, plus the receive time since that frame. `None` while the
+    /// sender has sent no message that carries one
+    /// ([`crate::frame::boot_ms_offset`]). The time added is at most the
+    /// sender's recent period between such messages: a computer that
+    /// stalled reads the first frame after it long after the last, and
+    /// that time is the stall's.
+    pub boot_us: Option<u64>,
     pub event: Event,
     pub sysid: u8,
     pub compid: u8,
@@ -113,6 +122,41 @@ struct Source {
     memos: Vec<V<'static>>,
     /// Its long STATUSTEXT under way (chunks put back together).
     statustext: Joiner,
+    /// Its last `time_boot_ms` (µs) and when it came (receive time).
+    boot: Option<(u64, u64)>,
+    /// The last gaps between its frames carrying `time_boot_ms`, on its
+    /// own clock (µs): the most the receive time since the last one may
+    /// add ([`Source::boot_at`]).
+    boot_gaps: [u64; 8],
+    boot_gap_at: usize,
+}
+
+/// Gaps of the sender's own clock longer than this are a silence or a
+/// reboot, not its period.
+const BOOT_GAP_MAX: u64 = 2_000_000;
+
+impl Source {
+    /// The sender's clock at receive time `now` (see [`Elaborated::boot_us`]):
+    /// its last `time_boot_ms` plus the receive time since, at most its
+    /// recent period. A computer that stalled reads the frames of the
+    /// stall together, the first long after the last: that time is the
+    /// stall's, not the autopilot's.
+    fn boot_at(&self, now: u64) -> Option<u64> {
+        let period = self.boot_gaps.iter().copied().max().unwrap_or(0);
+        self.boot
+            .map(|(boot, at)| boot.saturating_add(now.saturating_sub(at).min(period)))
+    }
+
+    fn boot_heard(&mut self, boot: u64, now: u64) {
+        if let Some((last, _)) = self.boot {
+            let gap = boot.saturating_sub(last);
+            if gap <= BOOT_GAP_MAX {
+                self.boot_gaps[self.boot_gap_at] = gap;
+                self.boot_gap_at = (self.boot_gap_at + 1) % self.boot_gaps.len();
+            }
+        }
+        self.boot = Some((boot, now));
+    }
 }
 
 const LOSS_WEIGHT: f64 = 1.0 / 32.0;
@@ -177,6 +221,46 @@ impl Elaborator {
     /// The supervised vehicle's (system, autopilot component), once known.
     pub fn vehicle(&self) -> Option<(u8, u8)> {
         self.vehicle
+    }
+
+    /// The supervised vehicle's last `time_boot_ms` heard, in µs (not
+    /// extrapolated: how far its own clock the elaboration has read).
+    pub fn vehicle_boot_us(&self) -> Option<u64> {
+        let (sysid, compid) = self.vehicle?;
+        self.sources
+            .iter()
+            .find(|s| s.sysid == sysid && s.compid == compid)?
+            .boot
+            .map(|(boot, _)| boot)
+    }
+
+    /// Whether the supervised vehicle is still in the state event `event`
+    /// announced: a rule producing it (without `each`) is active and its
+    /// condition has not turned false since. `true` for an occurrence (a
+    /// rule with `each`), a `cleared` event, an event no rule produces, or
+    /// before the vehicle is known.
+    pub fn still_holds(&self, event: &str) -> bool {
+        let Some(src) = self
+            .vehicle
+            .and_then(|(s, c)| self.sources.iter().find(|x| x.sysid == s && x.compid == c))
+        else {
+            return true;
+        };
+        let mut states = self
+            .profile
+            .rules
+            .iter()
+            .zip(&src.rules)
+            .filter(|(r, _)| r.event == event)
+            .peekable();
+        if states.peek().is_none()
+            || self.profile.rules.iter().any(|r| {
+                r.cleared.as_ref().is_some_and(|c| c.0 == event) || (r.event == event && r.each)
+            })
+        {
+            return true;
+        }
+        states.any(|(_, s)| s.active && s.clearing_since.is_none())
     }
 
     /// The next queued event.
@@ -290,6 +374,9 @@ impl Elaborator {
             rules: vec![RuleState::default(); p.rules.len()],
             memos: vec![V::Missing; p.memos],
             statustext: Joiner::default(),
+            boot: None,
+            boot_gaps: [0; 8],
+            boot_gap_at: 0,
         });
         Some(self.sources.len() - 1)
     }
@@ -316,6 +403,13 @@ impl Elaborator {
             src.loss -= LOSS_WEIGHT * src.loss;
         }
         src.last_seq = Some(seq);
+        let boot_ms = match &input {
+            Input::Frame(f) => f.time_boot_ms(),
+            Input::Message(m) => crate::frame::message_boot_ms(m),
+        };
+        if let Some(ms) = boot_ms {
+            src.boot_heard(u64::from(ms) * 1000, now);
+        }
         let slot = match self.profile.slot_of_id.get(msgid as usize) {
             Some(&0) => return,
             Some(&s) => s as usize - 1,
@@ -491,7 +585,7 @@ impl Elaborator {
             // `clear` false at this very message counts as "since".
             state.clear_was_false = clear_now == Some(false);
         }
-        let (sysid, compid) = (cx.src.sysid, cx.src.compid);
+        let (sysid, compid, boot_us) = (cx.src.sysid, cx.src.compid, cx.src.boot_at(now));
         let reboot = rule.reboot;
         self.events.push_back(Elaborated {
             time_us: now,
@@ -502,6 +596,7 @@ impl Elaborator {
             },
             sysid,
             compid,
+            boot_us,
         });
         if reboot {
             self.forget_boot(si, slot);
@@ -615,7 +710,7 @@ impl Elaborator {
             state.pending_since = None;
             state.clearing_since = None;
             let params = params(rule, &mut cx);
-            let (sysid, compid) = (cx.src.sysid, cx.src.compid);
+            let (sysid, compid, boot_us) = (cx.src.sysid, cx.src.compid, cx.src.boot_at(now));
             self.events.push_back(Elaborated {
                 time_us: now,
                 event: Event {
@@ -625,11 +720,12 @@ impl Elaborator {
                 },
                 sysid,
                 compid,
+                boot_us,
             });
         }
         if clear_fire {
             if let Some((name, category)) = &rule.cleared {
-                let (sysid, compid) = (cx.src.sysid, cx.src.compid);
+                let (sysid, compid, boot_us) = (cx.src.sysid, cx.src.compid, cx.src.boot_at(now));
                 let params = Params::new();
                 self.events.push_back(Elaborated {
                     time_us: now,
@@ -640,6 +736,7 @@ impl Elaborator {
                     },
                     sysid,
                     compid,
+                    boot_us,
                 });
             }
         }

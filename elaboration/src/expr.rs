@@ -319,6 +319,7 @@ struct Parser<'s, 'r, R: Resolver> {
     /// Messages the expression reads fields of (slots), for triggering.
     pub reads: Vec<usize>,
     pub ages: Vec<usize>,
+    pub seen: Vec<usize>,
     pub timed: bool,
     pub regexes: Vec<usize>,
 }
@@ -332,6 +333,10 @@ pub struct Compiled {
     /// Slots of the messages whose age it reads: their frames trigger an
     /// evaluation too (a link is restored the moment a heartbeat arrives).
     pub ages: Vec<usize>,
+    /// Slots of the messages it asks whether they were ever heard
+    /// (`seen()`): no trigger, but what it depends on
+    /// (`Profile::event_needs`).
+    pub seen: Vec<usize>,
     /// Whether its value can change without a message it reads (`age()`,
     /// `loss()`): evaluated on every tick.
     pub timed: bool,
@@ -352,6 +357,7 @@ pub fn compile<R: Resolver>(src: &str, resolver: &mut R) -> Result<Compiled, Exp
         resolver,
         reads: Vec::new(),
         ages: Vec::new(),
+        seen: Vec::new(),
         timed: false,
         regexes: Vec::new(),
     };
@@ -363,10 +369,13 @@ pub fn compile<R: Resolver>(src: &str, resolver: &mut R) -> Result<Compiled, Exp
     p.reads.dedup();
     p.ages.sort_unstable();
     p.ages.dedup();
+    p.seen.sort_unstable();
+    p.seen.dedup();
     Ok(Compiled {
         node,
         reads: p.reads,
         ages: p.ages,
+        seen: p.seen,
         timed: p.timed,
         regexes: p.regexes,
     })
@@ -656,6 +665,7 @@ impl<R: Resolver> Parser<'_, '_, R> {
                     self.ages.push(slot);
                     Ok(Node::Age(slot))
                 } else {
+                    self.seen.push(slot);
                     Ok(Node::Seen(slot))
                 }
             }

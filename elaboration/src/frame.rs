@@ -205,6 +205,18 @@ impl<'a> Frame<'a> {
         &self.bytes[start..start + self.payload_len()]
     }
 
+    /// The autopilot's own clock in this frame: its `time_boot_ms`, for the
+    /// messages that carry one ([`boot_ms_offset`]); `None` otherwise.
+    pub fn time_boot_ms(&self) -> Option<u32> {
+        let at = boot_ms_offset(self.message_id())?;
+        // MAVLink 2 cuts a payload's trailing zeros: a missing byte is 0.
+        let mut b = [0u8; 4];
+        for (i, x) in b.iter_mut().enumerate() {
+            *x = self.payload().get(at + i).copied().unwrap_or(0);
+        }
+        Some(u32::from_le_bytes(b))
+    }
+
     /// The header as rust-mavlink's type.
     pub fn header(&self) -> MavHeader {
         MavHeader {
@@ -230,10 +242,72 @@ pub fn serialize(header: MavHeader, version: MavlinkVersion, message: &MavMessag
     out
 }
 
+/// Where a message's `time_boot_ms` (u32) sits in its payload, for the
+/// messages of the autopilot's usual telemetry that carry one (MAVLink
+/// orders fields by size: after SYSTEM_TIME's u64, first in the others).
+pub fn boot_ms_offset(id: u32) -> Option<usize> {
+    match id {
+        2 => Some(8),                                 // SYSTEM_TIME
+        29 | 30 | 31 | 32 | 33 | 65 | 251 => Some(0), // SCALED_PRESSURE, ATTITUDE, ATTITUDE_QUATERNION,
+        // LOCAL_POSITION_NED, GLOBAL_POSITION_INT, RC_CHANNELS, NAMED_VALUE_FLOAT
+        _ => None,
+    }
+}
+
+/// The same from a decoded message.
+pub fn message_boot_ms(message: &mavlink::dialects::ardupilotmega::MavMessage) -> Option<u32> {
+    use mavlink::dialects::ardupilotmega::MavMessage as M;
+    Some(match message {
+        M::SYSTEM_TIME(m) => m.time_boot_ms,
+        M::SCALED_PRESSURE(m) => m.time_boot_ms,
+        M::ATTITUDE(m) => m.time_boot_ms,
+        M::ATTITUDE_QUATERNION(m) => m.time_boot_ms,
+        M::LOCAL_POSITION_NED(m) => m.time_boot_ms,
+        M::GLOBAL_POSITION_INT(m) => m.time_boot_ms,
+        M::RC_CHANNELS(m) => m.time_boot_ms,
+        M::NAMED_VALUE_FLOAT(m) => m.time_boot_ms,
+        _ => return None,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use mavlink::dialects::ardupilotmega::{MavModeFlag, HEARTBEAT_DATA};
+
+    #[test]
+    fn the_autopilots_clock_is_read_where_a_message_carries_it() {
+        use mavlink::dialects::ardupilotmega::{GLOBAL_POSITION_INT_DATA, SYSTEM_TIME_DATA};
+        let header = MavHeader::default();
+        let messages = [
+            MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA {
+                time_unix_usec: u64::MAX,
+                time_boot_ms: 123_456,
+            }),
+            MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+                time_boot_ms: 123_456,
+                lat: -1,
+                ..Default::default()
+            }),
+        ];
+        for m in &messages {
+            for v in [MavlinkVersion::V1, MavlinkVersion::V2] {
+                let bytes = serialize(header, v, m);
+                let f = Frame::parse(&bytes).expect("frame");
+                assert_eq!(f.time_boot_ms(), Some(123_456), "{m:?}");
+                assert_eq!(message_boot_ms(m), Some(123_456));
+            }
+        }
+        // A small time, its high bytes cut by MAVLink 2: read as zeros.
+        let m = MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA {
+            time_unix_usec: 0,
+            time_boot_ms: 7,
+        });
+        let bytes = serialize(header, MavlinkVersion::V2, &m);
+        assert_eq!(Frame::parse(&bytes).expect("frame").time_boot_ms(), Some(7));
+        let bytes = heartbeat(MavlinkVersion::V2);
+        assert_eq!(Frame::parse(&bytes).expect("frame").time_boot_ms(), None);
+    }
 
     fn heartbeat(version: MavlinkVersion) -> Vec<u8> {
         let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA {

@@ -43,5 +43,5 @@ pub mod tlog;
 pub use constants::Firmware;
 pub use elaborator::{Config, Elaborated, Elaborator, Stats};
 pub use frame::{Frame, FrameError};
-pub use profile::{Problem, Profile, ProfileError, Rule, SourceFilter};
+pub use profile::{Needs, Problem, Profile, ProfileError, Rule, SourceFilter};
 pub use tlog::{ReadStats, Record, TlogReader, TlogWriter};

@@ -167,6 +167,19 @@ pub(crate) struct Slot {
     pub decode: bool,
 }
 
+/// The messages (ids) one rule depends on ([`Profile::event_needs`]).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Needs {
+    /// Messages whose fields it reads, its `on` messages and those it asks
+    /// `seen()` of: a receiver that does not get them now does not run the
+    /// rule as one that does (`!seen(EXTENDED_SYS_STATE)` is the rule for
+    /// a port without it, not for one with it).
+    pub fields: Vec<u32>,
+    /// Messages whose age only it reads (`age()`: a silence): a receiver
+    /// must have heard them once; their silence it then observes.
+    pub ages: Vec<u32>,
+}
+
 /// A compiled profile.
 #[derive(Debug, Clone)]
 pub struct Profile {
@@ -369,6 +382,67 @@ impl Profile {
         v.sort_unstable();
         v.dedup();
         v
+    }
+
+    /// What each event's rules depend on, for a receiver to tell whether it
+    /// can observe the event at all: by event name (a rule's event, or its
+    /// `cleared` event), one [`Needs`] per rule producing it. Only the
+    /// messages the autopilot streams as a state ([`Profile::telemetry`])
+    /// count: an event message (STATUSTEXT, COMMAND_ACK) comes to every
+    /// link when it happens, its absence is no blindness.
+    pub fn event_needs(&self) -> Vec<(&str, Vec<Needs>)> {
+        let state = self.telemetry();
+        let ids = |slots: &[usize]| -> Vec<u32> {
+            let mut v: Vec<u32> = slots
+                .iter()
+                .filter_map(|s| self.slots.get(*s))
+                .map(|s| s.id)
+                .filter(|id| state.contains(id))
+                .collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        let mut out: Vec<(&str, Vec<Needs>)> = Vec::new();
+        for r in &self.rules {
+            let when_fields = [
+                r.when.reads.as_slice(),
+                r.when.seen.as_slice(),
+                r.on.as_deref().unwrap_or_default(),
+            ]
+            .concat();
+            let rule = Needs {
+                fields: ids(&when_fields),
+                ages: ids(&r.when.ages)
+                    .into_iter()
+                    .filter(|id| !ids(&when_fields).contains(id))
+                    .collect(),
+            };
+            let mut names = vec![(r.event.as_str(), rule.clone())];
+            if let Some((cleared, _)) = &r.cleared {
+                // Cleared by `clear` (or `when` turning false): both read.
+                let mut fields = rule.fields.clone();
+                let mut ages = rule.ages.clone();
+                if let Some(c) = &r.clear {
+                    fields.extend(ids(&c.reads));
+                    fields.extend(ids(&c.seen));
+                    ages.extend(ids(&c.ages));
+                }
+                fields.sort_unstable();
+                fields.dedup();
+                ages.retain(|id| !fields.contains(id));
+                ages.sort_unstable();
+                ages.dedup();
+                names.push((cleared.as_str(), Needs { fields, ages }));
+            }
+            for (name, needs) in names {
+                match out.iter_mut().find(|(n, _)| *n == name) {
+                    Some((_, v)) => v.push(needs),
+                    None => out.push((name, vec![needs])),
+                }
+            }
+        }
+        out
     }
 
     /// The events this profile elaborates only from frames addressed to one

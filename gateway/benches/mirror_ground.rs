@@ -101,9 +101,9 @@ fn play(ground: &mut Ground, frames: &[(u64, Vec<u8>)], events: &mut Vec<nets::E
         ground.elaborate(*t, &frame);
         ground.drain(same, |e| events.push(e.clone()));
         for e in events.drain(..) {
-            ground.vehicle_event(*t, &e);
+            ground.vehicle_event(*t, *t, None, &e);
         }
-        ground.advance(Some(*t), same);
+        ground.advance(Some(*t), |_| None, same);
         while ground.poll_disagreement().is_some() {}
     }
 }

@@ -135,6 +135,22 @@ impl Lanes {
         }
     }
 
+    /// Each lane's vehicle's autopilot clock as far as its elaboration
+    /// has read it (`Elaborator::vehicle_boot_us`): (lane, µs), the lanes
+    /// that heard one.
+    pub fn boots(&self) -> Vec<(u64, Micros)> {
+        self.elaborators
+            .iter()
+            .enumerate()
+            .filter_map(|(i, e)| Some((i as u64, e.vehicle_boot_us()?)))
+            .collect()
+    }
+
+    /// Lane `i`'s elaborator.
+    pub fn elaborator(&self, i: usize) -> &Elaborator {
+        &self.elaborators[i]
+    }
+
     /// The first lane's elaborator (the only one without a team).
     pub fn first(&self) -> &Elaborator {
         &self.elaborators[0]
@@ -240,6 +256,11 @@ impl Supervisor {
     }
 
     /// The first lane's elaborator (the only one without a team).
+    /// Each lane's autopilot clock as far as read ([`Lanes::boots`]).
+    pub fn boots(&self) -> Vec<(u64, Micros)> {
+        self.lanes.boots()
+    }
+
     pub fn elaborator(&self) -> &Elaborator {
         self.lanes.first()
     }

@@ -1009,3 +1009,41 @@ cleared = "ok2"
         ]
     );
 }
+
+#[test]
+fn events_carry_the_autopilots_clock_and_a_stall_adds_at_most_its_period() {
+    use mavlink::dialects::ardupilotmega::ATTITUDE_DATA;
+    let rules = r#"
+[rules.armed]
+category = "nominal"
+when = "HEARTBEAT.base_mode & MAV_MODE_FLAG_SAFETY_ARMED"
+initial = false
+"#;
+    let attitude = |ms: u32| {
+        MavMessage::ATTITUDE(ATTITUDE_DATA {
+            time_boot_ms: ms,
+            ..Default::default()
+        })
+    };
+    let mut r = Run::new(rules);
+    // No `time_boot_ms` heard yet: none.
+    r.send(0, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    r.send(100_000, &heartbeat(true, 0, MavState::MAV_STATE_STANDBY));
+    assert_eq!(r.out.last().map(|e| e.boot_us), Some(None));
+    // ATTITUDE every 250 ms of the autopilot's clock (booted 100 s before);
+    // a heartbeat 100 ms after one: 100 ms added.
+    for i in 0..4u32 {
+        r.send(
+            200_000 + u64::from(i) * 250_000,
+            &attitude(100_200 + i * 250),
+        );
+    }
+    r.send(1_050_000, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    r.send(1_050_000, &heartbeat(true, 0, MavState::MAV_STATE_STANDBY));
+    assert_eq!(r.out.last().map(|e| e.boot_us), Some(Some(101_050_000)));
+    // The receiver stalled 3 s: the first frame after it, a heartbeat, is
+    // read 3.3 s after the last ATTITUDE: at most a period (250 ms) added.
+    r.send(4_250_000, &heartbeat(false, 0, MavState::MAV_STATE_STANDBY));
+    r.send(4_260_000, &heartbeat(true, 0, MavState::MAV_STATE_STANDBY));
+    assert_eq!(r.out.last().map(|e| e.boot_us), Some(Some(101_200_000)));
+}

@@ -257,6 +257,7 @@ mod tests {
             event: nets::Event::new("mode_changed").param("mode", "RTL"),
             sysid: 1,
             compid: 1,
+            boot_us: None,
         };
         let j = json_line(&e, 1_000_000);
         assert_eq!(

@@ -500,8 +500,8 @@ async fn mirror(setup: Setup) -> VerbResult {
             }
             if let Report::Step { inputs, .. } = &report {
                 for input in inputs {
-                    if let Input::Elaborated { time, event } = input {
-                        ground.vehicle_event(*time, event);
+                    if let Input::Elaborated { time, boot, event } = input {
+                        ground.vehicle_event(now, *time, *boot, event);
                     }
                 }
             }
@@ -564,7 +564,11 @@ async fn mirror(setup: Setup) -> VerbResult {
             }
         }
         // Each vehicle's ground view reaches its last autopilot frame heard.
-        ground.advance(replica.exact_time(), |t| replica.vehicle_time(t));
+        ground.advance(
+            replica.exact_time(),
+            |lane| replica.exact_boot(lane),
+            |t| replica.vehicle_time(t),
+        );
         while let Some(system) = ground.poll_foreign() {
             say!("petrel mirror: system {system} is heard but is no vehicle of the team: its frames are not followed as a vehicle's");
         }
@@ -662,13 +666,14 @@ async fn mirror(setup: Setup) -> VerbResult {
         .iter()
         .fold((0, 0), |(f, b), (f1, b1)| (f + f1, b + b1));
     say!(
-        "independent check: {} events matched (the vehicle at most {:.2} s after the ground, the ground at most {:.2} s after the vehicle), {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames, or settling), {} link events and {} addressed to one link not compared; blind to ground events {:.1} s of {:.1} s followed",
+        "independent check: {} events matched (the vehicle at most {:.2} s after the ground, the ground at most {:.2} s after the vehicle), {} seen by the ground only, {} by the vehicle only, {} not judged (ground losing frames, or settling), {} unobservable on the ground (every rule reads a message it does not receive), {} link events and {} addressed to one link not compared; blind to ground events {:.1} s of {:.1} s followed",
         total.matched,
         total.vehicle_late_max as f64 / 1e6,
         total.ground_late_max as f64 / 1e6,
         total.ground_only,
         total.vehicle_only,
         total.unjudged,
+        total.unobservable,
         total.skipped,
         total.addressed,
         blind_for as f64 / 1e6,
@@ -677,14 +682,15 @@ async fn mirror(setup: Setup) -> VerbResult {
     if ground.team() {
         for (w, c) in ground.watches().iter().zip(ground.counts()) {
             say!(
-                "  {} (system {}): {} frames, {} events matched, {} ground only, {} vehicle only, {} not judged",
+                "  {} (system {}): {} frames, {} events matched, {} ground only, {} vehicle only, {} not judged, {} unobservable",
                 w.name.as_deref().unwrap_or("?"),
                 w.system.map_or("?".to_owned(), |s| s.to_string()),
                 w.frames,
                 c.matched,
                 c.ground_only,
                 c.vehicle_only,
-                c.unjudged
+                c.unjudged,
+                c.unobservable
             );
         }
         for (system, frames) in ground.foreign() {
@@ -764,7 +770,8 @@ fn summary_json(
             json!({
                 "vehicle": w.name, "system": w.system, "frames": w.frames, "heard": w.heard,
                 "matched": c.matched, "ground_only": c.ground_only, "vehicle_only": c.vehicle_only,
-                "unjudged": c.unjudged, "skipped": c.skipped, "addressed": c.addressed,
+                "unjudged": c.unjudged, "unobservable": c.unobservable,
+                "skipped": c.skipped, "addressed": c.addressed,
                 "followed_s": *followed as f64 / 1e6, "blind_s": *blind as f64 / 1e6,
                 "vehicle_late_max_s": c.vehicle_late_max as f64 / 1e6,
                 "ground_late_max_s": c.ground_late_max as f64 / 1e6,
@@ -872,7 +879,7 @@ fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Rep
         } => {
             for input in inputs {
                 match input {
-                    Input::Elaborated { time, event }
+                    Input::Elaborated { time, event, .. }
                     | Input::Program { time, event }
                     | Input::Answer { time, event } => {
                         let _ = out.event(

@@ -77,7 +77,7 @@ pub fn play(player: &mut Player, before: Micros, inputs: &[Input], time: Micros)
     let mut effects: Vec<Effect> = player.effects().collect();
     for input in inputs {
         match input {
-            Input::Elaborated { time, event }
+            Input::Elaborated { time, event, .. }
             | Input::Program { time, event }
             | Input::Answer { time, event } => player.handle(event, *time),
             Input::Result { time, id, outcome } => player.result(*id, outcome.clone(), *time),
@@ -130,7 +130,7 @@ pub fn call_from(json: &Json) -> Option<Call> {
 /// One input of a downlink step record as JSON.
 fn input_json(input: &Input) -> Json {
     match input {
-        Input::Elaborated { time, event } => {
+        Input::Elaborated { time, event, .. } => {
             json!({"kind": "elaborated", "time_us": time, "event": layout::event_json(event)})
         }
         Input::Program { time, event } => {
@@ -154,6 +154,7 @@ fn input_from(json: &Json) -> Option<Input> {
     Some(match json.get("kind")?.as_str()? {
         "elaborated" => Input::Elaborated {
             time,
+            boot: None,
             event: event()?,
         },
         "program" => Input::Program {
@@ -209,6 +210,7 @@ mod tests {
                 inputs: vec![
                     Input::Elaborated {
                         time: 950,
+                        boot: None,
                         event: Event::new("reached").param("wp", 2i64),
                     },
                     Input::Program {

@@ -78,6 +78,20 @@ pub const HOLE: Micros = 1_000_000;
 /// other saw the start of.
 pub const SETTLE: Micros = 2_000_000;
 
+/// A ground event waits at most this long past its window (vehicle time)
+/// for the vehicle's view of the autopilot's clock to pass it, and a
+/// vehicle event for the ground's, before it is judged on vehicle time
+/// alone: an autopilot that stops sending a message with `time_boot_ms`
+/// does not hold the check for ever.
+pub const STALE: Micros = 10_000_000;
+
+/// A heartbeat asked for to judge a ground event on the autopilot's clock
+/// is asked this much later than its window's end: the vehicle's last
+/// `time_boot_ms` read is a telemetry period (4 Hz: 0.25 s) and its link's
+/// delay behind the frames it elaborates (0.3 s left it short on real
+/// ArduPlane SITL, the report waiting for the next periodic heartbeat).
+pub const BOOT_MARGIN: Micros = 500_000;
+
 /// Which side saw an event the other did not.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Side {
@@ -128,6 +142,11 @@ impl Disagreement {
 struct Seen {
     name: String,
     time: Micros,
+    /// The autopilot's clock when it was elaborated (`time_boot_ms`, µs).
+    boot: Option<Micros>,
+    /// The ground was not receiving a message every rule of the event
+    /// depends on (`ground::Ground`'s judgement when it was seen).
+    unobservable: bool,
     params: Params,
 }
 
@@ -148,6 +167,12 @@ pub struct Counts {
     /// [`HOLE`] or before the replica's snapshot, or by either while the
     /// two views settled ([`SETTLE`]).
     pub unjudged: u64,
+    /// Events seen on one side only that the ground cannot observe: every
+    /// rule producing them depends on a message the ground was not
+    /// receiving from the vehicle (`EXTENDED_SYS_STATE` on a port that
+    /// does not stream it), so the ground never runs the rule the vehicle
+    /// ran. Never disagreements.
+    pub unobservable: u64,
     /// The longest the vehicle saw a matched event after the ground, and
     /// the ground after the vehicle (vehicle time): the margins the window
     /// left.
@@ -224,8 +249,15 @@ impl Check {
             }
             let (time, name) = (*time, name.clone());
             self.wanted.pop_front();
-            if self.ground.iter().any(|g| g.time == time && g.name == name) {
-                return Some(time.saturating_add(late) + 1);
+            if let Some(g) = self
+                .ground
+                .iter()
+                .find(|g| g.time == time && g.name == name)
+            {
+                // On the autopilot's clock, the heartbeat must come once
+                // the vehicle has read it past the window: a period later.
+                let margin = if g.boot.is_some() { BOOT_MARGIN } else { 0 };
+                return Some(time.saturating_add(late + margin) + 1);
             }
         }
         None
@@ -320,17 +352,33 @@ impl Check {
         earliest.saturating_sub(self.window.ground_late)
     }
 
-    /// An event the vehicle published (elaborated on board), at its time.
-    pub fn vehicle(&mut self, time: Micros, event: &Event) {
-        self.seen(Side::Vehicle, time, event);
+    /// An event the vehicle published (elaborated on board), at its time
+    /// and the autopilot's (`boot`, when known).
+    pub fn vehicle(&mut self, time: Micros, boot: Option<Micros>, event: &Event) {
+        self.seen(Side::Vehicle, time, boot, event, false);
     }
 
-    /// An event the ground elaborated, at its vehicle time.
-    pub fn ground(&mut self, time: Micros, event: &Event) {
-        self.seen(Side::Ground, time, event);
+    /// An event the ground elaborated, at its vehicle time and the
+    /// autopilot's.
+    pub fn ground(&mut self, time: Micros, boot: Option<Micros>, event: &Event) {
+        self.seen(Side::Ground, time, boot, event, false);
     }
 
-    fn seen(&mut self, side: Side, time: Micros, event: &Event) {
+    /// An event seen by `side` that the ground cannot observe (every rule
+    /// producing it depends on a message it was not receiving): matched if
+    /// the other side saw it, never a disagreement.
+    pub fn unobservable(&mut self, side: Side, time: Micros, boot: Option<Micros>, event: &Event) {
+        self.seen(side, time, boot, event, true);
+    }
+
+    fn seen(
+        &mut self,
+        side: Side,
+        time: Micros,
+        boot: Option<Micros>,
+        event: &Event,
+        unobservable: bool,
+    ) {
         if event.category == Category::Communication {
             self.counts.skipped += 1;
             return;
@@ -347,6 +395,8 @@ impl Check {
         let seen = Seen {
             name: event.name.clone(),
             time,
+            boot,
+            unobservable,
             params: event.params.clone(),
         };
         self.recent.push_back((side, seen.clone()));
@@ -354,14 +404,23 @@ impl Check {
             self.recent.pop_front();
         }
         let late = self.window.vehicle_late;
-        // A ground event is seen late when the frames before it were lost:
-        // it matches a vehicle event from the start of those losses on.
-        let matches = |ground: Micros, vehicle: Micros, earliest: Micros| {
-            vehicle <= ground.saturating_add(late) && vehicle >= earliest
+        // On the autopilot's clock where both sides have it (the frames
+        // both heard carry it: a busy computer that stamps its frames late
+        // moves neither), else on vehicle time (the receive times). A
+        // ground event is seen late when the frames before it were lost:
+        // it matches a vehicle event from the start of those losses on
+        // (`back`: how far before it, window included).
+        let matches = |g: &Seen, v: &Seen, back: Micros| match (g.boot, v.boot) {
+            (Some(gb), Some(vb)) => vb <= gb.saturating_add(late) && vb >= gb.saturating_sub(back),
+            _ => v.time <= g.time.saturating_add(late) && v.time >= g.time.saturating_sub(back),
         };
-        let earliest_here = self.earliest(time);
-        let earliest: Vec<Micros> = match side {
-            Side::Vehicle => self.ground.iter().map(|g| self.earliest(g.time)).collect(),
+        let back_here = time.saturating_sub(self.earliest(time));
+        let back: Vec<Micros> = match side {
+            Side::Vehicle => self
+                .ground
+                .iter()
+                .map(|g| g.time.saturating_sub(self.earliest(g.time)))
+                .collect(),
             Side::Ground => Vec::new(),
         };
         let other = match side {
@@ -371,16 +430,20 @@ impl Check {
         let found = other.iter().enumerate().position(|(i, o)| {
             o.name == seen.name
                 && match side {
-                    Side::Ground => matches(time, o.time, earliest_here),
-                    Side::Vehicle => matches(o.time, time, earliest[i]),
+                    Side::Ground => matches(&seen, o, back_here),
+                    Side::Vehicle => matches(o, &seen, back[i]),
                 }
         });
         if let Some(i) = found {
             let o = other.remove(i).expect("found");
             self.counts.matched += 1;
-            let (ground, vehicle) = match side {
-                Side::Ground => (time, o.time),
-                Side::Vehicle => (o.time, time),
+            let (g, v) = match side {
+                Side::Ground => (&seen, &o),
+                Side::Vehicle => (&o, &seen),
+            };
+            let (ground, vehicle) = match (g.boot, v.boot) {
+                (Some(gb), Some(vb)) => (gb, vb),
+                _ => (g.time, v.time),
             };
             let c = &mut self.counts;
             c.vehicle_late_max = c.vehicle_late_max.max(vehicle.saturating_sub(ground));
@@ -403,21 +466,73 @@ impl Check {
 
     /// Judges what can be judged: `vehicle_known` is the vehicle time
     /// through which the replica holds every record, `ground_known` the
-    /// vehicle time the ground's elaboration has reached.
-    pub fn advance(&mut self, vehicle_known: Option<Micros>, ground_known: Option<Micros>) {
+    /// vehicle time the ground's elaboration has reached; `vehicle_boot`
+    /// and `ground_boot` how far each side has read the autopilot's clock
+    /// by then (its `time_boot_ms`, µs), when known. An event with the
+    /// autopilot's time is judged once the other side has read past it
+    /// (and its window) on that clock; one without, or when the other side
+    /// has none, on vehicle time.
+    #[cfg(test)]
+    pub fn advance(
+        &mut self,
+        vehicle_known: Option<Micros>,
+        vehicle_boot: Option<Micros>,
+        ground_known: Option<Micros>,
+        ground_boot: Option<Micros>,
+    ) {
+        self.advance_holding(
+            vehicle_known,
+            vehicle_boot,
+            ground_known,
+            ground_boot,
+            |_| true,
+        );
+    }
+
+    /// [`Check::advance`], where `holds` says whether the ground is still
+    /// in the state a ground event announced (`Elaborator::still_holds`):
+    /// one it left again before it was judged (a second or two later) is
+    /// not judged. The ground samples some streams once a second or less:
+    /// a stale sample of one with a fresh one of another makes a state the
+    /// autopilot may never have been in (ArduPlane's SYS_STATUS still
+    /// "pre-arm healthy" from before its disarm, with the heartbeat that
+    /// disarms: a `ready_for_takeoff` for one second), which the vehicle,
+    /// sampling every stream at 4 Hz, does not see.
+    pub fn advance_holding(
+        &mut self,
+        vehicle_known: Option<Micros>,
+        vehicle_boot: Option<Micros>,
+        ground_known: Option<Micros>,
+        ground_boot: Option<Micros>,
+        holds: impl Fn(&str) -> bool,
+    ) {
         let Window {
             vehicle_late,
             ground_late,
         } = self.window;
+        // Past the other side's view: on the autopilot's clock when both
+        // have it (and not STALE on vehicle time), else on vehicle time.
+        let past = |seen: &Seen, late: Micros, known: Micros, boot: Option<Micros>| match (
+            seen.boot, boot,
+        ) {
+            (Some(sb), Some(b)) => {
+                sb.saturating_add(late) < b || seen.time.saturating_add(late + STALE) < known
+            }
+            _ => seen.time.saturating_add(late) < known,
+        };
         if let Some(v) = vehicle_known {
             while self
                 .ground
                 .front()
-                .is_some_and(|g| g.time.saturating_add(vehicle_late) < v)
+                .is_some_and(|g| past(g, vehicle_late, v, vehicle_boot))
             {
                 let g = self.ground.pop_front().expect("checked");
-                if self.in_hole(g.time) || self.settling(g.time) {
+                if self.in_hole(g.time) || self.settling(g.time) || !holds(&g.name) {
                     self.counts.unjudged += 1;
+                    continue;
+                }
+                if g.unobservable {
+                    self.counts.unobservable += 1;
                     continue;
                 }
                 self.counts.ground_only += 1;
@@ -436,7 +551,7 @@ impl Check {
             while self
                 .vehicle
                 .front()
-                .is_some_and(|v| v.time.saturating_add(ground_late) < gk)
+                .is_some_and(|v| past(v, ground_late, gk, ground_boot))
             {
                 let v = self.vehicle.pop_front().expect("checked");
                 if self.settling(v.time)
@@ -446,6 +561,10 @@ impl Check {
                     )
                 {
                     self.counts.unjudged += 1;
+                    continue;
+                }
+                if v.unobservable {
+                    self.counts.unobservable += 1;
                     continue;
                 }
                 self.counts.vehicle_only += 1;
@@ -495,11 +614,11 @@ mod tests {
     #[test]
     fn events_within_the_window_match_either_way() {
         let mut c = Check::new(WINDOW);
-        c.vehicle(10_000_000, &ev("takeoff", Category::Mission));
-        c.ground(11_500_000, &ev("takeoff", Category::Mission));
-        c.ground(20_000_000, &ev("landed", Category::Mission));
-        c.vehicle(19_000_000, &ev("landed", Category::Mission));
-        c.advance(Some(60_000_000), Some(60_000_000));
+        c.vehicle(10_000_000, None, &ev("takeoff", Category::Mission));
+        c.ground(11_500_000, None, &ev("takeoff", Category::Mission));
+        c.ground(20_000_000, None, &ev("landed", Category::Mission));
+        c.vehicle(19_000_000, None, &ev("landed", Category::Mission));
+        c.advance(Some(60_000_000), None, Some(60_000_000), None);
         assert_eq!(c.poll(), None);
         assert_eq!(c.counts.matched, 2);
     }
@@ -507,16 +626,20 @@ mod tests {
     #[test]
     fn an_engine_failure_the_vehicle_missed_is_reported_once_its_records_are_complete() {
         let mut c = Check::new(WINDOW);
-        c.ground(52_900_000, &ev("engine_failure", Category::Catastrophic));
+        c.ground(
+            52_900_000,
+            None,
+            &ev("engine_failure", Category::Catastrophic),
+        );
         // Still unmatched half a window later: a heartbeat is wanted just
         // past the vehicle's window.
         assert_eq!(c.poll_heartbeat_wanted(Some(53_300_000)), None);
         assert_eq!(c.poll_heartbeat_wanted(Some(53_400_000)), Some(53_900_001));
         assert_eq!(c.poll_heartbeat_wanted(Some(53_400_000)), None);
         // The replica's records only reach 53.9 s: not yet judged.
-        c.advance(Some(53_900_000), Some(55_000_000));
+        c.advance(Some(53_900_000), None, Some(55_000_000), None);
         assert_eq!(c.poll(), None);
-        c.advance(Some(53_900_001), Some(55_000_000));
+        c.advance(Some(53_900_001), None, Some(55_000_000), None);
         let d = c.poll().expect("a disagreement");
         assert_eq!(d.seen_by, Side::Ground);
         assert_eq!(d.event, "engine_failure");
@@ -533,27 +656,27 @@ mod tests {
         // The ground 1.8 s after the vehicle (a slow ground stream): one
         // event, and no heartbeat wanted (the vehicle's came first).
         let mut c = Check::new(WINDOW);
-        c.vehicle(10_000_000, &ev("disarmed", Category::Nominal));
-        c.ground(11_800_000, &ev("disarmed", Category::Nominal));
+        c.vehicle(10_000_000, None, &ev("disarmed", Category::Nominal));
+        c.ground(11_800_000, None, &ev("disarmed", Category::Nominal));
         assert_eq!(c.poll_heartbeat_wanted(Some(20_000_000)), None);
-        c.advance(Some(30_000_000), Some(30_000_000));
+        c.advance(Some(30_000_000), None, Some(30_000_000), None);
         assert_eq!(c.poll(), None);
         assert_eq!(c.counts.ground_late_max, 1_800_000);
         // The vehicle 0.9 s after the ground: one event.
-        c.ground(40_000_000, &ev("takeoff", Category::Mission));
-        c.vehicle(40_300_000, &ev("takeoff", Category::Mission));
+        c.ground(40_000_000, None, &ev("takeoff", Category::Mission));
+        c.vehicle(40_300_000, None, &ev("takeoff", Category::Mission));
         // Matched before half the window: no heartbeat asked for.
         assert_eq!(c.poll_heartbeat_wanted(Some(41_000_000)), None);
-        c.ground(40_000_000, &ev("takeoff", Category::Mission));
-        c.vehicle(40_900_000, &ev("takeoff", Category::Mission));
-        c.advance(Some(60_000_000), Some(60_000_000));
+        c.ground(40_000_000, None, &ev("takeoff", Category::Mission));
+        c.vehicle(40_900_000, None, &ev("takeoff", Category::Mission));
+        c.advance(Some(60_000_000), None, Some(60_000_000), None);
         assert_eq!(c.poll(), None);
         assert_eq!(c.counts.vehicle_late_max, 900_000);
         assert_eq!(c.counts.matched, 3);
         // The vehicle 1.5 s after the ground: two events, one each side.
-        c.ground(70_000_000, &ev("landed", Category::Mission));
-        c.vehicle(71_500_000, &ev("landed", Category::Mission));
-        c.advance(Some(90_000_000), Some(90_000_000));
+        c.ground(70_000_000, None, &ev("landed", Category::Mission));
+        c.vehicle(71_500_000, None, &ev("landed", Category::Mission));
+        c.advance(Some(90_000_000), None, Some(90_000_000), None);
         let sides: Vec<Side> = std::iter::from_fn(|| c.poll()).map(|d| d.seen_by).collect();
         assert_eq!(sides, [Side::Ground, Side::Vehicle]);
     }
@@ -561,10 +684,10 @@ mod tests {
     #[test]
     fn the_reverse_is_reported_with_the_grounds_nearest_evidence() {
         let mut c = Check::new(WINDOW);
-        c.ground(3_000_000, &ev("battery_low", Category::Safety));
-        c.advance(Some(3_000_000), Some(3_000_000));
-        c.vehicle(40_000_000, &ev("battery_low", Category::Safety));
-        c.advance(Some(43_000_000), Some(43_000_000));
+        c.ground(3_000_000, None, &ev("battery_low", Category::Safety));
+        c.advance(Some(3_000_000), None, Some(3_000_000), None);
+        c.vehicle(40_000_000, None, &ev("battery_low", Category::Safety));
+        c.advance(Some(43_000_000), None, Some(43_000_000), None);
         let reports: Vec<Disagreement> = std::iter::from_fn(|| c.poll()).collect();
         assert_eq!(reports.len(), 2, "{reports:?}");
         let v = reports
@@ -581,19 +704,23 @@ mod tests {
         // The ground lost the autopilot's frames from 40 to 45 s: the
         // vehicle's `disarmed` at 41 s reaches the ground at 45.5 s, and
         // its `mission_item_reached` at 43 s never does.
-        c.vehicle(41_000_000, &ev("disarmed", Category::Nominal));
-        c.vehicle(43_000_000, &ev("mission_item_reached", Category::Mission));
+        c.vehicle(41_000_000, None, &ev("disarmed", Category::Nominal));
+        c.vehicle(
+            43_000_000,
+            None,
+            &ev("mission_item_reached", Category::Mission),
+        );
         c.lost(40_000_000, 45_000_000, 5_000_000);
-        c.ground(45_500_000, &ev("disarmed", Category::Nominal));
-        c.advance(Some(60_000_000), Some(60_000_000));
+        c.ground(45_500_000, None, &ev("disarmed", Category::Nominal));
+        c.advance(Some(60_000_000), None, Some(60_000_000), None);
         assert_eq!(c.poll(), None);
         assert_eq!(c.counts.matched, 1);
         assert_eq!(c.counts.unjudged, 1);
         // Without losses, the same late event is a disagreement both ways.
         let mut c = Check::new(WINDOW);
-        c.vehicle(41_000_000, &ev("disarmed", Category::Nominal));
-        c.ground(45_500_000, &ev("disarmed", Category::Nominal));
-        c.advance(Some(60_000_000), Some(60_000_000));
+        c.vehicle(41_000_000, None, &ev("disarmed", Category::Nominal));
+        c.ground(45_500_000, None, &ev("disarmed", Category::Nominal));
+        c.advance(Some(60_000_000), None, Some(60_000_000), None);
         assert_eq!(std::iter::from_fn(|| c.poll()).count(), 2);
     }
 
@@ -603,12 +730,16 @@ mod tests {
         // The camera's frames lost from 30 to 40 s: the ground hears its
         // silence as a payload failure at 45 s; the vehicle heard it.
         c.lost(30_000_000, 40_000_000, 10_000_000);
-        c.ground(45_000_000, &ev("payload_failure", Category::Mission));
+        c.ground(45_000_000, None, &ev("payload_failure", Category::Mission));
         // Before the snapshot the replica restored at 10 s.
-        c.ground(9_000_000, &ev("takeoff", Category::Mission));
+        c.ground(9_000_000, None, &ev("takeoff", Category::Mission));
         c.unknown_before(10_000_000);
-        c.ground(9_500_000, &ev("mission_item_reached", Category::Mission));
-        c.advance(Some(90_000_000), Some(90_000_000));
+        c.ground(
+            9_500_000,
+            None,
+            &ev("mission_item_reached", Category::Mission),
+        );
+        c.advance(Some(90_000_000), None, Some(90_000_000), None);
         assert_eq!(c.poll(), None);
         assert_eq!(c.counts.unjudged, 3);
     }
@@ -622,8 +753,12 @@ mod tests {
         for i in 0..200u64 {
             c.lost(i * 200_000, i * 200_000 + 30_000, 30_000);
         }
-        c.ground(30_010_000, &ev("engine_failure", Category::Catastrophic));
-        c.advance(Some(40_000_000), Some(40_000_000));
+        c.ground(
+            30_010_000,
+            None,
+            &ev("engine_failure", Category::Catastrophic),
+        );
+        c.advance(Some(40_000_000), None, Some(40_000_000), None);
         let d = c.poll().expect("reported");
         assert_eq!(
             (d.event.as_str(), d.seen_by),
@@ -632,16 +767,24 @@ mod tests {
         assert_eq!(c.blind(0, 40_000_000), 0);
         // A vehicle event during those losses is still not judged: the
         // one frame it came from may be the one the radio lost.
-        c.vehicle(20_000_000, &ev("mission_item_reached", Category::Mission));
-        c.advance(Some(40_000_000), Some(40_000_000));
+        c.vehicle(
+            20_000_000,
+            None,
+            &ev("mission_item_reached", Category::Mission),
+        );
+        c.advance(Some(40_000_000), None, Some(40_000_000), None);
         assert_eq!(c.poll(), None);
         assert_eq!(c.counts.unjudged, 1);
         // A hole of a second or more hides the ground's events for 20 s
         // after it, and the check says how long it was blind.
         c.lost(50_000_000, 51_000_000, 1_000_000);
-        c.ground(70_000_000, &ev("engine_failure", Category::Catastrophic));
-        c.ground(71_500_000, &ev("payload_failure", Category::Mission));
-        c.advance(Some(80_000_000), Some(80_000_000));
+        c.ground(
+            70_000_000,
+            None,
+            &ev("engine_failure", Category::Catastrophic),
+        );
+        c.ground(71_500_000, None, &ev("payload_failure", Category::Mission));
+        c.advance(Some(80_000_000), None, Some(80_000_000), None);
         let d = c.poll().expect("the second, after the hole's 20 s");
         assert_eq!(d.event, "payload_failure");
         assert_eq!(c.counts.unjudged, 2);
@@ -654,9 +797,13 @@ mod tests {
         // ArduPilot acknowledges the onboard gateway's commands to it
         // alone, and a ground station's to the ground's link alone.
         let mut c = Check::new(WINDOW).with_addressed(["command_rejected"]);
-        c.vehicle(10_000_000, &ev("command_rejected", Category::Mission));
-        c.ground(20_000_000, &ev("command_rejected@R1", Category::Mission));
-        c.advance(Some(60_000_000), Some(60_000_000));
+        c.vehicle(10_000_000, None, &ev("command_rejected", Category::Mission));
+        c.ground(
+            20_000_000,
+            None,
+            &ev("command_rejected@R1", Category::Mission),
+        );
+        c.advance(Some(60_000_000), None, Some(60_000_000), None);
         assert_eq!(c.poll(), None);
         assert_eq!((c.counts.addressed, c.counts.unjudged), (2, 0));
     }
@@ -668,10 +815,10 @@ mod tests {
         // where the vehicle's first heartbeat was already MANUAL.
         let mut c = Check::new(WINDOW);
         c.ground_from(150_000);
-        c.ground(1_150_000, &ev("mode_changed", Category::Nominal));
+        c.ground(1_150_000, None, &ev("mode_changed", Category::Nominal));
         // A real one later, on the ground only, is reported.
-        c.ground(2_200_000, &ev("mode_changed", Category::Nominal));
-        c.advance(Some(10_000_000), Some(10_000_000));
+        c.ground(2_200_000, None, &ev("mode_changed", Category::Nominal));
+        c.advance(Some(10_000_000), None, Some(10_000_000), None);
         let d = c.poll().expect("the later one");
         assert_eq!((d.time, d.seen_by), (2_200_000, Side::Ground));
         assert_eq!(c.poll(), None);
@@ -682,9 +829,9 @@ mod tests {
         // what it saw after is.
         let mut c = Check::new(WINDOW);
         c.ground_from(100_000_000);
-        c.vehicle(101_000_000, &ev("mode_changed", Category::Nominal));
-        c.vehicle(102_500_000, &ev("armed", Category::Nominal));
-        c.advance(Some(110_000_000), Some(110_000_000));
+        c.vehicle(101_000_000, None, &ev("mode_changed", Category::Nominal));
+        c.vehicle(102_500_000, None, &ev("armed", Category::Nominal));
+        c.advance(Some(110_000_000), None, Some(110_000_000), None);
         let d = c.poll().expect("the later one");
         assert_eq!((d.event.as_str(), d.seen_by), ("armed", Side::Vehicle));
         assert_eq!(c.poll(), None);
@@ -692,16 +839,175 @@ mod tests {
 
         // The first call counts: a later heartbeat does not move the start.
         c.ground_from(200_000_000);
-        c.ground(200_500_000, &ev("disarmed", Category::Nominal));
-        c.advance(Some(210_000_000), Some(210_000_000));
+        c.ground(200_500_000, None, &ev("disarmed", Category::Nominal));
+        c.advance(Some(210_000_000), None, Some(210_000_000), None);
         assert_eq!(c.poll().map(|d| d.time), Some(200_500_000));
+    }
+
+    #[test]
+    fn on_the_autopilots_clock_a_side_that_stamps_late_raises_no_disagreement() {
+        // The ground's computer starved 3.3 s: its events come 3.3 s late
+        // in vehicle time, at the autopilot's same `time_boot_ms`.
+        let mut c = Check::new(WINDOW);
+        c.vehicle(
+            10_000_000,
+            Some(110_000_000),
+            &ev("armed", Category::Nominal),
+        );
+        c.ground(
+            13_300_000,
+            Some(110_050_000),
+            &ev("armed", Category::Nominal),
+        );
+        // The onboard gateway starved: its `takeoff` comes 3.3 s late in
+        // vehicle time. The replica's records reach 21.2 s (past the
+        // ground's event and its window in vehicle time) but the vehicle
+        // had read its autopilot's clock only to 110.5 s: not judged yet.
+        c.ground(
+            20_000_000,
+            Some(120_000_000),
+            &ev("takeoff", Category::Mission),
+        );
+        c.advance(
+            Some(21_200_000),
+            Some(110_500_000),
+            Some(21_000_000),
+            Some(121_000_000),
+        );
+        assert_eq!(c.poll(), None);
+        c.vehicle(
+            23_300_000,
+            Some(120_100_000),
+            &ev("takeoff", Category::Mission),
+        );
+        c.advance(
+            Some(40_000_000),
+            Some(140_000_000),
+            Some(40_000_000),
+            Some(140_000_000),
+        );
+        assert_eq!(c.poll(), None);
+        assert_eq!(c.counts.matched, 2);
+        assert_eq!(c.counts.ground_late_max, 50_000);
+        assert_eq!(c.counts.vehicle_late_max, 100_000);
+    }
+
+    #[test]
+    fn on_the_autopilots_clock_a_real_miss_is_still_reported_both_ways() {
+        let mut c = Check::new(WINDOW);
+        c.ground(
+            30_000_000,
+            Some(130_000_000),
+            &ev("engine_failure", Category::Catastrophic),
+        );
+        c.vehicle(
+            35_000_000,
+            Some(135_000_000),
+            &ev("battery_low", Category::Safety),
+        );
+        // Asked for half a window past its end: the vehicle reads the
+        // autopilot's clock a period behind.
+        assert_eq!(
+            c.poll_heartbeat_wanted(Some(30_500_000)),
+            Some(31_000_000 + BOOT_MARGIN + 1)
+        );
+        // The vehicle has read its clock to 131.1 s, the ground to 137.1 s.
+        c.advance(
+            Some(31_400_000),
+            Some(131_100_000),
+            Some(37_100_000),
+            Some(137_100_000),
+        );
+        let seen: Vec<(Side, String)> = std::iter::from_fn(|| c.poll())
+            .map(|d| (d.seen_by, d.event))
+            .collect();
+        assert_eq!(
+            seen,
+            [
+                (Side::Ground, "engine_failure".to_owned()),
+                (Side::Vehicle, "battery_low".to_owned())
+            ]
+        );
+        // A side that stops reading the autopilot's clock is judged on
+        // vehicle time once STALE past the window.
+        c.ground(
+            50_000_000,
+            Some(150_000_000),
+            &ev("engine_failure", Category::Catastrophic),
+        );
+        c.advance(
+            Some(60_000_000),
+            Some(140_000_000),
+            Some(60_000_000),
+            Some(160_000_000),
+        );
+        assert_eq!(c.poll(), None);
+        c.advance(
+            Some(61_000_001),
+            Some(140_000_000),
+            Some(61_000_001),
+            Some(160_000_000),
+        );
+        assert_eq!(c.poll().map(|d| d.time), Some(50_000_000));
+    }
+
+    #[test]
+    fn unobservable_events_are_matched_or_counted_never_reported() {
+        let mut c = Check::new(WINDOW);
+        c.unobservable(
+            Side::Vehicle,
+            10_000_000,
+            None,
+            &ev("landed", Category::Mission),
+        );
+        c.unobservable(
+            Side::Ground,
+            20_000_000,
+            None,
+            &ev("takeoff", Category::Mission),
+        );
+        c.vehicle(20_100_000, None, &ev("takeoff", Category::Mission));
+        c.advance(Some(60_000_000), None, Some(60_000_000), None);
+        assert_eq!(c.poll(), None);
+        assert_eq!((c.counts.unobservable, c.counts.matched), (1, 1));
+    }
+
+    #[test]
+    fn a_state_the_ground_left_again_before_it_was_judged_is_not_judged() {
+        // ArduPlane disarmed after its landing: the ground's 1 Hz SYS_STATUS
+        // still said "pre-arm healthy" (from while armed) with the heartbeat
+        // that disarmed, a second later not; the vehicle, at 4 Hz, never saw
+        // both together.
+        let mut c = Check::new(WINDOW);
+        c.ground(
+            122_000_000,
+            None,
+            &ev("ready_for_takeoff", Category::Nominal),
+        );
+        c.ground(
+            130_000_000,
+            None,
+            &ev("ready_for_takeoff", Category::Nominal),
+        );
+        let mut left = true;
+        c.advance_holding(Some(124_000_000), None, Some(124_000_000), None, |n| {
+            n != "ready_for_takeoff" || !left
+        });
+        assert_eq!(c.poll(), None);
+        assert_eq!(c.counts.unjudged, 1);
+        // One the ground is still in when judged is reported.
+        left = false;
+        c.advance_holding(Some(132_000_000), None, Some(132_000_000), None, |n| {
+            n != "ready_for_takeoff" || !left
+        });
+        assert_eq!(c.poll().map(|d| d.time), Some(130_000_000));
     }
 
     #[test]
     fn link_events_are_never_compared() {
         let mut c = Check::new(WINDOW);
-        c.ground(1_000_000, &ev("link_lost", Category::Communication));
-        c.advance(Some(100_000_000), Some(100_000_000));
+        c.ground(1_000_000, None, &ev("link_lost", Category::Communication));
+        c.advance(Some(100_000_000), None, Some(100_000_000), None);
         assert_eq!(c.poll(), None);
         assert_eq!(c.counts.skipped, 1);
     }

@@ -17,10 +17,10 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
-use elaboration::{Elaborated, Frame};
+use elaboration::{Elaborated, Frame, Needs};
 use nets::{Event, Micros};
 
-use super::check::{Check, Counts, Disagreement, Window};
+use super::check::{Check, Counts, Disagreement, Side, Window};
 use crate::supervisor::{Lane, Lanes};
 
 /// HEARTBEAT's message id, and its `autopilot` field's offset in the
@@ -58,6 +58,36 @@ pub struct Watch {
     /// The last autopilot frame heard (ground time): how far the ground's
     /// view of this vehicle reaches.
     last_autopilot: Option<Micros>,
+    /// The autopilot's clock as far as the ground has read it: its last
+    /// `time_boot_ms` (µs).
+    last_boot: Option<Micros>,
+    /// The messages heard from the vehicle's system (not its onboard
+    /// gateway's), by id: first and last heard (ground time), how many.
+    receiving: BTreeMap<u32, (Micros, Micros, u64)>,
+}
+
+/// A message not heard from the vehicle for this long, or three of its
+/// usual periods if longer, is no longer received (a ground station's
+/// slowest streams come every 2 s).
+pub const QUIET: Micros = 5_000_000;
+
+impl Watch {
+    /// Whether the ground was receiving message `id` at ground time `now`:
+    /// heard within [`QUIET`] or three of its periods.
+    fn receiving(&self, id: u32, now: Micros) -> bool {
+        self.receiving.get(&id).is_some_and(|&(first, last, n)| {
+            let period = last.saturating_sub(first) / n.saturating_sub(1).max(1);
+            last.saturating_add(QUIET.max(3 * period)) >= now
+        })
+    }
+
+    /// Whether the ground can observe a rule with `needs` at `now`: it
+    /// receives every message whose fields the rule reads, and has heard
+    /// every one whose age it reads.
+    fn runs(&self, needs: &Needs, now: Micros) -> bool {
+        needs.fields.iter().all(|id| self.receiving(*id, now))
+            && needs.ages.iter().all(|id| self.receiving.contains_key(id))
+    }
 }
 
 /// The ground's view: lanes, watches, checks.
@@ -73,8 +103,12 @@ pub struct Ground {
     unsaid: VecDeque<u8>,
     elaborated: Vec<Elaborated>,
     /// Ground events elaborated before the vehicle's time base was known
-    /// (before the downlink's first heartbeat): judged once it is.
-    untimed: VecDeque<(Micros, Event)>,
+    /// (before the downlink's first heartbeat): judged once it is, with
+    /// their autopilot time and whether the ground could observe them.
+    untimed: VecDeque<(Micros, Option<Micros>, bool, Event)>,
+    /// Each lane's events and what each of their rules depends on
+    /// (`Profile::event_needs`), by unqualified name.
+    needs: Vec<Vec<(String, Vec<Needs>)>>,
     /// Events the ground elaborated.
     pub events: u64,
 }
@@ -103,6 +137,16 @@ impl Ground {
             .iter()
             .map(|l| Check::new(window).with_addressed(l.profile.addressed_events()))
             .collect();
+        let needs = lanes
+            .iter()
+            .map(|l| {
+                l.profile
+                    .event_needs()
+                    .into_iter()
+                    .map(|(name, needs)| (name.to_owned(), needs))
+                    .collect()
+            })
+            .collect();
         Ground {
             lanes: Lanes::new(lanes),
             watches,
@@ -112,6 +156,7 @@ impl Ground {
             unsaid: VecDeque::new(),
             elaborated: Vec::new(),
             untimed: VecDeque::new(),
+            needs,
             events: 0,
         }
     }
@@ -142,6 +187,7 @@ impl Ground {
             t.skipped += c.skipped;
             t.addressed += c.addressed;
             t.unjudged += c.unjudged;
+            t.unobservable += c.unobservable;
             t.vehicle_late_max = t.vehicle_late_max.max(c.vehicle_late_max);
             t.ground_late_max = t.ground_late_max.max(c.ground_late_max);
         }
@@ -194,6 +240,19 @@ impl Ground {
         let w = &mut self.watches[i];
         w.frames += 1;
         let component = frame.component_id();
+        if component != crate::mirror::COMPANION {
+            let r = w
+                .receiving
+                .entry(frame.message_id())
+                .or_insert((now, now, 0));
+            r.1 = now;
+            r.2 += 1;
+        }
+        if component == w.autopilot {
+            if let Some(ms) = frame.time_boot_ms() {
+                w.last_boot = Some(Micros::from(ms) * 1000);
+            }
+        }
         if component == w.autopilot && autopilot_heartbeat(frame) {
             w.heard = true;
             w.first_heard.get_or_insert(now);
@@ -274,39 +333,74 @@ impl Ground {
         // Those that came before the time base, once it is known; those
         // from before the vehicle's player started (vehicle time 0, where
         // `to_vehicle` stops) the vehicle never elaborated: not judged.
-        while let Some(t) = self.untimed.front().and_then(|(at, _)| to_vehicle(*at)) {
-            let Some((_, event)) = self.untimed.pop_front() else {
+        while let Some(t) = self.untimed.front().and_then(|(at, ..)| to_vehicle(*at)) {
+            let Some((_, boot, observable, event)) = self.untimed.pop_front() else {
                 break;
             };
             if t > 0 {
-                let i = self.lane_of_event(&event);
-                self.checks[i].ground(t, &event);
+                self.judge_later(Side::Ground, t, boot, observable, &event);
             }
         }
         let mut elaborated = std::mem::take(&mut self.elaborated);
         for e in elaborated.drain(..) {
             self.events += 1;
             seen(&e.event);
+            let observable = self.observable(e.time_us, &e.event);
             match to_vehicle(e.time_us) {
-                Some(t) => {
-                    let i = self.lane_of_event(&e.event);
-                    self.checks[i].ground(t, &e.event);
-                }
+                Some(t) => self.judge_later(Side::Ground, t, e.boot_us, observable, &e.event),
                 None => {
                     if self.untimed.len() == UNTIMED {
                         self.untimed.pop_front();
                     }
-                    self.untimed.push_back((e.time_us, e.event));
+                    self.untimed
+                        .push_back((e.time_us, e.boot_us, observable, e.event));
                 }
             }
         }
         self.elaborated = elaborated;
     }
 
-    /// An event the vehicle published (elaborated on board), at its time.
-    pub fn vehicle_event(&mut self, time: Micros, event: &Event) {
+    /// An event the vehicle published (elaborated on board), at its time
+    /// and its autopilot's (`boot`), heard at ground time `now`.
+    pub fn vehicle_event(
+        &mut self,
+        now: Micros,
+        time: Micros,
+        boot: Option<Micros>,
+        event: &Event,
+    ) {
+        let observable = self.observable(now, event);
+        self.judge_later(Side::Vehicle, time, boot, observable, event);
+    }
+
+    fn judge_later(
+        &mut self,
+        side: Side,
+        time: Micros,
+        boot: Option<Micros>,
+        observable: bool,
+        event: &Event,
+    ) {
         let i = self.lane_of_event(event);
-        self.checks[i].vehicle(time, event);
+        let c = &mut self.checks[i];
+        match (side, observable) {
+            (Side::Ground, true) => c.ground(time, boot, event),
+            (Side::Vehicle, true) => c.vehicle(time, boot, event),
+            (side, false) => c.unobservable(side, time, boot, event),
+        }
+    }
+
+    /// Whether the ground can observe `event` at ground time `now`: some
+    /// rule producing it depends only on messages the ground is receiving
+    /// from its vehicle (`Watch::runs`). An event no rule produces (none
+    /// of the profile's) is observable.
+    fn observable(&self, now: Micros, event: &Event) -> bool {
+        let i = self.lane_of_event(event);
+        let name = nets::model::split_vehicle(&event.name).0;
+        match self.needs[i].iter().find(|(n, _)| n == name) {
+            Some((_, rules)) => rules.iter().any(|r| self.watches[i].runs(r, now)),
+            None => true,
+        }
     }
 
     /// The check of an event's vehicle (`EVENT@VEHICLE`); the first
@@ -331,19 +425,30 @@ impl Ground {
     /// through which the replica holds every record; each vehicle's
     /// ground view reaches its last autopilot frame (not the clock: during
     /// a radio outage it does not advance).
+    /// `vehicle_boot` gives, by lane, how far the onboard elaboration had
+    /// read its autopilot's clock by `vehicle_known`
+    /// (`Replica::exact_boot`); the ground's is its last autopilot frame's.
     pub fn advance(
         &mut self,
         vehicle_known: Option<Micros>,
+        vehicle_boot: impl Fn(usize) -> Option<Micros>,
         to_vehicle: impl Fn(Micros) -> Option<Micros>,
     ) {
-        for (c, w) in self.checks.iter_mut().zip(&self.watches) {
+        for (i, (c, w)) in self.checks.iter_mut().zip(&self.watches).enumerate() {
             // Converted once: the first time it is known.
             if !c.knows_ground_start() {
                 if let Some(t) = w.first_heard.and_then(&to_vehicle) {
                     c.ground_from(t);
                 }
             }
-            c.advance(vehicle_known, w.last_autopilot.and_then(&to_vehicle));
+            let elaborator = self.lanes.elaborator(i);
+            c.advance_holding(
+                vehicle_known,
+                vehicle_boot(i),
+                w.last_autopilot.and_then(&to_vehicle),
+                w.last_boot,
+                |name| elaborator.still_holds(nets::model::split_vehicle(name).0),
+            );
         }
     }
 

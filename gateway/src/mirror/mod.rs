@@ -103,6 +103,7 @@ pub fn step_inputs(input: &SupervisorInput, step: &Step, unread: &Unread) -> Opt
             .filter(|(e, effects)| !(effects.is_empty() && unread.unread(&e.event)))
             .map(|(e, _)| Input::Elaborated {
                 time: e.time_us,
+                boot: e.boot_us,
                 event: e.event.clone(),
             })
             .collect(),

@@ -67,6 +67,10 @@ pub const HEARTBEATS_ASKED: usize = 16;
 /// whoever asks and however often: four a second, 200 B/s at most.
 pub const HEARTBEAT_ASKED_GAP: Micros = 250_000;
 
+/// Lanes in one boot record at most (a team's in turn): a packet's worth
+/// with its heartbeat.
+pub const BOOT_LANES: usize = 12;
+
 /// The onboard publisher.
 pub struct Publisher {
     config: Config,
@@ -89,6 +93,11 @@ pub struct Publisher {
     heartbeats_asked: BTreeSet<Micros>,
     /// When the last heartbeat asked for went (vehicle time).
     asked_sent_at: Option<Micros>,
+    /// Each lane's autopilot clock as far as read (`Record::Boot`), and
+    /// where the next boot record starts among them (a team's lanes in
+    /// turn, [`BOOT_LANES`] a heartbeat).
+    boots: Vec<(u64, Micros)>,
+    boots_from: usize,
     pub counts: Counts,
 }
 
@@ -111,6 +120,8 @@ impl Publisher {
             snapshot_asked: false,
             heartbeats_asked: BTreeSet::new(),
             asked_sent_at: None,
+            boots: Vec::new(),
+            boots_from: 0,
             counts: Counts::default(),
         }
     }
@@ -119,6 +130,14 @@ impl Publisher {
     #[cfg(test)]
     pub fn next_record(&self) -> u64 {
         self.next
+    }
+
+    /// How far each lane's autopilot clock the elaboration has read
+    /// (`supervisor::Lanes::boots`): sent after each heartbeat, so that the
+    /// ground judges on the autopilot's clock how complete the vehicle's
+    /// events are (docs/mirror.md, "The independent check").
+    pub fn autopilot_clocks(&mut self, boots: Vec<(u64, Micros)>) {
+        self.boots = boots;
     }
 
     /// A step whose inputs reached the player: `before` is the player's time
@@ -268,6 +287,19 @@ impl Publisher {
                 digest,
             }));
             self.counts.heartbeats += 1;
+            if !self.boots.is_empty() {
+                let from = self.boots_from % self.boots.len();
+                let lanes: Vec<(u64, Micros)> = self
+                    .boots
+                    .iter()
+                    .cycle()
+                    .skip(from)
+                    .take(self.boots.len().min(BOOT_LANES))
+                    .copied()
+                    .collect();
+                self.boots_from = from + lanes.len();
+                self.fresh.push_back(Record::Boot { time, lanes });
+            }
         }
         let snapshot_queued = self.resync.iter().any(|r| matches!(r, Record::Chunk(_)));
         if (now >= self.next_snapshot || self.snapshot_asked) && !snapshot_queued {

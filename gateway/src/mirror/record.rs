@@ -22,7 +22,12 @@
 //!                a MAVLink 2 signed TUNNEL: `mirror::dialog`)
 //!   8 heartbeat? uvarint time                                 (uplink: a heartbeat
 //!                once the vehicle's time reaches `time`)
+//!   9 boot       uvarint time, uvarint n, { uvarint lane, uvarint boot_ms } × n
+//!                (after a heartbeat: at vehicle time `time`, the last
+//!                `time_boot_ms` each lane's elaboration read of its autopilot)
 //! input   = u8:0 ivarint dt, event               an event the elaboration produced
+//!         | u8:5 ivarint dt, uvarint boot_ms, event   the same, with the autopilot's
+//!                                                  clock when it fired (`time_boot_ms`)
 //!         | u8:1 ivarint dt, uvarint id, outcome a call's or command's outcome
 //!         | u8:2 ivarint dt, event               a program's event
 //!         | u8:3 ivarint dt, event               (never produced; read, played as an event)
@@ -64,6 +69,14 @@ pub enum Record {
     SendHeartbeat {
         at: Micros,
     },
+    /// How far each vehicle's autopilot clock the onboard elaboration has
+    /// read by vehicle time `time` (sent with the heartbeats): by lane
+    /// (the team's vehicles in order, 0 without a team), the last
+    /// `time_boot_ms` heard, in µs (whole milliseconds).
+    Boot {
+        time: Micros,
+        lanes: Vec<(u64, Micros)>,
+    },
     /// Uplink, signed only: the operator's answer to question `id`.
     Answer {
         id: u64,
@@ -92,8 +105,13 @@ pub struct StepRecord {
 /// One input of a step, with its time.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Input {
-    /// An event the onboard elaboration produced.
-    Elaborated { time: Micros, event: Event },
+    /// An event the onboard elaboration produced, and the autopilot's
+    /// clock when it did (`Elaborated::boot_us`), when known.
+    Elaborated {
+        time: Micros,
+        boot: Option<Micros>,
+        event: Event,
+    },
     /// A call's or command's outcome.
     Result {
         time: Micros,
@@ -169,6 +187,7 @@ const RESEND: u8 = 5;
 const SEND_SNAPSHOT: u8 = 6;
 const ANSWER: u8 = 7;
 const SEND_HEARTBEAT: u8 = 8;
+const BOOT: u8 = 9;
 
 /// Why a packet does not decode.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -229,6 +248,15 @@ pub fn encode(record: &Record, w: &mut Writer) {
             w.u8(SEND_HEARTBEAT);
             w.uvarint(*at);
         }
+        Record::Boot { time, lanes } => {
+            w.u8(BOOT);
+            w.uvarint(*time);
+            w.len(lanes.len());
+            for (lane, boot) in lanes {
+                w.uvarint(*lane);
+                w.uvarint(boot / 1000);
+            }
+        }
         Record::Answer { id, choice } => {
             w.u8(ANSWER);
             w.uvarint(*id);
@@ -246,9 +274,12 @@ pub fn step_body(s: &StepRecord, w: &mut Writer) {
     w.len(s.inputs.len());
     for input in &s.inputs {
         match input {
-            Input::Elaborated { time, event } => {
-                w.u8(0);
+            Input::Elaborated { time, boot, event } => {
+                w.u8(if boot.is_some() { 5 } else { 0 });
                 w.ivarint(delta(*time, s.before));
+                if let Some(boot) = boot {
+                    w.uvarint(boot / 1000);
+                }
                 w.event(event);
             }
             Input::Result { time, id, outcome } => {
@@ -312,6 +343,16 @@ pub fn decode_step(r: &mut Reader) -> Result<StepRecord, DecodeError> {
         inputs.push(match tag {
             0 => Input::Elaborated {
                 time,
+                boot: None,
+                event: r.event()?,
+            },
+            5 => Input::Elaborated {
+                time,
+                boot: Some(
+                    r.uvarint()?
+                        .checked_mul(1000)
+                        .ok_or_else(|| r.invalid("an autopilot time out of range"))?,
+                ),
                 event: r.event()?,
             },
             1 => {
@@ -410,6 +451,20 @@ fn decode_one(r: &mut Reader) -> Result<Record, PacketError> {
             choice: r.str()?,
         },
         SEND_HEARTBEAT => Record::SendHeartbeat { at: r.uvarint()? },
+        BOOT => {
+            let time = r.uvarint()?;
+            let n = r.count(2)?;
+            let mut lanes = Vec::with_capacity(n);
+            for _ in 0..n {
+                let lane = r.uvarint()?;
+                let boot = r
+                    .uvarint()?
+                    .checked_mul(1000)
+                    .ok_or_else(|| r.invalid("an autopilot time out of range"))?;
+                lanes.push((lane, boot));
+            }
+            Record::Boot { time, lanes }
+        }
         k => return Err(PacketError::Kind(k)),
     })
 }
@@ -517,7 +572,16 @@ mod tests {
     fn input() -> impl Strategy<Value = Input> {
         let t = 0u64..u64::MAX / 2;
         prop_oneof![
-            (t.clone(), event()).prop_map(|(time, event)| Input::Elaborated { time, event }),
+            (
+                t.clone(),
+                proptest::option::of(0..u64::from(u32::MAX)),
+                event()
+            )
+                .prop_map(|(time, boot, event)| Input::Elaborated {
+                    time,
+                    boot: boot.map(|ms| ms * 1000),
+                    event
+                }),
             (t.clone(), any::<u64>(), any::<bool>(), "[a-z ]{0,12}").prop_map(
                 |(time, id, ok, reason)| Input::Result {
                     time,
@@ -606,6 +670,14 @@ mod tests {
             (any::<u64>(), any::<u64>()).prop_map(|(from, count)| Record::Resend { from, count }),
             any::<u32>().prop_map(|session| Record::SendSnapshot { session }),
             any::<u64>().prop_map(|at| Record::SendHeartbeat { at }),
+            (
+                any::<u64>(),
+                prop::collection::vec((0u64..300, 0..u64::from(u32::MAX)), 0..4)
+            )
+                .prop_map(|(time, lanes)| Record::Boot {
+                    time,
+                    lanes: lanes.into_iter().map(|(l, ms)| (l, ms * 1000)).collect()
+                }),
         ]
     }
 

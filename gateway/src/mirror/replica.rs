@@ -192,6 +192,9 @@ pub struct Counts {
 /// A snapshot being put together: (session, snapshot number, its pieces).
 type Chunks = (u32, u64, Vec<Option<Vec<u8>>>);
 
+/// Boot records kept (one a heartbeat: the last half minute).
+const BOOTS: usize = 32;
+
 /// The replica.
 pub struct Replica {
     config: Config,
@@ -230,6 +233,9 @@ pub struct Replica {
     /// heartbeats', kept with their ground time.
     offset: Option<i128>,
     offsets: VecDeque<(Micros, i128)>,
+    /// The last boot records (`Record::Boot`): at a vehicle time, how far
+    /// each lane's autopilot clock the onboard elaboration had read.
+    boots: VecDeque<(Micros, Vec<(u64, Micros)>)>,
     /// When (ground time) the last downlink packet came, and the last
     /// request sent while it was silent.
     heard_at: Option<Micros>,
@@ -266,6 +272,7 @@ impl Replica {
             provisional: None,
             offset: None,
             offsets: VecDeque::new(),
+            boots: VecDeque::new(),
             heard_at: None,
             hailed_at: None,
             now: 0,
@@ -292,6 +299,20 @@ impl Replica {
         (self.gap_since.is_none() && !self.diverged)
             .then(|| self.player.as_ref().map(|p| p.state().now))
             .flatten()
+    }
+
+    /// How far lane `lane`'s autopilot clock (its `time_boot_ms`, in µs)
+    /// the onboard elaboration had read by the time through which the
+    /// replica holds every record ([`Replica::exact_time`]): every event the
+    /// vehicle elaborated from frames up to it is known to the ground.
+    pub fn exact_boot(&self, lane: usize) -> Option<Micros> {
+        let known = self.exact_time()?;
+        self.boots
+            .iter()
+            .rev()
+            .filter(|(time, _)| *time <= known)
+            .find_map(|(_, lanes)| lanes.iter().find(|(l, _)| *l == lane as u64))
+            .map(|(_, boot)| *boot)
     }
 
     /// The vehicle's time at ground time `now`, estimated from the recent
@@ -395,6 +416,12 @@ impl Replica {
                     self.play_held();
                 }
                 Record::Chunk(c) => self.chunk(c),
+                Record::Boot { time, lanes } => {
+                    self.boots.push_back((time, lanes));
+                    while self.boots.len() > BOOTS {
+                        self.boots.pop_front();
+                    }
+                }
                 // Uplink records heard back (a shared link): not ours.
                 Record::Resend { .. }
                 | Record::SendSnapshot { .. }
@@ -499,6 +526,7 @@ impl Replica {
         self.session = Some(session);
         // Another run: another clock.
         self.offsets.clear();
+        self.boots.clear();
         self.held.clear();
         self.fragments.clear();
         self.chunks = None;

@@ -151,6 +151,7 @@ impl Mirror {
                     "vehicle": w.name, "system": w.system, "frames": w.frames, "heard": w.heard,
                     "matched": c.matched, "ground_only": c.ground_only,
                     "vehicle_only": c.vehicle_only, "unjudged": c.unjudged,
+                    "unobservable": c.unobservable,
                 })
             })
             .collect();

@@ -191,12 +191,13 @@ fn played(board: &mut Board, report: &Report, player: &nets::Player) {
     }
     for input in inputs {
         let (input, step) = match input {
-            RecordInput::Elaborated { time: t, event } => {
+            RecordInput::Elaborated { time: t, event, .. } => {
                 let elaborated = elaboration::Elaborated {
                     time_us: *t,
                     event: event.clone(),
                     sysid: 0,
                     compid: 0,
+                    boot_us: None,
                 };
                 (
                     Input::Tick,
@@ -263,6 +264,7 @@ mod tests {
             time: 2_000_000,
             inputs: vec![RecordInput::Elaborated {
                 time: 2_000_000,
+                boot: None,
                 event: reached,
             }],
             effects,

@@ -366,7 +366,7 @@ fn print_record_inputs<W: Write>(
     use crate::mirror::record::Input as Downlink;
     for input in inputs {
         match input {
-            Downlink::Elaborated { time, event }
+            Downlink::Elaborated { time, event, .. }
             | Downlink::Program { time, event }
             | Downlink::Answer { time, event } => out.event(project, *time, event, None)?,
             Downlink::Result { time, id, outcome } => {

@@ -722,6 +722,7 @@ impl Gateway {
         else {
             return;
         };
+        d.publisher.autopilot_clocks(self.supervisor.boots());
         d.publisher
             .tick(now, self.supervisor.seq(), self.supervisor.player());
         while let Some(payload) = d.publisher.poll_transmit() {

@@ -88,7 +88,7 @@ fn feed(g: &mut Ground, t: Micros, bytes: &[u8]) -> Vec<String> {
 /// elaborates the same frames): they all match.
 fn both(g: &mut Ground, t: Micros, bytes: &[u8]) {
     for e in elaborate(g, t, bytes) {
-        g.vehicle_event(t, &e);
+        g.vehicle_event(t, t, None, &e);
     }
 }
 
@@ -154,9 +154,9 @@ fn the_check_is_per_vehicle() {
     }
     // The ground saw R2's engine fail; the vehicle published R1's: the
     // same name, another vehicle's, so neither matches.
-    g.vehicle_event(10_000_000, &ev("engine_failure@R1"));
-    g.checks[1].ground(10_000_000, &ev("engine_failure@R2"));
-    g.advance(Some(29_000_000), same);
+    g.vehicle_event(10_000_000, 10_000_000, None, &ev("engine_failure@R1"));
+    g.checks[1].ground(10_000_000, None, &ev("engine_failure@R2"));
+    g.advance(Some(29_000_000), |_| None, same);
     let mut got = Vec::new();
     while let Some((vehicle, d)) = g.poll_disagreement() {
         got.push((vehicle.map(str::to_owned), d.event, d.seen_by));
@@ -203,11 +203,11 @@ fn losses_are_watched_per_vehicle() {
     };
     // The vehicle published one event of each at 12 s that the ground did
     // not see: R2's falls in R2's loss (not judged), R1's does not.
-    g.vehicle_event(12_000_000, &ev("landed@R1"));
-    g.vehicle_event(12_000_000, &ev("landed@R2"));
-    g.advance(Some(29_000_000), same);
+    g.vehicle_event(12_000_000, 12_000_000, None, &ev("armed@R1"));
+    g.vehicle_event(12_000_000, 12_000_000, None, &ev("armed@R2"));
+    g.advance(Some(29_000_000), |_| None, same);
     let (vehicle, d) = g.poll_disagreement().expect("R1's");
-    assert_eq!((vehicle, d.event.as_str()), (Some("R1"), "landed@R1"));
+    assert_eq!((vehicle, d.event.as_str()), (Some("R1"), "armed@R1"));
     assert!(g.poll_disagreement().is_none());
     let unjudged: Vec<_> = g.counts().map(|c| c.unjudged).collect();
     assert_eq!(unjudged, [0, 1]);
@@ -256,6 +256,8 @@ fn events_before_the_time_base_are_judged_once_it_is_known() {
     g.drain(base, |_| {});
     g.vehicle_event(
         5_100_000,
+        5_100_000,
+        None,
         &Event {
             name: "armed@R1".to_owned(),
             category: Category::Mission,
@@ -277,7 +279,7 @@ fn events_from_before_the_vehicle_started_are_not_judged() {
     g.drain(base, |_| {});
     // The replica holds every record through 10 s: whatever the ground
     // had waiting is judged now (a ground-only event, were it kept).
-    g.advance(Some(10_000_000), base);
+    g.advance(Some(10_000_000), |_| None, base);
     assert!(g.poll_disagreement().is_none());
     let counts = g.counts().next().expect("R1's counts");
     assert_eq!(
@@ -317,7 +319,7 @@ fn a_mode_change_the_ground_alone_heard_at_boot_is_not_judged() {
     for (i, t) in (2..12u8).zip((2_150_000..).step_by(1_000_000)) {
         feed(&mut g, t, &plane(i, 0));
     }
-    g.advance(Some(11_000_000), same);
+    g.advance(Some(11_000_000), |_| None, same);
     assert!(g.poll_disagreement().is_none());
     let c = g.total();
     assert_eq!((c.ground_only, c.unjudged), (0, 1));
@@ -326,7 +328,7 @@ fn a_mode_change_the_ground_alone_heard_at_boot_is_not_judged() {
     for (i, t) in (13..20u8).zip((13_150_000..).step_by(1_000_000)) {
         feed(&mut g, t, &plane(i, 10));
     }
-    g.advance(Some(19_000_000), same);
+    g.advance(Some(19_000_000), |_| None, same);
     let (_, d) = g.poll_disagreement().expect("the later change");
     assert_eq!(
         (d.event.as_str(), d.seen_by),
@@ -414,13 +416,13 @@ fn operations(
             }
             for e in elaborate(g, t, bytes) {
                 if !missed.contains(&e.name.as_str()) {
-                    g.vehicle_event(t, &e);
+                    g.vehicle_event(t, t, None, &e);
                 }
             }
         }
         feed(g, t + 1_000, &companion(k));
         k = k.wrapping_add(4);
-        g.advance(Some(t), same);
+        g.advance(Some(t), |_| None, same);
         t += 250_000;
     }
     seq
@@ -443,7 +445,7 @@ fn the_onboard_gateways_numbers_are_no_loss_and_a_missed_engine_failure_is_repor
         operations(&mut g, 20_000_000, lost, &["engine_failure"], |t| {
             (t == 12_150_000).then(|| "Potential Thrust Loss (3)".to_owned())
         });
-        g.advance(Some(20_000_000), same);
+        g.advance(Some(20_000_000), |_| None, same);
         let total = g.total();
         let (_, d) = g
             .poll_disagreement()
@@ -478,7 +480,7 @@ fn a_hole_in_the_grounds_view_is_not_judged_for_a_while() {
         &["engine_failure"],
         texts,
     );
-    g.advance(Some(40_000_000), same);
+    g.advance(Some(40_000_000), |_| None, same);
     let mut reported = Vec::new();
     while let Some((_, d)) = g.poll_disagreement() {
         reported.push(d.time);
@@ -501,8 +503,8 @@ fn acknowledgements_to_the_onboard_gateway_alone_raise_no_alarm() {
     let rejected = Event::new("command_rejected")
         .param("command", "MAV_CMD_IMAGE_START_CAPTURE")
         .param("result", "MAV_RESULT_UNSUPPORTED");
-    g.vehicle_event(5_000_000, &rejected);
-    g.advance(Some(10_000_000), same);
+    g.vehicle_event(5_000_000, 5_000_000, None, &rejected);
+    g.advance(Some(10_000_000), |_| None, same);
     assert!(g.poll_disagreement().is_none());
     assert_eq!(g.total().addressed, 1);
 }
@@ -523,7 +525,7 @@ fn a_frame_lost_between_two_batches_leaves_no_hole() {
             seq = seq.wrapping_add(1);
             if !seq.is_multiple_of(30) {
                 for e in elaborate(&mut g, t, &bytes) {
-                    g.vehicle_event(t, &e);
+                    g.vehicle_event(t, t, None, &e);
                 }
             }
         }
@@ -531,13 +533,206 @@ fn a_frame_lost_between_two_batches_leaves_no_hole() {
             elaborate(&mut g, t, &says(seq, "Potential Thrust Loss (3)"));
             seq = seq.wrapping_add(1);
         }
-        g.advance(Some(t), same);
+        g.advance(Some(t), |_| None, same);
     }
-    g.advance(Some(20_000_000), same);
+    g.advance(Some(20_000_000), |_| None, same);
     let (_, d) = g.poll_disagreement().expect("the engine failure");
     assert_eq!(
         (d.event.as_str(), d.seen_by),
         ("engine_failure", Side::Ground)
     );
     assert_eq!(g.blind(same)[0].1, 0);
+}
+
+/// The autopilot's ATTITUDE at its `time_boot_ms`.
+fn attitude(seq: u8, boot_ms: u32) -> Vec<u8> {
+    let header = MavHeader {
+        system_id: 1,
+        component_id: 1,
+        sequence: seq,
+    };
+    let m = MavMessage::ATTITUDE(mavlink::dialects::ardupilotmega::ATTITUDE_DATA {
+        time_boot_ms: boot_ms,
+        ..Default::default()
+    });
+    elaboration::frame::serialize(header, MavlinkVersion::V2, &m)
+}
+
+/// A vehicle armed at 5.25 s (vehicle time) whose autopilot booted 100 s
+/// before, heard by a ground that stamps its frames 3.3 s late from 3 s
+/// on (a computer starved of CPU; its time base still says the vehicle's
+/// time is its own); ATTITUDE (with `time_boot_ms`) between the
+/// heartbeats when `clock`. The vehicle published `armed` (at its time,
+/// with the autopilot's when `clock`) unless `missed`. The check's
+/// disagreements and counts.
+fn late_ground(clock: bool, missed: bool) -> (Vec<(Side, String)>, crate::mirror::check::Counts) {
+    let (project, _) = crate::mirror::tests::example();
+    let mut g = ground_of(&project);
+    let mut armed_at = None;
+    let mut seq = 0u8;
+    for i in 0..60u32 {
+        let vt = Micros::from(i) * 250_000;
+        let gt = if vt >= 3_000_000 { vt + 3_300_000 } else { vt };
+        let boot_ms = 100_000 + vt as u32 / 1000;
+        let bytes = if i % 2 == 0 {
+            if !clock {
+                continue;
+            }
+            attitude(seq, boot_ms)
+        } else {
+            rover(1, seq, vt >= 5_000_000)
+        };
+        seq = seq.wrapping_add(1);
+        let events = elaborate(&mut g, gt, &bytes);
+        if events.iter().any(|e| e.name == "armed") && armed_at.is_none() {
+            armed_at = Some(gt);
+        }
+        if vt == 5_250_000 && !missed {
+            let boot = clock.then_some(Micros::from(boot_ms) * 1000);
+            g.vehicle_event(gt, vt, boot, &Event::new("armed"));
+        }
+    }
+    assert!(armed_at.is_some(), "the ground saw `armed`");
+    // The replica holds every record through 15 s, where the vehicle had
+    // read its autopilot's clock to 114.75 s.
+    let vehicle_boot = |_| clock.then_some(114_750_000);
+    g.advance(Some(15_000_000), vehicle_boot, same);
+    let mut seen = Vec::new();
+    while let Some((_, d)) = g.poll_disagreement() {
+        seen.push((d.seen_by, d.event));
+    }
+    (seen, g.total())
+}
+
+#[test]
+fn a_ground_that_stamps_its_frames_late_raises_no_disagreement_on_the_autopilots_clock() {
+    // On the autopilot's clock: the same event, matched.
+    let (seen, counts) = late_ground(true, false);
+    assert_eq!(seen, [], "{counts:?}");
+    assert_eq!(counts.matched, 1);
+    assert!(counts.ground_late_max <= 250_000, "{counts:?}");
+    // Without a message carrying `time_boot_ms`, on the receive times:
+    // 3.3 s apart, reported both ways (what the check did before).
+    let (seen, _) = late_ground(false, false);
+    assert_eq!(
+        seen,
+        [
+            (Side::Ground, "armed".to_owned()),
+            (Side::Vehicle, "armed".to_owned())
+        ]
+    );
+}
+
+#[test]
+fn a_real_miss_is_still_reported_on_the_autopilots_clock() {
+    let (seen, counts) = late_ground(true, true);
+    assert_eq!(seen, [(Side::Ground, "armed".to_owned())], "{counts:?}");
+}
+
+/// ArduPlane's EXTENDED_SYS_STATE.
+fn extended_sys_state(
+    seq: u8,
+    landed: mavlink::dialects::ardupilotmega::MavLandedState,
+) -> Vec<u8> {
+    let header = MavHeader {
+        system_id: 1,
+        component_id: 1,
+        sequence: seq,
+    };
+    let m =
+        MavMessage::EXTENDED_SYS_STATE(mavlink::dialects::ardupilotmega::EXTENDED_SYS_STATE_DATA {
+            landed_state: landed,
+            ..Default::default()
+        });
+    elaboration::frame::serialize(header, MavlinkVersion::V2, &m)
+}
+
+#[test]
+fn events_whose_every_rule_reads_a_message_the_ground_does_not_receive_are_unobservable() {
+    use mavlink::dialects::ardupilotmega::MavLandedState;
+    // The ground's port carries HEARTBEAT and ATTITUDE, never
+    // EXTENDED_SYS_STATE: the vehicle's `landed` (from its landed_state,
+    // or by HEARTBEAT where it is not streamed: `!seen(...)`) is not the
+    // ground's to judge; its `armed` (HEARTBEAT) is.
+    let (project, _) = crate::mirror::tests::example();
+    let mut g = ground_of(&project);
+    for i in 0..40u32 {
+        let t = Micros::from(i) * 250_000;
+        let bytes = if i % 2 == 0 {
+            attitude(i as u8, 100_000 + t as u32 / 1000)
+        } else {
+            rover(1, i as u8, false)
+        };
+        elaborate(&mut g, t, &bytes);
+    }
+    g.vehicle_event(
+        5_000_000,
+        5_000_000,
+        Some(105_000_000),
+        &Event::new("landed"),
+    );
+    g.vehicle_event(
+        5_000_000,
+        5_000_000,
+        Some(105_000_000),
+        &Event::new("takeoff"),
+    );
+    g.vehicle_event(
+        6_000_000,
+        6_000_000,
+        Some(106_000_000),
+        &Event::new("armed"),
+    );
+    g.advance(Some(10_000_000), |_| Some(110_000_000), same);
+    let (_, d) = g.poll_disagreement().expect("`armed`, heard by the ground");
+    assert_eq!((d.event.as_str(), d.seen_by), ("armed", Side::Vehicle));
+    assert!(g.poll_disagreement().is_none());
+    let c = g.total();
+    assert_eq!((c.unobservable, c.vehicle_only), (2, 1), "{c:?}");
+
+    // Where the ground does receive EXTENDED_SYS_STATE, `landed` is
+    // judged; once it stops coming (past QUIET), it no longer is.
+    let mut g = ground_of(&project);
+    for i in 0..40u32 {
+        let t = Micros::from(i) * 250_000;
+        let bytes = match i % 3 {
+            0 => attitude(i as u8, 100_000 + t as u32 / 1000),
+            1 => rover(1, i as u8, false),
+            _ if t < 3_000_000 => {
+                extended_sys_state(i as u8, MavLandedState::MAV_LANDED_STATE_ON_GROUND)
+            }
+            _ => rover(1, i as u8, false),
+        };
+        elaborate(&mut g, t, &bytes);
+    }
+    g.vehicle_event(
+        4_000_000,
+        4_000_000,
+        Some(104_000_000),
+        &Event::new("landed"),
+    );
+    g.vehicle_event(
+        9_500_000,
+        9_500_000,
+        Some(109_500_000),
+        &Event::new("landed"),
+    );
+    for i in 40..80u32 {
+        let t = Micros::from(i) * 250_000;
+        let bytes = if i % 2 == 0 {
+            attitude(i as u8, 100_000 + t as u32 / 1000)
+        } else {
+            rover(1, i as u8, false)
+        };
+        elaborate(&mut g, t, &bytes);
+    }
+    g.advance(Some(20_000_000), |_| Some(120_000_000), same);
+    let (_, d) = g.poll_disagreement().expect("the first `landed`");
+    assert_eq!((d.event.as_str(), d.time), ("landed", 4_000_000));
+    let mut more = Vec::new();
+    while let Some((_, d)) = g.poll_disagreement() {
+        more.push(d);
+    }
+    assert!(more.is_empty(), "{more:?}");
+    assert_eq!(g.total().unobservable, 1);
 }
