@@ -1,5 +1,5 @@
 //! The project check (issue 15): `nets::verify::project::check` on
-//! `examples/uav-flight-test` (55,326 states, 1,426,433 steps), the whole
+//! `examples/uav-flight-test` (55,326 states, 1,426,434 steps), the whole
 //! check `petrel check` runs (each net in its project and alone), without
 //! process start-up and loading, on one and two threads.
 //!
