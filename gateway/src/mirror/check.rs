@@ -489,7 +489,7 @@ impl Check {
         );
     }
 
-    /// [`Check::advance`], where `holds` says whether the ground is still
+    /// `Check::advance` (a test's shorthand), where `holds` says whether the ground is still
     /// in the state a ground event announced (`Elaborator::still_holds`):
     /// one it left again before it was judged (a second or two later) is
     /// not judged. The ground samples some streams once a second or less:
