@@ -64,6 +64,11 @@ pub struct Watch {
     /// The messages heard from the vehicle's system (not its onboard
     /// gateway's), by id: first and last heard (ground time), how many.
     receiving: BTreeMap<u32, (Micros, Micros, u64)>,
+    /// The last frame's message, when it came after a silence of its
+    /// stream longer than the check's window beyond its period (its
+    /// earlier frames lost): what it says may have started that much
+    /// earlier, so an event it makes has no onset the check can judge.
+    late: Option<u32>,
 }
 
 /// A message not heard from the vehicle for this long, or three of its
@@ -111,6 +116,8 @@ pub struct Ground {
     needs: Vec<Vec<(String, Vec<Needs>)>>,
     /// Events the ground elaborated.
     pub events: u64,
+    /// The check's window.
+    window: Window,
 }
 
 /// Ground events kept waiting for the time base, at most.
@@ -158,6 +165,7 @@ impl Ground {
             untimed: VecDeque::new(),
             needs,
             events: 0,
+            window,
         }
     }
 
@@ -240,11 +248,17 @@ impl Ground {
         let w = &mut self.watches[i];
         w.frames += 1;
         let component = frame.component_id();
+        w.late = None;
         if component != crate::mirror::COMPANION {
             let r = w
                 .receiving
                 .entry(frame.message_id())
                 .or_insert((now, now, 0));
+            let period = r.1.saturating_sub(r.0) / r.2.saturating_sub(1).max(1);
+            if r.2 >= 2 && now.saturating_sub(r.1).saturating_sub(period) > self.window.ground_late
+            {
+                w.late = Some(frame.message_id());
+            }
             r.1 = now;
             r.2 += 1;
         }
@@ -345,7 +359,7 @@ impl Ground {
         for e in elaborated.drain(..) {
             self.events += 1;
             seen(&e.event);
-            let observable = self.observable(e.time_us, &e.event);
+            let observable = self.observable(e.time_us, &e.event) && !self.late(&e.event);
             match to_vehicle(e.time_us) {
                 Some(t) => self.judge_later(Side::Ground, t, e.boot_us, observable, &e.event),
                 None => {
@@ -358,6 +372,27 @@ impl Ground {
             }
         }
         self.elaborated = elaborated;
+        for w in &mut self.watches {
+            w.late = None;
+        }
+    }
+
+    /// Whether `event`, elaborated from the last frame, may read a message
+    /// that came after its stream went silent longer than the window (its
+    /// frames lost on the radio): the ground saw it late by an unknown
+    /// amount (at 30 % loss, `armed` 5 s after the vehicle), so it is
+    /// judged as one the ground cannot observe — matched if the vehicle
+    /// saw it, never reported if not.
+    fn late(&self, event: &Event) -> bool {
+        let i = self.lane_of_event(event);
+        let Some(id) = self.watches[i].late else {
+            return false;
+        };
+        let name = nets::model::split_vehicle(&event.name).0;
+        self.needs[i]
+            .iter()
+            .find(|(n, _)| n == name)
+            .is_some_and(|(_, rules)| rules.iter().any(|r| r.fields.contains(&id)))
     }
 
     /// An event the vehicle published (elaborated on board), at its time

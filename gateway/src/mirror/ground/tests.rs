@@ -736,3 +736,50 @@ fn events_whose_every_rule_reads_a_message_the_ground_does_not_receive_are_unobs
     assert!(more.is_empty(), "{more:?}");
     assert_eq!(g.total().unobservable, 1);
 }
+
+/// The vehicle armed at 5 s; the ground's radio lost the heartbeats of 5
+/// to 8 s (ATTITUDE at 4 Hz came through: no hole in its view) and heard
+/// `armed` at 9 s only. The ground's late sighting is no disagreement
+/// (CI's 30 % loss flight: `armed` 5 s after the vehicle), and with every
+/// heartbeat heard a ground-only `armed` still is.
+fn heartbeats_lost(
+    lost: bool,
+    vehicle_armed: bool,
+) -> (Vec<(Side, String)>, crate::mirror::check::Counts) {
+    let (project, _) = crate::mirror::tests::example();
+    let mut g = ground_of(&project);
+    let mut seq = 0u8;
+    for i in 0..60u32 {
+        let t = Micros::from(i) * 250_000;
+        let heartbeat = i % 4 == 0;
+        let bytes = if heartbeat {
+            rover(1, seq, t >= 5_000_000)
+        } else {
+            attitude(seq, 100_000 + t as u32 / 1000)
+        };
+        seq = seq.wrapping_add(1);
+        if heartbeat && lost && (5_000_000..9_000_000).contains(&t) {
+            continue;
+        }
+        elaborate(&mut g, t, &bytes);
+        if t == 5_000_000 && vehicle_armed {
+            g.vehicle_event(t, t, Some(100_000_000 + t), &Event::new("armed"));
+        }
+    }
+    g.advance(Some(15_000_000), |_| Some(114_750_000), same);
+    let mut seen = Vec::new();
+    while let Some((_, d)) = g.poll_disagreement() {
+        seen.push((d.seen_by, d.event));
+    }
+    (seen, g.total())
+}
+
+#[test]
+fn a_state_heard_late_after_its_stream_was_lost_is_no_disagreement() {
+    let (seen, counts) = heartbeats_lost(true, true);
+    assert_eq!(seen, [], "{counts:?}");
+    // A ground that heard every heartbeat and a vehicle that saw nothing:
+    // reported.
+    let (seen, counts) = heartbeats_lost(false, false);
+    assert_eq!(seen, [(Side::Ground, "armed".to_owned())], "{counts:?}");
+}
