@@ -114,6 +114,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             | Record::SendSnapshot { .. }
             | Record::SendHeartbeat { .. } => "uplink",
             Record::Answer { .. } => "answer",
+            Record::Boot { .. } => "boot",
         };
         kept.entry(kind).or_insert_with(|| p.clone());
     }
