@@ -76,6 +76,11 @@ pub struct Watch {
 /// slowest streams come every 2 s).
 pub const QUIET: Micros = 5_000_000;
 
+/// A sample at least this old (and two of its stream's periods) is stale:
+/// a state the ground reads from it beside fresh ones may be one the
+/// autopilot never was in.
+pub const STALE: Micros = 1_000_000;
+
 impl Watch {
     /// Whether the ground was receiving message `id` at ground time `now`:
     /// heard within [`QUIET`] or three of its periods.
@@ -83,6 +88,16 @@ impl Watch {
         self.receiving.get(&id).is_some_and(|&(first, last, n)| {
             let period = last.saturating_sub(first) / n.saturating_sub(1).max(1);
             last.saturating_add(QUIET.max(3 * period)) >= now
+        })
+    }
+
+    /// Whether the ground's last sample of message `id` is stale at `now`:
+    /// older than two of its periods and a second (its last frames lost,
+    /// or its stream slower here than on board).
+    pub(super) fn stale(&self, id: u32, now: Micros) -> bool {
+        self.receiving.get(&id).is_some_and(|&(first, last, n)| {
+            let period = last.saturating_sub(first) / n.saturating_sub(1).max(1);
+            n >= 2 && now.saturating_sub(last) > (2 * period).max(STALE)
         })
     }
 
@@ -359,7 +374,9 @@ impl Ground {
         for e in elaborated.drain(..) {
             self.events += 1;
             seen(&e.event);
-            let observable = self.observable(e.time_us, &e.event) && !self.late(&e.event);
+            let observable = self.observable(e.time_us, &e.event)
+                && !self.late(&e.event)
+                && !self.stale(e.time_us, &e.event);
             match to_vehicle(e.time_us) {
                 Some(t) => self.judge_later(Side::Ground, t, e.boot_us, observable, &e.event),
                 None => {
@@ -393,6 +410,27 @@ impl Ground {
             .iter()
             .find(|(n, _)| n == name)
             .is_some_and(|(_, rules)| rules.iter().any(|r| r.fields.contains(&id)))
+    }
+
+    /// Whether every rule producing `event` read a stale sample at `now`
+    /// (`Watch::stale`): the ground's state was a mix of old and new
+    /// samples (ArduPlane's ESC telemetry from before a throttle step,
+    /// beside the throttle after it, held 2 s while the ESC frames were
+    /// lost: an `engine_failure` the vehicle never had), judged as one the
+    /// ground cannot observe.
+    fn stale(&self, now: Micros, event: &Event) -> bool {
+        let i = self.lane_of_event(event);
+        let name = nets::model::split_vehicle(&event.name).0;
+        let w = &self.watches[i];
+        self.needs[i]
+            .iter()
+            .find(|(n, _)| n == name)
+            .is_some_and(|(_, rules)| {
+                !rules.is_empty()
+                    && rules
+                        .iter()
+                        .all(|r| r.fields.iter().any(|id| w.stale(*id, now)))
+            })
     }
 
     /// An event the vehicle published (elaborated on board), at its time

@@ -783,3 +783,39 @@ fn a_state_heard_late_after_its_stream_was_lost_is_no_disagreement() {
     let (seen, counts) = heartbeats_lost(false, false);
     assert_eq!(seen, [(Side::Ground, "armed".to_owned())], "{counts:?}");
 }
+
+/// A sample is stale past two of its stream's periods and a second: the
+/// ground's ESC telemetry held 2 s while its frames were lost, beside a
+/// fresh throttle, made an `engine_failure` the vehicle never had (CI's
+/// real ArduPlane flight at 10 % loss); a heartbeat a second late is not.
+#[test]
+fn a_sample_is_stale_past_two_periods_and_a_second() {
+    let (project, _) = crate::mirror::tests::example();
+    let mut g = ground_of(&project);
+    let mut seq = 0u8;
+    // ATTITUDE at 4 Hz through 10 s, heartbeats at 1 Hz through 6 s.
+    for i in 0..40u32 {
+        let t = Micros::from(i) * 250_000;
+        let bytes = if i % 4 == 0 && t <= 6_000_000 {
+            rover(1, seq, false)
+        } else {
+            attitude(seq, 100_000 + t as u32 / 1000)
+        };
+        seq = seq.wrapping_add(1);
+        elaborate(&mut g, t, &bytes);
+    }
+    let w = &g.watches()[0];
+    let (attitude_id, heartbeat_id) = (30, 0);
+    // ATTITUDE's last at 9.75 s (every 0.25 s): fresh at 10 s, stale past
+    // 10.75 s.
+    assert!(!w.stale(attitude_id, 10_000_000));
+    assert!(!w.stale(attitude_id, 10_700_000));
+    assert!(w.stale(attitude_id, 10_800_000));
+    // The heartbeat's last at 6 s (every second): fresh through 8 s.
+    assert!(!w.stale(heartbeat_id, 7_000_000));
+    assert!(!w.stale(heartbeat_id, 8_000_000));
+    assert!(w.stale(heartbeat_id, 8_100_000));
+    // A message never heard is not stale: it is not received
+    // (`unobservable`).
+    assert!(!w.stale(245, 10_000_000));
+}
