@@ -59,6 +59,25 @@ fn spawn(args: &[&str], dir: &Path) -> (Reaped, mpsc::Receiver<String>) {
     (Reaped(child), rx)
 }
 
+/// `petrel demo` at 4 times real time with its page on a free port,
+/// recording to `mcap`, in `dir`.
+fn demo_live(dir: &Path, mcap: &str) -> (Reaped, mpsc::Receiver<String>) {
+    spawn(
+        &[
+            "demo",
+            "--speed",
+            "4",
+            "--http",
+            "127.0.0.1:0",
+            "--record",
+            mcap,
+            "--timeout",
+            "300",
+        ],
+        dir,
+    )
+}
+
 /// The URL after `prefix` in petrel's stderr, waiting at most `limit`.
 fn url(rx: &mpsc::Receiver<String>, prefix: &str, limit: Duration) -> String {
     let until = Instant::now() + limit;
@@ -223,20 +242,7 @@ fn the_flight_live_in_the_browser_then_its_recording_scrubbed() {
     let shots_s = shots.to_string_lossy().to_string();
 
     // 1. Live: the demo's flight with the page served on a free port.
-    let (mut demo, rx) = spawn(
-        &[
-            "demo",
-            "--speed",
-            "4",
-            "--http",
-            "127.0.0.1:0",
-            "--record",
-            &mcap_s,
-            "--timeout",
-            "300",
-        ],
-        dir.path(),
-    );
+    let (mut demo, rx) = demo_live(dir.path(), &mcap_s);
     let live = url(&rx, "monitor: ", Duration::from_secs(600));
     let first_flight = &ex.transitions["FLIGHT"][0];
     let seen = drive(

@@ -14,7 +14,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use super::browser::copy_example;
-use super::{example, spawn, url, Scratch};
+use super::{demo_live, example, spawn, url, Scratch};
 
 /// The address part of a page's URL (`127.0.0.1:PORT`).
 fn address(url: &str) -> String {
@@ -286,20 +286,7 @@ fn the_live_and_recorded_pages_websockets_answer_only_their_own_page() {
     let mcap = tmp.path().join("flight.mcap");
     let mcap_s = mcap.to_string_lossy().to_string();
     // Live: the demo's flight with its page.
-    let (demo, rx) = spawn(
-        &[
-            "demo",
-            "--speed",
-            "4",
-            "--http",
-            "127.0.0.1:0",
-            "--record",
-            &mcap_s,
-            "--timeout",
-            "300",
-        ],
-        tmp.path(),
-    );
+    let (demo, rx) = demo_live(tmp.path(), &mcap_s);
     let live = address(&url(&rx, "monitor: ", Duration::from_secs(600)));
     let (status, _) = upgrade(&live, &live, Some("http://evil.example"));
     assert_eq!(status, 403, "another site's page reading the live flight");
