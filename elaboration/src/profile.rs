@@ -178,6 +178,10 @@ pub struct Needs {
     /// Messages whose age only it reads (`age()`: a silence): a receiver
     /// must have heard them once; their silence it then observes.
     pub ages: Vec<u32>,
+    /// How long its condition must hold before it fires (`for`, or
+    /// `clear_for` for its `cleared` event), microseconds: the event's
+    /// onset is that long before it.
+    pub hold_us: u64,
 }
 
 /// A compiled profile.
@@ -417,6 +421,7 @@ impl Profile {
                     .into_iter()
                     .filter(|id| !ids(&when_fields).contains(id))
                     .collect(),
+                hold_us: r.for_us,
             };
             let mut names = vec![(r.event.as_str(), rule.clone())];
             if let Some((cleared, _)) = &r.cleared {
@@ -433,7 +438,14 @@ impl Profile {
                 ages.retain(|id| !fields.contains(id));
                 ages.sort_unstable();
                 ages.dedup();
-                names.push((cleared.as_str(), Needs { fields, ages }));
+                names.push((
+                    cleared.as_str(),
+                    Needs {
+                        fields,
+                        ages,
+                        hold_us: r.clear_for_us,
+                    },
+                ));
             }
             for (name, needs) in names {
                 match out.iter_mut().find(|(n, _)| *n == name) {

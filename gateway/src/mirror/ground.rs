@@ -91,13 +91,19 @@ impl Watch {
         })
     }
 
-    /// Whether the ground's last sample of message `id` is stale at `now`:
-    /// older than two of its periods and a second (its last frames lost,
-    /// or its stream slower here than on board).
-    pub(super) fn stale(&self, id: u32, now: Micros) -> bool {
+    /// Whether the ground's last sample of message `id` is stale at `now`
+    /// for a condition that held since `onset` (`now` for one without a
+    /// duration): older than two of its periods and a second (its last
+    /// frames lost, or its stream slower here than on board), or from
+    /// before the onset and overdue (no sample of it the whole time the
+    /// condition held, though one was due: the condition rests on a
+    /// sample from before what started it).
+    pub(super) fn stale(&self, id: u32, now: Micros, onset: Micros) -> bool {
         self.receiving.get(&id).is_some_and(|&(first, last, n)| {
             let period = last.saturating_sub(first) / n.saturating_sub(1).max(1);
-            n >= 2 && now.saturating_sub(last) > (2 * period).max(STALE)
+            let age = now.saturating_sub(last);
+            n >= 2
+                && (age > (2 * period).max(STALE) || (last < onset && onset < now && age > period))
         })
     }
 
@@ -427,9 +433,10 @@ impl Ground {
             .find(|(n, _)| n == name)
             .is_some_and(|(_, rules)| {
                 !rules.is_empty()
-                    && rules
-                        .iter()
-                        .all(|r| r.fields.iter().any(|id| w.stale(*id, now)))
+                    && rules.iter().all(|r| {
+                        let onset = now.saturating_sub(r.hold_us);
+                        r.fields.iter().any(|id| w.stale(*id, now, onset))
+                    })
             })
     }
 

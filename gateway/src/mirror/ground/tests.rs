@@ -784,12 +784,13 @@ fn a_state_heard_late_after_its_stream_was_lost_is_no_disagreement() {
     assert_eq!(seen, [(Side::Ground, "armed".to_owned())], "{counts:?}");
 }
 
-/// A sample is stale past two of its stream's periods and a second: the
+/// A sample is stale past two of its stream's periods and a second, or
+/// when from before the onset of a condition held since and overdue: the
 /// ground's ESC telemetry held 2 s while its frames were lost, beside a
 /// fresh throttle, made an `engine_failure` the vehicle never had (CI's
-/// real ArduPlane flight at 10 % loss); a heartbeat a second late is not.
+/// real ArduPlane flights at 10 % loss); a heartbeat a second late is not.
 #[test]
-fn a_sample_is_stale_past_two_periods_and_a_second() {
+fn a_sample_is_stale_past_two_periods_and_a_second_or_overdue_since_the_onset() {
     let (project, _) = crate::mirror::tests::example();
     let mut g = ground_of(&project);
     let mut seq = 0u8;
@@ -808,14 +809,26 @@ fn a_sample_is_stale_past_two_periods_and_a_second() {
     let (attitude_id, heartbeat_id) = (30, 0);
     // ATTITUDE's last at 9.75 s (every 0.25 s): fresh at 10 s, stale past
     // 10.75 s.
-    assert!(!w.stale(attitude_id, 10_000_000));
-    assert!(!w.stale(attitude_id, 10_700_000));
-    assert!(w.stale(attitude_id, 10_800_000));
+    assert!(!w.stale(attitude_id, 10_000_000, 10_000_000));
+    assert!(!w.stale(attitude_id, 10_700_000, 10_700_000));
+    assert!(w.stale(attitude_id, 10_800_000, 10_800_000));
     // The heartbeat's last at 6 s (every second): fresh through 8 s.
-    assert!(!w.stale(heartbeat_id, 7_000_000));
-    assert!(!w.stale(heartbeat_id, 8_000_000));
-    assert!(w.stale(heartbeat_id, 8_100_000));
+    assert!(!w.stale(heartbeat_id, 7_000_000, 7_000_000));
+    assert!(!w.stale(heartbeat_id, 8_000_000, 8_000_000));
+    assert!(w.stale(heartbeat_id, 8_100_000, 8_100_000));
     // A message never heard is not stale: it is not received
     // (`unobservable`).
-    assert!(!w.stale(245, 10_000_000));
+    assert!(!w.stale(245, 10_000_000, 10_000_000));
+    // A condition held since an onset after the heartbeat's last sample
+    // (6 s), and one due since (every second): the condition rests on a
+    // sample from before what started it (CI's real ArduPlane flight at
+    // 10 % loss: ESC telemetry at 1 Hz from 0.1 s before a throttle step,
+    // its next two frames lost, an `engine_failure` held its 2 s), stale
+    // though younger than two periods.
+    assert!(w.stale(heartbeat_id, 7_500_000, 6_050_000));
+    // A sample at or after the onset confirms it; one not yet due is no
+    // loss.
+    assert!(!w.stale(heartbeat_id, 7_500_000, 5_900_000));
+    assert!(!w.stale(heartbeat_id, 7_500_000, 6_000_000));
+    assert!(!w.stale(heartbeat_id, 6_900_000, 6_500_000));
 }
