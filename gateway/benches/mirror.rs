@@ -13,10 +13,9 @@
 //! and recording. So the ratio is the mirror's cost against the gateway
 //! it duplicates, in the same run.
 //!
-//! A process-level measure: `gateway` is a binary crate, so its modules
-//! (`mirror::replica`, `supervisor`) are not reachable from a divan bench;
-//! this measures them through the two processes instead, link and
-//! recording included, as a ground station would run them.
+//! A process-level measure: the two processes, link and recording
+//! included, as a ground station would run them (the per-frame path alone,
+//! through the library, is `benches/mirror_ground.rs`).
 //!
 //! Once idle, then with the other core kept busy by a spinning thread of
 //! this process. Run: `cargo bench -p gateway --bench mirror`.

@@ -2,8 +2,7 @@
 //! routed to its vehicle's lane, elaborated there, counted and watched for
 //! losses, and the events checked against the vehicle's (the independent
 //! check) — `mirror::ground::Ground`, the code `petrel mirror` runs on
-//! every telemetry frame, compiled here from the gateway's own sources
-//! (`gateway` is a binary crate: its modules are included by path).
+//! every telemetry frame, called through the gateway's library.
 //!
 //! Each iteration is one second of the team's telemetry: N vehicles × 50
 //! messages (`support/telemetry.rs`: HEARTBEAT, ATTITUDE,
@@ -19,27 +18,15 @@
 //! Run: `cargo bench -p gateway --bench mirror_ground` (idle), and with the
 //! other core busy: `stress-ng --cpu 1 & cargo bench ...`.
 
-#![allow(dead_code)]
-
+// Its `tlog` is for the other benches.
+#[allow(dead_code)]
 #[path = "support/telemetry.rs"]
 mod telemetry;
 
-#[path = "../src/supervisor.rs"]
-mod supervisor;
-
-// `ground.rs` names its siblings `super::check` and `crate::mirror`.
-#[path = "../src/mirror/check.rs"]
-mod check;
-#[path = "../src/mirror/ground.rs"]
-mod ground;
-mod mirror {
-    pub const COMPANION: u8 = 191;
-}
-
-use check::WINDOW;
 use elaboration::{Config, Frame};
-use ground::Ground;
-use supervisor::Lane;
+use gateway::mirror::check::WINDOW;
+use gateway::mirror::ground::Ground;
+use gateway::supervisor::Lane;
 
 fn main() {
     divan::main();

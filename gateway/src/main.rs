@@ -8,50 +8,15 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-/// `eprintln!` that never panics: a message for people is lost, not the
-/// process, when stderr cannot be written (`2>/dev/full`, a closed pipe).
-macro_rules! say {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
-    }};
-}
-
-/// `eprint!` that never panics (see `say!`).
-macro_rules! say_part {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let mut err = std::io::stderr();
-        let _ = write!(err, $($arg)*);
-        let _ = err.flush();
-    }};
-}
-
-/// `println!` that never panics: a reader that stopped reading (`| head`)
-/// or a full disk loses the lines, not the process (a flight under way
-/// goes on, and its recording is finished).
-macro_rules! show {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($arg)*);
-    }};
-}
+#[macro_use]
+extern crate gateway;
 
 mod cli;
-mod clock;
-mod edit;
-mod link;
-mod mirror;
-mod monitor;
-mod preflight;
-mod profile;
-mod programs;
-mod project;
-mod record;
-mod scheduling;
-mod supervisor;
-mod team;
-mod vehicle;
+
+use gateway::{
+    clock, edit, link, mirror, monitor, preflight, profile, programs, project, record, scheduling,
+    supervisor, team, vehicle,
+};
 
 #[derive(Parser)]
 #[command(

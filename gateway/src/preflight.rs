@@ -55,7 +55,7 @@ pub enum Preflight {
 fn options() -> Options<'static> {
     Options {
         alone: false,
-        threads: crate::cli::check::threads(None),
+        threads: threads(None),
         ..Options::default()
     }
 }
@@ -225,5 +225,15 @@ fn remember(entry: &Path, digest: &str, report: &ProjectReport) -> bool {
             );
             false
         }
+    }
+}
+
+/// `--threads`, else the number of cores (at most 16).
+pub fn threads(asked: Option<u16>) -> usize {
+    match asked {
+        Some(n) => usize::from(n),
+        None => std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(16),
     }
 }

@@ -16,9 +16,7 @@ mod process;
 mod router;
 #[path = "support/scratch.rs"]
 mod scratch;
-// The mirror's TUNNEL framing, to forge records as a transmitter would.
-#[path = "../src/mirror/tunnel.rs"]
-mod tunnel;
+use gateway::mirror::tunnel;
 #[path = "mirror/wire.rs"]
 mod wire;
 

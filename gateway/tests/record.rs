@@ -4,25 +4,12 @@
 //! tampered and cut recordings, a recorder killed with SIGKILL, a writer too
 //! slow for its queue, and the Python `mcap` package as an independent
 //! reader.
-//!
-//! The gateway is a binary crate: the recorder and the Supervisor are
-//! compiled into this test from their sources.
 
-#[allow(dead_code)]
-#[path = "../src/supervisor.rs"]
-mod supervisor;
+use gateway::supervisor;
 
-#[allow(dead_code)]
-#[path = "../src/project.rs"]
-mod project;
+use gateway::project;
 
-#[path = "../src/record/mod.rs"]
-mod record;
-
-// The recorder's thread asks for the batch policy (record/recorder.rs).
-#[allow(dead_code)]
-#[path = "../src/scheduling.rs"]
-mod scheduling;
+use gateway::record;
 
 #[path = "record/files.rs"]
 mod files;

@@ -4,13 +4,8 @@
 
 #![allow(deprecated)] // REQUEST_DATA_STREAM, MISSION_REQUEST: the fallbacks under test
 
-#[path = "../src/clock.rs"]
-#[allow(dead_code)]
-mod clock;
-#[path = "../src/link/mod.rs"]
-mod link;
-#[path = "../src/vehicle/mod.rs"]
-mod vehicle;
+use gateway::link;
+use gateway::vehicle;
 
 #[path = "vehicle/driver.rs"]
 mod driver;

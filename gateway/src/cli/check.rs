@@ -7,6 +7,7 @@
 //! Exit status: 0 when the net is 1-safe and has no dead marking, 1 when it
 //! is not (or the state limit stopped the exploration first), 2 for bad input.
 
+use crate::preflight::threads;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -59,16 +60,6 @@ pub struct Args {
     /// sets of them (partial-order reduction).
     #[arg(long, conflicts_with = "pnml")]
     pub no_por: bool,
-}
-
-/// `--threads`, else the number of cores (at most 16).
-pub(crate) fn threads(asked: Option<u16>) -> usize {
-    match asked {
-        Some(n) => usize::from(n),
-        None => std::thread::available_parallelism()
-            .map_or(1, |n| n.get())
-            .min(16),
-    }
 }
 
 /// `--max-states`' default for `--pnml`.

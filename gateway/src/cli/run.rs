@@ -188,8 +188,12 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     let get = |key: &str| gateway.get(key).and_then(|v| v.as_str()).map(str::to_owned);
     // --profile (beside the working directory), else `[gateway] profile`
     // (beside project.toml), else ArduPilot's.
-    let vehicle = VehicleConfig::from_gateway_table(&gateway)
-        .map_err(|e| miette::miette!("[gateway]: {e}"))?;
+    // Read again from its text, so that an error names file:line:col.
+    let file = args.project.join(nets::load::PROJECT_FILE);
+    let text = std::fs::read_to_string(&file)
+        .map_err(|e| miette::miette!("cannot read {}: {e}", file.display()))?;
+    let vehicle = VehicleConfig::from_project_toml(&file.display().to_string(), &text)
+        .map_err(|e| miette::miette!("{e}"))?;
     // The built-in base follows the autopilot: `[gateway] firmware` when
     // set, else the first autopilot HEARTBEAT heard (`detect`), unless the
     // profile is a built-in one by name.

@@ -3,12 +3,9 @@
 //! prototypes (docs/programs.md). Existing files are never overwritten
 //! unless `--force`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use nets::Project;
-
-use crate::programs::roster::Config;
-use crate::programs::stubs::{stubs, Lang};
+use crate::programs::stubs::{write, Lang};
 
 use super::{Outcome, VerbResult};
 
@@ -51,45 +48,4 @@ pub fn run(args: Args) -> VerbResult {
         show!("{}", path.display());
     }
     Ok(Outcome::Success)
-}
-
-/// Writes the skeletons of the programs `project` (in `dir`) calls into
-/// `out`, refusing to overwrite a file unless `force`; the files written
-/// (none when the nets call no program). `petrel edit` generates them
-/// with this too.
-pub fn write(
-    dir: &Path,
-    project: &Project,
-    lang: Lang,
-    out: &Path,
-    force: bool,
-) -> Result<Vec<PathBuf>, String> {
-    let config = Config::from_project_dir(dir).map_err(|e| e.to_string())?;
-    let files = stubs(project, lang, &config.address.to_string());
-    if !force {
-        let existing: Vec<String> = files
-            .iter()
-            .map(|f| out.join(&f.path))
-            .filter(|p| p.exists())
-            .map(|p| p.display().to_string())
-            .collect();
-        if !existing.is_empty() {
-            return Err(format!(
-                "not overwriting {} (use --force)",
-                existing.join(", ")
-            ));
-        }
-    }
-    let mut written = Vec::new();
-    for file in &files {
-        let path = out.join(&file.path);
-        if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-        }
-        std::fs::write(&path, &file.text)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-        written.push(path);
-    }
-    Ok(written)
 }

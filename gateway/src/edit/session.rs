@@ -723,7 +723,7 @@ impl Session {
             .clone()
             .ok_or_else(|| "the project does not load: fix its problems first".to_owned())?;
         let out = inside(&self.dir, out)?;
-        let written = crate::cli::stubs::write(&self.dir, &project, lang, &out, force)?;
+        let written = crate::programs::stubs::write(&self.dir, &project, lang, &out, force)?;
         Ok(written.iter().map(|p| p.display().to_string()).collect())
     }
 }

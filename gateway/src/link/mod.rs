@@ -16,9 +16,6 @@
 //! one (the configured system, else the first autopilot heard) and drops
 //! every frame of the others ([`vehicles`]; docs/multi-vehicle.md).
 
-// Wired into `petrel run` by the lead; until then the binary does not call it.
-#![allow(dead_code)]
-
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
@@ -40,7 +37,7 @@ use vehicles::{Notice, Vehicles};
 
 /// Microseconds since the Unix epoch, for signing timestamps (0 if the
 /// system clock is before 1970; the signer keeps its timestamps growing).
-pub(crate) fn unix_us() -> u64 {
+pub fn unix_us() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| d.as_micros() as u64)
@@ -189,11 +186,6 @@ impl LinkReader {
     /// vehicles' frames are dropped ([`Vehicles::team`]).
     pub fn supervise_team(&mut self, systems: Vec<u8>) {
         self.vehicles = Some(Vehicles::team(systems));
-    }
-
-    /// The vehicles heard, when [`Self::supervise`] was called.
-    pub fn vehicles(&self) -> Option<&Vehicles> {
-        self.vehicles.as_ref()
     }
 
     /// The next decision about a vehicle to tell people (each told once).

@@ -11,9 +11,6 @@
 //!   loop calls without ever blocking.
 //! - [`stubs`]: program skeletons for `petrel stubs`.
 
-// Wired into `petrel run` by the lead; until then parts are unused by main.
-#![allow(dead_code)]
-
 pub mod address;
 pub mod child;
 pub mod protocol;

@@ -69,11 +69,6 @@ impl RecordingFile {
         }
     }
 
-    /// Bytes of the MCAP in the file (the provisional end excluded).
-    pub fn written(&self) -> u64 {
-        self.written
-    }
-
     /// Writes what is pending then the provisional end, and syncs.
     fn commit(&mut self, trailer: bool) -> io::Result<()> {
         let data = self.pending.len();

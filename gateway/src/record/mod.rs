@@ -29,9 +29,6 @@
 //! let report = recorder.finish()?;                    // on SIGINT/SIGTERM: the summary
 //! ```
 
-// Wired into `petrel run` by the lead; until then the binary only reads.
-#![allow(dead_code)]
-
 pub mod check;
 pub mod decoded;
 mod fields;

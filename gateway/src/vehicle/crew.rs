@@ -57,10 +57,6 @@ impl Crew {
         &self.members
     }
 
-    pub fn members_mut(&mut self) -> &mut [Member] {
-        &mut self.members
-    }
-
     /// The first vehicle's commander: the one that identifies the gateway
     /// (the mirror's downlink, the scaled clock's autopilot time).
     pub fn first(&self) -> Option<&Commander> {

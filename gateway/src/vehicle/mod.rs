@@ -36,9 +36,6 @@
 //! their client to speak first hear it; nothing else is transmitted before
 //! it knows the system id (`identity()`).
 
-// Wired into `petrel run` by the lead; until then the binary does not call it.
-#![allow(dead_code)]
-
 pub mod commander;
 pub mod config;
 pub mod crew;

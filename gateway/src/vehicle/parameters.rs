@@ -142,11 +142,6 @@ impl ParameterCheck {
         }
     }
 
-    /// Nothing to check.
-    pub fn is_empty(&self) -> bool {
-        self.wanted.is_empty()
-    }
-
     /// Judged, or nothing to judge: commands may go to the vehicle.
     pub fn settled(&self) -> bool {
         self.wanted.is_empty() || self.verdict.is_some()
