@@ -22,7 +22,6 @@ use nets::{Effect, Event, Micros, Outcome, Player, Project};
 
 /// One timed input. (`Result` and `Event` come from the vehicle link and the
 /// programs in `petrel run`; `replay` of a telemetry log has neither.)
-#[allow(dead_code)]
 #[derive(Debug, Clone)]
 pub enum Input<'a> {
     /// A MAVLink frame as received (bytes on the wire).
@@ -39,7 +38,6 @@ pub enum Input<'a> {
 }
 
 /// What one input caused.
-#[allow(dead_code)]
 #[derive(Debug, Clone, Default)]
 pub struct Step {
     /// Steps are numbered from 1 (0 is the start).
@@ -210,7 +208,6 @@ pub struct Supervisor {
     pub bad_frames: u64,
 }
 
-#[allow(dead_code)]
 impl Supervisor {
     /// Starts the player at `now` with one elaborator (a project without a
     /// team); the start's effects are step 0.

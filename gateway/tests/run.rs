@@ -730,3 +730,40 @@ async fn tcpin_nobody_connects_to(verb: &str) {
     );
     assert!(!record.exists(), "{err}");
 }
+
+/// A bad `[gateway]` value is refused before any link is opened, with the
+/// file, line and column of the value (and exit status 2, bad input).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_bad_gateway_setting_is_refused_with_its_line_and_column() {
+    let dir = project(
+        "bad-gateway",
+        "name = \"N\"\nplaces = [\"a\"]\ninitial = [\"a\"]\nfinal = [\"a\"]\n",
+    );
+    std::fs::write(
+        dir.join("project.toml"),
+        "[[net]]\nfile = \"n.toml\"\nactive = true\n\n[gateway.payloads]\ncam = { camera = 300 }\n",
+    )
+    .expect("write");
+    let out = tokio::time::timeout(
+        Duration::from_secs(30),
+        petrel()
+            .args([
+                "run",
+                dir.to_str().expect("utf-8"),
+                "--mavlink",
+                &format!("udpin:127.0.0.1:{}", free_port()),
+                "--duration",
+                "5",
+            ])
+            .output(),
+    )
+    .await
+    .expect("petrel run refuses at once")
+    .expect("petrel runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("project.toml:6:18: gateway.payloads.cam.camera: 300 is not in 1..=255"),
+        "{err}"
+    );
+}

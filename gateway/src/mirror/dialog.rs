@@ -160,7 +160,6 @@ impl Dialog {
 /// The answer record as a signed TUNNEL frame from `from` to the onboard
 /// gateway `to` (system, component): what `UplinkWriter::send_answer`
 /// sends, built without a link (tests, and a web page's backend later).
-#[cfg_attr(not(test), allow(dead_code))]
 pub fn answer_frame(
     signer: &mut Signer,
     from: (u8, u8),
