@@ -7,7 +7,8 @@
 //! machine), and more when several are queued, and Linux shares the CPUs
 //! between sessions (autogroups) before it shares them between threads.
 //! Measured on a saturated 2-core machine, only a real-time policy held
-//! the reaction time's tail down (BENCHMARKS.md, "Under load (issue 15)").
+//! the reaction time's tail down (docs/benchmarks-history.md, "Under load
+//! (issue 15)").
 //!
 //! So the loop that turns a frame into a command asks for one itself
 //! ([`for_the_loop`]): `SCHED_FIFO` at [`LOOP_PRIORITY`] (`--realtime-priority`),

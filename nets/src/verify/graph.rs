@@ -1163,7 +1163,7 @@ impl Drop for Done<'_> {
 /// once, one on each core: the sweeps then go over all the candidates (a
 /// few more nodes than `node` reaches, when transient ones lead into its
 /// component) on this thread, which is cheaper than sharing the sweeps
-/// between the two cores after the search (BENCHMARKS.md, stop 30); once
+/// between the two cores after the search (docs/benchmarks-history.md, stop 30); once
 /// the search is done, its thread sweeps too, the other way, on the same
 /// bitset ([`help`]), until the sweeps settle. If they do not settle, the
 /// nodes reached are swept alone, as on one thread. Every way gives the same set: the nodes `node` reaches, when
@@ -1228,7 +1228,7 @@ fn terminal_component(
 /// level, each level's nodes read in increasing order, so that their
 /// successors are read in the order they lie in memory, whatever order the
 /// search reaches them in (after an exploration on two threads that order
-/// is nowhere near the nodes': BENCHMARKS.md, stop 29). The nodes a few
+/// is nowhere near the nodes': docs/benchmarks-history.md, stop 29). The nodes a few
 /// places ahead are asked for in two steps (where their successors start,
 /// then these).
 fn reached_by_levels(g: &impl Adjacency, node: u32, n: usize) -> Vec<u64> {

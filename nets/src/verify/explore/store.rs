@@ -203,7 +203,7 @@ impl Store {
 /// on other cores, a flush of their address translations by an interrupt
 /// per page). The placing of entries reads each slot before writing it:
 /// untouched, that cost a fifth of a two-thread exploration
-/// (BENCHMARKS.md, stop 31). Written first, each page faults once.
+/// (docs/benchmarks-history.md, stop 31). Written first, each page faults once.
 fn touch_for_writing(table: &mut [u64]) {
     const WORDS_PER_PAGE: usize = 4096 / 8;
     for w in table.iter_mut().step_by(WORDS_PER_PAGE) {
