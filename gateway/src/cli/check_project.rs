@@ -57,7 +57,7 @@ pub fn run(
         project.name.clone()
     };
     let start = Instant::now();
-    let meter = super::check::Progress::new(start);
+    let meter = super::progress::Progress::new(start);
     let report_progress = |states: usize| meter.report(states as u64);
     let options = Options {
         max_states,

@@ -11,6 +11,7 @@ pub mod events;
 pub mod export;
 pub mod mirror;
 pub mod play;
+mod progress;
 pub mod recover;
 pub mod replay;
 pub mod run;

@@ -16,7 +16,6 @@ use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
 
 use super::roster::Restart;
-use super::server::stopped;
 
 /// The environment variable holding the gateway's programs address.
 pub const ENV_ADDRESS: &str = "PETREL_PROGRAMS";
@@ -238,6 +237,11 @@ async fn log_lines(mut stream: impl AsyncRead + Unpin, program: String, which: &
     if !buffer.is_empty() {
         log(&buffer);
     }
+}
+
+/// Resolves when the stop flag turns true or its sender is gone.
+pub(super) async fn stopped(stop: &mut watch::Receiver<bool>) {
+    let _ = stop.wait_for(|s| *s).await;
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ use tokio::sync::{mpsc, watch};
 use tokio::task::JoinHandle;
 
 use super::address::Address;
-use super::child::{self, ChildEvent, Launch};
+use super::child::{self, stopped, ChildEvent, Launch};
 use super::protocol::json_params;
 use super::roster::{Config, Roster, SettingsError};
 use super::session::{self, Output, Session};
@@ -859,11 +859,6 @@ impl Switchboard {
             c.reader.abort();
         }
     }
-}
-
-/// Resolves when the stop flag turns true or its sender is gone.
-pub(super) async fn stopped(stop: &mut watch::Receiver<bool>) {
-    let _ = stop.wait_for(|s| *s).await;
 }
 
 async fn sleep_until(deadline: Option<Instant>) {

@@ -34,6 +34,7 @@ pub mod decoded;
 mod fields;
 pub mod file;
 pub mod layout;
+mod queue;
 pub mod read;
 pub mod recorder;
 pub mod recover;

@@ -22,7 +22,7 @@ use serde_json::{json, Value as Json};
 
 use super::decoded::{self, Decoder};
 use super::layout::{self, Input};
-use super::recorder::{Dropped, Entry, Options, RecordError, Report};
+use super::queue::{Dropped, Entry, Options, RecordError, Report};
 use crate::supervisor::Step;
 
 /// Fixed channels, by topic.

@@ -24,7 +24,7 @@
 
 use crate::model::{Action, NetId, Project};
 
-use super::project::Report;
+use super::project_report::Report;
 
 /// The project as net `x` sees it alone (see the module doc).
 pub(super) fn project_alone(project: &Project, x: NetId) -> Project {

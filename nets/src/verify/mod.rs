@@ -31,6 +31,7 @@ pub mod graph;
 mod levels;
 pub mod pnml;
 pub mod project;
+mod project_report;
 mod project_states;
 mod project_steps;
 mod project_warnings;

@@ -19,7 +19,7 @@
 //! [`Edges::number`] turns the ids into dense node numbers (all partitions
 //! one after the other).
 
-use super::engine::split_id;
+use super::ids::split_id;
 use super::store::prefetch;
 
 /// A slot whose successor id has not arrived yet.
@@ -213,7 +213,7 @@ impl Edges {
 
 #[cfg(test)]
 mod tests {
-    use super::super::engine::state_id;
+    use super::super::ids::state_id;
     use super::*;
     use proptest::prelude::*;
 

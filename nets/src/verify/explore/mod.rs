@@ -23,6 +23,7 @@
 
 mod edges;
 mod engine;
+mod ids;
 mod semantics;
 mod store;
 
@@ -30,7 +31,8 @@ use std::cell::RefCell;
 
 use super::graph::{self, Adjacency, Sccs, Successors};
 use super::ptnet::PtNet;
-use engine::{run, split_id, state_id, Partitioner, Run, MAX_PER_PARTITION, MAX_THREADS};
+use engine::{run, Partitioner, Run};
+use ids::{split_id, state_id, MAX_PER_PARTITION, MAX_THREADS};
 use semantics::{load_words, mix, push_words, to_bytes, to_words, Bits, Counts, Semantics, Stop};
 
 /// How to explore.
