@@ -14,7 +14,6 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use elaboration::Frame;
 use nets::{Micros, Project};
 use serde_json::json;
 use tokio::sync::mpsc;
@@ -24,12 +23,11 @@ use super::VerbResult;
 use crate::clock::Clock;
 use crate::link::Link;
 use crate::mirror::call::call_json;
-use crate::mirror::check::WINDOW;
-use crate::mirror::dialog::Dialog;
+use crate::mirror::check::Disagreement;
 use crate::mirror::ground::Ground;
 use crate::mirror::record::Input;
-use crate::mirror::replica::{Config as ReplicaConfig, Repair, Replica, Report};
-use crate::mirror::tunnel::Tunnel;
+use crate::mirror::replica::{Replica, Report};
+use crate::mirror::station::{Config as StationConfig, Output, Station, SILENCE_WARNING};
 use crate::mirror::uplink::UplinkWriter;
 use crate::record::layout;
 use crate::record::recorder::{Options as RecordOptions, Recorder};
@@ -92,9 +90,6 @@ pub struct Args {
 
 /// How often the replica and the ground's elaboration are ticked.
 const TICK: Micros = 100_000;
-/// Said once when nothing comes on the link after this (wall time), and
-/// when the vehicle is heard but no downlink record after twice this.
-const SILENCE_WARNING: Duration = Duration::from_secs(5);
 
 pub fn run(args: Args) -> VerbResult {
     let gateway = crate::project::gateway_table(&args.project)?;
@@ -291,14 +286,15 @@ async fn mirror(setup: Setup) -> VerbResult {
         }
     };
     let mut calls = 0u64;
-    let mut replica = Replica::new(
-        setup.project.clone(),
-        ReplicaConfig {
-            record: recorder.is_some(),
-            ..ReplicaConfig::default()
-        },
-    );
-    let mut ground = Ground::new(setup.lanes, WINDOW);
+    let mut station = Station::new(StationConfig {
+        project: setup.project.clone(),
+        system: setup.system,
+        identity: uplink.identity(),
+        lanes: setup.lanes,
+        signing: setup.signing.clone(),
+        dialog: setup.operator.is_some(),
+        record: recorder.is_some(),
+    });
     let mut out = Timeline {
         out: std::io::BufWriter::new(std::io::stdout()),
         json: setup.json,
@@ -323,8 +319,6 @@ async fn mirror(setup: Setup) -> VerbResult {
     let stop_at = setup.duration.map(|d| origin + d);
     // The operator dialog: questions from the replica's effects, answers
     // from stdin, sent signed.
-    let mut dialog = Dialog::new();
-    let mut shown: std::collections::BTreeMap<u64, Micros> = Default::default();
     let mut signer = setup
         .operator
         .clone()
@@ -341,22 +335,7 @@ async fn mirror(setup: Setup) -> VerbResult {
             }
         })
     });
-    // The onboard gateway's address, from its first record (the vehicles'
-    // systems and heartbeats are the ground's: `ground`).
-    let mut onboard: Option<(u8, u8)> = None;
-    let mut signed = setup
-        .signing
-        .clone()
-        .map(crate::mirror::signed::SignedDownlink::new);
-    // The first refusal of each reason is said; the rest are counted.
-    let mut said_refused: std::collections::HashSet<crate::link::signing::Rejection> =
-        Default::default();
     let mut sent = 0u64;
-    // The gap open: its first missing record and when it was seen (vehicle
-    // time), for the detection time once that record comes.
-    let mut gap_seen: Option<(u64, Micros)> = None;
-    // Said once: nothing heard; the vehicle heard but not its downlink.
-    let (mut heard_any, mut said_silent, mut said_no_downlink) = (false, false, false);
     // Ticks on their own schedule: a sleep made anew at each turn of the
     // loop never ends while frames come faster than TICK (telemetry at
     // 50 Hz, or any rate at 10x), and then no request was ever retried
@@ -372,7 +351,6 @@ async fn mirror(setup: Setup) -> VerbResult {
         };
         tokio::select! {
             Some(rx) = frames.recv() => {
-                heard_any = true;
                 let now = clock.now();
                 if let Some(rec) = &recorder {
                     rec.received(now, &rx.bytes);
@@ -380,41 +358,12 @@ async fn mirror(setup: Setup) -> VerbResult {
                 if let Some(page) = &mut page {
                     page.frame(now, &rx.bytes);
                 }
-                if let Ok(frame) = Frame::parse(&rx.bytes) {
-                    ground.heard(now, &frame, |t| replica.vehicle_time(t));
-                    match Tunnel::from_frame(&frame) {
-                        Some(t) if t.target_system == setup.system
-                            && (t.target_component == 0 || t.target_component == uplink.identity().1) =>
-                        {
-                            let admitted = match &mut signed {
-                                Some(s) => s.admit(&rx.bytes, crate::link::unix_us()),
-                                None => Ok(()),
-                            };
-                            match admitted {
-                                Ok(()) => {
-                                    onboard = Some((frame.system_id(), frame.component_id()));
-                                    replica.receive(now, &t.payload);
-                                }
-                                Err(why) => {
-                                    if said_refused.insert(why) {
-                                        say!("petrel mirror: a downlink record from system {} refused: {why} (the downlink must be signed with --signing-key's key; every refusal is counted)", frame.system_id());
-                                    }
-                                }
-                            }
-                        }
-                        Some(_) => {}
-                        None => ground.elaborate(now, &frame),
-                    }
-                }
+                station.handle_frame(now, &rx.bytes, crate::link::unix_us());
             }
-            _ = ticks.tick() => {
-                let now = clock.now();
-                ground.tick(now);
-                replica.tick(now);
-            }
+            _ = ticks.tick() => station.handle_tick(clock.now()),
             Some(line) = lines.recv() => {
                 let words: Vec<&str> = line.split_whitespace().collect();
-                let pending: Vec<u64> = dialog.pending().map(|q| q.id).collect();
+                let pending: Vec<u64> = station.dialog().pending().map(|q| q.id).collect();
                 let picked = match words[..] {
                     [id, choice] => id.trim_start_matches('#').parse::<u64>().ok().map(|id| (id, choice)),
                     [choice] if pending.len() == 1 => Some((pending[0], choice)),
@@ -423,8 +372,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                 match picked {
                     None => say!("answer as `ID CHOICE` (pending: {pending:?})"),
                     Some((id, choice)) => {
-                        let to = onboard.or(ground.companion());
-                        let sent = answer(&dialog, id, choice, to, signer.as_mut(), &uplink, clock.now(), recorder.as_ref()).await;
+                        let sent = answer(&mut station, id, choice, signer.as_mut(), &uplink, clock.now(), recorder.as_ref()).await;
                         match &sent {
                             Ok(said) | Err(said) => say!("{said}"),
                         }
@@ -442,8 +390,7 @@ async fn mirror(setup: Setup) -> VerbResult {
             } => {
                 // The page's answer: the same path as one typed on stdin.
                 let crate::monitor::answer::Request { id, choice, reply } = request;
-                let to = onboard.or(ground.companion());
-                let sent = answer(&dialog, id, &choice, to, signer.as_mut(), &uplink, clock.now(), recorder.as_ref()).await;
+                let sent = answer(&mut station, id, &choice, signer.as_mut(), &uplink, clock.now(), recorder.as_ref()).await;
                 match &sent {
                     Ok(said) | Err(said) => say!("{said} (from the page)"),
                 }
@@ -456,159 +403,46 @@ async fn mirror(setup: Setup) -> VerbResult {
             _ = until_stop => break,
         }
         let now = clock.now();
-        {
-            // The replica is advanced by the ground's events while
-            // provisional; `vehicle_time` reads only the time base.
-            let (replica_view, mut ground_seen) = (&replica, Vec::new());
-            ground.drain(
-                |t| replica_view.vehicle_time(t),
-                |e| ground_seen.push(e.clone()),
-            );
-            for e in &ground_seen {
-                replica.ground_event(now, e);
-            }
-        }
-        while let Some(report) = replica.poll_report() {
-            if let (
-                Report::Resynced {
-                    how: Repair::Snapshot,
-                    ..
-                },
-                Some(t),
-            ) = (&report, replica.exact_time())
-            {
-                ground.unknown_before(t);
-            }
-            match &report {
-                Report::Gap { from, .. } => {
-                    gap_seen = replica.vehicle_time(now).map(|t| (*from, t));
+        while let Some(output) = station.poll_output() {
+            match output {
+                Output::Report(report) => {
+                    if let Some(rec) = &recorder {
+                        rec.mirror(now, layout::MIRROR_REPLICA, report_json(&report, now));
+                    }
+                    if let Some(page) = &mut page {
+                        page.report(&report);
+                    }
+                    print_report(&mut out, &setup.project, &report, now);
                 }
-                // The first missing record sent again: the radio lost it
-                // when it was sent, at its step's time.
-                Report::Step { number, time, .. }
-                    if gap_seen.is_some_and(|(n, _)| n == *number) =>
-                {
-                    if let (Some((_, seen)), true) = (gap_seen.take(), out.json) {
+                Output::GapDetected { record, sent: at, detected_after } => {
+                    if out.json {
                         let _ = writeln!(
                             out.out,
                             "{}",
-                            json!({"mirror": "gap_detected", "record": number, "ground_t": now as f64 / 1e6, "sent_t": *time as f64 / 1e6, "detected_after_s": seen.saturating_sub(*time) as f64 / 1e6})
+                            json!({"mirror": "gap_detected", "record": record, "ground_t": now as f64 / 1e6, "sent_t": at as f64 / 1e6, "detected_after_s": detected_after as f64 / 1e6})
                         );
                     }
                 }
-                _ => {}
-            }
-            if let Report::Step { inputs, .. } = &report {
-                for input in inputs {
-                    if let Input::Elaborated { time, boot, event } = input {
-                        ground.vehicle_event(now, *time, *boot, event);
+                Output::Played(played) => {
+                    if let Some(rec) = &recorder {
+                        calls += 1;
+                        let step = crate::supervisor::Step {
+                            seq: calls,
+                            time: played.time,
+                            events: Vec::new(),
+                            effects: played.effects,
+                        };
+                        rec.replica(now, call_json(&played.call), step, played.digest);
                     }
                 }
-            }
-            match &report {
-                Report::Step { effects, .. } | Report::Timers { effects, .. } => {
-                    for e in effects {
-                        dialog.observe(&setup.project, e);
+                Output::Disagreement(d) => {
+                    if let Some(page) = &mut page {
+                        page.disagreement(&d);
                     }
+                    disagreement(&mut out, recorder.as_ref(), &d, now, station.replica().vehicle_time(now));
                 }
-                Report::Resynced {
-                    how: Repair::Snapshot,
-                    ..
-                } => {
-                    if let Some((p, _)) = replica.shown() {
-                        dialog.sync(p);
-                    }
-                }
-                _ => {}
-            }
-            if let Some(rec) = &recorder {
-                rec.mirror(now, layout::MIRROR_REPLICA, report_json(&report, now));
-            }
-            if let Some(page) = &mut page {
-                page.report(&report);
-            }
-            print_report(&mut out, &setup.project, &report, now);
-        }
-        while let Some(played) = replica.poll_played() {
-            if let Some(rec) = &recorder {
-                calls += 1;
-                let step = crate::supervisor::Step {
-                    seq: calls,
-                    time: played.time,
-                    events: Vec::new(),
-                    effects: played.effects,
-                };
-                rec.replica(now, call_json(&played.call), step, played.digest);
-            }
-        }
-        // Nothing tells a new user why the mirror stays blank otherwise.
-        if !said_silent && !heard_any && origin.elapsed() >= SILENCE_WARNING {
-            said_silent = true;
-            say!(
-                "petrel mirror: nothing heard on {} after {} s. Check the address, and that mavlink-router or MAVProxy (--out) sends the ground's telemetry there (docs/mirror.md, \"Deploying it\").",
-                setup.address,
-                SILENCE_WARNING.as_secs()
-            );
-        }
-        if !said_no_downlink
-            && replica.counts.packets == 0
-            && origin.elapsed() >= 2 * SILENCE_WARNING
-        {
-            if let Some(v) = ground.some_heard() {
-                said_no_downlink = true;
-                say!(
-                    "petrel mirror: the vehicle (system {v}) is heard but no downlink record after {} s. Is `petrel run --downlink` running on board, and does the autopilot route to this mirror (system {})? (docs/mirror.md, \"Addressing\")",
-                    2 * SILENCE_WARNING.as_secs(),
-                    setup.system
-                );
-            }
-        }
-        // Each vehicle's ground view reaches its last autopilot frame heard.
-        ground.advance(
-            replica.exact_time(),
-            |lane| replica.exact_boot(lane),
-            |t| replica.vehicle_time(t),
-        );
-        while let Some(system) = ground.poll_foreign() {
-            say!("petrel mirror: system {system} is heard but is no vehicle of the team: its frames are not followed as a vehicle's");
-        }
-        while let Some((_, d)) = ground.poll_disagreement() {
-            if let Some(page) = &mut page {
-                page.disagreement(&d);
-            }
-            let event = d.event();
-            tracing::warn!("{event}");
-            if let Some(rec) = &recorder {
-                let mut v = json!({"time_us": now});
-                for (k, val) in &event.params {
-                    v[k] = val.to_json();
-                }
-                rec.mirror(now, layout::MIRROR_CHECK, v);
-            }
-            if out.json {
-                let mut v = json!({"mirror": event.name, "ground_t": now as f64 / 1e6});
-                for (k, val) in &event.params {
-                    v[k] = val.to_json();
-                }
-                // When it was reported, in vehicle time.
-                if let Some(t) = replica.vehicle_time(now) {
-                    v["reported_t"] = json!(t as f64 / 1e6);
-                }
-                let _ = writeln!(out.out, "{v}");
-            } else {
-                let _ = writeln!(out.out, "mirror: {event}");
-            }
-        }
-        // The questions pending, with their countdown (every 10 s, and each
-        // second of the last 5).
-        if setup.operator.is_some() {
-            let vehicle_now = replica.vehicle_time(now);
-            shown.retain(|id, _| dialog.pending().any(|q| q.id == *id));
-            for q in dialog.pending() {
-                let left = vehicle_now.map_or(q.deadline, |t| q.remaining(t)) / 1_000_000;
-                let mark = if left <= 5 { left } else { left / 10 * 10 };
-                if shown.get(&q.id) != Some(&mark) {
-                    if !shown.contains_key(&q.id) {
+                Output::Question { question: q, first, left } => {
+                    if first {
                         if let Some(rec) = &recorder {
                             rec.mirror(now, layout::MIRROR_DIALOG, json!({"time_us": now, "kind": "question", "id": q.id, "net": q.net, "question": q.question, "choices": q.choices, "deadline_us": q.deadline}));
                         }
@@ -622,37 +456,43 @@ async fn mirror(setup: Setup) -> VerbResult {
                         );
                     }
                     say!("QUESTION #{}: {left} s left", q.id);
-                    shown.insert(q.id, mark);
                 }
+                Output::Refused { system, why } => say!(
+                    "petrel mirror: a downlink record from system {system} refused: {why} (the downlink must be signed with --signing-key's key; every refusal is counted)"
+                ),
+                Output::NothingHeard => say!(
+                    "petrel mirror: nothing heard on {} after {} s. Check the address, and that mavlink-router or MAVProxy (--out) sends the ground's telemetry there (docs/mirror.md, \"Deploying it\").",
+                    setup.address,
+                    SILENCE_WARNING / 1_000_000
+                ),
+                Output::NoDownlink { vehicle } => say!(
+                    "petrel mirror: the vehicle (system {vehicle}) is heard but no downlink record after {} s. Is `petrel run --downlink` running on board, and does the autopilot route to this mirror (system {})? (docs/mirror.md, \"Addressing\")",
+                    2 * SILENCE_WARNING / 1_000_000,
+                    setup.system
+                ),
+                Output::Foreign { system } => say!(
+                    "petrel mirror: system {system} is heard but is no vehicle of the team: its frames are not followed as a vehicle's"
+                ),
             }
         }
-        // A ground event the vehicle has not reported: a heartbeat asked
-        // for at the end of its window proves the vehicle's records
-        // complete through it, so the check judges it then.
-        while let Some(at) = ground.poll_heartbeat_wanted(replica.vehicle_time(now)) {
-            replica.ask_heartbeat(at);
-        }
-        // Requests wait in the replica until there is someone to ask: the
-        // onboard gateway, else the vehicle's companion.
-        if let Some(to) = onboard.or(ground.companion()) {
-            while let Some(request) = replica.poll_transmit() {
-                match uplink.send(to, &request).await {
-                    Ok(bytes) => {
-                        sent += 1;
-                        if let Some(rec) = &recorder {
-                            rec.sent(now, &bytes);
-                        }
+        // Requests wait in the station until there is someone to ask.
+        while let Some((to, request)) = station.poll_transmit() {
+            match uplink.send(to, &request).await {
+                Ok(bytes) => {
+                    sent += 1;
+                    if let Some(rec) = &recorder {
+                        rec.sent(now, &bytes);
                     }
-                    Err(e) => tracing::warn!("uplink: {e}"),
                 }
+                Err(e) => tracing::warn!("uplink: {e}"),
             }
         }
         // The page last, off the path from a packet to its request.
         if let Some(page) = &mut page {
-            if let Some(s) = &signed {
+            if let Some(s) = station.signed() {
                 page.signatures(s.refusals());
             }
-            page.settle(now, &replica, &dialog, &ground);
+            page.settle(now, station.replica(), station.dialog(), station.ground());
         }
         let _ = out.out.flush();
     }
@@ -660,6 +500,7 @@ async fn mirror(setup: Setup) -> VerbResult {
     if let Some(t) = stdin_task {
         t.abort();
     }
+    let (ground, replica) = (station.ground(), station.replica());
     let total = ground.total();
     let blind = ground.blind(|t| replica.vehicle_time(t));
     let (followed, blind_for) = blind
@@ -714,7 +555,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         sent,
         ground.events,
     );
-    let signatures = signed.as_ref().map(|s| s.refusals());
+    let signatures = station.signed().map(|s| s.refusals());
     if let Some(r) = &signatures {
         say!(
             "downlink signatures: {} frames signed with the key, {}",
@@ -723,7 +564,7 @@ async fn mirror(setup: Setup) -> VerbResult {
         );
     }
     if out.json {
-        let mut summary = summary_json(&ground, &replica, sent, &blind);
+        let mut summary = summary_json(ground, replica, sent, &blind);
         summary["signatures"] = json!(signatures);
         let _ = writeln!(out.out, "{summary}");
     }
@@ -795,24 +636,20 @@ fn summary_json(
 }
 
 /// The operator's answer `choice` to question `id`, typed on stdin or
-/// clicked in the page: checked by the dialog, sent up to `to` signed
-/// with the operator key, recorded; what to say, or why it was not sent.
-#[allow(clippy::too_many_arguments)]
+/// clicked in the page: checked by the station, sent up signed with the
+/// operator key, recorded; what to say, or why it was not sent.
 async fn answer(
-    dialog: &Dialog,
+    station: &mut Station,
     id: u64,
     choice: &str,
-    to: Option<(u8, u8)>,
     signer: Option<&mut crate::link::signing::Signer>,
     uplink: &UplinkWriter,
     now: Micros,
     recorder: Option<&Recorder>,
 ) -> Result<String, String> {
-    dialog
-        .answer(id, choice)
-        .map_err(|e| format!("not sent: {e}"))?;
-    let (Some(to), Some(signer)) = (to, signer) else {
-        return Err(format!("answer #{id} not sent: no vehicle heard yet"));
+    let to = station.answer(now, id, choice)?;
+    let Some(signer) = signer else {
+        return Err(format!("answer #{id} not sent: no operator key"));
     };
     match uplink.send_answer(to, id, choice, signer).await {
         Ok(bytes) => {
@@ -827,6 +664,38 @@ async fn answer(
             Ok(format!("answer #{id} {choice} sent (signed)"))
         }
         Err(e) => Err(format!("answer #{id} not sent: {e}")),
+    }
+}
+
+/// A disagreement of the independent check: recorded, printed (`--json`:
+/// with when it was reported, in vehicle time).
+fn disagreement<W: Write>(
+    out: &mut Timeline<W>,
+    recorder: Option<&Recorder>,
+    d: &Disagreement,
+    now: Micros,
+    reported: Option<Micros>,
+) {
+    let event = d.event();
+    tracing::warn!("{event}");
+    if let Some(rec) = recorder {
+        let mut v = json!({"time_us": now});
+        for (k, val) in &event.params {
+            v[k] = val.to_json();
+        }
+        rec.mirror(now, layout::MIRROR_CHECK, v);
+    }
+    if out.json {
+        let mut v = json!({"mirror": event.name, "ground_t": now as f64 / 1e6});
+        for (k, val) in &event.params {
+            v[k] = val.to_json();
+        }
+        if let Some(t) = reported {
+            v["reported_t"] = json!(t as f64 / 1e6);
+        }
+        let _ = writeln!(out.out, "{v}");
+    } else {
+        let _ = writeln!(out.out, "mirror: {event}");
     }
 }
 

@@ -29,6 +29,7 @@ pub mod publisher;
 pub mod record;
 pub mod replica;
 pub mod signed;
+pub mod station;
 pub mod tunnel;
 pub mod uplink;
 
