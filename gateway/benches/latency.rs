@@ -14,7 +14,9 @@
 //! Run: `cargo bench -p gateway --bench latency` (PETREL_LATENCY_TRIALS sets
 //! the number of trials, 10,000 by default; PETREL_LATENCY_REALTIME=off
 //! runs petrel with `--no-realtime`, PETREL_LATENCY_RECORD=off with
-//! `--no-record`, PETREL_LATENCY_CHRT=N under `chrt -f N`). The pymavlink side is skipped,
+//! `--no-record`, PETREL_LATENCY_CHRT=N under `chrt -f N`,
+//! PETREL_LATENCY_BINARY=PATH another petrel binary, to compare two
+//! builds in one session). The pymavlink side is skipped,
 //! saying so, when pymavlink is not installed.
 
 #[path = "support/autopilot.rs"]
@@ -28,7 +30,7 @@ use std::time::Duration;
 /// `(battery_low events, rtl commands)` in a recording that replays with
 /// no difference.
 fn recorded(project: &Path, recording: &Path) -> Option<(usize, usize)> {
-    let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
+    let out = Command::new(petrel_binary())
         .arg("replay")
         .arg(recording)
         .arg(project)
@@ -49,6 +51,11 @@ fn recorded(project: &Path, recording: &Path) -> Option<(usize, usize)> {
         .filter(|l| l.contains(r#""effect":"command""#) && l.contains(r#""verb":"rtl""#))
         .count();
     Some((events, commands))
+}
+
+/// The petrel under test: this build's, or PETREL_LATENCY_BINARY.
+fn petrel_binary() -> std::ffi::OsString {
+    std::env::var_os("PETREL_LATENCY_BINARY").unwrap_or_else(|| env!("CARGO_BIN_EXE_petrel").into())
 }
 
 fn free_port() -> u16 {
@@ -84,10 +91,10 @@ fn main() {
     let mut command = match &chrt {
         Some(priority) => {
             let mut c = Command::new("chrt");
-            c.args(["-f", priority.as_str(), env!("CARGO_BIN_EXE_petrel")]);
+            c.args(["-f", priority.as_str()]).arg(petrel_binary());
             c
         }
-        None => Command::new(env!("CARGO_BIN_EXE_petrel")),
+        None => Command::new(petrel_binary()),
     };
     command
         .arg("run")

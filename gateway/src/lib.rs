@@ -51,6 +51,7 @@ pub mod edit;
 pub mod link;
 pub mod mirror;
 pub mod monitor;
+pub mod onboard;
 pub mod preflight;
 pub mod profile;
 pub mod programs;

@@ -14,8 +14,8 @@ extern crate gateway;
 mod cli;
 
 use gateway::{
-    clock, edit, link, mirror, monitor, preflight, profile, programs, project, record, scheduling,
-    supervisor, team, vehicle,
+    clock, edit, link, mirror, monitor, onboard, preflight, profile, programs, project, record,
+    scheduling, supervisor, team, vehicle,
 };
 
 #[derive(Parser)]

@@ -17,7 +17,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use elaboration::Profile;
-use nets::{Micros, Project};
+use nets::Project;
 
 use super::{Outcome, VerbResult};
 use crate::preflight::Preflight;
@@ -160,11 +160,6 @@ pub(super) fn dated_recording(name: &str) -> PathBuf {
     ))
 }
 
-/// Elaboration timeouts and link loss are evaluated at least this often when
-/// no frame arrives.
-const TICK: Micros = 100_000;
-/// Telemetry rate asked for every message the profile reads.
-const TELEMETRY_HZ: f32 = 4.0;
 /// On shutdown, how long a mission upload under way may take to finish.
 const UPLOAD_GRACE: Duration = Duration::from_secs(3);
 /// How often the signing timestamp is persisted (well within

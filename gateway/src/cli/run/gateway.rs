@@ -3,11 +3,10 @@
 //! out its effects, steps printed and recorded after the commands are out.
 
 use std::io::Write;
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use mavlink::dialects::ardupilotmega::MavMessage;
-use nets::{Effect, Micros, Project};
+use nets::Micros;
 use serde_json::json;
 use tokio::sync::mpsc;
 
@@ -15,96 +14,27 @@ use super::autopilot::{adopt, identify};
 use super::parameters::parameters_fit;
 use super::signals::Signals;
 use super::timeline::Timeline;
-use super::{
-    elaboration_config, links, Setup, SILENCE_WARNING, TELEMETRY_HZ, TICK, TIMESTAMP_PERSIST,
-    UPLOAD_GRACE,
-};
+use super::{elaboration_config, links, Setup, SILENCE_WARNING, TIMESTAMP_PERSIST, UPLOAD_GRACE};
 use crate::cli::{Outcome, VerbResult};
 use crate::clock::Clock;
 use crate::link::{LinkWriter, Received};
-use crate::mirror::dialog::AnswerGate;
-use crate::mirror::publisher::{Config as PublisherConfig, Publisher};
-use crate::mirror::tunnel::{Tunnel, PAYLOAD_TYPE};
+use crate::onboard::{DownlinkConfig, Input as OwnedInput, Onboard, Settled, Transmit};
 use crate::programs::server::{Direction, ProgramInput, Programs};
 use crate::record::recorder::{Options as RecordOptions, Recorder};
-use crate::supervisor::{Input, Step, Supervisor};
+use crate::supervisor::Supervisor;
 use crate::vehicle::commander::Commander;
-use crate::vehicle::crew::{Crew, Member};
 
 pub(super) struct Gateway {
     clock: Clock,
-    project: Arc<Project>,
-    supervisor: Supervisor,
-    /// One commander per vehicle, each on its link.
-    crew: Crew,
+    /// Every decision: the supervisor, the commanders, the downlink.
+    core: Onboard,
     programs: Option<Programs>,
     /// One writer per link (`team::links` order).
     writers: Vec<LinkWriter>,
     recorder: Option<Recorder>,
-    downlink: Option<Downlink>,
-    /// Judges the operator's answers (`None`: no `--operator-key`, every
-    /// answer rejected).
-    answers: Option<AnswerGate>,
     /// The web monitor: fed in `settle`, served on its own thread.
     monitor: Option<(crate::monitor::Feed, crate::monitor::Server)>,
-    /// Steps carried out but not yet printed and recorded (see `feed`).
-    done: Vec<Done>,
-    frames: u64,
-    events: u64,
     out: Timeline<std::io::BufWriter<Box<dyn Write + Send>>>,
-}
-
-/// The mirror's downlink on board.
-struct Downlink {
-    publisher: Publisher,
-    /// The events left out of the records when they change nothing.
-    unread: crate::mirror::Unread,
-    /// The mirror's system id.
-    mirror: u8,
-}
-
-/// A step carried out, waiting to be printed and recorded.
-struct Done {
-    input: Owned,
-    step: Step,
-    /// The player's time before the step.
-    before: Micros,
-    /// The player's digest right after the step (when recording).
-    digest: Option<nets::player::Digest>,
-}
-
-/// A Supervisor input, owned.
-enum Owned {
-    /// A frame and the link it came in on.
-    Frame(Vec<u8>, usize),
-    Tick,
-    Result {
-        id: u64,
-        outcome: nets::Outcome,
-    },
-    Event(nets::Event),
-    Answer {
-        id: u64,
-        choice: String,
-    },
-}
-
-impl Owned {
-    fn input(&self) -> Input<'_> {
-        match self {
-            Owned::Frame(bytes, _) => Input::Frame(bytes),
-            Owned::Tick => Input::Tick,
-            Owned::Result { id, outcome } => Input::Result {
-                id: *id,
-                outcome: outcome.clone(),
-            },
-            Owned::Event(e) => Input::Event(e.clone()),
-            Owned::Answer { id, choice } => Input::Answer {
-                id: *id,
-                choice: choice.clone(),
-            },
-        }
-    }
 }
 
 impl Gateway {
@@ -112,77 +42,49 @@ impl Gateway {
         self.clock.now()
     }
 
-    /// Steps the supervisor and carries out the step's effects: commands go
-    /// to the commander (sent by the next `pump`), calls to the programs.
-    /// Printing and recording wait for `settle`, off the path from a frame
-    /// to the command it causes; the digest is taken now, as it must be.
-    fn feed(&mut self, time: Micros, input: Owned) {
-        let before = self.supervisor.player().state().now;
-        let step = self.supervisor.step(time, input.input());
-        for e in &step.effects {
-            self.effect(e);
-        }
-        for (_, effects) in &step.events {
-            for e in effects {
-                self.effect(e);
+    /// The calls the core has for the programs.
+    fn calls(&mut self) {
+        while let Some(effect) = self.core.poll_call() {
+            if let Some(p) = &self.programs {
+                p.effect(&effect);
             }
         }
-        let published = self.downlink.is_some()
-            && (!step.events.is_empty()
-                || matches!(
-                    input,
-                    Owned::Result { .. } | Owned::Event(_) | Owned::Answer { .. }
-                ));
-        let digest =
-            (self.recorder.is_some() || published).then(|| self.supervisor.player().digest());
-        self.done.push(Done {
-            input,
-            step,
-            before,
-            digest,
-        });
     }
 
     /// Prints and records the steps carried out since the last call, in
     /// order, and flushes the timeline.
     fn settle(&mut self) {
-        for Done {
+        self.core.settle();
+        let project = self.core.project().clone();
+        while let Some(Settled {
             input,
             step,
-            before,
             digest,
-        } in std::mem::take(&mut self.done)
+        }) = self.core.poll_settled()
         {
-            if let (Some(d), Some(digest)) = (&mut self.downlink, &digest) {
-                if let Some(inputs) = crate::mirror::step_inputs(&input.input(), &step, &d.unread) {
-                    d.publisher
-                        .step(step.seq, before, step.time, inputs, digest);
-                }
+            if let OwnedInput::Event(event) = &input {
+                let _ = self.out.event(&project, step.time, event, None);
             }
-            if let Owned::Event(event) = &input {
-                let _ = self.out.event(&self.project, step.time, event, None);
-            }
-            let _ = self.out.effects(&self.project, &step.effects);
+            let _ = self.out.effects(&project, &step.effects);
             for (event, effects) in &step.events {
-                self.events += 1;
                 let _ = self.out.event(
-                    &self.project,
+                    &project,
                     event.time_us,
                     &event.event,
                     Some(json!({"sysid": event.sysid, "compid": event.compid})),
                 );
-                let _ = self.out.effects(&self.project, effects);
+                let _ = self.out.effects(&project, effects);
             }
             if let Some((feed, _)) = &self.monitor {
-                feed.step(&input.input(), &step, self.supervisor.player());
+                feed.step(&input.as_supervisor(), &step, self.core.player());
             }
             if let (Some(rec), Some(digest)) = (&self.recorder, digest) {
                 // A team's frames say their link (one link: implied).
                 let link = match &input {
-                    Owned::Frame(_, link) if self.writers.len() > 1 => Some(*link),
+                    OwnedInput::Frame(_, link) if self.writers.len() > 1 => Some(*link),
                     _ => None,
                 };
-                rec.record_on(&input.input(), link, step, digest);
+                rec.record_on(&input.as_supervisor(), link, step, digest);
             }
         }
         if let Some((feed, _)) = &self.monitor {
@@ -305,49 +207,27 @@ impl Gateway {
         };
         // One commander per vehicle, on its link, asking its autopilot for
         // what its profile reads.
-        let configs = crate::team::commanders(&setup.project, &setup.vehicle);
-        let members = configs
-            .into_iter()
-            .zip(&lanes)
-            .enumerate()
-            .map(|(v, (config, lane))| {
-                let messages: Vec<(u32, f32)> = lane
-                    .profile
-                    .telemetry()
-                    .into_iter()
-                    .filter(|&id| id != 0) // HEARTBEAT always comes
-                    .map(|id| (id, TELEMETRY_HZ))
-                    .collect();
-                let mut commander = Commander::new(config);
-                commander.request_streams(&messages, 0);
-                let link = link_of.get(v).copied().unwrap_or(0);
-                Member {
-                    name: lane.vehicle.clone(),
-                    link,
-                    commander,
-                }
-            })
-            .collect();
+        let crew = crate::onboard::crew(&setup.project, &setup.vehicle, &lanes, &link_of);
         let unread = crate::mirror::Unread::of(&lanes);
         let (supervisor, start) = Supervisor::start_lanes(setup.project.clone(), lanes, 0);
+        let core = Onboard::new(
+            supervisor,
+            crew,
+            setup.downlink.map(|mirror| DownlinkConfig {
+                session: session(),
+                mirror,
+                unread,
+            }),
+            setup.operator.take(),
+            recorder.is_some(),
+        );
         let mut gw = Gateway {
             clock,
-            project: setup.project,
-            supervisor,
-            crew: Crew::new(members),
+            core,
             programs,
             writers,
             recorder,
-            downlink: setup.downlink.map(|mirror| Downlink {
-                publisher: Publisher::new(session(), PublisherConfig::default(), 0),
-                unread,
-                mirror,
-            }),
-            answers: setup.operator.take().map(AnswerGate::new),
             monitor: None,
-            done: Vec::new(),
-            frames: 0,
-            events: 0,
             out: Timeline {
                 out: std::io::BufWriter::new(setup.out),
                 json: setup.json,
@@ -355,19 +235,18 @@ impl Gateway {
             },
         };
         if let Some(rec) = &gw.recorder {
-            rec.start(&start, gw.supervisor.player());
+            rec.start(&start, gw.core.player());
         }
         if let Some(address) = setup.http {
-            let (project, player) = (gw.project.clone(), gw.supervisor.player());
+            let (project, player) = (gw.core.project().clone(), gw.core.player());
             let monitor = crate::monitor::start_live(address, project, &setup.dir, &start, player)
                 .map_err(|e| miette::miette!("cannot serve the monitor on {address}: {e}"))?;
             say!("monitor: http://{}/", monitor.1.address);
             gw.monitor = Some(monitor);
         }
-        for e in &start.effects {
-            gw.effect(e);
-        }
-        let _ = gw.out.effects(&gw.project, &start.effects);
+        let now = gw.now();
+        gw.core.start(now, &start);
+        let _ = gw.out.effects(gw.core.project(), &start.effects);
         gw.pump().await;
         gw.settle();
         for rx in early {
@@ -379,11 +258,10 @@ impl Gateway {
         let stop = setup.stop.clone();
         let several = readers.len() > 1;
         let (mut frames, reader_tasks) = links::read(readers, &addresses);
-        let mut next_tick = TICK;
         let mut refused = false;
         // Said once when the vehicle stays silent: nothing else tells a
         // user that the address, the router or the autopilot is wrong.
-        let mut said_silent = vec![false; gw.crew.members().len()];
+        let mut said_silent = vec![false; gw.core.crew().members().len()];
         let mut reporters: Vec<_> = rejections
             .iter()
             .map(|_| crate::link::rejections::Reporter::default())
@@ -396,9 +274,9 @@ impl Gateway {
             }
             // Frames the signature checks dropped reach the nets as an event.
             for (reporter, rejections) in reporters.iter_mut().zip(&rejections) {
-                if let Some(event) = reporter.poll(rejections, &gw.project, gw.now()) {
+                if let Some(event) = reporter.poll(rejections, gw.core.project(), gw.now()) {
                     let now = gw.now();
-                    gw.feed(now, Owned::Event(event));
+                    gw.core.handle_event(now, event);
                 }
             }
             if let Some(file) = &timestamp_file {
@@ -408,7 +286,7 @@ impl Gateway {
                 }
             }
             if Instant::now() >= silent_until {
-                for (said, m) in said_silent.iter_mut().zip(gw.crew.members()) {
+                for (said, m) in said_silent.iter_mut().zip(gw.core.crew().members()) {
                     if *said || m.commander.heard() {
                         continue;
                     }
@@ -426,15 +304,7 @@ impl Gateway {
                 }
             }
             let now = gw.now();
-            let deadline = [
-                Some(next_tick),
-                gw.supervisor.next_deadline(),
-                gw.crew.next_deadline(),
-            ]
-            .into_iter()
-            .flatten()
-            .min()
-            .unwrap_or(next_tick);
+            let deadline = gw.core.poll_timeout();
             let sleep = tokio::time::sleep(gw.clock.wall(deadline.saturating_sub(now)));
             let until_stop = async {
                 match stop_at {
@@ -453,11 +323,7 @@ impl Gateway {
                 Some(input) = inputs.recv() => gw.program_input(input),
                 _ = sleep => {
                     let now = gw.now();
-                    gw.crew.tick(now);
-                    if now >= next_tick {
-                        next_tick = now - now % TICK + TICK;
-                    }
-                    gw.feed(now, Owned::Tick);
+                    gw.core.handle_timeout(now);
                 }
                 _ = signals.recv() => break,
                 _ = until_stop => break,
@@ -466,8 +332,8 @@ impl Gateway {
             gw.pump().await;
             gw.settle();
             gw.publish().await;
-            if let Some((v, verdict)) = gw.crew.poll_parameters() {
-                let member = &gw.crew.members()[v];
+            if let Some((v, verdict)) = gw.core.poll_parameters() {
+                let member = &gw.core.crew().members()[v];
                 let prefix = member
                     .name
                     .as_ref()
@@ -485,14 +351,17 @@ impl Gateway {
         // would starve the commander's retries and timeouts.
         let mut ticks = tokio::time::interval(Duration::from_millis(20));
         ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-        while gw.crew.busy() && Instant::now() < grace {
+        while gw.core.busy() && Instant::now() < grace {
             tokio::select! {
                 Some((link, rx)) = frames.recv() => {
                     if let Some(message) = &rx.message {
-                        gw.crew.message(link, rx.time_us, &rx.header, message);
+                        gw.core.handle_vehicle_message(link, rx.time_us, &rx.header, message);
                     }
                 }
-                _ = ticks.tick() => gw.crew.tick(gw.now()),
+                _ = ticks.tick() => {
+                    let now = gw.now();
+                    gw.core.tick_commanders(now);
+                }
             }
             gw.pump().await;
             gw.settle();
@@ -512,7 +381,7 @@ impl Gateway {
                 }
             }
         }
-        if let Some(gate) = &gw.answers {
+        if let Some(gate) = gw.core.answers() {
             let rejected: Vec<String> = gate
                 .rejected()
                 .iter()
@@ -530,13 +399,13 @@ impl Gateway {
         }
         let Gateway {
             programs,
-            supervisor,
+            core,
             mut out,
-            frames,
-            events,
             recorder,
             ..
         } = gw;
+        let (frames, events) = (core.frames, core.events);
+        let supervisor = core.supervisor();
         if let Some(programs) = programs {
             programs.shutdown().await;
         }
@@ -572,25 +441,23 @@ impl Gateway {
         })
     }
 
-    /// A frame from link `link`: to the commanders on that link, then to
-    /// the supervisor.
+    /// A frame from link `link`: the scaled clock follows the autopilot's
+    /// time, then the core takes it.
     fn frame(&mut self, link: usize, rx: Received) {
-        self.frames += 1;
-        if self.crew.members().first().map(|m| m.link) == Some(link) {
-            self.uplink(&rx.bytes);
-        }
         if let Some(message) = &rx.message {
             self.follow_vehicle_time(&rx.header, message);
-            self.crew.message(link, rx.time_us, &rx.header, message);
         }
-        self.feed(rx.time_us, Owned::Frame(rx.bytes, link));
+        let now = self.now();
+        self.core
+            .handle_frame(now, link, rx, crate::link::unix_us());
+        self.calls();
     }
 
     /// A scaled clock follows the simulated autopilot's own time
     /// (`clock::Clock::sync`); at scale 1 this does nothing.
     fn follow_vehicle_time(&self, header: &mavlink::MavHeader, message: &MavMessage) {
         if self.clock.scale() == 1.0
-            || self.crew.first().and_then(Commander::target)
+            || self.core.crew().first().and_then(Commander::target)
                 != Some((header.system_id as u8, header.component_id))
         {
             return;
@@ -604,154 +471,59 @@ impl Gateway {
         self.clock.sync(Micros::from(boot_ms) * 1000);
     }
 
-    fn effect(&mut self, effect: &Effect) {
-        let now = self.now();
-        match effect {
-            Effect::Command {
-                id,
-                verb,
-                args,
-                vehicle,
-                ..
-            } => self.crew.command(*id, *vehicle, verb, args, now),
-            Effect::Forgotten { id, .. } => {
-                self.crew.forget(*id);
-                if let Some(p) = &self.programs {
-                    p.effect(effect);
-                }
-            }
-            Effect::Call { .. } => {
-                if let Some(p) = &self.programs {
-                    p.effect(effect);
-                }
-            }
-            _ => {}
-        }
-    }
-
-    /// Sends what the commanders have to send, each on its vehicle's link
-    /// (each frame recorded as sent), and hands their outcomes to the
-    /// player, until they have nothing more.
+    /// Sends what the core has to send, each frame on its link (recorded
+    /// as sent), until it has nothing more; then the calls it made
+    /// meanwhile go to the programs.
     async fn pump(&mut self) {
         loop {
-            let mut busy = false;
-            while let Some(t) = self.crew.poll_transmit() {
-                busy = true;
-                let Some(writer) = self.writers.get(t.link) else {
-                    continue;
-                };
-                match writer.send(t.from, &t.message).await {
-                    Ok(bytes) => {
-                        if let (Some(rec), false) = (&self.recorder, bytes.is_empty()) {
-                            rec.sent(self.clock.now(), &bytes);
-                        }
-                    }
-                    Err(e) => {
-                        // Never spin on a link that keeps failing.
-                        tracing::warn!("{e}");
-                        tokio::time::sleep(Duration::from_millis(200)).await;
-                    }
-                }
-            }
-            if let Some((id, outcome)) = self.crew.poll_outcome() {
-                busy = true;
-                let now = self.now();
-                self.feed(now, Owned::Result { id, outcome });
-            }
-            if !busy {
+            let now = self.now();
+            let Some(t) = self.core.poll_transmit(now) else {
                 break;
-            }
-        }
-    }
-
-    /// A frame from the mirror (a resync request) goes to the publisher.
-    fn uplink(&mut self, bytes: &[u8]) {
-        let me = self.crew.first().and_then(Commander::identity);
-        let (Some(d), Some(me)) = (&mut self.downlink, me) else {
-            return;
-        };
-        let Ok(frame) = elaboration::Frame::parse(bytes) else {
-            return;
-        };
-        if let Some(t) = Tunnel::from_frame(&frame) {
-            if (t.target_system, t.target_component) == me {
-                if crate::mirror::dialog::is_answer(&t.payload) {
-                    self.answer(bytes);
-                } else {
-                    d.publisher.receive(&t.payload);
-                }
-            }
-        }
-    }
-
-    /// An operator's answer (mirror::dialog): judged by the gate, then, if
-    /// let through, an input of the player like any other (published down).
-    fn answer(&mut self, bytes: &[u8]) {
-        let Some(gate) = &mut self.answers else {
-            tracing::warn!("an operator's answer rejected: no --operator-key");
-            return;
-        };
-        let (id, choice) = match gate.judge_bytes(bytes, crate::link::unix_us()) {
-            Ok(answer) => answer,
-            Err(why) => {
-                tracing::warn!("an operator's answer rejected: {}", why.as_str());
-                return;
-            }
-        };
-        let now = self.now();
-        self.feed(now, Owned::Answer { id, choice });
-        let verdict = self
-            .done
-            .last()
-            .and_then(|d| crate::mirror::dialog::verdict(&d.step.effects, id));
-        if let (Some(gate), Some(v)) = (&mut self.answers, verdict) {
-            gate.delivered(v);
-            if let Err(why) = v {
-                tracing::warn!("the operator's answer to #{id} refused: {}", why.as_str());
-            }
-        }
-    }
-
-    /// The downlink's heartbeat and snapshots when due, and every packet
-    /// the publisher has, sent (and recorded as sent).
-    async fn publish(&mut self) {
-        let now = self.now();
-        let me = self.crew.first().and_then(Commander::identity);
-        let link = self.crew.members().first().map_or(0, |m| m.link);
-        let (Some(d), Some(me), Some(writer)) = (&mut self.downlink, me, self.writers.get(link))
-        else {
-            return;
-        };
-        d.publisher.autopilot_clocks(self.supervisor.boots());
-        d.publisher
-            .tick(now, self.supervisor.seq(), self.supervisor.player());
-        while let Some(payload) = d.publisher.poll_transmit() {
-            let tunnel = Tunnel {
-                payload_type: PAYLOAD_TYPE,
-                target_system: d.mirror,
-                target_component: 0,
-                payload,
             };
-            match writer.send_data(me, &tunnel).await {
+            let sent = match &t {
+                Transmit::Command(t) => match self.writers.get(t.link) {
+                    Some(writer) => writer.send(t.from, &t.message).await,
+                    None => continue,
+                },
+                Transmit::Downlink { link, from, tunnel } => match self.writers.get(*link) {
+                    Some(writer) => writer.send_data(*from, tunnel).await,
+                    None => continue,
+                },
+            };
+            match sent {
                 Ok(bytes) => {
                     if let (Some(rec), false) = (&self.recorder, bytes.is_empty()) {
                         rec.sent(self.clock.now(), &bytes);
                     }
                 }
-                Err(e) => {
+                Err(e) if matches!(t, Transmit::Downlink { .. }) => {
+                    // The rest of the downlink waits for the next turn.
                     tracing::warn!("downlink: {e}");
                     break;
                 }
+                Err(e) => {
+                    // Never spin on a link that keeps failing.
+                    tracing::warn!("{e}");
+                    tokio::time::sleep(Duration::from_millis(200)).await;
+                }
             }
         }
+        self.calls();
+    }
+
+    /// The downlink's heartbeat, snapshots and records, sent.
+    async fn publish(&mut self) {
+        let now = self.now();
+        self.core.publish(now);
+        self.pump().await;
     }
 
     fn program_input(&mut self, input: ProgramInput) {
         let now = self.now();
         match input {
-            ProgramInput::Outcome { id, outcome } => self.feed(now, Owned::Result { id, outcome }),
+            ProgramInput::Outcome { id, outcome } => self.core.handle_result(now, id, outcome),
             ProgramInput::Event { event, .. } | ProgramInput::Lost { event, .. } => {
-                self.feed(now, Owned::Event(event))
+                self.core.handle_event(now, event)
             }
             ProgramInput::Traffic(t) => {
                 if let Some(rec) = &self.recorder {
@@ -765,6 +537,7 @@ impl Gateway {
                 }
             }
         }
+        self.calls();
     }
 }
 

@@ -1,0 +1,486 @@
+//! The gateway's core on board: every decision `petrel run` takes once
+//! everything is loaded, with no socket, thread or clock (as quinn-proto
+//! is to quinn). Feed it the frames each link received, ticks when
+//! [`Onboard::poll_timeout`] comes, the programs' outcomes and events,
+//! each with its time; poll it for the frames to send
+//! ([`Onboard::poll_transmit`]: the commanders' commands first, then the
+//! downlink's records), the calls for the programs
+//! ([`Onboard::poll_call`]) and the steps carried out, to print and
+//! record ([`Onboard::poll_settled`]). `cli/run/gateway.rs` only moves
+//! bytes, records and prints.
+//!
+//! The order is the one that keeps a command's latency short: after an
+//! input, send what [`Onboard::poll_transmit`] gives (the commanders'
+//! outcomes it meets are fed to the player meanwhile), then
+//! [`Onboard::settle`] (the steps become records for the mirror and
+//! settled steps for the driver), then [`Onboard::publish`] and send again.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::MavHeader;
+use nets::player::Digest;
+use nets::{Effect, Event, Micros, Outcome, Player, Project};
+
+use crate::link::signing::Key;
+use crate::link::Received;
+use crate::mirror::dialog::AnswerGate;
+use crate::mirror::publisher::{Config as PublisherConfig, Publisher};
+use crate::mirror::tunnel::{Tunnel, PAYLOAD_TYPE};
+use crate::mirror::Unread;
+use crate::supervisor::{self, Step, Supervisor};
+use crate::vehicle::commander::Commander;
+use crate::vehicle::crew::{self, Crew};
+use crate::vehicle::parameters::Verdict;
+
+/// Elaboration timeouts and link loss are evaluated at least this often
+/// when no frame arrives.
+pub const TICK: Micros = 100_000;
+
+/// Telemetry rate asked for every message a profile reads.
+pub const TELEMETRY_HZ: f32 = 4.0;
+
+/// One commander per vehicle of `project` (`base`: the `[gateway]`
+/// settings), on its link (`link_of`, by vehicle; link 0 when not given),
+/// asking its autopilot for what its lane's profile reads.
+pub fn crew(
+    project: &Project,
+    base: &crate::vehicle::config::VehicleConfig,
+    lanes: &[supervisor::Lane],
+    link_of: &[usize],
+) -> Crew {
+    let members = crate::team::commanders(project, base)
+        .into_iter()
+        .zip(lanes)
+        .enumerate()
+        .map(|(v, (config, lane))| {
+            let messages: Vec<(u32, f32)> = lane
+                .profile
+                .telemetry()
+                .into_iter()
+                .filter(|&id| id != 0) // HEARTBEAT always comes
+                .map(|id| (id, TELEMETRY_HZ))
+                .collect();
+            let mut commander = Commander::new(config);
+            commander.request_streams(&messages, 0);
+            crew::Member {
+                name: lane.vehicle.clone(),
+                link: link_of.get(v).copied().unwrap_or(0),
+                commander,
+            }
+        })
+        .collect();
+    Crew::new(members)
+}
+
+/// The mirror's downlink, when on.
+pub struct DownlinkConfig {
+    /// This run's session number (a mirror tells a restart from a gap).
+    pub session: u32,
+    /// The mirror's system id.
+    pub mirror: u8,
+    /// The events left out of the records when they change nothing.
+    pub unread: Unread,
+}
+
+/// A supervisor input, owned: what a settled step was fed.
+#[derive(Debug, Clone)]
+pub enum Input {
+    /// A frame and the link it came in on.
+    Frame(Vec<u8>, usize),
+    Tick,
+    Result {
+        id: u64,
+        outcome: Outcome,
+    },
+    Event(Event),
+    Answer {
+        id: u64,
+        choice: String,
+    },
+}
+
+impl Input {
+    /// As the supervisor takes it.
+    pub fn as_supervisor(&self) -> supervisor::Input<'_> {
+        match self {
+            Input::Frame(bytes, _) => supervisor::Input::Frame(bytes),
+            Input::Tick => supervisor::Input::Tick,
+            Input::Result { id, outcome } => supervisor::Input::Result {
+                id: *id,
+                outcome: outcome.clone(),
+            },
+            Input::Event(e) => supervisor::Input::Event(e.clone()),
+            Input::Answer { id, choice } => supervisor::Input::Answer {
+                id: *id,
+                choice: choice.clone(),
+            },
+        }
+    }
+}
+
+/// A step carried out, to print and record.
+pub struct Settled {
+    pub input: Input,
+    pub step: Step,
+    /// The player's digest right after the step (when recording or
+    /// publishing).
+    pub digest: Option<Digest>,
+}
+
+/// A step carried out, not yet settled.
+struct Done {
+    settled: Settled,
+    /// The player's time before the step.
+    before: Micros,
+}
+
+/// A frame to send.
+pub enum Transmit {
+    /// A commander's message, from (`from`) on link `link`.
+    Command(Box<crew::Transmit>),
+    /// A downlink record for the mirror, from the gateway's identity on
+    /// the first vehicle's link.
+    Downlink {
+        link: usize,
+        from: (u8, u8),
+        tunnel: Tunnel,
+    },
+}
+
+struct Downlink {
+    publisher: Publisher,
+    unread: Unread,
+    mirror: u8,
+}
+
+/// The gateway's state on board.
+pub struct Onboard {
+    project: Arc<Project>,
+    supervisor: Supervisor,
+    crew: Crew,
+    downlink: Option<Downlink>,
+    /// Judges the operator's answers (`None`: no operator key, every
+    /// answer rejected).
+    answers: Option<AnswerGate>,
+    /// Every step's digest is wanted (a recording).
+    digests: bool,
+    next_tick: Micros,
+    done: Vec<Done>,
+    settled: VecDeque<Settled>,
+    calls: VecDeque<Effect>,
+    downlink_out: VecDeque<Transmit>,
+    /// Frames received, events elaborated.
+    pub frames: u64,
+    pub events: u64,
+}
+
+impl Onboard {
+    /// The core around a started supervisor and its crew. `digests`: every
+    /// step's digest is wanted (a recording).
+    pub fn new(
+        supervisor: Supervisor,
+        crew: Crew,
+        downlink: Option<DownlinkConfig>,
+        operator: Option<Key>,
+        digests: bool,
+    ) -> Onboard {
+        Onboard {
+            project: supervisor.player().project().clone(),
+            supervisor,
+            crew,
+            downlink: downlink.map(|d| Downlink {
+                publisher: Publisher::new(d.session, PublisherConfig::default(), 0),
+                unread: d.unread,
+                mirror: d.mirror,
+            }),
+            answers: operator.map(AnswerGate::new),
+            digests,
+            next_tick: TICK,
+            done: Vec::new(),
+            settled: VecDeque::new(),
+            calls: VecDeque::new(),
+            downlink_out: VecDeque::new(),
+            frames: 0,
+            events: 0,
+        }
+    }
+
+    /// The start step's effects (commands to the crew, calls queued), at
+    /// `now`.
+    pub fn start(&mut self, now: Micros, start: &Step) {
+        for e in &start.effects {
+            self.effect(now, e);
+        }
+    }
+
+    /// A frame received on link `link`, its step at its receive time, at
+    /// `now` (`unix_us`: the wall clock's UNIX time, for the operator's
+    /// signatures): to the commanders on that link, then to the
+    /// supervisor.
+    pub fn handle_frame(&mut self, now: Micros, link: usize, rx: Received, unix_us: u64) {
+        self.frames += 1;
+        if self.crew.members().first().map(|m| m.link) == Some(link) {
+            self.uplink(now, &rx.bytes, unix_us);
+        }
+        if let Some(message) = &rx.message {
+            self.crew.message(link, rx.time_us, &rx.header, message);
+        }
+        self.feed(now, rx.time_us, Input::Frame(rx.bytes, link));
+    }
+
+    /// A message for the commanders only (the upload grace at the end,
+    /// when the supervisor is done).
+    pub fn handle_vehicle_message(
+        &mut self,
+        link: usize,
+        time: Micros,
+        header: &MavHeader,
+        message: &MavMessage,
+    ) {
+        self.crew.message(link, time, header, message);
+    }
+
+    /// When [`Self::handle_timeout`] is due: the next tick, the player's
+    /// next timer, the commanders' next retry.
+    pub fn poll_timeout(&self) -> Micros {
+        [
+            Some(self.next_tick),
+            self.supervisor.next_deadline(),
+            self.crew.next_deadline(),
+        ]
+        .into_iter()
+        .flatten()
+        .min()
+        .unwrap_or(self.next_tick)
+    }
+
+    /// Time passes at `now`: the commanders' timers, then a tick of the
+    /// supervisor.
+    pub fn handle_timeout(&mut self, now: Micros) {
+        self.crew.tick(now);
+        if now >= self.next_tick {
+            self.next_tick = now - now % TICK + TICK;
+        }
+        self.feed(now, now, Input::Tick);
+    }
+
+    /// The commanders' timers alone (the upload grace at the end).
+    pub fn tick_commanders(&mut self, now: Micros) {
+        self.crew.tick(now);
+    }
+
+    /// A program's outcome of call `id`, at `now`.
+    pub fn handle_result(&mut self, now: Micros, id: u64, outcome: Outcome) {
+        self.feed(now, now, Input::Result { id, outcome });
+    }
+
+    /// An event from a program or the link (a program lost, signatures
+    /// refused), at `now`.
+    pub fn handle_event(&mut self, now: Micros, event: Event) {
+        self.feed(now, now, Input::Event(event));
+    }
+
+    /// The next frame to send: the commanders' first; their outcomes met
+    /// on the way are fed to the player (at `now`), which may command
+    /// again; then the downlink's (after [`Self::publish`]).
+    pub fn poll_transmit(&mut self, now: Micros) -> Option<Transmit> {
+        loop {
+            if let Some(t) = self.crew.poll_transmit() {
+                return Some(Transmit::Command(Box::new(t)));
+            }
+            match self.crew.poll_outcome() {
+                Some((id, outcome)) => self.feed(now, now, Input::Result { id, outcome }),
+                None => return self.downlink_out.pop_front(),
+            }
+        }
+    }
+
+    /// The next call or forgotten call for the programs.
+    pub fn poll_call(&mut self) -> Option<Effect> {
+        self.calls.pop_front()
+    }
+
+    /// The steps carried out since the last call become records for the
+    /// mirror and settled steps ([`Self::poll_settled`]), in order.
+    pub fn settle(&mut self) {
+        for Done { settled, before } in std::mem::take(&mut self.done) {
+            if let (Some(d), Some(digest)) = (&mut self.downlink, &settled.digest) {
+                if let Some(inputs) = crate::mirror::step_inputs(
+                    &settled.input.as_supervisor(),
+                    &settled.step,
+                    &d.unread,
+                ) {
+                    d.publisher
+                        .step(settled.step.seq, before, settled.step.time, inputs, digest);
+                }
+            }
+            self.events += settled.step.events.len() as u64;
+            self.settled.push_back(settled);
+        }
+    }
+
+    /// The next step settled, to print and record.
+    pub fn poll_settled(&mut self) -> Option<Settled> {
+        self.settled.pop_front()
+    }
+
+    /// The downlink's heartbeat and snapshots when due at `now`, and every
+    /// packet the publisher has, queued for [`Self::poll_transmit`].
+    pub fn publish(&mut self, now: Micros) {
+        let me = self.crew.first().and_then(Commander::identity);
+        let link = self.crew.members().first().map_or(0, |m| m.link);
+        let (Some(d), Some(me)) = (&mut self.downlink, me) else {
+            return;
+        };
+        d.publisher.autopilot_clocks(self.supervisor.boots());
+        d.publisher
+            .tick(now, self.supervisor.seq(), self.supervisor.player());
+        while let Some(payload) = d.publisher.poll_transmit() {
+            self.downlink_out.push_back(Transmit::Downlink {
+                link,
+                from: me,
+                tunnel: Tunnel {
+                    payload_type: PAYLOAD_TYPE,
+                    target_system: d.mirror,
+                    target_component: 0,
+                    payload,
+                },
+            });
+        }
+    }
+
+    /// A vehicle's parameters judged (`[gateway.parameters]`): its index
+    /// in the crew and the verdict.
+    pub fn poll_parameters(&mut self) -> Option<(usize, Verdict)> {
+        self.crew.poll_parameters()
+    }
+
+    /// A mission upload or another exchange is under way.
+    pub fn busy(&self) -> bool {
+        self.crew.busy()
+    }
+
+    pub fn crew(&self) -> &Crew {
+        &self.crew
+    }
+
+    pub fn supervisor(&self) -> &Supervisor {
+        &self.supervisor
+    }
+
+    pub fn player(&self) -> &Player {
+        self.supervisor.player()
+    }
+
+    pub fn project(&self) -> &Arc<Project> {
+        &self.project
+    }
+
+    pub fn answers(&self) -> Option<&AnswerGate> {
+        self.answers.as_ref()
+    }
+
+    /// Steps the supervisor at `time` and carries out the step's effects
+    /// at `now`: commands go to the commanders (sent by the next
+    /// `poll_transmit`), calls to the queue; the digest is taken now, as
+    /// it must be.
+    fn feed(&mut self, now: Micros, time: Micros, input: Input) {
+        let before = self.supervisor.player().state().now;
+        let step = self.supervisor.step(time, input.as_supervisor());
+        for e in &step.effects {
+            self.effect(now, e);
+        }
+        for (_, effects) in &step.events {
+            for e in effects {
+                self.effect(now, e);
+            }
+        }
+        let published = self.downlink.is_some()
+            && (!step.events.is_empty()
+                || matches!(
+                    input,
+                    Input::Result { .. } | Input::Event(_) | Input::Answer { .. }
+                ));
+        let digest = (self.digests || published).then(|| self.supervisor.player().digest());
+        self.done.push(Done {
+            settled: Settled {
+                input,
+                step,
+                digest,
+            },
+            before,
+        });
+    }
+
+    fn effect(&mut self, now: Micros, effect: &Effect) {
+        match effect {
+            Effect::Command {
+                id,
+                verb,
+                args,
+                vehicle,
+                ..
+            } => self.crew.command(*id, *vehicle, verb, args, now),
+            Effect::Forgotten { id, .. } => {
+                self.crew.forget(*id);
+                self.calls.push_back(effect.clone());
+            }
+            Effect::Call { .. } => self.calls.push_back(effect.clone()),
+            _ => {}
+        }
+    }
+
+    /// A frame from the mirror: a resync request to the publisher, or an
+    /// operator's answer.
+    fn uplink(&mut self, now: Micros, bytes: &[u8], unix_us: u64) {
+        let me = self.crew.first().and_then(Commander::identity);
+        let (Some(d), Some(me)) = (&mut self.downlink, me) else {
+            return;
+        };
+        let Ok(frame) = elaboration::Frame::parse(bytes) else {
+            return;
+        };
+        if let Some(t) = Tunnel::from_frame(&frame) {
+            if (t.target_system, t.target_component) == me {
+                if crate::mirror::dialog::is_answer(&t.payload) {
+                    self.answer(now, bytes, unix_us);
+                } else {
+                    d.publisher.receive(&t.payload);
+                }
+            }
+        }
+    }
+
+    /// An operator's answer (mirror::dialog): judged by the gate, then, if
+    /// let through, an input of the player like any other (published down).
+    fn answer(&mut self, now: Micros, bytes: &[u8], unix_us: u64) {
+        let Some(gate) = &mut self.answers else {
+            tracing::warn!("an operator's answer rejected: no --operator-key");
+            return;
+        };
+        let (id, choice) = match gate.judge_bytes(bytes, unix_us) {
+            Ok(answer) => answer,
+            Err(why) => {
+                tracing::warn!("an operator's answer rejected: {}", why.as_str());
+                return;
+            }
+        };
+        self.feed(now, now, Input::Answer { id, choice });
+        let verdict = self
+            .done
+            .last()
+            .and_then(|d| crate::mirror::dialog::verdict(&d.settled.step.effects, id));
+        if let (Some(gate), Some(v)) = (&mut self.answers, verdict) {
+            gate.delivered(v);
+            if let Err(why) = v {
+                tracing::warn!("the operator's answer to #{id} refused: {}", why.as_str());
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "onboard_tests.rs"]
+mod tests;
