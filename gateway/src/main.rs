@@ -56,6 +56,7 @@ enum Verb {
     /// Copy a recording cut short (no summary, a torn last chunk) into a clean, indexed MCAP.
     Recover(cli::recover::Args),
     /// Fly the paper's UAV mission on a simulated ArduPlane with DEC, live.
+    #[cfg(feature = "demo")]
     Demo(cli::demo::Args),
 }
 
@@ -98,6 +99,7 @@ fn main() -> ExitCode {
         Verb::View(args) => cli::view::run(args),
         Verb::Edit(args) => cli::edit::run(args),
         Verb::Recover(args) => cli::recover::run(args),
+        #[cfg(feature = "demo")]
         Verb::Demo(args) => cli::demo::run(args),
     };
     match outcome {

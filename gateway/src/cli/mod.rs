@@ -4,10 +4,12 @@ use std::process::ExitCode;
 
 pub mod check;
 pub mod check_project;
+#[cfg(feature = "demo")]
 pub mod demo;
 pub mod draw;
 pub mod edit;
 pub mod events;
+pub mod examples;
 pub mod export;
 pub mod mirror;
 pub mod play;

@@ -31,7 +31,7 @@ pub struct Args {
         default_value = "uav-flight-test",
         conflicts_with = "project"
     )]
-    pub example: super::demo::Example,
+    pub example: super::examples::Example,
     /// Elaboration profile [default: the one recorded with the flight].
     #[arg(long)]
     pub profile: Option<String>,
@@ -60,7 +60,7 @@ pub fn run(args: Args) -> VerbResult {
     };
     let (dir, unpacked) = match &args.project {
         Some(d) => (d.clone(), false),
-        None => (super::demo::unpack(args.example)?, true),
+        None => (super::examples::unpack(args.example)?, true),
     };
     let opened = Instant::now();
     let history = index(&args, &dir);
