@@ -113,6 +113,17 @@ impl Value {
     }
 }
 
+/// Parameters as a JSON object, each value by [`Value::to_json`]: what the
+/// recordings, the timelines and the monitor write.
+pub fn params_json(params: &Params) -> serde_json::Value {
+    serde_json::Value::Object(
+        params
+            .iter()
+            .map(|(k, v)| (k.clone(), v.to_json()))
+            .collect(),
+    )
+}
+
 impl fmt::Display for Value {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {

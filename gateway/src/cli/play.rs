@@ -82,8 +82,7 @@ pub fn run(args: Args) -> VerbResult {
                     reply_name(to).to_string().trim_matches('"'),
                     Value::Map(p.clone())
                 );
-                let params: serde_json::Map<_, _> =
-                    p.iter().map(|(k, v)| (k.clone(), v.to_json())).collect();
+                let params = nets::value::params_json(p);
                 out.input(
                     line.time,
                     "reply",

@@ -1,10 +1,11 @@
 //! The timeline `play` and `replay` print: every input, then every effect it
 //! caused, with its time — as text for people or as JSON lines.
 
+use nets::value::params_json;
 use std::io::Write;
 
 use nets::player::{effect_json, effect_text};
-use nets::{Effect, Event, Micros, Params, Project};
+use nets::{Effect, Event, Micros, Project};
 use serde_json::{json, Value};
 
 /// Where and how a timeline is printed.
@@ -13,10 +14,6 @@ pub struct Timeline<W: Write> {
     pub json: bool,
     /// Times are printed relative to this instant (a log's first frame).
     pub origin: Micros,
-}
-
-fn params_json(p: &Params) -> Value {
-    Value::Object(p.iter().map(|(k, v)| (k.clone(), v.to_json())).collect())
 }
 
 impl<W: Write> Timeline<W> {

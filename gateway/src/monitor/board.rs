@@ -6,6 +6,7 @@
 //! supervisor's steps as the gateway (or a replay) makes them; it reads the
 //! player's state and never calls into it.
 
+use nets::value::params_json;
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 
@@ -472,10 +473,6 @@ impl Board {
         self.marking.locked.clone_from(&state.locked);
         self.marking.time = time;
     }
-}
-
-fn params_json(p: &nets::Params) -> Json {
-    Json::Object(p.iter().map(|(k, v)| (k.clone(), v.to_json())).collect())
 }
 
 #[cfg(test)]

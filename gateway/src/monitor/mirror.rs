@@ -323,9 +323,7 @@ impl Mirror {
             Side::Ground => "ground",
             Side::Vehicle => "vehicle",
         };
-        let params = |p: &nets::Params| -> Json {
-            Json::Object(p.iter().map(|(k, v)| (k.clone(), v.to_json())).collect())
-        };
+        let params = nets::value::params_json;
         let other = match d.seen_by {
             Side::Ground => Side::Vehicle,
             Side::Vehicle => Side::Ground,

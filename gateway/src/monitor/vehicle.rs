@@ -332,7 +332,7 @@ impl Vehicle {
         let Effect::Command { verb, args, .. } = effect else {
             return false;
         };
-        let args: Json = args.iter().map(|(k, v)| (k.clone(), v.to_json())).collect();
+        let args = nets::value::params_json(args);
         let before = self.strip.clone();
         match verb.as_str() {
             "upload_mission" => {

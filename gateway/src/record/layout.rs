@@ -2,6 +2,7 @@
 //! JSON of the inputs log. Written by `writer.rs`, read back by `read.rs`;
 //! documented in docs/recording.md.
 
+use nets::value::params_json;
 use nets::{Category, Event, Micros, Outcome, Params, Value};
 use serde_json::{json, Value as Json};
 
@@ -101,10 +102,6 @@ pub fn petrel_schema(topic: &str) -> (&'static str, &'static str) {
             r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"marked":{"type":"array","items":{"type":"string"}},"tokens":{"type":"integer"}}}"#,
         ),
     }
-}
-
-fn params_json(p: &Params) -> Json {
-    Json::Object(p.iter().map(|(k, v)| (k.clone(), v.to_json())).collect())
 }
 
 fn params_from(json: &Json) -> Option<Params> {

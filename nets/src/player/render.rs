@@ -2,6 +2,7 @@
 //! `petrel play`, `replay` and the recording all use these, so the same
 //! effect always reads the same.
 
+use crate::value::params_json;
 use serde_json::{json, Map, Value as Json};
 
 use super::effect::{Effect, Fault};
@@ -9,15 +10,6 @@ use super::flat_place_name;
 use crate::model::{NetId, Project, VehicleId};
 use crate::time::seconds;
 use crate::value::{fmt_params, Params};
-
-fn params_json(params: &Params) -> Json {
-    Json::Object(
-        params
-            .iter()
-            .map(|(k, v)| (k.clone(), v.to_json()))
-            .collect(),
-    )
-}
 
 fn net_name(project: &Project, n: NetId) -> &str {
     &project.nets[n].name
