@@ -2,8 +2,8 @@
 //! JSON of the inputs log. Written by `writer.rs`, read back by `read.rs`;
 //! documented in docs/recording.md.
 
-use nets::value::params_json;
-use nets::{Category, Event, Micros, Outcome, Params, Value};
+use nets::{Event, Micros, Outcome};
+use serde::Deserialize as _;
 use serde_json::{json, Value as Json};
 
 /// Every frame as received: a tlog record (8-byte big-endian receive time
@@ -104,42 +104,23 @@ pub fn petrel_schema(topic: &str) -> (&'static str, &'static str) {
     }
 }
 
-fn params_from(json: &Json) -> Option<Params> {
-    match json {
-        Json::Object(o) => o
-            .iter()
-            .map(|(k, v)| Some((k.clone(), Value::from_json(v)?)))
-            .collect(),
-        Json::Null => Some(Params::new()),
-        _ => None,
-    }
-}
-
-/// An outcome as JSON: `{"done": params}` or `{"failed": reason}`.
+/// An outcome as JSON: `{"done": params}` or `{"failed": reason}` (its
+/// serde form, read back by [`outcome_from`]).
 pub fn outcome_json(o: &Outcome) -> Json {
-    match o {
-        Outcome::Done(p) => json!({ "done": params_json(p) }),
-        Outcome::Failed(r) => json!({ "failed": r }),
-    }
+    serde_json::to_value(o).unwrap_or(Json::Null)
 }
 
 pub fn outcome_from(json: &Json) -> Option<Outcome> {
-    if let Some(p) = json.get("done") {
-        return params_from(p).map(Outcome::Done);
-    }
-    Some(Outcome::Failed(json.get("failed")?.as_str()?.to_owned()))
+    Outcome::deserialize(json).ok()
 }
 
+/// An event as JSON: `{"name", "category", "params"}` (its serde form).
 pub fn event_json(e: &Event) -> Json {
-    json!({"name": e.name, "category": e.category.as_str(), "params": params_json(&e.params)})
+    serde_json::to_value(e).unwrap_or(Json::Null)
 }
 
 pub fn event_from(json: &Json) -> Option<Event> {
-    Some(Event {
-        name: json.get("name")?.as_str()?.to_owned(),
-        category: json.get("category")?.as_str()?.parse::<Category>().ok()?,
-        params: params_from(json.get("params").unwrap_or(&Json::Null))?,
-    })
+    Event::deserialize(json).ok()
 }
 
 /// How a flight was elaborated, recorded with its start so that replay
@@ -322,6 +303,7 @@ pub fn input_with_setup(bytes: &[u8]) -> Option<((u64, Micros, Input), Option<Js
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nets::{Category, Value};
 
     #[test]
     fn inputs_round_trip_through_json() {

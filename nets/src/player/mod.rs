@@ -34,8 +34,10 @@ use crate::time::Micros;
 use crate::value::{Params, Value};
 use symbols::{EventInfo, Symbols};
 
-/// The outcome of a call or command, given back to the player.
-#[derive(Debug, Clone, PartialEq)]
+/// The outcome of a call or command, given back to the player. As JSON:
+/// `{"done": {params}}` or `{"failed": "reason"}`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Outcome {
     /// Done, with the result's parameters.
     Done(Params),
