@@ -5,7 +5,15 @@
 //! Every test that starts a SITL (ArduPilot or PX4) holds [`sitl_turn`]
 //! for as long as its SITLs run: one firmware at a time in this process,
 //! so that SITL instance numbers (TCP 5760 + 10 × instance) never clash
-//! and two simulations do not share the machine's cores.
+//! and two simulations do not share the machine's cores. The soak's
+//! flights (the simulated plane at 5-10×) take it too.
+//!
+//! ArduPilot SITL instances, each used by one module only (unique even
+//! without the lock): real_plane 0, real_failures 3 and 4, deploy 5,
+//! multi_vehicle 6 and 7, mirror_sitl 9 and 12, real_px4's ArduCopter 10
+//! and 13, signing 11, events 14, team 15 and 16. PX4 SITL takes its own
+//! instances 0-3 (sitl-tests' pool; ports 14540+, 18570+, apart from
+//! ArduPilot's).
 
 use std::sync::{Mutex, MutexGuard};
 
