@@ -171,6 +171,17 @@ impl Running {
     }
 }
 
+/// One mirrored flight or team drive at a time in a test binary (held
+/// until dropped): the machine has two cores, and each runs simulated
+/// vehicles, gateways and a program faster than real time; one slowed by
+/// another misses its deadlines. Poison is ignored (a failed test does not
+/// stop the others).
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+pub fn turn() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 pub fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0")
         .and_then(|l| l.local_addr())

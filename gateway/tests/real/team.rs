@@ -1,0 +1,268 @@
+//! One `petrel run` supervising a team of vehicles (docs/multi-vehicle.md,
+//! "A team"; docs/nets.md, "Teams of vehicles").
+//!
+//! The scripted tests need nothing: copters scripted on loopback UDP
+//! (HEARTBEATs changing mode after 1.5 s, armed once told to, every
+//! COMMAND_LONG answered by the vehicle it targets), first both behind one
+//! link (a router) with a third vehicle that is no vehicle of the team,
+//! then each on its own link. The project (`fixtures/team-scripted`): an
+//! ARM template arms each vehicle when it changes mode; a team net lands
+//! R2, and only R2, once both are armed. Asserted: every event is tagged
+//! with the vehicle whose system sent it, the outsider's frames are
+//! dropped and told once, every command went to the vehicle it names on
+//! that vehicle's link as that vehicle's component 191, the land command
+//! only after both armed, the commands' effects name their vehicle, and
+//! the recording replays with `--check-against`, its events qualified.
+//!
+//! The real test flies two ArduCopter SITLs behind MAVProxy (one link):
+//! a TAKEOFF template guides, arms and takes off each; once both are
+//! airborne the team net sends R2 home (RTL). It needs the SITL binaries
+//! (`../shared/ardupilot-sitl`) and `mavproxy.py`: without them it prints
+//! why and passes, except under `CI=true`, where it fails.
+
+use crate::scratch;
+
+use crate::harness;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use mavlink::dialects::ardupilotmega::MavCmd;
+use serde_json::Value;
+
+use harness::{free_udp_port, mavproxy_log, route, two_copters, Process, Router};
+use scratch::Scratch;
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+}
+
+/// `petrel run PROJECT --mavlink ADDRESS`, timeline to `dir/petrel.jsonl`,
+/// log to `dir/petrel.err`, recording to `dir/petrel.mcap`.
+fn petrel(project: &Path, address: &str, dir: &Path, time_scale: u32, limit: Duration) -> Process {
+    let file = |ext: &str| dir.join(format!("petrel.{ext}"));
+    Process::spawn(
+        "petrel",
+        Command::new(env!("CARGO_BIN_EXE_petrel"))
+            .arg("run")
+            .arg(project)
+            .args(["--mavlink", address, "--json"])
+            .args(["--time-scale", &time_scale.to_string()])
+            .args(["--duration", &limit.as_secs_f64().to_string()])
+            .arg("--record")
+            .arg(file("mcap"))
+            .stdout(std::fs::File::create(file("jsonl")).expect("timeline file"))
+            .stderr(std::fs::File::create(file("err")).expect("log file")),
+    )
+}
+
+/// The gateway's timeline (JSON lines) and log.
+struct Timeline {
+    lines: Vec<Value>,
+    log: String,
+}
+
+impl Timeline {
+    fn read(dir: &Path) -> Timeline {
+        Timeline::parse(
+            &std::fs::read_to_string(dir.join("petrel.jsonl")).unwrap_or_default(),
+            std::fs::read_to_string(dir.join("petrel.err")).unwrap_or_default(),
+        )
+    }
+
+    fn parse(text: &str, log: String) -> Timeline {
+        let lines = text
+            .lines()
+            .filter_map(|l| serde_json::from_str(l).ok())
+            .collect();
+        Timeline { lines, log }
+    }
+
+    /// Elaborated events: (name, sysid).
+    fn events(&self) -> Vec<(String, i64)> {
+        self.lines
+            .iter()
+            .filter(|l| l["input"] == "event")
+            .map(|l| {
+                (
+                    l["event"].as_str().unwrap_or("?").to_owned(),
+                    l["sysid"].as_i64().unwrap_or(-1),
+                )
+            })
+            .collect()
+    }
+
+    fn fired(&self, net: &str, transition: &str) -> bool {
+        self.lines
+            .iter()
+            .any(|l| l["effect"] == "fired" && l["net"] == net && l["transition"] == transition)
+    }
+
+    /// The command effects: (verb, vehicle).
+    fn commands(&self) -> Vec<(String, String)> {
+        self.lines
+            .iter()
+            .filter(|l| l["effect"] == "command")
+            .map(|l| {
+                (
+                    l["verb"].as_str().unwrap_or("?").to_owned(),
+                    l["vehicle"].as_str().unwrap_or("?").to_owned(),
+                )
+            })
+            .collect()
+    }
+
+    /// The timeline without markings, for failure messages.
+    fn decisions(&self) -> String {
+        let mut out = String::new();
+        for l in self.lines.iter().filter(|l| l["effect"] != "marking") {
+            out.push_str(&l.to_string());
+            out.push('\n');
+        }
+        format!("{out}{}", self.log)
+    }
+
+    /// Every event is qualified with the vehicle whose system sent it
+    /// (`R1` system 1, `R2` system 2); a ground station's are no vehicle's.
+    fn tagged_by_vehicle(&self) {
+        let events = self.events();
+        for system in [1, 2] {
+            assert!(
+                events.iter().any(|(_, s)| *s == system),
+                "no event of vehicle {system}\n{}",
+                self.decisions()
+            );
+        }
+        for (name, system) in &events {
+            let expected = match system {
+                1 => "@R1",
+                2 => "@R2",
+                _ => panic!("an event of system {system}: {name}"),
+            };
+            assert!(name.ends_with(expected), "{name} from system {system}");
+        }
+    }
+}
+
+/// `petrel replay RECORDING PROJECT --check-against --json`: its timeline,
+/// after asserting it agrees with the flight step for step.
+fn replay_agrees(dir: &Path, project: &Path) -> Timeline {
+    let replay = Command::new(env!("CARGO_BIN_EXE_petrel"))
+        .arg("replay")
+        .arg(dir.join("petrel.mcap"))
+        .arg(project)
+        .args(["--check-against", "--json"])
+        .output()
+        .expect("petrel replay");
+    let stderr = String::from_utf8_lossy(&replay.stderr).into_owned();
+    assert!(
+        replay.status.success(),
+        "the team's recording does not replay:\n{stderr}"
+    );
+    assert!(stderr.contains("match the recording"), "{stderr}");
+    Timeline::parse(&String::from_utf8_lossy(&replay.stdout), stderr)
+}
+
+/// SITL's --speedup, and the gateway's --time-scale.
+const SPEEDUP: u32 = 5;
+/// Wall-clock bound on the flight (boot, EKF, both takeoffs, RTL).
+const LIMIT: Duration = Duration::from_secs(180);
+
+#[test]
+fn two_real_copters_take_off_under_one_petrel_and_r2_alone_is_sent_home() {
+    // One SITL at a time in this binary (real/main.rs).
+    let _turn = crate::sitl_turn();
+    let test = "two_real_copters_take_off_under_one_petrel_and_r2_alone_is_sent_home";
+    let started = Instant::now();
+    let tmp = Scratch::new("team");
+    let dir = tmp.path();
+    let Some((mavproxy, sitl1, sitl2)) = two_copters(test, 15, SPEEDUP, dir) else {
+        return;
+    };
+    let project = fixture("team-copters");
+    let port = free_udp_port();
+    let mut gw = petrel(
+        &project,
+        &format!("udpin:127.0.0.1:{port}"),
+        dir,
+        SPEEDUP,
+        LIMIT,
+    );
+    let router_log = dir.join("router.tlog");
+    let mut router = route(&mavproxy, [&sitl1, &sitl2], &[port], dir);
+    let flew = loop {
+        if Timeline::read(dir).fired("TEAM", "r2_going_home") {
+            // Time for RTL to show in the router's log.
+            std::thread::sleep(Duration::from_secs(2));
+            break true;
+        }
+        if started.elapsed() > LIMIT || !gw.running() || !router.running() {
+            break false;
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    gw.stop();
+    router.stop();
+    drop((sitl1, sitl2));
+    let t = Timeline::read(dir);
+    let routed = Router::read(&router_log);
+    eprintln!(
+        "{test}: {:.1} s of wall time; climbed to {:.1} m (R1) and {:.1} m (R2); {} commands through the router",
+        started.elapsed().as_secs_f64(),
+        routed.max_alt[1],
+        routed.max_alt[2],
+        routed.commands.len()
+    );
+    assert!(
+        flew,
+        "the team never got both airborne and R2 home within {LIMIT:?}\n{}\nMAVProxy:\n{}",
+        t.decisions(),
+        mavproxy_log(dir)
+    );
+    t.tagged_by_vehicle();
+    for net in ["TAKEOFF@R1", "TAKEOFF@R2"] {
+        assert!(
+            t.fired(net, "airborne") || t.fired(net, "airborne_late"),
+            "{net}"
+        );
+    }
+    // The router's view: every command Petrel sent (component 191) went to
+    // the system it speaks as; both were told to arm and armed after it;
+    // RTL (NAV_RETURN_TO_LAUNCH) went to vehicle 2 only.
+    let ours: Vec<_> = routed.commands.iter().filter(|c| c.2 == 191).collect();
+    for c in &ours {
+        assert_eq!(
+            c.1, c.3,
+            "Petrel commanded another vehicle as this one: {c:?}"
+        );
+    }
+    for v in [1u8, 2] {
+        let arm = ours
+            .iter()
+            .find(|c| c.3 == v && c.4 == MavCmd::MAV_CMD_COMPONENT_ARM_DISARM && c.5 == 1.0)
+            .unwrap_or_else(|| panic!("no arm command to vehicle {v}"));
+        let armed = routed.first_armed[usize::from(v)].expect("armed");
+        assert!(armed > arm.0, "vehicle {v} armed before it was told to");
+        assert!(routed.max_alt[usize::from(v)] > 3.0, "vehicle {v} climbed");
+    }
+    let rtl: Vec<_> = t
+        .commands()
+        .into_iter()
+        .filter(|(verb, _)| verb == "rtl")
+        .collect();
+    assert_eq!(rtl, [("rtl".to_owned(), "R2".to_owned())]);
+    let home: Vec<u8> = ours
+        .iter()
+        .filter(|c| c.4 == MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH)
+        .map(|c| c.3)
+        .collect();
+    assert!(
+        !home.is_empty() && home.iter().all(|&v| v == 2),
+        "RTL to R2 only: {ours:?}"
+    );
+    let replayed = replay_agrees(dir, &project);
+    replayed.tagged_by_vehicle();
+}
