@@ -36,6 +36,10 @@ pub struct Elaborated {
     pub event: Event,
     pub sysid: u8,
     pub compid: u8,
+    /// The rule that fired it: its index in the profile
+    /// ([`crate::Profile::rule_needs`] tells what it read); `None` when
+    /// rebuilt from a record.
+    pub rule: Option<usize>,
 }
 
 /// How the elaborator finds the vehicle and paces its timers.
@@ -597,6 +601,7 @@ impl Elaborator {
             sysid,
             compid,
             boot_us,
+            rule: Some(r),
         });
         if reboot {
             self.forget_boot(si, slot);
@@ -721,6 +726,7 @@ impl Elaborator {
                 sysid,
                 compid,
                 boot_us,
+                rule: Some(r),
             });
         }
         if clear_fire {
@@ -737,6 +743,7 @@ impl Elaborator {
                     sysid,
                     compid,
                     boot_us,
+                    rule: Some(r),
                 });
             }
         }

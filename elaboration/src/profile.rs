@@ -396,6 +396,29 @@ impl Profile {
     /// link when it happens, its absence is no blindness.
     pub fn event_needs(&self) -> Vec<(&str, Vec<Needs>)> {
         let state = self.telemetry();
+        let mut out: Vec<(&str, Vec<Needs>)> = Vec::new();
+        for r in 0..self.rules.len() {
+            let names = self.needs_of(r, &state);
+            for (name, needs) in names {
+                match out.iter_mut().find(|(n, _)| *n == name) {
+                    Some((_, v)) => v.push(needs),
+                    None => out.push((name, vec![needs])),
+                }
+            }
+        }
+        out
+    }
+
+    /// What rule `index` depends on, for each event it produces (its own,
+    /// then its `cleared` event's): [`Self::event_needs`] for one rule.
+    pub fn rule_needs(&self, index: usize) -> Vec<(&str, Needs)> {
+        if index >= self.rules.len() {
+            return Vec::new();
+        }
+        self.needs_of(index, &self.telemetry())
+    }
+
+    fn needs_of(&self, index: usize, state: &[u32]) -> Vec<(&str, Needs)> {
         let ids = |slots: &[usize]| -> Vec<u32> {
             let mut v: Vec<u32> = slots
                 .iter()
@@ -407,54 +430,46 @@ impl Profile {
             v.dedup();
             v
         };
-        let mut out: Vec<(&str, Vec<Needs>)> = Vec::new();
-        for r in &self.rules {
-            let when_fields = [
-                r.when.reads.as_slice(),
-                r.when.seen.as_slice(),
-                r.on.as_deref().unwrap_or_default(),
-            ]
-            .concat();
-            let rule = Needs {
-                fields: ids(&when_fields),
-                ages: ids(&r.when.ages)
-                    .into_iter()
-                    .filter(|id| !ids(&when_fields).contains(id))
-                    .collect(),
-                hold_us: r.for_us,
-            };
-            let mut names = vec![(r.event.as_str(), rule.clone())];
-            if let Some((cleared, _)) = &r.cleared {
-                // Cleared by `clear` (or `when` turning false): both read.
-                let mut fields = rule.fields.clone();
-                let mut ages = rule.ages.clone();
-                if let Some(c) = &r.clear {
-                    fields.extend(ids(&c.reads));
-                    fields.extend(ids(&c.seen));
-                    ages.extend(ids(&c.ages));
-                }
-                fields.sort_unstable();
-                fields.dedup();
-                ages.retain(|id| !fields.contains(id));
-                ages.sort_unstable();
-                ages.dedup();
-                names.push((
-                    cleared.as_str(),
-                    Needs {
-                        fields,
-                        ages,
-                        hold_us: r.clear_for_us,
-                    },
-                ));
+        let r = &self.rules[index];
+        let when_fields = [
+            r.when.reads.as_slice(),
+            r.when.seen.as_slice(),
+            r.on.as_deref().unwrap_or_default(),
+        ]
+        .concat();
+        let rule = Needs {
+            fields: ids(&when_fields),
+            ages: ids(&r.when.ages)
+                .into_iter()
+                .filter(|id| !ids(&when_fields).contains(id))
+                .collect(),
+            hold_us: r.for_us,
+        };
+        let mut names = vec![(r.event.as_str(), rule.clone())];
+        if let Some((cleared, _)) = &r.cleared {
+            // Cleared by `clear` (or `when` turning false): both read.
+            let mut fields = rule.fields.clone();
+            let mut ages = rule.ages.clone();
+            if let Some(c) = &r.clear {
+                fields.extend(ids(&c.reads));
+                fields.extend(ids(&c.seen));
+                ages.extend(ids(&c.ages));
             }
-            for (name, needs) in names {
-                match out.iter_mut().find(|(n, _)| *n == name) {
-                    Some((_, v)) => v.push(needs),
-                    None => out.push((name, vec![needs])),
-                }
-            }
+            fields.sort_unstable();
+            fields.dedup();
+            ages.retain(|id| !fields.contains(id));
+            ages.sort_unstable();
+            ages.dedup();
+            names.push((
+                cleared.as_str(),
+                Needs {
+                    fields,
+                    ages,
+                    hold_us: r.clear_for_us,
+                },
+            ));
         }
-        out
+        names
     }
 
     /// The events this profile elaborates only from frames addressed to one

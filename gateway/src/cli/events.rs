@@ -258,6 +258,7 @@ mod tests {
             sysid: 1,
             compid: 1,
             boot_us: None,
+            rule: None,
         };
         let j = json_line(&e, 1_000_000);
         assert_eq!(

@@ -127,7 +127,7 @@ pub struct Ground {
     foreign: BTreeMap<u8, u64>,
     /// Those not said yet.
     unsaid: VecDeque<u8>,
-    elaborated: Vec<Elaborated>,
+    pub(super) elaborated: Vec<Elaborated>,
     /// Ground events elaborated before the vehicle's time base was known
     /// (before the downlink's first heartbeat): judged once it is, with
     /// their autopilot time and whether the ground could observe them.
@@ -135,6 +135,9 @@ pub struct Ground {
     /// Each lane's events and what each of their rules depends on
     /// (`Profile::event_needs`), by unqualified name.
     needs: Vec<Vec<(String, Vec<Needs>)>>,
+    /// Each lane's rules, by index in its profile: what each of the
+    /// events it produces depends on (`Profile::rule_needs`).
+    rules: Vec<Vec<Vec<(String, Needs)>>>,
     /// Events the ground elaborated.
     pub events: u64,
     /// The check's window.
@@ -175,6 +178,20 @@ impl Ground {
                     .collect()
             })
             .collect();
+        let rules = lanes
+            .iter()
+            .map(|l| {
+                (0..l.profile.rules().len())
+                    .map(|r| {
+                        l.profile
+                            .rule_needs(r)
+                            .into_iter()
+                            .map(|(name, needs)| (name.to_owned(), needs))
+                            .collect()
+                    })
+                    .collect()
+            })
+            .collect();
         Ground {
             lanes: Lanes::new(lanes),
             watches,
@@ -185,6 +202,7 @@ impl Ground {
             elaborated: Vec::new(),
             untimed: VecDeque::new(),
             needs,
+            rules,
             events: 0,
             window,
         }
@@ -380,9 +398,8 @@ impl Ground {
         for e in elaborated.drain(..) {
             self.events += 1;
             seen(&e.event);
-            let observable = self.observable(e.time_us, &e.event)
-                && !self.late(&e.event)
-                && !self.stale(e.time_us, &e.event);
+            let observable =
+                self.observable(e.time_us, &e.event) && !self.late(&e.event) && !self.stale(&e);
             match to_vehicle(e.time_us) {
                 Some(t) => self.judge_later(Side::Ground, t, e.boot_us, observable, &e.event),
                 None => {
@@ -418,26 +435,34 @@ impl Ground {
             .is_some_and(|(_, rules)| rules.iter().any(|r| r.fields.contains(&id)))
     }
 
-    /// Whether every rule producing `event` read a stale sample at `now`
-    /// (`Watch::stale`): the ground's state was a mix of old and new
-    /// samples (ArduPlane's ESC telemetry from before a throttle step,
-    /// beside the throttle after it, held 2 s while the ESC frames were
-    /// lost: an `engine_failure` the vehicle never had), judged as one the
-    /// ground cannot observe.
-    fn stale(&self, now: Micros, event: &Event) -> bool {
-        let i = self.lane_of_event(event);
-        let name = nets::model::split_vehicle(&event.name).0;
+    /// Whether the rule that produced `e` read a stale sample when it
+    /// fired (`Watch::stale`, from the condition's onset for a rule with a
+    /// duration): the ground's state was a mix of old and new samples
+    /// (ArduPlane's ESC telemetry from before a throttle step, beside the
+    /// throttle after it, held 2 s while the ESC frames were lost: an
+    /// `engine_failure` the vehicle never had), judged as one the ground
+    /// cannot observe. Without the rule (an event rebuilt from a record),
+    /// whether every rule producing its event read one.
+    pub(super) fn stale(&self, e: &Elaborated) -> bool {
+        let now = e.time_us;
+        let i = self.lane_of_event(&e.event);
+        let name = nets::model::split_vehicle(&e.event.name).0;
         let w = &self.watches[i];
-        self.needs[i]
-            .iter()
-            .find(|(n, _)| n == name)
-            .is_some_and(|(_, rules)| {
-                !rules.is_empty()
-                    && rules.iter().all(|r| {
-                        let onset = now.saturating_sub(r.hold_us);
-                        r.fields.iter().any(|id| w.stale(*id, now, onset))
-                    })
-            })
+        let read_stale = |r: &Needs| {
+            let onset = now.saturating_sub(r.hold_us);
+            r.fields.iter().any(|id| w.stale(*id, now, onset))
+        };
+        let fired = e
+            .rule
+            .and_then(|r| self.rules[i].get(r))
+            .and_then(|events| events.iter().find(|(n, _)| n == name));
+        match fired {
+            Some((_, needs)) => read_stale(needs),
+            None => self.needs[i]
+                .iter()
+                .find(|(n, _)| n == name)
+                .is_some_and(|(_, rules)| !rules.is_empty() && rules.iter().all(read_stale)),
+        }
     }
 
     /// An event the vehicle published (elaborated on board), at its time

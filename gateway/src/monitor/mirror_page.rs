@@ -198,6 +198,7 @@ fn played(board: &mut Board, report: &Report, player: &nets::Player) {
                     sysid: 0,
                     compid: 0,
                     boot_us: None,
+                    rule: None,
                 };
                 (
                     Input::Tick,

@@ -832,3 +832,108 @@ fn a_sample_is_stale_past_two_periods_and_a_second_or_overdue_since_the_onset() 
     assert!(!w.stale(heartbeat_id, 7_500_000, 6_000_000));
     assert!(!w.stale(heartbeat_id, 6_900_000, 6_500_000));
 }
+
+/// A plane's telemetry at 1 Hz through `until` (seconds): heartbeat,
+/// throttle, ESC telemetry; armed with the throttle at 72 % from 10 s; the
+/// ESC's rpm `rpm(second)`, its frame lost when `None`. Ticks every
+/// 100 ms. The `engine_failure` events the ground elaborated, with
+/// whether it judges each stale.
+fn plane_throttle_step(rpm: impl Fn(u64) -> Option<f32>, until: u64) -> Vec<(Micros, bool)> {
+    use mavlink::dialects::ardupilotmega::{ESC_TELEMETRY_1_TO_4_DATA, VFR_HUD_DATA};
+    let (project, profile) = crate::mirror::tests::example();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-flight-test");
+    let lanes = crate::team::lanes(
+        &project,
+        &dir,
+        &profile,
+        "ardupilot",
+        &elaboration::Config::default(),
+    )
+    .expect("lanes");
+    let mut g = Ground::new(lanes, WINDOW);
+    let mut seq = 0u8;
+    let mut frame = |m: MavMessage| {
+        seq = seq.wrapping_add(1);
+        let header = MavHeader {
+            system_id: 1,
+            component_id: 1,
+            sequence: seq,
+        };
+        elaboration::frame::serialize(header, MavlinkVersion::V2, &m)
+    };
+    let mut fired = Vec::new();
+    let mut take = |g: &mut Ground| {
+        for e in std::mem::take(&mut g.elaborated) {
+            if e.event.name == "engine_failure" {
+                fired.push((e.time_us, g.stale(&e)));
+            }
+        }
+    };
+    for tenth in 0..until * 10 {
+        let now = tenth * 100_000;
+        if tenth % 10 == 0 {
+            let second = tenth / 10;
+            let armed = second >= 10;
+            let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+            if armed {
+                base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+            }
+            let mut frames = vec![
+                frame(MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                    custom_mode: 10,
+                    mavtype: MavType::MAV_TYPE_FIXED_WING,
+                    autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+                    base_mode,
+                    system_status: MavState::MAV_STATE_ACTIVE,
+                    mavlink_version: 3,
+                })),
+                frame(MavMessage::VFR_HUD(VFR_HUD_DATA {
+                    throttle: if armed { 72 } else { 0 },
+                    ..Default::default()
+                })),
+            ];
+            if let Some(r) = rpm(second) {
+                frames.push(frame(MavMessage::ESC_TELEMETRY_1_TO_4(
+                    ESC_TELEMETRY_1_TO_4_DATA {
+                        rpm: [0, 0, r as u16, 0],
+                        count: [0, 0, 50 * second as u16 + 1, 0],
+                        ..Default::default()
+                    },
+                )));
+            }
+            for bytes in frames {
+                let f = Frame::parse(&bytes).expect("a frame");
+                g.heard(now, &f, same);
+                g.elaborate(now, &f);
+                take(&mut g);
+            }
+        }
+        g.tick(now + 50_000);
+        take(&mut g);
+    }
+    fired
+}
+
+/// The rule that fired is the one judged: the ESC rule's condition
+/// resting on the ESC sample from before the throttle step (its next two
+/// frames lost: CI's real ArduPlane flights at 10 % loss, on the takeoff
+/// roll and on an approach) is stale, whatever the other rules producing
+/// `engine_failure` read (the text rule reads no streamed state and was
+/// never stale: the check judged every such event); a real failure, the
+/// ESC saying 0 rpm every second, is judged.
+#[test]
+fn an_event_is_judged_stale_by_the_rule_that_fired_it() {
+    let lost = plane_throttle_step(
+        |s| match s {
+            10 | 11 => None,
+            s if s >= 12 => Some(7000.0),
+            _ => Some(0.0),
+        },
+        14,
+    );
+    assert_eq!(lost.len(), 1, "{lost:?}");
+    assert!(lost[0].1, "judged stale: {lost:?}");
+    let real = plane_throttle_step(|_| Some(0.0), 14);
+    assert_eq!(real.len(), 1, "{real:?}");
+    assert!(!real[0].1, "judged: {real:?}");
+}
