@@ -8,14 +8,12 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::skip;
 use nets::verify::explore::{explore, Completion, Loops, Options};
 use nets::verify::pnml::read_ptnet;
 use nets::verify::ptnet::PtNet;
 use nets::verify::reference::explore_reference;
 use proptest::prelude::*;
-
-#[path = "../../sitl-tests/src/skip.rs"]
-mod skip;
 
 /// `../shared/pnml` beside the workspace, or `None` (with the reason
 /// printed) when it is absent outside CI.

@@ -2,12 +2,11 @@
 //! The expected firings are written here by hand from the nets, not
 //! regenerated from the player's output.
 
-mod common;
-
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use crate::common;
 use nets::player::{DropReason, Effect};
 use nets::{script, Category, Player, Project, Value};
 

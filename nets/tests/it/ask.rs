@@ -1,11 +1,9 @@
 //! The operator dialog in the player: `ask NAME "QUESTION" {choices: [..]}
 //! timeout DURATION` (docs/nets.md, "Asking the operator").
 
-mod common;
-
 use std::sync::Arc;
 
-use common::*;
+use crate::common::*;
 use nets::player::{snapshot, AnswerRefusal, DropReason, Effect, Player};
 use nets::{Event, Project};
 

@@ -2,8 +2,7 @@
 //! warnings, and a project whose player semantics reach less than the plain
 //! token game.
 
-mod common;
-
+use crate::common;
 use nets::verify::explore::{explore, Options as PtOptions};
 use nets::verify::project::{
     check, compare_steps, token_game, Options, ProjectReport, Report, Steps,

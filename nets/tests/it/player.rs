@@ -1,11 +1,9 @@
 //! One test (at least) for every rule of the player (docs/nets.md, "How the
 //! player plays").
 
-mod common;
-
 use std::sync::Arc;
 
-use common::*;
+use crate::common::*;
 use nets::player::{DropReason, Effect, Fault, Outcome, Player};
 use nets::{Category, Event, Params, Value};
 

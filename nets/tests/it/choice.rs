@@ -4,8 +4,7 @@
 //! ranks and conflicts that never arise are not warned about; every other
 //! conflict is.
 
-mod common;
-
+use crate::common;
 use nets::verify::project::{check, Options};
 use nets::{Event, Player};
 

@@ -1,8 +1,7 @@
 //! `petrel check` and the operator dialog: every outcome of every question
 //! (each choice, and the timeout) is explored.
 
-mod common;
-
+use crate::common;
 use nets::verify::project::{check, Options, ProjectReport};
 
 fn survey(on_yes: &str, on_no: &str, on_timeout: &str) -> ProjectReport {

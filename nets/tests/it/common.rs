@@ -1,7 +1,5 @@
 //! Helpers shared by the nets integration tests.
 
-#![allow(dead_code)]
-
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
