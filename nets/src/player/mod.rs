@@ -7,7 +7,7 @@
 //! give the same effects and the same [`Player::digest`], bit for bit.
 //!
 //! The rules it keeps are written in `docs/nets.md` ("How the player
-//! plays"); each has a test in `nets/tests/player.rs`.
+//! plays"); each has a test in `nets/tests/it/player.rs`.
 
 mod digest;
 mod effect;
