@@ -7,12 +7,16 @@
 // Shared with the other test binaries of gateway (and sitl-tests' scratch).
 #[path = "../scenarios/flight.rs"]
 mod flight;
+#[path = "../support/gateways.rs"]
+mod gateways;
 #[path = "../support/harness.rs"]
 mod harness;
 #[path = "../mirror/router.rs"]
 mod router;
 #[path = "../support/scratch.rs"]
 mod scratch;
+#[path = "../support/team_run.rs"]
+mod team_run;
 #[path = "../support/ugv_team.rs"]
 mod ugv_team;
 #[path = "../support/wire.rs"]

@@ -19,10 +19,14 @@ use std::sync::{Mutex, MutexGuard};
 
 #[path = "../scenarios/flight.rs"]
 mod flight;
+#[path = "../support/gateways.rs"]
+mod gateways;
 #[path = "../support/harness.rs"]
 mod harness;
 #[path = "../support/scratch.rs"]
 mod scratch;
+#[path = "../support/team_run.rs"]
+mod team_run;
 #[path = "../support/wire.rs"]
 mod wire;
 
