@@ -62,7 +62,7 @@ pub struct Reduction {
     /// Why a reduction asked for did not run.
     pub notes: Vec<String>,
     /// States of the same project explored without reduction, when asked
-    /// ([`Options::compare_unreduced`]).
+    /// ([`super::project::Options::compare_unreduced`]).
     pub unreduced_states: Option<usize>,
 }
 
