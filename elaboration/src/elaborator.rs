@@ -37,7 +37,7 @@ pub struct Elaborated {
     pub sysid: u8,
     pub compid: u8,
     /// The rule that fired it: its index in the profile
-    /// ([`crate::Profile::rule_needs`] tells what it read); `None` when
+    /// ([`crate::Profile::rules_needs`] tells what it read); `None` when
     /// rebuilt from a record.
     pub rule: Option<usize>,
 }

@@ -395,27 +395,24 @@ impl Profile {
     /// count: an event message (STATUSTEXT, COMMAND_ACK) comes to every
     /// link when it happens, its absence is no blindness.
     pub fn event_needs(&self) -> Vec<(&str, Vec<Needs>)> {
-        let state = self.telemetry();
         let mut out: Vec<(&str, Vec<Needs>)> = Vec::new();
-        for r in 0..self.rules.len() {
-            let names = self.needs_of(r, &state);
-            for (name, needs) in names {
-                match out.iter_mut().find(|(n, _)| *n == name) {
-                    Some((_, v)) => v.push(needs),
-                    None => out.push((name, vec![needs])),
-                }
+        for (name, needs) in self.rules_needs().into_iter().flatten() {
+            match out.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, v)) => v.push(needs),
+                None => out.push((name, vec![needs])),
             }
         }
         out
     }
 
-    /// What rule `index` depends on, for each event it produces (its own,
-    /// then its `cleared` event's): [`Self::event_needs`] for one rule.
-    pub fn rule_needs(&self, index: usize) -> Vec<(&str, Needs)> {
-        if index >= self.rules.len() {
-            return Vec::new();
-        }
-        self.needs_of(index, &self.telemetry())
+    /// What each rule depends on, by its index in the profile (the index
+    /// [`crate::Elaborated::rule`] gives), for each event it produces: its
+    /// own, then its `cleared` event's.
+    pub fn rules_needs(&self) -> Vec<Vec<(&str, Needs)>> {
+        let state = self.telemetry();
+        (0..self.rules.len())
+            .map(|r| self.needs_of(r, &state))
+            .collect()
     }
 
     fn needs_of(&self, index: usize, state: &[u32]) -> Vec<(&str, Needs)> {

@@ -136,7 +136,7 @@ pub struct Ground {
     /// (`Profile::event_needs`), by unqualified name.
     needs: Vec<Vec<(String, Vec<Needs>)>>,
     /// Each lane's rules, by index in its profile: what each of the
-    /// events it produces depends on (`Profile::rule_needs`).
+    /// events it produces depends on (`Profile::rules_needs`).
     rules: Vec<Vec<Vec<(String, Needs)>>>,
     /// Events the ground elaborated.
     pub events: u64,
@@ -168,6 +168,21 @@ impl Ground {
             .iter()
             .map(|l| Check::new(window).with_addressed(l.profile.addressed_events()))
             .collect();
+        let rules: Vec<Vec<Vec<(String, Needs)>>> = lanes
+            .iter()
+            .map(|l| {
+                l.profile
+                    .rules_needs()
+                    .into_iter()
+                    .map(|events| {
+                        events
+                            .into_iter()
+                            .map(|(name, needs)| (name.to_owned(), needs))
+                            .collect()
+                    })
+                    .collect()
+            })
+            .collect();
         let needs = lanes
             .iter()
             .map(|l| {
@@ -175,20 +190,6 @@ impl Ground {
                     .event_needs()
                     .into_iter()
                     .map(|(name, needs)| (name.to_owned(), needs))
-                    .collect()
-            })
-            .collect();
-        let rules = lanes
-            .iter()
-            .map(|l| {
-                (0..l.profile.rules().len())
-                    .map(|r| {
-                        l.profile
-                            .rule_needs(r)
-                            .into_iter()
-                            .map(|(name, needs)| (name.to_owned(), needs))
-                            .collect()
-                    })
                     .collect()
             })
             .collect();
