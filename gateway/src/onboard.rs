@@ -27,7 +27,7 @@ use crate::link::signing::Key;
 use crate::link::Received;
 use crate::mirror::dialog::AnswerGate;
 use crate::mirror::publisher::{Config as PublisherConfig, Publisher};
-use crate::mirror::tunnel::{Tunnel, PAYLOAD_TYPE};
+use crate::mirror::tunnel::Tunnel;
 use crate::mirror::Unread;
 use crate::supervisor::{self, Step, Supervisor};
 use crate::vehicle::commander::Commander;
@@ -157,7 +157,6 @@ struct Downlink {
 
 /// The gateway's state on board.
 pub struct Onboard {
-    project: Arc<Project>,
     supervisor: Supervisor,
     crew: Crew,
     downlink: Option<Downlink>,
@@ -187,7 +186,6 @@ impl Onboard {
         digests: bool,
     ) -> Onboard {
         Onboard {
-            project: supervisor.player().project().clone(),
             supervisor,
             crew,
             downlink: downlink.map(|d| Downlink {
@@ -341,12 +339,7 @@ impl Onboard {
             self.downlink_out.push_back(Transmit::Downlink {
                 link,
                 from: me,
-                tunnel: Tunnel {
-                    payload_type: PAYLOAD_TYPE,
-                    target_system: d.mirror,
-                    target_component: 0,
-                    payload,
-                },
+                tunnel: Tunnel::petrel((d.mirror, 0), payload),
             });
         }
     }
@@ -375,7 +368,7 @@ impl Onboard {
     }
 
     pub fn project(&self) -> &Arc<Project> {
-        &self.project
+        self.supervisor.player().project()
     }
 
     pub fn answers(&self) -> Option<&AnswerGate> {

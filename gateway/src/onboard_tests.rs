@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkVersion};
+use mavlink::{MavHeader, MavlinkVersion};
 
 use super::*;
 use crate::mirror::station::{Config as StationConfig, Output, Station};
@@ -71,17 +71,6 @@ fn project(dir: &Path) -> (Arc<Project>, Vec<supervisor::Lane>) {
     (project, lanes)
 }
 
-fn tunnel_frame(from: (u8, u8), tunnel: &Tunnel) -> Vec<u8> {
-    let header = MavHeader {
-        system_id: u32::from(from.0),
-        component_id: from.1,
-        sequence: 0,
-    };
-    let mut raw = MAVLinkV2MessageRaw::new();
-    raw.serialize_message_data(header, tunnel);
-    raw.raw_bytes().to_vec()
-}
-
 #[test]
 fn a_flight_in_simulated_time_takes_off_and_the_station_follows_it_exactly() {
     let dir = tempfile::tempdir().expect("a folder");
@@ -144,13 +133,8 @@ fn a_flight_in_simulated_time_takes_off_and_the_station_follows_it_exactly() {
         }
         // What goes up from the ground: to the onboard gateway's link.
         while let Some((to, request)) = station.poll_transmit() {
-            let tunnel = Tunnel {
-                payload_type: PAYLOAD_TYPE,
-                target_system: to.0,
-                target_component: to.1,
-                payload: request.bytes().to_vec(),
-            };
-            let bytes = tunnel_frame((MIRROR_SYSTEM, 190), &tunnel);
+            let bytes = Tunnel::petrel(to, request.bytes().to_vec())
+                .unsigned_frame((MIRROR_SYSTEM, 190), 0);
             let header = MavHeader {
                 system_id: u32::from(MIRROR_SYSTEM),
                 component_id: 190,
@@ -177,7 +161,7 @@ fn a_flight_in_simulated_time_takes_off_and_the_station_follows_it_exactly() {
                         sim.handle(t, &header, &c.message);
                     }
                     Transmit::Downlink { from, tunnel, .. } => {
-                        station.handle_frame(t, &tunnel_frame(from, &tunnel), UNIX + t);
+                        station.handle_frame(t, &tunnel.unsigned_frame(from, 0), UNIX + t);
                     }
                 }
             }

@@ -168,12 +168,7 @@ pub fn answer_frame(
     answer: &Record,
     unix_us: u64,
 ) -> MAVLinkV2MessageRaw {
-    let tunnel = Tunnel {
-        payload_type: PAYLOAD_TYPE,
-        target_system: to.0,
-        target_component: to.1,
-        payload: record::packet(std::slice::from_ref(answer)),
-    };
+    let tunnel = Tunnel::petrel(to, record::packet(std::slice::from_ref(answer)));
     let header = MavHeader {
         system_id: from.0.into(),
         component_id: from.1,

@@ -379,13 +379,12 @@ mod tests {
     //! `Publisher` on board, their records as the TUNNEL frames the radio
     //! carries, lost by a rule; no socket, no clock.
 
-    use mavlink::{MAVLinkV2MessageRaw, MavHeader};
+    use mavlink::MavHeader;
     use nets::Event;
 
     use super::*;
     use crate::link::signing::Signer;
     use crate::mirror::publisher::{self, Publisher};
-    use crate::mirror::tunnel::PAYLOAD_TYPE;
     use crate::mirror::{step_inputs, Unread, COMPANION, MIRROR_SYSTEM};
     use crate::supervisor::{Input as SupervisorInput, Supervisor};
 
@@ -415,12 +414,7 @@ mod tests {
 
     /// A downlink packet as the onboard gateway frames it, to `to`.
     fn frame(seq: u8, to: u8, packet: &[u8], signer: Option<&mut Signer>, unix: u64) -> Vec<u8> {
-        let tunnel = Tunnel {
-            payload_type: PAYLOAD_TYPE,
-            target_system: to,
-            target_component: 0,
-            payload: packet.to_vec(),
-        };
+        let tunnel = Tunnel::petrel((to, 0), packet.to_vec());
         let header = MavHeader {
             system_id: u32::from(VEHICLE.0),
             component_id: VEHICLE.1,
@@ -428,11 +422,7 @@ mod tests {
         };
         match signer {
             Some(s) => s.sign_data(header, &tunnel, unix).raw_bytes().to_vec(),
-            None => {
-                let mut raw = MAVLinkV2MessageRaw::new();
-                raw.serialize_message_data(header, &tunnel);
-                raw.raw_bytes().to_vec()
-            }
+            None => tunnel.unsigned_frame(VEHICLE, seq),
         }
     }
 

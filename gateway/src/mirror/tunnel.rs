@@ -88,6 +88,30 @@ impl MessageData for Tunnel {
 }
 
 impl Tunnel {
+    /// Petrel's records `payload` for (`system`, `component`).
+    pub fn petrel(to: (u8, u8), payload: Vec<u8>) -> Tunnel {
+        Tunnel {
+            payload_type: PAYLOAD_TYPE,
+            target_system: to.0,
+            target_component: to.1,
+            payload,
+        }
+    }
+
+    /// As an unsigned MAVLink 2 frame from (`system`, `component`), as a
+    /// link writes it (the tests' radio).
+    #[cfg(test)]
+    pub(crate) fn unsigned_frame(&self, from: (u8, u8), sequence: u8) -> Vec<u8> {
+        let header = mavlink::MavHeader {
+            system_id: u32::from(from.0),
+            component_id: from.1,
+            sequence,
+        };
+        let mut raw = mavlink::MAVLinkV2MessageRaw::new();
+        raw.serialize_message_data(header, self);
+        raw.raw_bytes().to_vec()
+    }
+
     /// A Petrel TUNNEL from a received frame: `None` for any other frame.
     pub fn from_frame(frame: &elaboration::Frame) -> Option<Tunnel> {
         if frame.message_id() != TUNNEL_DATA::ID {

@@ -8,7 +8,7 @@
 
 use super::record::{self, Record};
 use super::replica::Uplink;
-use super::tunnel::{Tunnel, PAYLOAD_TYPE};
+use super::tunnel::Tunnel;
 use crate::link::signing::Signer;
 use crate::link::{LinkError, LinkWriter};
 
@@ -38,12 +38,7 @@ impl UplinkWriter {
     /// Sends one request to the onboard gateway `to` = (system, component);
     /// returns the frame's bytes as written.
     pub async fn send(&self, to: (u8, u8), uplink: &Uplink) -> Result<Vec<u8>, LinkError> {
-        let tunnel = Tunnel {
-            payload_type: PAYLOAD_TYPE,
-            target_system: to.0,
-            target_component: to.1,
-            payload: uplink.bytes().to_vec(),
-        };
+        let tunnel = Tunnel::petrel(to, uplink.bytes().to_vec());
         self.writer.send_data(self.me, &tunnel).await
     }
 
@@ -61,12 +56,7 @@ impl UplinkWriter {
             id,
             choice: choice.to_owned(),
         };
-        let tunnel = Tunnel {
-            payload_type: PAYLOAD_TYPE,
-            target_system: to.0,
-            target_component: to.1,
-            payload: record::packet(std::slice::from_ref(&answer)),
-        };
+        let tunnel = Tunnel::petrel(to, record::packet(std::slice::from_ref(&answer)));
         self.writer.send_data_signed(self.me, &tunnel, signer).await
     }
 }

@@ -596,35 +596,7 @@ fn arduplane_routes_the_downlink_and_its_gcs_failsafe_still_triggers_with_the_mi
     let max_wall = Duration::from_secs_f64(MAX_SIM_S / f64::from(SPEEDUP) * 3.0 + 60.0);
     // The mirror first: SITL waits for SERIAL0 before it simulates.
     let tap = Tap::start(sitl.port(0), 0.0);
-    let mirror = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
-        .arg("mirror")
-        .arg(project())
-        .args(["--mavlink", &format!("tcpout:127.0.0.1:{}", tap.port)])
-        .args(["--time-scale", &SPEEDUP.to_string()])
-        .args([
-            "--duration",
-            &format!("{:.0}", max_wall.as_secs_f64() + 20.0),
-        ])
-        .arg("--record")
-        .arg(dir.join("mirror.mcap"))
-        .arg("--json")
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("petrel mirror runs");
-    let mut mirror = Running::new(mirror);
-    // SITL opens SERIAL1 once SERIAL0 has its client (the mirror, which
-    // connects at once: it checks nothing before).
-    let serial1 = format!("SERIAL1 on TCP port {}", sitl.port(1));
-    let waiting = Instant::now();
-    while !sitl.output().contains(&serial1) {
-        assert!(
-            waiting.elapsed() < Duration::from_secs(60) && !mirror.exited(),
-            "SITL never opened SERIAL1 (the mirror did not connect to SERIAL0?):\n{}",
-            sitl.output()
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    let mut mirror = mirror_on_serial0(&sitl, &tap, max_wall, Some(&dir.join("mirror.mcap")));
     let programs = format!("tcp:127.0.0.1:{}", free_port());
     let run = flight::petrel_run(
         &sitl.address(1),
@@ -915,32 +887,7 @@ fn fly_checked(located: &ardupilot::Located, name: &str, loss: f64, fail: bool) 
     .expect("ArduPlane SITL starts");
     let max_wall = Duration::from_secs_f64(MAX_SIM_S / f64::from(SPEEDUP) * 3.0 + 60.0);
     let tap = Tap::start(sitl.port(0), loss);
-    let mirror = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"))
-        .arg("mirror")
-        .arg(project())
-        .args(["--mavlink", &format!("tcpout:127.0.0.1:{}", tap.port)])
-        .args(["--time-scale", &SPEEDUP.to_string()])
-        .args([
-            "--duration",
-            &format!("{:.0}", max_wall.as_secs_f64() + 20.0),
-        ])
-        .arg("--no-record")
-        .arg("--json")
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("petrel mirror runs");
-    let mut mirror = Running::new(mirror);
-    let serial1 = format!("SERIAL1 on TCP port {}", sitl.port(1));
-    let waiting = Instant::now();
-    while !sitl.output().contains(&serial1) {
-        assert!(
-            waiting.elapsed() < Duration::from_secs(60) && !mirror.exited(),
-            "SITL never opened SERIAL1:\n{}",
-            sitl.output()
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    let mut mirror = mirror_on_serial0(&sitl, &tap, max_wall, None);
     let programs = format!("tcp:127.0.0.1:{}", free_port());
     let run = flight::petrel_run(
         &sitl.address(1),
@@ -1180,4 +1127,48 @@ fn the_downlink_keeps_under_100_bytes_a_second_at_30_percent_loss() {
         f.budget,
         f.dir.display()
     );
+}
+
+/// `petrel mirror` on the tap in front of SITL's SERIAL0 (`--json`,
+/// recording to `record` or not), once SITL has opened SERIAL1: SITL opens
+/// SERIAL1 once SERIAL0 has its client (the mirror, which connects at
+/// once: it checks nothing before).
+fn mirror_on_serial0(
+    sitl: &Sitl,
+    tap: &Tap,
+    max_wall: Duration,
+    record: Option<&std::path::Path>,
+) -> Running {
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"));
+    command
+        .arg("mirror")
+        .arg(project())
+        .args(["--mavlink", &format!("tcpout:127.0.0.1:{}", tap.port)])
+        .args(["--time-scale", &SPEEDUP.to_string()])
+        .args([
+            "--duration",
+            &format!("{:.0}", max_wall.as_secs_f64() + 20.0),
+        ]);
+    match record {
+        Some(path) => command.arg("--record").arg(path),
+        None => command.arg("--no-record"),
+    };
+    let mirror = command
+        .arg("--json")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("petrel mirror runs");
+    let mut mirror = Running::new(mirror);
+    let serial1 = format!("SERIAL1 on TCP port {}", sitl.port(1));
+    let waiting = Instant::now();
+    while !sitl.output().contains(&serial1) {
+        assert!(
+            waiting.elapsed() < Duration::from_secs(60) && !mirror.exited(),
+            "SITL never opened SERIAL1 (the mirror did not connect to SERIAL0?):\n{}",
+            sitl.output()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    mirror
 }
