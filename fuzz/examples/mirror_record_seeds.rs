@@ -1,6 +1,6 @@
 //! Writes `fuzz/corpus/mirror_record/`: real downlink and uplink packets,
 //! a step record's body and a whole snapshot, from the gateway's own
-//! publisher (gateway/src/mirror/publisher.rs) fed the flight-test
+//! publisher (core/src/mirror/publisher.rs) fed the flight-test
 //! example's nominal script, played on its player.
 //!
 //! ```sh
@@ -14,14 +14,8 @@ use nets::script::{self, Input as ScriptInput};
 
 #[path = "../shared/flight_test.rs"]
 mod flight_test;
-#[allow(dead_code)]
-#[path = "../../gateway/src/mirror/publisher.rs"]
-mod publisher;
-#[allow(dead_code)]
-#[path = "../../gateway/src/mirror/record.rs"]
-mod record;
-
-use record::{Input, Record};
+use petrel_core::mirror::publisher;
+use petrel_core::mirror::record::{self, Input, Record};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("corpus/mirror_record");

@@ -1,5 +1,4 @@
-//! The ground mirror's records (gateway/src/mirror/record.rs, compiled from
-//! the gateway's sources) and the player snapshot a resync restores
+//! The ground mirror's records (`petrel_core::mirror::record`) and the player snapshot a resync restores
 //! (nets::player::snapshot over nets::binary): any bytes as a downlink or
 //! uplink packet, as a step record joined from fragments, and as a snapshot
 //! joined from chunks, restored onto the flight-test example's player and
@@ -12,9 +11,7 @@ use nets::binary::{Reader, Writer};
 use nets::player::snapshot;
 use nets::{Event, Outcome, Player};
 
-#[allow(dead_code)]
-#[path = "../../gateway/src/mirror/record.rs"]
-mod record;
+use petrel_core::mirror::record;
 
 #[path = "../shared/flight_test.rs"]
 mod flight_test;

@@ -24,9 +24,9 @@
 mod telemetry;
 
 use elaboration::{Config, Frame};
-use gateway::mirror::check::WINDOW;
-use gateway::mirror::ground::Ground;
-use gateway::supervisor::Lane;
+use petrel_core::mirror::check::WINDOW;
+use petrel_core::mirror::ground::Ground;
+use petrel_core::supervisor::Lane;
 
 fn main() {
     divan::main();

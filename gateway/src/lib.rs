@@ -1,18 +1,15 @@
-//! The gateway's library: everything `petrel` does that is not a verb.
+//! The gateway's library: the drivers, everything `petrel` does that
+//! touches the world and is not a verb.
 //!
-//! It owns the supervisor (elaboration and the player as one sans-IO state
-//! machine), the team, the vehicle commander and crew, the program
-//! protocol and its server, the MAVLink links and signing, the recording
-//! (MCAP), the ground mirror (record codec, publisher, replica, check,
-//! dialog), the web pages (monitor, view, editor), preflight and the
-//! project's loading. The `petrel` binary's `cli/` parses arguments and
-//! drives these; nothing here imports `cli/`, reads arguments or decides
-//! an exit status.
-//!
-//! Modules that do no I/O: [`supervisor`], [`team`], [`vehicle`],
-//! [`programs::session`], [`mirror`]'s record, replica, check and dialog,
-//! [`edit`]'s draft. Those that touch the world: [`link`], [`record`]'s
-//! writer, [`programs`]' server, [`monitor`], [`clock`].
+//! The decisions are `petrel_core`'s (the onboard and ground cores, the
+//! supervisor, the team, the commanders, the mirror): this crate moves
+//! their bytes. It owns the MAVLink links ([`link`]: reading, writing,
+//! signing on the wire, the mirror's uplink), the program server and the
+//! started programs ([`programs`]), the recording (MCAP, [`record`]), the
+//! web pages (monitor, view, editor: [`monitor`], [`edit`]), preflight,
+//! the clock and the threads' scheduling. The `petrel` binary's `cli/`
+//! parses arguments and drives these; nothing here imports `cli/`, reads
+//! arguments or decides an exit status.
 
 /// `eprintln!` that never panics: a message for people is lost, not the
 /// process, when stderr cannot be written (`2>/dev/full`, a closed pipe).
@@ -49,15 +46,8 @@ macro_rules! show {
 pub mod clock;
 pub mod edit;
 pub mod link;
-pub mod mirror;
 pub mod monitor;
-pub mod onboard;
 pub mod preflight;
-pub mod profile;
 pub mod programs;
-pub mod project;
 pub mod record;
 pub mod scheduling;
-pub mod supervisor;
-pub mod team;
-pub mod vehicle;

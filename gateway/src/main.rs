@@ -13,10 +13,7 @@ extern crate gateway;
 
 mod cli;
 
-use gateway::{
-    clock, edit, link, mirror, monitor, onboard, preflight, profile, programs, project, record,
-    scheduling, supervisor, team, vehicle,
-};
+use gateway::{clock, edit, link, monitor, preflight, programs, record, scheduling};
 
 #[derive(Parser)]
 #[command(
@@ -105,7 +102,7 @@ fn main() -> ExitCode {
     match outcome {
         Ok(code) => code.into(),
         Err(failure) => {
-            say!("{}", project::for_people(&failure));
+            say!("{}", petrel_core::project::for_people(&failure));
             cli::Outcome::BadInput.into()
         }
     }

@@ -34,20 +34,21 @@ pub fn run(
     threads: usize,
     reductions: Reductions,
 ) -> VerbResult {
-    let setting = match crate::project::gateway_setting(dir, "profile") {
+    let setting = match petrel_core::project::gateway_setting(dir, "profile") {
         Ok(s) => s,
         Err(e) => {
             // No project, or broken TOML: the loader says it best.
-            crate::project::load(dir)?;
+            petrel_core::project::load(dir)?;
             return Err(e);
         }
     };
     let layers =
-        crate::profile::Layers::pick(profile, Some((dir, setting.as_deref())), "ardupilot")?;
-    let Some(profile) = layers.load() else {
+        petrel_core::profile::Layers::pick(profile, Some((dir, setting.as_deref())), "ardupilot")?;
+    let Some(profile) = crate::cli::loaded(&layers) else {
         return Ok(Outcome::BadInput);
     };
-    let (project, files) = crate::project::load_read(dir, &crate::project::catalog(&profile))?;
+    let (project, files) =
+        petrel_core::project::load_read(dir, &petrel_core::project::catalog(&profile))?;
     let name = if project.name.is_empty() {
         dir.file_name().map_or_else(
             || dir.display().to_string(),

@@ -63,14 +63,14 @@ pub(crate) fn load_profile(
     choice: Option<&str>,
     project: Option<&Path>,
     bytes: &[u8],
-) -> Result<Result<(Profile, crate::profile::Layers), ()>, miette::Report> {
+) -> Result<Result<(Profile, petrel_core::profile::Layers), ()>, miette::Report> {
     let setting = match project {
-        Some(dir) if choice.is_none() => crate::project::gateway_setting(dir, "profile")?,
+        Some(dir) if choice.is_none() => petrel_core::project::gateway_setting(dir, "profile")?,
         _ => None,
     };
     let project = project.map(|dir| (dir, setting.as_deref()));
-    let layers = crate::profile::Layers::pick(choice, project, detect(bytes))?;
-    Ok(layers.load().map(|p| (p, layers)).ok_or(()))
+    let layers = petrel_core::profile::Layers::pick(choice, project, detect(bytes))?;
+    Ok(crate::cli::loaded(&layers).map(|p| (p, layers)).ok_or(()))
 }
 
 fn json_line(e: &Elaborated, first_us: u64) -> serde_json::Value {

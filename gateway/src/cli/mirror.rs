@@ -21,16 +21,16 @@ use tokio::sync::mpsc;
 use super::timeline::Timeline;
 use super::VerbResult;
 use crate::clock::Clock;
+use crate::link::uplink::UplinkWriter;
 use crate::link::Link;
-use crate::mirror::call::call_json;
-use crate::mirror::check::Disagreement;
-use crate::mirror::ground::Ground;
-use crate::mirror::record::Input;
-use crate::mirror::replica::{Replica, Report};
-use crate::mirror::station::{Config as StationConfig, Output, Station, SILENCE_WARNING};
-use crate::mirror::uplink::UplinkWriter;
 use crate::record::layout;
 use crate::record::recorder::{Options as RecordOptions, Recorder};
+use petrel_core::mirror::call::call_json;
+use petrel_core::mirror::check::Disagreement;
+use petrel_core::mirror::ground::Ground;
+use petrel_core::mirror::record::Input;
+use petrel_core::mirror::replica::{Replica, Report};
+use petrel_core::mirror::station::{Config as StationConfig, Output, Station, SILENCE_WARNING};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -92,17 +92,18 @@ pub struct Args {
 const TICK: Micros = 100_000;
 
 pub fn run(args: Args) -> VerbResult {
-    let gateway = crate::project::gateway_table(&args.project)?;
+    let gateway = petrel_core::project::gateway_table(&args.project)?;
     let get = |key: &str| gateway.get(key).and_then(|v| v.as_str()).map(str::to_owned);
-    let layers = crate::profile::Layers::pick(
+    let layers = petrel_core::profile::Layers::pick(
         args.profile.as_deref(),
         Some((&args.project, get("profile").as_deref())),
         "ardupilot",
     )?;
-    let Some(profile) = layers.load() else {
+    let Some(profile) = crate::cli::loaded(&layers) else {
         return Ok(super::Outcome::BadInput);
     };
-    let project = crate::project::load_with(&args.project, &crate::project::catalog(&profile))?;
+    let project =
+        petrel_core::project::load_with(&args.project, &petrel_core::project::catalog(&profile))?;
     let Some(address) = args.mavlink.clone().or_else(|| get("mirror_mavlink")) else {
         return Err(miette::miette!(
             "no MAVLink link: give --mavlink ADDRESS (the ground's telemetry, e.g. udpin:0.0.0.0:14551 from mavlink-router or MAVProxy --out)"
@@ -113,7 +114,7 @@ pub fn run(args: Args) -> VerbResult {
         None => match gateway.get("mirror_system").and_then(|v| v.as_integer()) {
             Some(v) => u8::try_from(v)
                 .map_err(|_| miette::miette!("[gateway] mirror_system {v} is not a system id"))?,
-            None => crate::mirror::MIRROR_SYSTEM,
+            None => petrel_core::mirror::MIRROR_SYSTEM,
         },
     };
     if system == 255 || system == 0 {
@@ -125,13 +126,13 @@ pub fn run(args: Args) -> VerbResult {
     let operator = match &args.operator_key {
         None => None,
         Some(path) => {
-            Some(crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
+            Some(petrel_core::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
         }
     };
     let signing = match &args.signing_key {
         None => None,
         Some(path) => {
-            Some(crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
+            Some(petrel_core::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
         }
     };
     let http = match &args.http {
@@ -149,11 +150,11 @@ pub fn run(args: Args) -> VerbResult {
     };
     // The ground elaborates each vehicle in its lane, as `petrel run` does
     // on board (one lane, unqualified, without a team).
-    let lanes = crate::team::lanes(
+    let lanes = petrel_core::team::lanes(
         &project,
         &args.project,
         &profile,
-        crate::team::family(&layers.layers),
+        petrel_core::team::family(&layers.layers),
         &elaboration::Config::default(),
     )?;
     let runtime = tokio::runtime::Builder::new_current_thread()
@@ -186,18 +187,18 @@ struct Setup {
     address: String,
     system: u8,
     /// The ground's elaboration: one lane per vehicle of the team.
-    lanes: Vec<crate::supervisor::Lane>,
+    lanes: Vec<petrel_core::supervisor::Lane>,
     json: bool,
     time_scale: f64,
     duration: Option<Duration>,
     /// The operator key: the dialog is on.
-    operator: Option<crate::link::signing::Key>,
+    operator: Option<petrel_core::signing::Key>,
     /// The vehicle's signing key: the downlink must be signed with it.
-    signing: Option<crate::link::signing::Key>,
+    signing: Option<petrel_core::signing::Key>,
     /// Where to record.
     record: Option<PathBuf>,
     /// The profile's layers, recorded with the start.
-    layers: crate::profile::Layers,
+    layers: petrel_core::profile::Layers,
     /// Serve the web monitor here.
     http: Option<std::net::SocketAddr>,
     /// The project's folder (the page shows the nets' files).
@@ -230,7 +231,7 @@ async fn mirror(setup: Setup) -> VerbResult {
     // too: a vehicle that requires signatures (`run --require-signed`)
     // takes them.
     if let Some(key) = &setup.signing {
-        writer.sign(crate::link::signing::Signer::new(key.clone(), 0, None));
+        writer.sign(petrel_core::signing::Signer::new(key.clone(), 0, None));
     }
     let uplink = UplinkWriter::new(writer, setup.system);
     // The recording is created once the link is open, as `run`'s.
@@ -252,7 +253,7 @@ async fn mirror(setup: Setup) -> VerbResult {
             // Step 0: a player's start at vehicle time 0, as `petrel
             // replay` starts one; the replica's own start is a call.
             let mut player = nets::Player::start(setup.project.clone(), 0);
-            let start = crate::supervisor::Step {
+            let start = petrel_core::supervisor::Step {
                 seq: 0,
                 time: 0,
                 events: Vec::new(),
@@ -322,7 +323,7 @@ async fn mirror(setup: Setup) -> VerbResult {
     let mut signer = setup
         .operator
         .clone()
-        .map(|key| crate::link::signing::Signer::new(key, 0, None));
+        .map(|key| petrel_core::signing::Signer::new(key, 0, None));
     let (lines_tx, mut lines) = mpsc::channel::<String>(16);
     let stdin_task = signer.is_some().then(|| {
         tokio::spawn(async move {
@@ -426,7 +427,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                 Output::Played(played) => {
                     if let Some(rec) = &recorder {
                         calls += 1;
-                        let step = crate::supervisor::Step {
+                        let step = petrel_core::supervisor::Step {
                             seq: calls,
                             time: played.time,
                             events: Vec::new(),
@@ -642,7 +643,7 @@ async fn answer(
     station: &mut Station,
     id: u64,
     choice: &str,
-    signer: Option<&mut crate::link::signing::Signer>,
+    signer: Option<&mut petrel_core::signing::Signer>,
     uplink: &UplinkWriter,
     now: Micros,
     recorder: Option<&Recorder>,

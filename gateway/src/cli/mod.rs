@@ -53,19 +53,26 @@ pub type VerbResult = Result<Outcome, miette::Report>;
 pub fn load_profiled(
     dir: &std::path::Path,
 ) -> Result<Option<std::sync::Arc<nets::Project>>, miette::Report> {
-    let setting = match crate::project::gateway_setting(dir, "profile") {
+    let setting = match petrel_core::project::gateway_setting(dir, "profile") {
         Ok(s) => s,
         Err(e) => {
             // No project, or broken TOML: the loader says it best.
-            crate::project::load(dir)?;
+            petrel_core::project::load(dir)?;
             return Err(e);
         }
     };
-    let layers = crate::profile::Layers::pick(None, Some((dir, setting.as_deref())), "ardupilot")?;
-    let Some(profile) = layers.load() else {
+    let layers =
+        petrel_core::profile::Layers::pick(None, Some((dir, setting.as_deref())), "ardupilot")?;
+    let Some(profile) = crate::cli::loaded(&layers) else {
         return Ok(None);
     };
-    crate::project::load_with(dir, &crate::project::catalog(&profile)).map(Some)
+    petrel_core::project::load_with(dir, &petrel_core::project::catalog(&profile)).map(Some)
+}
+
+/// The profile the layers compile to, or `None` once every problem is
+/// printed for people (file:line:col, the line and a caret).
+pub(crate) fn loaded(layers: &petrel_core::profile::Layers) -> Option<elaboration::Profile> {
+    layers.load().map_err(|problems| say!("{problems}")).ok()
 }
 
 #[cfg(test)]
@@ -73,9 +80,9 @@ mod tests {
     #[test]
     fn the_loader_knows_every_event_the_gateway_raises() {
         assert_eq!(
-            crate::project::RAISED,
+            petrel_core::project::RAISED,
             [
-                crate::programs::session::PROGRAM_LOST,
+                petrel_core::programs::session::PROGRAM_LOST,
                 crate::link::rejections::SIGNATURE_REJECTED
             ]
         );

@@ -40,17 +40,18 @@ pub fn run(args: Args) -> VerbResult {
     // The events' categories as in flight: the elaboration profile's
     // catalog (`--profile`, else `[gateway] profile`, else ArduPilot's),
     // then the project's declarations.
-    crate::project::load(&args.project)?;
-    let setting = crate::project::gateway_setting(&args.project, "profile")?;
-    let layers = crate::profile::Layers::pick(
+    petrel_core::project::load(&args.project)?;
+    let setting = petrel_core::project::gateway_setting(&args.project, "profile")?;
+    let layers = petrel_core::profile::Layers::pick(
         args.profile.as_deref(),
         Some((&args.project, setting.as_deref())),
         "ardupilot",
     )?;
-    let Some(profile) = layers.load() else {
+    let Some(profile) = crate::cli::loaded(&layers) else {
         return Ok(Outcome::BadInput);
     };
-    let project = crate::project::load_with(&args.project, &crate::project::catalog(&profile))?;
+    let project =
+        petrel_core::project::load_with(&args.project, &petrel_core::project::catalog(&profile))?;
     let text = std::fs::read_to_string(&args.events)
         .map_err(|e| miette::miette!("cannot read {}: {e}", args.events.display()))?;
     let lines = script::parse(&text)

@@ -19,7 +19,7 @@ use super::timeline::Timeline;
 
 pub(crate) mod from_mcap;
 use super::{Outcome, VerbResult};
-use crate::supervisor::{Input, Supervisor};
+use petrel_core::supervisor::{Input, Supervisor};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -82,7 +82,8 @@ pub fn run(args: Args) -> VerbResult {
     else {
         return Ok(Outcome::BadInput);
     };
-    let project = crate::project::load_with(&args.project, &crate::project::catalog(&profile))?;
+    let project =
+        petrel_core::project::load_with(&args.project, &petrel_core::project::catalog(&profile))?;
     let records: Vec<_> = TlogReader::new(&bytes).collect();
     let Some(first) = records.first() else {
         return Err(miette::miette!(
@@ -109,7 +110,7 @@ pub fn run(args: Args) -> VerbResult {
     } else {
         "ardupilot"
     };
-    let lanes = crate::team::lanes(&project, &args.project, &profile, family, &config)?;
+    let lanes = petrel_core::team::lanes(&project, &args.project, &profile, family, &config)?;
     let (mut sup, start) = Supervisor::start_lanes(project.clone(), lanes, origin);
     out.effects(&project, &start.effects).map_err(io)?;
     let progress = std::io::stderr().is_terminal() && !args.json;
@@ -164,7 +165,7 @@ pub fn run(args: Args) -> VerbResult {
 fn print_step<W: Write>(
     out: &mut Timeline<W>,
     project: &nets::Project,
-    step: &crate::supervisor::Step,
+    step: &petrel_core::supervisor::Step,
 ) -> std::io::Result<()> {
     out.effects(project, &step.effects)?;
     for (e, effects) in &step.events {

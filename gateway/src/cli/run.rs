@@ -21,7 +21,7 @@ use nets::Project;
 
 use super::{Outcome, VerbResult};
 use crate::preflight::Preflight;
-use crate::vehicle::config::VehicleConfig;
+use petrel_core::vehicle::config::VehicleConfig;
 
 mod autopilot;
 mod gateway;
@@ -179,7 +179,7 @@ pub fn run(args: Args) -> VerbResult {
 /// or the outcome of a refusal (a project failing `petrel check`, a bad
 /// profile: already reported).
 pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Report> {
-    let gateway = crate::project::gateway_table(&args.project)?;
+    let gateway = petrel_core::project::gateway_table(&args.project)?;
     let get = |key: &str| gateway.get(key).and_then(|v| v.as_str()).map(str::to_owned);
     // --profile (beside the working directory), else `[gateway] profile`
     // (beside project.toml), else ArduPilot's.
@@ -202,11 +202,11 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     };
     let layers = choice.layers(&args.project, base)?;
     let detect = (vehicle.firmware.is_none() && !choice.named()).then_some(choice);
-    let Some(profile) = layers.load() else {
+    let Some(profile) = crate::cli::loaded(&layers) else {
         return Ok(Err(Outcome::BadInput));
     };
     let (project, files) =
-        crate::project::load_read(&args.project, &crate::project::catalog(&profile))?;
+        petrel_core::project::load_read(&args.project, &petrel_core::project::catalog(&profile))?;
     if !project.vehicles.is_empty() && vehicle.system.is_some() {
         say!(
             "warning: [gateway] system_id is not used by a team project: each [[vehicle]] names its system"
@@ -215,11 +215,11 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     // A team's vehicles' own profiles load, or the run is refused here,
     // before any link opens (`run` builds the lanes again once the
     // autopilot is known).
-    crate::team::lanes(
+    petrel_core::team::lanes(
         &project,
         &args.project,
         &profile,
-        crate::team::family(&layers.layers),
+        petrel_core::team::family(&layers.layers),
         &elaboration_config(&vehicle),
     )?;
     if !args.unchecked {
@@ -258,7 +258,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         ));
     };
     check_timing(args.duration, args.time_scale)?;
-    let mut programs = crate::programs::roster::Config::from_gateway(Some(&gateway))
+    let mut programs = petrel_core::programs::roster::Config::from_gateway(Some(&gateway))
         .map_err(|e| miette::miette!("[gateway] programs: {e}"))?;
     if let Some(address) = &args.programs {
         programs.address = address
@@ -273,7 +273,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         .or_else(|| programs.token_file.as_ref().map(|f| args.project.join(f)));
     if let Some(file) = token_file {
         let bytes =
-            crate::link::signing::read_private(&file).map_err(|e| miette::miette!("{e}"))?;
+            petrel_core::signing::read_private(&file).map_err(|e| miette::miette!("{e}"))?;
         let token = String::from_utf8(bytes)
             .ok()
             .map(|t| t.trim().to_owned())
@@ -299,7 +299,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
                 .and_then(|v| u8::try_from(v).ok())
         })
     })
-    .map(|system| system.unwrap_or(crate::mirror::MIRROR_SYSTEM));
+    .map(|system| system.unwrap_or(petrel_core::mirror::MIRROR_SYSTEM));
     let record = if args.no_record {
         None
     } else {
@@ -311,8 +311,8 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     };
     let signing = match &args.signing_key {
         None => None,
-        Some(path) => Some(crate::link::signing::Setup {
-            key: crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?,
+        Some(path) => Some(petrel_core::signing::Setup {
+            key: petrel_core::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?,
             link_id: args.signing_link_id,
             require: args.require_signed,
             timestamp_file: args.signing_timestamp.clone().unwrap_or_else(|| {
@@ -326,7 +326,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     let operator = match &args.operator_key {
         None => None,
         Some(path) => {
-            Some(crate::link::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
+            Some(petrel_core::signing::Key::load(path).map_err(|e| miette::miette!("{e}"))?)
         }
     };
     let http = match &args.http {
@@ -365,8 +365,12 @@ pub(crate) struct ProfileChoice {
 
 impl ProfileChoice {
     /// The layers over the built-in `base` (a file extends it).
-    fn layers(&self, project: &Path, base: &str) -> Result<crate::profile::Layers, miette::Report> {
-        crate::profile::Layers::pick(
+    fn layers(
+        &self,
+        project: &Path,
+        base: &str,
+    ) -> Result<petrel_core::profile::Layers, miette::Report> {
+        petrel_core::profile::Layers::pick(
             self.given.as_deref(),
             Some((project, self.setting.as_deref())),
             base,
@@ -442,19 +446,19 @@ pub(crate) fn fly(setup: Setup) -> VerbResult {
 pub(crate) struct Setup {
     pub project: Arc<Project>,
     /// MAVLink 2 signing on the vehicle link.
-    pub signing: Option<crate::link::signing::Setup>,
+    pub signing: Option<petrel_core::signing::Setup>,
     /// The operator key, for the answers to `ask` (`--operator-key`).
-    pub operator: Option<crate::link::signing::Key>,
+    pub operator: Option<petrel_core::signing::Key>,
     pub dir: PathBuf,
     pub profile: Profile,
-    pub layers: crate::profile::Layers,
+    pub layers: petrel_core::profile::Layers,
     /// The profile's choice when its built-in base is to follow the
     /// autopilot heard first (`None`: fixed).
     pub detect: Option<ProfileChoice>,
     pub record: Option<PathBuf>,
     pub address: String,
     pub vehicle: VehicleConfig,
-    pub programs: crate::programs::roster::Config,
+    pub programs: petrel_core::programs::roster::Config,
     /// Publish the mirror's downlink to this system id.
     pub downlink: Option<u8>,
     pub json: bool,

@@ -14,7 +14,7 @@ use super::{Outcome, VerbResult};
 use crate::monitor::history::{Builder, History};
 use crate::monitor::{page, Server, Source};
 use crate::record::check::compare;
-use crate::supervisor::Supervisor;
+use petrel_core::supervisor::Supervisor;
 
 #[derive(clap::Args)]
 pub struct Args {

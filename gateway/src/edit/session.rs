@@ -809,16 +809,19 @@ enum Loaded {
 /// Loads the project knowing its elaboration profile's events, as `petrel
 /// check` does.
 fn load(dir: &Path) -> Result<Arc<Project>, Loaded> {
-    let setting = crate::project::gateway_setting(dir, "profile")
+    let setting = petrel_core::project::gateway_setting(dir, "profile")
         .map_err(|e| Loaded::Other(format!("{e}")))?;
-    let layers = crate::profile::Layers::pick(None, Some((dir, setting.as_deref())), "ardupilot")
-        .map_err(|e| Loaded::Other(format!("{e}")))?;
-    let profile = layers.load().ok_or_else(|| {
-        Loaded::Other("the elaboration profile does not load (see the terminal)".into())
+    let layers =
+        petrel_core::profile::Layers::pick(None, Some((dir, setting.as_deref())), "ardupilot")
+            .map_err(|e| Loaded::Other(format!("{e}")))?;
+    let profile = layers.load().map_err(|problems| {
+        Loaded::Other(format!(
+            "the elaboration profile does not load:\n{problems}"
+        ))
     })?;
     nets::load_with(
-        &crate::project::Folder(dir.to_path_buf()),
-        &crate::project::catalog(&profile),
+        &petrel_core::project::Folder(dir.to_path_buf()),
+        &petrel_core::project::catalog(&profile),
     )
     .map(Arc::new)
     .map_err(Loaded::Problems)

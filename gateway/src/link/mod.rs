@@ -21,8 +21,11 @@ use std::sync::{Arc, Mutex, RwLock};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 pub mod rejections;
-pub mod signing;
+pub mod uplink;
 pub mod vehicles;
+
+pub use petrel_core::frame::Received;
+pub use petrel_core::signing;
 
 use crate::clock::Clock;
 use mavlink::dialects::ardupilotmega::{MavMessage, HEARTBEAT_DATA};
@@ -41,21 +44,6 @@ pub fn unix_us() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| d.as_micros() as u64)
-}
-
-/// One frame as received.
-#[derive(Debug, Clone)]
-pub struct Received {
-    /// Microseconds on the clock given to [`Link::open`].
-    pub time_us: u64,
-    /// The frame's bytes exactly as on the wire (checksum already checked
-    /// by rust-mavlink).
-    pub bytes: Vec<u8>,
-    pub version: MavlinkVersion,
-    pub header: MavHeader,
-    /// The message, when the dialect decodes it (an unknown enum value, for
-    /// instance, fails the decoding: the bytes are still delivered).
-    pub message: Option<MavMessage>,
 }
 
 /// Why the link failed.

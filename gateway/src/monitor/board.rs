@@ -15,7 +15,7 @@ use nets::{Effect, Event, Micros, Outcome, Player, Project};
 use serde_json::{json, Value as Json};
 
 use super::vehicle::Vehicles;
-use crate::supervisor::{Input, Step};
+use petrel_core::supervisor::{Input, Step};
 
 /// Requests (commands and calls) remembered to name their results; older
 /// ones are forgotten first.

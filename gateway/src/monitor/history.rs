@@ -12,7 +12,7 @@ use serde_json::{json, Value as Json};
 
 use super::board::{seconds, Board, Entry, Marking};
 use super::vehicle::{strip_json, Strip, Vehicle};
-use crate::supervisor::{Input, Step};
+use petrel_core::supervisor::{Input, Step};
 
 /// Log entries sent with one instant (the latest up to it).
 const LOG_SHOWN: usize = 300;

@@ -12,7 +12,7 @@ use serde_json::{json, Value as Json};
 use tokio::sync::watch;
 
 use super::board::Board;
-use crate::supervisor::{Input, Step};
+use petrel_core::supervisor::{Input, Step};
 
 /// The log entries a live board keeps.
 pub const LOG_LIVE: usize = 1000;

@@ -13,9 +13,9 @@ use nets::player::Effect;
 use nets::Micros;
 use serde_json::{json, Value as Json};
 
-use crate::mirror::check::{Disagreement, Side};
-use crate::mirror::dialog::Dialog;
-use crate::mirror::replica::Report;
+use petrel_core::mirror::check::{Disagreement, Side};
+use petrel_core::mirror::dialog::Dialog;
+use petrel_core::mirror::replica::Report;
 
 /// Disagreements kept for the page (the count says how many in all).
 const DISAGREEMENTS: usize = 50;
@@ -109,7 +109,7 @@ pub struct Mirror {
     /// The team's vehicles as the ground follows them (`vehicles`).
     vehicles: Vec<Json>,
     /// The downlink's signatures, when the mirror requires them.
-    pub signatures: Option<crate::mirror::signed::Refusals>,
+    pub signatures: Option<petrel_core::mirror::signed::Refusals>,
 }
 
 impl Mirror {
@@ -141,7 +141,7 @@ impl Mirror {
     /// The vehicles the ground follows, in team order (one, named `null`,
     /// without a team): each one's frames received, whether its autopilot
     /// was heard, and its independent check's counts.
-    pub fn vehicles(&mut self, ground: &crate::mirror::ground::Ground) {
+    pub fn vehicles(&mut self, ground: &petrel_core::mirror::ground::Ground) {
         self.vehicles = ground
             .watches()
             .iter()
@@ -408,7 +408,7 @@ fn vehicle_of(name: &str) -> Option<&str> {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::mirror::replica::Repair;
+    use petrel_core::mirror::replica::Repair;
 
     pub(crate) fn asking() -> std::sync::Arc<nets::Project> {
         let files = [
@@ -681,18 +681,19 @@ pub(crate) mod tests {
             window: 2_000_000,
             other: None,
         });
-        let project = crate::team::supervised::team();
-        let layers = crate::profile::Layers::builtin("ardupilot");
+        let project = petrel_core::team::fixtures::team();
+        let layers = petrel_core::profile::Layers::builtin("ardupilot");
         let profile = layers.load().expect("profile");
-        let lanes = crate::team::lanes(
+        let lanes = petrel_core::team::lanes(
             &project,
             std::path::Path::new("."),
             &profile,
-            crate::team::family(&layers.layers),
+            petrel_core::team::family(&layers.layers),
             &elaboration::Config::default(),
         )
         .expect("lanes");
-        let ground = crate::mirror::ground::Ground::new(lanes, crate::mirror::check::WINDOW);
+        let ground =
+            petrel_core::mirror::ground::Ground::new(lanes, petrel_core::mirror::check::WINDOW);
         m.vehicles(&ground);
         let v = m.json();
         assert_eq!(v["disagreements"][0]["vehicle"], "R2");

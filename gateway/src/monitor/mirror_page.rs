@@ -18,13 +18,13 @@ use super::board::Board;
 use super::live::{Feed, Live};
 use super::mirror::Mirror;
 use super::server::Server;
-use crate::mirror::check::Disagreement;
-use crate::mirror::dialog::Dialog;
-use crate::mirror::ground::Ground;
-use crate::mirror::record::Input as RecordInput;
-use crate::mirror::replica::{Replica, Report};
-use crate::mirror::signed::Refusals;
-use crate::supervisor::{Input, Step};
+use petrel_core::mirror::check::Disagreement;
+use petrel_core::mirror::dialog::Dialog;
+use petrel_core::mirror::ground::Ground;
+use petrel_core::mirror::record::Input as RecordInput;
+use petrel_core::mirror::replica::{Replica, Report};
+use petrel_core::mirror::signed::Refusals;
+use petrel_core::supervisor::{Input, Step};
 
 /// `petrel mirror --http`: the board fed from the mirror's loop, once per
 /// turn of it after the turn's requests are sent, and served with the

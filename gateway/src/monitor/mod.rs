@@ -40,7 +40,7 @@ use nets::{Player, Project};
 pub use live::{Feed, Live};
 pub use server::{Server, Source};
 
-use crate::supervisor::Step;
+use petrel_core::supervisor::Step;
 
 /// Starts the live monitor on `address` for a gateway whose player has just
 /// started (`start`, step 0): the feed for the loop, and the server.

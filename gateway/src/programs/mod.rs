@@ -2,19 +2,16 @@
 //! GUI…) that the nets call. The protocol is JSON lines over TCP or a Unix
 //! socket, documented in `docs/programs.md`.
 //!
-//! - [`session`]: the sans-IO core for one connection (framing, hello,
-//!   calls, replies, events, timeouts), fed bytes and polled for outputs.
-//! - [`roster`]: what the project expects of each program (the functions
-//!   the nets call, its settings) and the `[gateway] programs` address.
+//! - [`session`], [`protocol`], [`roster`], [`address`]: the sans-IO part,
+//!   in `petrel_core::programs` (one connection's core, fed bytes and
+//!   polled for outputs; what the project expects of each program).
 //! - [`server`]: the tokio layer: the listener, one task per connection, the
 //!   started programs ([`child`]), and the [`Programs`](server::Programs) handle the gateway's
 //!   loop calls without ever blocking.
 //! - [`stubs`]: program skeletons for `petrel stubs`.
 
-pub mod address;
 pub mod child;
-pub mod protocol;
-pub mod roster;
 pub mod server;
-pub mod session;
 pub mod stubs;
+
+pub use petrel_core::programs::{address, protocol, roster, session};

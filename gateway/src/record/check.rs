@@ -5,7 +5,7 @@ use nets::{Micros, Project};
 use serde_json::Value as Json;
 
 use super::read::Recorded;
-use crate::supervisor::Step;
+use petrel_core::supervisor::Step;
 
 /// The first thing that differs between a replayed and a recorded step.
 #[derive(Debug, Clone, PartialEq)]

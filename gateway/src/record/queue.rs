@@ -11,7 +11,7 @@ use nets::Micros;
 use serde_json::Value as Json;
 
 use super::layout::Input;
-use crate::supervisor::Step;
+use petrel_core::supervisor::Step;
 
 /// How the recorder behaves.
 #[derive(Debug, Clone)]

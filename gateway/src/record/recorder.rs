@@ -24,7 +24,7 @@ use super::layout::{self, Input};
 use super::queue::{Dropped, Entry};
 pub use super::queue::{Level, Options, RecordError, Report};
 use super::writer::Writer;
-use crate::supervisor::{self, Step, Supervisor};
+use petrel_core::supervisor::{self, Step, Supervisor};
 
 /// Why the recording stopped in flight: printed at once for the crew.
 struct Stopped {

@@ -23,7 +23,7 @@ use serde_json::{json, Value as Json};
 use super::decoded::{self, Decoder};
 use super::layout::{self, Input};
 use super::queue::{Dropped, Entry, Options, RecordError, Report};
-use crate::supervisor::Step;
+use petrel_core::supervisor::Step;
 
 /// Fixed channels, by topic.
 struct Channels {

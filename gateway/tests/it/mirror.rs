@@ -13,7 +13,7 @@ use crate::process;
 use crate::router;
 use crate::scratch;
 use crate::wire;
-use gateway::mirror::tunnel;
+use petrel_core::mirror::tunnel;
 
 use std::process::Command;
 use std::time::{Duration, Instant};

@@ -5,7 +5,7 @@
 //! delivered; a late, a wrongly signed, an unsigned and a replayed one are
 //! rejected and counted by `run`. Also: both sides refuse a key others may
 //! read. (The dialog's parts are tested sans-IO in
-//! `gateway/src/mirror/dialog/tests.rs`.)
+//! `core/src/mirror/dialog/tests.rs`.)
 
 use crate::flight;
 use crate::router;

@@ -5,9 +5,9 @@
 //! slow for its queue, and the Python `mcap` package as an independent
 //! reader.
 
-use gateway::supervisor;
+use petrel_core::supervisor;
 
-use gateway::project;
+use petrel_core::project;
 
 use gateway::record;
 

@@ -5,7 +5,7 @@
 #![allow(deprecated)] // REQUEST_DATA_STREAM, MISSION_REQUEST: the fallbacks under test
 
 use gateway::link;
-use gateway::vehicle;
+use petrel_core::vehicle;
 
 mod driver;
 use crate::peer;

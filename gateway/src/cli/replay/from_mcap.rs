@@ -15,7 +15,7 @@ use crate::cli::{Outcome, VerbResult};
 use crate::record::check::{compare, Difference};
 use crate::record::layout::Input as Recorded;
 use crate::record::read;
-use crate::supervisor::{Input, Supervisor};
+use petrel_core::supervisor::{Input, Supervisor};
 
 /// A recording read, with the profile and project it replays with.
 pub(crate) struct Opened {
@@ -24,7 +24,7 @@ pub(crate) struct Opened {
     pub origin: nets::Micros,
     /// The elaboration lanes the flight ran with: one, or one per vehicle
     /// of a team (`team::lanes`, as `run` builds them).
-    pub lanes: Vec<crate::supervisor::Lane>,
+    pub lanes: Vec<petrel_core::supervisor::Lane>,
     pub project: std::sync::Arc<nets::Project>,
     /// How long reading the file took.
     pub reading: Duration,
@@ -80,11 +80,10 @@ pub(crate) fn open(
     // The profile the flight ran with, as recorded, unless told otherwise;
     // recordings from before the layers were recorded name a built-in one.
     let profile = if profile.is_none() && !setup.layers.is_empty() {
-        crate::profile::Layers {
+        crate::cli::loaded(&petrel_core::profile::Layers {
             name: setup.profile.clone(),
             layers: setup.layers.clone(),
-        }
-        .load()
+        })
     } else {
         let builtin = match setup.profile.as_str() {
             p @ ("ardupilot" | "px4") => Some(p),
@@ -99,7 +98,7 @@ pub(crate) fn open(
         return Ok(None);
     };
     let dir = project;
-    let project = crate::project::load_with(dir, &crate::project::catalog(&profile))?;
+    let project = petrel_core::project::load_with(dir, &petrel_core::project::catalog(&profile))?;
     let family = if setup.layers.is_empty() {
         if setup.profile == "px4" {
             "px4"
@@ -107,9 +106,9 @@ pub(crate) fn open(
             "ardupilot"
         }
     } else {
-        crate::team::family(&setup.layers)
+        petrel_core::team::family(&setup.layers)
     };
-    let lanes = crate::team::lanes(&project, dir, &profile, family, &config)?;
+    let lanes = petrel_core::team::lanes(&project, dir, &profile, family, &config)?;
     Ok(Some(Opened {
         rec,
         origin,
@@ -217,13 +216,13 @@ pub fn run(args: Args) -> VerbResult {
         }
         if let Recorded::Replica(json) = input {
             // A ground mirror's recording: the replica's calls on its player.
-            let call = crate::mirror::call::call_from(json).ok_or_else(|| {
+            let call = petrel_core::mirror::call::call_from(json).ok_or_else(|| {
                 miette::miette!("{name}: step {seq}: not a call of the replica: {json}")
             })?;
             let step = sup
-                .play_with(time, |p| crate::mirror::call::apply(p, time, &call))
+                .play_with(time, |p| petrel_core::mirror::call::apply(p, time, &call))
                 .map_err(|e| miette::miette!("{name}: step {seq}: {e}"))?;
-            if let crate::mirror::call::Call::Record { inputs, .. } = &call {
+            if let petrel_core::mirror::call::Call::Record { inputs, .. } = &call {
                 print_record_inputs(&mut out, &project, inputs).map_err(io)?;
             }
             steps += 1;
@@ -361,9 +360,9 @@ pub fn run(args: Args) -> VerbResult {
 fn print_record_inputs<W: Write>(
     out: &mut Timeline<W>,
     project: &nets::Project,
-    inputs: &[crate::mirror::record::Input],
+    inputs: &[petrel_core::mirror::record::Input],
 ) -> std::io::Result<()> {
-    use crate::mirror::record::Input as Downlink;
+    use petrel_core::mirror::record::Input as Downlink;
     for input in inputs {
         match input {
             Downlink::Elaborated { time, event, .. }

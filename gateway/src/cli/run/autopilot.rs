@@ -29,7 +29,7 @@ pub(super) async fn identify(
         let received = tokio::select! {
             r = tokio::time::timeout_at(until, reader.recv()) => r,
             _ = beat.tick() => {
-                let _ = writer.send(announce, &crate::vehicle::commander::companion_heartbeat()).await;
+                let _ = writer.send(announce, &petrel_core::vehicle::commander::companion_heartbeat()).await;
                 continue;
             }
             _ = signals.recv() => return (early, None, true),
@@ -88,10 +88,11 @@ pub(super) fn adopt(
         return Ok(());
     }
     let layers = choice.layers(&setup.dir, base)?;
-    let Some(profile) = layers.load() else {
+    let Some(profile) = crate::cli::loaded(&layers) else {
         return Err(miette::miette!("the {base} profile does not load"));
     };
-    setup.project = crate::project::load_with(&setup.dir, &crate::project::catalog(&profile))?;
+    setup.project =
+        petrel_core::project::load_with(&setup.dir, &petrel_core::project::catalog(&profile))?;
     setup.profile = profile;
     setup.layers = layers;
     Ok(())

@@ -18,11 +18,11 @@ use super::{elaboration_config, links, Setup, SILENCE_WARNING, TIMESTAMP_PERSIST
 use crate::cli::{Outcome, VerbResult};
 use crate::clock::Clock;
 use crate::link::{LinkWriter, Received};
-use crate::onboard::{DownlinkConfig, Input as OwnedInput, Onboard, Settled, Transmit};
 use crate::programs::server::{Direction, ProgramInput, Programs};
 use crate::record::recorder::{Options as RecordOptions, Recorder};
-use crate::supervisor::Supervisor;
-use crate::vehicle::commander::Commander;
+use petrel_core::onboard::{DownlinkConfig, Input as OwnedInput, Onboard, Settled, Transmit};
+use petrel_core::supervisor::Supervisor;
+use petrel_core::vehicle::commander::Commander;
 
 pub(super) struct Gateway {
     clock: Clock,
@@ -157,7 +157,7 @@ impl Gateway {
                         .first()
                         .map(|v| v.system)
                         .or(setup.vehicle.system)
-                        .unwrap_or(crate::vehicle::commander::ANNOUNCE_SYSTEM),
+                        .unwrap_or(petrel_core::vehicle::commander::ANNOUNCE_SYSTEM),
                     setup.vehicle.own_component(),
                 );
                 // The first link: the first vehicle's (all of them, but one
@@ -180,11 +180,11 @@ impl Gateway {
         };
         // Each vehicle's elaboration: its profile and ids (one lane without
         // a team).
-        let lanes = crate::team::lanes(
+        let lanes = petrel_core::team::lanes(
             &setup.project,
             &setup.dir,
             &setup.profile,
-            crate::team::family(&setup.layers.layers),
+            petrel_core::team::family(&setup.layers.layers),
             &elaboration_config(&setup.vehicle),
         )?;
         // The recording is created once the link and the program server
@@ -207,8 +207,8 @@ impl Gateway {
         };
         // One commander per vehicle, on its link, asking its autopilot for
         // what its profile reads.
-        let crew = crate::onboard::crew(&setup.project, &setup.vehicle, &lanes, &link_of);
-        let unread = crate::mirror::Unread::of(&lanes);
+        let crew = petrel_core::onboard::crew(&setup.project, &setup.vehicle, &lanes, &link_of);
+        let unread = petrel_core::mirror::Unread::of(&lanes);
         let (supervisor, start) = Supervisor::start_lanes(setup.project.clone(), lanes, 0);
         let core = Onboard::new(
             supervisor,

@@ -29,7 +29,7 @@ pub(super) struct Opened {
 /// configured system, else the first autopilot heard.
 pub(super) async fn open(setup: &Setup, clock: &Clock) -> Result<Opened, miette::Report> {
     let project = &setup.project;
-    let links = crate::team::links(project, &setup.address);
+    let links = petrel_core::team::links(project, &setup.address);
     let team = !project.vehicles.is_empty();
     let mut opened = Opened {
         addresses: Vec::new(),
@@ -49,7 +49,7 @@ pub(super) async fn open(setup: &Setup, clock: &Clock) -> Result<Opened, miette:
             reader.supervise(setup.vehicle.system);
         }
         if let Some(signing) = &setup.signing {
-            use crate::link::signing::{read_timestamp, Signer, Verifier};
+            use petrel_core::signing::{read_timestamp, Signer, Verifier};
             let persisted = read_timestamp(&signing.timestamp_file);
             writer.sign(Signer::new(signing.key.clone(), signing.link_id, persisted));
             reader.verify(Verifier::new(signing.key.clone(), signing.require));
@@ -118,7 +118,7 @@ pub(super) fn persist_timestamps(file: &std::path::Path, writers: &[LinkWriter])
         .filter_map(LinkWriter::signing_timestamp)
         .max()
     {
-        if let Err(e) = crate::link::signing::write_timestamp(file, ts) {
+        if let Err(e) = petrel_core::signing::write_timestamp(file, ts) {
             tracing::warn!(
                 "cannot persist the signing timestamp to {}: {e}",
                 file.display()

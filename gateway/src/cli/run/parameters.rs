@@ -8,7 +8,7 @@
 /// and supervision goes on.
 pub(super) fn parameters_fit(
     vehicle: &str,
-    verdict: &crate::vehicle::parameters::Verdict,
+    verdict: &petrel_core::vehicle::parameters::Verdict,
     armed: Option<bool>,
 ) -> bool {
     if verdict.holds() {

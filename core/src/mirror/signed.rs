@@ -16,7 +16,7 @@
 
 use serde::Serialize;
 
-use crate::link::signing::{raw_frame, Key, Rejection, Verifier};
+use crate::signing::{raw_frame, Key, Rejection, Verifier};
 
 /// Downlink frames refused for their signature, by reason.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
@@ -102,7 +102,7 @@ impl SignedDownlink {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::signing::Signer;
+    use crate::signing::Signer;
     use mavlink::dialects::ardupilotmega::{MavMessage, TUNNEL_DATA};
     use mavlink::{MavHeader, MavlinkVersion};
 

@@ -102,7 +102,7 @@ fn armed(names: &[String]) -> Vec<&str> {
 
 #[test]
 fn each_vehicles_frames_go_to_its_lane_and_its_events_are_qualified() {
-    let project = crate::team::supervised::team();
+    let project = crate::team::fixtures::team();
     let mut g = ground_of(&project);
     assert!(g.team());
     assert!(armed(&feed(&mut g, 100_000, &rover(1, 0, false))).is_empty());
@@ -140,7 +140,7 @@ fn each_vehicles_frames_go_to_its_lane_and_its_events_are_qualified() {
 
 #[test]
 fn the_check_is_per_vehicle() {
-    let project = crate::team::supervised::team();
+    let project = crate::team::fixtures::team();
     let mut g = ground_of(&project);
     let ev = |name: &str| Event {
         name: name.to_owned(),
@@ -187,7 +187,7 @@ fn the_check_is_per_vehicle() {
 
 #[test]
 fn losses_are_watched_per_vehicle() {
-    let project = crate::team::supervised::team();
+    let project = crate::team::fixtures::team();
     let mut g = ground_of(&project);
     // R1 heard at every second; R2 loses frames 10 to 14 (seq 10..=14).
     for (i, t) in (0..30u8).zip((0..).step_by(1_000_000)) {
@@ -246,7 +246,7 @@ fn arm_r1_with_no_time_base(g: &mut Ground) {
 
 #[test]
 fn events_before_the_time_base_are_judged_once_it_is_known() {
-    let project = crate::team::supervised::team();
+    let project = crate::team::fixtures::team();
     let mut g = ground_of(&project);
     // R1 arms before the downlink's first heartbeat: no time base yet.
     arm_r1_with_no_time_base(&mut g);
@@ -269,7 +269,7 @@ fn events_before_the_time_base_are_judged_once_it_is_known() {
 
 #[test]
 fn events_from_before_the_vehicle_started_are_not_judged() {
-    let project = crate::team::supervised::team();
+    let project = crate::team::fixtures::team();
     let mut g = ground_of(&project);
     // R1 arms before the downlink's first heartbeat, and before the
     // vehicle's player started: vehicle time 0 is as far back as it goes.

@@ -77,7 +77,7 @@ pub type Files = Vec<(String, String)>;
 
 /// Loads the project as [`load_with`] does, with every file the loader
 /// read, `(path, text)` in the order read (what its verdict depends on:
-/// [`crate::preflight`]).
+/// `gateway::preflight`).
 pub fn load_read(
     dir: &Path,
     catalog: &nets::load::Catalog,

@@ -140,7 +140,7 @@ fn params(object: &Map<String, serde_json::Value>) -> Result<Params, String> {
     }
 }
 
-pub(super) fn json_params(params: &Params) -> serde_json::Value {
+pub fn json_params(params: &Params) -> serde_json::Value {
     serde_json::Value::Object(
         params
             .iter()

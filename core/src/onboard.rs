@@ -23,12 +23,12 @@ use mavlink::MavHeader;
 use nets::player::Digest;
 use nets::{Effect, Event, Micros, Outcome, Player, Project};
 
-use crate::link::signing::Key;
-use crate::link::Received;
+use crate::frame::Received;
 use crate::mirror::dialog::AnswerGate;
 use crate::mirror::publisher::{Config as PublisherConfig, Publisher};
 use crate::mirror::tunnel::Tunnel;
 use crate::mirror::Unread;
+use crate::signing::Key;
 use crate::supervisor::{self, Step, Supervisor};
 use crate::vehicle::commander::Commander;
 use crate::vehicle::crew::{self, Crew};

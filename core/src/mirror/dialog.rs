@@ -21,7 +21,7 @@ use nets::{Micros, Project};
 
 use super::record::{self, Record};
 use super::tunnel::{Tunnel, PAYLOAD_TYPE};
-use crate::link::signing::{Key, Rejection, Signer, Verifier};
+use crate::signing::{Key, Rejection, Signer, Verifier};
 
 /// A question pending.
 #[derive(Debug, Clone, PartialEq)]

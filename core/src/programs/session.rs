@@ -31,7 +31,7 @@ fn authorised(required: Option<&str>, given: Option<&str>) -> bool {
 pub const PROGRAM_LOST: &str = "program_lost";
 
 /// The gateway's event for frames dropped by signature checks
-/// (`crate::link::rejections`); a program may not send it either.
+/// (`gateway::link::rejections`); a program may not send it either.
 pub const SIGNATURE_REJECTED: &str = "signature_rejected";
 /// Reasons of failed outcomes the gateway gives itself.
 pub const REASON_LOST: &str = "program lost";

@@ -31,7 +31,6 @@ pub mod replica;
 pub mod signed;
 pub mod station;
 pub mod tunnel;
-pub mod uplink;
 
 use crate::supervisor::{Input as SupervisorInput, Step};
 

@@ -6,11 +6,11 @@
 //! program, or send a HEARTBEAT (under any system id, and never under the
 //! ground station's 255 that ArduPilot's GCS failsafe watches).
 
-use super::record::{self, Record};
-use super::replica::Uplink;
-use super::tunnel::Tunnel;
-use crate::link::signing::Signer;
-use crate::link::{LinkError, LinkWriter};
+use super::{LinkError, LinkWriter};
+use petrel_core::mirror::record::{self, Record};
+use petrel_core::mirror::replica::Uplink;
+use petrel_core::mirror::tunnel::Tunnel;
+use petrel_core::signing::Signer;
 
 /// The mirror's component id: a ground component beside its own system id.
 pub const MIRROR_COMPONENT: u8 = 190;

@@ -26,7 +26,7 @@ use super::record::Input;
 use super::replica::{Config as ReplicaConfig, Repair, Replica, Report, Uplink};
 use super::signed::SignedDownlink;
 use super::tunnel::Tunnel;
-use crate::link::signing::{Key, Rejection};
+use crate::signing::{Key, Rejection};
 use crate::supervisor::Lane;
 
 /// Nothing heard this long (ground time) is said once; a vehicle heard
@@ -383,9 +383,9 @@ mod tests {
     use nets::Event;
 
     use super::*;
-    use crate::link::signing::Signer;
     use crate::mirror::publisher::{self, Publisher};
     use crate::mirror::{step_inputs, Unread, COMPANION, MIRROR_SYSTEM};
+    use crate::signing::Signer;
     use crate::supervisor::{Input as SupervisorInput, Supervisor};
 
     const VEHICLE: (u8, u8) = (1, COMPANION);

@@ -1,7 +1,7 @@
 //! The vehicle side of the gateway: the nets' `command` effects turned
 //! into MAVLink for ArduPilot and PX4, and the autopilot's answers turned
 //! into outcomes. Sans-IO (quinn-proto style): no clock, no sockets; time
-//! is `nets::Micros` given by the caller. The link itself is `crate::link`.
+//! is `nets::Micros` given by the caller. The link itself is the driver's (`gateway::link`).
 //! The verb table, retry rules and the `[gateway]` keys: docs/vehicle.md.
 //!
 //! # Using it

@@ -66,40 +66,42 @@ impl Layers {
         }
     }
 
-    /// Compiles the layers; every problem is printed on stderr for people
-    /// (file:line:col, the line and a caret) and `None` comes back.
-    pub fn load(&self) -> Option<Profile> {
+    /// Compiles the layers; every problem comes back for people
+    /// (file:line:col, the line and a caret), none printed here.
+    pub fn load(&self) -> Result<Profile, Problems> {
         let refs: Vec<(&str, &str)> = self
             .layers
             .iter()
             .map(|(n, t)| (n.as_str(), t.as_str()))
             .collect();
-        match Profile::load(&refs) {
-            Ok(p) => Some(p),
-            Err(e) => {
-                report(&e, &self.layers);
-                None
-            }
-        }
+        Profile::load(&refs).map_err(|e| Problems(reports(&e, &self.layers)))
     }
 }
 
-/// Prints each problem of a profile with its source line.
-pub fn report(err: &ProfileError, sources: &[(String, String)]) {
-    for p in &err.problems {
-        let mut r = miette!(
-            labels = vec![LabeledSpan::at(p.span.clone(), p.message.clone())],
-            "{}:{}:{}: {}",
-            p.file,
-            p.line,
-            p.col,
-            p.message
-        );
-        if let Some((name, text)) = sources.iter().find(|(n, _)| *n == p.file) {
-            r = r.with_source_code(NamedSource::new(name, text.clone()));
-        }
-        say!("{r:?}");
-    }
+/// A profile's problems, each rendered for people with its source line.
+#[derive(Debug, thiserror::Error)]
+#[error("{}", .0.join("\n"))]
+pub struct Problems(pub Vec<String>);
+
+/// Each problem of a profile with its source line, rendered.
+pub fn reports(err: &ProfileError, sources: &[(String, String)]) -> Vec<String> {
+    err.problems
+        .iter()
+        .map(|p| {
+            let mut r = miette!(
+                labels = vec![LabeledSpan::at(p.span.clone(), p.message.clone())],
+                "{}:{}:{}: {}",
+                p.file,
+                p.line,
+                p.col,
+                p.message
+            );
+            if let Some((name, text)) = sources.iter().find(|(n, _)| *n == p.file) {
+                r = r.with_source_code(NamedSource::new(name, text.clone()));
+            }
+            format!("{r:?}")
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -130,7 +132,7 @@ mod tests {
             .expect("written");
         let bad = Layers::choose("bad.toml", Some(&dir), "px4").expect("read");
         assert_eq!(bad.layers[0].0, "px4.toml");
-        assert!(bad.load().is_none());
+        assert!(bad.load().is_err());
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

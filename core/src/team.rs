@@ -52,8 +52,11 @@ pub fn lanes(
                 Some(choice) => Layers::choose(choice, Some(dir), family)
                     .map_err(|e| miette::miette!("vehicle {}: {e}", v.name))?
                     .load()
-                    .ok_or_else(|| {
-                        miette::miette!("vehicle {}: its profile {choice} does not load", v.name)
+                    .map_err(|problems| {
+                        miette::miette!(
+                            "vehicle {}: its profile {choice} does not load:\n{problems}",
+                            v.name
+                        )
                     })?,
             };
             Ok(Lane {
@@ -244,22 +247,15 @@ mod tests {
     }
 }
 
-/// The supervisor running a team: each vehicle's frames through its own
-/// lane, its events qualified, commands addressed to it.
-#[cfg(test)]
-pub(crate) mod supervised {
-    use crate::supervisor::{Input, Step, Supervisor};
-    use elaboration::Config;
-    use mavlink::dialects::ardupilotmega::{
-        MavAutopilot, MavMessage, MavModeFlag, MavState, MavType, HEARTBEAT_DATA,
-    };
-    use mavlink::{MavHeader, MavlinkVersion};
-    use nets::{Effect, Project};
+/// Projects for tests, here and in other crates (the `fixtures` feature).
+#[cfg(any(test, feature = "fixtures"))]
+pub mod fixtures {
+    use nets::Project;
     use std::sync::Arc;
 
     /// A team of two (R1 system 1, R2 system 2), each instance of `M`
     /// firing `go` on its vehicle's `armed` and then commanding it.
-    pub(crate) fn team() -> Arc<Project> {
+    pub fn team() -> Arc<Project> {
         let sources = [
             (
                 "project.toml",
@@ -278,6 +274,22 @@ pub(crate) mod supervised {
                 .expect("the team loads"),
         )
     }
+}
+
+/// The supervisor running a team: each vehicle's frames through its own
+/// lane, its events qualified, commands addressed to it.
+#[cfg(test)]
+mod supervised {
+    use crate::supervisor::{Input, Step, Supervisor};
+    use elaboration::Config;
+    use mavlink::dialects::ardupilotmega::{
+        MavAutopilot, MavMessage, MavModeFlag, MavState, MavType, HEARTBEAT_DATA,
+    };
+    use mavlink::{MavHeader, MavlinkVersion};
+    use nets::{Effect, Project};
+    use std::sync::Arc;
+
+    use super::fixtures::team;
 
     fn heartbeat(system: u8, armed: bool) -> Vec<u8> {
         let header = MavHeader {
