@@ -20,8 +20,8 @@
 //!
 //! It never opens a socket, starts a thread or a process, reads the clock,
 //! sleeps or prints: time comes in with every input, and the only files it
-//! reads are a project's own (its nets, profile and key, when asked to
-//! load them). Its dependencies say so: no tokio, axum, mcap or libc. The
+//! touches are a project's own (its nets, profile and key, read when asked
+//! to load them; program skeletons, written into it when asked). Its dependencies say so: no tokio, axum, mcap or libc. The
 //! drivers that move bytes are in the `gateway` crate.
 
 pub mod frame;

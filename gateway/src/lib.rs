@@ -5,9 +5,9 @@
 //! supervisor, the team, the commanders, the mirror): this crate moves
 //! their bytes. It owns the MAVLink links ([`link`]: reading, writing,
 //! signing on the wire, the mirror's uplink), the program server and the
-//! started programs ([`programs`]), the recording (MCAP, [`record`]), the
-//! web pages (monitor, view, editor: [`monitor`], [`edit`]), preflight,
-//! the clock and the threads' scheduling. The `petrel` binary's `cli/`
+//! started programs ([`programs`]), preflight, the clock and the threads'
+//! scheduling (the recorder's and the web pages' threads too; the
+//! recording itself is `petrel_record`'s, the pages `petrel_web`'s). The `petrel` binary's `cli/`
 //! parses arguments and drives these; nothing here imports `cli/`, reads
 //! arguments or decides an exit status.
 
@@ -44,10 +44,7 @@ macro_rules! show {
 }
 
 pub mod clock;
-pub mod edit;
 pub mod link;
-pub mod monitor;
 pub mod preflight;
 pub mod programs;
-pub mod record;
 pub mod scheduling;

@@ -13,7 +13,7 @@ extern crate gateway;
 
 mod cli;
 
-use gateway::{clock, edit, link, monitor, preflight, programs, record, scheduling};
+use gateway::{clock, link, preflight, programs, scheduling};
 
 #[derive(Parser)]
 #[command(
@@ -64,6 +64,11 @@ fn main() -> ExitCode {
     let _ = miette::set_hook(Box::new(move |_| {
         Box::new(miette::MietteHandlerOpts::new().wrap_lines(wrap).build())
     }));
+    // The web pages' threads take the normal policy, never a real-time
+    // priority a crew gave the gateway (docs/run.md "On a busy computer").
+    petrel_web::set_thread_policy(|| {
+        let _ = scheduling::normal();
+    });
     // Logs (tracing) go to stderr: warnings and errors unless PETREL_LOG
     // says otherwise (`PETREL_LOG=info`, `PETREL_LOG=gateway=debug`).
     let filter = tracing_subscriber::EnvFilter::try_from_env("PETREL_LOG")

@@ -118,6 +118,14 @@ pub fn short_slice(ns: u64) -> Asked {
     })
 }
 
+/// The recorder's writer thread ([`petrel_record::recorder::Options::writer_started`]):
+/// its work can wait, so it goes to the batch policy ([`batch`]) and never
+/// preempts the gateway's loop.
+pub fn recorder_thread() {
+    let asked = batch();
+    tracing::debug!("the recorder's batch scheduling: {asked:?}");
+}
+
 /// Puts the calling thread in the batch policy (its wake-ups preempt no
 /// one) with the kernel's default slice (a thread inherits the policy and
 /// the slice of the thread that spawned it), keeping its nice value. A

@@ -8,6 +8,7 @@
 //! - [`roster`]: what the project expects of each program (the functions
 //!   the nets call, its settings) and the `[gateway] programs` address
 //!   ([`address`]).
+//! - [`stubs`]: program skeletons for `petrel stubs` and the editor.
 //!
 //! The listener, the started processes and the tasks are the driver's
 //! (`gateway::programs`).
@@ -16,3 +17,4 @@ pub mod address;
 pub mod protocol;
 pub mod roster;
 pub mod session;
+pub mod stubs;

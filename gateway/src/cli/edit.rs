@@ -8,9 +8,9 @@ use std::net::SocketAddr;
 use std::path::PathBuf;
 
 use super::{Outcome, VerbResult};
-use crate::edit::server::router;
-use crate::edit::session::Session;
-use crate::monitor::Server;
+use petrel_web::edit::server::router;
+use petrel_web::edit::session::Session;
+use petrel_web::monitor::Server;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -24,7 +24,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> VerbResult {
     let address: SocketAddr = match &args.http {
-        Some(a) => crate::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?,
+        Some(a) => petrel_web::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?,
         None => {
             let port = if std::net::TcpListener::bind("127.0.0.1:8091").is_ok() {
                 8091

@@ -97,7 +97,7 @@ fn seconds(time_us: u64, first_us: u64) -> f64 {
 }
 
 pub fn run(args: Args) -> VerbResult {
-    let bytes = crate::record::read::whole(&args.file)
+    let bytes = petrel_record::read::whole(&args.file)
         .into_diagnostic()
         .wrap_err_with(|| format!("cannot read {}", args.file.display()))?;
     let firmware = match args.firmware.as_deref() {

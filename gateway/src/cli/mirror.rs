@@ -23,14 +23,14 @@ use super::VerbResult;
 use crate::clock::Clock;
 use crate::link::uplink::UplinkWriter;
 use crate::link::Link;
-use crate::record::layout;
-use crate::record::recorder::{Options as RecordOptions, Recorder};
 use petrel_core::mirror::call::call_json;
 use petrel_core::mirror::check::Disagreement;
 use petrel_core::mirror::ground::Ground;
 use petrel_core::mirror::record::Input;
 use petrel_core::mirror::replica::{Replica, Report};
 use petrel_core::mirror::station::{Config as StationConfig, Output, Station, SILENCE_WARNING};
+use petrel_record::layout;
+use petrel_record::recorder::{Options as RecordOptions, Recorder};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -136,7 +136,7 @@ pub fn run(args: Args) -> VerbResult {
         }
     };
     let http = match &args.http {
-        Some(a) => Some(crate::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?),
+        Some(a) => Some(petrel_web::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?),
         None => None,
     };
     let record = if args.no_record {
@@ -246,6 +246,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                 profile: setup.layers.name.clone(),
                 profile_layers: setup.layers.layers.clone(),
                 config: elaboration::Config::default(),
+                writer_started: crate::scheduling::recorder_thread,
                 ..RecordOptions::default()
             };
             let rec = Recorder::create(path, setup.project.clone(), options)
@@ -275,7 +276,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                     "no operator key in this mirror (petrel mirror --operator-key FILE)".to_owned(),
                 ),
             };
-            let (page, answers) = crate::monitor::mirror_page::Page::start(
+            let (page, answers) = petrel_web::monitor::mirror_page::Page::start(
                 address,
                 setup.project.clone(),
                 &setup.dir,
@@ -390,7 +391,7 @@ async fn mirror(setup: Setup) -> VerbResult {
                 }
             } => {
                 // The page's answer: the same path as one typed on stdin.
-                let crate::monitor::answer::Request { id, choice, reply } = request;
+                let petrel_web::monitor::answer::Request { id, choice, reply } = request;
                 let sent = answer(&mut station, id, &choice, signer.as_mut(), &uplink, clock.now(), recorder.as_ref()).await;
                 match &sent {
                     Ok(said) | Err(said) => say!("{said} (from the page)"),

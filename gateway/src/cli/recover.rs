@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use serde_json::json;
 
 use super::{Outcome, VerbResult};
-use crate::record::recover::{recover, RecoverError};
+use petrel_record::recover::{recover, RecoverError};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -28,7 +28,7 @@ pub struct Args {
 pub fn run(args: Args) -> VerbResult {
     let name = args.file.display().to_string();
     let out_name = args.output.display().to_string();
-    let bytes = crate::record::read::whole(&args.file)
+    let bytes = petrel_record::read::whole(&args.file)
         .map_err(|e| miette::miette!("cannot read the recording {name}: {e}"))?;
     let same = match (
         std::fs::canonicalize(&args.file),

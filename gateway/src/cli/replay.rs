@@ -75,7 +75,7 @@ pub fn run(args: Args) -> VerbResult {
             "--check-against needs a Petrel recording (.mcap): a telemetry log records no decisions"
         ));
     }
-    let bytes = crate::record::read::whole(&args.file)
+    let bytes = petrel_record::read::whole(&args.file)
         .map_err(|e| miette::miette!("cannot read {}: {e}", args.file.display()))?;
     let Ok((profile, _)) =
         super::events::load_profile(args.profile.as_deref(), Some(&args.project), &bytes)?

@@ -330,7 +330,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
         }
     };
     let http = match &args.http {
-        Some(a) => Some(crate::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?),
+        Some(a) => Some(petrel_web::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?),
         None => None,
     };
     Ok(Ok(Setup {

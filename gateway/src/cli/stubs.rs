@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use crate::programs::stubs::{write, Lang};
+use petrel_core::programs::stubs::{write, Lang};
 
 use super::{Outcome, VerbResult};
 

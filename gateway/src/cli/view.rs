@@ -11,10 +11,10 @@ use std::time::Instant;
 
 use super::replay::from_mcap;
 use super::{Outcome, VerbResult};
-use crate::monitor::history::{Builder, History};
-use crate::monitor::{page, Server, Source};
-use crate::record::check::compare;
 use petrel_core::supervisor::Supervisor;
+use petrel_record::check::compare;
+use petrel_web::monitor::history::{Builder, History};
+use petrel_web::monitor::{page, Server, Source};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -48,7 +48,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> VerbResult {
     let address: SocketAddr = match &args.http {
-        Some(a) => crate::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?,
+        Some(a) => petrel_web::monitor::parse_address(a).map_err(|e| miette::miette!("{e}"))?,
         None => {
             let port = if std::net::TcpListener::bind("127.0.0.1:8090").is_ok() {
                 8090

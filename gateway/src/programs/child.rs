@@ -15,7 +15,7 @@ use tokio::process::{Child, Command};
 use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
 
-use super::roster::Restart;
+use petrel_core::programs::roster::Restart;
 
 /// The environment variable holding the gateway's programs address.
 pub const ENV_ADDRESS: &str = "PETREL_PROGRAMS";

@@ -2,16 +2,12 @@
 //! GUI…) that the nets call. The protocol is JSON lines over TCP or a Unix
 //! socket, documented in `docs/programs.md`.
 //!
-//! - [`session`], [`protocol`], [`roster`], [`address`]: the sans-IO part,
-//!   in `petrel_core::programs` (one connection's core, fed bytes and
-//!   polled for outputs; what the project expects of each program).
+//! - The sans-IO part is `petrel_core::programs` (one connection's
+//!   session, fed bytes and polled for outputs; the protocol; what the
+//!   project expects of each program; the stubs).
 //! - [`server`]: the tokio layer: the listener, one task per connection, the
 //!   started programs ([`child`]), and the [`Programs`](server::Programs) handle the gateway's
 //!   loop calls without ever blocking.
-//! - [`stubs`]: program skeletons for `petrel stubs`.
 
 pub mod child;
 pub mod server;
-pub mod stubs;
-
-pub use petrel_core::programs::{address, protocol, roster, session};

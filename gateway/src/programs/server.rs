@@ -15,11 +15,11 @@ use tokio::net::{TcpListener, UnixListener};
 use tokio::sync::{mpsc, watch};
 use tokio::task::JoinHandle;
 
-use super::address::Address;
 use super::child::{self, stopped, ChildEvent, Launch};
-use super::protocol::json_params;
-use super::roster::{Config, Roster, SettingsError};
-use super::session::{self, Output, Session};
+use petrel_core::programs::address::Address;
+use petrel_core::programs::protocol::json_params;
+use petrel_core::programs::roster::{Config, Roster, SettingsError};
+use petrel_core::programs::session::{self, Output, Session};
 
 /// Capacity of the channel of inputs to the gateway's loop.
 const INPUTS: usize = 1024;

@@ -9,7 +9,7 @@ use petrel_core::supervisor;
 
 use petrel_core::project;
 
-use gateway::record;
+use petrel_record as record;
 
 mod files;
 mod flight;

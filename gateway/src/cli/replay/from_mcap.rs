@@ -12,10 +12,10 @@ use serde_json::json;
 use super::{print_step, Args};
 use crate::cli::timeline::Timeline;
 use crate::cli::{Outcome, VerbResult};
-use crate::record::check::{compare, Difference};
-use crate::record::layout::Input as Recorded;
-use crate::record::read;
 use petrel_core::supervisor::{Input, Supervisor};
+use petrel_record::check::{compare, Difference};
+use petrel_record::layout::Input as Recorded;
+use petrel_record::read;
 
 /// A recording read, with the profile and project it replays with.
 pub(crate) struct Opened {
@@ -40,7 +40,7 @@ pub(crate) fn open(
     expectations: bool,
 ) -> Result<Option<Opened>, miette::Report> {
     let name = file.display().to_string();
-    let bytes = crate::record::read::whole(file)
+    let bytes = petrel_record::read::whole(file)
         .map_err(|e| miette::miette!("cannot read the MCAP recording {name}: {e}"))?;
     let reading = Instant::now();
     let rec = read::read(&bytes, expectations).map_err(|e| miette::miette!("{name}: {e}"))?;
@@ -243,7 +243,7 @@ pub fn run(args: Args) -> VerbResult {
             Input::Result { id, outcome } => {
                 let (fields, text) = match outcome {
                     nets::Outcome::Done(p) => (
-                        json!({"reply": id, "params": crate::record::layout::outcome_json(outcome)["done"]}),
+                        json!({"reply": id, "params": petrel_record::layout::outcome_json(outcome)["done"]}),
                         format!("REPLY  {id} done {}", nets::Value::Map(p.clone())),
                     ),
                     nets::Outcome::Failed(r) => (

@@ -19,10 +19,10 @@ use crate::cli::{Outcome, VerbResult};
 use crate::clock::Clock;
 use crate::link::{LinkWriter, Received};
 use crate::programs::server::{Direction, ProgramInput, Programs};
-use crate::record::recorder::{Options as RecordOptions, Recorder};
 use petrel_core::onboard::{DownlinkConfig, Input as OwnedInput, Onboard, Settled, Transmit};
 use petrel_core::supervisor::Supervisor;
 use petrel_core::vehicle::commander::Commander;
+use petrel_record::recorder::{Options as RecordOptions, Recorder};
 
 pub(super) struct Gateway {
     clock: Clock,
@@ -33,7 +33,7 @@ pub(super) struct Gateway {
     writers: Vec<LinkWriter>,
     recorder: Option<Recorder>,
     /// The web monitor: fed in `settle`, served on its own thread.
-    monitor: Option<(crate::monitor::Feed, crate::monitor::Server)>,
+    monitor: Option<(petrel_web::monitor::Feed, petrel_web::monitor::Server)>,
     out: Timeline<std::io::BufWriter<Box<dyn Write + Send>>>,
 }
 
@@ -197,6 +197,7 @@ impl Gateway {
                     profile: setup.layers.name.clone(),
                     profile_layers: setup.layers.layers.clone(),
                     config: lanes[0].config.clone(),
+                    writer_started: crate::scheduling::recorder_thread,
                     ..RecordOptions::default()
                 };
                 let rec = Recorder::create(path, setup.project.clone(), options)
@@ -239,8 +240,9 @@ impl Gateway {
         }
         if let Some(address) = setup.http {
             let (project, player) = (gw.core.project().clone(), gw.core.player());
-            let monitor = crate::monitor::start_live(address, project, &setup.dir, &start, player)
-                .map_err(|e| miette::miette!("cannot serve the monitor on {address}: {e}"))?;
+            let monitor =
+                petrel_web::monitor::start_live(address, project, &setup.dir, &start, player)
+                    .map_err(|e| miette::miette!("cannot serve the monitor on {address}: {e}"))?;
             say!("monitor: http://{}/", monitor.1.address);
             gw.monitor = Some(monitor);
         }

@@ -4,10 +4,10 @@ use std::time::Duration;
 
 use nets::{Category, Outcome, Params, Value};
 
-use super::programs::roster::Config;
 use super::programs::server::{Direction, ProgramInput};
 use super::scratch::Scratch;
 use super::support::*;
+use petrel_core::programs::roster::Config;
 
 fn check_indices(h: &Harness) {
     let names: Vec<&str> = h.project.programs[0]
@@ -324,7 +324,7 @@ async fn a_runaway_line_is_discarded_with_an_error_and_the_connection_stays() {
     use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 
     let mut h = Harness::start("", FUNCTIONS).await;
-    let super::programs::address::Address::Tcp(address) = h.programs.address().clone() else {
+    let petrel_core::programs::address::Address::Tcp(address) = h.programs.address().clone() else {
         panic!("a TCP address")
     };
     let stream = tokio::net::TcpStream::connect(address)
@@ -442,7 +442,7 @@ async fn with_a_token_only_programs_that_give_it_connect_and_the_token_is_never_
         .call(1, 0, ECHO, params(&[("reply", Value::Map(reply.clone()))]));
     assert_eq!(h.outcome(1).await, Outcome::Done(reply));
     // A client without the token, and one with a wrong one, are refused.
-    let super::programs::address::Address::Tcp(at) = h.programs.address().clone() else {
+    let petrel_core::programs::address::Address::Tcp(at) = h.programs.address().clone() else {
         panic!("a TCP address")
     };
     for hello in [

@@ -8,9 +8,9 @@ use std::time::Duration;
 use nets::{Outcome, Params, Project, Value};
 use tokio::sync::mpsc;
 
-use super::programs::roster::Config;
 use super::programs::server::{Direction, ProgramInput, Programs, Traffic};
 use super::scratch::Scratch;
+use petrel_core::programs::roster::Config;
 
 /// Longest wait for any one input.
 pub const WAIT: Duration = Duration::from_secs(15);

@@ -34,6 +34,10 @@ pub struct Options {
     /// The elaboration config the Supervisor was started with, recorded
     /// with the start: replay elaborates with it.
     pub config: elaboration::Config,
+    /// Called first on the writer thread, before it writes: the driver puts
+    /// the thread in its scheduling policy there (`petrel run`: batch, so
+    /// that the writer's wake-ups never preempt the loop).
+    pub writer_started: fn(),
 }
 
 impl Default for Options {
@@ -49,6 +53,7 @@ impl Default for Options {
             profile: String::new(),
             profile_layers: Vec::new(),
             config: elaboration::Config::default(),
+            writer_started: || {},
         }
     }
 }

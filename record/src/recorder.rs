@@ -121,14 +121,13 @@ impl Recorder {
         let dropped = Arc::new(Dropped::default());
         let (tx, rx) = sync_channel(options.queue.max(1));
         let capacity = options.queue.max(1) as u64;
+        let writer_started = options.writer_started;
         let mut writer = Writer::new(mcap, project, options, Arc::clone(&dropped))?;
         let thread = std::thread::Builder::new()
             .name("petrel-recorder".into())
             .spawn(move || {
-                // The writer's work can wait: its wake-ups never preempt the
-                // gateway's loop (scheduling.rs).
-                let asked = crate::scheduling::batch();
-                tracing::debug!("the recorder's batch scheduling: {asked:?}");
+                // The writer's work can wait: the driver's policy for it.
+                writer_started();
                 let result = writer.run(rx);
                 let (written, at) = (writer.steps(), writer.last_time());
                 let result = result.and_then(|report| {

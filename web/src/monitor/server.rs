@@ -78,7 +78,10 @@ struct Shared {
     sockets: Sockets,
 }
 
-fn router(source: Source) -> Router {
+/// The monitor's routes over `source` (the page, its assets, the nets,
+/// the WebSocket). Served through [`Server::serve`], which puts the guard
+/// in front of them.
+pub fn router(source: Source) -> Router {
     let shared = Shared {
         source,
         sockets: Sockets::default(),
@@ -228,7 +231,7 @@ impl Server {
             .spawn(move || {
                 // A page can wait: never at a real-time priority a crew gave
                 // the gateway (docs/run.md "On a busy computer").
-                let _ = crate::scheduling::normal();
+                crate::thread_started();
                 runtime.block_on(async move {
                     let listener = match tokio::net::TcpListener::from_std(listener) {
                         Ok(l) => l,

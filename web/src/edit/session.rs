@@ -713,8 +713,8 @@ impl Session {
     /// (relative to the project folder).
     pub fn stubs(&self, lang: &str, out: &str, force: bool) -> Result<Vec<String>, String> {
         let lang = match lang {
-            "python" => crate::programs::stubs::Lang::Python,
-            "rust" => crate::programs::stubs::Lang::Rust,
+            "python" => petrel_core::programs::stubs::Lang::Python,
+            "rust" => petrel_core::programs::stubs::Lang::Rust,
             other => return Err(format!("no stubs in `{other}`: python or rust")),
         };
         let project = self
@@ -723,7 +723,7 @@ impl Session {
             .clone()
             .ok_or_else(|| "the project does not load: fix its problems first".to_owned())?;
         let out = inside(&self.dir, out)?;
-        let written = crate::programs::stubs::write(&self.dir, &project, lang, &out, force)?;
+        let written = petrel_core::programs::stubs::write(&self.dir, &project, lang, &out, force)?;
         Ok(written.iter().map(|p| p.display().to_string()).collect())
     }
 }

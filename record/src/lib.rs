@@ -3,6 +3,13 @@
 //! The layout (channels, encodings, times, the inputs log) is in
 //! docs/recording.md.
 //!
+//! This crate owns the file: the typed records that the writer writes and
+//! the reader reads ([`layout`], one type for both), the writer thread, and
+//! reading back and recovering a cut file. It never decides anything (the
+//! steps come from `petrel_core`'s supervisor), never opens a socket, and
+//! never sets a thread's scheduling: the driver does, through
+//! [`recorder::Options::writer_started`].
+//!
 //! - [`recorder`]: the [`recorder::Recorder`] handle, over a bounded queue
 //!   to the writer thread (`writer.rs`, which owns the file): the caller
 //!   never waits and never fails; what is dropped is counted and recorded.

@@ -130,7 +130,7 @@ pub fn write(
     force: bool,
 ) -> Result<Vec<PathBuf>, String> {
     let config =
-        petrel_core::programs::roster::Config::from_project_dir(dir).map_err(|e| e.to_string())?;
+        crate::programs::roster::Config::from_project_dir(dir).map_err(|e| e.to_string())?;
     let files = stubs(project, lang, &config.address.to_string());
     if !force {
         let existing: Vec<String> = files
