@@ -137,6 +137,7 @@ struct Done {
 }
 
 /// A frame to send.
+#[derive(Debug)]
 pub enum Transmit {
     /// A commander's message, from (`from`) on link `link`.
     Command(Box<crew::Transmit>),
@@ -217,15 +218,26 @@ impl Onboard {
     /// `now` (`unix_us`: the wall clock's UNIX time, for the operator's
     /// signatures): to the commanders on that link, then to the
     /// supervisor.
+    ///
+    /// The frame is parsed once, by the link: its decoded message goes to
+    /// the commanders and to elaboration as it is; only a frame the dialect
+    /// did not decode is elaborated from its bytes (and a TUNNEL, whose
+    /// payload type rust-mavlink's enum may refuse, read from them).
     pub fn handle_frame(&mut self, now: Micros, link: usize, rx: Received, unix_us: u64) {
         self.frames += 1;
-        if self.crew.members().first().map(|m| m.link) == Some(link) {
+        let tunnel = rx
+            .message
+            .as_ref()
+            .is_none_or(|m| matches!(m, MavMessage::TUNNEL(_)));
+        if tunnel && self.crew.members().first().map(|m| m.link) == Some(link) {
             self.uplink(now, &rx.bytes, unix_us);
         }
         if let Some(message) = &rx.message {
             self.crew.message(link, rx.time_us, &rx.header, message);
         }
-        self.feed(now, rx.time_us, Input::Frame(rx.bytes, link));
+        let decoded = rx.message.as_ref().map(|m| (&rx.header, m));
+        let input = Input::Frame(rx.bytes, link);
+        self.feed_heard(now, rx.time_us, input, decoded);
     }
 
     /// A message for the commanders only (the upload grace at the end,
@@ -380,8 +392,22 @@ impl Onboard {
     /// `poll_transmit`), calls to the queue; the digest is taken now, as
     /// it must be.
     fn feed(&mut self, now: Micros, time: Micros, input: Input) {
+        self.feed_heard(now, time, input, None);
+    }
+
+    /// [`Self::feed`], a frame's message elaborated as decoded when given.
+    fn feed_heard(
+        &mut self,
+        now: Micros,
+        time: Micros,
+        input: Input,
+        decoded: Option<(&MavHeader, &MavMessage)>,
+    ) {
         let before = self.supervisor.player().state().now;
-        let step = self.supervisor.step(time, input.as_supervisor());
+        let step = match decoded {
+            Some((header, message)) => self.supervisor.step_message(time, header, message),
+            None => self.supervisor.step(time, input.as_supervisor()),
+        };
         for e in &step.effects {
             self.effect(now, e);
         }

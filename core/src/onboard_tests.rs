@@ -222,3 +222,94 @@ fn a_flight_in_simulated_time_takes_off_and_the_station_follows_it_exactly() {
         "{disagreements:?} {total:?}"
     );
 }
+
+/// A frame elaborated from the message the link decoded gives the step its
+/// bytes give (what `petrel replay` parses from the recording): two cores
+/// fly one simulated take-off, one handed each frame's decoded message,
+/// the other its bytes alone; their commands, steps and digests are the
+/// same, frame after frame.
+#[test]
+fn a_decoded_frame_steps_as_its_bytes_do() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let (project, lanes) = project(dir.path());
+    let core = || {
+        let crew = crew(&project, &VehicleConfig::default(), &lanes, &[]);
+        let (supervisor, start) = Supervisor::start_lanes(project.clone(), lanes.clone(), 0);
+        let mut core = Onboard::new(supervisor, crew, None, None, true);
+        core.start(0, &start);
+        core
+    };
+    let (mut decoded, mut from_bytes) = (core(), core());
+    let mut sim = sitl_tests::Vehicle::new(sitl_tests::SimConfig {
+        boot: sitl_tests::BootTimeline::quick(),
+        first_arm_refused: false,
+        ..sitl_tests::SimConfig::default()
+    });
+    let (mut frames, mut steps, mut fired) = (0, 0, Vec::new());
+    let mut t: Micros = 0;
+    while t < 90_000_000 {
+        t += 10_000;
+        sim.advance(t);
+        while let Some((header, message)) = sim.poll_transmit() {
+            let bytes = elaboration::frame::serialize(header, MavlinkVersion::V2, &message);
+            let rx = |message| Received {
+                time_us: t,
+                bytes: bytes.clone(),
+                version: MavlinkVersion::V2,
+                header,
+                message,
+            };
+            decoded.handle_frame(t, 0, rx(Some(message.clone())), UNIX + t);
+            // Without its message, a core elaborates the frame's bytes (its
+            // commanders do not hear it: they are given it alone).
+            from_bytes.handle_vehicle_message(0, t, &header, &message);
+            from_bytes.handle_frame(t, 0, rx(None), UNIX + t);
+            frames += 1;
+        }
+        for core in [&mut decoded, &mut from_bytes] {
+            if t >= core.poll_timeout() {
+                core.handle_timeout(t);
+            }
+        }
+        loop {
+            let (a, b) = (decoded.poll_transmit(t), from_bytes.poll_transmit(t));
+            assert_eq!(format!("{a:?}"), format!("{b:?}"), "at {t} µs");
+            let Some(Transmit::Command(c)) = a else {
+                break;
+            };
+            let header = MavHeader {
+                system_id: u32::from(c.from.0),
+                component_id: c.from.1,
+                sequence: 0,
+            };
+            sim.handle(t, &header, &c.message);
+        }
+        decoded.settle();
+        from_bytes.settle();
+        loop {
+            let (a, b) = (decoded.poll_settled(), from_bytes.poll_settled());
+            let (Some(a), Some(b)) = (a, b) else {
+                assert!(decoded.poll_settled().is_none() && from_bytes.poll_settled().is_none());
+                break;
+            };
+            assert_eq!(
+                format!("{:?}", a.step),
+                format!("{:?}", b.step),
+                "at {t} µs"
+            );
+            assert_eq!(a.digest, b.digest, "at {t} µs");
+            steps += 1;
+            for (_, effects) in &a.step.events {
+                for e in effects {
+                    if let Effect::Fired { transition, .. } = e {
+                        fired.push(*transition);
+                    }
+                }
+            }
+        }
+    }
+    assert!(frames > 1_000, "{frames} frames");
+    assert!(steps > 1_000, "{steps} steps");
+    // The flight was flown: arm, roll, take-off all fired on events.
+    assert!(fired.len() >= 2, "fired {fired:?}");
+}

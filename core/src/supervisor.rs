@@ -18,6 +18,8 @@
 use std::sync::Arc;
 
 use elaboration::{Config, Elaborated, Elaborator, Frame, Profile};
+use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::MavHeader;
 use nets::{Effect, Event, Micros, Outcome, Player, Project};
 
 /// One timed input. (`Result` and `Event` come from the vehicle link and the
@@ -154,15 +156,15 @@ impl Lanes {
         &self.elaborators[0]
     }
 
-    /// Feeds `frame` (or only time, `None`) at `time` to lanes `range` and
-    /// drains what they elaborate into `out`, each event qualified with its
-    /// lane's vehicle; several lanes' events in time order (a stable sort
-    /// keeps team order among events of one instant).
-    pub fn feed(
+    /// Feeds what was heard (or only time, `None`) at `time` to lanes
+    /// `range` and drains what they elaborate into `out`, each event
+    /// qualified with its lane's vehicle; several lanes' events in time
+    /// order (a stable sort keeps team order among events of one instant).
+    fn feed(
         &mut self,
         range: std::ops::Range<usize>,
         time: Micros,
-        frame: Option<&Frame>,
+        heard: Option<Heard>,
         out: &mut Vec<Elaborated>,
     ) {
         let several = range.len() > 1;
@@ -170,8 +172,10 @@ impl Lanes {
         for i in range {
             let e = &mut self.elaborators[i];
             e.tick(time);
-            if let Some(frame) = frame {
-                e.frame(time, frame);
+            match heard {
+                Some(Heard::Frame(frame)) => e.frame(time, frame),
+                Some(Heard::Message(header, message)) => e.message(time, header, message),
+                None => {}
             }
             let from = out.len();
             e.drain_into(out);
@@ -189,13 +193,35 @@ impl Lanes {
     /// A frame at `time` to the lanes of its system ([`Lanes::route`]).
     pub fn frame(&mut self, time: Micros, frame: &Frame, out: &mut Vec<Elaborated>) {
         let lanes = self.route(frame.system_id(), frame.component_id());
-        self.feed(lanes, time, Some(frame), out);
+        self.feed(lanes, time, Some(Heard::Frame(frame)), out);
+    }
+
+    /// A message rust-mavlink already decoded (a live link's frame), at
+    /// `time`, to the lanes of its system: the same events as
+    /// [`Lanes::frame`] of its bytes, without parsing them again.
+    pub fn message(
+        &mut self,
+        time: Micros,
+        header: &MavHeader,
+        message: &MavMessage,
+        out: &mut Vec<Elaborated>,
+    ) {
+        let system = u8::try_from(header.system_id).unwrap_or(u8::MAX);
+        let lanes = self.route(system, header.component_id);
+        self.feed(lanes, time, Some(Heard::Message(header, message)), out);
     }
 
     /// Time passes: every lane ticks, in team order.
     pub fn tick(&mut self, time: Micros, out: &mut Vec<Elaborated>) {
         self.feed(0..self.count(), time, None, out);
     }
+}
+
+/// What a lane hears: a frame's bytes, or the message rust-mavlink decoded.
+#[derive(Clone, Copy)]
+enum Heard<'a, 'b> {
+    Frame(&'a Frame<'b>),
+    Message(&'a MavHeader, &'a MavMessage),
 }
 
 /// Elaboration and the player.
@@ -293,11 +319,6 @@ impl Supervisor {
     /// Feeds one input at `time`.
     pub fn step(&mut self, time: Micros, input: Input) -> Step {
         self.seq += 1;
-        let mut step = Step {
-            seq: self.seq,
-            time,
-            ..Step::default()
-        };
         match input {
             Input::Frame(bytes) => match Frame::parse(bytes) {
                 Ok(frame) => self.lanes.frame(time, &frame, &mut self.elaborated),
@@ -310,6 +331,29 @@ impl Supervisor {
                 let _ = self.player.answer(id, &choice, time);
             }
         }
+        self.settle(time)
+    }
+
+    /// Feeds at `time` a frame that rust-mavlink already decoded on a live
+    /// link: the step [`Self::step`] of `Input::Frame` of its bytes gives,
+    /// without parsing the frame again (its bytes are recorded as that
+    /// input; replay parses them, with the same events).
+    pub fn step_message(&mut self, time: Micros, header: &MavHeader, message: &MavMessage) -> Step {
+        self.seq += 1;
+        self.lanes
+            .message(time, header, message, &mut self.elaborated);
+        self.settle(time)
+    }
+
+    /// The step an input just fed causes: the effects so far, each
+    /// elaborated event handed to the player with its own, then time
+    /// advanced to `time`.
+    fn settle(&mut self, time: Micros) -> Step {
+        let mut step = Step {
+            seq: self.seq,
+            time,
+            ..Step::default()
+        };
         step.effects.extend(self.player.effects());
         for e in self.elaborated.drain(..) {
             self.player.handle(&e.event, e.time_us);
