@@ -6,9 +6,9 @@ use mavlink::dialects::ardupilotmega::{MavResult, MavSeverity};
 
 use crate::boot::{texts, Phase};
 use crate::faults::FaultKind;
-use crate::flight::Stage;
 use crate::mission::{cmd, MissionItem};
 use crate::modes;
+use crate::nav_state::Stage;
 use crate::vehicle::Vehicle;
 
 /// COMPONENT_ARM_DISARM param2 that skips the checks.

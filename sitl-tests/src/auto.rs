@@ -7,34 +7,13 @@
 
 use mavlink::dialects::ardupilotmega::{MavMessage, MISSION_ITEM_REACHED_DATA};
 
-use crate::flight::{Demand, Orbit, Stage};
 use crate::geo::{self, V2};
 use crate::guidance;
 use crate::mission::{cmd, MissionItem};
 use crate::modes;
+use crate::nav_state::{Demand, Orbit, Stage, Takeoff};
 use crate::state::{PayloadAction, PayloadKind, Reached};
 use crate::vehicle::Vehicle;
-
-/// The mission's progress.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct AutoState {
-    /// The current navigation command (0: none yet).
-    pub current: u16,
-    /// The mission runs (in AUTO).
-    pub running: bool,
-    /// The mission ran to its end.
-    pub complete: bool,
-    /// The next item to look at for DO commands.
-    pub do_cursor: u16,
-    /// Where the current leg starts (position, metres above home).
-    pub from: Option<(V2, f64)>,
-    /// The current command's start has been done (text, take-off, landing).
-    pub started: bool,
-    /// When the loiter of a LOITER_TIME/TURNS item reached its circle.
-    pub loiter_since: Option<u64>,
-    /// The turn at the current waypoint (degrees).
-    pub turn_angle: f64,
-}
 
 impl Vehicle {
     fn item(&self, seq: u16) -> Option<&MissionItem> {
@@ -133,7 +112,7 @@ impl Vehicle {
                 if self.ac.on_ground {
                     // Waits for arming (auto_ground_check).
                 } else if self.ac.alt < alt {
-                    self.fl.takeoff = Some(crate::flight::Takeoff {
+                    self.fl.takeoff = Some(Takeoff {
                         start: self.ac.pos,
                         course: self.ac.heading,
                         alt,

@@ -409,7 +409,7 @@ impl Vehicle {
         } else {
             self.wp_loiter_radius()
         };
-        self.fl.orbit = Some(crate::flight::Orbit {
+        self.fl.orbit = Some(crate::nav_state::Orbit {
             center: crate::geo::offset(self.origin(), lat, lon),
             radius,
             ccw: p[3].is_finite() && p[3] != 0.0,

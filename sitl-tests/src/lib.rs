@@ -84,6 +84,7 @@ mod messages;
 pub mod mission;
 pub mod model;
 pub mod modes;
+pub mod nav_state;
 pub mod params;
 pub mod px4;
 mod rover;

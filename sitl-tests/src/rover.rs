@@ -39,34 +39,8 @@ use crate::geo::{wrap_pi, V2};
 use crate::guidance::Nav;
 use crate::mission::cmd;
 use crate::modes::rover as mode;
+use crate::nav_state::Notify;
 use crate::vehicle::Vehicle;
-
-/// What the rover is told to do on reaching its destination.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub(crate) enum Notify {
-    #[default]
-    Nothing,
-    /// GUIDED: MISSION_ITEM_REACHED 0.
-    Guided,
-    /// RTL: "Reached destination".
-    Rtl,
-}
-
-/// The rover's navigation state.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub(crate) struct RoverNav {
-    /// Where it drives to; `None`: it stops where it is.
-    pub dest: Option<V2>,
-    /// Where the leg began (for the cross-track error).
-    pub from: V2,
-    pub notify: Notify,
-    /// AUTO: when the current waypoint was reached (its text said).
-    pub reached_at: Option<u64>,
-    /// DO_CHANGE_SPEED (m/s).
-    pub speed: Option<f64>,
-    /// AUTO: the current leg goes on to another waypoint (no stop on it).
-    pub pass_through: bool,
-}
 
 impl Vehicle {
     pub(crate) fn is_rover(&self) -> bool {

@@ -832,7 +832,7 @@ impl Vehicle {
                 })
             }
             id::EXTENDED_SYS_STATE => {
-                use crate::flight::Stage;
+                use crate::nav_state::Stage;
                 let landed = match self.fl.stage {
                     _ if !self.is_flying() => MavLandedState::MAV_LANDED_STATE_ON_GROUND,
                     Stage::TakeoffRoll | Stage::TakeoffClimb => {

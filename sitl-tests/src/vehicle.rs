@@ -13,10 +13,10 @@ use crate::boot::{BootState, Phase};
 use crate::camera::{self, Camera};
 use crate::config::SimConfig;
 use crate::faults::{Fault, FaultKind, Refusal, Trigger};
-use crate::flight::Flight;
 use crate::geo::{self, Home, V2};
 use crate::mission::{MissionItem, Uploads};
 use crate::model::{Aircraft, Airframe};
+use crate::nav_state::{AutoState, Flight, RoverNav};
 use crate::params::Params;
 use crate::state::{Fix, SimState, Text};
 use crate::streams::{id, Streams};
@@ -48,9 +48,9 @@ pub struct Vehicle {
     pub(crate) home_pos: V2,
     pub(crate) home_set: bool,
     pub(crate) mission: Vec<MissionItem>,
-    pub(crate) auto: crate::auto::AutoState,
+    pub(crate) auto: AutoState,
     /// The rover's navigation (a plane does not use it).
-    pub(crate) rv: crate::rover::RoverNav,
+    pub(crate) rv: RoverNav,
     pub(crate) uploads: Uploads,
     pub(crate) streams: Streams,
     pub(crate) camera: Camera,

@@ -250,7 +250,7 @@ impl<'a> Reads<'a> {
                     falsy: union(&a.falsy, &b.falsy),
                 }
             }
-            Expr::Neg(e) => Reads::both(Reads::of(e).always()),
+            Expr::Neg(e) | Expr::BitNot(e) => Reads::both(Reads::of(e).always()),
             Expr::Binary(_, a, b) => {
                 Reads::both(union(&Reads::of(a).always(), &Reads::of(b).always()))
             }

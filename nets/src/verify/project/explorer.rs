@@ -1162,7 +1162,7 @@ fn reason_literals(expr: &crate::expr::Expr, out: &mut BTreeSet<String>) {
             reason_literals(a, out);
             reason_literals(b, out);
         }
-        Expr::Not(e) | Expr::Neg(e) => reason_literals(e, out),
+        Expr::Not(e) | Expr::Neg(e) | Expr::BitNot(e) => reason_literals(e, out),
         Expr::List(items) => items.iter().for_each(|e| reason_literals(e, out)),
         Expr::Map(items) => items.iter().for_each(|(_, e)| reason_literals(e, out)),
         Expr::Lit(_) | Expr::Param { .. } => {}

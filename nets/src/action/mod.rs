@@ -14,7 +14,10 @@
 //!
 //! This module only parses; the loader resolves names.
 
-use crate::expr::{Context, Expr, Parser, SyntaxError};
+mod cursor;
+
+use crate::expr::{lex, Context, Expr, SyntaxError};
+use cursor::Cursor;
 
 /// A name and its byte offset in the action text.
 pub type Name = (String, usize);
@@ -58,7 +61,7 @@ const STOPS: &[char] = &['{', '}', ',', ':'];
 
 /// Parses one action.
 pub fn parse(text: &str) -> Result<ActionSyntax, SyntaxError> {
-    let mut p = Parser::new(text, Context::Argument);
+    let mut p = Cursor::new(text);
     let Some((keyword, at)) = p.name() else {
         return Err(p.error(
             "expected an action: activate, deactivate, emit, timer, cancel, call, command or ask",
@@ -108,10 +111,11 @@ pub fn parse(text: &str) -> Result<ActionSyntax, SyntaxError> {
             let function = match p.name() {
                 Some(f) if f.1 == after_dot => f,
                 _ => {
-                    return Err(SyntaxError {
-                        at: after_dot,
-                        message: "expected a function name after `.`".into(),
-                    })
+                    return Err(SyntaxError::new(
+                        after_dot,
+                        1,
+                        "expected a function name after `.`",
+                    ))
                 }
             };
             ActionSyntax::Call {
@@ -143,12 +147,13 @@ pub fn parse(text: &str) -> Result<ActionSyntax, SyntaxError> {
         }
         "ask" => ask(&mut p)?,
         other => {
-            return Err(SyntaxError {
+            return Err(SyntaxError::new(
                 at,
-                message: format!(
+                other.len(),
+                format!(
                     "unknown action `{other}`: expected activate, deactivate, emit, timer, cancel, call, command or ask"
                 ),
-            })
+            ))
         }
     };
     if !p.at_end() {
@@ -157,7 +162,7 @@ pub fn parse(text: &str) -> Result<ActionSyntax, SyntaxError> {
     Ok(action)
 }
 
-fn ask(p: &mut Parser) -> Result<ActionSyntax, SyntaxError> {
+fn ask(p: &mut Cursor) -> Result<ActionSyntax, SyntaxError> {
     let name = p
         .name()
         .ok_or_else(|| p.error("expected the ask's name after `ask`"))?;
@@ -165,17 +170,30 @@ fn ask(p: &mut Parser) -> Result<ActionSyntax, SyntaxError> {
     if !p.text[p.pos..].starts_with('"') {
         return Err(p.error("expected the question in double quotes after the ask's name"));
     }
-    let question = p.string()?;
+    let question = match lex::string(p.text, p.pos)? {
+        lex::Token {
+            tok: lex::Tok::Str(s),
+            len,
+            ..
+        } => {
+            p.pos += len;
+            s
+        }
+        _ => return Err(p.error("expected the question in double quotes after the ask's name")),
+    };
     p.skip_ws();
     let map_at = p.pos;
     let shape = "expected `{choices: [CHOICE, ...]}` after the question";
     if !p.text[p.pos..].starts_with('{') {
         return Err(p.error(shape));
     }
-    let map = p.map()?;
-    let bad = || SyntaxError {
-        at: map_at,
-        message: "expected `{choices: [CHOICE, ...]}` with at least one choice, each a name".into(),
+    let map = map(p)?;
+    let bad = || {
+        SyntaxError::new(
+            map_at,
+            1,
+            "expected `{choices: [CHOICE, ...]}` with at least one choice, each a name",
+        )
     };
     let [(key, Expr::List(items))] = map.as_slice() else {
         return Err(bad());
@@ -217,11 +235,11 @@ fn ask(p: &mut Parser) -> Result<ActionSyntax, SyntaxError> {
     })
 }
 
-fn net_name(p: &mut Parser) -> Result<Name, SyntaxError> {
+fn net_name(p: &mut Cursor) -> Result<Name, SyntaxError> {
     p.word(STOPS).ok_or_else(|| p.error("expected a net name"))
 }
 
-fn args(p: &mut Parser) -> Result<Vec<(String, Expr)>, SyntaxError> {
+fn args(p: &mut Cursor) -> Result<Vec<(String, Expr)>, SyntaxError> {
     if p.at_end() {
         return Ok(Vec::new());
     }
@@ -229,7 +247,14 @@ fn args(p: &mut Parser) -> Result<Vec<(String, Expr)>, SyntaxError> {
     if !p.text[p.pos..].starts_with('{') {
         return Err(p.error("expected arguments in braces: {key: value, ...}"));
     }
-    p.map()
+    map(p)
+}
+
+/// `{key: value, ...}` at the cursor, read by the expression parser.
+fn map(p: &mut Cursor) -> Result<Vec<(String, Expr)>, SyntaxError> {
+    let (items, end) = crate::expr::parse_map_at(p.text, p.pos, Context::Argument)?;
+    p.pos = end;
+    Ok(items)
 }
 
 #[cfg(test)]
