@@ -25,6 +25,7 @@ mod wire;
 // This binary's own helpers.
 mod peer;
 mod process;
+mod simulated;
 
 mod check;
 mod cli;

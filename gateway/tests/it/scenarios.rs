@@ -1,11 +1,13 @@
-//! The paper's UAV mission end to end (examples/uav-flight-test): the real
-//! `petrel run` process, the simulated ArduPlane and DEC over loopback, each
+//! The paper's UAV mission end to end (examples/uav-flight-test), each
 //! scenario asserting on what the vehicle did (the simulator's truth) and on
 //! the gateway's timeline, and replaying its recording with
-//! `--check-against`. The simulator and the gateway's clock run
-//! `flight::SPEED` times faster than real time.
+//! `--check-against`. The nominal mission flies the real `petrel run`
+//! process, the simulated ArduPlane and DEC over loopback, their clocks
+//! `flight::SPEED` times faster than real time; the failures fly the same
+//! cores in this process in simulated time (`simulated.rs`: no socket, no
+//! wall clock).
 
-use crate::flight;
+use crate::{flight, simulated};
 
 use flight::{fly, metres, site, Flown, Injection};
 use sitl_tests::{Fault, PayloadFailure, SimState};
@@ -90,7 +92,7 @@ fn nominal_mission_completes_with_every_payload() {
 
 #[test]
 fn payload_failure_replans_without_the_camera_and_completes() {
-    let f = fly(
+    let f = simulated::fly(
         "payload",
         &["payload_failure@wp3"],
         Vec::new(),
@@ -119,7 +121,7 @@ fn payload_failure_replans_without_the_camera_and_completes() {
 
 #[test]
 fn engine_failure_glides_to_the_nearest_site_and_another_position_picks_another() {
-    let early = fly(
+    let early = simulated::fly(
         "engine-early",
         &["engine_failure@wp2"],
         Vec::new(),
@@ -127,7 +129,7 @@ fn engine_failure_glides_to_the_nearest_site_and_another_position_picks_another(
         over,
     );
     ended_well("engine-early", &early);
-    let late = fly(
+    let late = simulated::fly(
         "engine-late",
         &["engine_failure@wp6"],
         Vec::new(),
@@ -159,7 +161,7 @@ fn engine_failure_glides_to_the_nearest_site_and_another_position_picks_another(
 
 #[test]
 fn link_loss_of_ten_seconds_and_the_mission_goes_on() {
-    let f = fly("link", &["link_loss@wp3:10s"], Vec::new(), MAX_SIM_S, over);
+    let f = simulated::fly("link", &["link_loss@wp3:10s"], Vec::new(), MAX_SIM_S, over);
     ended_well("link", &f);
     assert!(
         f.events().contains(&"link_lost".to_owned()),
@@ -172,7 +174,7 @@ fn link_loss_of_ten_seconds_and_the_mission_goes_on() {
 
 #[test]
 fn low_battery_returns() {
-    let f = fly("battery", &["battery=22@wp4"], Vec::new(), MAX_SIM_S, over);
+    let f = simulated::fly("battery", &["battery=22@wp4"], Vec::new(), MAX_SIM_S, over);
     ended_well("battery", &f);
     assert!(
         f.events().contains(&"battery_low".to_owned()),
@@ -233,7 +235,7 @@ fn after_a_catastrophic_event_only_its_reaction_runs() {
             Fault::BatteryRemaining { percent: 22.0 },
         ),
     ];
-    let f = fly("catastrophic-first", &[], injections, MAX_SIM_S, over);
+    let f = simulated::fly("catastrophic-first", &[], injections, MAX_SIM_S, over);
     let (code, err) = f.replay_check();
     assert_eq!(code, Some(0), "{err}");
     assert!(
@@ -256,7 +258,7 @@ fn after_a_catastrophic_event_only_its_reaction_runs() {
 
 #[test]
 fn cumulative_failures_payload_link_then_battery() {
-    let f = fly(
+    let f = simulated::fly(
         "cumulative",
         // After the replan the mission is numbered anew: later faults by time.
         &["payload_failure@wp3", "link_loss@60s:10s", "battery=22@90s"],
