@@ -100,8 +100,8 @@ impl Tunnel {
 
     /// As an unsigned MAVLink 2 frame from (`system`, `component`), as a
     /// link writes it (the tests' radio).
-    #[cfg(test)]
-    pub(crate) fn unsigned_frame(&self, from: (u8, u8), sequence: u8) -> Vec<u8> {
+    #[cfg(any(test, feature = "fixtures"))]
+    pub fn unsigned_frame(&self, from: (u8, u8), sequence: u8) -> Vec<u8> {
         let header = mavlink::MavHeader {
             system_id: u32::from(from.0),
             component_id: from.1,

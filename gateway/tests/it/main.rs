@@ -33,6 +33,7 @@ mod events;
 mod flight_test_example;
 mod mirror;
 mod mirror_dialog;
+mod mirror_simulated;
 mod mirror_team;
 mod multi_vehicle;
 mod preflight;

@@ -6,7 +6,8 @@
 //! vehicle's at every record and heartbeat) must all agree, its firings
 //! must be the vehicle's, and every frame the mirror sends is checked on
 //! the wire. The simulator and both clocks run `flight::SPEED` times
-//! faster than real time.
+//! faster than real time. The failures at 1 % and 10 % loss and the radio's
+//! bursts fly the same cores in simulated time (`mirror_simulated.rs`).
 
 use crate::flight;
 use crate::process;
@@ -565,60 +566,6 @@ fn a_third_of_the_frames_lost_at_random_over_the_nominal_mission() {
         },
     );
     assert!(!m.mirror_lines("gap").is_empty());
-}
-
-#[test]
-fn payload_failure_at_ten_percent_loss() {
-    lossy(
-        "payload-10",
-        &["payload_failure@wp3"],
-        Loss {
-            per_mille: 100,
-            seed: 10,
-            ..Loss::default()
-        },
-    );
-}
-
-#[test]
-fn engine_failure_at_one_percent_loss() {
-    lossy(
-        "engine-1",
-        &["engine_failure@wp2"],
-        Loss {
-            per_mille: 10,
-            seed: 1,
-            ..Loss::default()
-        },
-    );
-}
-
-#[test]
-fn link_loss_and_radio_bursts_of_several_seconds() {
-    // Bursts of 30 and 50 simulated seconds (wall seconds × SPEED) while
-    // the vehicle flies (it takes off about 1.5 wall seconds in).
-    lossy(
-        "link-bursts",
-        &["link_loss@wp3:10s"],
-        Loss {
-            per_mille: 20,
-            seed: 7,
-            bursts: vec![(4.0, 7.0), (10.0, 15.0)],
-        },
-    );
-}
-
-#[test]
-fn low_battery_at_ten_percent_loss_and_a_burst() {
-    lossy(
-        "battery-10",
-        &["battery=22@wp4"],
-        Loss {
-            per_mille: 100,
-            seed: 22,
-            bursts: vec![(8.0, 11.0)],
-        },
-    );
 }
 
 #[test]

@@ -18,7 +18,10 @@ use std::time::Instant;
 
 use nets::{Effect, Micros, Outcome, Project};
 use petrel_core::frame::Received;
-use petrel_core::onboard::{crew, Onboard, Transmit};
+use petrel_core::mirror::station::{Config as StationConfig, Output, Station};
+use petrel_core::mirror::tunnel::Tunnel;
+use petrel_core::mirror::{Unread, MIRROR_SYSTEM};
+use petrel_core::onboard::{crew, DownlinkConfig, Onboard, Transmit};
 use petrel_core::profile::Layers;
 use petrel_core::programs::protocol::{self, Incoming};
 use petrel_core::supervisor::Supervisor;
@@ -91,16 +94,83 @@ fn timeline(
     );
 }
 
+/// The radio between the vehicle and the ground mirror: every frame, both
+/// ways, lost `per_mille` times in a thousand (seeded), and all of them
+/// during the `bursts` (simulated seconds).
+#[derive(Debug, Clone, Default)]
+pub struct Radio {
+    pub per_mille: u64,
+    pub seed: u64,
+    pub bursts: Vec<(f64, f64)>,
+    /// Frames it lost, both ways.
+    pub lost: u64,
+}
+
+impl Radio {
+    fn loses(&mut self, t: Micros) -> bool {
+        self.seed ^= self.seed << 13;
+        self.seed ^= self.seed >> 7;
+        self.seed ^= self.seed << 17;
+        let s = t as f64 / 1e6;
+        let lost = self.seed % 1000 < self.per_mille
+            || self.bursts.iter().any(|(a, b)| (*a..*b).contains(&s));
+        self.lost += u64::from(lost);
+        lost
+    }
+}
+
+/// A flight with the ground mirror's core beside it.
+pub struct Mirrored {
+    pub flown: Flown,
+    /// Everything the station put out, with its (simulated) time.
+    pub outputs: Vec<(Micros, Output)>,
+    pub radio: Radio,
+}
+
+/// The ground: the station and the radio to it.
+struct Ground {
+    station: Station,
+    radio: Radio,
+    outputs: Vec<(Micros, Output)>,
+}
+
+/// The UNIX time of the simulated flight's start (for signatures' clocks).
+const UNIX: u64 = 1_780_000_000_000_000;
+
 /// Flies the example with `faults` (sitl-tests `--fault` syntax) until
 /// `done` holds of the simulated vehicle (then 3 simulated seconds more
 /// for the nets to finish), at most `max_sim_s` simulated seconds.
 pub fn fly(
     name: &str,
     faults: &[&str],
-    mut injections: Vec<Injection>,
+    injections: Vec<Injection>,
     max_sim_s: f64,
     done: impl Fn(&SimState) -> bool,
 ) -> Flown {
+    fly_with(name, faults, injections, max_sim_s, done, None).flown
+}
+
+/// [`fly`] with the downlink on and the ground mirror's core (what
+/// `petrel mirror` drives) hearing the vehicle's telemetry and the
+/// downlink through `radio`, its requests going up through it too.
+pub fn fly_mirrored(
+    name: &str,
+    faults: &[&str],
+    radio: Radio,
+    max_sim_s: f64,
+    done: impl Fn(&SimState) -> bool,
+) -> Mirrored {
+    fly_with(name, faults, Vec::new(), max_sim_s, done, Some(radio))
+}
+
+fn fly_with(
+    name: &str,
+    faults: &[&str],
+    mut injections: Vec<Injection>,
+    max_sim_s: f64,
+    done: impl Fn(&SimState) -> bool,
+    radio: Option<Radio>,
+) -> Mirrored {
     let started = Instant::now();
     let scratch = Scratch::new(&format!("simulated-{name}"));
     let recording = scratch.join("flight.mcap");
@@ -126,8 +196,26 @@ pub fn fly(
     )
     .expect("the recording");
     let crew = crew(&project, &vehicle, &lanes, &[]);
+    let downlink = radio.as_ref().map(|_| DownlinkConfig {
+        session: 1,
+        mirror: MIRROR_SYSTEM,
+        unread: Unread::of(&lanes),
+    });
+    let mut ground = radio.map(|radio| Ground {
+        station: Station::new(StationConfig {
+            project: project.clone(),
+            system: MIRROR_SYSTEM,
+            identity: (MIRROR_SYSTEM, 190),
+            lanes: lanes.clone(),
+            signing: None,
+            dialog: false,
+            record: false,
+        }),
+        radio,
+        outputs: Vec::new(),
+    });
     let (supervisor, start) = Supervisor::start_lanes(project.clone(), lanes, 0);
-    let mut core = Onboard::new(supervisor, crew, None, None, true);
+    let mut core = Onboard::new(supervisor, crew, downlink, None, true);
     core.start(0, &start);
     recorder.start(&start, core.player());
     let mission = petrel_dec::Mission::load(&dir.join(crate::MISSION_FILE)).expect("the mission");
@@ -147,6 +235,11 @@ pub fn fly(
         while let Some((header, message)) = sim.poll_transmit() {
             let bytes =
                 elaboration::frame::serialize(header, mavlink::MavlinkVersion::V2, &message);
+            if let Some(g) = &mut ground {
+                if !g.radio.loses(t) {
+                    g.station.handle_frame(t, &bytes, UNIX + t);
+                }
+            }
             let rx = Received {
                 time_us: t,
                 bytes,
@@ -154,10 +247,34 @@ pub fn fly(
                 header,
                 message: Some(message),
             };
-            core.handle_frame(t, 0, rx, 0);
+            core.handle_frame(t, 0, rx, UNIX + t);
         }
         if t >= core.poll_timeout() {
             core.handle_timeout(t);
+        }
+        if let Some(g) = &mut ground {
+            if t.is_multiple_of(100_000) {
+                g.station.handle_tick(t);
+            }
+            // What goes up from the ground, through the radio.
+            while let Some((to, request)) = g.station.poll_transmit() {
+                if g.radio.loses(t) {
+                    continue;
+                }
+                let rx = Received {
+                    time_us: t,
+                    bytes: Tunnel::petrel(to, request.bytes().to_vec())
+                        .unsigned_frame((MIRROR_SYSTEM, 190), 0),
+                    version: mavlink::MavlinkVersion::V2,
+                    header: mavlink::MavHeader {
+                        system_id: u32::from(MIRROR_SYSTEM),
+                        component_id: 190,
+                        sequence: 0,
+                    },
+                    message: None,
+                };
+                core.handle_frame(t, 0, rx, UNIX + t);
+            }
         }
         // Commands to the vehicle, and calls to DEC, answered at once (DEC
         // answers within a millisecond on loopback), until both are quiet.
@@ -165,14 +282,7 @@ pub fn fly(
             let mut quiet = true;
             while let Some(tx) = core.poll_transmit(t) {
                 quiet = false;
-                if let Transmit::Command(c) = tx {
-                    let header = mavlink::MavHeader {
-                        system_id: u32::from(c.from.0),
-                        component_id: c.from.1,
-                        sequence: 0,
-                    };
-                    sim.handle(t, &header, &c.message);
-                }
+                send(&mut sim, &mut ground, t, tx);
             }
             while let Some(call) = core.poll_call() {
                 quiet = false;
@@ -199,6 +309,15 @@ pub fn fly(
             let digest = s.digest.unwrap_or_else(|| core.player().digest());
             recorder.record_on(&s.input.as_supervisor(), None, s.step, digest);
         }
+        core.publish(t);
+        while let Some(tx) = core.poll_transmit(t) {
+            send(&mut sim, &mut ground, t, tx);
+        }
+        if let Some(g) = &mut ground {
+            while let Some(o) = g.station.poll_output() {
+                g.outputs.push((t, o));
+            }
+        }
         let state = sim.state();
         injections.retain(|(when, fault)| {
             let now = when(&state);
@@ -215,12 +334,47 @@ pub fn fly(
         }
     }
     recorder.finish().expect("the recording ends");
-    Flown {
+    let flown = Flown {
         state: sim.state(),
         timeline: lines,
         stderr: String::new(),
         recording,
         scratch,
         wall: started.elapsed(),
+    };
+    match ground {
+        None => Mirrored {
+            flown,
+            outputs: Vec::new(),
+            radio: Radio::default(),
+        },
+        Some(g) => Mirrored {
+            flown,
+            outputs: g.outputs,
+            radio: g.radio,
+        },
+    }
+}
+
+/// A frame the onboard core sends: a command to the vehicle, or a
+/// downlink record to the ground through the radio.
+fn send(sim: &mut Vehicle, ground: &mut Option<Ground>, t: Micros, tx: Transmit) {
+    match tx {
+        Transmit::Command(c) => {
+            let header = mavlink::MavHeader {
+                system_id: u32::from(c.from.0),
+                component_id: c.from.1,
+                sequence: 0,
+            };
+            sim.handle(t, &header, &c.message);
+        }
+        Transmit::Downlink { from, tunnel, .. } => {
+            if let Some(g) = ground {
+                if !g.radio.loses(t) {
+                    let frame = tunnel.unsigned_frame(from, 0);
+                    g.station.handle_frame(t, &frame, UNIX + t);
+                }
+            }
+        }
     }
 }
