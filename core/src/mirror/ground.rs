@@ -62,8 +62,12 @@ pub struct Watch {
     /// `time_boot_ms` (µs).
     last_boot: Option<Micros>,
     /// The messages heard from the vehicle's system (not its onboard
-    /// gateway's), by id: first and last heard (ground time), how many.
-    receiving: BTreeMap<u32, (Micros, Micros, u64)>,
+    /// gateway's), by component and id: first and last heard (ground
+    /// time), how many. By component: the camera's HEARTBEAT, a second
+    /// apart, must not hide a silence of the autopilot's (at 30 % loss,
+    /// five of the autopilot's lost in a row and its `armed` heard 5 s
+    /// late, judged as if on time: a false disagreement in CI).
+    receiving: BTreeMap<(u8, u32), Stream>,
     /// The last frame's message, when it came after a silence of its
     /// stream longer than the check's window beyond its period (its
     /// earlier frames lost): what it says may have started that much
@@ -81,11 +85,26 @@ pub const QUIET: Micros = 5_000_000;
 /// autopilot never was in.
 pub const STALE: Micros = 1_000_000;
 
+/// A message's stream from one component: first and last heard (ground
+/// time), how many.
+type Stream = (Micros, Micros, u64);
+
 impl Watch {
+    /// The stream of message `id` the rules read: the autopilot's, else
+    /// the first component's heard sending it.
+    fn stream(&self, id: u32) -> Option<&Stream> {
+        self.receiving.get(&(self.autopilot, id)).or_else(|| {
+            self.receiving
+                .iter()
+                .find(|((_, i), _)| *i == id)
+                .map(|(_, s)| s)
+        })
+    }
+
     /// Whether the ground was receiving message `id` at ground time `now`:
     /// heard within [`QUIET`] or three of its periods.
     fn receiving(&self, id: u32, now: Micros) -> bool {
-        self.receiving.get(&id).is_some_and(|&(first, last, n)| {
+        self.stream(id).is_some_and(|&(first, last, n)| {
             let period = last.saturating_sub(first) / n.saturating_sub(1).max(1);
             last.saturating_add(QUIET.max(3 * period)) >= now
         })
@@ -99,7 +118,7 @@ impl Watch {
     /// condition held, though one was due: the condition rests on a
     /// sample from before what started it).
     pub(super) fn stale(&self, id: u32, now: Micros, onset: Micros) -> bool {
-        self.receiving.get(&id).is_some_and(|&(first, last, n)| {
+        self.stream(id).is_some_and(|&(first, last, n)| {
             let period = last.saturating_sub(first) / n.saturating_sub(1).max(1);
             let age = now.saturating_sub(last);
             n >= 2
@@ -112,7 +131,7 @@ impl Watch {
     /// every one whose age it reads.
     fn runs(&self, needs: &Needs, now: Micros) -> bool {
         needs.fields.iter().all(|id| self.receiving(*id, now))
-            && needs.ages.iter().all(|id| self.receiving.contains_key(id))
+            && needs.ages.iter().all(|id| self.stream(*id).is_some())
     }
 }
 
@@ -292,7 +311,7 @@ impl Ground {
         if component != crate::mirror::COMPANION {
             let r = w
                 .receiving
-                .entry(frame.message_id())
+                .entry((component, frame.message_id()))
                 .or_insert((now, now, 0));
             let period = r.1.saturating_sub(r.0) / r.2.saturating_sub(1).max(1);
             if r.2 >= 2 && now.saturating_sub(r.1).saturating_sub(period) > self.window.ground_late
