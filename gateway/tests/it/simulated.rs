@@ -38,7 +38,14 @@ const STEP_US: Micros = 10_000;
 
 /// The example's project as `petrel run` loads it: its profile layer,
 /// its `[gateway]` table.
-fn load(dir: &Path) -> (std::sync::Arc<Project>, Layers, VehicleConfig) {
+fn load(
+    dir: &Path,
+) -> (
+    std::sync::Arc<Project>,
+    Layers,
+    elaboration::Profile,
+    VehicleConfig,
+) {
     let setting = petrel_core::project::gateway_setting(dir, "profile").expect("project.toml");
     let layers = Layers::pick(None, Some((dir, setting.as_deref())), "ardupilot")
         .expect("the profile's layers");
@@ -48,7 +55,7 @@ fn load(dir: &Path) -> (std::sync::Arc<Project>, Layers, VehicleConfig) {
     let text = std::fs::read_to_string(dir.join("project.toml")).expect("project.toml");
     let vehicle =
         VehicleConfig::from_project_toml("project.toml", &text).expect("its [gateway] table");
-    (project, layers, vehicle)
+    (project, layers, profile, vehicle)
 }
 
 /// DEC's reply to a call, as the program server hands it to the core.
@@ -175,11 +182,11 @@ fn fly_with(
     let scratch = Scratch::new(&format!("simulated-{name}"));
     let recording = scratch.join("flight.mcap");
     let dir = project();
-    let (project, layers, vehicle) = load(&dir);
+    let (project, layers, profile, vehicle) = load(&dir);
     let lanes = petrel_core::team::lanes(
         &project,
         &dir,
-        &layers.load().expect("the profile loads"),
+        &profile,
         petrel_core::team::family(&layers.layers),
         &elaboration::Config::default(),
     )
@@ -319,17 +326,14 @@ fn fly_with(
             }
         }
         let state = sim.state();
-        injections.retain(|(when, fault)| {
-            let now = when(&state);
-            if now {
-                sim.inject(fault.clone());
-            }
-            !now
-        });
-        if finished_at.is_none() && done(&state) {
-            finished_at = Some(state.time_s);
-        }
-        if finished_at.is_some_and(|f| state.time_s > f + 3.0) || state.time_s > max_sim_s {
+        let ended = crate::flight::over(
+            &state,
+            &mut injections,
+            |f| sim.inject(f),
+            &done,
+            &mut finished_at,
+        );
+        if ended || state.time_s > max_sim_s {
             break;
         }
     }

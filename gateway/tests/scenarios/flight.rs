@@ -340,17 +340,13 @@ pub fn fly(
     loop {
         std::thread::sleep(Duration::from_millis(100));
         let state = sim.state();
-        injections.retain(|(when, fault)| {
-            let now = when(&state);
-            if now {
-                sim.inject(fault.clone());
-            }
-            !now
-        });
-        if finished_at.is_none() && done(&state) {
-            finished_at = Some(state.time_s);
-        }
-        if finished_at.is_some_and(|t| state.time_s > t + 3.0) {
+        if over(
+            &state,
+            &mut injections,
+            |f| sim.inject(f),
+            &done,
+            &mut finished_at,
+        ) {
             break;
         }
         if state.time_s > max_sim_s || started.elapsed() > max_wall {
@@ -377,6 +373,29 @@ pub fn fly(
         scratch,
         wall,
     }
+}
+
+/// One look at the flight: injects the faults whose condition first holds
+/// of `state`, and says whether it is over (`done` held 3 simulated seconds
+/// ago, `finished_at` remembering when).
+pub fn over(
+    state: &SimState,
+    injections: &mut Vec<Injection>,
+    mut inject: impl FnMut(Fault),
+    done: &impl Fn(&SimState) -> bool,
+    finished_at: &mut Option<f64>,
+) -> bool {
+    injections.retain(|(when, fault)| {
+        let now = when(state);
+        if now {
+            inject(fault.clone());
+        }
+        !now
+    });
+    if finished_at.is_none() && done(state) {
+        *finished_at = Some(state.time_s);
+    }
+    finished_at.is_some_and(|t| state.time_s > t + 3.0)
 }
 
 /// Metres between two positions (equirectangular, fine at these ranges).
