@@ -128,11 +128,9 @@ pub fn require(firmware: Firmware, test: &str) -> Option<Located> {
 #[derive(Clone, Debug)]
 pub struct Options {
     /// `-I`: ports 5760 + 10 × instance; distinct per SITL running at once.
-    /// The tests' instances, distinct so that their binaries may run side
-    /// by side: 0–2 `real_plane`, 3–4 `real_failures`, 5 `deploy`, 6–7
-    /// `multi_vehicle`, 8 `sitl` (real parity, camera), 9 kept for the
-    /// mirror's routing test, 10 `real_px4` (the ArduCopter comparison),
-    /// 11 `signing`.
+    /// The gateway's real-firmware tests number theirs in
+    /// `gateway/tests/real/main.rs` (two flights at once, on instances 0-16
+    /// and 20-36); this crate's own `tests/sitl.rs` flies 8.
     pub instance: u8,
     /// `--speedup`.
     pub speedup: u32,

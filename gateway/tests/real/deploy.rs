@@ -16,8 +16,8 @@
 //! - a USB serial device pulled out and plugged in again: `link_lost`, no
 //!   spinning meanwhile, `link_restored` once it is back.
 //!
-//! The real-SITL tests use SITL instance 5 only (TCP 5810..5813), one at a
-//! time (`crate::sitl_turn`). Without the SITL binaries, MAVProxy, socat or systemd-analyze they
+//! The real-SITL tests use SITL instance 5 (TCP 5810..5813), moved by
+//! their turn (`crate::sitl_turn`). Without the SITL binaries, MAVProxy, socat or systemd-analyze they
 //! print why they are skipped; with `CI=true` they fail instead.
 
 use crate::scratch;
@@ -286,11 +286,11 @@ fn through_mavproxy_as_a_router() {
     let Some(mavproxy) = peers::require_program("mavproxy.py", test, "pip install MAVProxy") else {
         return;
     };
-    let _turn = crate::sitl_turn();
+    let turn = crate::sitl_turn();
     let started = Instant::now();
     let scratch = Scratch::new("deploy");
     let options = Options {
-        instance: INSTANCE,
+        instance: turn.instance(INSTANCE),
         speedup: SPEEDUP,
         ..Options::default()
     };
@@ -378,7 +378,7 @@ fn over_a_serial_link() {
     let Some(socat) = peers::require_program("socat", test, "apt-get install -y socat") else {
         return;
     };
-    let _turn = crate::sitl_turn();
+    let turn = crate::sitl_turn();
     let started = Instant::now();
     let scratch = Scratch::new("deploy");
     let cable = peers::PtyPair::open(&socat, scratch.path());
@@ -386,7 +386,7 @@ fn over_a_serial_link() {
     // computer: MAVLink 2 at 57600 baud, on the pseudo-terminal.
     let wired = peers::with_serial1_uart(&plane, &cable.autopilot, 57600, scratch.path());
     let options = Options {
-        instance: INSTANCE,
+        instance: turn.instance(INSTANCE),
         speedup: SPEEDUP,
         params: vec![
             ("SERIAL1_PROTOCOL".into(), 2.0),
@@ -463,11 +463,11 @@ fn a_usb_serial_link_comes_back() {
     let Some(socat) = peers::require_program("socat", test, "apt-get install -y socat") else {
         return;
     };
-    let _turn = crate::sitl_turn();
+    let turn = crate::sitl_turn();
     let started = Instant::now();
     let scratch = Scratch::new("deploy");
     let options = Options {
-        instance: INSTANCE,
+        instance: turn.instance(INSTANCE),
         speedup: SPEEDUP,
         ..Options::default()
     };

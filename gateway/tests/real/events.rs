@@ -132,8 +132,9 @@ fn fly_gotos(link: &mut flight::Link, targets: [(f64, f64); 3], alt: f32) -> Res
 /// (the position controller flies it): no MISSION_ITEM_REACHED at all.
 #[test]
 fn two_gotos_in_a_row_on_real_arducopter_are_two_goto_reached() {
-    // One SITL at a time in this binary (real/main.rs).
-    let _turn = crate::sitl_turn();
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
+    let turn = crate::sitl_turn();
     use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
     use std::time::Instant;
     let test = "two_gotos_in_a_row_on_real_arducopter_are_two_goto_reached";
@@ -144,7 +145,7 @@ fn two_gotos_in_a_row_on_real_arducopter_are_two_goto_reached() {
     let dir = Scratch::new("events-gotos-copter");
     let options = Options {
         // Unique in this binary (real/main.rs).
-        instance: 14,
+        instance: turn.instance(14),
         speedup: COPTER_SPEEDUP,
         ..Options::default()
     };

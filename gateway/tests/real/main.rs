@@ -2,20 +2,23 @@
 //! and PX4 SITL, MAVProxy, socat, pymavlink, and the hour's soak
 //! (`#[ignore]`d). `cargo test -p gateway --test real`.
 //!
-//! Every test that starts a SITL (ArduPilot or PX4) holds [`sitl_turn`]
-//! for as long as its SITLs run: one firmware at a time in this process,
-//! so that SITL instance numbers (TCP 5760 + 10 × instance) never clash
-//! and two simulations do not share the machine's cores. The soak's
-//! flights (the simulated plane at 5-10×) take it too.
+//! Every test that starts a SITL (ArduPilot or PX4) holds a [`sitl_turn`]
+//! for as long as its SITLs run: at most [`at_once`] flights in this
+//! process (two by default, `PETREL_SITL_AT_ONCE` to change it). One
+//! flight takes a third to a half of one core (ArduPlane's nominal
+//! mission: 8 CPU-s in 26 s wall; PX4's survey: 15 CPU-s in 30 s;
+//! 2026-12-07), so two fit on the two cores with room for the gateways,
+//! where one at a time left the machine 80 % idle for ten minutes.
 //!
-//! ArduPilot SITL instances, each used by one module only (unique even
-//! without the lock): real_plane 0, real_failures 3 and 4, deploy 5,
+//! ArduPilot SITL instances (TCP 5760 + 10 × instance), each used by one
+//! module only: real_plane 0, real_failures 3 and 4, deploy 5,
 //! multi_vehicle 6 and 7, mirror_sitl 9 and 12, real_px4's ArduCopter 10
-//! and 13, signing 11, events 14, team 15 and 16. PX4 SITL takes its own
-//! instances 0-3 (sitl-tests' pool; ports 14540+, 18570+, apart from
-//! ArduPilot's).
+//! and 13, signing 11, events 14, team 15 and 16. A turn moves them by
+//! 20 × its slot ([`Turn::instance`]), so that two flights of one module
+//! never share a port. PX4 SITL takes its own instances 0-3 (sitl-tests'
+//! pool; ports 14540+, 18570+, apart from ArduPilot's).
 
-use std::sync::{Mutex, MutexGuard};
+use std::sync::{Condvar, Mutex};
 
 #[path = "../scenarios/flight.rs"]
 mod flight;
@@ -44,12 +47,57 @@ mod signing;
 mod soak;
 mod team;
 
-static SITL: Mutex<()> = Mutex::new(());
+/// The most slots [`at_once`] gives: instance 16 + 20 × 2 = 56 (TCP
+/// 6320) is still far below PX4's and the tests' ephemeral ports.
+const MOST_AT_ONCE: usize = 3;
 
-/// The turn of a test that starts SITLs: held until dropped. A test that
-/// failed while holding it does not stop the others (poison is ignored).
-pub fn sitl_turn() -> MutexGuard<'static, ()> {
-    SITL.lock().unwrap_or_else(|e| e.into_inner())
+static SLOTS: Mutex<[bool; MOST_AT_ONCE]> = Mutex::new([false; MOST_AT_ONCE]);
+static FREED: Condvar = Condvar::new();
+
+/// How many SITL flights this binary flies at once: `PETREL_SITL_AT_ONCE`
+/// (1 to 3), else 2.
+pub fn at_once() -> usize {
+    std::env::var("PETREL_SITL_AT_ONCE")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .map_or(2, |n| n.clamp(1, MOST_AT_ONCE))
+}
+
+/// A test's turn to fly SITLs: one of [`at_once`] slots, held until
+/// dropped. A test that failed while holding it does not stop the others
+/// (its slot is given back on unwinding; poison is ignored).
+pub struct Turn {
+    slot: usize,
+}
+
+impl Turn {
+    /// The ArduPilot SITL instance a module numbered `base` flies in this
+    /// turn: `base + 20 × slot`.
+    pub fn instance(&self, base: u8) -> u8 {
+        // MOST_AT_ONCE keeps this within u8.
+        base + 20 * self.slot as u8
+    }
+}
+
+impl Drop for Turn {
+    fn drop(&mut self) {
+        let mut slots = SLOTS.lock().unwrap_or_else(|e| e.into_inner());
+        slots[self.slot] = false;
+        FREED.notify_all();
+    }
+}
+
+/// Waits for a free slot and takes it.
+pub fn sitl_turn() -> Turn {
+    let limit = at_once();
+    let mut slots = SLOTS.lock().unwrap_or_else(|e| e.into_inner());
+    loop {
+        if let Some(slot) = slots[..limit].iter().position(|taken| !taken) {
+            slots[slot] = true;
+            return Turn { slot };
+        }
+        slots = FREED.wait(slots).unwrap_or_else(|e| e.into_inner());
+    }
 }
 
 /// The scenarios' mission file in the project (DEC reads it; the

@@ -578,14 +578,14 @@ fn arduplane_routes_the_downlink_and_its_gcs_failsafe_still_triggers_with_the_mi
     let Some(located) = ardupilot::require(Firmware::Plane, "mirror_sitl") else {
         return;
     };
-    // One SITL at a time in this binary: two at 10x on two cores would
-    // starve each other (and the check compares receive times).
-    let _alone = crate::sitl_turn();
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
+    let turn = crate::sitl_turn();
     let dir = Scratch::new("mirror-sitl");
     let mut sitl = Sitl::start(
         &located,
         &Options {
-            instance: INSTANCE,
+            instance: turn.instance(INSTANCE),
             speedup: SPEEDUP,
             params: PARAMS.iter().map(|(n, v)| ((*n).to_owned(), *v)).collect(),
             ..Options::default()
@@ -871,13 +871,19 @@ fn blind_profile(dir: &Scratch) -> String {
 /// engine fails 3 s after the first operations-area waypoint (the camera
 /// commanded every second) and the flight ends 15 s later; without, it
 /// flies to its landing.
-fn fly_checked(located: &ardupilot::Located, name: &str, loss: f64, fail: bool) -> Checked {
+fn fly_checked(
+    turn: &crate::Turn,
+    located: &ardupilot::Located,
+    name: &str,
+    loss: f64,
+    fail: bool,
+) -> Checked {
     let dir = Scratch::new(name);
     let blind = blind_profile(&dir);
     let mut sitl = Sitl::start(
         located,
         &Options {
-            instance: CHECK_INSTANCE,
+            instance: turn.instance(CHECK_INSTANCE),
             speedup: SPEEDUP,
             params: PARAMS.iter().map(|(n, v)| ((*n).to_owned(), *v)).collect(),
             ..Options::default()
@@ -986,13 +992,13 @@ fn a_vehicle_that_misses_engine_failure_is_reported_within_2_s_at_0_and_10_perce
     let Some(located) = ardupilot::require(Firmware::Plane, "mirror_sitl (the check)") else {
         return;
     };
-    // One SITL at a time in this binary: two at 10x on two cores would
-    // starve each other (and the check compares receive times).
-    let _alone = crate::sitl_turn();
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
+    let turn = crate::sitl_turn();
     let flights = [
-        fly_checked(&located, "mirror-check-nominal-10", 0.10, false),
-        fly_checked(&located, "mirror-check-engine-0", 0.0, true),
-        fly_checked(&located, "mirror-check-engine-10", 0.10, true),
+        fly_checked(&turn, &located, "mirror-check-nominal-10", 0.10, false),
+        fly_checked(&turn, &located, "mirror-check-engine-0", 0.0, true),
+        fly_checked(&turn, &located, "mirror-check-engine-10", 0.10, true),
     ];
     let mut problems = Vec::new();
     for (f, (what, loss)) in flights.iter().zip([
@@ -1098,10 +1104,10 @@ fn the_downlink_keeps_under_100_bytes_a_second_at_30_percent_loss() {
     let Some(located) = ardupilot::require(Firmware::Plane, "mirror_sitl (the budget)") else {
         return;
     };
-    // One SITL at a time in this binary: two at 10x on two cores would
-    // starve each other (and the check compares receive times).
-    let _alone = crate::sitl_turn();
-    let f = fly_checked(&located, "mirror-budget-nominal-30", 0.30, false);
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
+    let turn = crate::sitl_turn();
+    let f = fly_checked(&turn, &located, "mirror-budget-nominal-30", 0.30, false);
     let diverged = f.lines("mirror_diverged");
     eprintln!(
         "nominal at 30 %: {}; {} divergences; check {}",

@@ -54,13 +54,15 @@ fn petrel(name: &'static str, project: &Path, address: &str, dir: &Path) -> Proc
 
 #[test]
 fn two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway() {
-    // One SITL at a time in this binary (real/main.rs).
-    let _turn = crate::sitl_turn();
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
+    let turn = crate::sitl_turn();
     let test = "two_copters_on_one_router_each_supervised_and_commanded_by_its_own_gateway";
     let started = Instant::now();
     let tmp = Scratch::new("multi-vehicle");
     let dir = tmp.path();
-    let Some((mavproxy, sitl1, mut sitl2)) = two_copters(test, 6, SPEEDUP, dir) else {
+    let Some((mavproxy, sitl1, mut sitl2)) = two_copters(test, turn.instance(6), SPEEDUP, dir)
+    else {
         return;
     };
 

@@ -614,9 +614,9 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<Px4Flown> {
         args,
     } = plan;
     let located = px4::require(name)?;
-    // One PX4 flight at a time: two SIH at 10× on a busy 2-core machine
-    // fall behind their lockstep and starve each other's links.
-    let _one = crate::sitl_turn();
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
+    let _turn = crate::sitl_turn();
     let scratch = Scratch::new(&format!("px4-{name}"));
     let dir = scratch.to_path_buf();
     let mut sitl = Px4::start(

@@ -416,7 +416,7 @@ pub struct RealFlown {
     pub code: Option<i32>,
 }
 
-/// The SITL instance (`-I`) of these flights, one at a time
+/// The SITL instance (`-I`) of these flights, moved by their turn
 /// (`crate::sitl_turn`; the instances of the binary: real/main.rs).
 const INSTANCE: u8 = 0;
 
@@ -460,13 +460,13 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
         checked,
     } = plan;
     let located = ardupilot::require(Firmware::Plane, name)?;
-    let _turn = crate::sitl_turn();
+    let turn = crate::sitl_turn();
     let scratch = Scratch::new(&format!("real-{name}"));
     let dir = scratch.to_path_buf();
     let mut sitl = Sitl::start(
         &located,
         &Options {
-            instance: INSTANCE,
+            instance: turn.instance(INSTANCE),
             speedup: SPEEDUP,
             // The observer's and the camera's ports at 921600 baud: at the
             // default 57600 ArduPilot drops what does not fit.

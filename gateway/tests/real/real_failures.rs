@@ -10,7 +10,7 @@
 //!
 //! One copter boot carries the failures one after another, one plane boot
 //! flies an AUTO mission with MISSION_ITEM_REACHED requested as a stream
-//! and ends with its engine out (instances 3 and 4, one after the other:
+//! and ends with its engine out (instances 3 and 4, each moved by its turn:
 //! `crate::sitl_turn`).
 //! The tlogs are in the test's scratch folder (printed), left there when
 //! the test fails or `PETREL_KEEP` is set.
@@ -379,8 +379,9 @@ fn fly_copter(link: &mut Link) -> Result<Vec<Window>, String> {
 
 #[test]
 fn copter_failures_one_after_another() {
-    // One SITL at a time in this binary (real/main.rs).
-    let _turn = crate::sitl_turn();
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
+    let turn = crate::sitl_turn();
     let Some(located) = ardupilot::require(Firmware::Copter, "copter_failures_one_after_another")
     else {
         return;
@@ -388,7 +389,7 @@ fn copter_failures_one_after_another() {
     let started = Instant::now();
     let dir = Scratch::new("real-failures-copter");
     let options = Options {
-        instance: 3,
+        instance: turn.instance(3),
         speedup: SPEEDUP,
         params: [
             // Continue in GUIDED on RC loss (4), as copter.parm's 16.
@@ -537,15 +538,16 @@ fn fly_plane(link: &mut Link) -> Result<Vec<Window>, String> {
 
 #[test]
 fn plane_engine_out_at_cruise() {
-    // One SITL at a time in this binary (real/main.rs).
-    let _turn = crate::sitl_turn();
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
+    let turn = crate::sitl_turn();
     let Some(located) = ardupilot::require(Firmware::Plane, "plane_engine_out_at_cruise") else {
         return;
     };
     let started = Instant::now();
     let dir = Scratch::new("real-failures-plane");
     let options = Options {
-        instance: 4,
+        instance: turn.instance(4),
         speedup: SPEEDUP,
         ..Options::default()
     };

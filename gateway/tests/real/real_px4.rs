@@ -573,14 +573,14 @@ fn on_arducopter(
     use std::io::BufRead;
     use std::time::{Duration, Instant};
     let located = ardupilot::require(Firmware::Copter, &format!("{project} on ArduCopter"))?;
-    // One SITL flight at a time (a debug gateway recording the streams
-    // falls behind when another SITL shares the two cores).
-    let _one = crate::sitl_turn();
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
+    let turn = crate::sitl_turn();
     let dir = Scratch::new(&format!("px4-{project}-arducopter"));
     let sitl = Sitl::start(
         &located,
         &Options {
-            instance,
+            instance: turn.instance(instance),
             speedup: ARDUCOPTER_SPEED,
             home,
             ..Options::default()

@@ -48,8 +48,9 @@ fn key_file(dir: &Path, key: &[u8; 32], mode: u32) -> PathBuf {
 /// accepts it; without the key, ArduPilot never answers the same command.
 #[test]
 fn against_ardupilot_sitl_after_setup_signing() {
-    // One SITL at a time in this binary (real/main.rs).
-    let _turn = crate::sitl_turn();
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
+    let turn = crate::sitl_turn();
     use sitl_tests::ardupilot::{self, Firmware, Options, Sitl};
     use std::io::{Read, Write};
     let test = "against_ardupilot_sitl_after_setup_signing";
@@ -69,7 +70,7 @@ fn against_ardupilot_sitl_after_setup_signing() {
     .expect("write");
     let key = key_file(&scratch, &KEY, 0o600);
     let options = Options {
-        instance: 11,
+        instance: turn.instance(11),
         speedup: 1,
         ..Options::default()
     };

@@ -303,8 +303,8 @@ struct Soaked {
 }
 
 fn fly(plan: Plan) -> Soaked {
-    // Alone with the SITL flights of this binary (real/main.rs): the
-    // debug recorder keeps up with 5x on 2 cores when nothing else flies.
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
     let _turn = crate::sitl_turn();
     let dir = Scratch::new(&format!("soak-{}", plan.name));
     let recording = dir.join("soak.mcap");

@@ -39,13 +39,14 @@ const LIMIT: Duration = Duration::from_secs(180);
 
 #[test]
 fn two_real_copters_take_off_under_one_petrel_and_r2_alone_is_sent_home() {
-    // One SITL at a time in this binary (real/main.rs).
-    let _turn = crate::sitl_turn();
+    // A turn to fly (real/main.rs: at most two flights at once, each on
+    // instances of its own).
+    let turn = crate::sitl_turn();
     let test = "two_real_copters_take_off_under_one_petrel_and_r2_alone_is_sent_home";
     let started = Instant::now();
     let tmp = Scratch::new("team");
     let dir = tmp.path();
-    let Some((mavproxy, sitl1, sitl2)) = two_copters(test, 15, SPEEDUP, dir) else {
+    let Some((mavproxy, sitl1, sitl2)) = two_copters(test, turn.instance(15), SPEEDUP, dir) else {
         return;
     };
     let project = fixture("team-copters");
