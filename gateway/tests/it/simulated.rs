@@ -36,10 +36,11 @@ use crate::scratch::Scratch;
 /// The step of simulated time.
 const STEP_US: Micros = 10_000;
 
-/// The example's project as `petrel run` loads it: its profile layer,
-/// its `[gateway]` table.
+/// The example's project as `petrel run` loads it: its profile layer (or
+/// the one `--profile` gives), its `[gateway]` table.
 fn load(
     dir: &Path,
+    given_profile: Option<&str>,
 ) -> (
     std::sync::Arc<Project>,
     Layers,
@@ -47,7 +48,7 @@ fn load(
     VehicleConfig,
 ) {
     let setting = petrel_core::project::gateway_setting(dir, "profile").expect("project.toml");
-    let layers = Layers::pick(None, Some((dir, setting.as_deref())), "ardupilot")
+    let layers = Layers::pick(given_profile, Some((dir, setting.as_deref())), "ardupilot")
         .expect("the profile's layers");
     let profile = layers.load().expect("the profile loads");
     let project = petrel_core::project::load_with(dir, &petrel_core::project::catalog(&profile))
@@ -104,11 +105,19 @@ fn timeline(
 /// The radio between the vehicle and the ground mirror: every frame, both
 /// ways, lost `per_mille` times in a thousand (seeded), and all of them
 /// during the `bursts` (simulated seconds).
+///
+/// The vehicle's side routes as ArduPilot does (`MAVLink_routing.cpp`,
+/// `tests/mirror/router.rs`): the vehicle's own telemetry goes to every
+/// port, a record addressed to the mirror only where the mirror has been
+/// heard. At `forget_routes_at` (simulated seconds) the routes are
+/// forgotten, as by an autopilot's reboot: the records go nowhere until a
+/// frame from the ground comes through again.
 #[derive(Debug, Clone, Default)]
 pub struct Radio {
     pub per_mille: u64,
     pub seed: u64,
     pub bursts: Vec<(f64, f64)>,
+    pub forget_routes_at: Option<f64>,
     /// Frames it lost, both ways.
     pub lost: u64,
 }
@@ -131,6 +140,10 @@ pub struct Mirrored {
     pub flown: Flown,
     /// Everything the station put out, with its (simulated) time.
     pub outputs: Vec<(Micros, Output)>,
+    /// Every request the station sent up (before the radio), with its time.
+    pub uplink: Vec<(Micros, Vec<u8>)>,
+    /// When the vehicle's routes were forgotten.
+    pub forgot_at: Option<Micros>,
     pub radio: Radio,
 }
 
@@ -139,6 +152,10 @@ struct Ground {
     station: Station,
     radio: Radio,
     outputs: Vec<(Micros, Output)>,
+    uplink: Vec<(Micros, Vec<u8>)>,
+    /// The vehicle's side knows where the mirror is.
+    routed: bool,
+    forgot_at: Option<Micros>,
 }
 
 /// The UNIX time of the simulated flight's start (for signatures' clocks).
@@ -154,7 +171,7 @@ pub fn fly(
     max_sim_s: f64,
     done: impl Fn(&SimState) -> bool,
 ) -> Flown {
-    fly_with(name, faults, injections, max_sim_s, done, None).flown
+    fly_with(name, faults, injections, max_sim_s, done, None, None).flown
 }
 
 /// [`fly`] with the downlink on and the ground mirror's core (what
@@ -167,7 +184,47 @@ pub fn fly_mirrored(
     max_sim_s: f64,
     done: impl Fn(&SimState) -> bool,
 ) -> Mirrored {
-    fly_with(name, faults, Vec::new(), max_sim_s, done, Some(radio))
+    fly_with(name, faults, Vec::new(), max_sim_s, done, Some(radio), None)
+}
+
+/// [`fly_mirrored`] with the vehicle elaborating with the profile
+/// `vehicle_profile` (as `petrel run --profile` gives it) while the ground
+/// keeps the project's.
+pub fn fly_mirrored_profiled(
+    name: &str,
+    faults: &[&str],
+    radio: Radio,
+    max_sim_s: f64,
+    done: impl Fn(&SimState) -> bool,
+    vehicle_profile: &str,
+) -> Mirrored {
+    let profile = Some(vehicle_profile);
+    fly_with(
+        name,
+        faults,
+        Vec::new(),
+        max_sim_s,
+        done,
+        Some(radio),
+        profile,
+    )
+}
+
+/// A project's lanes as `petrel run` makes them.
+fn lanes_of(
+    project: &std::sync::Arc<Project>,
+    dir: &Path,
+    layers: &Layers,
+    profile: &elaboration::Profile,
+) -> Vec<petrel_core::supervisor::Lane> {
+    petrel_core::team::lanes(
+        project,
+        dir,
+        profile,
+        petrel_core::team::family(&layers.layers),
+        &elaboration::Config::default(),
+    )
+    .expect("the lanes")
 }
 
 fn fly_with(
@@ -177,20 +234,22 @@ fn fly_with(
     max_sim_s: f64,
     done: impl Fn(&SimState) -> bool,
     radio: Option<Radio>,
+    vehicle_profile: Option<&str>,
 ) -> Mirrored {
     let started = Instant::now();
     let scratch = Scratch::new(&format!("simulated-{name}"));
     let recording = scratch.join("flight.mcap");
     let dir = project();
-    let (project, layers, profile, vehicle) = load(&dir);
-    let lanes = petrel_core::team::lanes(
-        &project,
-        &dir,
-        &profile,
-        petrel_core::team::family(&layers.layers),
-        &elaboration::Config::default(),
-    )
-    .expect("the lanes");
+    let (project, layers, profile, vehicle) = load(&dir, vehicle_profile);
+    let lanes = lanes_of(&project, &dir, &layers, &profile);
+    // The ground elaborates with the project's own profile.
+    let ground_lanes = match vehicle_profile {
+        None => lanes.clone(),
+        Some(_) => {
+            let (_, layers, profile, _) = load(&dir, None);
+            lanes_of(&project, &dir, &layers, &profile)
+        }
+    };
     let recorder = Recorder::create(
         &recording,
         project.clone(),
@@ -213,13 +272,16 @@ fn fly_with(
             project: project.clone(),
             system: MIRROR_SYSTEM,
             identity: (MIRROR_SYSTEM, 190),
-            lanes: lanes.clone(),
+            lanes: ground_lanes,
             signing: None,
             dialog: false,
             record: false,
         }),
         radio,
         outputs: Vec::new(),
+        uplink: Vec::new(),
+        routed: true,
+        forgot_at: None,
     });
     let (supervisor, start) = Supervisor::start_lanes(project.clone(), lanes, 0);
     let mut core = Onboard::new(supervisor, crew, downlink, None, true);
@@ -260,14 +322,22 @@ fn fly_with(
             core.handle_timeout(t);
         }
         if let Some(g) = &mut ground {
+            let forget = g.radio.forget_routes_at.map(|s| (s * 1e6) as Micros);
+            if g.forgot_at.is_none() && forget.is_some_and(|at| t >= at) {
+                g.routed = false;
+                g.forgot_at = Some(t);
+            }
             if t.is_multiple_of(100_000) {
                 g.station.handle_tick(t);
             }
             // What goes up from the ground, through the radio.
             while let Some((to, request)) = g.station.poll_transmit() {
+                g.uplink.push((t, request.bytes().to_vec()));
                 if g.radio.loses(t) {
                     continue;
                 }
+                // Heard: the vehicle's side knows the mirror's route again.
+                g.routed = true;
                 let rx = Received {
                     time_us: t,
                     bytes: Tunnel::petrel(to, request.bytes().to_vec())
@@ -350,11 +420,15 @@ fn fly_with(
         None => Mirrored {
             flown,
             outputs: Vec::new(),
+            uplink: Vec::new(),
+            forgot_at: None,
             radio: Radio::default(),
         },
         Some(g) => Mirrored {
             flown,
             outputs: g.outputs,
+            uplink: g.uplink,
+            forgot_at: g.forgot_at,
             radio: g.radio,
         },
     }
@@ -374,7 +448,9 @@ fn send(sim: &mut Vehicle, ground: &mut Option<Ground>, t: Micros, tx: Transmit)
         }
         Transmit::Downlink { from, tunnel, .. } => {
             if let Some(g) = ground {
-                if !g.radio.loses(t) {
+                // Addressed to the mirror: nowhere while its route is
+                // forgotten.
+                if g.routed && !g.radio.loses(t) {
                     let frame = tunnel.unsigned_frame(from, 0);
                     g.station.handle_frame(t, &frame, UNIX + t);
                 }
