@@ -52,6 +52,7 @@ pub mod time;
 pub mod value;
 pub mod verbs;
 pub mod verify;
+pub mod version;
 
 pub use event::{Category, Event};
 pub use load::{load, load_with};

@@ -15,8 +15,8 @@ use crate::event::Category;
 use crate::expr::{self, Context, Expr};
 use crate::model::{
     qualify, split_vehicle, Action, Args, Ask, Choice, EventDecl, Exclusive, Function, Global,
-    Guard, Limits, Net, NetId, Place, PlaceRef, Program, Project, Transition, Vehicle, VehicleId,
-    ASK_TIMEOUT,
+    Guard, Limits, Net, NetId, Place, PlaceRef, Program, Project, Reload, Transition, Vehicle,
+    VehicleId, ASK_TIMEOUT,
 };
 use crate::source::{LoadError, Problem, SourceFile, Sources};
 use crate::time::parse_duration;
@@ -52,6 +52,17 @@ struct RawProject {
     /// Settings of the gateway (link, recording…): read by the gateway.
     #[allow(dead_code)]
     gateway: Option<toml::Table>,
+    /// Renames for a swap from a running earlier version: `[reload]`.
+    reload: Option<RawReload>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawReload {
+    #[serde(default)]
+    places: BTreeMap<Spanned<String>, Spanned<String>>,
+    #[serde(default)]
+    timers: BTreeMap<Spanned<String>, Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -548,6 +559,7 @@ impl Loader {
             place_count: 0,
             vehicles,
             exclusive: Vec::new(),
+            reload: Reload::default(),
         };
         for unit in &units {
             let (file, raw_net, active) = &raw_nets[unit.raw];
@@ -611,6 +623,9 @@ impl Loader {
             .collect();
         self.choices(&project, &sources, &firsts);
         project.exclusive = self.exclusive(&pfile, &raw.exclusive, &project, &templates);
+        if let Some(r) = &raw.reload {
+            project.reload = self.reload(&pfile, r, &project);
+        }
         for waiting in project.triggers.values_mut() {
             choice::order(&project.nets, waiting);
         }
@@ -785,6 +800,42 @@ impl Loader {
                 Vec::new()
             }
         }
+    }
+
+    /// `[reload]`: each new name must be a place (a timer) of this
+    /// version; the old names belong to the running version and are
+    /// checked when it swaps ([`crate::version`]).
+    fn reload(&mut self, file: &SourceFile, raw: &RawReload, project: &Project) -> Reload {
+        let mut out = Reload::default();
+        for (old, new) in &raw.places {
+            if crate::version::place_named(project, new.get_ref()).is_none() {
+                self.problem(
+                    file,
+                    new.span(),
+                    format!(
+                        "[reload] place `{}`: this version has no such place (write NET.place, or a global place's name)",
+                        new.get_ref()
+                    ),
+                );
+            }
+            out.places
+                .insert(old.get_ref().clone(), new.get_ref().clone());
+        }
+        for (old, new) in &raw.timers {
+            if crate::version::timer_named(project, new.get_ref()).is_none() {
+                self.problem(
+                    file,
+                    new.span(),
+                    format!(
+                        "[reload] timer `{}`: this version has no such timer (write NET.timer)",
+                        new.get_ref()
+                    ),
+                );
+            }
+            out.timers
+                .insert(old.get_ref().clone(), new.get_ref().clone());
+        }
+        out
     }
 
     /// The shared resources of `[[exclusive]]`: places `TEMPLATE.place`

@@ -67,6 +67,20 @@ pub struct Project {
     /// The shared resources whose mutual exclusion is declared
     /// (`[[exclusive]]`).
     pub exclusive: Vec<Exclusive>,
+    /// How the state of a running earlier version maps onto this one
+    /// (`[reload]`; [`crate::version`]).
+    pub reload: Reload,
+}
+
+/// `[reload]` in project.toml: what a running earlier version's places
+/// and timers are called in this one. Names are `NET.name` (a global place:
+/// its name alone); a name not mapped keeps its name.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Reload {
+    /// Old place → new place.
+    pub places: BTreeMap<String, String>,
+    /// Old timer → new timer (of the same net or another).
+    pub timers: BTreeMap<String, String>,
 }
 
 /// One vehicle of the team.

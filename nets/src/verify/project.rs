@@ -129,6 +129,40 @@ impl Default for Options<'_> {
 /// States explored between two calls of [`Options::progress`].
 const PROGRESS_EVERY: usize = 256;
 
+/// Checks `project` as a whole from `from`, a state of its player, instead
+/// of from its start: what a running version's state mapped onto a new
+/// version must pass before the new version takes over
+/// ([`crate::version::swap`]). The state is explored as the check
+/// explores the start (time abstracted, ids renumbered: a running timer
+/// keeps the time it has left), without the team's symmetry (the state
+/// need not be symmetric). `Err` when the state does not fit the project.
+pub fn check_from(
+    project: &Arc<Project>,
+    from: &State,
+    options: &Options,
+) -> Result<Report, crate::player::RestoreError> {
+    let mut start = from.clone();
+    for timer in &mut start.timers {
+        timer.deadline = timer.deadline.saturating_sub(start.now) + T;
+    }
+    start.now = T;
+    Player::restore(project.clone(), start.clone())?;
+    let mut explorer = Explorer::new(project.clone(), false, options.partial_order, options.steps);
+    explorer.from = Some(start);
+    let explored = explorer.run(
+        options.max_states,
+        options.threads,
+        options.proviso,
+        options.progress,
+    );
+    let mut report = explored.verdict(None, true);
+    report.reduction.partial_order = explored.partial_order;
+    if explored.partial_order {
+        Walker::new(project).shorten_report(project, &mut report);
+    }
+    Ok(report)
+}
+
 /// Checks a project as a whole and, if asked, each net in it and alone.
 pub fn check(project: &Arc<Project>, options: &Options) -> ProjectReport {
     let (explored, reduction) = explore_reduced(project, options);
@@ -613,6 +647,9 @@ struct Explorer {
     kept: Kept,
     /// Every label the workers made, by the number they give it.
     registry: Mutex<Registry>,
+    /// Where the exploration starts instead of the project's start (a
+    /// running version's state mapped onto this one), at [`T`].
+    from: Option<State>,
 }
 
 #[derive(Default)]

@@ -201,7 +201,7 @@ fn broken_project_files_report_the_exact_problem_and_position() {
         ),
         (
             "nets = [\"n.toml\"]\n",
-            vec!["project.toml:1:1: unknown field `nets`, expected one of `name`, `description`, `net`, `globals`, `programs`, `events`, `limits`, `vehicle`, `exclusive`, `gateway`"],
+            vec!["project.toml:1:1: unknown field `nets`, expected one of `name`, `description`, `net`, `globals`, `programs`, `events`, `limits`, `vehicle`, `exclusive`, `gateway`, `reload`"],
         ),
         ("", vec!["project.toml:1:1: the project has no nets: add [[net]] tables with file = \"NAME.toml\""]),
         (

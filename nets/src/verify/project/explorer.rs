@@ -129,6 +129,7 @@ impl Explorer {
             compared: Mutex::new((0, None)),
             kept: Kept::new(crate::verify::project_steps::BUDGET),
             registry: Mutex::new(Registry::default()),
+            from: None,
         };
         // What is known of every result the nets' actions can await.
         let project = explorer.project.clone();
@@ -200,10 +201,15 @@ impl Explorer {
         explorer
     }
 
-    /// The player started at the exploration's instant, answering guards
-    /// through the oracle, and the key of its initial state.
+    /// The player started at the exploration's instant (or restored to the
+    /// state it starts from), answering guards through the oracle, and the
+    /// key of its initial state.
     pub(super) fn start(&self) -> (Player, Vec<u8>) {
-        let mut player = Player::start(self.project.clone(), T);
+        let restored = self
+            .from
+            .as_ref()
+            .and_then(|s| Player::restore(self.project.clone(), s.clone()).ok());
+        let mut player = restored.unwrap_or_else(|| Player::start(self.project.clone(), T));
         player.set_oracle(Some(Oracle::default()));
         let mut initial = Vec::new();
         self.codec.encode(
