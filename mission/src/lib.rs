@@ -1,0 +1,47 @@
+//! # petrel-mission — the plans crews already have, read
+//!
+//! This crate owns reading a crew's mission plan into one typed form
+//! ([`Plan`]): QGroundControl's `.plan` JSON ([`qgc`]) and the `QGC WPL`
+//! text format of Mission Planner, MAVProxy and ArduPilot's tools
+//! ([`wpl`]), the formats as `../shared/plans/FORMATS.md` sets them out
+//! from QGroundControl's, MAVSDK's, pymavlink's and mavros's own readers.
+//! It is the first part of issue 35 ("Missions as plans, not 2,000
+//! lines"): the mission language and its compiler into nets come next, and
+//! live here too, beside `nets` rather than in it, because they need
+//! MAVLink's command numbers and names, which `nets` never knows.
+//!
+//! A plan is read whole or refused: a file that is not the format, a wrong
+//! version, a bad line or item is a [`PlanError`] that says where
+//! (`file:line:col`, or the plan's item index) and what is wrong. What the
+//! file holds but no mission item says — a survey pattern whose waypoints
+//! QGroundControl did not store, a landing pattern — is kept in
+//! [`Plan::unsupported`], named by item index with what to do, for the
+//! caller to refuse or report.
+//!
+//! It never does I/O (the caller reads the file and passes its name and
+//! text), never panics on any input, and knows nothing of nets or links.
+
+pub mod error;
+pub mod plan;
+pub mod qgc;
+pub mod wpl;
+
+pub use error::{At, PlanError};
+pub use plan::{
+    command_name, Autopilot, Circle, Fence, Format, Item, Origin, Plan, Polygon, Position,
+    Unsupported, VehicleType,
+};
+
+/// Reads the plan `text` of the file `name`: a `QGC WPL` file when its
+/// first line that is not a comment says so, else a QGroundControl `.plan`.
+pub fn read(name: &str, text: &str) -> Result<Plan, PlanError> {
+    let first = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'));
+    if first.is_some_and(|l| l.starts_with("QGC WPL")) {
+        wpl::read(name, text)
+    } else {
+        qgc::read(name, text)
+    }
+}

@@ -1,0 +1,9 @@
+//! The integration tests of `petrel-mission`, one test binary: every plan
+//! and waypoint file of `../shared/plans` (real files from public
+//! projects: QGroundControl's, MAVSDK's, PX4's, ArduPilot's and MAVProxy's
+//! own) read, or refused with the reason its format gives.
+
+#[path = "../../../sitl-tests/src/skip.rs"]
+mod skip;
+
+mod shared_plans;

@@ -1,0 +1,118 @@
+//! Every file of `../shared/plans` through [`petrel_mission::read`].
+
+use petrel_mission::{read, Autopilot, Format, Origin};
+
+use crate::skip;
+
+/// The plans folder, or `None` (the test skipped, saying why; a failure
+/// under CI=true).
+fn plans() -> Option<std::path::PathBuf> {
+    let dir = skip::shared_dir().join("plans");
+    if dir.join("INDEX.md").is_file() {
+        return Some(dir);
+    }
+    let why = format!(
+        "{} is missing (../shared beside the workspace root)",
+        dir.display()
+    );
+    assert!(!skip::in_ci(), "{why}");
+    skip::skip(&why);
+    None
+}
+
+/// The files QGroundControl itself refuses, and why (FORMATS.md).
+const REFUSED: &[(&str, &str)] = &[
+    (
+        "mavsdk-missionraw_qgroundcontrol_sample_wrong_mission_version.plan",
+        "mission.version: 7: QGroundControl reads missions of version 2 only",
+    ),
+    (
+        "mavsdk-missionraw_qgroundcontrol_sample_without_mission.plan",
+        "(top): `mission` is missing",
+    ),
+    // A `//` comment: not JSON, as QGroundControl's reader says too.
+    (
+        "px4-mavsdktests_fw_mission.plan",
+        "not a QGroundControl plan (JSON)",
+    ),
+];
+
+#[test]
+fn every_shared_plan_reads_or_is_refused_with_its_reason() {
+    let Some(dir) = plans() else { return };
+    let mut read_ok = 0;
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .expect("the plans folder")
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.ends_with(".md"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 20, "{names:?}");
+    for name in &names {
+        let text = std::fs::read_to_string(dir.join(name)).expect("a plan file");
+        let result = read(name, &text);
+        match REFUSED.iter().find(|(n, _)| n == name) {
+            Some((_, why)) => {
+                let e = result.expect_err(name);
+                assert!(e.to_string().contains(why), "{name}: {e}");
+            }
+            None => {
+                let plan = result.unwrap_or_else(|e| panic!("{e}"));
+                // Sequences from 1, in order; every item has its origin.
+                for (k, item) in plan.items.iter().enumerate() {
+                    assert_eq!(usize::from(item.seq), k + 1, "{name}");
+                }
+                assert!(
+                    !plan.items.is_empty()
+                        || !plan.fence.is_empty()
+                        || !plan.unsupported.is_empty(),
+                    "{name}: nothing read"
+                );
+                read_ok += 1;
+            }
+        }
+    }
+    eprintln!(
+        "{read_ok} of {} plan files read, {} refused as QGroundControl refuses them",
+        names.len(),
+        REFUSED.len()
+    );
+}
+
+#[test]
+fn real_arduplane_files_read_with_their_home_jumps_and_autopilot() {
+    let Some(dir) = plans() else { return };
+    let text = std::fs::read_to_string(dir.join("ardupilot-autotest_CMAC-toff-loop.txt"))
+        .expect("the waypoint file");
+    let plan = read("ardupilot-autotest_CMAC-toff-loop.txt", &text).expect("reads");
+    assert_eq!(plan.format, Format::Wpl110);
+    assert!(plan.home.is_some());
+    assert_eq!(plan.items[0].origin, Origin::Line(3));
+    // Its DO_JUMP targets an item that exists.
+    for jump in plan.items.iter().filter(|i| i.command == 177) {
+        let target = jump.params[0] as usize;
+        assert!(target >= 1 && target <= plan.items.len(), "{jump:?}");
+    }
+    let text = std::fs::read_to_string(dir.join("qgc-testplans_ArduPilotSITL-ArduPlane.plan"))
+        .expect("the plan");
+    let plan = read("qgc-testplans_ArduPilotSITL-ArduPlane.plan", &text).expect("reads");
+    assert_eq!(plan.format, Format::QgcPlan);
+    assert_eq!(plan.autopilot, Some(Autopilot::ArduPilot));
+    assert!(!plan.items.is_empty());
+}
+
+#[test]
+fn a_survey_without_its_waypoints_is_named_with_what_to_do() {
+    let Some(dir) = plans() else { return };
+    let name = "mavsdk-missionraw_qgroundcontrol_sample_with_structured_scan.plan";
+    let text = std::fs::read_to_string(dir.join(name)).expect("the plan");
+    let plan = read(name, &text).expect("reads");
+    assert!(
+        plan.unsupported
+            .iter()
+            .any(|u| u.what == "StructureScan" && !u.remedy.is_empty()),
+        "{:?}",
+        plan.unsupported
+    );
+}
