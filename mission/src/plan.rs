@@ -157,11 +157,12 @@ impl Fence {
     }
 }
 
-/// What a plan holds that no mission item says: named, with what to do.
+/// What a plan holds that no mission item says, or says otherwise than a
+/// crew may mean it: named, with what to do.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Unsupported {
-    /// `mission.items[index]` of the `.plan`.
-    pub index: usize,
+    /// Where it is in the file.
+    pub origin: Origin,
     /// What it is (`StructureScan`, `survey version 3`…).
     pub what: String,
     /// What the crew can do about it.

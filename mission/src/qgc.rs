@@ -304,8 +304,14 @@ pub fn read(name: &str, text: &str) -> Result<Plan, PlanError> {
                     .and_then(Value::as_str)
                     .unwrap_or("(no complexItemType)");
                 let version = o.get("version").and_then(Value::as_u64).unwrap_or(0);
+                if what == "survey" && !(2..=5).contains(&version) {
+                    return Err(r.err(
+                        &format!("{path}.version"),
+                        format!("survey version {version}: QGroundControl reads versions 2 to 5"),
+                    ));
+                }
                 let stored = match what {
-                    "survey" if version >= 4 => true,
+                    "survey" => version >= 4,
                     "CorridorScan" => true,
                     _ => false,
                 };
@@ -351,7 +357,10 @@ pub fn read(name: &str, text: &str) -> Result<Plan, PlanError> {
                             ),
                         };
                         plan.unsupported.push(Unsupported {
-                            index,
+                            origin: Origin::PlanItem {
+                                index,
+                                within: None,
+                            },
                             what,
                             remedy: remedy.to_owned(),
                         });
@@ -566,7 +575,13 @@ mod tests {
             }
         );
         assert_eq!(plan.unsupported.len(), 1);
-        assert_eq!(plan.unsupported[0].index, 3);
+        assert_eq!(
+            plan.unsupported[0].origin,
+            Origin::PlanItem {
+                index: 3,
+                within: None
+            }
+        );
         assert_eq!(plan.unsupported[0].what, "StructureScan");
         assert_eq!(plan.fence.circles.len(), 1);
         assert!(!plan.fence.circles[0].inclusion);

@@ -7,7 +7,8 @@
 //! files in the wild need it: fields split on tabs, or on any whitespace
 //! in a line without a tab; `#` comment lines and blank lines skipped
 //! (before the header too); CRLF or LF. In `110`, row 0 is home
-//! (whatever its command) and the items follow from sequence 1; in `120`
+//! (a row 0 other than a waypoint is noted in `Plan::unsupported`; a fence
+//! or rally row is none) and the items follow from sequence 1; in `120`
 //! there is no home row, the rows take sequences 1 on and each DO_JUMP's
 //! target moves up by one. Fence commands (NAV_FENCE_*: 5000-5005) go to
 //! the fence and rally points (NAV_RALLY_POINT, 5100) to the rally list:
@@ -15,8 +16,11 @@
 //! so.
 
 use crate::error::{At, PlanError};
-use crate::plan::{Circle, Fence, Format, Item, Origin, Plan, Polygon, Position};
+use crate::plan::{
+    command_name, Circle, Fence, Format, Item, Origin, Plan, Polygon, Position, Unsupported,
+};
 
+const NAV_WAYPOINT: u16 = 16;
 const DO_JUMP: u16 = 177;
 const FENCE_RETURN_POINT: u16 = 5000;
 const FENCE_POLYGON_INCLUSION: u16 = 5001;
@@ -155,12 +159,21 @@ pub fn read(name: &str, text: &str) -> Result<Plan, PlanError> {
             number(10, "altitude")?,
         );
         let autocontinue = integer(11, "AUTOCONTINUE", 1.0)? != 0.0;
-        if r == 0 && format == Format::Wpl110 {
+        // Row 0 of a 110 file is home, unless it is a fence or rally row
+        // (a fence file's first row is its return point).
+        if r == 0 && format == Format::Wpl110 && command < FENCE_RETURN_POINT {
             plan.home = Some(Position {
                 lat: x,
                 lon: y,
                 alt: z,
             });
+            if command != NAV_WAYPOINT {
+                plan.unsupported.push(Unsupported {
+                    origin: Origin::Line(row.line),
+                    what: format!("row 0 is {}, read as home", command_name(command)),
+                    remedy: "QGroundControl and ArduPilot read row 0 of a QGC WPL 110 file as home: if it is meant as the first item (as some PX4 files do), put a home NAV_WAYPOINT row before it and number the rows again".to_owned(),
+                });
+            }
             continue;
         }
         // Fence vertices come in runs of `p1` for one polygon.

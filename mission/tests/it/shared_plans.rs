@@ -30,6 +30,10 @@ const REFUSED: &[(&str, &str)] = &[
         "mavsdk-missionraw_qgroundcontrol_sample_without_mission.plan",
         "(top): `mission` is missing",
     ),
+    (
+        "mavsdk-missionraw_qgroundcontrol_sample_with_survey_wrong_version.plan",
+        "survey version 9: QGroundControl reads versions 2 to 5",
+    ),
     // A `//` comment: not JSON, as QGroundControl's reader says too.
     (
         "px4-mavsdktests_fw_mission.plan",
@@ -115,4 +119,28 @@ fn a_survey_without_its_waypoints_is_named_with_what_to_do() {
         "{:?}",
         plan.unsupported
     );
+}
+
+#[test]
+fn a_waypoint_file_whose_row_0_is_no_home_says_so_and_a_fence_file_has_none() {
+    let Some(dir) = plans() else { return };
+    let name = "px4-integrationtests_vtol_new_1.txt";
+    let text = std::fs::read_to_string(dir.join(name)).expect("the file");
+    let plan = read(name, &text).expect("reads");
+    assert!(
+        plan.unsupported
+            .iter()
+            .any(|u| u.what == "row 0 is NAV_VTOL_TAKEOFF, read as home"
+                && u.origin == Origin::Line(3)),
+        "{:?}",
+        plan.unsupported
+    );
+    let name = "mavproxy-fieldcheck_springvalleybottom-foamy-fence.txt";
+    let text = std::fs::read_to_string(dir.join(name)).expect("the file");
+    let plan = read(name, &text).expect("reads");
+    assert!(plan.home.is_none());
+    assert!(plan.fence.breach_return.is_some());
+    assert_eq!(plan.fence.polygons.len(), 1);
+    assert_eq!(plan.fence.polygons[0].vertices.len(), 4);
+    assert!(plan.items.is_empty());
 }
