@@ -34,14 +34,36 @@ pub use plan::{
 
 /// Reads the plan `text` of the file `name`: a `QGC WPL` file when its
 /// first line that is not a comment says so, else a QGroundControl `.plan`.
+/// A file that starts otherwise (a MAVProxy fence point list, a CSV) is
+/// refused as neither.
 pub fn read(name: &str, text: &str) -> Result<Plan, PlanError> {
     let first = text
         .lines()
-        .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with('#'));
-    if first.is_some_and(|l| l.starts_with("QGC WPL")) {
-        wpl::read(name, text)
-    } else {
-        qgc::read(name, text)
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .find(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    match first {
+        Some((_, l)) if l.starts_with("QGC WPL") => wpl::read(name, text),
+        Some((line, l)) if !l.starts_with('{') => Err(PlanError::new(
+            name,
+            At::LineCol(line, 1),
+            format!(
+                "`{}`: neither a QGroundControl plan (JSON) nor a waypoint file (`QGC WPL 110`)",
+                l.chars().take(40).collect::<String>()
+            ),
+        )),
+        _ => qgc::read(name, text),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_file_of_neither_format_says_so_at_its_first_line() {
+        let e = super::read("f.txt", "# points\n-35.361359\t149.162872\n").expect_err("refused");
+        assert_eq!(
+            e.to_string(),
+            "f.txt:2:1: `-35.361359\t149.162872`: neither a QGroundControl plan (JSON) nor a waypoint file (`QGC WPL 110`)"
+        );
     }
 }
