@@ -1051,7 +1051,7 @@ impl Commander {
     /// (`[gateway.parameters]`), once, when every one is read or given up
     /// on; never when the project names none.
     pub fn poll_parameters(&mut self) -> Option<Verdict> {
-        self.parameters.poll_verdict()
+        self.parameters.poll_verdict(self.firmware)
     }
 
     /// Whether the autopilot says it is armed (`None` before its first

@@ -7,6 +7,7 @@
 
 use std::collections::BTreeMap;
 
+use elaboration::Firmware;
 use mavlink::dialects::ardupilotmega::{MavMessage, PARAM_REQUEST_READ_DATA, PARAM_VALUE_DATA};
 use nets::Micros;
 
@@ -64,8 +65,25 @@ pub enum Misfit {
         value: f64,
         expected: Expected,
     },
-    /// The vehicle never answered for it (it may not have it at all).
-    Unanswered { name: String, expected: Expected },
+    /// The vehicle never answered for it (it may not have it at all);
+    /// `autopilot`: the vehicle's firmware, when its HEARTBEAT said.
+    Unanswered {
+        name: String,
+        expected: Expected,
+        autopilot: Option<Firmware>,
+    },
+}
+
+/// A firmware for people: the names crews know.
+fn autopilot_name(firmware: Firmware) -> &'static str {
+    match firmware {
+        Firmware::Px4 => "PX4",
+        Firmware::Plane => "ArduPlane",
+        Firmware::Copter => "ArduCopter",
+        Firmware::Rover => "ArduRover",
+        Firmware::Sub => "ArduSub",
+        Firmware::Other => "an autopilot Petrel does not know",
+    }
 }
 
 impl std::fmt::Display for Misfit {
@@ -76,10 +94,30 @@ impl std::fmt::Display for Misfit {
                 value,
                 expected,
             } => write!(f, "{name} is {value} on the vehicle; the project needs {expected}"),
-            Misfit::Unanswered { name, expected } => write!(
+            Misfit::Unanswered {
+                name,
+                expected,
+                autopilot: None,
+            } => write!(
                 f,
                 "{name} could not be read from the vehicle (no PARAM_VALUE after {ATTEMPTS} requests); the project needs {expected}"
             ),
+            Misfit::Unanswered {
+                name,
+                expected,
+                autopilot: Some(firmware),
+            } => {
+                let other = if *firmware == Firmware::Px4 {
+                    "ArduPilot"
+                } else {
+                    "PX4 or another ArduPilot vehicle"
+                };
+                write!(
+                    f,
+                    "the vehicle is {} and has no parameter {name} (no PARAM_VALUE after {ATTEMPTS} requests); this project's [gateway.parameters] need it ({expected}): it is made for {other}",
+                    autopilot_name(*firmware)
+                )
+            }
         }
     }
 }
@@ -199,13 +237,19 @@ impl ParameterCheck {
         (self.target.is_some() && self.verdict.is_none()).then_some(self.next_ask)
     }
 
-    /// The verdict, once (then `None`).
-    pub fn poll_verdict(&mut self) -> Option<Verdict> {
+    /// The verdict, once (then `None`); `autopilot`, the vehicle's
+    /// firmware if known, names it in what it could not read.
+    pub fn poll_verdict(&mut self, autopilot: Option<Firmware>) -> Option<Verdict> {
         if self.reported {
             return None;
         }
-        let v = self.verdict.clone()?;
+        let mut v = self.verdict.clone()?;
         self.reported = true;
+        for m in &mut v.misfits {
+            if let Misfit::Unanswered { autopilot: a, .. } = m {
+                *a = autopilot;
+            }
+        }
         Some(v)
     }
 
@@ -233,6 +277,7 @@ impl ParameterCheck {
                 None => misfits.push(Misfit::Unanswered {
                     name: w.name.clone(),
                     expected: w.expected.clone(),
+                    autopilot: None,
                 }),
             }
         }
@@ -298,9 +343,9 @@ mod tests {
         assert_eq!(sent(&mut c, 5), ["RTL_AUTOLAND", "FS_LONG_ACTN"]);
         assert!(sent(&mut c, 6).is_empty(), "patience");
         c.value(&value("RTL_AUTOLAND", 0.0));
-        assert_eq!(c.poll_verdict(), None, "one still unanswered");
+        assert_eq!(c.poll_verdict(None), None, "one still unanswered");
         c.value(&value("FS_LONG_ACTN", 1.0));
-        let v = c.poll_verdict().expect("a verdict");
+        let v = c.poll_verdict(None).expect("a verdict");
         assert!(!v.holds());
         assert_eq!(
             v.misfits[0].to_string(),
@@ -308,7 +353,7 @@ mod tests {
         );
         assert_eq!(v.misfits.len(), 1);
         assert_eq!(v.read["FS_LONG_ACTN"], 1.0);
-        assert_eq!(c.poll_verdict(), None, "reported once");
+        assert_eq!(c.poll_verdict(None), None, "reported once");
         assert_eq!(c.next_deadline(), None);
     }
 
@@ -318,7 +363,7 @@ mod tests {
         c.start((1, 1), 0);
         let mut t = 0;
         let mut asked = 0;
-        while c.poll_verdict().is_none() {
+        while c.poll_verdict(None).is_none() {
             asked += sent(&mut c, t).len();
             t = c.next_deadline().unwrap_or(t);
             assert!(t < 10 * PATIENCE, "never gives up");
@@ -326,9 +371,27 @@ mod tests {
         assert_eq!(asked, usize::from(ATTEMPTS));
         let mut c2 = c.clone();
         c2.reported = false;
-        let v = c2.poll_verdict().expect("kept");
+        let v = c2.poll_verdict(None).expect("kept");
         assert!(matches!(v.misfits[0], Misfit::Unanswered { .. }));
         assert!(v.misfits[0].to_string().contains("could not be read"));
+        // The vehicle's firmware known, the words say which it is.
+        let mut px4 = c.clone();
+        px4.reported = false;
+        let v = px4.poll_verdict(Some(Firmware::Px4)).expect("kept");
+        assert_eq!(
+            v.misfits[0].to_string(),
+            "the vehicle is PX4 and has no parameter NO_SUCH (no PARAM_VALUE after 3 requests); this project's [gateway.parameters] need it (1): it is made for ArduPilot"
+        );
+        let mut copter = c.clone();
+        copter.reported = false;
+        let v = copter.poll_verdict(Some(Firmware::Copter)).expect("kept");
+        assert!(
+            v.misfits[0]
+                .to_string()
+                .starts_with("the vehicle is ArduCopter and has no parameter NO_SUCH"),
+            "{}",
+            v.misfits[0]
+        );
     }
 
     #[test]
@@ -337,7 +400,7 @@ mod tests {
         c.start((1, 1), 0);
         assert!(sent(&mut c, 0).is_empty());
         assert_eq!(c.next_deadline(), None);
-        assert_eq!(c.poll_verdict(), None);
+        assert_eq!(c.poll_verdict(None), None);
     }
 
     #[test]
@@ -356,7 +419,7 @@ mod tests {
         assert_eq!(sent(&mut c, 0), ["ABCDEFGHIJKLMNOP", "R"]);
         c.value(&value("ABCDEFGHIJKLMNOP", 0.1));
         c.value(&value("R", 0.3));
-        assert!(c.poll_verdict().expect("verdict").holds());
+        assert!(c.poll_verdict(None).expect("verdict").holds());
     }
 
     #[test]
