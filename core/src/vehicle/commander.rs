@@ -115,6 +115,8 @@ pub struct Commander {
     /// The autopilot: system and component.
     target: Option<(u8, u8)>,
     firmware: Option<Firmware>,
+    /// The firmware the target's first HEARTBEAT says it is.
+    heard_firmware: Option<Firmware>,
     ops: Vec<Op>,
     missions: VecDeque<MissionJob>,
     transmit: VecDeque<MavMessage>,
@@ -163,6 +165,7 @@ impl Commander {
             parameters: ParameterCheck::new(&config.parameters),
             armed: None,
             firmware: config.firmware,
+            heard_firmware: None,
             config,
             target,
             ops: Vec::new(),
@@ -423,6 +426,9 @@ impl Commander {
                         hb.base_mode
                             .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED),
                     );
+                    self.heard_firmware.get_or_insert_with(|| {
+                        Firmware::from_heartbeat(hb.autopilot as i64, hb.mavtype as i64)
+                    });
                 }
                 MavMessage::PARAM_VALUE(v) => self.parameters.value(v),
                 MavMessage::SYSTEM_TIME(t) => {
@@ -1051,7 +1057,10 @@ impl Commander {
     /// (`[gateway.parameters]`), once, when every one is read or given up
     /// on; never when the project names none.
     pub fn poll_parameters(&mut self) -> Option<Verdict> {
-        self.parameters.poll_verdict(self.firmware)
+        // What the vehicle says it is, whatever the project configured:
+        // the words are for a crew that brought the wrong project.
+        self.parameters
+            .poll_verdict(self.heard_firmware.or(self.firmware))
     }
 
     /// Whether the autopilot says it is armed (`None` before its first

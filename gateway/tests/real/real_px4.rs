@@ -887,3 +887,32 @@ fn the_same_survey_gives_the_same_events_on_arducopter_and_px4() {
     assert!(copter_tail.contains("landed") && copter_tail.contains("disarmed"));
     assert_eq!(px4_tail, copter_tail, "{}", explain(&f));
 }
+
+/// Issue 35: the paper's mission is an ArduPlane project; run against PX4
+/// it is refused before anything is sent, in words a PX4 user
+/// understands — which autopilot the vehicle is, which parameter it lacks,
+/// which autopilot the project is made for — not "could not be read".
+#[test]
+fn an_ardupilot_project_on_px4_is_refused_in_words_naming_both() {
+    let project =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-flight-test");
+    let plan = Plan {
+        max_sim_s: 60.0,
+        ..Plan::new("ardupilot-project", project)
+    };
+    let Some(f) = px4::fly(plan, |_| false) else {
+        return;
+    };
+    let err = &f.flown.stderr;
+    assert!(
+        err.contains("the vehicle is PX4 and has no parameter RTL_AUTOLAND")
+            && err.contains("it is made for ArduPilot"),
+        "{err}"
+    );
+    assert!(!err.contains("could not be read"), "{err}");
+    assert_eq!(f.truth.arms(), 0, "{err}");
+    assert!(
+        f.fired().is_empty() || !f.fired().iter().any(|t| t == "arm"),
+        "{err}"
+    );
+}
