@@ -15,6 +15,14 @@ fn main() {
         };
         match petrel_mission::read(&path, &text) {
             Ok(plan) => {
+                for f in petrel_mission::review(&plan) {
+                    println!(
+                        "{path}: {}{}: {}",
+                        f.seq.map_or(String::new(), |s| format!("item {s}: ")),
+                        f.what,
+                        f.remedy
+                    );
+                }
                 let commands: Vec<String> = plan.items.iter().map(|i| i.command_name()).collect();
                 println!(
                     "{path}: {:?}, {:?} {:?}, home {}, {} items ({}), fence {} polygons {} circles, {} rally points, {} unsupported{}",

@@ -16,7 +16,9 @@
 //! file holds but no mission item says — a survey pattern whose waypoints
 //! QGroundControl did not store, a landing pattern — is kept in
 //! [`Plan::unsupported`], named by item index with what to do, for the
-//! caller to refuse or report.
+//! caller to refuse or report. [`review`] lists what in a plan that reads
+//! Petrel cannot supervise as it stands (a jump repeated for ever, an
+//! unknown command, a waypoint without altitude), each with what to do.
 //!
 //! It never does I/O (the caller reads the file and passes its name and
 //! text), never panics on any input, and knows nothing of nets or links.
@@ -24,6 +26,7 @@
 pub mod error;
 pub mod plan;
 pub mod qgc;
+pub mod review;
 pub mod wpl;
 
 pub use error::{At, PlanError};
@@ -31,6 +34,7 @@ pub use plan::{
     command_name, Autopilot, Circle, Fence, Format, Item, Origin, Plan, Polygon, Position,
     Unsupported, VehicleType,
 };
+pub use review::{review, Finding};
 
 /// Reads the plan `text` of the file `name`: a `QGC WPL` file when its
 /// first line that is not a comment says so, else a QGroundControl `.plan`.

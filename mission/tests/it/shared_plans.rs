@@ -1,6 +1,6 @@
 //! Every file of `../shared/plans` through [`petrel_mission::read`].
 
-use petrel_mission::{read, Autopilot, Format, Origin};
+use petrel_mission::{read, review, Autopilot, Format, Origin};
 
 use crate::skip;
 
@@ -143,4 +143,46 @@ fn a_waypoint_file_whose_row_0_is_no_home_says_so_and_a_fence_file_has_none() {
     assert_eq!(plan.fence.polygons.len(), 1);
     assert_eq!(plan.fence.polygons[0].vertices.len(), 4);
     assert!(plan.items.is_empty());
+}
+
+#[test]
+fn the_review_finds_what_the_shared_files_hold_and_nothing_else() {
+    let Some(dir) = plans() else { return };
+    let findings = |name: &str| -> Vec<(Option<u16>, String)> {
+        let text = std::fs::read_to_string(dir.join(name)).expect("the file");
+        let plan = read(name, &text).expect("reads");
+        review(&plan).into_iter().map(|f| (f.seq, f.what)).collect()
+    };
+    // ArduPilot's own autotest and MAVProxy's field check loop for ever.
+    for name in [
+        "ardupilot-autotest_CMAC-toff-loop.txt",
+        "mavproxy-fieldcheck_cmac-foamy-mission-ccw.txt",
+    ] {
+        assert_eq!(
+            findings(name),
+            [(Some(6), "DO_JUMP to item 2 repeats for ever".to_owned())],
+            "{name}"
+        );
+    }
+    // A bounded jump is fine.
+    assert_eq!(findings("ardupilot-autotest_copter_mission.txt"), []);
+    assert_eq!(
+        findings("qgc-custom_ce_geofence_home_base.plan"),
+        [(None, "no mission items (a fence or rally plan)".to_owned())]
+    );
+    assert!(
+        findings("mavsdk-missionraw_qgroundcontrol_sample_with_structured_scan.plan")
+            .iter()
+            .any(|(_, w)| w == "StructureScan")
+    );
+    // QGroundControl's own ArduPlane test plan: its terrain-computed
+    // altitudes are missing until QGroundControl had terrain data.
+    let plane = findings("qgc-testplans_ArduPilotSITL-ArduPlane.plan");
+    eprintln!("ArduPlane test plan: {plane:?}");
+    assert!(
+        plane
+            .iter()
+            .all(|(_, w)| w.ends_with("without an altitude")),
+        "{plane:?}"
+    );
 }
