@@ -16,7 +16,7 @@
 //! file holds but no mission item says — a survey pattern whose waypoints
 //! QGroundControl did not store, a landing pattern — is kept in
 //! [`Plan::unsupported`], named by item index with what to do, for the
-//! caller to refuse or report. [`review`] lists what in a plan that reads
+//! caller to refuse or report. [`review()`] lists what in a plan that reads
 //! Petrel cannot supervise as it stands (a jump repeated for ever, an
 //! unknown command, a waypoint without altitude), each with what to do.
 //!
