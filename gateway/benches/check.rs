@@ -16,8 +16,7 @@
 //! thread of this process. `PETREL_BENCH_RUNS` sets the runs per figure
 //! (median; default 3).
 
-#[path = "support/busy.rs"]
-mod busy;
+use petrel_test_support::busy;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

@@ -10,8 +10,7 @@
 //!
 //! Run: `cargo bench -p gateway --bench memory` (Linux).
 
-#[path = "support/proc.rs"]
-mod proc;
+use petrel_test_support::proc;
 #[path = "support/telemetry.rs"]
 #[allow(dead_code)]
 mod telemetry;

@@ -20,16 +20,13 @@
 //! Once idle, then with the other core kept busy by a spinning thread of
 //! this process. Run: `cargo bench -p gateway --bench mirror`.
 
-#[path = "support/busy.rs"]
-mod busy;
+use petrel_test_support::busy;
 #[path = "../tests/scenarios/flight.rs"]
 mod flight;
-#[path = "support/proc.rs"]
-mod proc;
+use petrel_test_support::proc;
 #[path = "../tests/mirror/router.rs"]
 mod router;
-#[path = "../tests/support/scratch.rs"]
-mod scratch;
+use petrel_test_support::scratch;
 
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};

@@ -18,8 +18,7 @@
 
 #![allow(dead_code)]
 
-#[path = "support/proc.rs"]
-mod proc;
+use petrel_test_support::proc;
 #[path = "support/telemetry.rs"]
 mod telemetry;
 

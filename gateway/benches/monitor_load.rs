@@ -28,8 +28,7 @@
 #[path = "support/autopilot.rs"]
 #[allow(dead_code)]
 mod autopilot;
-#[path = "support/proc.rs"]
-mod proc;
+use petrel_test_support::proc;
 #[path = "support/telemetry.rs"]
 #[allow(dead_code)]
 mod telemetry;

@@ -31,10 +31,8 @@ use divan::Bencher;
 use nets::verify::project::{check, Options, ProjectReport};
 use nets::Project;
 
-#[path = "../../gateway/benches/support/busy.rs"]
-mod busy;
-#[path = "../../gateway/benches/support/proc.rs"]
-mod proc;
+use petrel_test_support::busy;
+use petrel_test_support::proc;
 
 const PT_NAME: &str = "ParamProductionCell-PT-3";
 

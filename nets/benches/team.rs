@@ -28,10 +28,8 @@ use divan::Bencher;
 use nets::verify::project::{check, Options, ProjectReport, Proviso};
 use nets::Project;
 
-#[path = "../../gateway/benches/support/busy.rs"]
-mod busy;
-#[path = "../../gateway/benches/support/proc.rs"]
-mod proc;
+use petrel_test_support::busy;
+use petrel_test_support::proc;
 
 /// A configuration: name, fixture, symmetry, partial order (with the
 /// default cycle proviso, after the search: [`Proviso::Components`]).

@@ -89,17 +89,16 @@ pub mod params;
 pub mod px4;
 mod rover;
 mod runner;
-pub mod skip;
+pub use petrel_test_support::skip;
 pub mod state;
 pub mod streams;
 mod telemetry;
 mod vehicle;
 pub mod wire;
 
-// The unit tests' scratch folders: the guard of the gateway's tests.
+// The unit tests' scratch folders.
 #[cfg(test)]
-#[path = "../../gateway/tests/support/scratch.rs"]
-mod scratch;
+use petrel_test_support::scratch;
 
 pub use boot::BootTimeline;
 pub use camera_component::{CameraCommand, CameraComponent, CameraConfig, CameraState};

@@ -8,9 +8,8 @@
 //! - `real_parity`: the first minute of a gateway's session on the real
 //!   ArduPlane SITL and on the simulation, compared.
 
-// The tests' scratch folders: the guard of the gateway's tests.
-#[path = "../../gateway/tests/support/scratch.rs"]
-mod scratch;
+// The tests' scratch folders.
+use petrel_test_support::scratch;
 
 mod sitl {
     pub mod common;

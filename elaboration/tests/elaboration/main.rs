@@ -5,8 +5,8 @@ mod firmware_reports;
 mod properties;
 mod real_flights;
 mod rules;
-#[path = "../../../sitl-tests/src/skip.rs"]
-mod skip;
+// `Skipped` and the closing `SKIPPED:` line, shared by every crate's tests.
+use petrel_test_support::skip;
 mod vocabulary;
 
 use elaboration::{Config, Elaborated, Elaborator, Profile, ReadStats, Stats, TlogReader};

@@ -6,8 +6,7 @@
 mod flight;
 #[path = "../mirror/router.rs"]
 mod router;
-#[path = "../support/scratch.rs"]
-mod scratch;
+use petrel_test_support::scratch;
 #[path = "../support/ugv_team.rs"]
 mod ugv_team;
 

@@ -4,7 +4,8 @@
 //! run in parallel, so a test that needs to run alone takes a lock shared
 //! with what it conflicts with (issue 36). `cargo test -p gateway --test it`.
 
-// Shared with the other test binaries of gateway (and sitl-tests' scratch).
+// Shared with the other test binaries of gateway (the scratch folders with
+// every crate's tests: petrel-test-support).
 #[path = "../scenarios/flight.rs"]
 mod flight;
 #[path = "../support/gateways.rs"]
@@ -13,8 +14,7 @@ mod gateways;
 mod harness;
 #[path = "../mirror/router.rs"]
 mod router;
-#[path = "../support/scratch.rs"]
-mod scratch;
+use petrel_test_support::scratch;
 #[path = "../support/team_run.rs"]
 mod team_run;
 #[path = "../support/ugv_team.rs"]

@@ -26,8 +26,7 @@ mod flight;
 mod gateways;
 #[path = "../support/harness.rs"]
 mod harness;
-#[path = "../support/scratch.rs"]
-mod scratch;
+use petrel_test_support::scratch;
 #[path = "../support/team_run.rs"]
 mod team_run;
 #[path = "../support/wire.rs"]

@@ -3,7 +3,7 @@
 //! projects: QGroundControl's, MAVSDK's, PX4's, ArduPilot's and MAVProxy's
 //! own) read, or refused with the reason its format gives.
 
-#[path = "../../../sitl-tests/src/skip.rs"]
-mod skip;
+// `Skipped` and the closing `SKIPPED:` line, shared by every crate's tests.
+use petrel_test_support::skip;
 
 mod shared_plans;

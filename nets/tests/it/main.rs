@@ -12,10 +12,8 @@ mod example;
 mod load;
 mod player;
 mod properties;
-// `Skipped` and the closing `SKIPPED:` line, shared with the gateway's and
-// elaboration's tests (nets does not depend on sitl-tests).
-#[path = "../../../sitl-tests/src/skip.rs"]
-mod skip;
+// `Skipped` and the closing `SKIPPED:` line, shared by every crate's tests.
+use petrel_test_support::skip;
 mod team;
 mod team_reduction;
 mod verify;

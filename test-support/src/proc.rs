@@ -1,5 +1,4 @@
 //! What /proc says of a process (Linux), for the memory and CPU figures.
-#![allow(dead_code)] // shared by several benches, each using a part
 
 use std::time::Duration;
 

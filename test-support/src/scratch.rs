@@ -5,11 +5,10 @@
 //! test's recordings and logs can be read. `PETREL_KEEP=1` keeps them
 //! all, passed tests' too.
 //!
-//! Shared by the test binaries of gateway (`#[path]`) and of sitl-tests.
+//! Shared by the test binaries of every crate.
 //! A test that hands the path to a child process keeps the guard alive
 //! until the child is reaped; a helper that makes a folder returns the
 //! guard, not its path.
-#![allow(dead_code)] // each binary uses a part
 
 use std::ops::Deref;
 use std::path::{Path, PathBuf};

@@ -6,11 +6,8 @@
 //! why (libtest shows a test's own output only when it fails). Under
 //! `CI=true` the callers fail instead of skipping, as before.
 //!
-//! The gateway's tests use it through `sitl_tests::skip`; the tests of
-//! `nets` and `elaboration`, which do not depend on this crate, include
-//! this file with `#[path]`.
-
-#![allow(dead_code)] // each test binary uses a part
+//! The gateway's tests use it through `sitl_tests::skip` (the SITL
+//! harnesses skip through it too), the other crates' tests directly.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
