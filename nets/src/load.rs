@@ -807,33 +807,34 @@ impl Loader {
     /// checked when it swaps ([`crate::version`]).
     fn reload(&mut self, file: &SourceFile, raw: &RawReload, project: &Project) -> Reload {
         let mut out = Reload::default();
-        for (old, new) in &raw.places {
-            if crate::version::place_named(project, new.get_ref()).is_none() {
-                self.problem(
-                    file,
-                    new.span(),
-                    format!(
-                        "[reload] place `{}`: this version has no such place (write NET.place, or a global place's name)",
-                        new.get_ref()
-                    ),
-                );
+        type Found = fn(&Project, &str) -> bool;
+        let place: Found = |p, n| crate::version::place_named(p, n).is_some();
+        let timer: Found = |p, n| crate::version::timer_named(p, n).is_some();
+        let kinds = [
+            (
+                &raw.places,
+                &mut out.places,
+                "place",
+                place,
+                "NET.place, or a global place's name",
+            ),
+            (&raw.timers, &mut out.timers, "timer", timer, "NET.timer"),
+        ];
+        for (renames, into, kind, exists, how) in kinds {
+            for (old, new) in renames {
+                let found = exists(project, new.get_ref());
+                if !found {
+                    self.problem(
+                        file,
+                        new.span(),
+                        format!(
+                            "[reload] {kind} `{}`: this version has no such {kind} (write {how})",
+                            new.get_ref()
+                        ),
+                    );
+                }
+                into.insert(old.get_ref().clone(), new.get_ref().clone());
             }
-            out.places
-                .insert(old.get_ref().clone(), new.get_ref().clone());
-        }
-        for (old, new) in &raw.timers {
-            if crate::version::timer_named(project, new.get_ref()).is_none() {
-                self.problem(
-                    file,
-                    new.span(),
-                    format!(
-                        "[reload] timer `{}`: this version has no such timer (write NET.timer)",
-                        new.get_ref()
-                    ),
-                );
-            }
-            out.timers
-                .insert(old.get_ref().clone(), new.get_ref().clone());
         }
         out
     }

@@ -124,21 +124,21 @@ pub fn map(old: &Project, state: &State, new: &Project) -> Result<State, Vec<Ref
         };
         refused.push(Refusal::Lockout { who });
     }
-    for name in new.reload.places.keys() {
-        if place_named(old, name).is_none() {
-            refused.push(Refusal::RenameUnknown {
-                kind: "place",
-                name: name.clone(),
-            });
-        }
-    }
-    for name in new.reload.timers.keys() {
-        if timer_named(old, name).is_none() {
-            refused.push(Refusal::RenameUnknown {
-                kind: "timer",
-                name: name.clone(),
-            });
-        }
+    let places = new
+        .reload
+        .places
+        .keys()
+        .map(|n| ("place", n, place_named(old, n).is_some()));
+    let timers = new
+        .reload
+        .timers
+        .keys()
+        .map(|n| ("timer", n, timer_named(old, n).is_some()));
+    for (kind, name, _) in places.chain(timers).filter(|(_, _, known)| !known) {
+        refused.push(Refusal::RenameUnknown {
+            kind,
+            name: name.clone(),
+        });
     }
     let words = new.place_count.div_ceil(64).max(1);
     let mut out = State {

@@ -426,9 +426,11 @@ impl Commander {
                         hb.base_mode
                             .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED),
                     );
-                    self.heard_firmware.get_or_insert_with(|| {
+                    let heard = *self.heard_firmware.get_or_insert_with(|| {
                         Firmware::from_heartbeat(hb.autopilot as i64, hb.mavtype as i64)
                     });
+                    // Target configured, firmware not: learn it here.
+                    self.firmware.get_or_insert(heard);
                 }
                 MavMessage::PARAM_VALUE(v) => self.parameters.value(v),
                 MavMessage::SYSTEM_TIME(t) => {
@@ -443,13 +445,6 @@ impl Commander {
                     }
                 }
                 _ => {}
-            }
-            if let (None, MavMessage::HEARTBEAT(hb)) = (self.firmware, message) {
-                // Target configured, firmware not: learn it here.
-                self.firmware = Some(Firmware::from_heartbeat(
-                    hb.autopilot as i64,
-                    hb.mavtype as i64,
-                ));
             }
             self.last_heard = Some(now);
             if self.link_lost {

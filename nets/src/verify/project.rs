@@ -146,9 +146,8 @@ pub fn check_from(
         timer.deadline = timer.deadline.saturating_sub(start.now) + T;
     }
     start.now = T;
-    Player::restore(project.clone(), start.clone())?;
     let mut explorer = Explorer::new(project.clone(), false, options.partial_order, options.steps);
-    explorer.from = Some(start);
+    explorer.from = Some(Player::restore(project.clone(), start)?);
     let explored = explorer.run(
         options.max_states,
         options.threads,
@@ -647,9 +646,9 @@ struct Explorer {
     kept: Kept,
     /// Every label the workers made, by the number they give it.
     registry: Mutex<Registry>,
-    /// Where the exploration starts instead of the project's start (a
-    /// running version's state mapped onto this one), at [`T`].
-    from: Option<State>,
+    /// The player the exploration starts from instead of the project's
+    /// start (a running version's state mapped onto this one), at [`T`].
+    from: Option<Player>,
 }
 
 #[derive(Default)]

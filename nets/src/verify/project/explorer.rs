@@ -205,11 +205,10 @@ impl Explorer {
     /// state it starts from), answering guards through the oracle, and the
     /// key of its initial state.
     pub(super) fn start(&self) -> (Player, Vec<u8>) {
-        let restored = self
-            .from
-            .as_ref()
-            .and_then(|s| Player::restore(self.project.clone(), s.clone()).ok());
-        let mut player = restored.unwrap_or_else(|| Player::start(self.project.clone(), T));
+        let mut player = match &self.from {
+            Some(from) => from.clone(),
+            None => Player::start(self.project.clone(), T),
+        };
         player.set_oracle(Some(Oracle::default()));
         let mut initial = Vec::new();
         self.codec.encode(
