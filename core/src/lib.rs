@@ -14,6 +14,8 @@
 //! - [`mirror`]: the downlink's record codec, publisher, replica, check,
 //!   dialog, and [`mirror::station::Station`], the ground's core;
 //! - [`signing`]: MAVLink 2 signing's keys and checks (rust-mavlink signs);
+//! - [`version`]: a new version of the running project, proved from the
+//!   state the vehicle is in and taken over at a step boundary;
 //! - [`frame`]: a frame as received, parsed once;
 //! - [`profile`], [`project`]: loading a project and its elaboration
 //!   profile from its files.
@@ -34,3 +36,4 @@ pub mod signing;
 pub mod supervisor;
 pub mod team;
 pub mod vehicle;
+pub mod version;

@@ -33,6 +33,7 @@ use crate::supervisor::{self, Step, Supervisor};
 use crate::vehicle::commander::Commander;
 use crate::vehicle::crew::{self, Crew};
 use crate::vehicle::parameters::Verdict;
+use crate::version::{Files, Proof, Proved, Report, Version, Versions};
 
 /// Elaboration timeouts and link loss are evaluated at least this often
 /// when no frame arrives.
@@ -99,6 +100,8 @@ pub enum Input {
         id: u64,
         choice: String,
     },
+    /// A new version of the project takes over.
+    Version(Arc<Version>),
 }
 
 impl Input {
@@ -116,6 +119,7 @@ impl Input {
                 id: *id,
                 choice: choice.clone(),
             },
+            Input::Version(v) => supervisor::Input::Version(v),
         }
     }
 }
@@ -171,6 +175,8 @@ pub struct Onboard {
     settled: VecDeque<Settled>,
     calls: VecDeque<Effect>,
     downlink_out: VecDeque<Transmit>,
+    /// New versions of the project offered in flight.
+    versions: Versions,
     /// Frames received, events elaborated.
     pub frames: u64,
     pub events: u64,
@@ -201,6 +207,7 @@ impl Onboard {
             settled: VecDeque::new(),
             calls: VecDeque::new(),
             downlink_out: VecDeque::new(),
+            versions: Versions::default(),
             frames: 0,
             events: 0,
         }
@@ -354,6 +361,46 @@ impl Onboard {
                 tunnel: Tunnel::petrel((d.mirror, 0), payload),
             });
         }
+    }
+
+    /// A new version of the project, loaded (and checked from its own
+    /// start) by the driver: its proof from the running state is queued
+    /// for [`Self::poll_proof`]; a version still being proved is given up
+    /// for it. What became of it comes out of [`Self::poll_version`].
+    pub fn offer_version(&mut self, project: Arc<Project>, files: Files) {
+        self.versions
+            .offer(project, files, self.supervisor.player());
+    }
+
+    /// The next proof for the driver to run beside the supervision
+    /// ([`Proof::run`]; it may take seconds) and hand back to
+    /// [`Self::handle_proved`].
+    pub fn poll_proof(&mut self) -> Option<Proof> {
+        self.versions.poll_proof()
+    }
+
+    /// A proof's answer, at `now`: the version takes over in a step of its
+    /// own if it holds for the state the player is in now, else it is
+    /// proved again (from the state as it is) or refused.
+    pub fn handle_proved(&mut self, now: Micros, proved: Proved) {
+        let Some(version) = self.versions.proved(proved, self.supervisor.player()) else {
+            return;
+        };
+        self.feed(now, now, Input::Version(version.clone()));
+        let refused = std::mem::take(&mut self.supervisor.version_refused);
+        self.versions
+            .took_over(&version, self.supervisor.seq(), refused);
+    }
+
+    /// What became of the versions offered, in order.
+    pub fn poll_version(&mut self) -> Option<Report> {
+        self.versions.poll_report()
+    }
+
+    /// The running version's number (0: the one the run started with) and
+    /// whether another is being proved.
+    pub fn version(&self) -> (u32, bool) {
+        (self.versions.current(), self.versions.pending())
     }
 
     /// A vehicle's parameters judged (`[gateway.parameters]`): its index

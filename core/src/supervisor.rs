@@ -22,6 +22,8 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::MavHeader;
 use nets::{Effect, Event, Micros, Outcome, Player, Project};
 
+use crate::version::Version;
+
 /// One timed input. (`Result` and `Event` come from the vehicle link and the
 /// programs in `petrel run`; `replay` of a telemetry log has neither.)
 #[derive(Debug, Clone)]
@@ -37,6 +39,9 @@ pub enum Input<'a> {
     /// The operator's answer to question `id` (its signature checked by
     /// `mirror::dialog::AnswerGate`); the player refuses it if late.
     Answer { id: u64, choice: String },
+    /// A new version of the project takes over, the state kept
+    /// (`crate::version`: proved before it is fed).
+    Version(&'a Arc<Version>),
 }
 
 /// What one input caused.
@@ -232,6 +237,9 @@ pub struct Supervisor {
     elaborated: Vec<Elaborated>,
     /// Frames that failed their checksum or were cut.
     pub bad_frames: u64,
+    /// Why the last [`Input::Version`] could not take over (empty: it did,
+    /// or none came).
+    pub version_refused: Vec<String>,
 }
 
 impl Supervisor {
@@ -262,6 +270,7 @@ impl Supervisor {
             seq: 0,
             elaborated: Vec::new(),
             bad_frames: 0,
+            version_refused: Vec::new(),
         };
         (
             supervisor,
@@ -330,8 +339,34 @@ impl Supervisor {
             Input::Answer { id, choice } => {
                 let _ = self.player.answer(id, &choice, time);
             }
+            Input::Version(version) => {
+                self.version_refused = self.take_over(version).err().unwrap_or_default();
+                if !self.version_refused.is_empty() {
+                    tracing::warn!(
+                        "version {} could not take over: {}",
+                        version.number,
+                        self.version_refused.join("; ")
+                    );
+                }
+            }
         }
         self.settle(time)
+    }
+
+    /// `version` takes over, its state mapped from the running one by
+    /// name; the player unchanged when it cannot, with why.
+    fn take_over(&mut self, version: &Version) -> Result<(), Vec<String>> {
+        let text = |why: Vec<nets::version::Refusal>| -> Vec<String> {
+            why.iter().map(ToString::to_string).collect()
+        };
+        let old = self.player.project();
+        let state = nets::version::map(old, self.player.state(), &version.project).map_err(text)?;
+        self.player = Player::restore(version.project.clone(), state).map_err(|e| {
+            vec![format!(
+                "the mapped state does not fit the new version: {e}"
+            )]
+        })?;
+        Ok(())
     }
 
     /// Feeds at `time` a frame that rust-mavlink already decoded on a live

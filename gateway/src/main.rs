@@ -30,6 +30,8 @@ struct Petrel {
 enum Verb {
     /// Run the gateway beside the autopilot: telemetry to events to the nets, and their commands back.
     Run(cli::run::Args),
+    /// Tell a running gateway to take the new version of its project, proved from the state the vehicle is in.
+    Reload(cli::reload::Args),
     /// The ground mirror: the vehicle's player replayed on the ground from `run --downlink`, checked step by step.
     Mirror(cli::mirror::Args),
     /// Play a project on a file of timed events, printing every firing and effect.
@@ -90,6 +92,7 @@ fn main() -> ExitCode {
     };
     let outcome = match petrel.verb {
         Verb::Run(args) => cli::run::run(args),
+        Verb::Reload(args) => cli::reload::run(args),
         Verb::Mirror(args) => cli::mirror::run(args),
         Verb::Play(args) => cli::play::run(args),
         Verb::Events(args) => cli::events::run(args),

@@ -59,7 +59,7 @@ pub fn petrel_schema(topic: &str) -> (&'static str, &'static str) {
     match topic {
         INPUTS => (
             "petrel.Input",
-            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"input":{"type":"string","enum":["start","frame","tick","result","event","answer","replica"]},"replica":{"type":"object","description":"the ground mirror's call on its player","properties":{"call":{"type":"string","enum":["restart","record","advance","restore"]},"before":{"type":"integer"},"inputs":{"type":"array"},"state":{"type":"string","description":"(restore) the player's state, hex"}}},"frame":{"type":"integer","description":"index of the frame on /mavlink/raw"},"link":{"type":"integer","description":"the link the frame came in on: a team's links in the order first named (absent: 0)"},"id":{"type":"integer"},"outcome":{"type":"object"},"event":{"type":"object"}}}"#,
+            r#"{"type":"object","properties":{"seq":{"type":"integer"},"time_us":{"type":"integer"},"input":{"type":"string","enum":["start","frame","tick","result","event","answer","replica","version"]},"version":{"type":"object","description":"a new version of the project took over","properties":{"number":{"type":"integer"},"files":{"type":"array","items":{"type":"object","properties":{"name":{"type":"string"},"text":{"type":"string"}}}}}},"replica":{"type":"object","description":"the ground mirror's call on its player","properties":{"call":{"type":"string","enum":["restart","record","advance","restore"]},"before":{"type":"integer"},"inputs":{"type":"array"},"state":{"type":"string","description":"(restore) the player's state, hex"}}},"frame":{"type":"integer","description":"index of the frame on /mavlink/raw"},"link":{"type":"integer","description":"the link the frame came in on: a team's links in the order first named (absent: 0)"},"id":{"type":"integer"},"outcome":{"type":"object"},"event":{"type":"object"}}}"#,
         ),
         EVENTS => (
             "petrel.Event",
@@ -211,6 +211,13 @@ pub enum Input {
     /// `mirror::call::call_json` makes (a mirror's recording:
     /// docs/mirror.md, "The mirror's recording").
     Replica(Json),
+    /// A new version of the project took over (docs/run.md, "A new
+    /// version in flight"): its number and files, `(path, text)`, from
+    /// which replay loads it.
+    Version {
+        number: u32,
+        files: Vec<(String, String)>,
+    },
 }
 
 /// The JSON of an input on [`INPUTS`].
@@ -246,6 +253,14 @@ pub fn input_json(seq: u64, time: Micros, input: &Input) -> Json {
             o.insert("input".into(), json!("replica"));
             o.insert("replica".into(), call.clone());
         }
+        Input::Version { number, files } => {
+            o.insert("input".into(), json!("version"));
+            let files: Vec<Json> = files
+                .iter()
+                .map(|(name, text)| json!({"name": name, "text": text}))
+                .collect();
+            o.insert("version".into(), json!({"number": number, "files": files}));
+        }
     }
     v
 }
@@ -265,6 +280,20 @@ struct InputLine<'a> {
     setup: Option<Json>,
     choice: Option<String>,
     replica: Option<Json>,
+    version: Option<VersionLine>,
+}
+
+/// A version's number and files, as [`input_json`] writes them.
+#[derive(serde::Deserialize)]
+struct VersionLine {
+    number: u32,
+    files: Vec<FileLine>,
+}
+
+#[derive(serde::Deserialize)]
+struct FileLine {
+    name: String,
+    text: String,
 }
 
 /// Reads an input back from its JSON bytes: `(seq, time, input)`.
@@ -295,6 +324,17 @@ pub fn input_with_setup(bytes: &[u8]) -> Option<((u64, Micros, Input), Option<Js
             call @ Json::Object(_) => Input::Replica(call),
             _ => return None,
         },
+        "version" => {
+            let version = line.version?;
+            Input::Version {
+                number: version.number,
+                files: version
+                    .files
+                    .into_iter()
+                    .map(|f| (f.name, f.text))
+                    .collect(),
+            }
+        }
         _ => return None,
     };
     Some(((line.seq, line.time_us, input), line.setup, line.link))
@@ -340,6 +380,13 @@ mod tests {
                 json!({"call": "record", "before": 900, "inputs": [{"kind": "answered", "time_us": 990, "id": 5, "choice": "no"}]}),
             ),
             Input::Replica(json!({"call": "advance"})),
+            Input::Version {
+                number: 2,
+                files: vec![
+                    ("project.toml".into(), "name = \"p\"\n".into()),
+                    ("a.toml".into(), "# \"quoted\" é\n".into()),
+                ],
+            },
         ];
         for (i, input) in inputs.iter().enumerate() {
             let text = input_json(i as u64, 1_000 + i as u64, input).to_string();

@@ -4,10 +4,11 @@
 
 use std::io;
 use std::sync::atomic::AtomicU64;
+use std::sync::Arc;
 use std::time::Duration;
 
 use nets::player::Digest;
-use nets::Micros;
+use nets::{Micros, Project};
 use serde_json::Value as Json;
 
 use super::layout::Input;
@@ -106,6 +107,9 @@ pub(super) enum Entry {
     /// frame's bytes, the step, the digest after it, the link the frame
     /// came in on (when told).
     Step(Box<StepEntry>),
+    /// A step in which a new version of the project took over: the
+    /// writer names what follows by it.
+    Version(Box<(Arc<Project>, StepEntry)>),
     Sent {
         time: Micros,
         bytes: Vec<u8>,

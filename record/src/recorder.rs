@@ -165,7 +165,7 @@ impl Recorder {
                 self.dropped.queued.fetch_add(1, Ordering::Relaxed);
             }
             Err(TrySendError::Full(e)) | Err(TrySendError::Disconnected(e)) => {
-                if matches!(e, Entry::Step(_) | Entry::Replica(_)) {
+                if matches!(e, Entry::Step(_) | Entry::Replica(_) | Entry::Version(_)) {
                     self.dropped.steps.fetch_add(1, Ordering::Relaxed);
                 }
                 self.dropped.entries.fetch_add(1, Ordering::Relaxed);
@@ -214,9 +214,25 @@ impl Recorder {
         step: Step,
         digest: Digest,
     ) {
-        let (input, frame) = Self::split(input);
+        let (split, frame) = Self::split(input);
         let link = link.filter(|_| frame.is_some());
-        self.send(Entry::Step(Box::new((input, frame, step, digest, link))));
+        let entry = (split, frame, step, digest, link);
+        match input {
+            supervisor::Input::Version(v) => {
+                // Never dropped: what follows is named by this version.
+                // The queue drains in microseconds; a version comes once.
+                if let Some(tx) = &self.tx {
+                    let version = Entry::Version(Box::new((v.project.clone(), entry)));
+                    if tx.send(version).is_ok() {
+                        self.dropped.queued.fetch_add(1, Ordering::Relaxed);
+                    } else {
+                        self.dropped.steps.fetch_add(1, Ordering::Relaxed);
+                        self.dropped.entries.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+            }
+            _ => self.send(Entry::Step(Box::new(entry))),
+        }
     }
 
     fn split(input: &supervisor::Input) -> (Input, Option<Vec<u8>>) {
@@ -235,6 +251,13 @@ impl Recorder {
                 Input::Answer {
                     id: *id,
                     choice: choice.clone(),
+                },
+                None,
+            ),
+            supervisor::Input::Version(v) => (
+                Input::Version {
+                    number: v.number,
+                    files: v.files.clone(),
                 },
                 None,
             ),

@@ -57,6 +57,9 @@ pub(super) struct Writer<W: Write + Seek> {
     /// Decoded channels by (sent, system, component, message id).
     decoded: HashMap<(bool, u8, u8, u32), Option<u16>>,
     markings: HashMap<Option<usize>, u16>,
+    /// The same channels by topic (a net keeps its channel across
+    /// versions of the project).
+    marking_topics: HashMap<String, u16>,
     /// The ground mirror's channels, by topic.
     mirror: HashMap<&'static str, u16>,
     /// Added to times (µs) to make log times: a mirror's replica steps
@@ -141,6 +144,7 @@ impl<W: Write + Seek> Writer<W> {
             json_schemas: HashMap::new(),
             decoded: HashMap::new(),
             markings: HashMap::new(),
+            marking_topics: HashMap::new(),
             mirror: HashMap::new(),
             shift: 0,
             decoder: Decoder::default(),
@@ -274,6 +278,14 @@ impl<W: Write + Seek> Writer<W> {
         match entry {
             Entry::Step(b) => {
                 let (input, frame, step, digest, link) = *b;
+                self.step(input, frame, &step, digest, link)
+            }
+            Entry::Version(b) => {
+                let (project, (input, frame, step, digest, link)) = *b;
+                // Nets are numbered anew: their marking channels are
+                // found again by topic.
+                self.project = project;
+                self.markings.clear();
                 self.step(input, frame, &step, digest, link)
             }
             Entry::Sent { time, bytes } => self.frame(time, &bytes, true),
@@ -468,11 +480,18 @@ impl<W: Write + Seek> Writer<W> {
                             None => "@globals".to_owned(),
                         };
                         let topic = format!("{}{name}", layout::MARKING_PREFIX);
-                        let c = add_json_channel(
-                            &mut self.mcap,
-                            &topic,
-                            layout::petrel_schema(&topic),
-                        )?;
+                        let c = match self.marking_topics.get(&topic) {
+                            Some(c) => *c,
+                            None => {
+                                let c = add_json_channel(
+                                    &mut self.mcap,
+                                    &topic,
+                                    layout::petrel_schema(&topic),
+                                )?;
+                                self.marking_topics.insert(topic, c);
+                                c
+                            }
+                        };
                         self.markings.insert(*net, c);
                         c
                     }

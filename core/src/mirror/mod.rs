@@ -121,6 +121,9 @@ pub fn step_inputs(input: &SupervisorInput, step: &Step, unread: &Unread) -> Opt
             id: *id,
             choice: choice.clone(),
         }],
+        // The downlink carries no version yet: the replica, on the old
+        // one, is told apart by its digest (docs/mirror.md).
+        SupervisorInput::Version(_) => Vec::new(),
     };
     (!inputs.is_empty()).then_some(inputs)
 }

@@ -15,6 +15,7 @@ pub mod mirror;
 pub mod play;
 mod progress;
 pub mod recover;
+pub mod reload;
 pub mod replay;
 pub mod run;
 pub mod stubs;

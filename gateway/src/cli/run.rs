@@ -27,6 +27,7 @@ mod autopilot;
 mod gateway;
 mod links;
 mod parameters;
+mod reload;
 mod signals;
 pub(crate) use signals::Signals;
 
@@ -335,6 +336,7 @@ pub(crate) fn prepare(args: &Args) -> Result<Result<Setup, Outcome>, miette::Rep
     };
     Ok(Ok(Setup {
         http,
+        unchecked: args.unchecked,
         project,
         signing,
         operator,
@@ -470,6 +472,9 @@ pub(crate) struct Setup {
     pub stop: Option<Arc<tokio::sync::Notify>>,
     /// Serve the web monitor here.
     pub http: Option<std::net::SocketAddr>,
+    /// `--unchecked`: a new version (SIGHUP) is not checked from its own
+    /// start either (it is still proved from the running state).
+    pub unchecked: bool,
     /// The real-time priority the loop asks for (`None`: the normal policy).
     pub realtime: Option<u32>,
 }

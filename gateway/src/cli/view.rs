@@ -90,16 +90,12 @@ pub fn run(args: Args) -> VerbResult {
 /// does not load (already reported).
 fn index(args: &Args, dir: &std::path::Path) -> Result<Option<History>, miette::Report> {
     let name = args.file.display().to_string();
-    let Some(opened) = from_mcap::open(&args.file, dir, args.profile.as_deref(), true)? else {
+    let Some(mut opened) = from_mcap::open(&args.file, dir, args.profile.as_deref(), true)? else {
         return Ok(None);
     };
-    let from_mcap::Opened {
-        rec,
-        origin,
-        lanes,
-        project,
-        ..
-    } = opened;
+    let (origin, mut project) = (opened.origin, opened.project.clone());
+    let lanes = std::mem::take(&mut opened.lanes);
+    let rec = &opened.rec;
     let (mut sup, start) = Supervisor::start_lanes(project.clone(), lanes, origin);
     let mut builder = Builder::new(project.clone(), &start, sup.player(), origin);
     // The recorded digests tell whether this is the project that flew.
@@ -112,9 +108,12 @@ fn index(args: &Args, dir: &std::path::Path) -> Result<Option<History>, miette::
             );
             break;
         }
-        let input =
-            from_mcap::input(&rec, *seq, recorded).map_err(|e| miette::miette!("{name}: {e}"))?;
+        let input = from_mcap::input(&opened, *seq, recorded)
+            .map_err(|e| miette::miette!("{name}: {e}"))?;
         let step = sup.step(*time, input.clone());
+        if !std::sync::Arc::ptr_eq(sup.player().project(), &project) {
+            project = sup.player().project().clone();
+        }
         builder.step(&input, &step, sup.player());
         if difference.is_none() {
             difference = compare(&project, &step, &sup.player().digest(), rec.steps.get(seq));

@@ -39,6 +39,7 @@ mod multi_vehicle;
 mod preflight;
 mod programs;
 mod record;
+mod reload;
 mod run;
 mod scenarios;
 mod signing;

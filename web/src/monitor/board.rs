@@ -211,6 +211,18 @@ impl Board {
                 ));
                 self.attach(i, &step.effects);
             }
+            Input::Version(version) => {
+                self.take_version(player.project().clone());
+                self.push(
+                    step.time,
+                    None,
+                    json!({"kind": "version", "number": version.number, "seq": step.seq,
+                           "text": format!("version {} took over", version.number)}),
+                );
+                // The marking's bits are numbered anew.
+                self.read_marking(player, step.time);
+                self.marking_changed = true;
+            }
         }
         if !matches!(
             input,
@@ -228,6 +240,30 @@ impl Board {
         }
         self.marking.seq = step.seq;
         self.marking.time = step.time;
+    }
+
+    /// A new version of the project on the board: nets numbered anew,
+    /// each transition's firings kept by its net's and its own name.
+    fn take_version(&mut self, project: Arc<Project>) {
+        let mut fired = HashMap::new();
+        for (n, net) in self.project.nets.iter().enumerate() {
+            for (t, tr) in net.transitions.iter().enumerate() {
+                let count = self.marking.fired.get(self.offsets[n] + t).copied();
+                fired.insert((net.name.as_str(), tr.name.as_str()), count.unwrap_or(0));
+            }
+        }
+        let mut offsets = Vec::with_capacity(project.nets.len());
+        let mut counts = Vec::new();
+        for net in &project.nets {
+            offsets.push(counts.len());
+            for tr in &net.transitions {
+                let count = fired.get(&(net.name.as_str(), tr.name.as_str()));
+                counts.push(count.copied().unwrap_or(0));
+            }
+        }
+        self.marking.fired = counts;
+        self.offsets = offsets;
+        self.project = project;
     }
 
     /// Shows `player` as it stands at `time` (the mirror's replica
@@ -517,6 +553,12 @@ pub(crate) mod tests {
                 let _ = player.answer(*id, choice, time);
             }
             Input::Frame(_) | Input::Tick => player.advance(time),
+            Input::Version(v) => {
+                let state = nets::version::map(player.project(), player.state(), &v.project)
+                    .unwrap_or_else(|e| panic!("{e:?}"));
+                *player =
+                    Player::restore(v.project.clone(), state).unwrap_or_else(|e| panic!("{e}"));
+            }
         }
         Step {
             seq,
@@ -524,6 +566,67 @@ pub(crate) mod tests {
             events: Vec::new(),
             effects: player.effects().collect(),
         }
+    }
+
+    #[test]
+    fn a_new_version_is_drawn_with_the_firings_kept_by_name() {
+        let project = project();
+        let mut player = Player::start(project.clone(), 0);
+        let _ = player.effects().count();
+        let mut board = Board::new(project.clone(), &player, 0, 100);
+        feed(
+            &mut board,
+            &mut player,
+            1,
+            1_000_000,
+            &Input::Event(Event::new("x")),
+        );
+        // Version 1: a net before A, and A's `back` renamed `home`.
+        let files = [
+            (
+                "project.toml",
+                "[[net]]\nfile = \"b.toml\"\nactive = true\n[[net]]\nfile = \"a.toml\"\nactive = true\n[events]\nx = {}\ny = {}\n",
+            ),
+            (
+                "b.toml",
+                "name = \"B\"\nplaces = [\"p\", \"q\"]\ninitial = [\"p\"]\nfinal = [\"q\"]\n\
+                 [[transition]]\nname = \"t\"\nfrom = [\"p\"]\nto = [\"q\"]\non = \"y\"\n",
+            ),
+            (
+                "a.toml",
+                "name = \"A\"\nplaces = [\"idle\", \"on\"]\ninitial = [\"idle\"]\n\
+                 [[transition]]\nname = \"go\"\nfrom = [\"idle\"]\nto = [\"on\"]\non = \"x\"\ndo = [\"command arm\"]\n\
+                 [[transition]]\nname = \"home\"\nfrom = [\"on\"]\nto = [\"idle\"]\non = \"y\"\n",
+            ),
+        ];
+        let new = Arc::new(nets::load(&files).unwrap_or_else(|e| panic!("{e}")));
+        let version = Arc::new(petrel_core::version::Version {
+            number: 1,
+            project: new.clone(),
+            files: Vec::new(),
+        });
+        let entry = feed(
+            &mut board,
+            &mut player,
+            2,
+            2_000_000,
+            &Input::Version(&version),
+        );
+        assert_eq!(entry["kind"], "version");
+        assert_eq!(entry["number"], 1);
+        assert!(Arc::ptr_eq(board.project(), &new));
+        // B's transition first, then A's: `go` fired once, `home` never.
+        assert_eq!(board.marking.fired, vec![0, 1, 0]);
+        let on = new.flat(1, nets::model::PlaceRef::Local(1));
+        assert!(board.marking.marked(on), "A is still on");
+        feed(
+            &mut board,
+            &mut player,
+            3,
+            3_000_000,
+            &Input::Event(Event::new("y")),
+        );
+        assert_eq!(board.marking.fired, vec![1, 1, 1]);
     }
 
     #[test]

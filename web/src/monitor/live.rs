@@ -33,7 +33,10 @@ pub struct Cursor {
 pub struct Live {
     board: Mutex<Board>,
     version: watch::Sender<u64>,
-    pub page: String,
+    /// The page (`/page.json`): the nets to draw, and how many times a new
+    /// version of the project replaced them (a browser that drew another
+    /// number loads the page again).
+    page: Mutex<(u64, String)>,
 }
 
 impl Live {
@@ -41,8 +44,23 @@ impl Live {
         Arc::new(Live {
             board: Mutex::new(board),
             version: watch::Sender::new(0),
-            page: page.to_string(),
+            page: Mutex::new((0, page.to_string())),
         })
+    }
+
+    /// The page, as `/page.json` serves it.
+    pub fn page(&self) -> String {
+        self.page
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .1
+            .clone()
+    }
+
+    /// A new version of the project took over: its page replaces the last.
+    pub fn replace_page(&self, page: Json) {
+        let mut held = self.page.lock().unwrap_or_else(|e| e.into_inner());
+        *held = (held.0 + 1, page.to_string());
     }
 
     fn lock(&self) -> MutexGuard<'_, Board> {
@@ -58,9 +76,11 @@ impl Live {
     /// The next frame for a browser at `cursor`: the marking, the strip, and
     /// the log entries and track points it has not had.
     pub fn frame(&self, cursor: &mut Cursor) -> Json {
+        let page = self.page.lock().unwrap_or_else(|e| e.into_inner()).0;
         let board = self.lock();
         let project = board.project().clone();
         let mut frame = board.marking.json(&project, board.origin);
+        frame["page"] = json!(page);
         let log = board.log();
         let first = log.front().map_or(board.next_entry(), |e| e.id);
         let from = cursor.log.max(first);
@@ -129,6 +149,12 @@ impl Feed {
     /// One step, `player` as it stands now.
     pub fn step(&self, input: &Input, step: &Step, player: &Player) {
         self.live.lock().step(input, step, player);
+    }
+
+    /// A new version of the project took over: the page shows its nets
+    /// (`page::page` of it), and open pages load it again.
+    pub fn replace_page(&self, page: Json) {
+        self.live.replace_page(page);
     }
 
     /// Changes the board otherwise (the mirror's panel and replica).

@@ -35,7 +35,7 @@ pub enum Source {
 impl Source {
     fn page(&self) -> String {
         match self {
-            Source::Live(l) => l.page.clone(),
+            Source::Live(l) => l.page(),
             Source::Recording(h) => h.page.clone(),
         }
     }

@@ -13,6 +13,7 @@ use super::{print_step, Args};
 use crate::cli::timeline::Timeline;
 use crate::cli::{Outcome, VerbResult};
 use petrel_core::supervisor::{Input, Supervisor};
+use petrel_core::version::Version;
 use petrel_record::check::{compare, Difference};
 use petrel_record::layout::Input as Recorded;
 use petrel_record::read;
@@ -26,6 +27,9 @@ pub(crate) struct Opened {
     /// of a team (`team::lanes`, as `run` builds them).
     pub lanes: Vec<petrel_core::supervisor::Lane>,
     pub project: std::sync::Arc<nets::Project>,
+    /// The versions of the project that took over in flight, loaded from
+    /// their recorded files, by the step they took over at.
+    pub versions: std::collections::BTreeMap<u64, std::sync::Arc<Version>>,
     /// How long reading the file took.
     pub reading: Duration,
 }
@@ -109,21 +113,52 @@ pub(crate) fn open(
         petrel_core::team::family(&setup.layers)
     };
     let lanes = petrel_core::team::lanes(&project, dir, &profile, family, &config)?;
+    let catalog = petrel_core::project::catalog(&profile);
+    let mut versions = std::collections::BTreeMap::new();
+    for (seq, _, input) in &rec.inputs {
+        if let Recorded::Version { number, files } = input {
+            versions.insert(*seq, load_version(&name, *number, files, &catalog)?);
+        }
+    }
     Ok(Some(Opened {
         rec,
         origin,
         lanes,
         project,
+        versions,
         reading,
+    }))
+}
+
+/// A version that took over in flight, loaded from the files `file`
+/// recorded for it.
+fn load_version(
+    file: &str,
+    number: u32,
+    files: &[(String, String)],
+    catalog: &nets::load::Catalog,
+) -> Result<std::sync::Arc<Version>, miette::Report> {
+    let sources: std::collections::BTreeMap<String, String> = files.iter().cloned().collect();
+    let project = nets::load_with(&sources, catalog).map_err(|e| {
+        miette::Report::new(petrel_core::project::Unloadable {
+            dir: format!("{file}: version {number}").into(),
+            problems: e.problems,
+        })
+    })?;
+    Ok(std::sync::Arc::new(Version {
+        number,
+        project: std::sync::Arc::new(project),
+        files: files.to_vec(),
     }))
 }
 
 /// The Supervisor input a recorded input stands for.
 pub(crate) fn input<'a>(
-    rec: &'a read::Recording,
+    opened: &'a Opened,
     seq: u64,
     input: &'a Recorded,
 ) -> Result<Input<'a>, String> {
+    let rec = &opened.rec;
     Ok(match input {
         Recorded::Frame(index) => {
             let Some((_, bytes)) = rec.frame(*index) else {
@@ -143,6 +178,10 @@ pub(crate) fn input<'a>(
             id: *id,
             choice: choice.clone(),
         },
+        Recorded::Version { .. } => match opened.versions.get(&seq) {
+            Some(version) => Input::Version(version),
+            None => return Err(format!("step {seq}'s version was not loaded")),
+        },
         Recorded::Start => return Err(format!("a second start at step {seq}")),
         Recorded::Replica(_) => {
             return Err(format!(
@@ -154,13 +193,7 @@ pub(crate) fn input<'a>(
 
 pub fn run(args: Args) -> VerbResult {
     let name = args.file.display().to_string();
-    let Some(Opened {
-        rec,
-        origin,
-        lanes,
-        project,
-        reading,
-    }) = open(
+    let Some(mut opened) = open(
         &args.file,
         &args.project,
         args.profile.as_deref(),
@@ -169,6 +202,10 @@ pub fn run(args: Args) -> VerbResult {
     else {
         return Ok(Outcome::BadInput);
     };
+    let (origin, reading) = (opened.origin, opened.reading);
+    let lanes = std::mem::take(&mut opened.lanes);
+    let mut project = opened.project.clone();
+    let rec = &opened.rec;
     let io = |e: std::io::Error| miette::miette!("cannot write the output: {e}");
     let mut out = Timeline {
         out: BufWriter::new(std::io::stdout().lock()),
@@ -233,7 +270,8 @@ pub fn run(args: Args) -> VerbResult {
             last = time;
             continue;
         }
-        let input = self::input(&rec, *seq, input).map_err(|e| miette::miette!("{name}: {e}"))?;
+        let input =
+            self::input(&opened, *seq, input).map_err(|e| miette::miette!("{name}: {e}"))?;
         if matches!(input, Input::Frame(_)) {
             frames += 1;
         }
@@ -264,9 +302,20 @@ pub fn run(args: Args) -> VerbResult {
                     &format!("ANSWER #{id} {choice}"),
                 )
                 .map_err(io)?,
+            Input::Version(v) => out
+                .input(
+                    time,
+                    "version",
+                    json!({"version": v.number}),
+                    &format!("VERSION {} takes over", v.number),
+                )
+                .map_err(io)?,
             Input::Frame(_) | Input::Tick => {}
         }
         let step = sup.step(time, input);
+        if !std::sync::Arc::ptr_eq(sup.player().project(), &project) {
+            project = sup.player().project().clone();
+        }
         steps += 1;
         events += step.events.len();
         print_step(&mut out, &project, &step).map_err(io)?;

@@ -12,7 +12,8 @@ use tokio::sync::mpsc;
 
 use super::autopilot::{adopt, identify};
 use super::parameters::parameters_fit;
-use super::signals::Signals;
+use super::reload::{Background, Reload};
+use super::signals::{Hangup, Signals};
 use super::timeline::Timeline;
 use super::{elaboration_config, links, Setup, SILENCE_WARNING, TIMESTAMP_PERSIST, UPLOAD_GRACE};
 use crate::cli::{Outcome, VerbResult};
@@ -35,6 +36,11 @@ pub(super) struct Gateway {
     /// The web monitor: fed in `settle`, served on its own thread.
     monitor: Option<(petrel_web::monitor::Feed, petrel_web::monitor::Server)>,
     out: Timeline<std::io::BufWriter<Box<dyn Write + Send>>>,
+    /// New versions of the project (SIGHUP), read and proved off the loop.
+    reload: Reload,
+    dir: std::path::PathBuf,
+    /// The version the last step printed ran in.
+    shown: std::sync::Arc<nets::Project>,
 }
 
 impl Gateway {
@@ -55,13 +61,24 @@ impl Gateway {
     /// order, and flushes the timeline.
     fn settle(&mut self) {
         self.core.settle();
-        let project = self.core.project().clone();
+        // Each step is said with the version it ran in: a version that
+        // took over in this batch names the steps from its own on.
+        let mut project = self.shown.clone();
         while let Some(Settled {
             input,
             step,
             digest,
         }) = self.core.poll_settled()
         {
+            if let OwnedInput::Version(v) = &input {
+                project = v.project.clone();
+                let _ = self.out.input(
+                    step.time,
+                    "version",
+                    json!({"version": v.number}),
+                    &format!("VERSION {} takes over", v.number),
+                );
+            }
             if let OwnedInput::Event(event) = &input {
                 let _ = self.out.event(&project, step.time, event, None);
             }
@@ -77,6 +94,13 @@ impl Gateway {
             }
             if let Some((feed, _)) = &self.monitor {
                 feed.step(&input.as_supervisor(), &step, self.core.player());
+                if let OwnedInput::Version(v) = &input {
+                    feed.replace_page(petrel_web::monitor::page::page(
+                        &v.project,
+                        Some(&self.dir),
+                        "live",
+                    ));
+                }
             }
             if let (Some(rec), Some(digest)) = (&self.recorder, digest) {
                 // A team's frames say their link (one link: implied).
@@ -87,10 +111,62 @@ impl Gateway {
                 rec.record_on(&input.as_supervisor(), link, step, digest);
             }
         }
+        self.shown = project;
         if let Some((feed, _)) = &self.monitor {
             feed.publish();
         }
         let _ = self.out.out.flush();
+    }
+
+    /// SIGHUP: the project folder is read again.
+    fn hangup(&mut self) {
+        say!(
+            "SIGHUP: reading {} again for a new version of the project",
+            self.dir.display()
+        );
+        self.reload.request();
+    }
+
+    /// What a background thread brought back: a version read (offered to
+    /// the core), or a proof's answer (to the core, at this boundary).
+    fn background(&mut self, back: Background) {
+        let now = self.now();
+        match back {
+            Background::Loaded(Ok((project, files))) => {
+                self.reload.loaded();
+                self.core.offer_version(project, files);
+            }
+            Background::Loaded(Err(why)) => {
+                self.reload.loaded();
+                self.say_version(format!(
+                    "the new version does not load, the running version goes on:\n{why}"
+                ));
+            }
+            Background::Proved(proved) => self.core.handle_proved(now, *proved),
+        }
+    }
+
+    /// The core's proofs started, what became of the versions said (and
+    /// recorded).
+    fn versions(&mut self) {
+        while let Some(proof) = self.core.poll_proof() {
+            self.reload.prove(proof);
+        }
+        while let Some(report) = self.core.poll_version() {
+            self.say_version(report.to_string());
+        }
+    }
+
+    fn say_version(&mut self, text: String) {
+        say!("reload: {text}");
+        if let Some(rec) = &self.recorder {
+            rec.log(
+                self.clock.now(),
+                petrel_record::recorder::Level::Info,
+                "reload",
+                text,
+            );
+        }
     }
 
     pub(super) async fn run(mut setup: Setup) -> VerbResult {
@@ -113,6 +189,7 @@ impl Gateway {
         // while a `tcpin:` link waits for its client, or during the wait
         // for the autopilot, still ends cleanly.
         let mut signals = Signals::new()?;
+        let mut hangups = Hangup::new()?;
         // Each link once, however many vehicles share it; a `tcpin:` link
         // waits for its client, within `--duration`.
         let opened = signals
@@ -222,7 +299,18 @@ impl Gateway {
             setup.operator.take(),
             recorder.is_some(),
         );
+        // A new version is loaded with the profile the flight runs with
+        // (the one adopted from the autopilot heard).
+        let (reload, mut background) = Reload::new(
+            setup.dir.clone(),
+            petrel_core::project::catalog(&setup.profile),
+            setup.layers.layers.clone(),
+            !setup.unchecked,
+        );
         let mut gw = Gateway {
+            reload,
+            dir: setup.dir.clone(),
+            shown: setup.project.clone(),
             clock,
             core,
             programs,
@@ -330,10 +418,13 @@ impl Gateway {
                 _ = signals.recv() => break,
                 _ = until_stop => break,
                 _ = told_to_stop => break,
+                _ = hangups.recv() => gw.hangup(),
+                Some(back) = background.recv() => gw.background(back),
             }
             gw.pump().await;
             gw.settle();
             gw.publish().await;
+            gw.versions();
             if let Some((v, verdict)) = gw.core.poll_parameters() {
                 let member = &gw.core.crew().members()[v];
                 let prefix = member

@@ -1,4 +1,5 @@
-//! SIGINT and SIGTERM, which stop `run` cleanly.
+//! SIGINT and SIGTERM, which stop `run` cleanly; SIGHUP, which reads the
+//! project again (`reload.rs`).
 
 /// SIGINT and SIGTERM.
 pub(crate) struct Signals {
@@ -72,5 +73,22 @@ impl Stopped {
                 after.as_secs_f64()
             ),
         }
+    }
+}
+
+/// SIGHUP: a new version of the project to read (`petrel reload`,
+/// systemd's `ExecReload`).
+pub(crate) struct Hangup(tokio::signal::unix::Signal);
+
+impl Hangup {
+    pub(crate) fn new() -> Result<Hangup, miette::Report> {
+        use tokio::signal::unix::{signal, SignalKind};
+        signal(SignalKind::hangup())
+            .map(Hangup)
+            .map_err(|e| miette::miette!("cannot watch for SIGHUP: {e}"))
+    }
+
+    pub(crate) async fn recv(&mut self) {
+        self.0.recv().await;
     }
 }

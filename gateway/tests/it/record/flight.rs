@@ -136,7 +136,7 @@ pub fn fly(tlog: &[u8], recorder: &Recorder, limit: usize, pace: Option<f64>) ->
             Input::Frame(_) => fed.frames += 1,
             Input::Tick => fed.ticks += 1,
             Input::Result { .. } => fed.results += 1,
-            Input::Event(_) | Input::Answer { .. } => fed.events += 1,
+            Input::Event(_) | Input::Answer { .. } | Input::Version(_) => fed.events += 1,
         }
         for effect in step
             .effects

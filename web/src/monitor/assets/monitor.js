@@ -751,7 +751,11 @@ function connect() {
   socket.onopen = () => { $("connection").textContent = "connected"; $("connection").className = "badge"; };
   socket.onmessage = (m) => {
     asked = false;
-    apply(JSON.parse(m.data));
+    const f = JSON.parse(m.data);
+    // A new version of the project took over: its nets are drawn anew.
+    if (f.page !== undefined && drawnPage !== null && f.page !== drawnPage) { location.reload(); return; }
+    if (f.page !== undefined) drawnPage = f.page;
+    apply(f);
     if (wanted !== null) { send({ at: wanted }); wanted = null; }
   };
   socket.onclose = () => {
@@ -764,6 +768,9 @@ function connect() {
 $("zoom-close").onclick = unzoom;
 document.addEventListener("keydown", (ev) => { if (ev.key === "Escape") unzoom(); });
 setInterval(() => { if (frame) { paint(document); if (!$("zoom").hidden) paint($("zoom-view")); } }, 250);
+// The page number drawn (`page` of the frames): another means a new
+// version of the project replaced the nets.
+let drawnPage = null;
 fetch("page.json").then((r) => r.json()).then((p) => {
   page = p;
   // `petrel edit`: the editor (edit.js, fetched only then) draws the page.
