@@ -209,3 +209,121 @@ async fn a_new_version_takes_over_in_flight_and_a_bad_one_is_refused() {
     assert!(replayed.contains("VERSION 1 takes over"), "{replayed}");
     assert!(said.contains("match the recording"), "{said}");
 }
+
+/// The flight-test example's COMMUNICATION net, version 1: a link that
+/// failed once is not trusted, the vehicle returns home once it is back
+/// (version 0 proceeds with the mission whatever the links do).
+fn returning_after_a_link_hole(example: &Path) -> String {
+    let text = std::fs::read_to_string(example.join("communication.toml")).expect("the net");
+    let text = text
+        .replace(
+            "places = [\"proceeding\"]",
+            "places = [\"proceeding\", \"degraded\", \"returning\"]",
+        )
+        .replace(
+            "final = [\"proceeding\"]",
+            "final = [\"proceeding\", \"returning\"]",
+        );
+    let lost = "from = [\"proceeding\"]\nto = [\"proceeding\"]\non = \"link_lost\"";
+    let restored = "from = [\"proceeding\"]\nto = [\"proceeding\"]\non = \"link_restored\"";
+    assert!(text.contains(lost) && text.contains(restored), "{text}");
+    text.replace(
+        lost,
+        "from = [\"proceeding\"]\nto = [\"degraded\"]\non = \"link_lost\"",
+    )
+    .replace(
+        restored,
+        "from = [\"degraded\"]\nto = [\"returning\"]\non = \"link_restored\"\ndo = [\"command rtl\"]",
+    )
+}
+
+/// A copy of the flight-test example (its files, not its folders) with
+/// COMMUNICATION's version 1.
+fn version_one(scratch: &Scratch) -> std::path::PathBuf {
+    let example = crate::flight::project();
+    let dir = scratch.join("version-1");
+    std::fs::create_dir_all(&dir).expect("a folder");
+    for entry in std::fs::read_dir(&example).expect("the example") {
+        let path = entry.expect("an entry").path();
+        if path.is_file() {
+            std::fs::copy(&path, dir.join(path.file_name().expect("a name"))).expect("copied");
+        }
+    }
+    std::fs::write(
+        dir.join("communication.toml"),
+        returning_after_a_link_hole(&example),
+    )
+    .expect("write");
+    dir
+}
+
+/// Issue 38's flight: mid-flight, COMMUNICATION's reaction to a link hole
+/// changes from "proceed" to "return"; the later 10 s link hole gets the
+/// new reaction, and the recording replays the swap exactly.
+#[test]
+fn a_link_hole_after_the_swap_gets_the_new_reaction() {
+    use crate::simulated::{fly_with, Offer, Setup};
+    let scratch = Scratch::new("reload-simulated");
+    let setup = Setup {
+        faults: &["link_loss@wp3:10s"],
+        version: Some(Offer {
+            at_s: 30.0,
+            dir: version_one(&scratch),
+            proof_s: 1.5,
+        }),
+        ..Setup::default()
+    };
+    let m = fly_with("reload", setup, 400.0, |s| s.landed && !s.armed);
+    let f = &m.flown;
+    let reports: Vec<String> = m.versions.iter().map(|(_, r)| r.to_string()).collect();
+    let swapped_at = m.versions.iter().find_map(|(t, r)| {
+        matches!(r, petrel_core::version::Report::Swapped { number: 1, .. }).then_some(*t)
+    });
+    let swapped_at = swapped_at.unwrap_or_else(|| panic!("{reports:#?}"));
+    // Offered at 30 s, answered 1.5 s later (or later again if the state
+    // moved meanwhile).
+    assert!(
+        (31_500_000..45_000_000).contains(&swapped_at),
+        "{swapped_at} µs: {reports:#?}"
+    );
+    let swap = f
+        .timeline
+        .iter()
+        .position(|l| l["input"] == "version")
+        .expect("the swap in the timeline");
+    let verbs_after: Vec<&str> = f.timeline[swap..]
+        .iter()
+        .filter(|l| l["effect"] == "command")
+        .filter_map(|l| l["verb"].as_str())
+        .collect();
+    assert!(verbs_after.contains(&"rtl"), "{verbs_after:?}");
+    assert!(
+        !f.timeline[..swap]
+            .iter()
+            .any(|l| l["effect"] == "command" && l["verb"] == "rtl"),
+        "no return before the swap"
+    );
+    // ArduPlane's RTL with RTL_AUTOLAND = 2 (the example's parameter)
+    // flies the landing sequence at once: the operations area's items
+    // after the hole (5 to 8) are never flown, and it lands. Version 0
+    // flies them all through the same hole (`mirror_simulated`'s
+    // `link_loss_and_radio_bursts…`, scenarios' link loss).
+    let reached: Vec<u16> = f.state.reached.iter().map(|r| r.seq).collect();
+    assert!(
+        reached.contains(&9) && !reached.iter().any(|s| (5..=8).contains(s)),
+        "{reached:?}"
+    );
+    assert!(f.state.landed, "{:?}", f.state);
+    // The same hole without the new version: the mission goes on.
+    let same = Setup {
+        faults: &["link_loss@wp3:10s"],
+        ..Setup::default()
+    };
+    let v0 = fly_with("no-reload", same, 400.0, |s| s.landed && !s.armed);
+    let reached: Vec<u16> = v0.flown.state.reached.iter().map(|r| r.seq).collect();
+    assert!((5..=8).all(|s| reached.contains(&s)), "{reached:?}");
+    assert!(!v0.flown.verbs().contains(&"rtl".to_owned()));
+    let (code, stderr) = f.replay_check();
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(stderr.contains("match the recording"), "{stderr}");
+}

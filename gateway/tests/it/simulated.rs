@@ -145,6 +145,8 @@ pub struct Mirrored {
     /// When the vehicle's routes were forgotten.
     pub forgot_at: Option<Micros>,
     pub radio: Radio,
+    /// What became of the version offered, with its time.
+    pub versions: Vec<(Micros, petrel_core::version::Report)>,
 }
 
 /// The ground: the station and the radio to it.
@@ -161,6 +163,32 @@ struct Ground {
 /// The UNIX time of the simulated flight's start (for signatures' clocks).
 const UNIX: u64 = 1_780_000_000_000_000;
 
+/// How a simulated flight of the example is flown, beyond its name,
+/// length and end.
+#[derive(Default)]
+pub struct Setup<'a> {
+    /// Faults, in sitl-tests' `--fault` syntax.
+    pub faults: &'a [&'a str],
+    pub injections: Vec<Injection>,
+    /// The ground mirror's core beside the vehicle, through this radio.
+    pub radio: Option<Radio>,
+    /// The vehicle elaborates with this profile (as `petrel run --profile`
+    /// gives it) while the ground keeps the project's.
+    pub vehicle_profile: Option<&'a str>,
+    /// A new version of the project offered in flight.
+    pub version: Option<Offer>,
+}
+
+/// A new version of the project offered in flight, as `petrel reload`
+/// offers it: loaded from `dir` at `at_s` simulated seconds, each of its
+/// proofs answered `proof_s` simulated seconds after it was asked for
+/// (the state may move meanwhile).
+pub struct Offer {
+    pub at_s: f64,
+    pub dir: std::path::PathBuf,
+    pub proof_s: f64,
+}
+
 /// Flies the example with `faults` (sitl-tests `--fault` syntax) until
 /// `done` holds of the simulated vehicle (then 3 simulated seconds more
 /// for the nets to finish), at most `max_sim_s` simulated seconds.
@@ -171,7 +199,12 @@ pub fn fly(
     max_sim_s: f64,
     done: impl Fn(&SimState) -> bool,
 ) -> Flown {
-    fly_with(name, faults, injections, max_sim_s, done, None, None).flown
+    let setup = Setup {
+        faults,
+        injections,
+        ..Setup::default()
+    };
+    fly_with(name, setup, max_sim_s, done).flown
 }
 
 /// [`fly`] with the downlink on and the ground mirror's core (what
@@ -184,7 +217,12 @@ pub fn fly_mirrored(
     max_sim_s: f64,
     done: impl Fn(&SimState) -> bool,
 ) -> Mirrored {
-    fly_with(name, faults, Vec::new(), max_sim_s, done, Some(radio), None)
+    let setup = Setup {
+        faults,
+        radio: Some(radio),
+        ..Setup::default()
+    };
+    fly_with(name, setup, max_sim_s, done)
 }
 
 /// [`fly_mirrored`] with the vehicle elaborating with the profile
@@ -198,16 +236,13 @@ pub fn fly_mirrored_profiled(
     done: impl Fn(&SimState) -> bool,
     vehicle_profile: &str,
 ) -> Mirrored {
-    let profile = Some(vehicle_profile);
-    fly_with(
-        name,
+    let setup = Setup {
         faults,
-        Vec::new(),
-        max_sim_s,
-        done,
-        Some(radio),
-        profile,
-    )
+        radio: Some(radio),
+        vehicle_profile: Some(vehicle_profile),
+        ..Setup::default()
+    };
+    fly_with(name, setup, max_sim_s, done)
 }
 
 /// A project's lanes as `petrel run` makes them.
@@ -227,15 +262,19 @@ fn lanes_of(
     .expect("the lanes")
 }
 
-fn fly_with(
+pub fn fly_with(
     name: &str,
-    faults: &[&str],
-    mut injections: Vec<Injection>,
+    setup: Setup,
     max_sim_s: f64,
     done: impl Fn(&SimState) -> bool,
-    radio: Option<Radio>,
-    vehicle_profile: Option<&str>,
 ) -> Mirrored {
+    let Setup {
+        faults,
+        mut injections,
+        radio,
+        vehicle_profile,
+        version,
+    } = setup;
     let started = Instant::now();
     let scratch = Scratch::new(&format!("simulated-{name}"));
     let recording = scratch.join("flight.mcap");
@@ -296,6 +335,9 @@ fn fly_with(
         ..SimConfig::default()
     });
     let mut lines = Vec::new();
+    let (mut offered, mut proofs, mut versions) = (false, Vec::new(), Vec::new());
+    // The version each step is printed with.
+    let mut shown = project.clone();
     let mut t: Micros = 0;
     let mut finished_at: Option<f64> = None;
     loop {
@@ -320,6 +362,31 @@ fn fly_with(
         }
         if t >= core.poll_timeout() {
             core.handle_timeout(t);
+        }
+        // A new version, as `petrel reload` offers it: loaded, then each
+        // proof answered after a while (the state may move meanwhile).
+        if let Some(offer) = version
+            .as_ref()
+            .filter(|o| !offered && t as f64 >= o.at_s * 1e6)
+        {
+            offered = true;
+            let (new, files) = petrel_core::project::load_read(
+                &offer.dir,
+                &petrel_core::project::catalog(&profile),
+            )
+            .expect("the new version loads");
+            core.offer_version(new, files);
+        }
+        while let Some(proof) = core.poll_proof() {
+            let due = t + version.as_ref().map_or(0, |o| (o.proof_s * 1e6) as Micros);
+            proofs.push((due, proof));
+        }
+        while let Some(i) = proofs.iter().position(|(due, _)| *due <= t) {
+            let (_, proof) = proofs.remove(i);
+            core.handle_proved(t, proof.run());
+        }
+        while let Some(report) = core.poll_version() {
+            versions.push((t, report));
         }
         if let Some(g) = &mut ground {
             let forget = g.radio.forget_routes_at.map(|s| (s * 1e6) as Micros);
@@ -382,7 +449,11 @@ fn fly_with(
         }
         core.settle();
         while let Some(s) = core.poll_settled() {
-            timeline(&project, &s.step, &mut lines);
+            if let petrel_core::onboard::Input::Version(v) = &s.input {
+                shown = v.project.clone();
+                lines.push(json!({"input": "version", "version": v.number}));
+            }
+            timeline(&shown, &s.step, &mut lines);
             let digest = s.digest.unwrap_or_else(|| core.player().digest());
             recorder.record_on(&s.input.as_supervisor(), None, s.step, digest);
         }
@@ -423,6 +494,7 @@ fn fly_with(
             uplink: Vec::new(),
             forgot_at: None,
             radio: Radio::default(),
+            versions,
         },
         Some(g) => Mirrored {
             flown,
@@ -430,6 +502,7 @@ fn fly_with(
             uplink: g.uplink,
             forgot_at: g.forgot_at,
             radio: g.radio,
+            versions,
         },
     }
 }
