@@ -1,9 +1,10 @@
 //! `petrel reload PROJECT`: tells the `petrel run` supervising PROJECT to
 //! take its new version (SIGHUP; docs/run.md, "A new version in flight").
-//! The version is loaded here first, so that a file that does not load is
-//! said at once (file:line:col) and nothing is sent; the run then checks
-//! it, proves it from the state the vehicle is in, and says its verdict in
-//! its own output and recording.
+//! The version is loaded and checked here first, so that a file that does
+//! not load (file:line:col) or a version that fails `petrel check` is said
+//! at once and nothing is sent; the check is remembered, so the run does
+//! not explore it again. The run then proves it from the state the
+//! vehicle is in, and says its verdict in its own output and recording.
 
 use std::path::{Path, PathBuf};
 
@@ -20,13 +21,14 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> VerbResult {
-    // Loaded with the project's `[gateway] profile` (ArduPilot's if none),
-    // as `petrel check` loads it; the run loads it again with its own.
-    match super::load_profiled(&args.project) {
-        Ok(Some(_)) => {}
-        Ok(None) => {
+    // Loaded and checked with the project's `[gateway] profile` (ArduPilot's
+    // if none), as `run` checks before the flight: remembered, the run's
+    // own check of the same files and profile is then not explored again.
+    match checked(&args.project) {
+        Ok(Outcome::Success) => {}
+        Ok(outcome) => {
             say!("nothing sent: the running version goes on");
-            return Ok(Outcome::BadInput);
+            return Ok(outcome);
         }
         Err(e) => {
             say!("{}", petrel_core::project::for_people(&e));
@@ -62,6 +64,40 @@ pub fn run(args: Args) -> VerbResult {
         );
     }
     Ok(Outcome::Success)
+}
+
+/// The new version loaded and given the pre-flight check (remembered).
+fn checked(dir: &Path) -> VerbResult {
+    let setting = match petrel_core::project::gateway_setting(dir, "profile") {
+        Ok(s) => s,
+        Err(e) => {
+            // No project, or broken TOML: the loader says it best.
+            petrel_core::project::load(dir)?;
+            return Err(e);
+        }
+    };
+    let layers =
+        petrel_core::profile::Layers::pick(None, Some((dir, setting.as_deref())), "ardupilot")?;
+    let Some(profile) = super::loaded(&layers) else {
+        return Ok(Outcome::BadInput);
+    };
+    let (project, files) =
+        petrel_core::project::load_read(dir, &petrel_core::project::catalog(&profile))?;
+    let inputs = crate::preflight::Inputs {
+        files: &files,
+        layers: &layers.layers,
+    };
+    match crate::preflight::check_project(&project, &inputs, false) {
+        crate::preflight::Preflight::Failed(report) => {
+            say_part!(
+                "{}",
+                super::check_project::human(&project.name, &report, 0.0)
+            );
+            say!("the new version fails `petrel check`");
+            Ok(Outcome::Failed)
+        }
+        _ => Ok(Outcome::Success),
+    }
 }
 
 /// The `petrel run` processes of this user whose project is `project`:
