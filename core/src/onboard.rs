@@ -388,6 +388,9 @@ impl Onboard {
         };
         self.feed(now, now, Input::Version(version.clone()));
         let refused = std::mem::take(&mut self.supervisor.version_refused);
+        if let (Some(d), true) = (&mut self.downlink, refused.is_empty()) {
+            d.publisher.version(version.number, version.digest());
+        }
         self.versions
             .took_over(&version, self.supervisor.seq(), refused);
     }
@@ -467,7 +470,10 @@ impl Onboard {
             && (!step.events.is_empty()
                 || matches!(
                     input,
-                    Input::Result { .. } | Input::Event(_) | Input::Answer { .. }
+                    Input::Result { .. }
+                        | Input::Event(_)
+                        | Input::Answer { .. }
+                        | Input::Version(_)
                 ));
         let digest = (self.digests || published).then(|| self.supervisor.player().digest());
         self.done.push(Done {

@@ -36,7 +36,6 @@ pub type Files = crate::project::Files;
 pub const PROOFS_AT_MOST: u32 = 8;
 
 /// A version of the project, as offered and as recorded.
-#[derive(Debug)]
 pub struct Version {
     /// 0 is the version `run` started with; each offer takes the next.
     pub number: u32,
@@ -44,6 +43,72 @@ pub struct Version {
     /// Its files as read, for the recording (replay loads the version from
     /// them).
     pub files: Files,
+}
+
+impl std::fmt::Debug for Version {
+    /// Its number, files and digest; not the whole project.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let digest: String = self.digest()[..8]
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect();
+        f.debug_struct("Version")
+            .field("number", &self.number)
+            .field("project", &self.project.name)
+            .field("files", &self.files.len())
+            .field("digest", &digest)
+            .finish()
+    }
+}
+
+impl PartialEq for Version {
+    /// The same number and files (the project is what they load to).
+    fn eq(&self, other: &Version) -> bool {
+        self.number == other.number && self.files == other.files
+    }
+}
+
+impl Version {
+    /// The version `number` loaded from its `files` as the player reads
+    /// them (no elaboration profile: the events it waits for may come from
+    /// anywhere), for a replica or a replayed recording.
+    pub fn from_files(number: u32, files: Files) -> Result<Version, String> {
+        let sources: std::collections::BTreeMap<String, String> = files.iter().cloned().collect();
+        let project = nets::load(&sources).map_err(|e| {
+            e.problems
+                .iter()
+                .map(|p| p.to_string())
+                .collect::<Vec<_>>()
+                .join("; ")
+        })?;
+        Ok(Version {
+            number,
+            project: Arc::new(project),
+            files,
+        })
+    }
+
+    /// What names this version on the downlink: [`digest`] of its files.
+    pub fn digest(&self) -> [u8; 32] {
+        digest(&self.files)
+    }
+}
+
+/// The SHA-256 of a version's files, in path order whatever order they
+/// were read in (each path and text with its length first): the same
+/// files on board and on the ground give the same digest.
+pub fn digest(files: &[(String, String)]) -> [u8; 32] {
+    use sha2::{Digest as _, Sha256};
+    let mut sorted: Vec<&(String, String)> = files.iter().collect();
+    sorted.sort_by(|a, b| a.0.cmp(&b.0));
+    let mut hash = Sha256::new();
+    for (path, text) in sorted {
+        hash.update((path.len() as u64).to_le_bytes());
+        hash.update(path.as_bytes());
+        hash.update((text.len() as u64).to_le_bytes());
+        hash.update(text.as_bytes());
+    }
+    hash.finalize().into()
 }
 
 /// A proof to run beside the supervision: the new version taken over

@@ -73,8 +73,8 @@ fn reload(
     let version = versions
         .proved(proof.run(), player)
         .unwrap_or_else(|| panic!("{:?}", std::iter::from_fn(|| versions.poll_report()).last()));
-    let state = nets::version::map(player.project(), player.state(), &version.project)
-        .expect("it maps");
+    let state =
+        nets::version::map(player.project(), player.state(), &version.project).expect("it maps");
     let swapped = Player::restore(version.project.clone(), state).expect("it restores");
     let seconds = start.elapsed().as_secs_f64();
     assert_eq!(
@@ -83,8 +83,9 @@ fn reload(
         "the marking kept"
     );
     versions.took_over(&version, 1, Vec::new());
-    assert!(std::iter::from_fn(|| versions.poll_report())
-        .any(|r| matches!(r, Report::Swapped { .. })));
+    assert!(
+        std::iter::from_fn(|| versions.poll_report()).any(|r| matches!(r, Report::Swapped { .. }))
+    );
     seconds
 }
 

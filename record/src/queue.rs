@@ -110,6 +110,9 @@ pub(super) enum Entry {
     /// A step in which a new version of the project took over: the
     /// writer names what follows by it.
     Version(Box<(Arc<Project>, StepEntry)>),
+    /// The ground mirror's replica took over a new version: the calls
+    /// that follow are named by it.
+    Project(Arc<Project>),
     Sent {
         time: Micros,
         bytes: Vec<u8>,

@@ -302,6 +302,19 @@ impl Recorder {
         self.send(Entry::Replica(Box::new((at, call, step, digest))));
     }
 
+    /// The ground mirror's replica took over a new version of the
+    /// project: its calls from now on are named by `project`. Never
+    /// dropped (a version comes once).
+    pub fn replica_version(&self, project: Arc<Project>) {
+        if let Some(tx) = &self.tx {
+            if tx.send(Entry::Project(project)).is_ok() {
+                self.dropped.queued.fetch_add(1, Ordering::Relaxed);
+            } else {
+                self.dropped.entries.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+
     /// A line on the ground mirror's channel `topic` (`layout::MIRROR_*`).
     pub fn mirror(&self, time: Micros, topic: &'static str, body: Json) {
         self.send(Entry::Mirror { time, topic, body });

@@ -282,11 +282,12 @@ impl<W: Write + Seek> Writer<W> {
             }
             Entry::Version(b) => {
                 let (project, (input, frame, step, digest, link)) = *b;
-                // Nets are numbered anew: their marking channels are
-                // found again by topic.
-                self.project = project;
-                self.markings.clear();
+                self.take_version(project);
                 self.step(input, frame, &step, digest, link)
+            }
+            Entry::Project(project) => {
+                self.take_version(project);
+                Ok(())
             }
             Entry::Sent { time, bytes } => self.frame(time, &bytes, true),
             Entry::Received { time, bytes } => self.frame(time, &bytes, false),
@@ -337,6 +338,13 @@ impl<W: Write + Seek> Writer<W> {
                 self.write_json(self.channels.log, 0, time, &v)
             }
         }
+    }
+
+    /// What follows is of `project`, a new version: its nets are numbered
+    /// anew, their marking channels found again by topic.
+    fn take_version(&mut self, project: Arc<Project>) {
+        self.project = project;
+        self.markings.clear();
     }
 
     fn step(

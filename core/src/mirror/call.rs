@@ -26,6 +26,10 @@ pub enum Call {
     /// The player restored from a snapshot's state
     /// (`nets::player::snapshot`'s encoding).
     Restore(Vec<u8>),
+    /// A new version of the project took over, the state mapped onto it
+    /// by name (`nets::version::map`; the step record that says so is
+    /// played after it).
+    Version(Arc<crate::version::Version>),
 }
 
 /// A call made, with what it caused: recorded by the mirror.
@@ -46,6 +50,8 @@ pub enum CallError {
     Snapshot(#[from] snapshot::SnapshotError),
     #[error("{0}")]
     Restore(#[from] nets::player::RestoreError),
+    #[error("version {number} cannot take over: {why}")]
+    Version { number: u32, why: String },
 }
 
 /// Plays `call` at `time` on `player` (replaced by a restart or a restore)
@@ -56,6 +62,7 @@ pub fn apply(player: &mut Player, time: Micros, call: &Call) -> Result<Vec<Effec
         Call::Record { before, inputs } => return Ok(play(player, *before, inputs, time)),
         Call::Advance => player.advance(time),
         Call::Restore(state) => *player = restore(player.project().clone(), state)?,
+        Call::Version(version) => *player = take_over(player, version)?,
     }
     Ok(player.effects().collect())
 }
@@ -63,6 +70,23 @@ pub fn apply(player: &mut Player, time: Micros, call: &Call) -> Result<Vec<Effec
 /// A player started at `time`.
 pub fn start(project: Arc<Project>, time: Micros) -> Player {
     Player::start(project, time)
+}
+
+/// `version` taking over from `player`, its state mapped by name.
+pub fn take_over(player: &Player, version: &crate::version::Version) -> Result<Player, CallError> {
+    let why = |why: String| CallError::Version {
+        number: version.number,
+        why,
+    };
+    let state =
+        nets::version::map(player.project(), player.state(), &version.project).map_err(|r| {
+            why(r
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join("; "))
+        })?;
+    Player::restore(version.project.clone(), state).map_err(|e| why(e.to_string()))
 }
 
 /// A player restored from a snapshot's state bytes.
@@ -85,6 +109,8 @@ pub fn play(player: &mut Player, before: Micros, inputs: &[Input], time: Micros)
                 // Refused or not, as on board: the same effects.
                 let _ = player.answer(*id, choice, *time);
             }
+            // Taken over before the record is played (`Call::Version`).
+            Input::Version { .. } => {}
         }
         effects.extend(player.effects());
     }
@@ -105,6 +131,14 @@ pub fn call_json(call: &Call) -> Json {
             json!({"call": "record", "before": before, "inputs": inputs})
         }
         Call::Restore(state) => json!({"call": "restore", "state": hex(state)}),
+        Call::Version(v) => {
+            let files: Vec<Json> = v
+                .files
+                .iter()
+                .map(|(name, text)| json!({"name": name, "text": text}))
+                .collect();
+            json!({"call": "version", "number": v.number, "files": files})
+        }
     }
 }
 
@@ -123,6 +157,23 @@ pub fn call_from(json: &Json) -> Option<Call> {
                 .collect::<Option<_>>()?,
         },
         "restore" => Call::Restore(unhex(json.get("state")?.as_str()?)?),
+        "version" => {
+            let number = u32::try_from(json.get("number")?.as_u64()?).ok()?;
+            let files = json
+                .get("files")?
+                .as_array()?
+                .iter()
+                .map(|f| {
+                    Some((
+                        f.get("name")?.as_str()?.to_owned(),
+                        f.get("text")?.as_str()?.to_owned(),
+                    ))
+                })
+                .collect::<Option<Vec<_>>>()?;
+            Call::Version(Arc::new(
+                crate::version::Version::from_files(number, files).ok()?,
+            ))
+        }
         _ => return None,
     })
 }
@@ -150,6 +201,13 @@ fn input_json(input: &Input) -> Json {
         }
         Input::Answered { time, id, choice } => {
             json!({"kind": "answered", "time_us": time, "id": id, "choice": choice})
+        }
+        Input::Version {
+            time,
+            number,
+            digest,
+        } => {
+            json!({"kind": "version", "time_us": time, "number": number, "digest": hex(digest)})
         }
     }
 }
@@ -180,6 +238,11 @@ fn input_from(json: &Json) -> Option<Input> {
             time,
             id: json.get("id")?.as_u64()?,
             choice: json.get("choice")?.as_str()?.to_owned(),
+        },
+        "version" => Input::Version {
+            time,
+            number: u32::try_from(json.get("number")?.as_u64()?).ok()?,
+            digest: unhex(json.get("digest")?.as_str()?)?.try_into().ok()?,
         },
         _ => return None,
     })
@@ -237,8 +300,29 @@ mod tests {
                         id: 5,
                         choice: "no".into(),
                     },
+                    Input::Version {
+                        time: 995,
+                        number: 2,
+                        digest: [7; 32],
+                    },
                 ],
             },
+            Call::Version(Arc::new(
+                crate::version::Version::from_files(
+                    3,
+                    vec![
+                        (
+                            "project.toml".into(),
+                            "[[net]]\nfile = \"n.toml\"\nactive = true\n".into(),
+                        ),
+                        (
+                            "n.toml".into(),
+                            "name = \"N\"\nplaces = [\"a\"]\ninitial = [\"a\"]\nfinal = [\"a\"]\n".into(),
+                        ),
+                    ],
+                )
+                .expect("it loads"),
+            )),
         ];
         for call in &calls {
             // Through its text, as the recording keeps it.
@@ -253,6 +337,8 @@ mod tests {
             json!({"call": "restore", "state": "zz"}),
             json!({"call": "record", "before": 1, "inputs": [{"kind": "warp", "time_us": 1}]}),
             json!({"call": "record", "inputs": []}),
+            // A version whose files do not load is no call.
+            json!({"call": "version", "number": 1, "files": [{"name": "project.toml", "text": "[[net"}]}),
         ] {
             assert_eq!(call_from(&bad), None, "{bad}");
         }

@@ -121,9 +121,11 @@ pub fn step_inputs(input: &SupervisorInput, step: &Step, unread: &Unread) -> Opt
             id: *id,
             choice: choice.clone(),
         }],
-        // The downlink carries no version yet: the replica, on the old
-        // one, is told apart by its digest (docs/mirror.md).
-        SupervisorInput::Version(_) => Vec::new(),
+        SupervisorInput::Version(v) => vec![Input::Version {
+            time: step.time,
+            number: v.number,
+            digest: v.digest(),
+        }],
     };
     (!inputs.is_empty()).then_some(inputs)
 }

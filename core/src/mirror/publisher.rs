@@ -86,6 +86,9 @@ pub struct Publisher {
     next_heartbeat: Micros,
     next_snapshot: Micros,
     snapshots: u64,
+    /// The project's version the player runs (`None`: the one the run
+    /// started with), said in each snapshot.
+    version: Option<(u32, [u8; 32])>,
     /// A snapshot was asked for and not yet queued.
     snapshot_asked: bool,
     /// Vehicle times the ground asked a heartbeat at (at most
@@ -117,6 +120,7 @@ impl Publisher {
             refilled: now,
             next_heartbeat: now,
             snapshots: 0,
+            version: None,
             snapshot_asked: false,
             heartbeats_asked: BTreeSet::new(),
             asked_sent_at: None,
@@ -315,10 +319,17 @@ impl Publisher {
         }
     }
 
+    /// A new version of the project took over (its number and files'
+    /// digest): the snapshots from now on are of its state.
+    pub fn version(&mut self, number: u32, digest: [u8; 32]) {
+        self.version = Some((number, digest));
+    }
+
     fn queue_snapshot(&mut self, step: u64, player: &Player) {
         let s = Snapshot {
             step,
             next: self.next,
+            version: self.version,
             digest: player.digest().0,
             state: snapshot::encode(player.state()),
         };
@@ -344,6 +355,7 @@ impl Publisher {
                 index: i as u8,
                 count,
                 data,
+                versioned: s.version.is_some(),
             }));
         }
         self.snapshots += 1;

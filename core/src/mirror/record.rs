@@ -32,10 +32,17 @@
 //!         | u8:2 ivarint dt, event               a program's event
 //!         | u8:3 ivarint dt, event               (never produced; read, played as an event)
 //!         | u8:4 ivarint dt, uvarint id, str choice   an operator's answer
+//!         | u8:6 ivarint dt, uvarint number, 32 bytes files' digest
+//!                                                  a new version of the project
+//!                                                  took over (`crate::version`)
 //!   dt = the input's time minus the step's `before`
 //! outcome = u8:0 params | u8:1 str reason
+//!   10 chunk of a version's snapshot: as 4, the snapshot joined below
+//!                (once a new version of the project took over)
 //! snapshot (the chunks' bytes, joined) = uvarint step, uvarint next,
 //!          32 bytes digest, nets snapshot (nets::player::snapshot)
+//!   of kind 10: uvarint step, uvarint next, uvarint version,
+//!          32 bytes the version's files' digest, 32 bytes digest, nets snapshot
 //! ```
 //!
 //! Numbers, strings, values and events are in `nets::binary`'s encoding.
@@ -131,6 +138,15 @@ pub enum Input {
         id: u64,
         choice: String,
     },
+    /// A new version of the project took over (`crate::version`), named by
+    /// its number and the digest of its files
+    /// (`crate::version::digest`): the replica takes it over too, if it
+    /// has it.
+    Version {
+        time: Micros,
+        number: u32,
+        digest: [u8; 32],
+    },
 }
 
 /// The vehicle's step counter and digest, at least once a second.
@@ -166,6 +182,9 @@ pub struct Chunk {
     pub index: u8,
     pub count: u8,
     pub data: Vec<u8>,
+    /// A snapshot of a version that took over in flight (kind 10): it
+    /// says which ([`Snapshot::version`]).
+    pub versioned: bool,
 }
 
 /// A snapshot, whole: the player's state after `step`, and the number of
@@ -174,6 +193,9 @@ pub struct Chunk {
 pub struct Snapshot {
     pub step: u64,
     pub next: u64,
+    /// The project's version the state is of: `None` the one the run
+    /// started with, else its number and files' digest.
+    pub version: Option<(u32, [u8; 32])>,
     pub digest: [u8; 32],
     /// The state, in `nets::player::snapshot`'s encoding.
     pub state: Vec<u8>,
@@ -188,6 +210,7 @@ const SEND_SNAPSHOT: u8 = 6;
 const ANSWER: u8 = 7;
 const SEND_HEARTBEAT: u8 = 8;
 const BOOT: u8 = 9;
+const VERSIONED_CHUNK: u8 = 10;
 
 /// Why a packet does not decode.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -227,7 +250,7 @@ pub fn encode(record: &Record, w: &mut Writer) {
             w.raw(&f.data);
         }
         Record::Chunk(c) => {
-            w.u8(CHUNK);
+            w.u8(if c.versioned { VERSIONED_CHUNK } else { CHUNK });
             w.raw(&c.session.to_le_bytes());
             w.uvarint(c.snapshot);
             w.u8(c.index);
@@ -313,6 +336,16 @@ pub fn step_body(s: &StepRecord, w: &mut Writer) {
                 w.uvarint(*id);
                 w.str(choice);
             }
+            Input::Version {
+                time,
+                number,
+                digest,
+            } => {
+                w.u8(6);
+                w.ivarint(delta(*time, s.before));
+                w.uvarint(u64::from(*number));
+                w.raw(digest);
+            }
         }
     }
     w.raw(&s.digest);
@@ -377,6 +410,15 @@ pub fn decode_step(r: &mut Reader) -> Result<StepRecord, DecodeError> {
                 id: r.uvarint()?,
                 choice: r.str()?,
             },
+            6 => Input::Version {
+                time,
+                number: u32::try_from(r.uvarint()?)
+                    .map_err(|_| r.invalid("a version number out of range"))?,
+                digest: r
+                    .raw(32)?
+                    .try_into()
+                    .map_err(|_| r.invalid("a version's digest"))?,
+            },
             _ => return Err(r.invalid("an unknown input")),
         });
     }
@@ -407,7 +449,8 @@ fn piece(r: &mut Reader) -> Result<(u8, u8, Vec<u8>), DecodeError> {
 }
 
 fn decode_one(r: &mut Reader) -> Result<Record, PacketError> {
-    Ok(match r.u8()? {
+    let kind = r.u8()?;
+    Ok(match kind {
         STEP => Record::Step(decode_step(r)?),
         HEARTBEAT => Record::Heartbeat(Heartbeat {
             session: session(r)?,
@@ -427,7 +470,7 @@ fn decode_one(r: &mut Reader) -> Result<Record, PacketError> {
                 data,
             })
         }
-        CHUNK => {
+        CHUNK | VERSIONED_CHUNK => {
             let session = session(r)?;
             let snapshot = r.uvarint()?;
             let (index, count, data) = piece(r)?;
@@ -437,6 +480,7 @@ fn decode_one(r: &mut Reader) -> Result<Record, PacketError> {
                 index,
                 count,
                 data,
+                versioned: kind == VERSIONED_CHUNK,
             })
         }
         RESEND => Record::Resend {
@@ -508,20 +552,36 @@ impl Snapshot {
         let mut w = Writer::new();
         w.uvarint(self.step);
         w.uvarint(self.next);
+        if let Some((number, digest)) = &self.version {
+            w.uvarint(u64::from(*number));
+            w.raw(digest);
+        }
         w.raw(&self.digest);
         w.raw(&self.state);
         w.bytes
     }
 
-    pub fn decode(bytes: &[u8]) -> Result<Snapshot, DecodeError> {
+    /// Decodes a snapshot's joined chunks (`versioned`: of kind 10).
+    pub fn decode(bytes: &[u8], versioned: bool) -> Result<Snapshot, DecodeError> {
         let mut r = Reader::new(bytes);
         let step = r.uvarint()?;
         let next = r.uvarint()?;
+        let version = match versioned {
+            false => None,
+            true => Some((
+                u32::try_from(r.uvarint()?)
+                    .map_err(|_| r.invalid("a version number out of range"))?,
+                r.raw(32)?
+                    .try_into()
+                    .map_err(|_| r.invalid("a version's digest"))?,
+            )),
+        };
         let digest = r.raw(32)?.try_into().map_err(|_| r.invalid("a digest"))?;
         let state = r.raw(r.remaining())?.to_vec();
         Ok(Snapshot {
             step,
             next,
+            version,
             digest,
             state,
         })
@@ -595,10 +655,14 @@ mod tests {
             ),
             (t.clone(), event()).prop_map(|(time, event)| Input::Program { time, event }),
             (t.clone(), event()).prop_map(|(time, event)| Input::Answer { time, event }),
-            (t, any::<u64>(), "[a-z_]{1,8}").prop_map(|(time, id, choice)| Input::Answered {
-                time,
-                id,
-                choice
+            (t.clone(), any::<u64>(), "[a-z_]{1,8}")
+                .prop_map(|(time, id, choice)| { Input::Answered { time, id, choice } }),
+            (t, any::<u32>(), any::<[u8; 32]>()).prop_map(|(time, number, digest)| {
+                Input::Version {
+                    time,
+                    number,
+                    digest,
+                }
             }),
         ]
     }
@@ -658,15 +722,19 @@ mod tests {
                 any::<u32>(),
                 any::<u64>(),
                 0u8..10,
-                prop::collection::vec(any::<u8>(), 0..40)
+                prop::collection::vec(any::<u8>(), 0..40),
+                any::<bool>()
             )
-                .prop_map(|(session, snapshot, index, data)| Record::Chunk(Chunk {
-                    session,
-                    snapshot,
-                    index,
-                    count: index + 1,
-                    data
-                })),
+                .prop_map(|(session, snapshot, index, data, versioned)| {
+                    Record::Chunk(Chunk {
+                        session,
+                        snapshot,
+                        index,
+                        count: index + 1,
+                        data,
+                        versioned,
+                    })
+                }),
             (any::<u64>(), any::<u64>()).prop_map(|(from, count)| Record::Resend { from, count }),
             any::<u32>().prop_map(|session| Record::SendSnapshot { session }),
             any::<u64>().prop_map(|at| Record::SendHeartbeat { at }),

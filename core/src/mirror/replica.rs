@@ -25,6 +25,7 @@ use nets::{Effect, Event, Micros, Player, Project};
 
 use super::call::{self, Call, Played};
 use super::record::{self, Chunk, Fragment, Heartbeat, Input, Record, Snapshot, StepRecord};
+use crate::version::Version;
 
 /// How far back (ground time) the heartbeats that set the time base go.
 pub const OFFSET_SPAN: Micros = 10_000_000;
@@ -126,6 +127,17 @@ pub enum Report {
         agreed: Option<u64>,
         reason: String,
     },
+    /// A new version of the project took over on board at `step`, and in
+    /// the replica (what follows is of its project).
+    Version {
+        number: u32,
+        version: Arc<Version>,
+        step: u64,
+    },
+    /// The vehicle runs version `number` (its files' digest), which this
+    /// replica does not have ([`Replica::know`]): it waits for it,
+    /// inexact (said once per version).
+    UnknownVersion { number: u32, digest: [u8; 32] },
 }
 
 impl Report {
@@ -199,6 +211,11 @@ const BOOTS: usize = 32;
 pub struct Replica {
     config: Config,
     project: Arc<Project>,
+    /// The versions of the project this replica can take over (beside
+    /// `project`, the one the vehicle started with), by files' digest.
+    versions: Vec<Arc<Version>>,
+    /// The version the vehicle runs and this replica lacks, once said.
+    missing: Option<(u32, [u8; 32])>,
     session: Option<u32>,
     /// The exact replica, once in step with the vehicle.
     player: Option<Player>,
@@ -253,6 +270,8 @@ impl Replica {
         Replica {
             config,
             project,
+            versions: Vec::new(),
+            missing: None,
             session: None,
             player: None,
             next: 0,
@@ -280,6 +299,40 @@ impl Replica {
             uplink: VecDeque::new(),
             played: VecDeque::new(),
             counts: Counts::default(),
+        }
+    }
+
+    /// A version of the project this replica may meet: the vehicle takes
+    /// it over (a step record says so), or a snapshot is of it. A version
+    /// the replica waited for resyncs it at the next snapshot.
+    pub fn know(&mut self, version: Arc<Version>) {
+        let digest = version.digest();
+        if self.versions.iter().any(|v| v.digest() == digest) {
+            return;
+        }
+        if self.missing.is_some_and(|(_, d)| d == digest) {
+            self.missing = None;
+            // Ask for a snapshot at once.
+            self.asked_at = None;
+        }
+        self.versions.push(version);
+    }
+
+    /// The known version whose files' digest is `digest`.
+    fn version(&self, digest: &[u8; 32]) -> Option<Arc<Version>> {
+        self.versions
+            .iter()
+            .find(|v| &v.digest() == digest)
+            .cloned()
+    }
+
+    /// The vehicle runs a version this replica lacks: said once, and the
+    /// replica is inexact until it has it.
+    fn lacks(&mut self, number: u32, digest: [u8; 32]) {
+        if self.missing != Some((number, digest)) {
+            self.missing = Some((number, digest));
+            self.reports
+                .push_back(Report::UnknownVersion { number, digest });
         }
     }
 
@@ -618,26 +671,38 @@ impl Replica {
         }
         let bytes: Vec<u8> = slots.iter().flatten().flatten().copied().collect();
         self.chunks = None;
-        self.snapshot(&bytes);
+        self.snapshot(&bytes, c.versioned);
     }
 
-    fn snapshot(&mut self, bytes: &[u8]) {
-        let restored = Snapshot::decode(bytes)
+    fn snapshot(&mut self, bytes: &[u8], versioned: bool) {
+        let restored = Snapshot::decode(bytes, versioned)
             .map_err(|e| e.to_string())
             .and_then(|s| {
                 let state = snapshot::decode(&s.state).map_err(|e| e.to_string())?;
                 if snapshot::digest(&state).0 != s.digest {
                     return Err("its digest does not match its state".into());
                 }
-                let player =
-                    Player::restore(self.project.clone(), state).map_err(|e| e.to_string())?;
+                let project = match s.version {
+                    None => self.project.clone(),
+                    Some((number, digest)) => match self.version(&digest) {
+                        Some(v) => v.project.clone(),
+                        None => {
+                            // Said once (`Report::UnknownVersion`).
+                            self.lacks(number, digest);
+                            return Err(String::new());
+                        }
+                    },
+                };
+                let player = Player::restore(project, state).map_err(|e| e.to_string())?;
                 Ok((s, player))
             });
         let (s, player) = match restored {
             Ok(x) => x,
             Err(e) => {
                 self.counts.snapshots_refused += 1;
-                tracing::warn!("a snapshot from the vehicle was refused: {e}");
+                if !e.is_empty() {
+                    tracing::warn!("a snapshot from the vehicle was refused: {e}");
+                }
                 return;
             }
         };
@@ -736,6 +801,22 @@ impl Replica {
     }
 
     fn play(&mut self, s: StepRecord) {
+        if self.player.is_none() {
+            return;
+        }
+        let taken = s.inputs.iter().find_map(|i| match i {
+            Input::Version { number, digest, .. } => Some((*number, *digest)),
+            _ => None,
+        });
+        if let Some((number, digest)) = taken {
+            if !self.take_over(s.step, s.time, number, digest) {
+                // Inexact until it has the version: a snapshot of it will
+                // resync it (`know`).
+                self.next = s.number + 1;
+                self.step = s.step;
+                return;
+            }
+        }
         let Some(p) = &mut self.player else { return };
         let effects = call::play(p, s.before, &s.inputs, s.time);
         let same = p.digest().0[..8] == s.digest;
@@ -761,6 +842,44 @@ impl Replica {
             self.agree(s.step);
         } else if !self.diverged {
             self.diverge(s.step, "the digest after the step differs".into());
+        }
+    }
+
+    /// The vehicle's new version `number` takes over in the replica at
+    /// `step`, if the replica has it: whether it did.
+    fn take_over(&mut self, step: u64, time: Micros, number: u32, digest: [u8; 32]) -> bool {
+        let Some(version) = self.version(&digest) else {
+            self.lacks(number, digest);
+            if !self.diverged {
+                self.diverge(
+                    step,
+                    format!(
+                        "the vehicle took over version {number}, which this mirror does not have"
+                    ),
+                );
+            }
+            return false;
+        };
+        let Some(p) = &mut self.player else {
+            return false;
+        };
+        match call::take_over(p, &version) {
+            Ok(player) => {
+                *p = player;
+                self.keep(time, || Call::Version(version.clone()), &[]);
+                self.reports.push_back(Report::Version {
+                    number,
+                    version: version.clone(),
+                    step,
+                });
+                true
+            }
+            Err(e) => {
+                if !self.diverged {
+                    self.diverge(step, e.to_string());
+                }
+                false
+            }
         }
     }
 
@@ -872,7 +991,10 @@ impl Replica {
         if self
             .asked_at
             .is_some_and(|t| recent(t, self.now, self.config.retry_after))
+            || self.missing.is_some()
         {
+            // (A snapshot of a version this replica lacks could not be
+            // restored: it waits for `know`.)
             return;
         }
         if self.session.is_none()

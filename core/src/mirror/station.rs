@@ -236,6 +236,13 @@ impl Station {
         &self.project
     }
 
+    /// A version of the project the vehicle may take over (the mirror's
+    /// folder read again, or a version the ground sent up): the replica
+    /// follows the vehicle onto it (`Replica::know`).
+    pub fn know(&mut self, version: Arc<crate::version::Version>) {
+        self.replica.know(version);
+    }
+
     /// Everything an input leads to, at ground time `now`.
     fn settle(&mut self, now: Micros) {
         {
@@ -350,9 +357,13 @@ impl Station {
                 ..
             } => {
                 if let Some((p, _)) = self.replica.shown() {
+                    // A snapshot may be of another version.
+                    self.project = p.project().clone();
                     self.dialog.sync(p);
                 }
             }
+            // What follows is of the new version's nets.
+            Report::Version { version, .. } => self.project = version.project.clone(),
             _ => {}
         }
     }

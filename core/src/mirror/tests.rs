@@ -683,11 +683,11 @@ fn while_a_gap_is_open_the_replica_is_shown_provisional_then_exact_again() {
 /// fresh player, as `petrel replay` does a mirror's recording: every
 /// call's effects and digest are the replica's. Returns how many calls of
 /// each kind (restart, record, advance, restore).
-fn replay_kept_calls(f: &mut Flight) -> [usize; 4] {
+fn replay_kept_calls(f: &mut Flight) -> [usize; 5] {
     use crate::mirror::call::{self, Call};
     let mut player = nets::Player::start(f.project.clone(), 0);
     let _ = player.effects().count();
-    let mut kinds = [0; 4];
+    let mut kinds = [0; 5];
     let mut seq = 0;
     while let Some(played) = f.replica.poll_played() {
         seq += 1;
@@ -704,6 +704,7 @@ fn replay_kept_calls(f: &mut Flight) -> [usize; 4] {
             Call::Record { .. } => 1,
             Call::Advance => 2,
             Call::Restore(_) => 3,
+            Call::Version(_) => 4,
         }] += 1;
         let effects = call::apply(&mut player, time, &c).expect("the call plays");
         assert_eq!(effects, played.effects, "call {seq}: {c:?}");
@@ -821,6 +822,8 @@ fn a_sessions_first_packet_is_played_without_a_gap() {
             Report::Agreed { step } => format!("agreed {step}"),
             Report::Timers { .. } => "timers".into(),
             Report::Diverged { .. } => "diverged".into(),
+            Report::Version { number, .. } => format!("version {number}"),
+            Report::UnknownVersion { number, .. } => format!("unknown version {number}"),
         })
         .collect();
     assert_eq!(

@@ -175,6 +175,7 @@ pub fn run(args: Args) -> VerbResult {
         layers,
         http,
         dir: args.project.clone(),
+        catalog: petrel_core::project::catalog(&profile),
     }));
     // The operator's stdin is read on a blocking thread that no abort
     // stops: waiting for it would hold the mirror until the next line.
@@ -203,6 +204,24 @@ struct Setup {
     http: Option<std::net::SocketAddr>,
     /// The project's folder (the page shows the nets' files).
     dir: PathBuf,
+    /// The events the profile produces: a version read again (SIGHUP)
+    /// loads with them.
+    catalog: nets::load::Catalog,
+}
+
+/// The project folder read again (SIGHUP): a version the vehicle may take
+/// over, for the replica to follow it.
+fn read_version(
+    dir: &std::path::Path,
+    catalog: &nets::load::Catalog,
+) -> Result<petrel_core::version::Version, String> {
+    let (project, files) = petrel_core::project::load_read(dir, catalog)
+        .map_err(|e| petrel_core::project::for_people(&e))?;
+    Ok(petrel_core::version::Version {
+        number: 0,
+        project,
+        files,
+    })
 }
 
 async fn mirror(setup: Setup) -> VerbResult {
@@ -211,6 +230,8 @@ async fn mirror(setup: Setup) -> VerbResult {
     // Signals are watched from here on: a stop while a `tcpin:` link waits
     // for its client ends cleanly too, as `run`'s (docs/run.md).
     let mut signals = super::run::Signals::new()?;
+    let mut hangups = super::run::Hangup::new()?;
+    let (versions_tx, mut versions) = mpsc::unbounded_channel();
     let opened = signals
         .or_stop(
             Link::open(&setup.address, clock.clone()),
@@ -288,6 +309,8 @@ async fn mirror(setup: Setup) -> VerbResult {
         }
     };
     let mut calls = 0u64;
+    // The version the replica's reports are printed with.
+    let mut printed = setup.project.clone();
     let mut station = Station::new(StationConfig {
         project: setup.project.clone(),
         system: setup.system,
@@ -403,6 +426,23 @@ async fn mirror(setup: Setup) -> VerbResult {
             }
             _ = signals.recv() => break,
             _ = until_stop => break,
+            _ = hangups.recv() => {
+                say!("SIGHUP: reading {} again for a version the vehicle may take over", setup.dir.display());
+                let (dir, catalog, tx) = (setup.dir.clone(), setup.catalog.clone(), versions_tx.clone());
+                tokio::task::spawn_blocking(move || {
+                    let _ = tx.send(read_version(&dir, &catalog));
+                });
+            }
+            Some(read) = versions.recv() => match read {
+                Ok(version) => {
+                    say!(
+                        "the replica follows the vehicle onto this version when it takes it over (files' digest {})",
+                        hex8(&version.digest())
+                    );
+                    station.know(Arc::new(version));
+                }
+                Err(why) => say!("the folder read again does not load; the replica goes on:\n{why}"),
+            },
         }
         let now = clock.now();
         while let Some(output) = station.poll_output() {
@@ -414,7 +454,10 @@ async fn mirror(setup: Setup) -> VerbResult {
                     if let Some(page) = &mut page {
                         page.report(&report);
                     }
-                    print_report(&mut out, &setup.project, &report, now);
+                    if let Report::Version { version, .. } = &report {
+                        printed = version.project.clone();
+                    }
+                    print_report(&mut out, &printed, &report, now);
                 }
                 Output::GapDetected { record, sent: at, detected_after } => {
                     if out.json {
@@ -427,6 +470,9 @@ async fn mirror(setup: Setup) -> VerbResult {
                 }
                 Output::Played(played) => {
                     if let Some(rec) = &recorder {
+                        if let petrel_core::mirror::call::Call::Version(v) = &played.call {
+                            rec.replica_version(v.project.clone());
+                        }
                         calls += 1;
                         let step = petrel_core::supervisor::Step {
                             seq: calls,
@@ -721,6 +767,12 @@ fn report_json(report: &Report, now: Micros) -> serde_json::Value {
             json!({"time_us": now, "report": "timers", "step": step, "vehicle_time_us": time, "effects": effects.len()})
         }
         Report::Agreed { step } => json!({"time_us": now, "report": "agreed", "step": step}),
+        Report::Version { number, step, .. } => {
+            json!({"time_us": now, "report": "version", "number": number, "step": step})
+        }
+        Report::UnknownVersion { number, digest } => {
+            json!({"time_us": now, "report": "unknown_version", "number": number, "digest": hex8(digest)})
+        }
         Report::Gap { from, to, step } => {
             json!({"time_us": now, "report": "gap", "from": from, "to": to, "step": step})
         }
@@ -780,6 +832,18 @@ fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Rep
                             &format!("ANSWER #{id} {choice}"),
                         );
                     }
+                    Input::Version {
+                        time,
+                        number: version,
+                        ..
+                    } => {
+                        let _ = out.input(
+                            *time,
+                            "version",
+                            json!({"version": version, "vehicle_step": step, "record": number}),
+                            &format!("VERSION {version} takes over"),
+                        );
+                    }
                 }
             }
             let _ = time;
@@ -796,6 +860,34 @@ fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Rep
                     json!({"mirror": "agreed", "step": step, "ground_t": ground_t})
                 );
             }
+        }
+        Report::Version { number, step, .. } => {
+            let _ = writeln!(
+                out.out,
+                "{}",
+                if out.json {
+                    json!({"mirror": "version", "number": number, "step": step, "ground_t": ground_t}).to_string()
+                } else {
+                    format!("mirror: the vehicle took over version {number} at step {step}, and the replica with it")
+                }
+            );
+        }
+        Report::UnknownVersion { number, digest } => {
+            let text = format!(
+                "the vehicle took over version {number} (files' digest {}), which this mirror does not have: the replica waits for it; copy the version into {} and send the mirror SIGHUP",
+                hex8(digest),
+                "the mirror's project folder"
+            );
+            tracing::warn!("{text}");
+            let _ = writeln!(
+                out.out,
+                "{}",
+                if out.json {
+                    json!({"mirror": "unknown_version", "number": number, "digest": hex8(digest), "ground_t": ground_t}).to_string()
+                } else {
+                    format!("mirror: {text}")
+                }
+            );
         }
         Report::Gap { from, to, step } => {
             let _ = writeln!(
@@ -826,4 +918,9 @@ fn print_report<W: Write>(out: &mut Timeline<W>, project: &Project, report: &Rep
             }
         }
     }
+}
+
+/// The first 8 bytes of a digest, in hex.
+fn hex8(digest: &[u8]) -> String {
+    digest.iter().take(8).map(|b| format!("{b:02x}")).collect()
 }

@@ -29,7 +29,7 @@ mod links;
 mod parameters;
 mod reload;
 mod signals;
-pub(crate) use signals::Signals;
+pub(crate) use signals::{Hangup, Signals};
 
 use super::timeline;
 

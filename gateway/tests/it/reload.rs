@@ -270,6 +270,7 @@ fn a_link_hole_after_the_swap_gets_the_new_reaction() {
             at_s: 30.0,
             dir: version_one(&scratch),
             proof_s: 1.5,
+            ground_at_s: None,
         }),
         ..Setup::default()
     };
@@ -326,4 +327,87 @@ fn a_link_hole_after_the_swap_gets_the_new_reaction() {
     let (code, stderr) = f.replay_check();
     assert_eq!(code, Some(0), "{stderr}");
     assert!(stderr.contains("match the recording"), "{stderr}");
+}
+
+/// The ground mirror follows the vehicle onto the new version: given it
+/// before the swap (its folder read again), its replica takes it over at
+/// the same step and stays exact; given it only later, it says which
+/// version it lacks, waits, and resyncs from a snapshot of that version.
+#[test]
+fn the_mirror_follows_the_swap_when_it_has_the_version() {
+    use crate::simulated::{fly_with, Offer, Radio, Setup};
+    use petrel_core::mirror::replica::{Repair, Report};
+    use petrel_core::mirror::station::Output;
+    let scratch = Scratch::new("reload-mirror");
+    for (ground_at_s, name) in [(Some(20.0), "known"), (Some(60.0), "late")] {
+        let setup = Setup {
+            faults: &["link_loss@wp3:10s"],
+            radio: Some(Radio::default()),
+            version: Some(Offer {
+                at_s: 30.0,
+                dir: version_one(&scratch),
+                proof_s: 1.5,
+                ground_at_s,
+            }),
+            ..Setup::default()
+        };
+        let m = fly_with(name, setup, 400.0, |s| s.landed && !s.armed);
+        let reports: Vec<(u64, &Report)> = m
+            .outputs
+            .iter()
+            .filter_map(|(t, o)| match o {
+                Output::Report(r) => Some((*t, r)),
+                _ => None,
+            })
+            .collect();
+        let swapped = reports
+            .iter()
+            .position(|(_, r)| matches!(r, Report::Version { number: 1, .. }));
+        let unknown = reports
+            .iter()
+            .position(|(_, r)| matches!(r, Report::UnknownVersion { number: 1, .. }));
+        let diverged = reports
+            .iter()
+            .filter(|(_, r)| matches!(r, Report::Diverged { .. }))
+            .count();
+        let summary: Vec<String> = reports
+            .iter()
+            .filter(|(_, r)| {
+                !matches!(
+                    r,
+                    Report::Step { .. } | Report::Agreed { .. } | Report::Timers { .. }
+                )
+            })
+            .map(|(t, r)| format!("{t}: {r:?}").chars().take(160).collect())
+            .collect();
+        if name == "known" {
+            assert!(swapped.is_some() && unknown.is_none(), "{summary:#?}");
+            assert_eq!(diverged, 0, "{summary:#?}");
+        } else {
+            let unknown = unknown.unwrap_or_else(|| panic!("{summary:#?}"));
+            assert!(swapped.is_none(), "{summary:#?}");
+            assert!(diverged >= 1, "{summary:#?}");
+            // Resynced from a snapshot of version 1 once the ground has it.
+            let resynced = reports[unknown..].iter().find_map(|(t, r)| match r {
+                Report::Resynced {
+                    how: Repair::Snapshot,
+                    ..
+                } => Some(*t),
+                _ => None,
+            });
+            let resynced = resynced.unwrap_or_else(|| panic!("{summary:#?}"));
+            assert!(resynced >= 60_000_000, "{summary:#?}");
+        }
+        // Either way the replica ends exact, on version 1, agreeing.
+        let last_agreed = reports
+            .iter()
+            .rev()
+            .find(|(_, r)| matches!(r, Report::Agreed { .. }))
+            .map(|(t, _)| *t);
+        assert!(last_agreed.is_some_and(|t| t > 80_000_000), "{summary:#?}");
+        assert!(
+            m.flown.verbs().contains(&"rtl".to_owned()),
+            "the vehicle took the new reaction"
+        );
+    }
 }

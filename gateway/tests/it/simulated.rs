@@ -187,6 +187,9 @@ pub struct Offer {
     pub at_s: f64,
     pub dir: std::path::PathBuf,
     pub proof_s: f64,
+    /// When the ground mirror is given the version (its folder read again
+    /// on SIGHUP), in simulated seconds; `None`: never.
+    pub ground_at_s: Option<f64>,
 }
 
 /// Flies the example with `faults` (sitl-tests `--fault` syntax) until
@@ -336,6 +339,7 @@ pub fn fly_with(
     });
     let mut lines = Vec::new();
     let (mut offered, mut proofs, mut versions) = (false, Vec::new(), Vec::new());
+    let mut ground_knows = false;
     // The version each step is printed with.
     let mut shown = project.clone();
     let mut t: Micros = 0;
@@ -387,6 +391,22 @@ pub fn fly_with(
         }
         while let Some(report) = core.poll_version() {
             versions.push((t, report));
+        }
+        if let (Some(g), Some(offer)) = (&mut ground, &version) {
+            if !ground_knows && offer.ground_at_s.is_some_and(|at| t as f64 >= at * 1e6) {
+                ground_knows = true;
+                let (project, files) = petrel_core::project::load_read(
+                    &offer.dir,
+                    &petrel_core::project::catalog(&profile),
+                )
+                .expect("the new version loads");
+                g.station
+                    .know(std::sync::Arc::new(petrel_core::version::Version {
+                        number: 0,
+                        project,
+                        files,
+                    }));
+            }
         }
         if let Some(g) = &mut ground {
             let forget = g.radio.forget_routes_at.map(|s| (s * 1e6) as Micros);

@@ -491,7 +491,15 @@ impl Board {
                 continue;
             }
             for (t, tr) in net.transitions.iter().enumerate() {
-                if tr.flat_inputs.iter().all(|&p| state.marked(p)) {
+                // Bounds-checked: within a turn of the mirror's page, the
+                // board may still draw the version before the player's.
+                let marked = |p: usize| {
+                    state
+                        .marking
+                        .get(p / 64)
+                        .is_some_and(|w| w & (1 << (p % 64)) != 0)
+                };
+                if tr.flat_inputs.iter().all(|&p| marked(p)) {
                     enabled.push((self.offsets[n] + t) as u32);
                 }
             }

@@ -167,6 +167,10 @@ impl Mirror {
                 }
             }
             Report::Agreed { step } => self.agreed = Some(*step),
+            Report::Version { step, .. } => self.step = self.step.max(Some(*step)),
+            Report::UnknownVersion { .. } => {
+                // Told by the divergence that comes with it (`mirror_diverged`).
+            }
             Report::Gap { from, to, .. } => {
                 self.gap = Some((*from, *to));
                 if self.agreement != Agreement::Diverged {

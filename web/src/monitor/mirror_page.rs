@@ -210,6 +210,23 @@ fn played(board: &mut Board, report: &Report, player: &nets::Player) {
                     },
                 )
             }
+            RecordInput::Version { number, .. } => {
+                // The replica took it over before playing the record: the
+                // board draws the project its player runs now.
+                let version = Arc::new(petrel_core::version::Version {
+                    number: *number,
+                    project: player.project().clone(),
+                    files: Vec::new(),
+                });
+                let step = Step {
+                    seq,
+                    time,
+                    events: Vec::new(),
+                    effects: take(),
+                };
+                board.played(&Input::Version(&version), &step, player);
+                continue;
+            }
             other => {
                 let input = match other {
                     RecordInput::Result { id, outcome, .. } => Input::Result {
@@ -223,6 +240,7 @@ fn played(board: &mut Board, report: &Report, player: &nets::Player) {
                     RecordInput::Program { event, .. }
                     | RecordInput::Answer { event, .. }
                     | RecordInput::Elaborated { event, .. } => Input::Event(event.clone()),
+                    RecordInput::Version { .. } => Input::Tick,
                 };
                 let step = Step {
                     seq,

@@ -259,6 +259,10 @@ pub fn run(args: Args) -> VerbResult {
             let step = sup
                 .play_with(time, |p| petrel_core::mirror::call::apply(p, time, &call))
                 .map_err(|e| miette::miette!("{name}: step {seq}: {e}"))?;
+            if !std::sync::Arc::ptr_eq(sup.player().project(), &project) {
+                // The replica took over a new version (`Call::Version`).
+                project = sup.player().project().clone();
+            }
             if let petrel_core::mirror::call::Call::Record { inputs, .. } = &call {
                 print_record_inputs(&mut out, &project, inputs).map_err(io)?;
             }
@@ -434,6 +438,12 @@ fn print_record_inputs<W: Write>(
                 "answer",
                 json!({"answer": id, "choice": choice}),
                 &format!("ANSWER #{id} {choice}"),
+            )?,
+            Downlink::Version { time, number, .. } => out.input(
+                *time,
+                "version",
+                json!({"version": number}),
+                &format!("VERSION {number} takes over"),
             )?,
         }
     }
