@@ -27,6 +27,7 @@ use crate::frame::Received;
 use crate::mirror::dialog::AnswerGate;
 use crate::mirror::publisher::{Config as PublisherConfig, Publisher};
 use crate::mirror::tunnel::Tunnel;
+use crate::mirror::upload::{Config as UploadConfig, Receiver};
 use crate::mirror::Unread;
 use crate::signing::Key;
 use crate::supervisor::{self, Step, Supervisor};
@@ -177,6 +178,11 @@ pub struct Onboard {
     downlink_out: VecDeque<Transmit>,
     /// New versions of the project offered in flight.
     versions: Versions,
+    /// Versions sent up from the ground (`mirror::upload`), and the
+    /// upload each offered version came from.
+    uploads: Receiver,
+    uploaded: std::collections::BTreeMap<u32, u64>,
+    said_no_key: bool,
     /// Frames received, events elaborated.
     pub frames: u64,
     pub events: u64,
@@ -208,6 +214,9 @@ impl Onboard {
             calls: VecDeque::new(),
             downlink_out: VecDeque::new(),
             versions: Versions::default(),
+            uploads: Receiver::new(UploadConfig::default()),
+            uploaded: std::collections::BTreeMap::new(),
+            said_no_key: false,
             frames: 0,
             events: 0,
         }
@@ -277,6 +286,7 @@ impl Onboard {
     /// supervisor.
     pub fn handle_timeout(&mut self, now: Micros) {
         self.crew.tick(now);
+        self.uploads.tick(now);
         if now >= self.next_tick {
             self.next_tick = now - now % TICK + TICK;
         }
@@ -351,6 +361,9 @@ impl Onboard {
         let (Some(d), Some(me)) = (&mut self.downlink, me) else {
             return;
         };
+        while let Some(record) = self.uploads.poll_downlink() {
+            d.publisher.say(record);
+        }
         d.publisher.autopilot_clocks(self.supervisor.boots());
         d.publisher
             .tick(now, self.supervisor.seq(), self.supervisor.player());
@@ -395,9 +408,44 @@ impl Onboard {
             .took_over(&version, self.supervisor.seq(), refused);
     }
 
-    /// What became of the versions offered, in order.
+    /// What became of the versions offered, in order (a version sent up
+    /// from the ground has its verdict said down too).
     pub fn poll_version(&mut self) -> Option<Report> {
-        self.versions.poll_report()
+        let report = self.versions.poll_report()?;
+        let settled = match &report {
+            Report::Swapped { number, .. }
+            | Report::Refused { number, .. }
+            | Report::Superseded { number, .. } => Some(*number),
+            _ => None,
+        };
+        if let Some(upload) = settled.and_then(|n| self.uploaded.remove(&n)) {
+            self.uploads.verdict(upload, &report.to_string());
+        }
+        Some(report)
+    }
+
+    /// The next version sent up whole from the ground, its bytes' digest
+    /// checked: `(upload, bytes)`, for the driver to load and check off
+    /// the loop, then [`Self::offer_uploaded`] or [`Self::upload_refused`].
+    pub fn poll_upload(&mut self) -> Option<(u64, Vec<u8>)> {
+        self.uploads.poll_complete()
+    }
+
+    /// Upload `upload` loaded and checked: offered as a new version, whose
+    /// verdict goes down to the ground.
+    pub fn offer_uploaded(&mut self, upload: u64, project: Arc<Project>, files: Files) {
+        self.uploaded.insert(self.versions.next_number(), upload);
+        self.offer_version(project, files);
+    }
+
+    /// Upload `upload` does not load or fails its check: why, said down.
+    pub fn upload_refused(&mut self, upload: u64, why: &str) {
+        self.uploads.verdict(upload, &format!("refused: {why}"));
+    }
+
+    /// What the upload receiver counted.
+    pub fn upload_counts(&self) -> &crate::mirror::upload::Counts {
+        &self.uploads.counts
     }
 
     /// The running version's number (0: the one the run started with) and
@@ -518,10 +566,32 @@ impl Onboard {
             if (t.target_system, t.target_component) == me {
                 if crate::mirror::dialog::is_answer(&t.payload) {
                     self.answer(now, bytes, unix_us);
+                } else if crate::mirror::dialog::is_upload(&t.payload) {
+                    self.upload(now, bytes, unix_us);
                 } else {
                     d.publisher.receive(&t.payload);
                 }
             }
+        }
+    }
+
+    /// A piece of a version sent up from the ground (`mirror::upload`):
+    /// judged by the operator's gate, as an answer is, then to the
+    /// receiver.
+    fn upload(&mut self, now: Micros, bytes: &[u8], unix_us: u64) {
+        let Some(gate) = &mut self.answers else {
+            if !std::mem::replace(&mut self.said_no_key, true) {
+                tracing::warn!("an upload from the ground rejected: no --operator-key (said once)");
+            }
+            return;
+        };
+        match gate.judge_upload(bytes, unix_us) {
+            Ok(records) => {
+                for r in records {
+                    self.uploads.handle(now, r);
+                }
+            }
+            Err(why) => tracing::warn!("an upload from the ground rejected: {}", why.as_str()),
         }
     }
 

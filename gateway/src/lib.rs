@@ -5,7 +5,8 @@
 //! supervisor, the team, the commanders, the mirror): this crate moves
 //! their bytes. It owns the MAVLink links ([`link`]: reading, writing,
 //! signing on the wire, the mirror's uplink), the program server and the
-//! started programs ([`programs`]), preflight, the clock and the threads'
+//! started programs ([`programs`]), preflight, a version's files packed
+//! for the uplink ([`upload`]), the clock and the threads'
 //! scheduling (the recorder's and the web pages' threads too; the
 //! recording itself is `petrel_record`'s, the pages `petrel_web`'s). The `petrel` binary's `cli/`
 //! parses arguments and drives these; nothing here imports `cli/`, reads
@@ -48,3 +49,4 @@ pub mod link;
 pub mod preflight;
 pub mod programs;
 pub mod scheduling;
+pub mod upload;

@@ -13,7 +13,7 @@ extern crate gateway;
 
 mod cli;
 
-use gateway::{clock, link, preflight, programs, scheduling};
+use gateway::{clock, link, preflight, programs, scheduling, upload};
 
 #[derive(Parser)]
 #[command(

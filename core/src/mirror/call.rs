@@ -317,7 +317,8 @@ mod tests {
                         ),
                         (
                             "n.toml".into(),
-                            "name = \"N\"\nplaces = [\"a\"]\ninitial = [\"a\"]\nfinal = [\"a\"]\n".into(),
+                            "name = \"N\"\nplaces = [\"a\"]\ninitial = [\"a\"]\nfinal = [\"a\"]\n"
+                                .into(),
                         ),
                     ],
                 )

@@ -255,6 +255,38 @@ impl AnswerGate {
         judged
     }
 
+    /// Judges a frame carrying upload records (`mirror::upload`) as
+    /// received on the wire: signed with the operator key like an answer,
+    /// fresh and not replayed; the records, or why not (counted).
+    pub fn judge_upload(
+        &mut self,
+        bytes: &[u8],
+        unix_us: u64,
+    ) -> Result<Vec<Record>, AnswerRejection> {
+        let frame = self.signed_frame(bytes)?;
+        let judged = self
+            .verifier
+            .check(&frame, unix_us)
+            .map_err(AnswerRejection::from)
+            .and_then(|()| upload_of(&frame).ok_or(AnswerRejection::Malformed));
+        if let Err(r) = &judged {
+            *self.rejected.entry(*r).or_default() += 1;
+        }
+        judged
+    }
+
+    /// The bytes as a MAVLink 2 frame (a MAVLink 1 frame cannot be signed).
+    fn signed_frame(&mut self, bytes: &[u8]) -> Result<MAVLinkMessageRaw, AnswerRejection> {
+        let mut raw = MAVLinkV2MessageRaw::new();
+        if bytes.first() == Some(&mavlink::MAV_STX_V2) && bytes.len() <= raw.as_mut_slice().len() {
+            raw.as_mut_slice()[..bytes.len()].copy_from_slice(bytes);
+            Ok(MAVLinkMessageRaw::V2(raw))
+        } else {
+            *self.rejected.entry(AnswerRejection::Unsigned).or_default() += 1;
+            Err(AnswerRejection::Unsigned)
+        }
+    }
+
     /// Judges a frame as received on the wire (bytes): a MAVLink 1 frame
     /// cannot be signed.
     pub fn judge_bytes(
@@ -262,16 +294,7 @@ impl AnswerGate {
         bytes: &[u8],
         unix_us: u64,
     ) -> Result<(u64, String), AnswerRejection> {
-        let mut raw = MAVLinkV2MessageRaw::new();
-        let frame = if bytes.first() == Some(&mavlink::MAV_STX_V2)
-            && bytes.len() <= raw.as_mut_slice().len()
-        {
-            raw.as_mut_slice()[..bytes.len()].copy_from_slice(bytes);
-            MAVLinkMessageRaw::V2(raw)
-        } else {
-            *self.rejected.entry(AnswerRejection::Unsigned).or_default() += 1;
-            return Err(AnswerRejection::Unsigned);
-        };
+        let frame = self.signed_frame(bytes)?;
         self.judge(&frame, unix_us)
     }
 
@@ -321,8 +344,26 @@ pub fn is_answer(payload: &[u8]) -> bool {
     )
 }
 
-/// The answer record a Petrel TUNNEL frame holds, if it holds exactly one.
-fn answer_of(frame: &MAVLinkMessageRaw) -> Option<(u64, String)> {
+/// Whether a Petrel TUNNEL payload holds upload records (to judge with
+/// the gate, not to hand the publisher).
+pub fn is_upload(payload: &[u8]) -> bool {
+    record::decode_packet(payload).is_ok_and(|records| {
+        !records.is_empty()
+            && records
+                .iter()
+                .all(|r| matches!(r, Record::Upload { .. } | Record::Piece { .. }))
+    })
+}
+
+/// The upload records a signed Petrel TUNNEL frame holds (only those).
+fn upload_of(frame: &MAVLinkMessageRaw) -> Option<Vec<Record>> {
+    let payload = petrel_payload(frame)?;
+    let records = record::decode_packet(&payload).ok()?;
+    is_upload(&payload).then_some(records)
+}
+
+/// The payload of a Petrel TUNNEL frame.
+fn petrel_payload(frame: &MAVLinkMessageRaw) -> Option<Vec<u8>> {
     use mavlink::MessageData;
     if frame.message_id() != mavlink::dialects::ardupilotmega::TUNNEL_DATA::ID {
         return None;
@@ -332,10 +373,15 @@ fn answer_of(frame: &MAVLinkMessageRaw) -> Option<(u64, String)> {
         MAVLinkMessageRaw::V2(_) => mavlink::MavlinkVersion::V2,
     };
     let tunnel = Tunnel::deser(version, frame.payload()).ok()?;
-    if tunnel.payload_type != PAYLOAD_TYPE {
-        return None;
-    }
-    match record::decode_packet(&tunnel.payload).ok()?.as_slice() {
+    (tunnel.payload_type == PAYLOAD_TYPE).then_some(tunnel.payload)
+}
+
+/// The answer record a Petrel TUNNEL frame holds, if it holds exactly one.
+fn answer_of(frame: &MAVLinkMessageRaw) -> Option<(u64, String)> {
+    match record::decode_packet(&petrel_payload(frame)?)
+        .ok()?
+        .as_slice()
+    {
         [Record::Answer { id, choice }] => Some((*id, choice.clone())),
         _ => None,
     }

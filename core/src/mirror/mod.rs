@@ -31,6 +31,7 @@ pub mod replica;
 pub mod signed;
 pub mod station;
 pub mod tunnel;
+pub mod upload;
 
 use crate::supervisor::{Input as SupervisorInput, Step};
 

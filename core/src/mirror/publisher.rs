@@ -253,6 +253,12 @@ impl Publisher {
         }
     }
 
+    /// A record said down with the fresh ones (an upload's status or
+    /// verdict: `mirror::upload`).
+    pub fn say(&mut self, record: Record) {
+        self.fresh.push_back(record);
+    }
+
     fn queued_again(&self, number: u64) -> bool {
         self.resync.iter().any(|r| match r {
             Record::Step(s) => s.number == number,

@@ -89,6 +89,35 @@ pub enum Record {
         id: u64,
         choice: String,
     },
+    /// Uplink, signed only: a new version of the project is sent up
+    /// (`mirror::upload`): its upload number, the length of its bytes and
+    /// their SHA-256.
+    Upload {
+        upload: u64,
+        length: u64,
+        digest: [u8; 32],
+    },
+    /// Uplink, signed only: bytes `index × PIECE ..` of upload `upload`.
+    Piece {
+        upload: u64,
+        index: u64,
+        data: Vec<u8>,
+    },
+    /// Downlink: how much of upload `upload` the vehicle holds: `have`
+    /// pieces, and the first ranges still missing (`from`, `count`).
+    Received {
+        upload: u64,
+        have: u64,
+        missing: Vec<(u64, u64)>,
+    },
+    /// Downlink: part `part` of `parts` of the vehicle's verdict on upload
+    /// `upload` (taken over at a step, or refused and why).
+    Verdict {
+        upload: u64,
+        part: u8,
+        parts: u8,
+        text: String,
+    },
 }
 
 /// The inputs of one onboard step that changed, or may have changed, the
@@ -211,6 +240,10 @@ const ANSWER: u8 = 7;
 const SEND_HEARTBEAT: u8 = 8;
 const BOOT: u8 = 9;
 const VERSIONED_CHUNK: u8 = 10;
+const UPLOAD: u8 = 11;
+const PIECE: u8 = 12;
+const RECEIVED: u8 = 13;
+const VERDICT: u8 = 14;
 
 /// Why a packet does not decode.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -284,6 +317,53 @@ pub fn encode(record: &Record, w: &mut Writer) {
             w.u8(ANSWER);
             w.uvarint(*id);
             w.str(choice);
+        }
+        Record::Upload {
+            upload,
+            length,
+            digest,
+        } => {
+            w.u8(UPLOAD);
+            w.uvarint(*upload);
+            w.uvarint(*length);
+            w.raw(digest);
+        }
+        Record::Piece {
+            upload,
+            index,
+            data,
+        } => {
+            w.u8(PIECE);
+            w.uvarint(*upload);
+            w.uvarint(*index);
+            w.len(data.len());
+            w.raw(data);
+        }
+        Record::Received {
+            upload,
+            have,
+            missing,
+        } => {
+            w.u8(RECEIVED);
+            w.uvarint(*upload);
+            w.uvarint(*have);
+            w.len(missing.len());
+            for (from, count) in missing {
+                w.uvarint(*from);
+                w.uvarint(*count);
+            }
+        }
+        Record::Verdict {
+            upload,
+            part,
+            parts,
+            text,
+        } => {
+            w.u8(VERDICT);
+            w.uvarint(*upload);
+            w.u8(*part);
+            w.u8(*parts);
+            w.str(text);
         }
     }
 }
@@ -509,6 +589,44 @@ fn decode_one(r: &mut Reader) -> Result<Record, PacketError> {
             }
             Record::Boot { time, lanes }
         }
+        UPLOAD => Record::Upload {
+            upload: r.uvarint()?,
+            length: r.uvarint()?,
+            digest: r
+                .raw(32)?
+                .try_into()
+                .map_err(|_| r.invalid("an upload's digest"))?,
+        },
+        PIECE => {
+            let upload = r.uvarint()?;
+            let index = r.uvarint()?;
+            let n = r.count(1)?;
+            Record::Piece {
+                upload,
+                index,
+                data: r.raw(n)?.to_vec(),
+            }
+        }
+        RECEIVED => {
+            let upload = r.uvarint()?;
+            let have = r.uvarint()?;
+            let n = r.count(2)?;
+            let mut missing = Vec::with_capacity(n);
+            for _ in 0..n {
+                missing.push((r.uvarint()?, r.uvarint()?));
+            }
+            Record::Received {
+                upload,
+                have,
+                missing,
+            }
+        }
+        VERDICT => Record::Verdict {
+            upload: r.uvarint()?,
+            part: r.u8()?,
+            parts: r.u8()?,
+            text: r.str()?,
+        },
         k => return Err(PacketError::Kind(k)),
     })
 }
@@ -737,6 +855,41 @@ mod tests {
                 }),
             (any::<u64>(), any::<u64>()).prop_map(|(from, count)| Record::Resend { from, count }),
             any::<u32>().prop_map(|session| Record::SendSnapshot { session }),
+            (any::<u64>(), any::<u64>(), any::<[u8; 32]>()).prop_map(|(upload, length, digest)| {
+                Record::Upload {
+                    upload,
+                    length,
+                    digest,
+                }
+            }),
+            (
+                any::<u64>(),
+                any::<u64>(),
+                prop::collection::vec(any::<u8>(), 0..60)
+            )
+                .prop_map(|(upload, index, data)| Record::Piece {
+                    upload,
+                    index,
+                    data
+                }),
+            (
+                any::<u64>(),
+                any::<u64>(),
+                prop::collection::vec((any::<u64>(), any::<u64>()), 0..4)
+            )
+                .prop_map(|(upload, have, missing)| Record::Received {
+                    upload,
+                    have,
+                    missing
+                }),
+            (any::<u64>(), any::<u8>(), any::<u8>(), "[a-z ]{0,30}").prop_map(
+                |(upload, part, parts, text)| Record::Verdict {
+                    upload,
+                    part,
+                    parts,
+                    text
+                }
+            ),
             any::<u64>().prop_map(|at| Record::SendHeartbeat { at }),
             (
                 any::<u64>(),

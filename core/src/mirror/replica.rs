@@ -262,6 +262,8 @@ pub struct Replica {
     uplink: VecDeque<Uplink>,
     /// The calls on the player, when recording.
     played: VecDeque<Played>,
+    /// The vehicle's word on uploads (`mirror::upload`), for the sender.
+    uploads: VecDeque<Record>,
     pub counts: Counts,
 }
 
@@ -298,8 +300,15 @@ impl Replica {
             reports: VecDeque::new(),
             uplink: VecDeque::new(),
             played: VecDeque::new(),
+            uploads: VecDeque::new(),
             counts: Counts::default(),
         }
+    }
+
+    /// The next word of the vehicle on an upload (`Record::Received`,
+    /// `Record::Verdict`).
+    pub fn poll_upload(&mut self) -> Option<Record> {
+        self.uploads.pop_front()
     }
 
     /// A version of the project this replica may meet: the vehicle takes
@@ -475,8 +484,12 @@ impl Replica {
                         self.boots.pop_front();
                     }
                 }
+                // The vehicle's word on an upload (`mirror::upload`).
+                r @ (Record::Received { .. } | Record::Verdict { .. }) => self.uploads.push_back(r),
                 // Uplink records heard back (a shared link): not ours.
-                Record::Resend { .. }
+                Record::Upload { .. }
+                | Record::Piece { .. }
+                | Record::Resend { .. }
                 | Record::SendSnapshot { .. }
                 | Record::SendHeartbeat { .. }
                 | Record::Answer { .. } => {}

@@ -26,6 +26,7 @@ use super::record::Input;
 use super::replica::{Config as ReplicaConfig, Repair, Replica, Report, Uplink};
 use super::signed::SignedDownlink;
 use super::tunnel::Tunnel;
+use super::upload::{Config as UploadConfig, Sender, Sent, Signed};
 use crate::signing::{Key, Rejection};
 use crate::supervisor::Lane;
 
@@ -85,6 +86,8 @@ pub enum Output {
     NoDownlink { vehicle: u8 },
     /// A system heard that is no vehicle of the team (said once).
     Foreign { system: u8 },
+    /// What became of the version sent up (`mirror::upload`).
+    Upload(Sent),
 }
 
 /// The ground station's state.
@@ -110,6 +113,8 @@ pub struct Station {
     /// Each pending question's last countdown mark shown.
     shown: BTreeMap<u64, Micros>,
     out: VecDeque<Output>,
+    /// A version being sent up.
+    upload: Option<Sender>,
 }
 
 impl Station {
@@ -137,7 +142,44 @@ impl Station {
             said_no_downlink: false,
             shown: BTreeMap::new(),
             out: VecDeque::new(),
+            upload: None,
         }
+    }
+
+    /// Sends a new version up (`bytes`: its files, as the driver packed
+    /// them; `upload`: its number), from ground time `now`; the replica
+    /// follows the vehicle onto it when it takes it over. One at a time.
+    pub fn push(
+        &mut self,
+        now: Micros,
+        upload: u64,
+        bytes: Vec<u8>,
+        version: Arc<crate::version::Version>,
+        config: UploadConfig,
+    ) -> Result<(), String> {
+        if let Some(u) = self.upload.as_ref().filter(|u| !u.done()) {
+            return Err(format!(
+                "upload {} is still under way: one version at a time",
+                u.upload()
+            ));
+        }
+        self.replica.know(version);
+        self.upload = Some(Sender::new(upload, bytes, now, config));
+        Ok(())
+    }
+
+    /// The next upload record to send signed with the operator key, and
+    /// whom to: none until the vehicle is heard, or beyond the upload's
+    /// byte rate.
+    pub fn poll_signed(&mut self, now: Micros) -> Option<((u8, u8), Signed)> {
+        let to = self.target()?;
+        let signed = self.upload.as_mut()?.poll_transmit(now)?;
+        Some((to, signed))
+    }
+
+    /// The version being sent up, if any.
+    pub fn upload(&self) -> Option<&Sender> {
+        self.upload.as_ref()
     }
 
     /// A frame received at ground time `now` (`unix_us`: the wall clock's
@@ -261,6 +303,18 @@ impl Station {
         }
         while let Some(played) = self.replica.poll_played() {
             self.out.push_back(Output::Played(played));
+        }
+        // The vehicle's word on the version sent up.
+        while let Some(word) = self.replica.poll_upload() {
+            if let Some(u) = &mut self.upload {
+                u.handle(now, &word);
+            }
+        }
+        if let Some(u) = &mut self.upload {
+            u.tick(now);
+            while let Some(sent) = u.poll_report() {
+                self.out.push_back(Output::Upload(sent));
+            }
         }
         // Nothing tells a new user why the mirror stays blank otherwise.
         if !self.said_silent && !self.heard_any && now >= SILENCE_WARNING {

@@ -32,6 +32,8 @@ use petrel_core::mirror::station::{Config as StationConfig, Output, Station, SIL
 use petrel_record::layout;
 use petrel_record::recorder::{Options as RecordOptions, Recorder};
 
+mod push;
+
 #[derive(clap::Args)]
 pub struct Args {
     /// The project folder: the same project the vehicle runs.
@@ -86,6 +88,17 @@ pub struct Args {
     /// without).
     #[arg(long, value_name = "ADDRESS:PORT")]
     pub http: Option<String>,
+    /// Send a new version of the project up to the vehicle: the project
+    /// folder DIR, checked here first, packed, sent in pieces signed with
+    /// --operator-key (required) at the rate of --push-rate, the missing
+    /// pieces again; the vehicle proves it from the state it is in and
+    /// says its verdict (docs/mirror.md, "A version sent up"). The replica
+    /// follows the vehicle onto it.
+    #[arg(long, value_name = "DIR", requires = "operator_key")]
+    pub push: Option<PathBuf>,
+    /// The uplink bytes per second the version may take (a radio's share).
+    #[arg(long, value_name = "BYTES", default_value_t = 1000)]
+    pub push_rate: u64,
 }
 
 /// How often the replica and the ground's elaboration are ticked.
@@ -157,6 +170,22 @@ pub fn run(args: Args) -> VerbResult {
         petrel_core::team::family(&layers.layers),
         &elaboration::Config::default(),
     )?;
+    let catalog = petrel_core::project::catalog(&profile);
+    let push = match &args.push {
+        None => None,
+        Some(dir) => {
+            let push = push::prepare(dir, &catalog, &layers.layers)?;
+            say!(
+                "push: {} checked and packed: {} files, {} bytes ({} unpacked), at {} B/s",
+                dir.display(),
+                push.version.files.len(),
+                push.bytes.len(),
+                push.unpacked,
+                args.push_rate
+            );
+            Some(push)
+        }
+    };
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -175,7 +204,9 @@ pub fn run(args: Args) -> VerbResult {
         layers,
         http,
         dir: args.project.clone(),
-        catalog: petrel_core::project::catalog(&profile),
+        catalog,
+        push,
+        push_rate: args.push_rate,
     }));
     // The operator's stdin is read on a blocking thread that no abort
     // stops: waiting for it would hold the mirror until the next line.
@@ -207,6 +238,9 @@ struct Setup {
     /// The events the profile produces: a version read again (SIGHUP)
     /// loads with them.
     catalog: nets::load::Catalog,
+    /// A version to send up, and at what byte rate.
+    push: Option<push::Push>,
+    push_rate: u64,
 }
 
 /// The project folder read again (SIGHUP): a version the vehicle may take
@@ -320,6 +354,20 @@ async fn mirror(setup: Setup) -> VerbResult {
         dialog: setup.operator.is_some(),
         record: recorder.is_some(),
     });
+    if let Some(p) = setup.push {
+        // Numbered by the wall clock: two pushes never share a number.
+        let upload = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(1, |d| d.as_millis() as u64);
+        let config = petrel_core::mirror::upload::Config {
+            bytes_per_s: setup.push_rate.max(1),
+            ..Default::default()
+        };
+        if let Err(e) = station.push(clock.now(), upload, p.bytes, p.version, config) {
+            say!("push: {e}");
+        }
+    }
+    let mut pushed_tenth = 0;
     let mut out = Timeline {
         out: std::io::BufWriter::new(std::io::stdout()),
         json: setup.json,
@@ -445,8 +493,32 @@ async fn mirror(setup: Setup) -> VerbResult {
             },
         }
         let now = clock.now();
+        // The version sent up: its pieces, signed, within its byte rate.
+        if let Some(signer) = signer.as_mut() {
+            while let Some((to, signed)) = station.poll_signed(now) {
+                match uplink.send_signed(to, &signed, signer).await {
+                    Ok(bytes) => {
+                        if let Some(rec) = &recorder {
+                            rec.sent(now, &bytes);
+                        }
+                    }
+                    Err(e) => {
+                        tracing::warn!("push: {e}");
+                        break;
+                    }
+                }
+            }
+        }
         while let Some(output) = station.poll_output() {
             match output {
+                Output::Upload(sent) => {
+                    if let Some(text) = push::said(&sent, &mut pushed_tenth) {
+                        say!("{text}");
+                        if let Some(rec) = &recorder {
+                            rec.log(now, petrel_record::recorder::Level::Info, "push", text);
+                        }
+                    }
+                }
                 Output::Report(report) => {
                     if let Some(rec) = &recorder {
                         rec.mirror(now, layout::MIRROR_REPLICA, report_json(&report, now));

@@ -411,3 +411,79 @@ fn the_mirror_follows_the_swap_when_it_has_the_version() {
         );
     }
 }
+
+/// Issue 38's flight with the version sent up from the ground: pushed at
+/// 20 s over a radio losing a tenth of the frames both ways, at 600 B/s
+/// (about a tenth of a 57,600 baud radio), signed with the operator key;
+/// the vehicle takes it over and says so down, the mirror follows it, and
+/// the later link hole gets the new reaction.
+#[test]
+fn a_version_sent_up_from_the_ground_takes_over_and_the_mirror_follows() {
+    use crate::simulated::{fly_with, Push, Radio, Setup};
+    use petrel_core::mirror::replica::Report;
+    use petrel_core::mirror::station::Output;
+    use petrel_core::mirror::upload::Sent;
+    let scratch = Scratch::new("reload-push");
+    let setup = Setup {
+        faults: &["link_loss@wp3:10s"],
+        radio: Some(Radio {
+            per_mille: 100,
+            seed: 11,
+            ..Radio::default()
+        }),
+        push: Some(Push {
+            at_s: 5.0,
+            dir: version_one(&scratch),
+            bytes_per_s: 600,
+        }),
+        ..Setup::default()
+    };
+    let m = fly_with("push", setup, 400.0, |s| s.landed && !s.armed);
+    let sent: Vec<(u64, &Sent)> = m
+        .outputs
+        .iter()
+        .filter_map(|(t, o)| match o {
+            Output::Upload(s) => Some((*t, s)),
+            _ => None,
+        })
+        .collect();
+    let delivered = sent.iter().find_map(|(t, s)| match s {
+        Sent::Delivered { bytes, after } => Some((*t, *bytes, *after)),
+        _ => None,
+    });
+    let (_, bytes, after) = delivered.unwrap_or_else(|| panic!("{sent:#?}"));
+    let verdict = sent.iter().find_map(|(_, s)| match s {
+        Sent::Verdict { text } => Some(text.clone()),
+        _ => None,
+    });
+    let verdict = verdict.unwrap_or_else(|| panic!("{sent:#?}"));
+    assert!(
+        verdict.starts_with("version 1 took over at step"),
+        "{verdict}"
+    );
+    // On the air: the signed frames the ground sent while it pushed.
+    let (from, to) = (5_000_000, 5_000_000 + after);
+    let frames: Vec<&Vec<u8>> = m
+        .uplink
+        .iter()
+        .filter(|(t, _)| (from..=to).contains(t))
+        .map(|(_, b)| b)
+        .collect();
+    let on_air: usize = frames.iter().map(|b| b.len()).sum();
+    println!(
+        "pushed the flight-test version over a 10 % lossy radio at 600 B/s: {bytes} bytes of records, {} frames and {on_air} bytes on the air (MAVLink 2, signed), whole after {:.1} s; verdict: {verdict}",
+        frames.len(),
+        after as f64 / 1e6
+    );
+    // The version is about 14 kB packed: at 600 B/s, 25 s and the losses'
+    // retransmission.
+    assert!(after < 60_000_000, "{after}");
+    let followed = m
+        .outputs
+        .iter()
+        .any(|(_, o)| matches!(o, Output::Report(Report::Version { number: 1, .. })));
+    assert!(followed, "the mirror followed the swap");
+    assert!(m.flown.verbs().contains(&"rtl".to_owned()));
+    let (code, stderr) = m.flown.replay_check();
+    assert_eq!(code, Some(0), "{stderr}");
+}

@@ -177,6 +177,23 @@ pub struct Setup<'a> {
     pub vehicle_profile: Option<&'a str>,
     /// A new version of the project offered in flight.
     pub version: Option<Offer>,
+    /// A new version sent up from the ground mirror (needs `radio`).
+    pub push: Option<Push>,
+}
+
+/// A new version sent up from the ground, as `petrel mirror --push DIR
+/// --operator-key KEY --push-rate BYTES` sends it: at `at_s` simulated
+/// seconds, `bytes_per_s` of the radio's uplink, signed with the operator
+/// key both ends hold.
+pub struct Push {
+    pub at_s: f64,
+    pub dir: std::path::PathBuf,
+    pub bytes_per_s: u64,
+}
+
+/// The operator key of the flights that push a version.
+fn operator_key() -> petrel_core::signing::Key {
+    petrel_core::signing::Key::new([42; 32])
 }
 
 /// A new version of the project offered in flight, as `petrel reload`
@@ -277,7 +294,10 @@ pub fn fly_with(
         radio,
         vehicle_profile,
         version,
+        push,
     } = setup;
+    let mut pushed = false;
+    let mut signer = petrel_core::signing::Signer::new(operator_key(), 0, None);
     let started = Instant::now();
     let scratch = Scratch::new(&format!("simulated-{name}"));
     let recording = scratch.join("flight.mcap");
@@ -326,7 +346,8 @@ pub fn fly_with(
         forgot_at: None,
     });
     let (supervisor, start) = Supervisor::start_lanes(project.clone(), lanes, 0);
-    let mut core = Onboard::new(supervisor, crew, downlink, None, true);
+    let operator = push.as_ref().map(|_| operator_key());
+    let mut core = Onboard::new(supervisor, crew, downlink, operator, true);
     core.start(0, &start);
     recorder.start(&start, core.player());
     let mission = petrel_dec::Mission::load(&dir.join(crate::MISSION_FILE)).expect("the mission");
@@ -367,6 +388,68 @@ pub fn fly_with(
         if t >= core.poll_timeout() {
             core.handle_timeout(t);
         }
+        // A version sent up from the ground: packed and pushed once; each
+        // of its records goes up signed, through the radio; whole on
+        // board, it is unpacked and loaded as `run` does (no pre-flight
+        // check here: the proof follows).
+        if let (Some(g), Some(p)) = (&mut ground, &push) {
+            if !pushed && t as f64 >= p.at_s * 1e6 {
+                pushed = true;
+                let (project, files) = petrel_core::project::load_read(
+                    &p.dir,
+                    &petrel_core::project::catalog(&profile),
+                )
+                .expect("the version loads");
+                let bytes = gateway::upload::pack(&files).expect("it packs");
+                let version = std::sync::Arc::new(petrel_core::version::Version {
+                    number: 0,
+                    project,
+                    files,
+                });
+                let config = petrel_core::mirror::upload::Config {
+                    bytes_per_s: p.bytes_per_s,
+                    ..Default::default()
+                };
+                g.station
+                    .push(t, 1, bytes, version, config)
+                    .expect("one push");
+            }
+            while let Some((to, signed)) = g.station.poll_signed(t) {
+                let tunnel = Tunnel::petrel(to, signed.bytes().to_vec());
+                let header = mavlink::MavHeader {
+                    system_id: u32::from(MIRROR_SYSTEM),
+                    component_id: 190,
+                    sequence: 0,
+                };
+                let raw = signer.sign_data(header, &tunnel, UNIX + t);
+                let bytes = raw.raw_bytes().to_vec();
+                g.uplink.push((t, bytes.clone()));
+                if g.radio.loses(t) {
+                    continue;
+                }
+                g.routed = true;
+                let rx = Received {
+                    time_us: t,
+                    bytes,
+                    version: mavlink::MavlinkVersion::V2,
+                    header,
+                    message: None,
+                };
+                core.handle_frame(t, 0, rx, UNIX + t);
+            }
+        }
+        while let Some((upload, bytes)) = core.poll_upload() {
+            match gateway::upload::unpack(&bytes).and_then(|files| {
+                let sources: std::collections::BTreeMap<String, String> =
+                    files.iter().cloned().collect();
+                nets::load_with(&sources, &petrel_core::project::catalog(&profile))
+                    .map(|p| (std::sync::Arc::new(p), files))
+                    .map_err(|e| format!("{e:?}"))
+            }) {
+                Ok((project, files)) => core.offer_uploaded(upload, project, files),
+                Err(why) => core.upload_refused(upload, &why),
+            }
+        }
         // A new version, as `petrel reload` offers it: loaded, then each
         // proof answered after a while (the state may move meanwhile).
         if let Some(offer) = version
@@ -382,7 +465,10 @@ pub fn fly_with(
             core.offer_version(new, files);
         }
         while let Some(proof) = core.poll_proof() {
-            let due = t + version.as_ref().map_or(0, |o| (o.proof_s * 1e6) as Micros);
+            // A version's proof answered after its offer's delay (a pushed
+            // version's: a second).
+            let delay = version.as_ref().map_or(1.0, |o| o.proof_s);
+            let due = t + (delay * 1e6) as Micros;
             proofs.push((due, proof));
         }
         while let Some(i) = proofs.iter().position(|(due, _)| *due <= t) {

@@ -143,12 +143,32 @@ impl Gateway {
                 ));
             }
             Background::Proved(proved) => self.core.handle_proved(now, *proved),
+            Background::Uploaded(upload, Ok((project, files))) => {
+                self.say_version(format!(
+                    "a version sent up from the ground (upload {upload}) loads and holds its check"
+                ));
+                self.core.offer_uploaded(upload, project, files);
+            }
+            Background::Uploaded(upload, Err(why)) => {
+                self.say_version(format!(
+                    "the version sent up from the ground (upload {upload}) is refused, the running version goes on:\n{why}"
+                ));
+                let first = why.lines().next().unwrap_or("").to_owned();
+                self.core.upload_refused(upload, &first);
+            }
         }
     }
 
     /// The core's proofs started, what became of the versions said (and
     /// recorded).
     fn versions(&mut self) {
+        while let Some((upload, bytes)) = self.core.poll_upload() {
+            self.say_version(format!(
+                "a version sent up from the ground arrived whole (upload {upload}, {} bytes): loading it",
+                bytes.len()
+            ));
+            self.reload.uploaded(upload, bytes);
+        }
         while let Some(proof) = self.core.poll_proof() {
             self.reload.prove(proof);
         }

@@ -23,6 +23,9 @@ pub(super) enum Background {
     Loaded(Result<(Arc<Project>, Files), String>),
     /// A proof's answer.
     Proved(Box<Proved>),
+    /// A version sent up from the ground (its upload number), unpacked,
+    /// loaded and checked, or why not.
+    Uploaded(u64, Result<(Arc<Project>, Files), String>),
 }
 
 /// Reading the project again and running the core's proofs, off the loop.
@@ -97,6 +100,27 @@ impl Reload {
         }
     }
 
+    /// A version sent up whole from the ground: unpacked, loaded and
+    /// checked from its start on a thread of its own.
+    pub(super) fn uploaded(&self, upload: u64, bytes: Vec<u8>) {
+        let (catalog, layers, check) = (self.catalog.clone(), self.layers.clone(), self.check);
+        let tx = self.tx.clone();
+        let spawned = std::thread::Builder::new()
+            .name("petrel-upload".into())
+            .spawn(move || {
+                let _ = crate::scheduling::batch();
+                let loaded = crate::upload::unpack(&bytes)
+                    .and_then(|files| load_files(files, &catalog, &layers, check));
+                let _ = tx.send(Background::Uploaded(upload, loaded));
+            });
+        if let Err(e) = spawned {
+            let _ = self.tx.send(Background::Uploaded(
+                upload,
+                Err(format!("cannot start the thread that loads it: {e}")),
+            ));
+        }
+    }
+
     /// Runs one of the core's proofs on a thread of its own.
     pub(super) fn prove(&self, proof: Proof) {
         let tx = self.tx.clone();
@@ -118,6 +142,46 @@ impl Reload {
     }
 }
 
+/// A version's files loaded with `catalog` (as the loader reads a folder)
+/// and, with `check`, checked from its start.
+fn load_files(
+    files: Vec<(String, String)>,
+    catalog: &nets::load::Catalog,
+    layers: &[(String, String)],
+    check: bool,
+) -> Result<(Arc<Project>, Files), String> {
+    let sources: std::collections::BTreeMap<String, String> = files.iter().cloned().collect();
+    let project = nets::load_with(&sources, catalog).map_err(|e| {
+        e.problems
+            .iter()
+            .map(|p| format!("{}", miette::Report::new(p.clone())))
+            .map(|p| p.trim_end().to_owned())
+            .collect::<Vec<_>>()
+            .join("\n")
+    })?;
+    let project = Arc::new(project);
+    if check {
+        checked(&project, &files, layers)?;
+    }
+    Ok((project, files))
+}
+
+/// `project` checked from its start as `run` checks before the flight.
+fn checked(
+    project: &Arc<Project>,
+    files: &[(String, String)],
+    layers: &[(String, String)],
+) -> Result<(), String> {
+    let inputs = Inputs { files, layers };
+    if let Preflight::Failed(report) = crate::preflight::check_project(project, &inputs, false) {
+        return Err(format!(
+            "{}\nit fails `petrel check`",
+            crate::cli::check_project::human(&project.name, &report, 0.0).trim_end()
+        ));
+    }
+    Ok(())
+}
+
 /// The project in `dir` loaded with `catalog` and, with `check`, checked
 /// from its start as `run` checks before the flight.
 fn load(
@@ -129,17 +193,7 @@ fn load(
     let (project, files) = petrel_core::project::load_read(dir, catalog)
         .map_err(|e| petrel_core::project::for_people(&e))?;
     if check {
-        let inputs = Inputs {
-            files: &files,
-            layers,
-        };
-        if let Preflight::Failed(report) = crate::preflight::check_project(&project, &inputs, false)
-        {
-            return Err(format!(
-                "{}\nit fails `petrel check`",
-                crate::cli::check_project::human(&project.name, &report, 0.0).trim_end()
-            ));
-        }
+        checked(&project, &files, layers)?;
     }
     Ok((project, files))
 }
