@@ -322,13 +322,26 @@ pub struct Counts {
     pub completed: u64,
 }
 
+/// What became of an upload received whole.
+#[derive(Debug, Clone)]
+enum Finished {
+    /// Loaded and proved: `have` pieces, said last at `said_at`.
+    Awaiting {
+        have: u64,
+        said_at: Micros,
+    },
+    Given(String),
+}
+
 /// The vehicle's end: one upload at a time.
 pub struct Receiver {
     config: Config,
     current: Option<Reception>,
     /// Uploads completed, with their verdict once given (an offer of one
-    /// heard again gets the verdict again).
-    finished: BTreeMap<u64, Option<String>>,
+    /// heard again gets the verdict again); until then, how many pieces
+    /// and when that was last said (the ground hears the vehicle is at
+    /// work while it proves the version).
+    finished: BTreeMap<u64, Finished>,
     complete: VecDeque<(u64, Vec<u8>)>,
     down: VecDeque<Record>,
     pub counts: Counts,
@@ -366,11 +379,15 @@ impl Receiver {
 
     fn offer(&mut self, now: Micros, upload: u64, length: u64, digest: [u8; 32]) {
         self.counts.offers += 1;
-        if let Some(verdict) = self.finished.get(&upload) {
+        if let Some(finished) = self.finished.get(&upload) {
             // Heard again: say again what became of it.
-            match verdict.clone() {
-                Some(text) => self.verdict(upload, &text),
-                None => self.status(upload, now),
+            match finished.clone() {
+                Finished::Given(text) => self.verdict(upload, &text),
+                Finished::Awaiting { have, .. } => self.down.push_back(Record::Received {
+                    upload,
+                    have,
+                    missing: Vec::new(),
+                }),
             }
             return;
         }
@@ -447,18 +464,22 @@ impl Receiver {
             r.have += 1;
         }
         if r.have == count {
-            self.finish();
+            self.finish(now);
         }
     }
 
     /// Every piece is here: the bytes, if they hash to the offer's digest.
-    fn finish(&mut self) {
+    fn finish(&mut self, now: Micros) {
         let Some(r) = self.current.take() else { return };
         let bytes: Vec<u8> = r.pieces.into_iter().flatten().flatten().collect();
         let digest: [u8; 32] = Sha256::digest(&bytes).into();
+        let awaiting = Finished::Awaiting {
+            have: r.have,
+            said_at: now,
+        };
         if digest != r.digest {
             self.counts.altered += 1;
-            self.finished.insert(r.upload, None);
+            self.finished.insert(r.upload, awaiting);
             self.verdict(
                 r.upload,
                 "refused: the bytes received do not hash to the offer's digest",
@@ -466,7 +487,7 @@ impl Receiver {
             return;
         }
         self.counts.completed += 1;
-        self.finished.insert(r.upload, None);
+        self.finished.insert(r.upload, awaiting);
         self.down.push_back(Record::Received {
             upload: r.upload,
             have: r.have,
@@ -482,6 +503,20 @@ impl Receiver {
     /// Time passes at vehicle time `now`: what it holds said every
     /// [`Config::status_every`]; an upload silent too long is given up.
     pub fn tick(&mut self, now: Micros) {
+        // Whole, not yet judged: the ground hears it is being proved.
+        let every = self.config.status_every;
+        for (upload, f) in &mut self.finished {
+            if let Finished::Awaiting { have, said_at } = f {
+                if now.saturating_sub(*said_at) >= every {
+                    *said_at = now;
+                    self.down.push_back(Record::Received {
+                        upload: *upload,
+                        have: *have,
+                        missing: Vec::new(),
+                    });
+                }
+            }
+        }
         let Some(r) = &self.current else { return };
         if now.saturating_sub(r.heard_at) >= self.config.give_up_after {
             self.current = None;
@@ -530,7 +565,7 @@ impl Receiver {
     /// for an offer heard again.
     pub fn verdict(&mut self, upload: u64, text: &str) {
         if let Some(kept) = self.finished.get_mut(&upload) {
-            *kept = Some(text.to_owned());
+            *kept = Finished::Given(text.to_owned());
         }
         let mut parts: Vec<String> = Vec::new();
         let mut rest = text;

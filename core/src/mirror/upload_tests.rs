@@ -256,3 +256,43 @@ fn files_travel_as_bytes_and_paths_stay_inside_the_project() {
     }
     assert!(files_from(&[0xff, 0xff]).is_err());
 }
+
+#[test]
+fn a_long_proof_keeps_the_ground_waiting_for_the_verdict_not_giving_up() {
+    let data = bytes(500);
+    let mut sender = Sender::new(9, data, 0, Config::default());
+    let mut receiver = Receiver::new(Config::default());
+    let mut t = 0;
+    let mut verdict_at = None;
+    while !sender.done() && t < 300_000_000 {
+        t += 10_000;
+        while let Some(signed) = sender.poll_transmit(t) {
+            for r in record::decode_packet(signed.bytes()).expect("a packet") {
+                receiver.handle(t, r);
+            }
+        }
+        receiver.tick(t);
+        let _ = receiver.poll_complete();
+        // The vehicle proves it for two minutes.
+        if t == 150_000_000 {
+            receiver.verdict(9, "version 1 took over at step 7");
+            verdict_at = Some(t);
+        }
+        while let Some(r) = receiver.poll_downlink() {
+            sender.handle(t, &r);
+        }
+        sender.tick(t);
+    }
+    let reports: Vec<Sent> = std::iter::from_fn(|| sender.poll_report()).collect();
+    assert!(
+        reports.contains(&Sent::Verdict {
+            text: "version 1 took over at step 7".into()
+        }),
+        "{:?}",
+        reports
+            .iter()
+            .filter(|r| !matches!(r, Sent::Progress { .. }))
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(verdict_at, Some(t));
+}

@@ -61,7 +61,8 @@ pub struct Args {
     /// The operator key (the same file as `petrel run --operator-key`):
     /// the nets' questions (`ask`) are shown with a countdown and answered
     /// on stdin as `ID CHOICE` (or `CHOICE` when one question is pending),
-    /// sent up signed with it (docs/mirror.md, "Operator dialog").
+    /// sent up signed with it (docs/mirror.md, "Operator dialog"); `push
+    /// DIR` on stdin sends a new version up (as --push).
     #[arg(long, value_name = "FILE")]
     pub operator_key: Option<PathBuf>,
     /// The vehicle's MAVLink signing key (the file `petrel run
@@ -175,14 +176,7 @@ pub fn run(args: Args) -> VerbResult {
         None => None,
         Some(dir) => {
             let push = push::prepare(dir, &catalog, &layers.layers)?;
-            say!(
-                "push: {} checked and packed: {} files, {} bytes ({} unpacked), at {} B/s",
-                dir.display(),
-                push.version.files.len(),
-                push.bytes.len(),
-                push.unpacked,
-                args.push_rate
-            );
+            say!("{}", push.summary(args.push_rate));
             Some(push)
         }
     };
@@ -355,18 +349,10 @@ async fn mirror(setup: Setup) -> VerbResult {
         record: recorder.is_some(),
     });
     if let Some(p) = setup.push {
-        // Numbered by the wall clock: two pushes never share a number.
-        let upload = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(1, |d| d.as_millis() as u64);
-        let config = petrel_core::mirror::upload::Config {
-            bytes_per_s: setup.push_rate.max(1),
-            ..Default::default()
-        };
-        if let Err(e) = station.push(clock.now(), upload, p.bytes, p.version, config) {
-            say!("push: {e}");
-        }
+        push::start(&mut station, clock.now(), p, setup.push_rate);
     }
+    // Versions to push typed on stdin (`push DIR`), prepared off the loop.
+    let (pushes_tx, mut pushes) = mpsc::unbounded_channel();
     let mut pushed_tenth = 0;
     let mut out = Timeline {
         out: std::io::BufWriter::new(std::io::stdout()),
@@ -436,6 +422,14 @@ async fn mirror(setup: Setup) -> VerbResult {
             _ = ticks.tick() => station.handle_tick(clock.now()),
             Some(line) = lines.recv() => {
                 let words: Vec<&str> = line.split_whitespace().collect();
+                if let ["push", dir] = words[..] {
+                    // Loaded, checked and packed off the loop.
+                    let (dir, catalog, layers, tx) = (PathBuf::from(dir), setup.catalog.clone(), setup.layers.layers.clone(), pushes_tx.clone());
+                    tokio::task::spawn_blocking(move || {
+                        let _ = tx.send(push::prepare(&dir, &catalog, &layers).map_err(|e| format!("{e:?}")));
+                    });
+                    continue;
+                }
                 let pending: Vec<u64> = station.dialog().pending().map(|q| q.id).collect();
                 let picked = match words[..] {
                     [id, choice] => id.trim_start_matches('#').parse::<u64>().ok().map(|id| (id, choice)),
@@ -481,6 +475,13 @@ async fn mirror(setup: Setup) -> VerbResult {
                     let _ = tx.send(read_version(&dir, &catalog));
                 });
             }
+            Some(prepared) = pushes.recv() => match prepared {
+                Ok(p) => {
+                    say!("{}", p.summary(setup.push_rate));
+                    push::start(&mut station, clock.now(), p, setup.push_rate);
+                }
+                Err(why) => say!("push: not sent:\n{why}"),
+            },
             Some(read) = versions.recv() => match read {
                 Ok(version) => {
                     say!(

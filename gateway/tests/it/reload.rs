@@ -137,12 +137,9 @@ async fn a_new_version_takes_over_in_flight_and_a_bad_one_is_refused() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{stdout}{stderr}");
+    assert!(stderr.contains("version 1 took over at step"), "{stderr}");
     assert!(
-        stderr.contains("reload: version 1 took over at step"),
-        "{stderr}"
-    );
-    assert!(
-        stderr.contains("reload: version 2 refused, the running version goes on")
+        stderr.contains("version 2 refused, the running version goes on")
             && (stderr.contains("place N.idle is marked")
                 || stderr.contains("place N.busy is marked")),
         "{stderr}"
@@ -237,9 +234,25 @@ fn returning_after_a_link_hole(example: &Path) -> String {
     )
 }
 
+/// Version 1 with COMMUNICATION's place `returning` renamed, no
+/// `[reload]` mapping: refused once the vehicle is in it.
+fn without_returning(scratch: &Scratch) -> std::path::PathBuf {
+    let dir = version_one(scratch);
+    let renamed = scratch.join("version-2");
+    std::fs::create_dir_all(&renamed).expect("a folder");
+    for entry in std::fs::read_dir(&dir).expect("version 1") {
+        let path = entry.expect("an entry").path();
+        std::fs::copy(&path, renamed.join(path.file_name().expect("a name"))).expect("copied");
+    }
+    let net = renamed.join("communication.toml");
+    let text = std::fs::read_to_string(&net).expect("the net");
+    std::fs::write(&net, text.replace("\"returning\"", "\"homeward\"")).expect("write");
+    renamed
+}
+
 /// A copy of the flight-test example (its files, not its folders) with
 /// COMMUNICATION's version 1.
-fn version_one(scratch: &Scratch) -> std::path::PathBuf {
+pub(crate) fn version_one(scratch: &Scratch) -> std::path::PathBuf {
     let example = crate::flight::project();
     let dir = scratch.join("version-1");
     std::fs::create_dir_all(&dir).expect("a folder");
@@ -431,11 +444,20 @@ fn a_version_sent_up_from_the_ground_takes_over_and_the_mirror_follows() {
             seed: 11,
             ..Radio::default()
         }),
-        push: Some(Push {
-            at_s: 5.0,
-            dir: version_one(&scratch),
-            bytes_per_s: 600,
-        }),
+        push: vec![
+            Push {
+                at_s: 5.0,
+                dir: version_one(&scratch),
+                bytes_per_s: 600,
+            },
+            // Then, once the hole sent the vehicle home, one without the
+            // place COMMUNICATION is in.
+            Push {
+                at_s: 50.0,
+                dir: without_returning(&scratch),
+                bytes_per_s: 600,
+            },
+        ],
         ..Setup::default()
     };
     let m = fly_with("push", setup, 400.0, |s| s.landed && !s.armed);
@@ -452,14 +474,26 @@ fn a_version_sent_up_from_the_ground_takes_over_and_the_mirror_follows() {
         _ => None,
     });
     let (_, bytes, after) = delivered.unwrap_or_else(|| panic!("{sent:#?}"));
-    let verdict = sent.iter().find_map(|(_, s)| match s {
-        Sent::Verdict { text } => Some(text.clone()),
-        _ => None,
-    });
-    let verdict = verdict.unwrap_or_else(|| panic!("{sent:#?}"));
+    let verdicts: Vec<String> = sent
+        .iter()
+        .filter_map(|(_, s)| match s {
+            Sent::Verdict { text } => Some(text.clone()),
+            _ => None,
+        })
+        .collect();
+    let [verdict, refused] = &verdicts[..] else {
+        panic!("{sent:#?}")
+    };
     assert!(
         verdict.starts_with("version 1 took over at step"),
         "{verdict}"
+    );
+    // The second is refused with its reason, said down whole; the flight
+    // goes on with version 1.
+    assert!(
+        refused.starts_with("version 2 refused")
+            && refused.contains("place COMMUNICATION.returning is marked"),
+        "{refused}"
     );
     // On the air: the signed frames the ground sent while it pushed.
     let (from, to) = (5_000_000, 5_000_000 + after);

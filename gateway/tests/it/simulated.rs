@@ -177,8 +177,9 @@ pub struct Setup<'a> {
     pub vehicle_profile: Option<&'a str>,
     /// A new version of the project offered in flight.
     pub version: Option<Offer>,
-    /// A new version sent up from the ground mirror (needs `radio`).
-    pub push: Option<Push>,
+    /// New versions sent up from the ground mirror, in order (needs
+    /// `radio`).
+    pub push: Vec<Push>,
 }
 
 /// A new version sent up from the ground, as `petrel mirror --push DIR
@@ -296,7 +297,7 @@ pub fn fly_with(
         version,
         push,
     } = setup;
-    let mut pushed = false;
+    let mut pushed = 0;
     let mut signer = petrel_core::signing::Signer::new(operator_key(), 0, None);
     let started = Instant::now();
     let scratch = Scratch::new(&format!("simulated-{name}"));
@@ -346,7 +347,7 @@ pub fn fly_with(
         forgot_at: None,
     });
     let (supervisor, start) = Supervisor::start_lanes(project.clone(), lanes, 0);
-    let operator = push.as_ref().map(|_| operator_key());
+    let operator = (!push.is_empty()).then(operator_key);
     let mut core = Onboard::new(supervisor, crew, downlink, operator, true);
     core.start(0, &start);
     recorder.start(&start, core.player());
@@ -392,9 +393,9 @@ pub fn fly_with(
         // of its records goes up signed, through the radio; whole on
         // board, it is unpacked and loaded as `run` does (no pre-flight
         // check here: the proof follows).
-        if let (Some(g), Some(p)) = (&mut ground, &push) {
-            if !pushed && t as f64 >= p.at_s * 1e6 {
-                pushed = true;
+        if let Some(g) = &mut ground {
+            if let Some(p) = push.get(pushed).filter(|p| t as f64 >= p.at_s * 1e6) {
+                pushed += 1;
                 let (project, files) = petrel_core::project::load_read(
                     &p.dir,
                     &petrel_core::project::catalog(&profile),
@@ -411,8 +412,8 @@ pub fn fly_with(
                     ..Default::default()
                 };
                 g.station
-                    .push(t, 1, bytes, version, config)
-                    .expect("one push");
+                    .push(t, pushed as u64, bytes, version, config)
+                    .expect("one push at a time");
             }
             while let Some((to, signed)) = g.station.poll_signed(t) {
                 let tunnel = Tunnel::petrel(to, signed.bytes().to_vec());

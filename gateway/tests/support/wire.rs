@@ -101,7 +101,15 @@ pub fn uvarint(b: &[u8], at: &mut usize) -> Option<u64> {
 /// (vehicle 1, component 191), holding only resync requests (kinds 5
 /// resend, 6 snapshot, 8 heartbeat). Never a HEARTBEAT, never system 255.
 pub fn only_resync_requests(frames: &[Vec<u8>]) -> usize {
+    only_requests(frames, false)
+}
+
+/// [`only_resync_requests`], and with `uploads` the pieces of a version
+/// sent up (kinds 11 offer, 12 piece), in signed frames only.
+pub fn only_requests(frames: &[Vec<u8>], uploads: bool) -> usize {
     for bytes in frames {
+        // MAVLink 2's incompatibility flags: 0x01, signed.
+        let signed = bytes.first() == Some(&0xfd) && bytes.get(2).is_some_and(|f| f & 1 == 1);
         let f = elaboration::Frame::parse(bytes).expect("the mirror's frames are valid MAVLink");
         assert_eq!(
             f.message_id(),
@@ -134,7 +142,18 @@ pub fn only_resync_requests(frames: &[Vec<u8>]) -> usize {
                 8 => {
                     uvarint(payload, &mut at).expect("at");
                 }
-                k => panic!("the mirror sent a record of kind {k}: {payload:?}"),
+                11 if uploads && signed => {
+                    uvarint(payload, &mut at).expect("upload");
+                    uvarint(payload, &mut at).expect("length");
+                    at += 32;
+                }
+                12 if uploads && signed => {
+                    uvarint(payload, &mut at).expect("upload");
+                    uvarint(payload, &mut at).expect("index");
+                    let n = uvarint(payload, &mut at).expect("len");
+                    at += n as usize;
+                }
+                k => panic!("the mirror sent a record of kind {k} (signed: {signed}): {payload:?}"),
             }
         }
         assert_eq!(at, payload.len());

@@ -8,6 +8,8 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use nets::Micros;
+use petrel_core::mirror::station::Station;
 use petrel_core::mirror::upload::Sent;
 use petrel_core::version::Version;
 
@@ -19,6 +21,35 @@ pub(super) struct Push {
     pub version: Arc<Version>,
     /// Its files' bytes before packing.
     pub unpacked: usize,
+    dir: std::path::PathBuf,
+}
+
+impl Push {
+    /// What goes up, for people.
+    pub fn summary(&self, rate: u64) -> String {
+        format!(
+            "push: {} checked and packed: {} files, {} bytes ({} unpacked), at {rate} B/s",
+            self.dir.display(),
+            self.version.files.len(),
+            self.bytes.len(),
+            self.unpacked,
+        )
+    }
+}
+
+/// Starts sending `push` up from ground time `now`, at `rate` bytes/s.
+pub(super) fn start(station: &mut Station, now: Micros, push: Push, rate: u64) {
+    // Numbered by the wall clock: two pushes never share a number.
+    let upload = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(1, |d| d.as_millis() as u64);
+    let config = petrel_core::mirror::upload::Config {
+        bytes_per_s: rate.max(1),
+        ..Default::default()
+    };
+    if let Err(e) = station.push(now, upload, push.bytes, push.version, config) {
+        say!("push: not sent: {e}");
+    }
 }
 
 /// The version in `dir`, loaded with `catalog`, checked from its start
@@ -50,6 +81,7 @@ pub(super) fn prepare(
             files,
         }),
         unpacked,
+        dir: dir.to_path_buf(),
     })
 }
 

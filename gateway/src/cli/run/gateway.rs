@@ -178,7 +178,8 @@ impl Gateway {
     }
 
     fn say_version(&mut self, text: String) {
-        say!("reload: {text}");
+        // At the gateway's time, as the timeline counts it.
+        say!("reload at {:.3} s: {text}", nets::time::seconds(self.now()));
         if let Some(rec) = &self.recorder {
             rec.log(
                 self.clock.now(),

@@ -3,9 +3,12 @@
 //! folder is read again, loaded and checked from its own start (the
 //! pre-flight check, remembered like `run`'s) on a thread of its own; the
 //! core ([`petrel_core::version`]) then has it proved from the running
-//! state, on another. Both threads are in the batch policy: the loop and
-//! its reaction time come first. The driver only moves the results back
-//! to the core; the decisions are the core's.
+//! state, on another. Both threads take the normal policy: a loop given a
+//! real-time priority (docs/run.md "On a busy computer") is never
+//! preempted by them, and on a loaded computer they still get their share
+//! (in the batch policy a proof took five times as long beside a flight at
+//! ten times the wall). The driver only moves the results back to the
+//! core; the decisions are the core's.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -80,7 +83,7 @@ impl Reload {
         let spawned = std::thread::Builder::new()
             .name("petrel-reload".into())
             .spawn(move || {
-                let _ = crate::scheduling::batch();
+                let _ = crate::scheduling::normal();
                 let _ = tx.send(Background::Loaded(load(&dir, &catalog, &layers, check)));
             });
         if let Err(e) = spawned {
@@ -108,7 +111,7 @@ impl Reload {
         let spawned = std::thread::Builder::new()
             .name("petrel-upload".into())
             .spawn(move || {
-                let _ = crate::scheduling::batch();
+                let _ = crate::scheduling::normal();
                 let loaded = crate::upload::unpack(&bytes)
                     .and_then(|files| load_files(files, &catalog, &layers, check));
                 let _ = tx.send(Background::Uploaded(upload, loaded));
@@ -129,7 +132,7 @@ impl Reload {
         let spawned = std::thread::Builder::new()
             .name("petrel-proof".into())
             .spawn(move || {
-                let _ = crate::scheduling::batch();
+                let _ = crate::scheduling::normal();
                 let _ = tx.send(Background::Proved(Box::new(proof.run())));
             });
         if let Err(e) = spawned {
