@@ -33,7 +33,7 @@ pub type Files = crate::project::Files;
 
 /// How many times a version is proved again because the state moved
 /// while it was being proved, before it is refused.
-pub const PROOFS_AT_MOST: u32 = 8;
+pub const PROOFS_AT_MOST: u32 = 12;
 
 /// A version of the project, as offered and as recorded.
 pub struct Version {

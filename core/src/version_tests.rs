@@ -167,7 +167,7 @@ fn a_state_that_never_settles_is_refused_after_the_last_proof() {
     match last {
         Some(Report::Refused { number: 1, reasons }) => {
             assert!(
-                reasons[0].contains("moved during each of 8 proofs"),
+                reasons[0].contains("moved during each of 12 proofs"),
                 "{reasons:?}"
             )
         }

@@ -207,33 +207,6 @@ async fn a_new_version_takes_over_in_flight_and_a_bad_one_is_refused() {
     assert!(said.contains("match the recording"), "{said}");
 }
 
-/// The flight-test example's COMMUNICATION net, version 1: a link that
-/// failed once is not trusted, the vehicle returns home once it is back
-/// (version 0 proceeds with the mission whatever the links do).
-fn returning_after_a_link_hole(example: &Path) -> String {
-    let text = std::fs::read_to_string(example.join("communication.toml")).expect("the net");
-    let text = text
-        .replace(
-            "places = [\"proceeding\"]",
-            "places = [\"proceeding\", \"degraded\", \"returning\"]",
-        )
-        .replace(
-            "final = [\"proceeding\"]",
-            "final = [\"proceeding\", \"returning\"]",
-        );
-    let lost = "from = [\"proceeding\"]\nto = [\"proceeding\"]\non = \"link_lost\"";
-    let restored = "from = [\"proceeding\"]\nto = [\"proceeding\"]\non = \"link_restored\"";
-    assert!(text.contains(lost) && text.contains(restored), "{text}");
-    text.replace(
-        lost,
-        "from = [\"proceeding\"]\nto = [\"degraded\"]\non = \"link_lost\"",
-    )
-    .replace(
-        restored,
-        "from = [\"degraded\"]\nto = [\"returning\"]\non = \"link_restored\"\ndo = [\"command rtl\"]",
-    )
-}
-
 /// Version 1 with COMMUNICATION's place `returning` renamed, no
 /// `[reload]` mapping: refused once the vehicle is in it.
 fn without_returning(scratch: &Scratch) -> std::path::PathBuf {
@@ -250,21 +223,12 @@ fn without_returning(scratch: &Scratch) -> std::path::PathBuf {
     renamed
 }
 
-/// A copy of the flight-test example (its files, not its folders) with
-/// COMMUNICATION's version 1.
+/// A copy of the flight-test example with COMMUNICATION's version 1.
 pub(crate) fn version_one(scratch: &Scratch) -> std::path::PathBuf {
-    let example = crate::flight::project();
-    let dir = scratch.join("version-1");
-    std::fs::create_dir_all(&dir).expect("a folder");
-    for entry in std::fs::read_dir(&example).expect("the example") {
-        let path = entry.expect("an entry").path();
-        if path.is_file() {
-            std::fs::copy(&path, dir.join(path.file_name().expect("a name"))).expect("copied");
-        }
-    }
+    let dir = crate::flight::example_copy(&scratch.join("version-1"));
     std::fs::write(
         dir.join("communication.toml"),
-        returning_after_a_link_hole(&example),
+        crate::flight::returning_after_a_link_hole(&crate::flight::project()),
     )
     .expect("write");
     dir

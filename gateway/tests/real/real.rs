@@ -49,6 +49,9 @@ pub struct Truth {
     pub max_alt: f64,
     /// When each failure was injected (name, time).
     pub injected: Vec<(f64, String)>,
+    /// A new version of the project took over in the gateway (read off
+    /// its timeline, not ArduPilot's: issue 38's flights).
+    pub swapped: bool,
 }
 
 impl Truth {
@@ -400,6 +403,9 @@ pub enum Act {
     /// Nothing through the gateway's link, both ways, for this many
     /// simulated seconds.
     LinkHole(f64),
+    /// A new version of the project: these files written over the
+    /// flight's copy of the project ([`Plan::project`]), then SIGHUP.
+    Reload(Vec<(&'static str, String)>),
 }
 
 /// An act, when a condition on the truth first holds, named for the
@@ -434,6 +440,9 @@ pub struct Plan {
     /// other flights run `--unchecked` (the same project is checked by
     /// tests/flight_test_example.rs).
     pub checked: bool,
+    /// The project folder `petrel run` supervises (default: the example
+    /// itself); a copy for flights that change it ([`Act::Reload`]).
+    pub project: Option<std::path::PathBuf>,
 }
 
 impl Plan {
@@ -444,6 +453,7 @@ impl Plan {
             steps: Vec::new(),
             max_sim_s: 600.0,
             checked: false,
+            project: None,
         }
     }
 }
@@ -458,7 +468,9 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
         mut steps,
         max_sim_s,
         checked,
+        project,
     } = plan;
+    let project = project.unwrap_or_else(flight::project);
     let located = ardupilot::require(Firmware::Plane, name)?;
     let turn = crate::sitl_turn();
     let scratch = Scratch::new(&format!("real-{name}"));
@@ -489,7 +501,8 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
     let max_wall = Duration::from_secs_f64(max_sim_s / f64::from(SPEEDUP) * 4.0 + 60.0);
     let dec = Dec::start(&programs);
     let started = Instant::now();
-    let mut petrel = flight::Running::new(flight::petrel_run(
+    let mut petrel = flight::Running::new(flight::petrel_run_project(
+        &project,
         &format!("tcpout:127.0.0.1:{}", relay.port),
         &programs,
         f64::from(SPEEDUP),
@@ -518,7 +531,8 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
     let mut finished_at: Option<f64> = None;
     loop {
         std::thread::sleep(Duration::from_millis(100));
-        let truth = observer.truth();
+        let mut truth = observer.truth();
+        truth.swapped = petrel.printed("\"input\":\"version\"");
         steps.retain(|(what, when, acts)| {
             if !when(&truth) {
                 return true;
@@ -529,6 +543,12 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
                     Act::Param(name, value) => observer.set(name, *value),
                     Act::LinkHole(sim_s) => {
                         relay.hole(Duration::from_secs_f64(sim_s / f64::from(SPEEDUP)))
+                    }
+                    Act::Reload(files) => {
+                        for (name, text) in files {
+                            std::fs::write(project.join(name), text).expect("the version");
+                        }
+                        petrel.hangup();
                     }
                 }
             }

@@ -583,3 +583,90 @@ fn a_geofence_breach_returns_as_arduplane_does() {
     assert!(after.iter().any(|v| v == "land" || v == "rtl"), "{after:?}");
     returned_home("fence", &f);
 }
+
+/// Issue 38 against real ArduPlane: mid-flight, COMMUNICATION's reaction
+/// to a link hole changes from "proceed" to "return" (`petrel run` reads
+/// its project again on SIGHUP, proves the version from the state it is
+/// in and swaps); the later 10 s hole gets the new reaction (RTL, which
+/// RTL_AUTOLAND turns into the landing sequence, flown from there); a
+/// second version without the place COMMUNICATION is then in is refused
+/// with its reason while the flight goes on; the recording replays the
+/// swap exactly.
+///
+/// A debug build beside SITL at ten times the wall proves the version in
+/// some 25 simulated seconds (0.5 s in a release build), and the state
+/// moves meanwhile: the version is proved again until a proof holds for
+/// the state the vehicle is in, which may be late in the mission. The
+/// hole waits for the swap.
+#[test]
+fn a_new_version_in_flight_returns_after_a_link_hole_and_a_bad_one_is_refused() {
+    let copy = crate::scratch::Scratch::new("real-reload-project");
+    let project = flight::example_copy(&copy.join("project"));
+    let example = flight::project();
+    let version_1 = flight::returning_after_a_link_hole(&example);
+    let version_2 = version_1.replace("\"returning\"", "\"homeward\"");
+    let plan = Plan {
+        project: Some(project.clone()),
+        steps: vec![
+            (
+                "version 1",
+                reached(1),
+                vec![Act::Reload(vec![("communication.toml", version_1)])],
+            ),
+            // The hole once version 1 runs.
+            (
+                "link hole",
+                Box::new(|t: &Truth| t.swapped),
+                vec![Act::LinkHole(10.0)],
+            ),
+            (
+                "version 2",
+                after("link hole", 30.0),
+                vec![Act::Reload(vec![("communication.toml", version_2)])],
+            ),
+        ],
+        ..mission("reload")
+    };
+    let Some(f) = real::fly(plan, Truth::down) else {
+        return;
+    };
+    eprintln!("{}", event_counts(&f));
+    let err = &f.flown.stderr;
+    assert!(err.contains(": version 1 took over at step"), "{err}");
+    assert!(
+        err.contains(": version 2 refused, the running version goes on")
+            && err.contains("place COMMUNICATION.returning is marked"),
+        "{err}"
+    );
+    // Version 1's reaction: back once the link is back, never before.
+    let verbs = verbs_after(&f, "link_restored");
+    assert!(verbs.iter().any(|v| v == "rtl"), "{verbs:?}");
+    let before: Vec<String> = f
+        .flown
+        .timeline
+        .iter()
+        .take_while(|l| l["event"] != "link_restored")
+        .filter(|l| l["effect"] == "command")
+        .filter_map(|l| l["verb"].as_str().map(str::to_owned))
+        .collect();
+    assert!(!before.iter().any(|v| v == "rtl"), "{before:?}");
+    // ArduPilot: the landing sequence (item 9, DO_LAND_START) flown from
+    // the return on, and down.
+    let t = &f.truth;
+    let back = t.injected_at("link hole").expect("the hole") + 10.0;
+    assert!(
+        t.reached.iter().any(|r| r.1 == 9 && r.0 > back),
+        "{:?}",
+        t.reached
+    );
+    assert!(t.down(), "{:?}", t.modes);
+    // The recording replays, the swap included (the folder back to the
+    // version the flight started with).
+    std::fs::write(
+        project.join("communication.toml"),
+        std::fs::read_to_string(example.join("communication.toml")).expect("the example"),
+    )
+    .expect("write");
+    let (code, stderr) = f.flown.replay_check_project(&project);
+    assert_eq!(code, Some(0), "{stderr}");
+}

@@ -29,6 +29,46 @@ pub fn project() -> PathBuf {
     root().join("examples/uav-flight-test")
 }
 
+/// The flight-test example's COMMUNICATION net, version 1 (issue 38's
+/// flights): a link that failed once is not trusted, the vehicle returns
+/// home once it is back (version 0 proceeds with the mission whatever the
+/// links do).
+pub fn returning_after_a_link_hole(example: &Path) -> String {
+    let text = std::fs::read_to_string(example.join("communication.toml")).expect("the net");
+    let text = text
+        .replace(
+            "places = [\"proceeding\"]",
+            "places = [\"proceeding\", \"degraded\", \"returning\"]",
+        )
+        .replace(
+            "final = [\"proceeding\"]",
+            "final = [\"proceeding\", \"returning\"]",
+        );
+    let lost = "from = [\"proceeding\"]\nto = [\"proceeding\"]\non = \"link_lost\"";
+    let restored = "from = [\"proceeding\"]\nto = [\"proceeding\"]\non = \"link_restored\"";
+    assert!(text.contains(lost) && text.contains(restored), "{text}");
+    text.replace(
+        lost,
+        "from = [\"proceeding\"]\nto = [\"degraded\"]\non = \"link_lost\"",
+    )
+    .replace(
+        restored,
+        "from = [\"degraded\"]\nto = [\"returning\"]\non = \"link_restored\"\ndo = [\"command rtl\"]",
+    )
+}
+
+/// A copy of the flight-test example's files (not its folders) in `dir`.
+pub fn example_copy(dir: &Path) -> PathBuf {
+    std::fs::create_dir_all(dir).expect("a folder");
+    for entry in std::fs::read_dir(project()).expect("the example") {
+        let path = entry.expect("an entry").path();
+        if path.is_file() {
+            std::fs::copy(&path, dir.join(path.file_name().expect("a name"))).expect("copied");
+        }
+    }
+    dir.to_path_buf()
+}
+
 /// What a flight left behind.
 pub struct Flown {
     pub state: SimState,
@@ -138,6 +178,21 @@ impl Running {
             lines,
             reader,
         }
+    }
+
+    /// SIGHUP: `petrel run` reads its project again (a new version).
+    pub fn hangup(&self) {
+        if let Some(c) = &self.child.0 {
+            let _ = Command::new("kill")
+                .args(["-HUP", &c.id().to_string()])
+                .stderr(std::process::Stdio::null())
+                .status();
+        }
+    }
+
+    /// Whether its timeline so far holds `needle`.
+    pub fn printed(&self, needle: &str) -> bool {
+        self.lines.lock().is_ok_and(|l| l.contains(needle))
     }
 
     /// It has exited by itself.
