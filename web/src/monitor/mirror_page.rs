@@ -33,6 +33,8 @@ use petrel_core::supervisor::{Input, Step};
 /// never waiting for a browser (`live.rs`).
 pub struct Page {
     feed: Feed,
+    /// The project's folder (a new version's page shows its files).
+    dir: std::path::PathBuf,
     pub server: Server,
     frames: Vec<(Micros, Vec<u8>)>,
     reports: Vec<Report>,
@@ -70,6 +72,7 @@ impl Page {
         let server = Server::start_mirror(address, live, desk)?;
         let page = Page {
             feed,
+            dir: dir.to_path_buf(),
             server,
             frames: Vec::new(),
             reports: Vec::new(),
@@ -136,6 +139,14 @@ impl Page {
                 }
             }
         });
+        // A new version the replica took over: open pages draw its nets.
+        for r in &self.reports {
+            if let Report::Version { version, .. } = r {
+                let mut page = super::page::page(&version.project, Some(&self.dir), "live");
+                page["mirror"] = json!(true);
+                self.feed.replace_page(page);
+            }
+        }
         self.feed.publish();
         self.frames.clear();
         self.reports.clear();
