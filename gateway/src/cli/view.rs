@@ -127,8 +127,9 @@ fn index(args: &Args, dir: &std::path::Path) -> Result<Option<History>, miette::
             d.what
         );
     }
-    let page = page::page(&project, Some(dir), "recording");
-    Ok(Some(builder.finish(page)))
+    Ok(Some(
+        builder.finish(|p| page::page(p, Some(dir), "recording")),
+    ))
 }
 
 /// Times `n` instants spread over the recording, as the page asks for them.

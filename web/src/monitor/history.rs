@@ -19,8 +19,10 @@ const LOG_SHOWN: usize = 300;
 
 /// The index of a recording.
 pub struct History {
-    project: Arc<Project>,
-    pub page: String,
+    /// The project's versions, each from the instant it took over (the
+    /// first from the start), and the page of each (`/page.json?v=N`).
+    versions: Vec<(Micros, Arc<Project>)>,
+    pages: Vec<String>,
     pub origin: Micros,
     pub start: Micros,
     pub end: Micros,
@@ -38,6 +40,8 @@ pub struct History {
 /// Builds a [`History`] as the steps are replayed.
 pub struct Builder {
     board: Board,
+    /// The project's versions, from the instant each took over.
+    versions: Vec<(Micros, Arc<Project>)>,
     steps: Vec<Micros>,
     keys: Vec<Marking>,
     /// Per vehicle, its strip at each change.
@@ -47,12 +51,13 @@ pub struct Builder {
 impl Builder {
     /// From the player's start (step 0).
     pub fn new(project: Arc<Project>, start: &Step, player: &Player, origin: Micros) -> Builder {
-        let mut board = Board::new(project, player, origin, usize::MAX);
+        let mut board = Board::new(project.clone(), player, origin, usize::MAX);
         board.start(start, player);
         let keys = vec![board.marking.clone()];
         let strips = vec![Vec::new(); board.vehicle.all.len()];
         Builder {
             board,
+            versions: vec![(start.time, project)],
             steps: vec![start.time],
             keys,
             strips,
@@ -61,6 +66,14 @@ impl Builder {
 
     pub fn step(&mut self, input: &Input, step: &Step, player: &Player) {
         self.board.step(input, step, player);
+        if self
+            .versions
+            .last()
+            .is_none_or(|(_, p)| !Arc::ptr_eq(p, self.board.project()))
+        {
+            self.versions
+                .push((step.time, self.board.project().clone()));
+        }
         self.steps.push(step.time);
         if self.board.marking_changed {
             self.keys.push(self.board.marking.clone());
@@ -74,14 +87,15 @@ impl Builder {
         }
     }
 
-    pub fn finish(self, page: Json) -> History {
+    /// The index, each version's page made by `page_of`.
+    pub fn finish(self, page_of: impl Fn(&Project) -> Json) -> History {
         let Builder {
             board,
+            versions,
             steps,
             keys,
             strips,
         } = self;
-        let project = board.project().clone();
         let origin = board.origin;
         let start = steps.first().copied().unwrap_or(origin);
         let end = steps.last().copied().unwrap_or(start);
@@ -113,13 +127,20 @@ impl Builder {
                 ])
             })
             .collect();
-        let mut page = page;
-        page["timeline"] = json!({"start": seconds(start, origin), "end": seconds(end, origin),
-                                  "start_us": start, "end_us": end, "origin_us": origin,
-                                  "marks": marks, "steps": steps.len()});
+        let timeline = json!({"start": seconds(start, origin), "end": seconds(end, origin),
+                              "start_us": start, "end_us": end, "origin_us": origin,
+                              "marks": marks, "steps": steps.len()});
+        let pages = versions
+            .iter()
+            .map(|(_, project)| {
+                let mut page = page_of(project);
+                page["timeline"] = timeline.clone();
+                page.to_string()
+            })
+            .collect();
         History {
-            project,
-            page: page.to_string(),
+            versions,
+            pages,
             origin,
             start,
             end,
@@ -133,6 +154,21 @@ impl Builder {
 }
 
 impl History {
+    /// The page of version `v` (0: the one the flight started with).
+    pub fn page(&self, v: usize) -> String {
+        self.pages
+            .get(v)
+            .or(self.pages.first())
+            .cloned()
+            .unwrap_or_default()
+    }
+
+    /// The version the nets ran at `at` (its index) and its project.
+    fn version_at(&self, at: Micros) -> (usize, &Arc<Project>) {
+        let i = self.versions.partition_point(|(t, _)| *t <= at).max(1) - 1;
+        (i, &self.versions[i].1)
+    }
+
     /// The next (`dir` > 0) or previous moment something changed, from `at`.
     pub fn moment(&self, at: Micros, dir: i64) -> Micros {
         if dir > 0 {
@@ -156,7 +192,10 @@ impl History {
     /// The page's frame for instant `at` (clamped to the recording).
     pub fn frame_at(&self, at: Micros) -> Json {
         let at = at.clamp(self.start, self.end);
-        let mut frame = self.marking_at(at).json(&self.project, self.origin);
+        let (version, project) = self.version_at(at);
+        let mut frame = self.marking_at(at).json(project, self.origin);
+        // Which version's page draws it (another: the page loads it).
+        frame["page"] = json!(version);
         let seq = self.steps.partition_point(|&t| t <= at).max(1) - 1;
         frame["seq"] = json!(seq);
         frame["time_us"] = json!(at);
@@ -196,6 +235,65 @@ mod tests {
     use super::*;
 
     #[test]
+    fn an_instant_after_a_new_version_is_drawn_with_its_page() {
+        let project = project();
+        let mut player = Player::start(project.clone(), 0);
+        let start = Step {
+            seq: 0,
+            time: 0,
+            events: Vec::new(),
+            effects: player.effects().collect(),
+        };
+        let mut builder = Builder::new(project.clone(), &start, &player, 0);
+        let x = Input::Event(nets::Event::new("x"));
+        let s = step(&mut player, 1, 1_000_000, &x);
+        builder.step(&x, &s, &player);
+        // Version 1: a net before A (A's places numbered after B's).
+        let files = [
+            (
+                "project.toml",
+                "[[net]]\nfile = \"b.toml\"\nactive = true\n[[net]]\nfile = \"a.toml\"\nactive = true\n[events]\nx = {}\ny = {}\n",
+            ),
+            (
+                "b.toml",
+                "name = \"B\"\nplaces = [\"p\", \"q\"]\ninitial = [\"p\"]\nfinal = [\"q\"]\n[[transition]]\nname = \"t\"\nfrom = [\"p\"]\nto = [\"q\"]\non = \"y\"\n",
+            ),
+            (
+                "a.toml",
+                "name = \"A\"\nplaces = [\"idle\", \"on\"]\ninitial = [\"idle\"]\n[[transition]]\nname = \"go\"\nfrom = [\"idle\"]\nto = [\"on\"]\non = \"x\"\ndo = [\"command arm\"]\n[[transition]]\nname = \"back\"\nfrom = [\"on\"]\nto = [\"idle\"]\non = \"y\"\n",
+            ),
+        ];
+        let new = Arc::new(nets::load(&files).unwrap_or_else(|e| panic!("{e}")));
+        let version = Arc::new(petrel_core::version::Version {
+            number: 1,
+            project: new.clone(),
+            files: Vec::new(),
+        });
+        let input = Input::Version(&version);
+        let s = step(&mut player, 2, 2_000_000, &input);
+        builder.step(&input, &s, &player);
+        let history = builder.finish(|p| json!({"name": p.nets[0].name}));
+        let before = history.frame_at(1_500_000);
+        let after = history.frame_at(2_500_000);
+        assert_eq!(
+            (before["page"].clone(), after["page"].clone()),
+            (json!(0), json!(1))
+        );
+        // A.on: flat 1 in version 0, flat 3 in version 1 (B's two first).
+        assert_eq!(before["marked"], json!([1]));
+        assert_eq!(
+            after["marked"],
+            json!([
+                new.flat(0, nets::model::PlaceRef::Local(0)),
+                new.flat(1, nets::model::PlaceRef::Local(1))
+            ])
+        );
+        assert!(history.page(0).contains("\"A\"") && history.page(1).contains("\"B\""));
+        // An unknown version's page is the first.
+        assert_eq!(history.page(9), history.page(0));
+    }
+
+    #[test]
     fn any_instant_shows_the_state_after_the_last_step_before_it() {
         let project = project();
         let mut player = Player::start(project.clone(), 0);
@@ -217,7 +315,7 @@ mod tests {
             builder.step(&input, &s, &player);
             after.push((i * 1_000_000, player.state().marking.clone()));
         }
-        let history = builder.finish(json!({}));
+        let history = builder.finish(|_| json!({}));
         for (time, marking) in &after {
             for at in [*time, time + 500_000] {
                 let frame = history.frame_at(at);
@@ -261,7 +359,7 @@ mod tests {
             let s = step(&mut player, i as u64 + 1, *time, &input);
             builder.step(&input, &s, &player);
         }
-        let history = builder.finish(json!({}));
+        let history = builder.finish(|_| json!({}));
         let at = |t: u64| history.frame_at(t)["vehicles"].clone();
         let v = at(3_500_000);
         assert_eq!((&v[0]["name"], &v[1]["name"]), (&json!("R1"), &json!("R2")));

@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
-use axum::extract::State;
+use axum::extract::{Query, State};
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
@@ -33,12 +33,20 @@ pub enum Source {
 }
 
 impl Source {
-    fn page(&self) -> String {
+    /// The page: a recording's version `v` (0 the first), the live one's
+    /// as it stands.
+    fn page(&self, v: usize) -> String {
         match self {
             Source::Live(l) => l.page(),
-            Source::Recording(h) => h.page.clone(),
+            Source::Recording(h) => h.page(v),
         }
     }
+}
+
+/// `/page.json?v=N`: the version of a recording's page.
+#[derive(serde::Deserialize)]
+struct PageQuery {
+    v: Option<usize>,
 }
 
 pub(crate) const INDEX: &str = include_str!("assets/index.html");
@@ -89,12 +97,14 @@ pub fn router(source: Source) -> Router {
     page_routes()
         .route(
             "/page.json",
-            get(|State(s): State<Shared>| async move {
-                (
-                    [(header::CONTENT_TYPE, "application/json")],
-                    s.source.page(),
-                )
-            }),
+            get(
+                |State(s): State<Shared>, Query(q): Query<PageQuery>| async move {
+                    (
+                        [(header::CONTENT_TYPE, "application/json")],
+                        s.source.page(q.v.unwrap_or(0)),
+                    )
+                },
+            ),
         )
         .route("/ws", get(socket))
         .with_state(shared)

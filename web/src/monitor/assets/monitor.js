@@ -752,10 +752,16 @@ function connect() {
   socket.onmessage = (m) => {
     asked = false;
     const f = JSON.parse(m.data);
-    // A new version of the project took over: its nets are drawn anew.
-    if (f.page !== undefined && drawnPage !== null && f.page !== drawnPage) { location.reload(); return; }
+    // Another version of the project's nets (one took over in flight):
+    // the page loads again with it — a recording's at the same instant.
+    if (f.page !== undefined && drawnPage !== null && f.page !== drawnPage) {
+      if (page.mode !== "live") location.hash = "v=" + f.page + "&at=" + f.time_us;
+      location.reload();
+      return;
+    }
     if (f.page !== undefined) drawnPage = f.page;
     apply(f);
+    if (startAt !== null) { const t = startAt; startAt = null; ask(t); }
     if (wanted !== null) { send({ at: wanted }); wanted = null; }
   };
   socket.onclose = () => {
@@ -769,9 +775,13 @@ $("zoom-close").onclick = unzoom;
 document.addEventListener("keydown", (ev) => { if (ev.key === "Escape") unzoom(); });
 setInterval(() => { if (frame) { paint(document); if (!$("zoom").hidden) paint($("zoom-view")); } }, 250);
 // The page number drawn (`page` of the frames): another means a new
-// version of the project replaced the nets.
+// version of the project replaced the nets. A recording's page loaded
+// again for another version says which, and the instant, in its hash.
 let drawnPage = null;
-fetch("page.json").then((r) => r.json()).then((p) => {
+const hash = new URLSearchParams(location.hash.slice(1));
+let startAt = Number.isFinite(Number(hash.get("at"))) && hash.has("at") ? Number(hash.get("at")) : null;
+const version = hash.has("v") ? "?v=" + encodeURIComponent(hash.get("v")) : "";
+fetch("page.json" + version).then((r) => r.json()).then((p) => {
   page = p;
   // `petrel edit`: the editor (edit.js, fetched only then) draws the page.
   if (p.mode === "edit") { const s = document.createElement("script"); s.src = "edit.js"; document.head.appendChild(s); return; }
