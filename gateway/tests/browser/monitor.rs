@@ -422,3 +422,112 @@ fn the_flight_live_in_the_browser_then_its_recording_scrubbed() {
     assert_ne!(seen["stepped_to"], seen["stepped_from"], "step moved");
     assert_ne!(seen["played_to"], seen["stepped_to"], "play moved");
 }
+
+/// A recording whose project took a new version in flight, in `petrel
+/// view`: each instant is drawn with the version that ran then, the page
+/// loading again (at the same instant) when the scrub crosses the swap.
+/// The recording is written here by the recorder `petrel run` uses: ten
+/// events, version 1 (its transitions renamed), ten events more.
+#[test]
+fn a_recording_with_a_new_version_is_drawn_with_each_version() {
+    let Some(tools) = require() else { return };
+    let dir = Scratch::new("view-versions");
+    let net = |go: &str, back: &str| {
+        format!(
+            "name = \"N\"\nplaces = [\"idle\", \"busy\"]\ninitial = [\"idle\"]\n\
+             [[transition]]\nname = \"{go}\"\nfrom = [\"idle\"]\nto = [\"busy\"]\non = \"x\"\n\
+             [[transition]]\nname = \"{back}\"\nfrom = [\"busy\"]\nto = [\"idle\"]\non = \"y\"\n"
+        )
+    };
+    let project_toml =
+        "[[net]]\nfile = \"n.toml\"\nactive = true\n[events]\nx = \"nominal\"\ny = \"nominal\"\n";
+    std::fs::write(dir.join("project.toml"), project_toml).expect("write");
+    std::fs::write(dir.join("n.toml"), net("tick", "tock")).expect("write");
+    let load = |files: &[(String, String)]| {
+        let sources: BTreeMap<String, String> = files.iter().cloned().collect();
+        std::sync::Arc::new(nets::load(&sources).unwrap_or_else(|e| panic!("{e:?}")))
+    };
+    let v0 = load(&[
+        ("project.toml".into(), project_toml.into()),
+        ("n.toml".into(), net("tick", "tock")),
+    ]);
+    let files1 = vec![
+        ("project.toml".to_owned(), project_toml.to_owned()),
+        ("n.toml".to_owned(), net("rise", "fall")),
+    ];
+    let version = std::sync::Arc::new(petrel_core::version::Version {
+        number: 1,
+        project: load(&files1),
+        files: files1,
+    });
+    let mcap = dir.join("flight.mcap");
+    let recorder = petrel_record::recorder::Recorder::create(
+        &mcap,
+        v0.clone(),
+        petrel_record::recorder::Options::default(),
+    )
+    .expect("a recording");
+    let profile = elaboration::Profile::builtin("ardupilot").expect("the profile");
+    let (mut sup, start) =
+        petrel_core::supervisor::Supervisor::start(v0, profile, elaboration::Config::default(), 0);
+    recorder.start(&start, sup.player());
+    use petrel_core::supervisor::Input;
+    for i in 1..=21u64 {
+        let input = if i == 11 {
+            Input::Version(&version)
+        } else {
+            Input::Event(nets::Event::new(if i % 2 == 1 { "x" } else { "y" }))
+        };
+        recorder.feed(&mut sup, i * 1_000_000, input);
+    }
+    recorder.finish().expect("the recording ends");
+    let (_view, rx) = spawn(
+        &[
+            "view",
+            &mcap.to_string_lossy(),
+            &dir.to_string_lossy(),
+            "--http",
+            "127.0.0.1:0",
+        ],
+        dir.path(),
+    );
+    let view_url = url(&rx, "view: ", Duration::from_secs(60));
+    let shots = repo().join("target/tmp/monitor");
+    std::fs::create_dir_all(&shots).expect("a folder");
+    let shots_s = shots.to_string_lossy().into_owned();
+    // 5.5 s: version 0, after x (busy); 15.5 s: version 1, after x (busy);
+    // 3.5 s: back across the swap.
+    let seen = drive(
+        &tools,
+        &["view-versions", &view_url, &shots_s, "5.5", "15.5", "3.5"],
+        &[],
+    );
+    let instants = seen["instants"].as_array().cloned().unwrap_or_default();
+    let drawn = |i: usize| -> Vec<String> {
+        instants[i]["transitions"]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|s| s.as_str().map(str::to_owned))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    assert_eq!(instants.len(), 3, "{seen}");
+    assert_eq!(drawn(0), ["t-N-tick", "t-N-tock"], "{seen}");
+    assert_eq!(drawn(1), ["t-N-rise", "t-N-fall"], "{seen}");
+    assert_eq!(drawn(2), ["t-N-tick", "t-N-tock"], "{seen}");
+    for i in 0..3 {
+        assert_eq!(
+            instants[i]["marked"],
+            serde_json::json!(["p-N-busy"]),
+            "{seen}"
+        );
+    }
+    assert!(
+        instants[1]["hash"]
+            .as_str()
+            .is_some_and(|h| h.contains("v=1")),
+        "{seen}"
+    );
+}

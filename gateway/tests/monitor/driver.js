@@ -1,5 +1,5 @@
 // Drives Debian's chromium with playwright-core for gateway/tests/monitor.rs.
-// Usage: node driver.js live|view URL OUT_DIR [SECONDS_AT...]
+// Usage: node driver.js live|view|view-versions URL OUT_DIR [SECONDS_AT...]
 //        node driver.js mirror|mirror-read-only URL OUT_DIR [CHOICE]
 //        (gateway/tests/monitor_mirror.rs: the mirror's page)
 //        node driver.js team URL OUT_DIR
@@ -123,6 +123,37 @@ async function view(page, seen) {
   await page.click("#play");
   seen.played_to = await page.$eval("#step", (e) => e.textContent);
   await page.screenshot({ path: path.join(out, "monitor-view-played.png") });
+}
+
+// A recording whose project took a new version in flight: at each
+// instant (seconds), the transitions drawn and the places marked, after
+// the page loaded again for another version if the scrub crossed a swap.
+async function viewVersions(page, seen) {
+  await page.goto(url);
+  const ready = (want) => page.waitForFunction((w) => document.querySelector("#connection").textContent === "connected" &&
+    !document.querySelector("#timeline").hidden && (w === null || document.querySelector("#span").textContent.startsWith(w + " /")),
+    want, { timeout: 15000 });
+  await ready(null);
+  const info = await page.evaluate(() => fetch("page.json").then((r) => r.json()).then((p) => p.timeline));
+  seen.instants = [];
+  for (const s of rest.map(Number)) {
+    const v = ((s * 1e6 - info.start_us) / (info.end_us - info.start_us) * 1000).toFixed(6);
+    await page.$eval("#scrub", (el, v) => { el.value = v; el.dispatchEvent(new Event("input")); }, v);
+    const want = (s - info.origin_us / 1e6).toFixed(1);
+    // Crossing a swap loads the page again (its hash says the version and
+    // the instant): wait for it connected and at the instant.
+    await page.waitForTimeout(500);
+    await ready(want).catch(() => {});
+    await page.waitForTimeout(400);
+    seen.instants.push({
+      at: s,
+      hash: await page.evaluate(() => location.hash),
+      span: await page.$eval("#span", (e) => e.textContent),
+      transitions: await page.$$eval("#nets g.transition", (els) => els.map((e) => e.id)),
+      marked: await page.$$eval("#nets g.place.marked", (els) => els.map((e) => e.id)),
+    });
+    await page.screenshot({ path: path.join(out, "monitor-view-version-" + s.toFixed(1) + ".png") });
+  }
 }
 
 // The mirror's page: the replica agreeing, a question counting down; with
@@ -293,6 +324,7 @@ async function team(page, seen) {
     if (mode === "live") await live(page, seen);
     else if (mode.startsWith("mirror")) await mirror(page, seen, mode === "mirror-read-only");
     else if (mode === "team") await team(page, seen);
+    else if (mode === "view-versions") await viewVersions(page, seen);
     else await view(page, seen);
   } catch (e) {
     seen.failure = String(e && e.stack || e);

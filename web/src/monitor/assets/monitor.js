@@ -752,6 +752,14 @@ function connect() {
   socket.onmessage = (m) => {
     asked = false;
     const f = JSON.parse(m.data);
+    // A recording's page loaded again at an instant: the first frame is
+    // the start's; the instant is asked for, and drawn when it comes.
+    if (startAt !== null) {
+      const t = startAt;
+      startAt = null;
+      ask(t);
+      if (f.page !== undefined && f.page !== drawnPage) return;
+    }
     // Another version of the project's nets (one took over in flight):
     // the page loads again with it — a recording's at the same instant.
     if (f.page !== undefined && drawnPage !== null && f.page !== drawnPage) {
@@ -761,7 +769,6 @@ function connect() {
     }
     if (f.page !== undefined) drawnPage = f.page;
     apply(f);
-    if (startAt !== null) { const t = startAt; startAt = null; ask(t); }
     if (wanted !== null) { send({ at: wanted }); wanted = null; }
   };
   socket.onclose = () => {
@@ -777,8 +784,8 @@ setInterval(() => { if (frame) { paint(document); if (!$("zoom").hidden) paint($
 // The page number drawn (`page` of the frames): another means a new
 // version of the project replaced the nets. A recording's page loaded
 // again for another version says which, and the instant, in its hash.
-let drawnPage = null;
 const hash = new URLSearchParams(location.hash.slice(1));
+let drawnPage = Number.isInteger(Number(hash.get("v"))) && hash.has("v") ? Number(hash.get("v")) : null;
 let startAt = Number.isFinite(Number(hash.get("at"))) && hash.has("at") ? Number(hash.get("at")) : null;
 const version = hash.has("v") ? "?v=" + encodeURIComponent(hash.get("v")) : "";
 fetch("page.json" + version).then((r) => r.json()).then((p) => {
