@@ -517,12 +517,8 @@ fn a_recording_with_a_new_version_is_drawn_with_each_version() {
     assert_eq!(drawn(0), ["t-N-tick", "t-N-tock"], "{seen}");
     assert_eq!(drawn(1), ["t-N-rise", "t-N-fall"], "{seen}");
     assert_eq!(drawn(2), ["t-N-tick", "t-N-tock"], "{seen}");
-    for i in 0..3 {
-        assert_eq!(
-            instants[i]["marked"],
-            serde_json::json!(["p-N-busy"]),
-            "{seen}"
-        );
+    for instant in &instants {
+        assert_eq!(instant["marked"], serde_json::json!(["p-N-busy"]), "{seen}");
     }
     assert!(
         instants[1]["hash"]
