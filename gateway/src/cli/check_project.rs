@@ -34,17 +34,7 @@ pub fn run(
     threads: usize,
     reductions: Reductions,
 ) -> VerbResult {
-    let setting = match petrel_core::project::gateway_setting(dir, "profile") {
-        Ok(s) => s,
-        Err(e) => {
-            // No project, or broken TOML: the loader says it best.
-            petrel_core::project::load(dir)?;
-            return Err(e);
-        }
-    };
-    let layers =
-        petrel_core::profile::Layers::pick(profile, Some((dir, setting.as_deref())), "ardupilot")?;
-    let Some(profile) = crate::cli::loaded(&layers) else {
+    let Some((layers, profile)) = crate::cli::project_profile(dir, profile)? else {
         return Ok(Outcome::BadInput);
     };
     let (project, files) =

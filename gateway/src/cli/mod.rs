@@ -54,6 +54,20 @@ pub type VerbResult = Result<Outcome, miette::Report>;
 pub fn load_profiled(
     dir: &std::path::Path,
 ) -> Result<Option<std::sync::Arc<nets::Project>>, miette::Report> {
+    let Some((_, profile)) = project_profile(dir, None)? else {
+        return Ok(None);
+    };
+    petrel_core::project::load_with(dir, &petrel_core::project::catalog(&profile)).map(Some)
+}
+
+/// The elaboration profile a project in `dir` is checked with: `given`
+/// (`--profile`), else its `[gateway] profile`, else ArduPilot's; its
+/// layers and the profile, or `None` when it does not load (already
+/// said).
+pub(crate) fn project_profile(
+    dir: &std::path::Path,
+    given: Option<&str>,
+) -> Result<Option<(petrel_core::profile::Layers, elaboration::Profile)>, miette::Report> {
     let setting = match petrel_core::project::gateway_setting(dir, "profile") {
         Ok(s) => s,
         Err(e) => {
@@ -63,11 +77,8 @@ pub fn load_profiled(
         }
     };
     let layers =
-        petrel_core::profile::Layers::pick(None, Some((dir, setting.as_deref())), "ardupilot")?;
-    let Some(profile) = crate::cli::loaded(&layers) else {
-        return Ok(None);
-    };
-    petrel_core::project::load_with(dir, &petrel_core::project::catalog(&profile)).map(Some)
+        petrel_core::profile::Layers::pick(given, Some((dir, setting.as_deref())), "ardupilot")?;
+    Ok(crate::cli::loaded(&layers).map(|profile| (layers, profile)))
 }
 
 /// The profile the layers compile to, or `None` once every problem is

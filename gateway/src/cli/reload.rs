@@ -68,17 +68,7 @@ pub fn run(args: Args) -> VerbResult {
 
 /// The new version loaded and given the pre-flight check (remembered).
 fn checked(dir: &Path) -> VerbResult {
-    let setting = match petrel_core::project::gateway_setting(dir, "profile") {
-        Ok(s) => s,
-        Err(e) => {
-            // No project, or broken TOML: the loader says it best.
-            petrel_core::project::load(dir)?;
-            return Err(e);
-        }
-    };
-    let layers =
-        petrel_core::profile::Layers::pick(None, Some((dir, setting.as_deref())), "ardupilot")?;
-    let Some(profile) = super::loaded(&layers) else {
+    let Some((layers, profile)) = super::project_profile(dir, None)? else {
         return Ok(Outcome::BadInput);
     };
     let (project, files) =

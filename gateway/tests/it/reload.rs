@@ -7,9 +7,7 @@
 use std::path::Path;
 use std::time::Duration;
 
-use crate::peer;
 use crate::scratch::Scratch;
-use mavlink::dialects::ardupilotmega::*;
 
 fn petrel() -> tokio::process::Command {
     let mut c = tokio::process::Command::new(env!("CARGO_BIN_EXE_petrel"));
@@ -36,30 +34,6 @@ on = "mode_changed"
 when = 'mode == "STABILIZE"'
 "#;
 
-/// A scripted ArduCopter on UDP that flips between STABILIZE and GUIDED
-/// every 100 ms.
-async fn flipping_copter(port: u16) -> peer::Peer {
-    let hb = peer::heartbeat(
-        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-        MavType::MAV_TYPE_QUADROTOR,
-    );
-    let mut guided = hb.clone();
-    if let MavMessage::HEARTBEAT(h) = &mut guided {
-        h.custom_mode = 4;
-    }
-    let script: peer::Script = Box::new(|_, m| match peer::command_of(m) {
-        Some(c) => vec![peer::now(peer::ack(c, MavResult::MAV_RESULT_ACCEPTED))],
-        None => Vec::new(),
-    });
-    peer::Peer::start(
-        &format!("udpout:127.0.0.1:{port}"),
-        hb,
-        vec![guided],
-        script,
-    )
-    .await
-}
-
 async fn reload(args: &[&str]) -> std::process::Output {
     tokio::time::timeout(
         Duration::from_secs(20),
@@ -85,7 +59,7 @@ async fn a_new_version_takes_over_in_flight_and_a_bad_one_is_refused() {
         .and_then(|s| s.local_addr())
         .expect("a free port")
         .port();
-    let _vehicle = flipping_copter(port).await;
+    let _vehicle = crate::run::flipping_copter(port).await;
     let project = dir.to_str().expect("utf-8").to_owned();
     let run = petrel()
         .args([

@@ -38,7 +38,7 @@ fn free_port() -> u16 {
 
 /// A scripted ArduCopter on UDP that flips from STABILIZE to GUIDED every
 /// 100 ms and accepts every command.
-async fn flipping_copter(port: u16) -> peer::Peer {
+pub(crate) async fn flipping_copter(port: u16) -> peer::Peer {
     let hb = peer::heartbeat(
         MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
         MavType::MAV_TYPE_QUADROTOR,
