@@ -109,6 +109,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             | Record::SendHeartbeat { .. } => "uplink",
             Record::Answer { .. } => "answer",
             Record::Boot { .. } => "boot",
+            Record::Upload { .. }
+            | Record::Piece { .. }
+            | Record::Received { .. }
+            | Record::Verdict { .. } => "upload",
         };
         kept.entry(kind).or_insert_with(|| p.clone());
     }
@@ -121,6 +125,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let snapshot = record::Snapshot {
         step: lines.len() as u64,
         next: 0,
+        version: None,
         digest: player.digest().0,
         state: nets::player::snapshot::encode(player.state()),
     };

@@ -38,9 +38,13 @@ fuzz_target!(|data: &[u8]| {
         record::step_body(&again, &mut w2);
         assert_eq!(w2.bytes, w.bytes, "re-encoding a step is stable");
     }
-    // A snapshot, as chunks join into it; and the player's state alone.
-    if let Ok(s) = record::Snapshot::decode(data) {
-        restore(&s.state);
+    // A snapshot, as chunks join into it (of the first version, and of a
+    // version that took over in flight); and the player's state alone.
+    for versioned in [false, true] {
+        if let Ok(s) = record::Snapshot::decode(data, versioned) {
+            assert_eq!(s.version.is_some(), versioned);
+            restore(&s.state);
+        }
     }
     restore(data);
 });
