@@ -283,7 +283,7 @@ impl Sender {
             self.done = true;
             self.reports.push_back(Sent::GaveUp {
                 why: format!(
-                    "nothing from the vehicle for {} s (the link, or a vehicle without this mirror's operator key)",
+                    "nothing from the vehicle for {} s (the link; or its `petrel run` has no --downlink, or not this mirror's --operator-key)",
                     self.config.give_up_after / 1_000_000
                 ),
             });
