@@ -283,6 +283,7 @@ impl<W: Write + Seek> Writer<W> {
             Entry::Version(b) => {
                 let (project, (input, frame, step, digest, link)) = *b;
                 self.take_version(project);
+                self.attach_version(&input, step.time)?;
                 self.step(input, frame, &step, digest, link)
             }
             Entry::Project(project) => {
@@ -338,6 +339,26 @@ impl<W: Write + Seek> Writer<W> {
                 self.write_json(self.channels.log, 0, time, &v)
             }
         }
+    }
+
+    /// A version's files as MCAP attachments too, `version-N/PATH`
+    /// (`mcap list attachments`, Foxglove's attachments panel), beside
+    /// the input that replay reads them from.
+    fn attach_version(&mut self, input: &Input, time: Micros) -> mcap::McapResult<()> {
+        let Input::Version { number, files } = input else {
+            return Ok(());
+        };
+        let t = self.time_ns(time);
+        for (path, text) in files {
+            self.mcap.attach(&mcap::Attachment {
+                log_time: t,
+                create_time: t,
+                name: format!("version-{number}/{path}"),
+                media_type: "application/toml".into(),
+                data: std::borrow::Cow::Borrowed(text.as_bytes()),
+            })?;
+        }
+        Ok(())
     }
 
     /// What follows is of `project`, a new version: its nets are numbered

@@ -156,6 +156,17 @@ async fn a_new_version_takes_over_in_flight_and_a_bad_one_is_refused() {
         assert_ne!(busy(a), busy(b), "{a} then {b}");
     }
 
+    // The version's files are the recording's attachments too.
+    let bytes = std::fs::read(&recording).expect("the recording");
+    let summary = mcap::Summary::read(&bytes)
+        .expect("a summary")
+        .expect("the recording is finished");
+    let attached: Vec<String> = summary
+        .attachment_indexes
+        .iter()
+        .map(|a| a.name.clone())
+        .collect();
+    assert_eq!(attached, ["version-1/project.toml", "version-1/n.toml"]);
     // The recording replays the flight, the swap included, from the
     // version's recorded files (the folder holds version 2 by now; the
     // flight started with version 0).
