@@ -1,11 +1,14 @@
-//! A new version taken in flight (issue 38): the time from the version's
-//! files on disk to its swap, as `petrel run` does it on SIGHUP — read
-//! and loaded (`project::load_read`), checked from its own start (the
-//! pre-flight check: explored, or remembered because `petrel reload`
-//! checked the same files), proved from the running state
+//! A new version taken in flight (issue 38): the time from the last piece
+//! of a version sent up from the ground to its swap, as `petrel run` does
+//! it — unpacked (`gateway::upload::unpack`) and loaded, checked from its
+//! own start (the pre-flight check: explored, or remembered because the
+//! same files were checked before: `petrel reload`, or the mirror that
+//! sent it, on the same machine), proved from the running state
 //! (`petrel_core::version`, the exploration from the mid-mission state)
 //! and swapped — beside, in the same run, the pre-flight check alone
-//! (what `petrel run` waits for before it flies; the baseline).
+//! (what `petrel run` waits for before it flies; the baseline). A version
+//! read from disk on SIGHUP takes the same path, reading instead of
+//! unpacking.
 //!
 //! The project: `examples/uav-flight-test` mid-mission (its nominal
 //! script played to line 26, the operations area); the new version is the
@@ -47,17 +50,19 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// One reload: read, load, check (remembered when `cached`), prove,
-/// swap. The seconds it took.
+/// One version taken from its packed bytes: unpack, load, check
+/// (remembered when `cached`), prove, swap. The seconds it took.
 fn reload(
-    dir: &Path,
+    packed: &[u8],
     catalog: &nets::load::Catalog,
     layers: &[(String, String)],
     player: &Player,
     cached: bool,
 ) -> f64 {
     let start = Instant::now();
-    let (new, files) = petrel_core::project::load_read(dir, catalog).expect("it loads");
+    let files = gateway::upload::unpack(packed).expect("it unpacks");
+    let sources: std::collections::BTreeMap<String, String> = files.iter().cloned().collect();
+    let new = Arc::new(nets::load_with(&sources, catalog).expect("it loads"));
     let inputs = Inputs {
         files: &files,
         layers,
@@ -121,6 +126,13 @@ fn main() {
         petrel_core::project::load_read(&example(), &catalog).expect("the example loads");
     let player = mid_mission(&running, 26);
 
+    let (_, version_files) = petrel_core::project::load_read(&dir, &catalog).expect("loads");
+    let packed = gateway::upload::pack(&version_files).expect("it packs");
+    println!(
+        "the version: {} files, {} bytes packed",
+        version_files.len(),
+        packed.len()
+    );
     let (mut checks, mut uncached, mut cached) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..runs {
         let (new, files) = petrel_core::project::load_read(&dir, &catalog).expect("loads");
@@ -132,12 +144,12 @@ fn main() {
         let held = check_project(&new, &inputs, true);
         checks.push(t.elapsed().as_secs_f64());
         assert!(matches!(held, Preflight::Held { .. }));
-        uncached.push(reload(&dir, &catalog, &layers.layers, &player, false));
-        cached.push(reload(&dir, &catalog, &layers.layers, &player, true));
+        uncached.push(reload(&packed, &catalog, &layers.layers, &player, false));
+        cached.push(reload(&packed, &catalog, &layers.layers, &player, true));
     }
     let (base, uncached, cached) = (median(checks), median(uncached), median(cached));
     println!(
-        "new version to swap, flight-test mid-mission: {uncached:.3} s with its check explored, {cached:.3} s with it remembered; the pre-flight check alone {base:.3} s; ratios {:.2} and {:.2} (median of {runs})",
+        "last piece to swap, flight-test mid-mission: {uncached:.3} s with its check explored, {cached:.3} s with it remembered; the pre-flight check alone {base:.3} s; ratios {:.2} and {:.2} (median of {runs})",
         uncached / base,
         cached / base
     );
