@@ -515,6 +515,9 @@ async fn mirror(setup: Setup) -> VerbResult {
                 Output::Upload(sent) => {
                     if let Some(text) = push::said(&sent, &mut pushed_tenth) {
                         say!("{text}");
+                        if let Some(page) = &page {
+                            page.pushed(&text);
+                        }
                         if let Some(rec) = &recorder {
                             rec.log(now, petrel_record::recorder::Level::Info, "push", text);
                         }

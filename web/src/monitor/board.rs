@@ -242,6 +242,13 @@ impl Board {
         self.marking.time = step.time;
     }
 
+    /// A line of the mirror's own on the log at the board's time (`kind`:
+    /// `push`, what became of a version sent up).
+    pub fn note(&mut self, kind: &str, text: &str) {
+        let time = self.marking.time;
+        self.push(time, None, json!({"kind": kind, "text": text}));
+    }
+
     /// A new version of the project on the board: nets numbered anew,
     /// each transition's firings kept by its net's and its own name.
     fn take_version(&mut self, project: Arc<Project>) {

@@ -153,6 +153,13 @@ impl Page {
         self.disagreements.clear();
     }
 
+    /// What became of a version sent up (`petrel mirror --push`), on the
+    /// page's log.
+    pub fn pushed(&self, text: &str) {
+        self.feed.update(|b| b.note("push", text));
+        self.feed.publish();
+    }
+
     /// The operator's answer to `id` from the page or the CLI: `sent`, what
     /// the dialog and the uplink did.
     pub fn answered(&self, id: u64, choice: &str, sent: &Result<String, String>) {
@@ -324,5 +331,25 @@ mod tests {
         assert_eq!(board.marking.seq, 13, "the vehicle's step");
         let c = project.flat(0, nets::model::PlaceRef::Local(2));
         assert!(board.marking.marked(c), "the marking after the answer");
+    }
+
+    #[test]
+    fn what_became_of_a_version_sent_up_goes_on_the_log() {
+        let project = asking();
+        let player = nets::Player::start(project.clone(), 0);
+        let mut board = Board::new(project, &player, 0, 100);
+        board.note(
+            "push",
+            "push: the vehicle's verdict: version 1 took over at step 9",
+        );
+        let last = board
+            .log()
+            .back()
+            .map(|e| e.json.clone())
+            .unwrap_or_default();
+        assert_eq!(last["kind"], "push");
+        assert!(last["text"]
+            .as_str()
+            .is_some_and(|t| t.contains("took over")));
     }
 }

@@ -330,3 +330,68 @@ fn the_ground_refuses_to_send_a_choice_not_offered_or_for_no_question() {
         Err(DialogError::NotPending(id + 1))
     );
 }
+
+/// The pieces of a version sent up pass the operator's gate as answers do:
+/// signed with the operator key, fresh and never replayed; anything else
+/// is refused, counted, and never reaches the receiver.
+#[test]
+fn upload_frames_pass_the_gate_only_signed_with_the_operator_key() {
+    let mut gate = AnswerGate::new(key(7));
+    let piece = Record::Piece {
+        upload: 3,
+        index: 0,
+        data: vec![1, 2, 3],
+    };
+    let tunnel = Tunnel::petrel(GATEWAY, record::packet(std::slice::from_ref(&piece)));
+    let header = MavHeader {
+        system_id: MIRROR.0.into(),
+        component_id: MIRROR.1,
+        sequence: 0,
+    };
+    assert!(is_upload(&tunnel.payload) && !is_answer(&tunnel.payload));
+    let mut signer = Signer::new(key(7), 1, None);
+    let signed = signer.sign_data(header, &tunnel, UNIX0);
+    let bytes = signed.raw_bytes().to_vec();
+    assert_eq!(gate.judge_upload(&bytes, UNIX0), Ok(vec![piece.clone()]));
+    assert_eq!(
+        gate.judge_upload(&bytes, UNIX0),
+        Err(AnswerRejection::Replayed)
+    );
+    let mut unsigned = MAVLinkV2MessageRaw::new();
+    unsigned.serialize_message_data(header, &tunnel);
+    assert_eq!(
+        gate.judge_upload(unsigned.raw_bytes(), UNIX0),
+        Err(AnswerRejection::Unsigned)
+    );
+    let mut stranger = Signer::new(key(8), 1, None);
+    let forged = stranger.sign_data(header, &tunnel, UNIX0 + 1_000);
+    assert_eq!(
+        gate.judge_upload(forged.raw_bytes(), UNIX0 + 1_000),
+        Err(AnswerRejection::BadSignature)
+    );
+    let mut altered = signer.sign_data(header, &tunnel, UNIX0 + 2_000);
+    let at = 10 + altered.payload().len() - 1;
+    altered.as_mut_slice()[at] ^= 0x01;
+    assert_eq!(
+        gate.judge_upload(altered.raw_bytes(), UNIX0 + 2_000),
+        Err(AnswerRejection::BadSignature)
+    );
+    // An answer through the upload door is no upload.
+    let answer = answer_frame(
+        &mut signer,
+        MIRROR,
+        1,
+        GATEWAY,
+        &Record::Answer {
+            id: 1,
+            choice: "yes".into(),
+        },
+        UNIX0 + 3_000,
+    );
+    assert_eq!(
+        gate.judge_upload(answer.raw_bytes(), UNIX0 + 3_000),
+        Err(AnswerRejection::Malformed)
+    );
+    let counted: u64 = gate.rejected().values().sum();
+    assert_eq!(counted, 5);
+}

@@ -495,6 +495,8 @@ function row(e) {
     case "timer": what = kind("timer") + esc(e.name) + " expired"; break;
     case "net": what = kind("net") + esc(e.name) + " " + esc(e.what); break;
     case "fired": what = kind("fired") + esc(e.name); break;
+    // A new version of the project took over; a version sent up (mirror).
+    case "version": case "push": what = kind(e.kind) + esc(e.text); break;
     default: cls += " fault"; what = kind(e.kind) + esc(e.text || JSON.stringify(e));
   }
   div.className = cls;
