@@ -596,7 +596,7 @@ fn arduplane_routes_the_downlink_and_its_gcs_failsafe_still_triggers_with_the_mi
     let max_wall = Duration::from_secs_f64(MAX_SIM_S / f64::from(SPEEDUP) * 3.0 + 60.0);
     // The mirror first: SITL waits for SERIAL0 before it simulates.
     let tap = Tap::start(sitl.port(0), 0.0);
-    let mut mirror = mirror_on_serial0(&sitl, &tap, max_wall, Some(&dir.join("mirror.mcap")));
+    let mut mirror = mirror_on_serial0(&sitl, &tap, max_wall, Some(&dir.join("mirror.mcap")), &[]);
     let programs = format!("tcp:127.0.0.1:{}", free_port());
     let run = flight::petrel_run(
         &sitl.address(1),
@@ -762,6 +762,7 @@ const CHECK_INSTANCE: u8 = 12;
 struct Checked {
     mirror: Vec<serde_json::Value>,
     run: Vec<serde_json::Value>,
+    run_err: String,
     mirror_err: String,
     truth: Truth,
     /// When the engine was failed (SITL's time), if it was.
@@ -878,6 +879,26 @@ fn fly_checked(
     loss: f64,
     fail: bool,
 ) -> Checked {
+    fly_checked_pushing(turn, located, name, loss, fail, None)
+}
+
+/// A new version pushed from the mirror at the start of the flight
+/// (issue 38): the operator key both hold, the version's folder; a 10 s
+/// hole on the gateway's link (SERIAL1, through a relay) once the vehicle
+/// took it over.
+struct Pushing {
+    key: String,
+    version: String,
+}
+
+fn fly_checked_pushing(
+    turn: &crate::Turn,
+    located: &ardupilot::Located,
+    name: &str,
+    loss: f64,
+    fail: bool,
+    pushing: Option<Pushing>,
+) -> Checked {
     let dir = Scratch::new(name);
     let blind = blind_profile(&dir);
     let mut sitl = Sitl::start(
@@ -893,17 +914,42 @@ fn fly_checked(
     .expect("ArduPlane SITL starts");
     let max_wall = Duration::from_secs_f64(MAX_SIM_S / f64::from(SPEEDUP) * 3.0 + 60.0);
     let tap = Tap::start(sitl.port(0), loss);
-    let mut mirror = mirror_on_serial0(&sitl, &tap, max_wall, None);
+    let mirror_args: Vec<&str> = match &pushing {
+        None => Vec::new(),
+        Some(p) => vec![
+            "--operator-key",
+            &p.key,
+            "--push",
+            &p.version,
+            "--push-rate",
+            "10000",
+        ],
+    };
+    let mut mirror = mirror_on_serial0(&sitl, &tap, max_wall, None, &mirror_args);
     let programs = format!("tcp:127.0.0.1:{}", free_port());
+    // With a version pushed, the gateway's link goes through a relay that
+    // can cut it.
+    let relay = pushing
+        .as_ref()
+        .map(|_| crate::real::Relay::start(sitl.port(1)));
+    let address = match &relay {
+        Some(r) => format!("tcpout:127.0.0.1:{}", r.port()),
+        None => sitl.address(1),
+    };
+    let mut run_args = vec!["--downlink", "--unchecked", "--profile", &blind];
+    if let Some(p) = &pushing {
+        run_args.extend(["--operator-key", p.key.as_str()]);
+    }
     let run = flight::petrel_run(
-        &sitl.address(1),
+        &address,
         &programs,
         f64::from(SPEEDUP),
         &dir.join("flight.mcap"),
         max_wall + Duration::from_secs(10),
-        &["--downlink", "--unchecked", "--profile", &blind],
+        &run_args,
     );
     let mut run = Running::new(run);
+    let mut holed = false;
     let dec = Dec::start(&programs);
     let ground = Ground::start(sitl.port(2));
     let started = Instant::now();
@@ -923,6 +969,16 @@ fn fly_checked(
         }
         if down_at.is_none() && truth.down() {
             down_at = Some(truth.t);
+        }
+        if let Some(r) = &relay {
+            if !holed && run.printed("\"input\":\"version\"") {
+                holed = true;
+                r.hole(Duration::from_secs_f64(10.0 / f64::from(SPEEDUP)));
+                eprintln!(
+                    "{name}: the gateway's link cut for 10 s at {:.1} s",
+                    truth.t
+                );
+            }
         }
         if injected.is_some_and(|t| truth.t > t + 15.0)
             || down_at.is_some_and(|t| truth.t > t + 5.0)
@@ -977,6 +1033,7 @@ fn fly_checked(
     Checked {
         mirror: flight::timeline(&mirror_out),
         run,
+        run_err,
         mirror_err,
         injected,
         injected_player: injected.zip(offset).map(|(i, o)| i + o),
@@ -1144,6 +1201,7 @@ fn mirror_on_serial0(
     tap: &Tap,
     max_wall: Duration,
     record: Option<&std::path::Path>,
+    extra: &[&str],
 ) -> Running {
     let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"));
     command
@@ -1160,6 +1218,7 @@ fn mirror_on_serial0(
         None => command.arg("--no-record"),
     };
     let mirror = command
+        .args(extra)
         .arg("--json")
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
@@ -1177,4 +1236,78 @@ fn mirror_on_serial0(
         std::thread::sleep(Duration::from_millis(50));
     }
     mirror
+}
+
+/// Issue 38 on real ArduPlane, sent from the ground: `petrel mirror
+/// --push` sends COMMUNICATION's version 1 (a link hole ends in a return)
+/// up through ArduPilot's own routing, signed with the operator key both
+/// hold; the vehicle proves it from the state it is in and takes it over,
+/// says so down, and the replica follows it and stays exact; the 10 s hole
+/// on the gateway's link after the swap gets the new reaction; the
+/// vehicle's recording replays.
+#[test]
+fn a_version_pushed_from_the_mirror_takes_over_and_a_later_link_hole_returns() {
+    let Some(located) = ardupilot::require(Firmware::Plane, "mirror_sitl (a version pushed)")
+    else {
+        return;
+    };
+    let turn = crate::sitl_turn();
+    let keys = Scratch::new("mirror-push-key");
+    let key = keys.join("operator.key");
+    std::fs::write(&key, "ef".repeat(32)).expect("write");
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o600)).expect("chmod");
+    let version = flight::example_copy(&keys.join("version-1"));
+    std::fs::write(
+        version.join("communication.toml"),
+        flight::returning_after_a_link_hole(&project()),
+    )
+    .expect("write");
+    let pushing = Pushing {
+        key: key.to_string_lossy().into_owned(),
+        version: version.to_string_lossy().into_owned(),
+    };
+    let f = fly_checked_pushing(&turn, &located, "mirror-push", 0.0, false, Some(pushing));
+    assert!(
+        f.mirror_err
+            .contains("push: the vehicle's verdict: version 1 took over at step"),
+        "{}",
+        f.mirror_err
+    );
+    assert!(
+        f.run_err.contains(": version 1 took over at step"),
+        "{}",
+        f.run_err
+    );
+    assert!(
+        !f.lines("version").is_empty(),
+        "the replica followed: {}",
+        f.mirror_err
+    );
+    assert!(
+        f.lines("mirror_diverged").is_empty(),
+        "{:?}",
+        f.lines("mirror_diverged")
+    );
+    let restored = f
+        .run
+        .iter()
+        .position(|l| l["input"] == "event" && l["event"] == "link_restored")
+        .unwrap_or_else(|| panic!("no link hole after the swap ({})", f.dir.display()));
+    let swap = f
+        .run
+        .iter()
+        .position(|l| l["input"] == "version")
+        .expect("the swap");
+    assert!(swap < restored);
+    assert!(
+        f.run[restored..]
+            .iter()
+            .any(|l| l["effect"] == "command" && l["verb"] == "rtl"),
+        "({})",
+        f.dir.display()
+    );
+    assert!(f.truth.down(), "{:?}", f.truth.modes);
+    let (code, err) = crate::wire::check_recording(&f.dir.join("flight.mcap"));
+    assert_eq!(code, 0, "{err}");
 }

@@ -269,11 +269,16 @@ pub struct Relay {
 }
 
 impl Relay {
+    /// The port the gateway connects to.
+    pub fn port(&self) -> u16 {
+        self.port
+    }
+
     /// Relays between whoever connects to `port` (again after a
     /// reconnection) and SERIAL0, which it connects to when the gateway
     /// first connects: the simulation starts then, once `petrel run` has
     /// checked its project.
-    fn start(upstream: u16) -> Relay {
+    pub fn start(upstream: u16) -> Relay {
         let listener = TcpListener::bind("127.0.0.1:0").expect("a relay port");
         let port = listener.local_addr().expect("its address").port();
         let connected = Arc::new(AtomicBool::new(false));
@@ -352,7 +357,7 @@ impl Relay {
         false
     }
 
-    fn hole(&self, wall: Duration) {
+    pub fn hole(&self, wall: Duration) {
         if let Ok(mut h) = self.hole_until.lock() {
             *h = Some(Instant::now() + wall);
         }
