@@ -495,6 +495,21 @@ impl Gateway {
                 }
             }
         }
+        let counts = gw.core.upload_counts();
+        if counts.offers > 0 {
+            say!(
+                "versions sent up: {} offers, {} pieces taken, {} whole, {} refused pieces, {} while another was received, {} altered",
+                counts.offers,
+                counts.pieces,
+                counts.completed,
+                counts.refused,
+                counts.busy,
+                counts.altered
+            );
+        }
+        if let (version @ 1.., _) = gw.core.version() {
+            say!("the project's version {version} ran at the end (docs/run.md \"A new version in flight\")");
+        }
         if let Some(gate) = gw.core.answers() {
             let rejected: Vec<String> = gate
                 .rejected()
