@@ -63,6 +63,7 @@ struct RawReload {
     places: BTreeMap<Spanned<String>, Spanned<String>>,
     #[serde(default)]
     timers: BTreeMap<Spanned<String>, Spanned<String>>,
+    lockout: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -834,6 +835,20 @@ impl Loader {
                     );
                 }
                 into.insert(old.get_ref().clone(), new.get_ref().clone());
+            }
+        }
+        if let Some(lockout) = &raw.lockout {
+            if lockout.get_ref() == "kept" {
+                out.lockout_kept = true;
+            } else {
+                self.problem(
+                    file,
+                    lockout.span(),
+                    format!(
+                        "[reload] lockout = {:?}: \"kept\" is its one value (this version keeps the catastrophic lockout's nets unchanged)",
+                        lockout.get_ref()
+                    ),
+                );
             }
         }
         out

@@ -81,6 +81,10 @@ pub struct Reload {
     pub places: BTreeMap<String, String>,
     /// Old timer → new timer (of the same net or another).
     pub timers: BTreeMap<String, String>,
+    /// `lockout = "kept"`: this version keeps the catastrophic lockout's
+    /// nets unchanged, so it may take over during the lockout (checked
+    /// when it swaps: [`crate::version::map`]).
+    pub lockout_kept: bool,
 }
 
 /// One vehicle of the team.

@@ -17,9 +17,11 @@
 //! returns the player the new version runs with; the old one is untouched
 //! either way, so a refusal leaves supervision as it was.
 //!
-//! Refused outright, as the issue asks until a version can say it keeps
-//! the lockout's nets unchanged: a swap during the catastrophic lockout
-//! (the team's or one vehicle's).
+//! During the catastrophic lockout (the team's or one vehicle's) a
+//! version takes over only if it says it keeps the lockout's nets
+//! unchanged (`[reload] lockout = "kept"`) and does: each net with a
+//! transition on a catastrophic event the same, place for place and
+//! transition for transition, and no other such net.
 //!
 //! Pure, like the rest of the crate: the caller loads the new version,
 //! runs this beside the player (the exploration may take seconds), and
@@ -28,7 +30,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use crate::model::{NetId, Project};
+use crate::model::{NetId, PlaceRef, Project};
 use crate::player::{PendingKind, Player, State};
 use crate::verify::project::{check_from, Options};
 
@@ -51,8 +53,10 @@ pub enum Refusal {
     },
     #[error("vehicle {vehicle} is locked out and the new version has no such vehicle")]
     VehicleGone { vehicle: String },
-    #[error("the catastrophic lockout is on ({who}): a new version cannot take over during it")]
+    #[error("the catastrophic lockout is on ({who}): a new version takes over during it only if it keeps the lockout's nets unchanged and says so ([reload] lockout = \"kept\")")]
     Lockout { who: String },
+    #[error("the new version says it keeps the catastrophic lockout's nets ([reload] lockout = \"kept\") but net {net} differs: {how}")]
+    LockoutNetChanged { net: String, how: String },
     #[error("[reload] {kind} `{name}`: the running version has no such {kind}")]
     RenameUnknown { kind: &'static str, name: String },
     #[error("{queued} events are queued: a version swaps only between two inputs")]
@@ -103,6 +107,95 @@ pub fn place_name(project: &Project, flat: usize) -> String {
     format!("{}.{place}", project.nets[n].name)
 }
 
+/// The nets the catastrophic lockout runs: those with a transition on an
+/// event the project declares catastrophic.
+fn lockout_nets(project: &Project) -> Vec<NetId> {
+    (0..project.nets.len())
+        .filter(|&n| {
+            project.nets[n].transitions.iter().any(|t| {
+                t.event.as_deref().is_some_and(|e| {
+                    project.declared_category(crate::model::split_vehicle(e).0)
+                        == Some(crate::Category::Catastrophic)
+                })
+            })
+        })
+        .collect()
+}
+
+/// A net as its author wrote it, whatever the project around it: its
+/// places, timers, and each transition's arcs (by place name), event,
+/// guard, actions as written and rank.
+fn net_text(project: &Project, n: NetId) -> String {
+    let net = &project.nets[n];
+    let place = |r: &PlaceRef| match *r {
+        PlaceRef::Local(i) => net.places.get(i).map_or("?".into(), |p| p.name.clone()),
+        PlaceRef::Global(g) => project
+            .globals
+            .get(g)
+            .map_or("@?".into(), |p| format!("@{}", p.name)),
+    };
+    let mut text = format!(
+        "places {:?} initial {:?} timers {:?}\n",
+        net.places.iter().map(|p| &p.name).collect::<Vec<_>>(),
+        net.places
+            .iter()
+            .filter(|p| p.initial)
+            .map(|p| &p.name)
+            .collect::<Vec<_>>(),
+        net.timers
+    );
+    for t in &net.transitions {
+        text.push_str(&format!(
+            "{} {:?} -> {:?} on {:?} when {:?} do {:?} {:?}\n",
+            t.name,
+            t.inputs.iter().map(place).collect::<Vec<_>>(),
+            t.outputs.iter().map(place).collect::<Vec<_>>(),
+            t.event,
+            t.guard.as_ref().map(|g| &g.text),
+            t.action_source,
+            t.choice,
+        ));
+    }
+    text
+}
+
+/// Why `new`, which says it keeps the lockout's nets, does not: each
+/// lockout net of `old` the same in `new`, and no other.
+fn lockout_changes(old: &Project, new: &Project) -> Vec<Refusal> {
+    let mut why = Vec::new();
+    let names = |p: &Project| -> Vec<String> {
+        lockout_nets(p)
+            .into_iter()
+            .map(|n| p.nets[n].name.clone())
+            .collect()
+    };
+    let (before, after) = (names(old), names(new));
+    for name in &after {
+        if !before.contains(name) {
+            why.push(Refusal::LockoutNetChanged {
+                net: name.clone(),
+                how: "it reacts to a catastrophic event in this version only".into(),
+            });
+        }
+    }
+    for name in &before {
+        let (Some(o), Some(n)) = (old.net(name), new.net(name)) else {
+            why.push(Refusal::LockoutNetChanged {
+                net: name.clone(),
+                how: "the new version has no such net".into(),
+            });
+            continue;
+        };
+        if net_text(old, o) != net_text(new, n) {
+            why.push(Refusal::LockoutNetChanged {
+                net: name.clone(),
+                how: "its places, timers or transitions are not the running version's".into(),
+            });
+        }
+    }
+    why
+}
+
 /// The running version's `state` carried onto `new`, or every reason it
 /// cannot be.
 pub fn map(old: &Project, state: &State, new: &Project) -> Result<State, Vec<Refusal>> {
@@ -122,7 +215,11 @@ pub fn map(old: &Project, state: &State, new: &Project) -> Result<State, Vec<Ref
                 .collect::<Vec<_>>()
                 .join(", ")
         };
-        refused.push(Refusal::Lockout { who });
+        if new.reload.lockout_kept {
+            refused.extend(lockout_changes(old, new));
+        } else {
+            refused.push(Refusal::Lockout { who });
+        }
     }
     let places = new
         .reload

@@ -261,6 +261,60 @@ fn no_swap_during_the_catastrophic_lockout() {
 }
 
 #[test]
+fn a_version_keeping_the_lockouts_nets_takes_over_during_the_lockout() {
+    let glide = format!(
+        "{V1}\n[[transition]]\nname = \"glide\"\nfrom = [\"air\"]\nto = [\"down\"]\non = \"engine_failure\"\n"
+    );
+    let events = "\n[events]\nengine_failure = \"catastrophic\"\n";
+    let p = project(&[
+        ("project.toml", &format!("{PROJECT}{events}")),
+        ("n.toml", &glide),
+    ]);
+    let mut player = flying(&p);
+    player.handle(&Event::new("engine_failure"), 6_000_000);
+    let _ = player.effects().count();
+    assert!(player.state().lockout);
+    // The same nets, and a net of its own beside them: it may take over.
+    let kept = format!("{PROJECT}[[net]]\nfile = \"w.toml\"\nactive = true\n{events}[reload]\nlockout = \"kept\"\n");
+    let watch = "name = \"W\"\nplaces = [\"w\"]\ninitial = [\"w\"]\nfinal = [\"w\"]\n";
+    let new = project(&[
+        ("project.toml", &kept),
+        ("n.toml", &glide),
+        ("w.toml", watch),
+    ]);
+    let mapped = map(&p, player.state(), &new).expect("it maps during the lockout");
+    assert!(mapped.lockout, "the lockout goes on in the new version");
+    // Said kept, but the catastrophic net changed: refused by name.
+    let changed = glide.replace(
+        "to = [\"down\"]\non = \"engine_failure\"",
+        "to = [\"air\"]\non = \"engine_failure\"",
+    );
+    let new = project(&[
+        ("project.toml", &kept),
+        ("n.toml", &changed),
+        ("w.toml", watch),
+    ]);
+    let refused = map(&p, player.state(), &new).expect_err("refused");
+    assert!(
+        refused
+            .iter()
+            .any(|r| matches!(r, Refusal::LockoutNetChanged { net, .. } if net == "N")),
+        "{refused:?}"
+    );
+    // Any other value of `lockout` is a load error at its place.
+    let bad = format!("{PROJECT}{events}[reload]\nlockout = \"yes\"\n");
+    let files: std::collections::BTreeMap<String, String> = [
+        ("project.toml".to_owned(), bad),
+        ("n.toml".to_owned(), glide.clone()),
+    ]
+    .into_iter()
+    .collect();
+    let err = crate::load(&files).expect_err("a load error");
+    let text: String = err.problems.iter().map(|p| p.to_string()).collect();
+    assert!(text.contains("\"kept\" is its one value"), "{text}");
+}
+
+#[test]
 fn a_net_new_in_this_version_starts_as_it_says() {
     let p = v1();
     let player = flying(&p);
