@@ -24,12 +24,16 @@
 //! text), never panics on any input, and knows nothing of nets or links.
 
 pub mod error;
+pub mod language;
 pub mod plan;
 pub mod qgc;
 pub mod review;
 pub mod wpl;
 
 pub use error::{At, PlanError};
+pub use language::check::{check, Known};
+pub use language::compile::{compile, NetFile};
+pub use language::sources::{compile_project, load, Compiled, CompiledSources, MISSION_KEY};
 pub use plan::{
     command_name, Autopilot, Circle, Fence, Format, Item, Origin, Plan, Polygon, Position,
     Unsupported, VehicleType,

@@ -1,0 +1,700 @@
+//! The mission loader: the file's text to a checked [`Mission`], every
+//! problem collected at its `file:line:col`.
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::ops::Range;
+
+use nets::action::{self, ActionSyntax};
+use nets::expr::{self, Context};
+use nets::source::{Problem, SourceFile};
+use nets::time::parse_duration;
+use nets::Category;
+use toml::Spanned;
+
+use super::model::{End, Exit, Limit, Mission, Reaction, Rule, Said, Step, Target, CATEGORIES};
+use super::syntax::{self, Actions, RawStep, Text};
+
+/// What the mission's project says about events, for checking the events
+/// a mission waits for.
+#[derive(Debug, Clone, Default)]
+pub struct Known {
+    /// Every event that may come from outside the mission (the project's
+    /// `[events]`, the elaboration catalog, what other nets emit, the
+    /// results of the project's program functions), when known: `None`
+    /// leaves events unchecked, as `nets::load` does without a profile.
+    pub events: Option<BTreeSet<String>>,
+    /// Declared categories, by event.
+    pub categories: BTreeMap<String, Category>,
+}
+
+/// Words a target may be besides a step's name, and names no step may take.
+const TARGETS: [&str; 5] = ["next", "retry", "done", "abort", "land"];
+const RESERVED: [&str; 8] = [
+    "next", "retry", "done", "abort", "land", "start", "aborted", "landing",
+];
+
+/// Checks the mission file `name` holding `text`.
+pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Problem>> {
+    let file = SourceFile::new(name, text);
+    let mut c = Checker {
+        file: file.clone(),
+        problems: Vec::new(),
+    };
+    let raw = match syntax::parse(text) {
+        Ok(raw) => raw,
+        Err((span, message)) => return Err(vec![Problem::new(&file, span, message)]),
+    };
+    let net = match &raw.name {
+        Some(n) => {
+            c.name(n, "net");
+            n.get_ref().clone()
+        }
+        None => "MISSION".to_owned(),
+    };
+
+    // Steps, in the order written.
+    let mut raw_steps: Vec<(&Text, &Spanned<RawStep>)> = raw.steps.iter().collect();
+    raw_steps.sort_by_key(|(k, _)| k.span().start);
+    let index: BTreeMap<&str, usize> = raw_steps
+        .iter()
+        .enumerate()
+        .map(|(i, (k, _))| (k.get_ref().as_str(), i))
+        .collect();
+    if raw_steps.is_empty() {
+        c.at(
+            0..0,
+            "a mission has at least one step: `[steps]` is empty or missing",
+        );
+    }
+    for (key, _) in &raw_steps {
+        c.name(key, "step");
+        if RESERVED.contains(&key.get_ref().as_str()) {
+            c.at(
+                key.span(),
+                format!(
+                    "`{}` cannot name a step: it is a word of the mission language ({})",
+                    key.get_ref(),
+                    RESERVED.join(", ")
+                ),
+            );
+        }
+    }
+
+    // Branches first: which step belongs to which parallel step.
+    let mut branch_of: Vec<Option<(usize, usize)>> = vec![None; raw_steps.len()];
+    let mut branches: Vec<Vec<Vec<usize>>> = vec![Vec::new(); raw_steps.len()];
+    for (p, (key, step)) in raw_steps.iter().enumerate() {
+        let Some(list) = &step.get_ref().branches else {
+            continue;
+        };
+        let s = step.get_ref();
+        if s.actions.is_some()
+            || s.until.is_some()
+            || !s.exits.is_empty()
+            || s.limit.is_some()
+            || s.retries.is_some()
+            || s.on_limit.is_some()
+            || s.when.is_some()
+        {
+            c.at(key.span(), format!("parallel step `{}` has only `branches` and `then`: actions, exits and limits belong to the steps of its branches", key.get_ref()));
+        }
+        if list.get_ref().len() < 2 {
+            c.at(list.span(), "a parallel step has at least two branches");
+        }
+        for (b, branch) in list.get_ref().iter().enumerate() {
+            if branch.is_empty() {
+                c.at(
+                    list.span(),
+                    format!("branch {} of `{}` has no step", b + 1, key.get_ref()),
+                );
+            }
+            let mut steps = Vec::new();
+            for name in branch {
+                match c.step(&index, name) {
+                    Some(i) if i == p => c.at(name.span(), format!("`{}` cannot be a branch of itself", name.get_ref())),
+                    Some(i) if branch_of[i].is_some() || raw_steps[i].1.get_ref().branches.is_some() => c.at(
+                        name.span(),
+                        format!("step `{}` is already in a branch, or is parallel itself: a step is in one branch, branches do not nest", name.get_ref()),
+                    ),
+                    Some(i) => {
+                        branch_of[i] = Some((p, b));
+                        steps.push(i);
+                    }
+                    None => {}
+                }
+            }
+            branches[p].push(steps);
+        }
+    }
+    // `next` of each step: the following step of its sequence.
+    let main: Vec<usize> = (0..raw_steps.len())
+        .filter(|&i| branch_of[i].is_none())
+        .collect();
+    let mut next = vec![Target::Done; raw_steps.len()];
+    for w in main.windows(2) {
+        next[w[0]] = Target::Step(w[1]);
+    }
+    for (p, list) in branches.iter().enumerate() {
+        for (b, branch) in list.iter().enumerate() {
+            for (k, &i) in branch.iter().enumerate() {
+                next[i] = branch
+                    .get(k + 1)
+                    .map_or(Target::Join(p, b), |&j| Target::Step(j));
+            }
+        }
+    }
+
+    let mut steps = Vec::new();
+    for (i, (key, step)) in raw_steps.iter().enumerate() {
+        let s = step.get_ref();
+        let retries = match &s.retries {
+            None => 0,
+            Some(r) => match u32::try_from(*r.get_ref()) {
+                Ok(n) if n <= 20 => n,
+                _ => {
+                    c.at(r.span(), "retries: a count from 0 to 20");
+                    0
+                }
+            },
+        };
+        let scope = Scope {
+            step: i,
+            retries,
+            branch_of: branch_of[i],
+            next: next[i],
+            index: &index,
+            branch_of_all: &branch_of,
+        };
+        let mut exits = Vec::new();
+        if let Some(on) = &s.until {
+            let then = s.then.as_ref().map_or(next[i], |t| c.target(t, &scope));
+            exits.push(Exit {
+                on: c.event(on, known),
+                when: c.guard(&s.when),
+                then,
+                actions: Vec::new(),
+            });
+        } else if let Some(w) = &s.when {
+            c.at(
+                w.span(),
+                "`when` guards the event of `until`: this step has no `until`",
+            );
+        }
+        if s.until.is_none() && s.branches.is_none() {
+            if let Some(t) = &s.then {
+                c.at(
+                    t.span(),
+                    "`then` says where `until` leads: this step has no `until`",
+                );
+            }
+        }
+        for exit in &s.exits {
+            let e = exit.get_ref();
+            let then = e.then.as_ref().map_or(next[i], |t| c.target(t, &scope));
+            exits.push(Exit {
+                on: c.event(&e.on, known),
+                when: c.guard(&e.when),
+                then,
+                actions: c.actions(&e.actions),
+            });
+        }
+        let limit = s.limit.as_ref().and_then(|l| c.duration(l));
+        let on_limit = match &s.on_limit {
+            Some(t) if s.limit.is_none() => {
+                c.at(
+                    t.span(),
+                    "`on_limit` says where the limit leads: this step has no `limit`",
+                );
+                Target::Abort
+            }
+            Some(t) => match c.target(t, &scope) {
+                Target::Retry => {
+                    c.at(
+                        t.span(),
+                        "`on_limit` is where the step goes once no retry is left: not `retry`",
+                    );
+                    Target::Abort
+                }
+                t => t,
+            },
+            None if branch_of[i].is_some() && s.limit.is_some() => {
+                c.at(key.span(), format!("step `{}` of a branch has a limit: say where it leads within the branch (`on_limit`)", key.get_ref()));
+                Target::Abort
+            }
+            None => Target::Abort,
+        };
+        if let Some(r) = &s.retries {
+            if s.limit.is_none() && !exits.iter().any(|e| e.then == Target::Retry) {
+                c.at(r.span(), "`retries` with nothing to retry: give the step a `limit` or an exit with `then = \"retry\"`");
+            }
+        }
+        let parallel_then = match (&s.branches, &s.then) {
+            (Some(_), Some(t)) => c.target(t, &scope),
+            _ => next[i],
+        };
+        if s.branches.is_none() && exits.is_empty() && limit.is_none() {
+            c.at(key.span(), format!("step `{}` has no way out: give it `until` (the event that ends it), `exits` or a `limit`", key.get_ref()));
+        }
+        steps.push(Step {
+            name: key.get_ref().clone(),
+            span: key.span(),
+            actions: c.actions(&s.actions),
+            exits,
+            limit,
+            retries,
+            on_limit,
+            branches: branches[i].clone(),
+            branch_of: branch_of[i],
+            next: if s.branches.is_some() {
+                parallel_then
+            } else {
+                next[i]
+            },
+        });
+    }
+
+    // Rules.
+    let mut raw_rules: Vec<_> = raw.rules.iter().collect();
+    raw_rules.sort_by_key(|(k, _)| k.span().start);
+    let mut rules = Vec::new();
+    for (key, rule) in raw_rules {
+        c.name(key, "rule");
+        let r = rule.get_ref();
+        let during: Vec<usize> = match &r.during {
+            None => (0..steps.len())
+                .filter(|&i| steps[i].branches.is_empty())
+                .collect(),
+            Some(list) if list.get_ref().is_empty() => {
+                c.at(list.span(), format!("rule `{}` is scoped to no step: name the steps it watches in `during`, or leave `during` out to watch them all", key.get_ref()));
+                Vec::new()
+            }
+            Some(list) => {
+                let mut out = Vec::new();
+                for name in list.get_ref() {
+                    if let Some(i) = c.step(&index, name) {
+                        if !steps[i].branches.is_empty() {
+                            c.at(name.span(), format!("`{}` is a parallel step: name the steps of its branches a rule watches", name.get_ref()));
+                        } else if out.contains(&i) {
+                            c.at(
+                                name.span(),
+                                format!("step `{}` is named twice", name.get_ref()),
+                            );
+                        } else {
+                            out.push(i);
+                        }
+                    }
+                }
+                out
+            }
+        };
+        let on = match &r.on {
+            Some(on) => c.event(on, known),
+            None => c.event(key, known),
+        };
+        let lasting = r.lasting.as_ref().and_then(|l| c.duration(l));
+        let resume_on = r.resume_on.as_ref().map(|e| c.event(e, known));
+        let then = r.then.as_ref().map(|t| {
+            let in_branch = during.iter().any(|&i| steps[i].branch_of.is_some());
+            if in_branch {
+                c.at(t.span(), "a rule watching a step of a parallel branch suspends and resumes it (`resume_on`): it cannot lead elsewhere");
+            }
+            let scope = Scope { step: usize::MAX, retries: 0, branch_of: None, next: Target::Done, index: &index, branch_of_all: &branch_of };
+            match c.target(t, &scope) {
+                Target::Retry => {
+                    c.at(t.span(), "a rule leads to a step, `done`, `abort` or `land`, not `retry`");
+                    Target::Abort
+                }
+                t => t,
+            }
+        });
+        if r.lasting.is_some() && r.resume_on.is_none() {
+            c.at(rule.span(), format!("rule `{}` has `for` but no `resume_on`: say which event ends the condition before it lasts", key.get_ref()));
+        }
+        if r.then.is_none() && r.resume_on.is_none() {
+            c.at(key.span(), format!("rule `{}` leaves its steps with no way out: give it `resume_on` (suspend the step, then enter it again) or `then` (where to go)", key.get_ref()));
+        }
+        if r.then.is_some() && r.resume_on.is_some() && r.lasting.is_none() {
+            c.at(rule.span(), format!("rule `{}` has both `then` and `resume_on`: `then` leaves the step for good, `resume_on` suspends it; `resume_on` with `then` is only the event that ends a `for`", key.get_ref()));
+        }
+        rules.push(Rule {
+            name: key.get_ref().clone(),
+            span: key.span(),
+            during,
+            on,
+            when: c.guard(&r.when),
+            lasting,
+            actions: c.actions(&r.actions),
+            resume_on,
+            then,
+        });
+    }
+
+    // Reactions, one net per category.
+    let mut reactions = Vec::new();
+    let mut sections: Vec<_> = raw.reactions.iter().collect();
+    sections.sort_by_key(|(k, _)| k.span().start);
+    for (section, list) in sections {
+        let Some(&(category, _, _)) = CATEGORIES
+            .iter()
+            .find(|(_, word, _)| *word == section.get_ref())
+        else {
+            c.at(section.span(), format!("unknown category `{}`: reactions are catastrophic, safety, mission or communication", section.get_ref()));
+            continue;
+        };
+        let mut list: Vec<_> = list.iter().collect();
+        list.sort_by_key(|(k, _)| k.span().start);
+        for (key, reaction) in list {
+            c.name(key, "reaction");
+            let r = reaction.get_ref();
+            let on = match &r.on {
+                Some(on) => c.event(on, known),
+                None => c.event(key, known),
+            };
+            if let Some(&declared) = known.categories.get(&on.text) {
+                if declared != category {
+                    c.at(on.span.clone(), format!("event `{}` is declared {declared}: its reaction belongs in [reactions.{declared}]", on.text));
+                }
+            }
+            let end = match r.then.as_ref().map(|t| (t, t.get_ref().as_str())) {
+                None if category == Category::Catastrophic => End::Abort,
+                None => End::Stay,
+                Some((_, "stay")) if category != Category::Catastrophic => End::Stay,
+                Some((_, "abort")) => End::Abort,
+                Some((_, "land")) => End::Land,
+                Some((t, _)) => {
+                    let also = if category == Category::Catastrophic {
+                        ""
+                    } else {
+                        ", `stay` (the default)"
+                    };
+                    c.at(
+                        t.span(),
+                        format!(
+                            "a {category} reaction ends with `abort`{}{also} or `land`",
+                            if also.is_empty() {
+                                " (the default: a catastrophic event cannot be recovered)"
+                            } else {
+                                ""
+                            }
+                        ),
+                    );
+                    End::Stay
+                }
+            };
+            reactions.push(Reaction {
+                name: key.get_ref().clone(),
+                span: key.span(),
+                category,
+                on,
+                when: c.guard(&r.when),
+                actions: c.actions(&r.actions),
+                end,
+            });
+        }
+    }
+
+    let done = c.actions(&raw.done);
+    let abort = c.actions(&raw.abort);
+    let land = match &raw.land {
+        None => vec![Said {
+            text: "command land".to_owned(),
+            span: 0..0,
+        }],
+        some => c.actions(some),
+    };
+    let mission = Mission {
+        file,
+        net,
+        steps,
+        first: main.first().copied().unwrap_or(0),
+        rules,
+        reactions,
+        done,
+        abort,
+        land,
+    };
+    if c.problems.is_empty() {
+        c.reachable(&mission);
+    }
+    if c.problems.is_empty() {
+        Ok(mission)
+    } else {
+        Err(c.problems)
+    }
+}
+
+/// The step whose targets are being read.
+struct Scope<'a> {
+    step: usize,
+    retries: u32,
+    branch_of: Option<(usize, usize)>,
+    next: Target,
+    index: &'a BTreeMap<&'a str, usize>,
+    branch_of_all: &'a [Option<(usize, usize)>],
+}
+
+struct Checker {
+    file: SourceFile,
+    problems: Vec<Problem>,
+}
+
+impl Checker {
+    fn at(&mut self, span: Range<usize>, message: impl Into<String>) {
+        self.problems.push(Problem::new(&self.file, span, message));
+    }
+
+    fn name(&mut self, name: &Text, what: &str) {
+        let s = name.get_ref();
+        let mut chars = s.chars();
+        let ok = chars
+            .next()
+            .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+            && chars.all(|c| c.is_ascii_alphanumeric() || c == '_');
+        if !ok {
+            self.at(name.span(), format!("invalid {what} name `{s}`: use letters, digits and `_`, starting with a letter or `_`"));
+        }
+    }
+
+    fn step(&mut self, index: &BTreeMap<&str, usize>, name: &Text) -> Option<usize> {
+        let found = index.get(name.get_ref().as_str()).copied();
+        if found.is_none() {
+            let meant = nets::suggest::nearest(name.get_ref(), index.keys().copied());
+            self.at(
+                name.span(),
+                format!(
+                    "unknown step `{}`{}",
+                    name.get_ref(),
+                    meant
+                        .map(|m| format!("; did you mean `{m}`?"))
+                        .unwrap_or_default()
+                ),
+            );
+        }
+        found
+    }
+
+    fn target(&mut self, t: &Text, scope: &Scope) -> Target {
+        let target = match t.get_ref().as_str() {
+            "next" => return scope.next,
+            "retry" => {
+                if scope.retries == 0 && scope.step != usize::MAX {
+                    self.at(
+                        t.span(),
+                        "`retry` needs `retries` (how many times the step may be entered again)",
+                    );
+                }
+                return Target::Retry;
+            }
+            "done" => Target::Done,
+            "abort" => Target::Abort,
+            "land" => Target::Land,
+            word => match scope.index.get(word) {
+                Some(&i) => Target::Step(i),
+                None => {
+                    let meant =
+                        nets::suggest::nearest(word, scope.index.keys().copied().chain(TARGETS));
+                    self.at(t.span(), format!("unknown step `{word}`: a target is a step, next, retry, done, abort or land{}", meant.map(|m| format!("; did you mean `{m}`?")).unwrap_or_default()));
+                    return Target::Abort;
+                }
+            },
+        };
+        let within = match (scope.branch_of, target) {
+            (None, Target::Step(i)) => scope.branch_of_all[i].is_none(),
+            (None, _) => true,
+            (Some(b), Target::Step(i)) => scope.branch_of_all[i] == Some(b),
+            (Some(_), _) => false,
+        };
+        if !within {
+            self.at(
+                t.span(),
+                match scope.branch_of {
+                    None => format!("step `{}` is in a parallel branch: it is entered through its parallel step", t.get_ref()),
+                    Some(_) => "a step of a parallel branch leads only within its branch (`next`, `retry`, a step of the branch)".to_owned(),
+                },
+            );
+        }
+        target
+    }
+
+    fn event(&mut self, on: &Text, known: &Known) -> Said {
+        let name = on.get_ref();
+        let valid = !name.is_empty()
+            && name.split('.').all(|part| {
+                let mut chars = part.chars();
+                chars
+                    .next()
+                    .is_some_and(|c| c.is_ascii_alphanumeric() || c == '_')
+                    && chars.all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+            });
+        if !valid {
+            self.at(on.span(), format!("invalid event name `{name}`"));
+        } else if let Some(events) = &known.events {
+            if !events.contains(name) {
+                let meant = nets::suggest::nearest(name, events.iter().map(String::as_str));
+                self.at(
+                    on.span(),
+                    format!(
+                        "unknown event `{name}`: no elaboration rule, [events] declaration, net or mission action produces it{} (an event a program or another outside source sends is declared in project.toml's [events])",
+                        meant.map(|m| format!("; did you mean `{m}`?")).unwrap_or_default()
+                    ),
+                );
+            }
+        }
+        Said {
+            text: name.clone(),
+            span: on.span(),
+        }
+    }
+
+    fn guard(&mut self, when: &Option<Text>) -> Option<Said> {
+        let when = when.as_ref()?;
+        if let Err(e) = expr::parse(when.get_ref(), Context::Guard) {
+            let at = self.file.inside_string(&when.span(), when.get_ref(), e.at);
+            self.at(at..at + e.len, format!("guard: {}", e.message));
+        }
+        Some(Said {
+            text: when.get_ref().clone(),
+            span: when.span(),
+        })
+    }
+
+    fn actions(&mut self, actions: &Option<Spanned<Actions>>) -> Vec<Said> {
+        let Some(actions) = actions else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        for a in actions.get_ref().spanned(actions.span()) {
+            match action::parse(a.get_ref()) {
+                Err(e) => {
+                    let at = self.file.inside_string(&a.span(), a.get_ref(), e.at);
+                    self.at(at..at + e.len, format!("action: {}", e.message));
+                }
+                Ok(
+                    ActionSyntax::Timer { after, .. } | ActionSyntax::Ask { timeout: after, .. },
+                ) => {
+                    if let Err(e) = parse_duration(&after.0) {
+                        let at = self.file.inside_string(&a.span(), a.get_ref(), after.1);
+                        self.at(at..at + after.0.len(), e.to_string());
+                    }
+                }
+                Ok(_) => {}
+            }
+            out.push(Said {
+                text: a.get_ref().clone(),
+                span: a.span(),
+            });
+        }
+        out
+    }
+
+    fn duration(&mut self, text: &Text) -> Option<Limit> {
+        match parse_duration(text.get_ref()) {
+            Ok(micros) => Some(Limit {
+                said: Said {
+                    text: text.get_ref().clone(),
+                    span: text.span(),
+                },
+                micros,
+            }),
+            Err(e) => {
+                self.at(text.span(), e.to_string());
+                None
+            }
+        }
+    }
+
+    /// Every step is reached from the first one.
+    fn reachable(&mut self, m: &Mission) {
+        let mut seen = vec![false; m.steps.len()];
+        let mut queue = VecDeque::from([m.first]);
+        while let Some(i) = queue.pop_front() {
+            if i >= seen.len() || std::mem::replace(&mut seen[i], true) {
+                continue;
+            }
+            let s = &m.steps[i];
+            let mut targets: Vec<Target> = s.exits.iter().map(|e| e.then).collect();
+            if !s.branches.is_empty() {
+                targets.push(s.next);
+            }
+            if s.limit.is_some() {
+                targets.push(s.on_limit);
+            }
+            targets.extend(
+                m.rules
+                    .iter()
+                    .filter(|r| r.during.contains(&i))
+                    .filter_map(|r| r.then),
+            );
+            for branch in &s.branches {
+                queue.extend(branch.first());
+            }
+            for t in targets {
+                match t {
+                    Target::Step(j) => queue.push_back(j),
+                    Target::Join(p, _) => queue.push_back(m.steps[p].next_step().unwrap_or(p)),
+                    _ => {}
+                }
+            }
+        }
+        for (i, s) in m.steps.iter().enumerate() {
+            if !seen[i] {
+                self.at(s.span.clone(), format!("step `{}` is unreachable: no step, exit, limit or rule leads to it from the first step", s.name));
+            }
+        }
+    }
+}
+
+impl Step {
+    /// The step `next` leads to, if it is one.
+    fn next_step(&self) -> Option<usize> {
+        match self.next {
+            Target::Step(i) => Some(i),
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn problems(text: &str) -> Vec<String> {
+        match check("m.toml", text, &Known::default()) {
+            Ok(_) => Vec::new(),
+            Err(p) => p.iter().map(ToString::to_string).collect(),
+        }
+    }
+
+    #[test]
+    fn a_plain_sequence_checks() {
+        let m = check(
+            "m.toml",
+            "[steps]\na = { do = \"command arm\", until = \"command.ok\" }\nb = { until = \"landed\", limit = \"3min\", on_limit = \"land\" }\n",
+            &Known::default(),
+        )
+        .expect("checks");
+        assert_eq!(m.steps[0].exits[0].then, Target::Step(1));
+        assert_eq!(m.steps[1].exits[0].then, Target::Done);
+        assert_eq!(
+            m.steps[1].limit.as_ref().map(|l| l.micros),
+            Some(180_000_000)
+        );
+        assert_eq!(m.steps[1].on_limit, Target::Land);
+    }
+
+    #[test]
+    fn each_mistake_is_reported_where_it_is() {
+        let text = "[steps]\na = { until = \"x\", then = \"c\" }\nb = { do = \"comand rtl\" }\nc = { until = \"y\", limit = \"3 parsecs\" }\n[rules]\nr = { during = [], resume_on = \"z\" }\n";
+        let p = problems(text);
+        assert_eq!(
+            p,
+            [
+                "m.toml:3:1: step `b` has no way out: give it `until` (the event that ends it), `exits` or a `limit`",
+                "m.toml:3:13: action: unknown action `comand`: expected activate, deactivate, emit, timer, cancel, call, command or ask",
+                "m.toml:4:28: malformed duration `3 parsecs`: expected a number and a unit, as in `30s`, `500ms`, `1.5s`, `2min` or `1h`",
+                "m.toml:6:16: rule `r` is scoped to no step: name the steps it watches in `during`, or leave `during` out to watch them all",
+            ],
+            "{p:#?}"
+        );
+    }
+}

@@ -1,0 +1,598 @@
+//! The compiler: a checked [`Mission`] to ordinary net files, as TOML text
+//! people can read and edit, with a map from each generated line back to
+//! the mission line it comes from.
+
+use std::fmt::Write as _;
+use std::ops::Range;
+
+use super::model::{End, Mission, Said, Target, CATEGORIES};
+
+/// One generated net file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NetFile {
+    /// The net's name.
+    pub net: String,
+    /// Its path beside project.toml.
+    pub path: String,
+    /// Active from the start.
+    pub active: bool,
+    pub text: String,
+    /// For each line of `text`, the span of the mission file it comes from.
+    pub origins: Vec<Range<usize>>,
+}
+
+/// A transition before it is written.
+struct Transition {
+    name: String,
+    /// What it is in the mission's words (`step transit: until mission_item_reached`).
+    says: String,
+    origin: Range<usize>,
+    from: Vec<String>,
+    to: Vec<String>,
+    on: Option<String>,
+    when: Option<Said>,
+    actions: Vec<Said>,
+    otherwise: bool,
+    priority: Option<usize>,
+}
+
+/// A net being built: its places and transitions, names kept unique.
+struct Net {
+    name: String,
+    places: Vec<String>,
+    initial: Vec<String>,
+    finals: Vec<String>,
+    transitions: Vec<Transition>,
+}
+
+impl Net {
+    fn new(name: &str) -> Self {
+        Net {
+            name: name.to_owned(),
+            places: Vec::new(),
+            initial: Vec::new(),
+            finals: Vec::new(),
+            transitions: Vec::new(),
+        }
+    }
+
+    fn place(&mut self, name: &str) -> String {
+        if !self.places.iter().any(|p| p == name) {
+            self.places.push(name.to_owned());
+        }
+        name.to_owned()
+    }
+
+    /// A transition name not taken yet in this net, from `base`.
+    fn fresh(&self, base: &str) -> String {
+        let base: String = base
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '_' {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        let taken = |n: &str| self.transitions.iter().any(|t| t.name == n);
+        if !taken(&base) {
+            return base;
+        }
+        (2..)
+            .map(|k| format!("{base}_{k}"))
+            .find(|n| !taken(n))
+            .unwrap_or(base)
+    }
+
+    fn add(&mut self, mut t: Transition) {
+        t.name = self.fresh(&t.name);
+        self.transitions.push(t);
+    }
+
+    /// Transitions that wait for the same event and share an input place
+    /// compete: rank them in the order the mission says them (the first
+    /// said is tried first), so that `petrel check` reads an intended choice.
+    fn rank(&mut self) {
+        let n = self.transitions.len();
+        for i in 0..n {
+            let t = &self.transitions[i];
+            if t.otherwise || t.on.is_none() {
+                continue;
+            }
+            let siblings = self.transitions.iter().enumerate().any(|(j, u)| {
+                j != i && !u.otherwise && u.on == t.on && u.from.iter().any(|p| t.from.contains(p))
+            });
+            if siblings {
+                let later = self.transitions[i + 1..]
+                    .iter()
+                    .filter(|u| u.on == t.on)
+                    .count();
+                self.transitions[i].priority = Some(later + 1);
+            }
+        }
+    }
+
+    fn write(&self, mission: &Mission, path: &str, active: bool) -> NetFile {
+        let mut out = Lines::default();
+        let whole = 0..0;
+        out.line(&format!("# Compiled from {} by `petrel compile`: edit the mission, or this file once compiled.", mission.file.name), &whole);
+        out.line(&format!("name = {}", quote(&self.name)), &whole);
+        out.line(&format!("places = {}", list(&self.places)), &whole);
+        out.line(&format!("initial = {}", list(&self.initial)), &whole);
+        out.line(&format!("final = {}", list(&self.finals)), &whole);
+        for t in &self.transitions {
+            let o = &t.origin;
+            out.line("", o);
+            let (line, _) = mission.file.line_col(o.start);
+            out.line(&format!("# {}:{line}: {}", mission.file.name, t.says), o);
+            out.line("[[transition]]", o);
+            out.line(&format!("name = {}", quote(&t.name)), o);
+            out.line(&format!("from = {}", list(&t.from)), o);
+            out.line(&format!("to = {}", list(&t.to)), o);
+            if let Some(on) = &t.on {
+                out.line(&format!("on = {}", quote(on)), o);
+            }
+            if let Some(w) = &t.when {
+                out.line(&format!("when = {}", quote(&w.text)), &w.span);
+            }
+            if t.otherwise {
+                out.line("else = true", o);
+            }
+            if let Some(p) = t.priority {
+                out.line(&format!("priority = {p}"), o);
+            }
+            match t.actions.as_slice() {
+                [] => {}
+                [one] => out.line(&format!("do = [{}]", quote(&one.text)), &one.span),
+                many => {
+                    out.line("do = [", o);
+                    for a in many {
+                        out.line(&format!("  {},", quote(&a.text)), &a.span);
+                    }
+                    out.line("]", o);
+                }
+            }
+        }
+        NetFile {
+            net: self.name.clone(),
+            path: path.to_owned(),
+            active,
+            text: out.text,
+            origins: out.origins,
+        }
+    }
+}
+
+#[derive(Default)]
+struct Lines {
+    text: String,
+    origins: Vec<Range<usize>>,
+}
+
+impl Lines {
+    fn line(&mut self, s: &str, origin: &Range<usize>) {
+        let _ = writeln!(self.text, "{s}");
+        self.origins.push(origin.clone());
+    }
+}
+
+fn quote(s: &str) -> String {
+    toml::Value::String(s.to_owned()).to_string()
+}
+
+fn list(names: &[String]) -> String {
+    format!(
+        "[{}]",
+        names
+            .iter()
+            .map(|n| quote(n))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
+fn said(text: String) -> Said {
+    Said { text, span: 0..0 }
+}
+
+/// Where a transition goes and what it does on the way.
+struct Lead {
+    to: Vec<String>,
+    actions: Vec<Said>,
+}
+
+/// The steps net under construction, with the mission it comes from.
+struct Steps<'a> {
+    m: &'a Mission,
+    net: Net,
+}
+
+impl Steps<'_> {
+    /// Step `i`'s place for attempt `k` (0: the first entry).
+    fn attempt(&mut self, i: usize, k: u32) -> String {
+        let name = &self.m.steps[i].name;
+        if k == 0 {
+            self.net.place(name)
+        } else {
+            self.net.place(&format!("{name}_retry{k}"))
+        }
+    }
+
+    fn limit_timer(&self, i: usize) -> String {
+        format!("{}_limit", self.m.steps[i].name)
+    }
+
+    /// Entering step `i` at attempt `k`: its place, its actions, its limit.
+    fn enter(&mut self, i: usize, k: u32) -> Lead {
+        let s = &self.m.steps[i];
+        if !s.branches.is_empty() {
+            let mut lead = Lead {
+                to: Vec::new(),
+                actions: Vec::new(),
+            };
+            for branch in &s.branches {
+                if let Some(&first) = branch.first() {
+                    let l = self.enter(first, 0);
+                    lead.to.extend(l.to);
+                    lead.actions.extend(l.actions);
+                }
+            }
+            return lead;
+        }
+        let mut actions = s.actions.clone();
+        if let Some(limit) = &s.limit {
+            actions.push(Said {
+                text: format!(
+                    "timer {} after {}",
+                    self.limit_timer(i),
+                    limit.said.text.trim()
+                ),
+                span: limit.said.span.clone(),
+            });
+        }
+        Lead {
+            to: vec![self.attempt(i, k)],
+            actions,
+        }
+    }
+
+    /// Where `target` leads from step `i` at attempt `k`.
+    fn lead(&mut self, i: usize, k: u32, target: Target) -> Lead {
+        let m = self.m;
+        match target {
+            Target::Step(j) => self.enter(j, 0),
+            Target::Retry if k < m.steps[i].retries => self.enter(i, k + 1),
+            Target::Retry => self.lead(i, k, m.steps[i].on_limit),
+            Target::Join(p, b) => Lead {
+                to: vec![self
+                    .net
+                    .place(&format!("{}_join{}", m.steps[p].name, b + 1))],
+                actions: Vec::new(),
+            },
+            Target::Done => Lead {
+                to: vec![self.net.place("done")],
+                actions: m.done.clone(),
+            },
+            Target::Abort => Lead {
+                to: vec![self.net.place("aborted")],
+                actions: m.abort.clone(),
+            },
+            Target::Land => Lead {
+                to: vec![self.net.place("landing")],
+                actions: m.land.clone(),
+            },
+        }
+    }
+
+    /// Actions leaving step `i` other than by its limit.
+    fn leave(&self, i: usize) -> Vec<Said> {
+        match &self.m.steps[i].limit {
+            Some(limit) => vec![Said {
+                text: format!("cancel {}", self.limit_timer(i)),
+                span: limit.said.span.clone(),
+            }],
+            None => Vec::new(),
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn transition(
+        &mut self,
+        name: String,
+        says: String,
+        origin: Range<usize>,
+        from: Vec<String>,
+        on: Option<String>,
+        when: Option<Said>,
+        mut actions: Vec<Said>,
+        lead: Lead,
+    ) {
+        actions.extend(lead.actions);
+        self.net.add(Transition {
+            name,
+            says,
+            origin,
+            from,
+            to: lead.to,
+            on,
+            when,
+            actions,
+            otherwise: false,
+            priority: None,
+        });
+    }
+
+    fn build(mut self) -> Net {
+        let m = self.m;
+        let start = self.net.place("start");
+        self.net.initial.push(start.clone());
+        let lead = self.enter(m.first, 0);
+        let first = &m.steps[m.first];
+        self.transition(
+            "start".into(),
+            format!("the mission starts with step {}", first.name),
+            first.span.clone(),
+            vec![start],
+            None,
+            None,
+            Vec::new(),
+            lead,
+        );
+
+        for (i, s) in m.steps.iter().enumerate() {
+            if !s.branches.is_empty() {
+                let from: Vec<String> = (0..s.branches.len())
+                    .map(|b| self.net.place(&format!("{}_join{}", s.name, b + 1)))
+                    .collect();
+                let lead = self.lead(i, 0, s.next);
+                self.transition(
+                    format!("{}_join", s.name),
+                    format!("parallel step {}: every branch is over", s.name),
+                    s.span.clone(),
+                    from,
+                    None,
+                    None,
+                    Vec::new(),
+                    lead,
+                );
+                continue;
+            }
+            for k in 0..=s.retries {
+                let place = self.attempt(i, k);
+                for e in &s.exits {
+                    let mut actions = self.leave(i);
+                    actions.extend(e.actions.iter().cloned());
+                    let lead = self.lead(i, k, e.then);
+                    let when = e
+                        .when
+                        .as_ref()
+                        .map(|w| format!(" when {}", w.text))
+                        .unwrap_or_default();
+                    self.transition(
+                        format!("{place}_{}", e.on.text),
+                        format!("step {}: until {}{when}", s.name, e.on.text),
+                        e.on.span.clone(),
+                        vec![place.clone()],
+                        Some(e.on.text.clone()),
+                        e.when.clone(),
+                        actions,
+                        lead,
+                    );
+                }
+                if let Some(limit) = &s.limit {
+                    let lead = self.lead(i, k, Target::Retry);
+                    let what = if k < s.retries { "retry" } else { "give up" };
+                    self.transition(
+                        format!("{place}_limit"),
+                        format!("step {}: limit {} ({what})", s.name, limit.said.text),
+                        limit.said.span.clone(),
+                        vec![place.clone()],
+                        Some(self.limit_timer(i)),
+                        None,
+                        Vec::new(),
+                        lead,
+                    );
+                }
+            }
+        }
+        for r in &m.rules {
+            self.rule(r);
+        }
+        for end in ["done", "aborted", "landing"] {
+            if self.net.places.iter().any(|p| p == end) {
+                self.net.finals.push(end.to_owned());
+            }
+        }
+        self.net.rank();
+        self.net
+    }
+
+    fn rule(&mut self, r: &super::model::Rule) {
+        let m = self.m;
+        let timer = format!("{}_for", r.name);
+        let (idle, grace) = match &r.lasting {
+            Some(_) => {
+                let idle = self.net.place(&format!("{}_idle", r.name));
+                let grace = self.net.place(&format!("{}_grace", r.name));
+                self.net.initial.push(idle.clone());
+                (Some(idle), Some(grace))
+            }
+            None => (None, None),
+        };
+        for &i in &r.during {
+            let s = &m.steps[i];
+            for k in 0..=s.retries {
+                let place = self.attempt(i, k);
+                let mut actions = self.leave(i);
+                actions.extend(r.actions.iter().cloned());
+                let lead = match r.then {
+                    Some(t) => self.lead(i, k, t),
+                    None => Lead {
+                        to: vec![self.net.place(&format!("{place}__{}", r.name))],
+                        actions: Vec::new(),
+                    },
+                };
+                let says = format!("rule {} during {}", r.name, s.name);
+                if let (Some(idle), Some(grace), Some(lasting)) = (&idle, &grace, &r.lasting) {
+                    let arm = Lead {
+                        to: vec![grace.clone(), place.clone()],
+                        actions: vec![Said {
+                            text: format!("timer {timer} after {}", lasting.said.text.trim()),
+                            span: lasting.said.span.clone(),
+                        }],
+                    };
+                    self.transition(
+                        format!("{place}__{}_begins", r.name),
+                        format!("{says}: on {} (for {})", r.on.text, lasting.said.text),
+                        r.on.span.clone(),
+                        vec![idle.clone(), place.clone()],
+                        Some(r.on.text.clone()),
+                        r.when.clone(),
+                        Vec::new(),
+                        arm,
+                    );
+                    let mut lead = lead;
+                    lead.to.push(idle.clone());
+                    self.transition(
+                        format!("{place}__{}", r.name),
+                        format!("{says}: {} lasted {}", r.on.text, lasting.said.text),
+                        lasting.said.span.clone(),
+                        vec![grace.clone(), place.clone()],
+                        Some(timer.clone()),
+                        None,
+                        actions,
+                        lead,
+                    );
+                } else {
+                    self.transition(
+                        format!("{place}__{}", r.name),
+                        format!("{says}: on {}", r.on.text),
+                        r.on.span.clone(),
+                        vec![place.clone()],
+                        Some(r.on.text.clone()),
+                        r.when.clone(),
+                        actions,
+                        lead,
+                    );
+                }
+                if let (None, Some(resume)) = (r.then, &r.resume_on) {
+                    let suspended = format!("{place}__{}", r.name);
+                    let lead = self.enter(i, k);
+                    self.transition(
+                        format!("{suspended}_resume"),
+                        format!("{says}: resume on {}", resume.text),
+                        resume.span.clone(),
+                        vec![suspended],
+                        Some(resume.text.clone()),
+                        None,
+                        Vec::new(),
+                        lead,
+                    );
+                }
+            }
+        }
+        if let (Some(idle), Some(grace), Some(resume)) = (idle, grace, &r.resume_on) {
+            self.net.add(Transition {
+                name: format!("{}_clears", r.name),
+                says: format!("rule {}: {} before it lasted", r.name, resume.text),
+                origin: resume.span.clone(),
+                from: vec![grace.clone()],
+                to: vec![idle.clone()],
+                on: Some(resume.text.clone()),
+                when: None,
+                actions: vec![said(format!("cancel {timer}"))],
+                otherwise: false,
+                priority: None,
+            });
+            self.net.add(Transition {
+                name: format!("{}_lapses", r.name),
+                says: format!("rule {}: lasted, but its steps are over", r.name),
+                origin: r.span.clone(),
+                from: vec![grace],
+                to: vec![idle],
+                on: Some(timer),
+                when: None,
+                actions: Vec::new(),
+                otherwise: true,
+                priority: None,
+            });
+        }
+    }
+}
+
+/// The reactions of one category, as its net.
+fn reactions(m: &Mission, category: nets::Category, name: &str) -> Option<Net> {
+    let list: Vec<_> = m
+        .reactions
+        .iter()
+        .filter(|r| r.category == category)
+        .collect();
+    if list.is_empty() {
+        return None;
+    }
+    let mut net = Net::new(name);
+    let watching = net.place("watching");
+    net.initial.push(watching.clone());
+    net.finals.push(watching.clone());
+    for r in list {
+        let mut actions = r.actions.clone();
+        let to = match r.end {
+            End::Stay => watching.clone(),
+            End::Abort | End::Land => {
+                actions.push(said(format!("deactivate {}", m.net)));
+                actions.extend(if r.end == End::Abort {
+                    m.abort.iter().cloned()
+                } else {
+                    m.land.iter().cloned()
+                });
+                let reacted = net.place("reacted");
+                if !net.finals.contains(&reacted) {
+                    net.finals.push(reacted.clone());
+                }
+                reacted
+            }
+        };
+        let end = match r.end {
+            End::Stay => "the mission goes on",
+            End::Abort => "abort",
+            End::Land => "land",
+        };
+        net.add(Transition {
+            name: r.name.clone(),
+            says: format!("{category} reaction {}: {end}", r.name),
+            origin: r.span.clone(),
+            from: vec![watching.clone()],
+            to: vec![to],
+            on: Some(r.on.text.clone()),
+            when: r.when.clone(),
+            actions,
+            otherwise: false,
+            priority: None,
+        });
+    }
+    net.rank();
+    Some(net)
+}
+
+/// The nets a mission compiles into, in priority order: one per category
+/// of disruptive event that has reactions (catastrophic, safety, mission,
+/// communication: the paper's §3.2.3), then the steps. Files are named
+/// `STEM.NET.toml` after the mission file `STEM.toml`.
+pub fn compile(m: &Mission) -> Vec<NetFile> {
+    let stem = m.file.name.strip_suffix(".toml").unwrap_or(&m.file.name);
+    let path = |net: &str| format!("{stem}.{}.toml", net.to_ascii_lowercase());
+    let mut out = Vec::new();
+    for (category, _, name) in CATEGORIES {
+        if let Some(net) = reactions(m, category, name) {
+            out.push(net.write(m, &path(name), true));
+        }
+    }
+    let steps = Steps {
+        m,
+        net: Net::new(&m.net),
+    }
+    .build();
+    out.push(steps.write(m, &path(&m.net), true));
+    out
+}

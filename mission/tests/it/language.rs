@@ -1,0 +1,359 @@
+//! The mission language end to end: missions compiled, loaded by `nets`,
+//! proved by its verifier, played; problems at the mission's lines.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use nets::load::{Catalog, PROJECT_FILE};
+use nets::model::EventDecl;
+use nets::verify::project::{check, Options};
+use nets::{Category, Project};
+
+/// A project folder in memory.
+pub fn folder(project: &str, mission: &str) -> BTreeMap<String, String> {
+    BTreeMap::from([
+        (PROJECT_FILE.to_owned(), project.to_owned()),
+        ("steps.toml".to_owned(), mission.to_owned()),
+    ])
+}
+
+pub const PROJECT: &str = r#"name = "survey"
+mission = "steps.toml"
+
+[events]
+ready_for_takeoff = "nominal"
+altitude_reached = { category = "nominal", params = ["alt"] }
+mission_item_reached = { category = "nominal", params = ["seq"] }
+landed = "nominal"
+link_lost = "communication"
+link_restored = "communication"
+engine_failure = "catastrophic"
+battery_low = "safety"
+payload_failure = { category = "mission", params = ["component"] }
+gcs_lost = "communication"
+
+[programs.DEC.functions]
+replan = { args = ["failed"], returns = ["waypoints"] }
+"#;
+
+/// The 20-line example of docs/missions.md.
+pub const SURVEY: &str = r#"[steps]
+preflight = { until = "ready_for_takeoff" }
+arm = { do = "command arm", until = "command.ok", limit = "10s", retries = 2 }
+takeoff = { do = "command takeoff {alt: 120}", until = "altitude_reached", when = "alt >= 100", limit = "2min", on_limit = "land" }
+transit = { do = "command mode {mode: AUTO}", until = "mission_item_reached", when = "seq == 2", limit = "3min", on_limit = "land" }
+operations = { until = "mission_item_reached", when = "seq == 6", exits = [{ on = "payload_failure", do = "call DEC.replan {failed: $component}", then = "home" }] }
+home = { do = "command rtl", until = "landed" }
+
+[rules]
+link_lost = { during = ["transit", "operations"], for = "10s", do = "command rtl", resume_on = "link_restored" }
+
+[reactions.catastrophic]
+engine_failure = { do = "command mode {mode: FBWA}" }
+
+[reactions.safety]
+battery_low = { then = "land" }
+
+[reactions.communication]
+gcs_lost = {}
+"#;
+
+pub fn load(files: &BTreeMap<String, String>) -> Result<Arc<Project>, Vec<String>> {
+    petrel_mission::load(files, Some(&Catalog::new()))
+        .map(Arc::new)
+        .map_err(|e| e.problems.iter().map(ToString::to_string).collect())
+}
+
+fn proved(project: &Arc<Project>) {
+    let report = check(project, &Options::default());
+    assert!(
+        report.holds(),
+        "not proved: {:?}\n{:?}\n{:?}",
+        report.project.deadlock_example,
+        report.project.unsafe_example,
+        report.project.livelocks
+    );
+    // Loops are retries and resumes only: none of them immediate.
+    assert!(report.project.livelocks.is_empty());
+}
+
+#[test]
+fn the_example_compiles_loads_and_is_proved() {
+    let project = load(&folder(PROJECT, SURVEY)).unwrap_or_else(|p| panic!("{p:#?}"));
+    let names: Vec<&str> = project.nets.iter().map(|n| n.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["CATASTROPHIC", "SAFETY", "COMMUNICATION", "MISSION"]
+    );
+    proved(&project);
+}
+
+#[test]
+fn parallel_branches_join_before_the_next_step() {
+    let mission = r#"[steps]
+start_up = { until = "ready_for_takeoff" }
+both = { branches = [["climb"], ["camera_on", "camera_check"]] }
+climb = { until = "altitude_reached" }
+camera_on = { do = "command payload_start {payload: camera}", until = "command.ok", exits = [{ on = "command.failed", then = "next" }] }
+camera_check = { until = "mission_item_reached", limit = "30s", on_limit = "next" }
+home = { do = "command rtl", until = "landed" }
+"#;
+    let project = load(&folder(PROJECT, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    proved(&project);
+    let script = "{\"t\": 1, \"event\": \"ready_for_takeoff\"}\n{\"t\": 2, \"event\": \"altitude_reached\", \"params\": {\"alt\": 50}}\n{\"t\": 3, \"reply\": \"command.payload_start\"}\n{\"t\": 40}\n";
+    let fired = crate::play::fired(&project, script);
+    assert_eq!(
+        fired,
+        [
+            "MISSION.start",
+            "MISSION.start_up_ready_for_takeoff",
+            "MISSION.climb_altitude_reached",
+            "MISSION.camera_on_command_ok",
+            "MISSION.camera_check_limit",
+            "MISSION.both_join",
+        ]
+    );
+}
+
+#[test]
+fn retries_are_bounded_and_then_lead_on() {
+    let mission = r#"[steps]
+arm = { do = "command arm", until = "command.ok", limit = "10s", retries = 2, on_limit = "abort" }
+fly = { until = "landed" }
+"#;
+    let project = load(&folder(PROJECT, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    proved(&project);
+    let fired = crate::play::fired(&project, "{\"t\": 100}\n");
+    assert_eq!(
+        fired,
+        [
+            "MISSION.start",
+            "MISSION.arm_limit",
+            "MISSION.arm_retry1_limit",
+            "MISSION.arm_retry2_limit"
+        ]
+    );
+    let commands = crate::play::commands(&project, "{\"t\": 100}\n");
+    assert_eq!(
+        commands,
+        ["arm", "arm", "arm"],
+        "entered three times, never a fourth"
+    );
+}
+
+#[test]
+fn a_loss_that_lasts_interrupts_and_the_recovery_resumes() {
+    let project = load(&folder(PROJECT, SURVEY)).unwrap_or_else(|p| panic!("{p:#?}"));
+    let start = "{\"t\": 1, \"event\": \"ready_for_takeoff\"}\n{\"t\": 2, \"reply\": \"command.arm\"}\n{\"t\": 3, \"event\": \"altitude_reached\", \"params\": {\"alt\": 120}}\n";
+    // A short loss: nothing but the grace.
+    let short = format!("{start}{{\"t\": 4, \"event\": \"link_lost\"}}\n{{\"t\": 8, \"event\": \"link_restored\"}}\n{{\"t\": 30}}\n");
+    let fired = crate::play::fired(&project, &short);
+    assert_eq!(
+        &fired[4..],
+        [
+            "MISSION.transit__link_lost_begins",
+            "MISSION.link_lost_clears"
+        ],
+        "{fired:#?}"
+    );
+    // A loss of 10 s: return, then resume transit (AUTO asked again).
+    let long = format!("{start}{{\"t\": 4, \"event\": \"link_lost\"}}\n{{\"t\": 20, \"event\": \"link_restored\"}}\n");
+    let fired = crate::play::fired(&project, &long);
+    assert_eq!(
+        &fired[4..],
+        [
+            "MISSION.transit__link_lost_begins",
+            "MISSION.transit__link_lost",
+            "MISSION.transit__link_lost_resume"
+        ],
+        "{fired:#?}"
+    );
+    let commands = crate::play::commands(&project, &long);
+    assert_eq!(commands, ["arm", "takeoff", "mode", "rtl", "mode"]);
+}
+
+#[test]
+fn a_catastrophic_reaction_stops_the_steps_and_locks_out() {
+    let project = load(&folder(PROJECT, SURVEY)).unwrap_or_else(|p| panic!("{p:#?}"));
+    let script = "{\"t\": 1, \"event\": \"ready_for_takeoff\"}\n{\"t\": 2, \"event\": \"engine_failure\"}\n{\"t\": 3, \"event\": \"battery_low\"}\n";
+    let fired = crate::play::fired(&project, script);
+    assert_eq!(
+        fired,
+        [
+            "MISSION.start",
+            "MISSION.preflight_ready_for_takeoff",
+            "CATASTROPHIC.engine_failure"
+        ]
+    );
+}
+
+#[test]
+fn loader_problems_are_at_the_mission_lines() {
+    let mission = r#"[steps]
+a = { until = "ready_for_takof" }
+b = { do = "command rtl" }
+c = { until = "landed", then = "nowhere" }
+d = { until = "landed", limit = "soon" }
+e = { until = "landed" }
+
+[rules]
+r = { during = ["a", "x"], on = "link_lost", resume_on = "link_restored" }
+s = { during = [], on = "link_lost", then = "abort" }
+t = { on = "link_lost" }
+
+[reactions.safety]
+engine_failure = {}
+"#;
+    let problems = load(&folder(PROJECT, mission)).err().unwrap_or_default();
+    assert_eq!(
+        problems,
+        [
+            "steps.toml:2:15: unknown event `ready_for_takof`: no elaboration rule, [events] declaration, net or mission action produces it; did you mean `ready_for_takeoff`? (an event a program or another outside source sends is declared in project.toml's [events])",
+            "steps.toml:3:1: step `b` has no way out: give it `until` (the event that ends it), `exits` or a `limit`",
+            "steps.toml:4:32: unknown step `nowhere`: a target is a step, next, retry, done, abort or land",
+            "steps.toml:5:33: malformed duration `soon`: expected a number and a unit, as in `30s`, `500ms`, `1.5s`, `2min` or `1h`",
+            "steps.toml:9:22: unknown step `x`; did you mean `a`?",
+            "steps.toml:10:16: rule `s` is scoped to no step: name the steps it watches in `during`, or leave `during` out to watch them all",
+            "steps.toml:11:1: rule `t` leaves its steps with no way out: give it `resume_on` (suspend the step, then enter it again) or `then` (where to go)",
+            "steps.toml:14:1: event `engine_failure` is declared catastrophic: its reaction belongs in [reactions.catastrophic]",
+        ],
+        "{problems:#?}"
+    );
+}
+
+#[test]
+fn an_unreachable_step_is_named() {
+    let mission = "[steps]\na = { until = \"landed\", then = \"c\" }\nb = { until = \"landed\" }\nc = { until = \"landed\" }\n";
+    let problems = load(&folder(PROJECT, mission)).err().unwrap_or_default();
+    assert_eq!(
+        problems,
+        ["steps.toml:3:1: step `b` is unreachable: no step, exit, limit or rule leads to it from the first step"]
+    );
+}
+
+#[test]
+fn a_problem_only_the_nets_loader_sees_points_at_the_mission() {
+    // `height` is no parameter of altitude_reached: the guard is sound
+    // syntax, so only the nets loader finds it, in generated text.
+    let mission = "[steps]\nclimb = { until = \"altitude_reached\", when = \"height > 100\" }\n";
+    let problems = load(&folder(PROJECT, mission)).err().unwrap_or_default();
+    assert_eq!(problems.len(), 1, "{problems:#?}");
+    assert!(
+        problems[0].starts_with("steps.toml:2:46: ")
+            && problems[0].contains("height")
+            && problems[0].contains("(in steps.mission.toml:"),
+        "{problems:#?}"
+    );
+}
+
+#[test]
+fn the_project_file_must_name_a_toml_file_it_can_read() {
+    let files = folder(&PROJECT.replace("steps.toml", "gone.toml"), SURVEY);
+    assert_eq!(
+        load(&files).err().unwrap_or_default(),
+        ["project.toml:2:11: cannot read the mission gone.toml: no such file"]
+    );
+    let files = folder(&PROJECT.replace("\"steps.toml\"", "3"), SURVEY);
+    let problems = load(&files).err().unwrap_or_default();
+    assert!(
+        problems[0].starts_with("project.toml:2:11: `mission` names"),
+        "{problems:?}"
+    );
+}
+
+#[test]
+fn events_of_the_profile_and_of_other_nets_are_known() {
+    let mission = "[steps]\nwait = { until = \"armed\" }\nthen_go = { until = \"go\" }\n";
+    let mut project = PROJECT.replace(
+        "[events]",
+        "[[net]]\nfile = \"hand.toml\"\nactive = true\n\n[events]",
+    );
+    project.push('\n');
+    let mut files = folder(&project, mission);
+    files.insert(
+        "hand.toml".into(),
+        "name = \"HAND\"\nplaces = [\"p\"]\ninitial = [\"p\"]\nfinal = [\"p\"]\n[[transition]]\nname = \"t\"\nfrom = [\"p\"]\nto = [\"p\"]\non = \"landed\"\ndo = [\"emit go\"]\n".into(),
+    );
+    let catalog = Catalog::from([(
+        "armed".to_owned(),
+        EventDecl {
+            category: Some(Category::Nominal),
+            params: Some(Vec::new()),
+        },
+    )]);
+    let loaded = petrel_mission::load(&files, Some(&catalog)).map_err(|e| e.to_string());
+    assert!(loaded.is_ok(), "{loaded:?}");
+}
+
+#[test]
+fn the_compiled_text_names_the_mission_lines() {
+    let files = folder(PROJECT, SURVEY);
+    let compiled = petrel_mission::compile_project(&files, None)
+        .map_err(|e| e.to_string())
+        .and_then(|c| c.ok_or_else(|| "no mission".to_owned()))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let steps = compiled
+        .nets
+        .iter()
+        .find(|n| n.net == "MISSION")
+        .map(|n| n.text.clone())
+        .unwrap_or_default();
+    if std::env::var_os("PETREL_SHOW").is_some() {
+        println!("{}\n{steps}", compiled.project);
+    }
+    assert!(steps.contains("# steps.toml:5: step transit: until mission_item_reached when seq == 2\n[[transition]]\nname = \"transit_mission_item_reached\""), "{steps}");
+    assert!(
+        steps.contains("# steps.toml:10: rule link_lost during operations: on link_lost (for 10s)"),
+        "{steps}"
+    );
+    assert!(
+        compiled
+            .project
+            .contains("# (compiled) mission = \"steps.toml\"\n"),
+        "{}",
+        compiled.project
+    );
+    assert_eq!(
+        compiled
+            .nets
+            .iter()
+            .map(|n| n.path.as_str())
+            .collect::<Vec<_>>(),
+        [
+            "steps.catastrophic.toml",
+            "steps.safety.toml",
+            "steps.communication.toml",
+            "steps.mission.toml"
+        ]
+    );
+}
+
+#[test]
+fn the_compiled_project_plays_as_the_mission_does() {
+    let files = folder(PROJECT, SURVEY);
+    let compiled = petrel_mission::compile_project(&files, None)
+        .map_err(|e| e.to_string())
+        .and_then(|c| c.ok_or_else(|| "no mission".to_owned()))
+        .unwrap_or_else(|e| panic!("{e}"));
+    // What `petrel compile` writes: hand-written nets from then on.
+    let written: BTreeMap<String, String> = compiled.files().into_iter().collect();
+    assert!(!written.contains_key("steps.toml"));
+    let by_hand = nets::load(&written)
+        .map(Arc::new)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mission = load(&files).unwrap_or_else(|p| panic!("{p:#?}"));
+    let script = "{\"t\": 1, \"event\": \"ready_for_takeoff\"}\n{\"t\": 2, \"reply\": \"command.arm\"}\n{\"t\": 3, \"event\": \"altitude_reached\", \"params\": {\"alt\": 120}}\n{\"t\": 4, \"event\": \"link_lost\"}\n{\"t\": 20, \"event\": \"link_restored\"}\n{\"t\": 30, \"event\": \"mission_item_reached\", \"params\": {\"seq\": 2}}\n{\"t\": 40, \"event\": \"payload_failure\", \"params\": {\"component\": \"camera\"}}\n{\"t\": 41, \"reply\": \"DEC.replan\", \"params\": {\"waypoints\": 3}}\n{\"t\": 50, \"event\": \"landed\"}\n";
+    let (trace, digest) = crate::play::trace(&mission, script);
+    assert_eq!(
+        crate::play::trace(&by_hand, script),
+        (trace.clone(), digest)
+    );
+    assert!(
+        trace.iter().any(|l| l.contains("MISSION.home_landed")),
+        "{trace:#?}"
+    );
+    assert!(
+        trace.last().is_some_and(|l| l.contains("done")),
+        "{trace:#?}"
+    );
+}
