@@ -131,3 +131,13 @@ fn compile_refuses_bad_input_and_writes_nothing() {
     assert!(err.contains("names no mission"), "{err}");
     assert!(!out_dir.exists());
 }
+
+#[test]
+fn edit_refuses_a_mission_project_whose_nets_it_would_lose() {
+    let (code, _, err) = petrel(&["edit", EXAMPLE, "--http", "127.0.0.1:0"]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("compiled from its mission steps.toml"),
+        "{err}"
+    );
+}
