@@ -1,31 +1,12 @@
 //! A mission project through the `petrel` binary: `check`, `play` and
 //! `compile` on examples/uav-survey-mission (docs/missions.md).
 
+use crate::cli::{petrel, root};
 use crate::scratch;
-
-use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use scratch::Scratch;
 
 const EXAMPLE: &str = "examples/uav-survey-mission";
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn petrel(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("petrel runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn fired(play: &str) -> Vec<String> {
     play.lines()

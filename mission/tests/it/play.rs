@@ -3,7 +3,8 @@
 use nets::{Effect, Player, Project};
 use std::sync::Arc;
 
-fn effects(project: &Arc<Project>, script: &str) -> Vec<Effect> {
+/// Plays `script` from the start: every effect, and the player at the end.
+fn run(project: &Arc<Project>, script: &str) -> (Vec<Effect>, Player) {
     let lines = nets::script::parse(script).unwrap_or_else(|e| panic!("script: {e:?}"));
     let mut player = Player::start(project.clone(), 0);
     let mut out: Vec<Effect> = player.effects().collect();
@@ -11,7 +12,11 @@ fn effects(project: &Arc<Project>, script: &str) -> Vec<Effect> {
         nets::script::play_line(&mut player, line).unwrap_or_else(|e| panic!("line: {e:?}"));
         out.extend(player.effects());
     }
-    out
+    (out, player)
+}
+
+fn effects(project: &Arc<Project>, script: &str) -> Vec<Effect> {
+    run(project, script).0
 }
 
 /// `NET.transition` of every firing, in order.
@@ -43,20 +48,10 @@ pub fn commands(project: &Arc<Project>, script: &str) -> Vec<String> {
 
 /// The whole trace as text, and the final digest.
 pub fn trace(project: &Arc<Project>, script: &str) -> (Vec<String>, String) {
-    let lines = nets::script::parse(script).unwrap_or_else(|e| panic!("script: {e:?}"));
-    let mut player = Player::start(project.clone(), 0);
-    let mut out: Vec<String> = player
-        .effects()
-        .map(|e| nets::player::effect_text(project, &e))
+    let (effects, player) = run(project, script);
+    let text = effects
+        .iter()
+        .map(|e| nets::player::effect_text(project, e))
         .collect();
-    for line in &lines {
-        nets::script::play_line(&mut player, line).unwrap_or_else(|e| panic!("line: {e:?}"));
-        let effects: Vec<Effect> = player.effects().collect();
-        out.extend(
-            effects
-                .iter()
-                .map(|e| nets::player::effect_text(project, e)),
-        );
-    }
-    (out, format!("{:?}", player.digest()))
+    (text, format!("{:?}", player.digest()))
 }
