@@ -445,11 +445,7 @@ impl Checker {
 
     fn name(&mut self, name: &Text, what: &str) {
         let s = name.get_ref();
-        let mut chars = s.chars();
-        let ok = chars
-            .next()
-            .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
-            && chars.all(|c| c.is_ascii_alphanumeric() || c == '_');
+        let ok = nets::load::is_name(s);
         if !ok {
             self.at(name.span(), format!("invalid {what} name `{s}`: use letters, digits and `_`, starting with a letter or `_`"));
         }
@@ -518,14 +514,7 @@ impl Checker {
 
     fn event(&mut self, on: &Text, known: &Known) -> Said {
         let name = on.get_ref();
-        let valid = !name.is_empty()
-            && name.split('.').all(|part| {
-                let mut chars = part.chars();
-                chars
-                    .next()
-                    .is_some_and(|c| c.is_ascii_alphanumeric() || c == '_')
-                    && chars.all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-            });
+        let valid = nets::load::is_event_name(name);
         if !valid {
             self.at(on.span(), format!("invalid event name `{name}`"));
         } else if let Some(events) = &known.events {
