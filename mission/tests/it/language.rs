@@ -64,7 +64,7 @@ pub fn load(files: &BTreeMap<String, String>) -> Result<Arc<Project>, Vec<String
         .map_err(|e| e.problems.iter().map(ToString::to_string).collect())
 }
 
-fn proved(project: &Arc<Project>) {
+fn proved(project: &Arc<Project>) -> Vec<Vec<String>> {
     let report = check(project, &Options::default());
     assert!(
         report.holds(),
@@ -73,8 +73,12 @@ fn proved(project: &Arc<Project>) {
         report.project.unsafe_example,
         report.project.livelocks
     );
-    // Loops are retries and resumes only: none of them immediate.
-    assert!(report.project.livelocks.is_empty());
+    assert!(
+        report.project.warnings.is_empty(),
+        "{:#?}",
+        report.project.warnings
+    );
+    report.project.loops
 }
 
 #[test]
@@ -122,7 +126,8 @@ arm = { do = "command arm", until = "command.ok", limit = "10s", retries = 2, on
 fly = { until = "landed" }
 "#;
     let project = load(&folder(PROJECT, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
-    proved(&project);
+    // Retries are unrolled into places: no loop at all.
+    assert_eq!(proved(&project), Vec::<Vec<String>>::new());
     let fired = crate::play::fired(&project, "{\"t\": 100}\n");
     assert_eq!(
         fired,
@@ -355,5 +360,64 @@ fn the_compiled_project_plays_as_the_mission_does() {
     assert!(
         trace.last().is_some_and(|l| l.contains("done")),
         "{trace:#?}"
+    );
+}
+
+#[test]
+fn a_rule_that_leaves_and_a_reaction_that_lands_are_proved_and_played() {
+    let mission = r#"name = "FLIGHT"
+land = ["command land", "call DEC.replan {failed: landing}"]
+
+[steps]
+climb = { do = "command takeoff {alt: 50}", until = "altitude_reached", limit = "1min", on_limit = "abort" }
+cruise = { until = "landed" }
+
+[rules]
+lost = { during = ["climb", "cruise"], on = "link_lost", do = "command rtl", then = "land" }
+
+[reactions.safety]
+battery_low = { when = "true", then = "land" }
+"#;
+    let project = load(&folder(PROJECT, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    assert_eq!(proved(&project), Vec::<Vec<String>>::new());
+    let script = "{\"t\": 5, \"event\": \"link_lost\"}\n{\"t\": 6, \"event\": \"battery_low\"}\n";
+    assert_eq!(
+        crate::play::fired(&project, script),
+        ["FLIGHT.start", "FLIGHT.climb__lost", "SAFETY.battery_low"]
+    );
+    assert_eq!(
+        crate::play::commands(&project, script),
+        ["takeoff", "rtl", "land", "land"]
+    );
+    let (trace, _) = crate::play::trace(&project, script);
+    assert!(
+        trace
+            .iter()
+            .any(|l| l.contains("deactivated") && l.contains("FLIGHT")),
+        "{trace:#?}"
+    );
+}
+
+#[test]
+fn exits_on_one_event_are_tried_in_the_order_written() {
+    let mission = r#"[steps]
+wait = { until = "mission_item_reached", when = "seq > 2", then = "far", exits = [{ on = "mission_item_reached", then = "near" }] }
+far = { until = "landed" }
+near = { until = "landed" }
+"#;
+    let project = load(&folder(PROJECT, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    proved(&project);
+    let reached = |seq: u32| {
+        format!(
+            "{{\"t\": 1, \"event\": \"mission_item_reached\", \"params\": {{\"seq\": {seq}}}}}\n"
+        )
+    };
+    assert_eq!(
+        crate::play::fired(&project, &reached(5))[1],
+        "MISSION.wait_mission_item_reached"
+    );
+    assert_eq!(
+        crate::play::fired(&project, &reached(1))[1],
+        "MISSION.wait_mission_item_reached_2"
     );
 }
