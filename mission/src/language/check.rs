@@ -47,10 +47,14 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
     let net = match &raw.name {
         Some(n) => {
             c.name(n, "net");
+            if let Some((_, word, _)) = CATEGORIES.iter().find(|(_, _, net)| net == n.get_ref()) {
+                c.at(n.span(), format!("`{}` names the net of the {word} reactions: give the steps net another name", n.get_ref()));
+            }
             n.get_ref().clone()
         }
         None => "MISSION".to_owned(),
     };
+    let net_span = raw.name.as_ref().map_or(0..0, |n| n.span());
 
     // Steps, in the order written.
     let mut raw_steps: Vec<(&Text, &Spanned<RawStep>)> = raw.steps.iter().collect();
@@ -405,6 +409,7 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
     let mission = Mission {
         file,
         net,
+        net_span,
         steps,
         first: main.first().copied().unwrap_or(0),
         rules,

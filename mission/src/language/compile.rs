@@ -115,7 +115,11 @@ impl Net {
 
     fn write(&self, mission: &Mission, path: &str, active: bool) -> NetFile {
         let mut out = Lines::default();
-        let whole = 0..0;
+        let whole = if self.name == mission.net {
+            mission.net_span.clone()
+        } else {
+            0..0
+        };
         out.line(&format!("# Compiled from {} by `petrel compile`: edit the mission, or this file once compiled.", mission.file.name), &whole);
         out.line(&format!("name = {}", quote(&self.name)), &whole);
         out.line(&format!("places = {}", list(&self.places)), &whole);

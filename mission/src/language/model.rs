@@ -114,8 +114,10 @@ pub struct Reaction {
 #[derive(Debug, Clone)]
 pub struct Mission {
     pub file: SourceFile,
-    /// The steps net's name.
+    /// The steps net's name, and its `name` in the file (empty: the
+    /// default).
     pub net: String,
+    pub net_span: Range<usize>,
     pub steps: Vec<Step>,
     /// The step the mission starts with.
     pub first: usize,

@@ -421,3 +421,32 @@ near = { until = "landed" }
         "MISSION.wait_mission_item_reached_2"
     );
 }
+
+#[test]
+fn a_question_to_the_operator_ends_a_step_by_its_answers() {
+    let mission = r#"name = "SURVEY"
+
+[steps]
+ask = { do = 'ask survey "Survey the area?" {choices: [yes, no]} timeout 60s', until = "survey.yes", exits = [{ on = "survey.no", then = "home" }, { on = "survey.timeout", then = "home" }] }
+work = { do = "command payload_start {payload: camera}", until = "mission_item_reached", when = "seq == 6" }
+home = { do = "command rtl", until = "landed" }
+"#;
+    let project = load(&folder(PROJECT, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    proved(&project);
+    let fired = crate::play::fired(&project, "{\"t\": 61}\n");
+    assert_eq!(fired, ["SURVEY.start", "SURVEY.ask_survey_timeout"]);
+    let fired = crate::play::fired(
+        &project,
+        "{\"t\": 5, \"answer\": \"survey\", \"choice\": \"yes\"}\n",
+    );
+    assert_eq!(fired, ["SURVEY.start", "SURVEY.ask_survey_yes"]);
+}
+
+#[test]
+fn the_steps_net_cannot_take_a_reaction_net_name() {
+    let mission = "name = \"SAFETY\"\n[steps]\na = { until = \"landed\" }\n";
+    assert_eq!(
+        load(&folder(PROJECT, mission)).err().unwrap_or_default(),
+        ["steps.toml:1:8: `SAFETY` names the net of the safety reactions: give the steps net another name"]
+    );
+}
