@@ -25,6 +25,8 @@ pub struct Known {
     pub events: Option<BTreeSet<String>>,
     /// Declared categories, by event.
     pub categories: BTreeMap<String, Category>,
+    /// The project's global places and whether each starts marked.
+    pub globals: BTreeMap<String, bool>,
 }
 
 /// Words a target may be besides a step's name, and names no step may take.
@@ -239,7 +241,15 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
         if s.branches.is_none() && exits.is_empty() && limit.is_none() {
             c.at(key.span(), format!("step `{}` has no way out: give it `until` (the event that ends it), `exits` or a `limit`", key.get_ref()));
         }
+        let phase = s.phase.as_ref().map(|p| {
+            if branch_of[i].is_some() {
+                c.at(p.span(), "a step of a branch is in its parallel step's phase: give the phase to the parallel step");
+            }
+            c.global(p, known);
+            p.get_ref().clone()
+        });
         steps.push(Step {
+            phase,
             name: key.get_ref().clone(),
             span: key.span(),
             actions: c.actions(&s.actions),
@@ -256,6 +266,8 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
             },
         });
     }
+
+    c.phases(&mut steps, &raw_steps, main.first().copied(), known);
 
     // Rules.
     let mut raw_rules: Vec<_> = raw.rules.iter().collect();
@@ -385,7 +397,23 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
                     End::Stay
                 }
             };
+            let phases = match &r.phases {
+                None => Vec::new(),
+                Some(list) if list.get_ref().is_empty() => {
+                    c.at(list.span(), format!("reaction `{}` in no phase: name its phases, or leave `phases` out to react in every one", key.get_ref()));
+                    Vec::new()
+                }
+                Some(list) => list
+                    .get_ref()
+                    .iter()
+                    .map(|p| {
+                        c.global(p, known);
+                        p.get_ref().clone()
+                    })
+                    .collect(),
+            };
             reactions.push(Reaction {
+                phases,
                 name: key.get_ref().clone(),
                 span: key.span(),
                 category,
@@ -594,6 +622,74 @@ impl Checker {
                 self.at(text.span(), e.to_string());
                 None
             }
+        }
+    }
+
+    /// A phase names a global place of the project.
+    fn global(&mut self, phase: &Text, known: &Known) {
+        let name = phase.get_ref();
+        if !known.globals.contains_key(name) {
+            let meant = nets::suggest::nearest(name, known.globals.keys().map(String::as_str));
+            self.at(
+                phase.span(),
+                format!(
+                    "phase `{name}` is no global place of project.toml: declare it in [globals]{}",
+                    meant
+                        .map(|m| format!("; did you mean `{m}`?"))
+                        .unwrap_or_default()
+                ),
+            );
+        }
+    }
+
+    /// Once a step has a phase every step of the sequence has one, a
+    /// branch's steps take their parallel step's, and the project starts
+    /// with the first step's phase marked and no other.
+    fn phases(
+        &mut self,
+        steps: &mut [Step],
+        raw: &[(&Text, &Spanned<RawStep>)],
+        first: Option<usize>,
+        known: &Known,
+    ) {
+        let used: BTreeSet<String> = steps.iter().filter_map(|s| s.phase.clone()).collect();
+        if used.is_empty() {
+            return;
+        }
+        for s in steps
+            .iter()
+            .filter(|s| s.branch_of.is_none() && s.phase.is_none())
+        {
+            self.at(
+                s.span.clone(),
+                format!(
+                    "step `{}` has no phase: once a step has one, every step says its phase",
+                    s.name
+                ),
+            );
+        }
+        for i in 0..steps.len() {
+            if let Some((p, _)) = steps[i].branch_of {
+                steps[i].phase = steps[p].phase.clone();
+            }
+        }
+        let Some(first) = first else { return };
+        let Some(start) = steps[first].phase.clone() else {
+            return;
+        };
+        let wrong: Vec<&str> = used
+            .iter()
+            .filter(|p| known.globals.get(*p).copied().unwrap_or(false) != (**p == start))
+            .map(String::as_str)
+            .collect();
+        if !wrong.is_empty() {
+            let span = raw[first]
+                .1
+                .get_ref()
+                .phase
+                .as_ref()
+                .map_or(steps[first].span.clone(), |p| p.span());
+            self.at(span, format!("the mission starts in phase `{start}`: project.toml's [globals] must start it true and every other phase false ({} {})", wrong.join(", "), if wrong.len() == 1 { "is not" } else { "are not" }));
         }
     }
 

@@ -204,6 +204,8 @@ fn said(text: String) -> Said {
 struct Lead {
     to: Vec<String>,
     actions: Vec<Said>,
+    /// The phase of the step it leads into, if it is a step with one.
+    phase: Option<String>,
 }
 
 /// The steps net under construction, with the mission it comes from.
@@ -234,6 +236,7 @@ impl Steps<'_> {
             let mut lead = Lead {
                 to: Vec::new(),
                 actions: Vec::new(),
+                phase: s.phase.clone(),
             };
             for branch in &s.branches {
                 if let Some(&first) = branch.first() {
@@ -258,6 +261,7 @@ impl Steps<'_> {
         Lead {
             to: vec![self.attempt(i, k)],
             actions,
+            phase: s.phase.clone(),
         }
     }
 
@@ -273,18 +277,22 @@ impl Steps<'_> {
                     .net
                     .place(&format!("{}_join{}", m.steps[p].name, b + 1))],
                 actions: Vec::new(),
+                phase: None,
             },
             Target::Done => Lead {
                 to: vec![self.net.place("done")],
                 actions: m.done.clone(),
+                phase: None,
             },
             Target::Abort => Lead {
                 to: vec![self.net.place("aborted")],
                 actions: m.abort.clone(),
+                phase: None,
             },
             Target::Land => Lead {
                 to: vec![self.net.place("landing")],
                 actions: m.land.clone(),
+                phase: None,
             },
         }
     }
@@ -300,25 +308,36 @@ impl Steps<'_> {
         }
     }
 
+    /// Adds a transition out of step `src` (`None`: out of no step) along
+    /// `lead`; leaving one phase for another moves its global place's token.
     #[allow(clippy::too_many_arguments)]
     fn transition(
         &mut self,
+        src: Option<usize>,
         name: String,
         says: String,
         origin: Range<usize>,
-        from: Vec<String>,
+        mut from: Vec<String>,
         on: Option<String>,
         when: Option<Said>,
         mut actions: Vec<Said>,
         lead: Lead,
     ) {
         actions.extend(lead.actions);
+        let mut to = lead.to;
+        let old = src.and_then(|i| self.m.steps[i].phase.as_ref());
+        if let (Some(old), Some(new)) = (old, &lead.phase) {
+            if old != new {
+                from.push(format!("@{old}"));
+                to.push(format!("@{new}"));
+            }
+        }
         self.net.add(Transition {
             name,
             says,
             origin,
             from,
-            to: lead.to,
+            to,
             on,
             when,
             actions,
@@ -334,6 +353,7 @@ impl Steps<'_> {
         let lead = self.enter(m.first, 0);
         let first = &m.steps[m.first];
         self.transition(
+            None,
             "start".into(),
             format!("the mission starts with step {}", first.name),
             first.span.clone(),
@@ -351,6 +371,7 @@ impl Steps<'_> {
                     .collect();
                 let lead = self.lead(i, 0, s.next);
                 self.transition(
+                    Some(i),
                     format!("{}_join", s.name),
                     format!("parallel step {}: every branch is over", s.name),
                     s.span.clone(),
@@ -374,6 +395,7 @@ impl Steps<'_> {
                         .map(|w| format!(" when {}", w.text))
                         .unwrap_or_default();
                     self.transition(
+                        Some(i),
                         format!("{place}_{}", e.on.text),
                         format!("step {}: until {}{when}", s.name, e.on.text),
                         e.on.span.clone(),
@@ -388,6 +410,7 @@ impl Steps<'_> {
                     let lead = self.lead(i, k, Target::Retry);
                     let what = if k < s.retries { "retry" } else { "give up" };
                     self.transition(
+                        Some(i),
                         format!("{place}_limit"),
                         format!("step {}: limit {} ({what})", s.name, limit.said.text),
                         limit.said.span.clone(),
@@ -435,6 +458,7 @@ impl Steps<'_> {
                     None => Lead {
                         to: vec![self.net.place(&format!("{place}__{}", r.name))],
                         actions: Vec::new(),
+                        phase: None,
                     },
                 };
                 let says = format!("rule {} during {}", r.name, s.name);
@@ -445,8 +469,10 @@ impl Steps<'_> {
                             text: format!("timer {timer} after {}", lasting.said.text.trim()),
                             span: lasting.said.span.clone(),
                         }],
+                        phase: None,
                     };
                     self.transition(
+                        Some(i),
                         format!("{place}__{}_begins", r.name),
                         format!("{says}: on {} (for {})", r.on.text, lasting.said.text),
                         r.on.span.clone(),
@@ -459,6 +485,7 @@ impl Steps<'_> {
                     let mut lead = lead;
                     lead.to.push(idle.clone());
                     self.transition(
+                        Some(i),
                         format!("{place}__{}", r.name),
                         format!("{says}: {} lasted {}", r.on.text, lasting.said.text),
                         lasting.said.span.clone(),
@@ -470,6 +497,7 @@ impl Steps<'_> {
                     );
                 } else {
                     self.transition(
+                        Some(i),
                         format!("{place}__{}", r.name),
                         format!("{says}: on {}", r.on.text),
                         r.on.span.clone(),
@@ -484,6 +512,7 @@ impl Steps<'_> {
                     let suspended = format!("{place}__{}", r.name);
                     let lead = self.enter(i, k);
                     self.transition(
+                        Some(i),
                         format!("{suspended}_resume"),
                         format!("{says}: resume on {}", resume.text),
                         resume.span.clone(),
@@ -562,18 +591,39 @@ fn reactions(m: &Mission, category: nets::Category, name: &str) -> Option<Net> {
             End::Abort => "abort",
             End::Land => "land",
         };
-        net.add(Transition {
-            name: r.name.clone(),
-            says: format!("{category} reaction {}: {end}", r.name),
-            origin: r.span.clone(),
-            from: vec![watching.clone()],
-            to: vec![to],
-            on: Some(r.on.text.clone()),
-            when: r.when.clone(),
-            actions,
-            otherwise: false,
-            priority: None,
-        });
+        let phases: Vec<Option<&String>> = if r.phases.is_empty() {
+            vec![None]
+        } else {
+            r.phases.iter().map(Some).collect()
+        };
+        for phase in phases {
+            let (mut from, mut to, name, also) = (
+                vec![watching.clone()],
+                vec![to.clone()],
+                r.name.clone(),
+                String::new(),
+            );
+            let (name, also) = match phase {
+                Some(p) => {
+                    from.push(format!("@{p}"));
+                    to.push(format!("@{p}"));
+                    (format!("{name}_{p}"), format!(" (in phase {p})"))
+                }
+                None => (name, also),
+            };
+            net.add(Transition {
+                name,
+                says: format!("{category} reaction {}{also}: {end}", r.name),
+                origin: r.span.clone(),
+                from,
+                to,
+                on: Some(r.on.text.clone()),
+                when: r.when.clone(),
+                actions: actions.clone(),
+                otherwise: false,
+                priority: None,
+            });
+        }
     }
     net.rank();
     Some(net)

@@ -67,6 +67,8 @@ pub struct Step {
     pub branch_of: Option<(usize, usize)>,
     /// Where `next` leads from this step.
     pub next: Target,
+    /// Its phase (a global place), a branch's step its parallel step's.
+    pub phase: Option<String>,
 }
 
 /// An interrupt during some steps.
@@ -108,6 +110,8 @@ pub struct Reaction {
     pub when: Option<Said>,
     pub actions: Vec<Said>,
     pub end: End,
+    /// Only in these phases (global places); empty: in any.
+    pub phases: Vec<String>,
 }
 
 /// A checked mission.

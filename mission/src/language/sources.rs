@@ -45,6 +45,8 @@ struct Head {
     programs: toml::Table,
     #[serde(default)]
     net: Vec<toml::Table>,
+    #[serde(default)]
+    globals: toml::Table,
 }
 
 /// Compiles the mission the project in `sources` names, if it names one
@@ -80,6 +82,16 @@ pub fn compile_project(
     let known = Known {
         events: catalog.map(|catalog| outside_events(sources, &head, catalog, &mission_text)),
         categories: categories(&head, catalog),
+        globals: head
+            .globals
+            .iter()
+            .map(|(name, v)| {
+                (
+                    name.clone(),
+                    matches!(v, toml::Value::Boolean(true) | toml::Value::Integer(1)),
+                )
+            })
+            .collect(),
     };
     let mission = check(&path, &mission_text, &known).map_err(|problems| LoadError { problems })?;
     let nets = compile(&mission);

@@ -48,6 +48,9 @@ pub struct RawStep {
     pub on_limit: Option<Text>,
     /// A parallel step: each branch a list of step names.
     pub branches: Option<Spanned<Vec<Vec<Text>>>>,
+    /// The phase of the mission this step is in: a global place of
+    /// project.toml, marked while the mission is in the step.
+    pub phase: Option<Text>,
 }
 
 /// One more way out of a step.
@@ -85,6 +88,8 @@ pub struct RawReaction {
     #[serde(rename = "do")]
     pub actions: Option<Spanned<Actions>>,
     pub then: Option<Text>,
+    /// Only in these phases of the mission (global places).
+    pub phases: Option<Spanned<Vec<Text>>>,
 }
 
 /// One action (`do = "command rtl"`) or a list of them. A lone string's

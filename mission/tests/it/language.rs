@@ -66,9 +66,15 @@ pub fn load(files: &BTreeMap<String, String>) -> Result<Arc<Project>, Vec<String
 
 fn proved(project: &Arc<Project>) -> Vec<Vec<String>> {
     let report = check(project, &Options::default());
+    let nets: Vec<_> = report
+        .nets
+        .iter()
+        .filter(|(_, r)| !r.holds())
+        .map(|(n, r)| (n, &r.deadlock_example))
+        .collect();
     assert!(
         report.holds(),
-        "not proved: {:?}\n{:?}\n{:?}",
+        "not proved: {:?}\n{:?}\n{:?}\nnets: {nets:?}",
         report.project.deadlock_example,
         report.project.unsafe_example,
         report.project.livelocks
@@ -448,5 +454,73 @@ fn the_steps_net_cannot_take_a_reaction_net_name() {
     assert_eq!(
         load(&folder(PROJECT, mission)).err().unwrap_or_default(),
         ["steps.toml:1:8: `SAFETY` names the net of the safety reactions: give the steps net another name"]
+    );
+}
+
+/// A project with the flight phases of the paper's §3.2.3 as global places.
+const PHASED: &str = r#"name = "phased"
+mission = "steps.toml"
+
+[globals]
+on_ground = true
+airborne = false
+down = false
+
+[events]
+altitude_reached = { category = "nominal", params = ["alt"] }
+landed = "nominal"
+battery_low = "safety"
+engine_failure = "catastrophic"
+"#;
+
+#[test]
+fn phases_move_with_the_steps_and_reactions_read_them() {
+    let mission = r#"[steps]
+climb = { do = "command takeoff {alt: 50}", until = "altitude_reached", phase = "on_ground" }
+cruise = { until = "landed", phase = "airborne" }
+rest = { do = "command disarm", until = "command.ok", phase = "down", exits = [{ on = "command.failed", then = "done" }] }
+
+[reactions.safety]
+battery_low = { do = "command rtl", phases = ["airborne"] }
+
+[reactions.catastrophic]
+engine_failure = { do = "command land", then = "land", phases = ["airborne"] }
+"#;
+    let project = load(&folder(PHASED, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    proved(&project);
+    // On the ground a low battery changes nothing; airborne it returns.
+    let script = "{\"t\": 1, \"event\": \"battery_low\"}\n{\"t\": 2, \"event\": \"altitude_reached\", \"params\": {\"alt\": 50}}\n{\"t\": 3, \"event\": \"battery_low\"}\n{\"t\": 4, \"event\": \"landed\"}\n{\"t\": 5, \"event\": \"battery_low\"}\n";
+    assert_eq!(
+        crate::play::fired(&project, script),
+        [
+            "MISSION.start",
+            "MISSION.climb_altitude_reached",
+            "SAFETY.battery_low_airborne",
+            "MISSION.cruise_landed"
+        ]
+    );
+    let (trace, _) = crate::play::trace(&project, script);
+    assert!(
+        trace
+            .iter()
+            .any(|l| l.contains("globals") && l.contains("down")),
+        "{trace:#?}"
+    );
+}
+
+#[test]
+fn phases_are_the_project_globals_every_step_says_and_the_first_marked() {
+    let mission = r#"[steps]
+climb = { until = "altitude_reached", phase = "airborne" }
+cruise = { until = "landed" }
+rest = { until = "landed", phase = "dwn" }
+"#;
+    assert_eq!(
+        load(&folder(PHASED, mission)).err().unwrap_or_default(),
+        [
+            "steps.toml:4:36: phase `dwn` is no global place of project.toml: declare it in [globals]; did you mean `down`?",
+            "steps.toml:3:1: step `cruise` has no phase: once a step has one, every step says its phase",
+            "steps.toml:2:47: the mission starts in phase `airborne`: project.toml's [globals] must start it true and every other phase false (airborne is not)",
+        ]
     );
 }
