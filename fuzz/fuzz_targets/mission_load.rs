@@ -11,6 +11,11 @@ use libfuzzer_sys::fuzz_target;
 const PROJECT: &str = r#"name = "fuzz"
 mission = "steps.toml"
 
+[globals]
+on_ground = true
+airborne = false
+down = false
+
 [events]
 ready_for_takeoff = "nominal"
 altitude_reached = { category = "nominal", params = ["alt"] }
@@ -18,6 +23,7 @@ landed = "nominal"
 link_lost = "communication"
 link_restored = "communication"
 engine_failure = "catastrophic"
+battery_low = "safety"
 
 [programs.DEC.functions]
 replan = { args = ["failed"], returns = ["waypoints"] }

@@ -107,6 +107,16 @@ pub fn compile_project(
     {
         return Err(refuse(format!("the mission compiles into {}, which project.toml already lists: rename the mission file", clash.path)));
     }
+    for file in &listed {
+        let name = sources
+            .read(file)
+            .ok()
+            .and_then(|text| toml::from_str::<toml::Table>(&text).ok())
+            .and_then(|t| t.get("name")?.as_str().map(str::to_owned));
+        if let Some(clash) = nets.iter().find(|n| Some(&n.net) == name.as_ref()) {
+            return Err(refuse(format!("the mission compiles into a net `{}`, the name of the hand-written net of {file}: give the mission (or that net) another `name`", clash.net)));
+        }
+    }
 
     let mut project = comment_out(&text, key.span());
     if !project.ends_with('\n') {

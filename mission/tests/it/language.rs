@@ -524,3 +524,20 @@ rest = { until = "landed", phase = "dwn" }
         ]
     );
 }
+
+#[test]
+fn a_hand_written_net_beside_the_mission_keeps_its_own_name() {
+    let project = PROJECT.replace(
+        "[events]",
+        "[[net]]\nfile = \"hand.toml\"\nactive = true\n\n[events]",
+    );
+    let mut files = folder(&project, "[steps]\na = { until = \"landed\" }\n");
+    files.insert(
+        "hand.toml".into(),
+        "name = \"MISSION\"\nplaces = [\"p\"]\ninitial = [\"p\"]\nfinal = [\"p\"]\n".into(),
+    );
+    assert_eq!(
+        load(&files).err().unwrap_or_default(),
+        ["project.toml:2:11: the mission compiles into a net `MISSION`, the name of the hand-written net of hand.toml: give the mission (or that net) another `name`"]
+    );
+}
