@@ -11,7 +11,8 @@ use nets::time::parse_duration;
 use nets::Category;
 use toml::Spanned;
 
-use super::model::{End, Exit, Limit, Mission, Reaction, Rule, Said, Step, Target, CATEGORIES};
+use super::model::{End, Limit, Mission, Reaction, Rule, Said, Step, Target, CATEGORIES};
+use super::steps::{sequence, Sequence};
 use super::syntax::{self, Actions, RawStep, Text};
 
 /// What the mission's project says about events, for checking the events
@@ -31,7 +32,7 @@ pub struct Known {
 
 /// Words a target may be besides a step's name, and names no step may take.
 const TARGETS: [&str; 5] = ["next", "retry", "done", "abort", "land"];
-const RESERVED: [&str; 8] = [
+pub(super) const RESERVED: [&str; 8] = [
     "next", "retry", "done", "abort", "land", "start", "aborted", "landing",
 ];
 
@@ -58,216 +59,14 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
     };
     let net_span = raw.name.as_ref().map_or(0..0, |n| n.span());
 
-    // Steps, in the order written.
-    let mut raw_steps: Vec<(&Text, &Spanned<RawStep>)> = raw.steps.iter().collect();
-    raw_steps.sort_by_key(|(k, _)| k.span().start);
-    let index: BTreeMap<&str, usize> = raw_steps
-        .iter()
-        .enumerate()
-        .map(|(i, (k, _))| (k.get_ref().as_str(), i))
-        .collect();
-    if raw_steps.is_empty() {
-        c.at(
-            0..0,
-            "a mission has at least one step: `[steps]` is empty or missing",
-        );
-    }
-    for (key, _) in &raw_steps {
-        c.name(key, "step");
-        if RESERVED.contains(&key.get_ref().as_str()) {
-            c.at(
-                key.span(),
-                format!(
-                    "`{}` cannot name a step: it is a word of the mission language ({})",
-                    key.get_ref(),
-                    RESERVED.join(", ")
-                ),
-            );
-        }
-    }
-
-    // Branches first: which step belongs to which parallel step.
-    let mut branch_of: Vec<Option<(usize, usize)>> = vec![None; raw_steps.len()];
-    let mut branches: Vec<Vec<Vec<usize>>> = vec![Vec::new(); raw_steps.len()];
-    for (p, (key, step)) in raw_steps.iter().enumerate() {
-        let Some(list) = &step.get_ref().branches else {
-            continue;
-        };
-        let s = step.get_ref();
-        if s.actions.is_some()
-            || s.until.is_some()
-            || !s.exits.is_empty()
-            || s.limit.is_some()
-            || s.retries.is_some()
-            || s.on_limit.is_some()
-            || s.when.is_some()
-        {
-            c.at(key.span(), format!("parallel step `{}` has only `branches` and `then`: actions, exits and limits belong to the steps of its branches", key.get_ref()));
-        }
-        if list.get_ref().len() < 2 {
-            c.at(list.span(), "a parallel step has at least two branches");
-        }
-        for (b, branch) in list.get_ref().iter().enumerate() {
-            if branch.is_empty() {
-                c.at(
-                    list.span(),
-                    format!("branch {} of `{}` has no step", b + 1, key.get_ref()),
-                );
-            }
-            let mut steps = Vec::new();
-            for name in branch {
-                match c.step(&index, name) {
-                    Some(i) if i == p => c.at(name.span(), format!("`{}` cannot be a branch of itself", name.get_ref())),
-                    Some(i) if branch_of[i].is_some() || raw_steps[i].1.get_ref().branches.is_some() => c.at(
-                        name.span(),
-                        format!("step `{}` is already in a branch, or is parallel itself: a step is in one branch, branches do not nest", name.get_ref()),
-                    ),
-                    Some(i) => {
-                        branch_of[i] = Some((p, b));
-                        steps.push(i);
-                    }
-                    None => {}
-                }
-            }
-            branches[p].push(steps);
-        }
-    }
-    // `next` of each step: the following step of its sequence.
-    let main: Vec<usize> = (0..raw_steps.len())
-        .filter(|&i| branch_of[i].is_none())
-        .collect();
-    let mut next = vec![Target::Done; raw_steps.len()];
-    for w in main.windows(2) {
-        next[w[0]] = Target::Step(w[1]);
-    }
-    for (p, list) in branches.iter().enumerate() {
-        for (b, branch) in list.iter().enumerate() {
-            for (k, &i) in branch.iter().enumerate() {
-                next[i] = branch
-                    .get(k + 1)
-                    .map_or(Target::Join(p, b), |&j| Target::Step(j));
-            }
-        }
-    }
-
-    let mut steps = Vec::new();
-    for (i, (key, step)) in raw_steps.iter().enumerate() {
-        let s = step.get_ref();
-        let retries = match &s.retries {
-            None => 0,
-            Some(r) => match u32::try_from(*r.get_ref()) {
-                Ok(n) if n <= 20 => n,
-                _ => {
-                    c.at(r.span(), "retries: a count from 0 to 20");
-                    0
-                }
-            },
-        };
-        let scope = Scope {
-            step: i,
-            retries,
-            branch_of: branch_of[i],
-            next: next[i],
-            index: &index,
-            branch_of_all: &branch_of,
-        };
-        let mut exits = Vec::new();
-        if let Some(on) = &s.until {
-            let then = s.then.as_ref().map_or(next[i], |t| c.target(t, &scope));
-            exits.push(Exit {
-                on: c.event(on, known),
-                when: c.guard(&s.when),
-                then,
-                actions: Vec::new(),
-            });
-        } else if let Some(w) = &s.when {
-            c.at(
-                w.span(),
-                "`when` guards the event of `until`: this step has no `until`",
-            );
-        }
-        if s.until.is_none() && s.branches.is_none() {
-            if let Some(t) = &s.then {
-                c.at(
-                    t.span(),
-                    "`then` says where `until` leads: this step has no `until`",
-                );
-            }
-        }
-        for exit in &s.exits {
-            let e = exit.get_ref();
-            let then = e.then.as_ref().map_or(next[i], |t| c.target(t, &scope));
-            exits.push(Exit {
-                on: c.event(&e.on, known),
-                when: c.guard(&e.when),
-                then,
-                actions: c.actions(&e.actions),
-            });
-        }
-        let limit = s.limit.as_ref().and_then(|l| c.duration(l));
-        let on_limit = match &s.on_limit {
-            Some(t) if s.limit.is_none() => {
-                c.at(
-                    t.span(),
-                    "`on_limit` says where the limit leads: this step has no `limit`",
-                );
-                Target::Abort
-            }
-            Some(t) => match c.target(t, &scope) {
-                Target::Retry => {
-                    c.at(
-                        t.span(),
-                        "`on_limit` is where the step goes once no retry is left: not `retry`",
-                    );
-                    Target::Abort
-                }
-                t => t,
-            },
-            None if branch_of[i].is_some() && s.limit.is_some() => {
-                c.at(key.span(), format!("step `{}` of a branch has a limit: say where it leads within the branch (`on_limit`)", key.get_ref()));
-                Target::Abort
-            }
-            None => Target::Abort,
-        };
-        if let Some(r) = &s.retries {
-            if s.limit.is_none() && !exits.iter().any(|e| e.then == Target::Retry) {
-                c.at(r.span(), "`retries` with nothing to retry: give the step a `limit` or an exit with `then = \"retry\"`");
-            }
-        }
-        let parallel_then = match (&s.branches, &s.then) {
-            (Some(_), Some(t)) => c.target(t, &scope),
-            _ => next[i],
-        };
-        if s.branches.is_none() && exits.is_empty() && limit.is_none() {
-            c.at(key.span(), format!("step `{}` has no way out: give it `until` (the event that ends it), `exits` or a `limit`", key.get_ref()));
-        }
-        let phase = s.phase.as_ref().map(|p| {
-            if branch_of[i].is_some() {
-                c.at(p.span(), "a step of a branch is in its parallel step's phase: give the phase to the parallel step");
-            }
-            c.global(p, known);
-            p.get_ref().clone()
-        });
-        steps.push(Step {
-            phase,
-            name: key.get_ref().clone(),
-            span: key.span(),
-            actions: c.actions(&s.actions),
-            exits,
-            limit,
-            retries,
-            on_limit,
-            branches: branches[i].clone(),
-            branch_of: branch_of[i],
-            next: if s.branches.is_some() {
-                parallel_then
-            } else {
-                next[i]
-            },
-        });
-    }
-
-    c.phases(&mut steps, &raw_steps, main.first().copied(), known);
+    let Sequence {
+        mut steps,
+        index,
+        branch_of,
+        first,
+        raw: raw_steps,
+    } = sequence(&mut c, &raw.steps, known);
+    c.phases(&mut steps, &raw_steps, first, known);
 
     // Rules.
     let mut raw_rules: Vec<_> = raw.rules.iter().collect();
@@ -439,7 +238,7 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
         net,
         net_span,
         steps,
-        first: main.first().copied().unwrap_or(0),
+        first: first.unwrap_or(0),
         rules,
         reactions,
         done,
@@ -457,26 +256,26 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
 }
 
 /// The step whose targets are being read.
-struct Scope<'a> {
-    step: usize,
-    retries: u32,
-    branch_of: Option<(usize, usize)>,
-    next: Target,
-    index: &'a BTreeMap<&'a str, usize>,
-    branch_of_all: &'a [Option<(usize, usize)>],
+pub(super) struct Scope<'a> {
+    pub(super) step: usize,
+    pub(super) retries: u32,
+    pub(super) branch_of: Option<(usize, usize)>,
+    pub(super) next: Target,
+    pub(super) index: &'a BTreeMap<&'a str, usize>,
+    pub(super) branch_of_all: &'a [Option<(usize, usize)>],
 }
 
-struct Checker {
-    file: SourceFile,
-    problems: Vec<Problem>,
+pub(super) struct Checker {
+    pub(super) file: SourceFile,
+    pub(super) problems: Vec<Problem>,
 }
 
 impl Checker {
-    fn at(&mut self, span: Range<usize>, message: impl Into<String>) {
+    pub(super) fn at(&mut self, span: Range<usize>, message: impl Into<String>) {
         self.problems.push(Problem::new(&self.file, span, message));
     }
 
-    fn name(&mut self, name: &Text, what: &str) {
+    pub(super) fn name(&mut self, name: &Text, what: &str) {
         let s = name.get_ref();
         let ok = nets::load::is_name(s);
         if !ok {
@@ -484,7 +283,7 @@ impl Checker {
         }
     }
 
-    fn step(&mut self, index: &BTreeMap<&str, usize>, name: &Text) -> Option<usize> {
+    pub(super) fn step(&mut self, index: &BTreeMap<&str, usize>, name: &Text) -> Option<usize> {
         let found = index.get(name.get_ref().as_str()).copied();
         if found.is_none() {
             let meant = nets::suggest::nearest(name.get_ref(), index.keys().copied());
@@ -502,7 +301,7 @@ impl Checker {
         found
     }
 
-    fn target(&mut self, t: &Text, scope: &Scope) -> Target {
+    pub(super) fn target(&mut self, t: &Text, scope: &Scope) -> Target {
         let target = match t.get_ref().as_str() {
             "next" => return scope.next,
             "retry" => {
@@ -545,7 +344,7 @@ impl Checker {
         target
     }
 
-    fn event(&mut self, on: &Text, known: &Known) -> Said {
+    pub(super) fn event(&mut self, on: &Text, known: &Known) -> Said {
         let name = on.get_ref();
         let valid = nets::load::is_event_name(name);
         if !valid {
@@ -568,7 +367,7 @@ impl Checker {
         }
     }
 
-    fn guard(&mut self, when: &Option<Text>) -> Option<Said> {
+    pub(super) fn guard(&mut self, when: &Option<Text>) -> Option<Said> {
         let when = when.as_ref()?;
         if let Err(e) = expr::parse(when.get_ref(), Context::Guard) {
             let at = self.file.inside_string(&when.span(), when.get_ref(), e.at);
@@ -580,7 +379,7 @@ impl Checker {
         })
     }
 
-    fn actions(&mut self, actions: &Option<Spanned<Actions>>) -> Vec<Said> {
+    pub(super) fn actions(&mut self, actions: &Option<Spanned<Actions>>) -> Vec<Said> {
         let Some(actions) = actions else {
             return Vec::new();
         };
@@ -609,7 +408,7 @@ impl Checker {
         out
     }
 
-    fn duration(&mut self, text: &Text) -> Option<Limit> {
+    pub(super) fn duration(&mut self, text: &Text) -> Option<Limit> {
         match parse_duration(text.get_ref()) {
             Ok(micros) => Some(Limit {
                 said: Said {
@@ -626,7 +425,7 @@ impl Checker {
     }
 
     /// A phase names a global place of the project.
-    fn global(&mut self, phase: &Text, known: &Known) {
+    pub(super) fn global(&mut self, phase: &Text, known: &Known) {
         let name = phase.get_ref();
         if !known.globals.contains_key(name) {
             let meant = nets::suggest::nearest(name, known.globals.keys().map(String::as_str));

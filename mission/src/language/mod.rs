@@ -15,4 +15,5 @@ pub mod check;
 pub mod compile;
 pub mod model;
 pub mod sources;
+mod steps;
 pub mod syntax;
