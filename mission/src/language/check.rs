@@ -11,7 +11,9 @@ use nets::time::parse_duration;
 use nets::Category;
 use toml::Spanned;
 
-use super::model::{End, Limit, Mission, Reaction, Rule, Said, Step, Target, CATEGORIES};
+use super::model::{
+    End, Limit, Mission, Procedure, Reaction, Rule, Said, Step, Target, CATEGORIES,
+};
 use super::steps::{sequence, Sequence};
 use super::syntax::{self, Actions, RawStep, Text};
 
@@ -65,7 +67,7 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
         branch_of,
         first,
         raw: raw_steps,
-    } = sequence(&mut c, &raw.steps, known);
+    } = sequence(&mut c, &raw.steps, known, true);
     c.phases(&mut steps, &raw_steps, first, known);
 
     // Rules.
@@ -144,6 +146,39 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
         });
     }
 
+    // Procedures: steps of a category's net.
+    let mut procedures: Vec<(Category, Sequence)> = Vec::new();
+    let mut tables: Vec<_> = raw.procedures.iter().collect();
+    tables.sort_by_key(|(k, _)| k.span().start);
+    for (section, table) in tables {
+        let Some(&(category, word, _)) = CATEGORIES
+            .iter()
+            .find(|(_, word, _)| *word == section.get_ref())
+        else {
+            c.at(section.span(), format!("unknown category `{}`: procedures are catastrophic, safety, mission or communication", section.get_ref()));
+            continue;
+        };
+        if !raw.reactions.keys().any(|k| k.get_ref() == word) {
+            c.at(
+                section.span(),
+                format!("procedure of {word} with no reaction to start it: add [reactions.{word}]"),
+            );
+        }
+        let seq = sequence(&mut c, table, known, false);
+        for (key, _) in &seq.raw {
+            if ["watching", "reacted"].contains(&key.get_ref().as_str()) {
+                c.at(
+                    key.span(),
+                    format!(
+                        "`{}` names a place of the {word} net: give the step another name",
+                        key.get_ref()
+                    ),
+                );
+            }
+        }
+        procedures.push((category, seq));
+    }
+
     // Reactions, one net per category.
     let mut reactions = Vec::new();
     let mut sections: Vec<_> = raw.reactions.iter().collect();
@@ -170,27 +205,40 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
                     c.at(on.span.clone(), format!("event `{}` is declared {declared}: its reaction belongs in [reactions.{declared}]", on.text));
                 }
             }
+            let procedure = procedures
+                .iter()
+                .find(|(c, _)| *c == category)
+                .map(|(_, seq)| seq);
             let end = match r.then.as_ref().map(|t| (t, t.get_ref().as_str())) {
                 None if category == Category::Catastrophic => End::Abort,
                 None => End::Stay,
                 Some((_, "stay")) if category != Category::Catastrophic => End::Stay,
                 Some((_, "abort")) => End::Abort,
                 Some((_, "land")) => End::Land,
-                Some((t, _)) => {
+                Some((_, word)) if procedure.is_some_and(|p| p.index.contains_key(word)) => {
+                    End::Procedure(
+                        procedure
+                            .and_then(|p| p.index.get(word).copied())
+                            .unwrap_or(0),
+                    )
+                }
+                Some((t, word)) => {
                     let also = if category == Category::Catastrophic {
                         ""
                     } else {
                         ", `stay` (the default)"
                     };
+                    let steps: Vec<&str> = procedure
+                        .map(|p| p.index.keys().copied().collect())
+                        .unwrap_or_default();
+                    let meant = nets::suggest::nearest(word, steps.iter().copied());
                     c.at(
                         t.span(),
                         format!(
-                            "a {category} reaction ends with `abort`{}{also} or `land`",
-                            if also.is_empty() {
-                                " (the default: a catastrophic event cannot be recovered)"
-                            } else {
-                                ""
-                            }
+                            "a {category} reaction ends with `abort`{}{also}, `land` or a step of [procedures.{}]{}",
+                            if also.is_empty() { " (the default: a catastrophic event cannot be recovered)" } else { "" },
+                            category,
+                            meant.map(|m| format!("; did you mean `{m}`?")).unwrap_or_default()
                         ),
                     );
                     End::Stay
@@ -240,6 +288,13 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
         steps,
         first: first.unwrap_or(0),
         rules,
+        procedures: procedures
+            .into_iter()
+            .map(|(category, seq)| Procedure {
+                category,
+                steps: seq.steps,
+            })
+            .collect(),
         reactions,
         done,
         abort,
@@ -492,15 +547,32 @@ impl Checker {
         }
     }
 
-    /// Every step is reached from the first one.
+    /// Every step is reached: the mission's from its first, a procedure's
+    /// from the reactions leading into it.
     fn reachable(&mut self, m: &Mission) {
-        let mut seen = vec![false; m.steps.len()];
-        let mut queue = VecDeque::from([m.first]);
+        self.reached(&m.steps, &[m.first], &m.rules);
+        for p in &m.procedures {
+            let starts: Vec<usize> = m
+                .reactions
+                .iter()
+                .filter(|r| r.category == p.category)
+                .filter_map(|r| match r.end {
+                    End::Procedure(j) => Some(j),
+                    _ => None,
+                })
+                .collect();
+            self.reached(&p.steps, &starts, &[]);
+        }
+    }
+
+    fn reached(&mut self, steps: &[Step], starts: &[usize], rules: &[Rule]) {
+        let mut seen = vec![false; steps.len()];
+        let mut queue: VecDeque<usize> = starts.iter().copied().collect();
         while let Some(i) = queue.pop_front() {
             if i >= seen.len() || std::mem::replace(&mut seen[i], true) {
                 continue;
             }
-            let s = &m.steps[i];
+            let s = &steps[i];
             let mut targets: Vec<Target> = s.exits.iter().map(|e| e.then).collect();
             if !s.branches.is_empty() {
                 targets.push(s.next);
@@ -509,7 +581,7 @@ impl Checker {
                 targets.push(s.on_limit);
             }
             targets.extend(
-                m.rules
+                rules
                     .iter()
                     .filter(|r| r.during.contains(&i))
                     .filter_map(|r| r.then),
@@ -520,14 +592,14 @@ impl Checker {
             for t in targets {
                 match t {
                     Target::Step(j) => queue.push_back(j),
-                    Target::Join(p, _) => queue.push_back(m.steps[p].next_step().unwrap_or(p)),
+                    Target::Join(p, _) => queue.push_back(steps[p].next_step().unwrap_or(p)),
                     _ => {}
                 }
             }
         }
-        for (i, s) in m.steps.iter().enumerate() {
+        for (i, s) in steps.iter().enumerate() {
             if !seen[i] {
-                self.at(s.span.clone(), format!("step `{}` is unreachable: no step, exit, limit or rule leads to it from the first step", s.name));
+                self.at(s.span.clone(), format!("step `{}` is unreachable: no step, exit, limit, rule or reaction leads to it from the first step", s.name));
             }
         }
     }

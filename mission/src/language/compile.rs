@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::ops::Range;
 
-use super::model::{End, Mission, Said, Target, CATEGORIES};
+use super::model::{End, Mission, Said, Step, Target, CATEGORIES};
 
 /// One generated net file.
 #[derive(Debug, Clone, PartialEq)]
@@ -208,16 +208,21 @@ struct Lead {
     phase: Option<String>,
 }
 
-/// The steps net under construction, with the mission it comes from.
+/// A net of steps under construction: the mission's steps net, or a
+/// category's net with its procedure.
 struct Steps<'a> {
     m: &'a Mission,
+    steps: &'a [Step],
+    /// Where `done`, `abort` and `land` lead: a place, and the actions on
+    /// the way in.
+    ends: [(&'static str, Vec<Said>); 3],
     net: Net,
 }
 
 impl Steps<'_> {
     /// Step `i`'s place for attempt `k` (0: the first entry).
     fn attempt(&mut self, i: usize, k: u32) -> String {
-        let name = &self.m.steps[i].name;
+        let name = &self.steps[i].name;
         if k == 0 {
             self.net.place(name)
         } else {
@@ -226,12 +231,12 @@ impl Steps<'_> {
     }
 
     fn limit_timer(&self, i: usize) -> String {
-        format!("{}_limit", self.m.steps[i].name)
+        format!("{}_limit", self.steps[i].name)
     }
 
     /// Entering step `i` at attempt `k`: its place, its actions, its limit.
     fn enter(&mut self, i: usize, k: u32) -> Lead {
-        let s = &self.m.steps[i];
+        let s = &self.steps[i];
         if !s.branches.is_empty() {
             let mut lead = Lead {
                 to: Vec::new(),
@@ -267,31 +272,30 @@ impl Steps<'_> {
 
     /// Where `target` leads from step `i` at attempt `k`.
     fn lead(&mut self, i: usize, k: u32, target: Target) -> Lead {
-        let m = self.m;
         match target {
             Target::Step(j) => self.enter(j, 0),
-            Target::Retry if k < m.steps[i].retries => self.enter(i, k + 1),
-            Target::Retry => self.lead(i, k, m.steps[i].on_limit),
+            Target::Retry if k < self.steps[i].retries => self.enter(i, k + 1),
+            Target::Retry => self.lead(i, k, self.steps[i].on_limit),
             Target::Join(p, b) => Lead {
                 to: vec![self
                     .net
-                    .place(&format!("{}_join{}", m.steps[p].name, b + 1))],
+                    .place(&format!("{}_join{}", self.steps[p].name, b + 1))],
                 actions: Vec::new(),
                 phase: None,
             },
             Target::Done => Lead {
-                to: vec![self.net.place("done")],
-                actions: m.done.clone(),
+                to: vec![self.net.place(self.ends[0].0)],
+                actions: self.ends[0].1.clone(),
                 phase: None,
             },
             Target::Abort => Lead {
-                to: vec![self.net.place("aborted")],
-                actions: m.abort.clone(),
+                to: vec![self.net.place(self.ends[1].0)],
+                actions: self.ends[1].1.clone(),
                 phase: None,
             },
             Target::Land => Lead {
-                to: vec![self.net.place("landing")],
-                actions: m.land.clone(),
+                to: vec![self.net.place(self.ends[2].0)],
+                actions: self.ends[2].1.clone(),
                 phase: None,
             },
         }
@@ -299,7 +303,7 @@ impl Steps<'_> {
 
     /// Actions leaving step `i` other than by its limit.
     fn leave(&self, i: usize) -> Vec<Said> {
-        match &self.m.steps[i].limit {
+        match &self.steps[i].limit {
             Some(limit) => vec![Said {
                 text: format!("cancel {}", self.limit_timer(i)),
                 span: limit.said.span.clone(),
@@ -325,7 +329,7 @@ impl Steps<'_> {
     ) {
         actions.extend(lead.actions);
         let mut to = lead.to;
-        let old = src.and_then(|i| self.m.steps[i].phase.as_ref());
+        let old = src.and_then(|i| self.steps[i].phase.as_ref());
         if let (Some(old), Some(new)) = (old, &lead.phase) {
             if old != new {
                 from.push(format!("@{old}"));
@@ -351,7 +355,7 @@ impl Steps<'_> {
         let start = self.net.place("start");
         self.net.initial.push(start.clone());
         let lead = self.enter(m.first, 0);
-        let first = &m.steps[m.first];
+        let first = &self.steps[m.first];
         self.transition(
             None,
             "start".into(),
@@ -364,7 +368,22 @@ impl Steps<'_> {
             lead,
         );
 
-        for (i, s) in m.steps.iter().enumerate() {
+        self.sequence();
+        for r in &m.rules {
+            self.rule(r);
+        }
+        for end in ["done", "aborted", "landing"] {
+            if self.net.places.iter().any(|p| p == end) {
+                self.net.finals.push(end.to_owned());
+            }
+        }
+        self.net.rank();
+        self.net
+    }
+
+    /// Every step's transitions: exits, limits, joins.
+    fn sequence(&mut self) {
+        for (i, s) in self.steps.iter().enumerate() {
             if !s.branches.is_empty() {
                 let from: Vec<String> = (0..s.branches.len())
                     .map(|b| self.net.place(&format!("{}_join{}", s.name, b + 1)))
@@ -423,20 +442,9 @@ impl Steps<'_> {
                 }
             }
         }
-        for r in &m.rules {
-            self.rule(r);
-        }
-        for end in ["done", "aborted", "landing"] {
-            if self.net.places.iter().any(|p| p == end) {
-                self.net.finals.push(end.to_owned());
-            }
-        }
-        self.net.rank();
-        self.net
     }
 
     fn rule(&mut self, r: &super::model::Rule) {
-        let m = self.m;
         let timer = format!("{}_for", r.name);
         let (idle, grace) = match &r.lasting {
             Some(_) => {
@@ -448,7 +456,7 @@ impl Steps<'_> {
             None => (None, None),
         };
         for &i in &r.during {
-            let s = &m.steps[i];
+            let s = &self.steps[i];
             for k in 0..=s.retries {
                 let place = self.attempt(i, k);
                 let mut actions = self.leave(i);
@@ -554,7 +562,7 @@ impl Steps<'_> {
     }
 }
 
-/// The reactions of one category, as its net.
+/// The reactions of one category, as its net, with its procedure.
 fn reactions(m: &Mission, category: nets::Category, name: &str) -> Option<Net> {
     let list: Vec<_> = m
         .reactions
@@ -564,32 +572,66 @@ fn reactions(m: &Mission, category: nets::Category, name: &str) -> Option<Net> {
     if list.is_empty() {
         return None;
     }
-    let mut net = Net::new(name);
-    let watching = net.place("watching");
-    net.initial.push(watching.clone());
-    net.finals.push(watching.clone());
+    let procedure = m
+        .procedures
+        .iter()
+        .find(|p| p.category == category)
+        .map_or(&[][..], |p| &p.steps[..]);
+    let catastrophic = category == nets::Category::Catastrophic;
+    // Abort and land stop the mission's steps; a catastrophic reaction
+    // has stopped them, and every other reaction's procedure, already.
+    let stop = |then: &[Said]| {
+        let mut actions = Vec::new();
+        if !catastrophic {
+            actions.push(said(format!("deactivate {}", m.net)));
+        }
+        actions.extend(then.iter().cloned());
+        actions
+    };
+    let mut others: Vec<String> = CATEGORIES
+        .iter()
+        .filter(|(c, _, _)| *c != category && m.reactions.iter().any(|r| r.category == *c))
+        .map(|(_, _, net)| format!("deactivate {net}"))
+        .collect();
+    others.insert(0, format!("deactivate {}", m.net));
+    let mut net = Steps {
+        m,
+        steps: procedure,
+        ends: [
+            (
+                if catastrophic { "reacted" } else { "watching" },
+                Vec::new(),
+            ),
+            ("reacted", stop(&m.abort)),
+            ("reacted", stop(&m.land)),
+        ],
+        net: Net::new(name),
+    };
+    let watching = net.net.place("watching");
+    net.net.initial.push(watching.clone());
+    net.net.finals.push(watching.clone());
     for r in list {
         let mut actions = r.actions.clone();
-        let to = match r.end {
-            End::Stay => watching.clone(),
-            End::Abort | End::Land => {
-                actions.push(said(format!("deactivate {}", m.net)));
-                actions.extend(if r.end == End::Abort {
-                    m.abort.iter().cloned()
-                } else {
-                    m.land.iter().cloned()
-                });
-                let reacted = net.place("reacted");
-                if !net.finals.contains(&reacted) {
-                    net.finals.push(reacted.clone());
-                }
-                reacted
-            }
+        // A catastrophic event ends the mission's steps, and the other
+        // reactions' procedures, whatever follows (the paper's §3.2.3).
+        if catastrophic {
+            actions.extend(others.iter().cloned().map(said));
+        }
+        let lead = match r.end {
+            End::Stay => Lead {
+                to: vec![watching.clone()],
+                actions: Vec::new(),
+                phase: None,
+            },
+            End::Abort => net.lead(0, 0, Target::Abort),
+            End::Land => net.lead(0, 0, Target::Land),
+            End::Procedure(j) => net.enter(j, 0),
         };
         let end = match r.end {
-            End::Stay => "the mission goes on",
-            End::Abort => "abort",
-            End::Land => "land",
+            End::Stay => "the mission goes on".to_owned(),
+            End::Abort => "abort".to_owned(),
+            End::Land => "land".to_owned(),
+            End::Procedure(j) => format!("procedure step {}", procedure[j].name),
         };
         let phases: Vec<Option<&String>> = if r.phases.is_empty() {
             vec![None]
@@ -597,21 +639,18 @@ fn reactions(m: &Mission, category: nets::Category, name: &str) -> Option<Net> {
             r.phases.iter().map(Some).collect()
         };
         for phase in phases {
-            let (mut from, mut to, name, also) = (
-                vec![watching.clone()],
-                vec![to.clone()],
-                r.name.clone(),
-                String::new(),
-            );
+            let (mut from, mut to) = (vec![watching.clone()], lead.to.clone());
             let (name, also) = match phase {
                 Some(p) => {
                     from.push(format!("@{p}"));
                     to.push(format!("@{p}"));
-                    (format!("{name}_{p}"), format!(" (in phase {p})"))
+                    (format!("{}_{p}", r.name), format!(" (in phase {p})"))
                 }
-                None => (name, also),
+                None => (r.name.clone(), String::new()),
             };
-            net.add(Transition {
+            let mut all = actions.clone();
+            all.extend(lead.actions.iter().cloned());
+            net.net.add(Transition {
                 name,
                 says: format!("{category} reaction {}{also}: {end}", r.name),
                 origin: r.span.clone(),
@@ -619,11 +658,16 @@ fn reactions(m: &Mission, category: nets::Category, name: &str) -> Option<Net> {
                 to,
                 on: Some(r.on.text.clone()),
                 when: r.when.clone(),
-                actions: actions.clone(),
+                actions: all,
                 otherwise: false,
                 priority: None,
             });
         }
+    }
+    net.sequence();
+    let mut net = net.net;
+    if net.places.iter().any(|p| p == "reacted") {
+        net.finals.push("reacted".to_owned());
     }
     net.rank();
     Some(net)
@@ -644,6 +688,12 @@ pub fn compile(m: &Mission) -> Vec<NetFile> {
     }
     let steps = Steps {
         m,
+        steps: &m.steps,
+        ends: [
+            ("done", m.done.clone()),
+            ("aborted", m.abort.clone()),
+            ("landing", m.land.clone()),
+        ],
         net: Net::new(&m.net),
     }
     .build();

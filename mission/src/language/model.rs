@@ -98,6 +98,17 @@ pub enum End {
     Abort,
     /// The steps stop; the mission's `land` actions run.
     Land,
+    /// Into a step of its category's procedure, by index.
+    Procedure(usize),
+}
+
+/// The steps a category's reactions lead into, run in its net: `done`
+/// goes back to watching (for catastrophic: the reaction is over), `abort`
+/// and `land` stop the mission's steps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Procedure {
+    pub category: Category,
+    pub steps: Vec<Step>,
 }
 
 /// A reaction to a disruptive event, in its category's net.
@@ -127,6 +138,7 @@ pub struct Mission {
     pub first: usize,
     pub rules: Vec<Rule>,
     pub reactions: Vec<Reaction>,
+    pub procedures: Vec<Procedure>,
     pub done: Vec<Said>,
     pub abort: Vec<Said>,
     pub land: Vec<Said>,

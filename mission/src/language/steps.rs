@@ -22,11 +22,13 @@ pub(super) struct Sequence<'r> {
     pub raw: Vec<(&'r Text, &'r Spanned<RawStep>)>,
 }
 
-/// Checks the steps of `table`, in the order written.
+/// Checks the steps of `table`, in the order written; `phased`: the
+/// mission's steps, which may say their phase (a procedure's may not).
 pub(super) fn sequence<'r>(
     c: &mut Checker,
     table: &'r BTreeMap<Text, Spanned<RawStep>>,
     known: &Known,
+    phased: bool,
 ) -> Sequence<'r> {
     // Steps, in the order written.
     let mut raw_steps: Vec<(&Text, &Spanned<RawStep>)> = table.iter().collect();
@@ -212,10 +214,13 @@ pub(super) fn sequence<'r>(
             c.at(key.span(), format!("step `{}` has no way out: give it `until` (the event that ends it), `exits` or a `limit`", key.get_ref()));
         }
         let phase = s.phase.as_ref().map(|p| {
-            if branch_of[i].is_some() {
+            if !phased {
+                c.at(p.span(), "a procedure's step has no phase: phases are the mission's steps', a reaction reads them (`phases`)");
+            } else if branch_of[i].is_some() {
                 c.at(p.span(), "a step of a branch is in its parallel step's phase: give the phase to the parallel step");
+            } else {
+                c.global(p, known);
             }
-            c.global(p, known);
             p.get_ref().clone()
         });
         steps.push(Step {

@@ -29,6 +29,9 @@ pub struct RawMission {
     pub rules: BTreeMap<Text, Spanned<RawRule>>,
     #[serde(default)]
     pub reactions: BTreeMap<Text, BTreeMap<Text, Spanned<RawReaction>>>,
+    /// `[procedures.CATEGORY]`: steps a reaction of the category leads into.
+    #[serde(default)]
+    pub procedures: BTreeMap<Text, BTreeMap<Text, Spanned<RawStep>>>,
 }
 
 /// `[steps] NAME = { … }`.

@@ -238,7 +238,7 @@ fn an_unreachable_step_is_named() {
     let problems = load(&folder(PROJECT, mission)).err().unwrap_or_default();
     assert_eq!(
         problems,
-        ["steps.toml:3:1: step `b` is unreachable: no step, exit, limit or rule leads to it from the first step"]
+        ["steps.toml:3:1: step `b` is unreachable: no step, exit, limit, rule or reaction leads to it from the first step"]
     );
 }
 
@@ -539,5 +539,93 @@ fn a_hand_written_net_beside_the_mission_keeps_its_own_name() {
     assert_eq!(
         load(&files).err().unwrap_or_default(),
         ["project.toml:2:11: the mission compiles into a net `MISSION`, the name of the hand-written net of hand.toml: give the mission (or that net) another `name`"]
+    );
+}
+
+#[test]
+fn a_reaction_runs_its_procedure_in_its_category_net() {
+    let mission = r#"[steps]
+climb = { do = "command takeoff {alt: 50}", until = "altitude_reached", phase = "on_ground" }
+cruise = { until = "landed", phase = "airborne" }
+rest = { until = "landed", phase = "down" }
+
+[reactions.safety]
+battery_low = { phases = ["airborne"], then = "land_home" }
+
+[procedures.safety]
+land_home = { do = "command land", until = "command.ok", then = "abort", exits = [{ on = "command.failed", then = "rtl_home" }] }
+rtl_home = { do = "command rtl", until = "command.ok", then = "abort", exits = [{ on = "command.failed", then = "done" }] }
+
+[reactions.catastrophic]
+engine_failure = { then = "glide" }
+
+[procedures.catastrophic]
+# After the lockout only catastrophic events and the reaction's own
+# results come: a glide waits for the autopilot's answer, not `landed`.
+glide = { do = "command mode {mode: FBWA}", until = "command.ok", exits = [{ on = "command.failed", then = "glide_again" }] }
+glide_again = { do = "command mode {mode: FBWA}", until = "command.ok", limit = "5s", on_limit = "done" }
+"#;
+    let project = load(&folder(PHASED, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    proved(&project);
+    let airborne = "{\"t\": 1, \"event\": \"altitude_reached\", \"params\": {\"alt\": 50}}\n{\"t\": 2, \"event\": \"battery_low\"}\n";
+    // Land refused, RTL refused: back to watching, the mission goes on.
+    let refused = format!("{airborne}{{\"t\": 3, \"reply\": \"command.land\", \"failed\": \"denied\"}}\n{{\"t\": 4, \"reply\": \"command.rtl\", \"failed\": \"denied\"}}\n{{\"t\": 5, \"event\": \"battery_low\"}}\n");
+    assert_eq!(
+        crate::play::fired(&project, &refused),
+        [
+            "MISSION.start",
+            "MISSION.climb_altitude_reached",
+            "SAFETY.battery_low_airborne",
+            "SAFETY.land_home_command_failed",
+            "SAFETY.rtl_home_command_failed",
+            "SAFETY.battery_low_airborne",
+        ]
+    );
+    // Land accepted: the mission's steps stop.
+    let accepted = format!("{airborne}{{\"t\": 3, \"reply\": \"command.land\"}}\n{{\"t\": 4, \"event\": \"landed\"}}\n");
+    let fired = crate::play::fired(&project, &accepted);
+    assert_eq!(
+        fired.last().map(String::as_str),
+        Some("SAFETY.land_home_command_ok"),
+        "{fired:#?}"
+    );
+    // An engine failure: the steps stop at once, the glide runs.
+    let failure = "{\"t\": 1, \"event\": \"engine_failure\"}\n{\"t\": 2, \"reply\": \"command.mode\", \"failed\": \"denied\"}\n{\"t\": 3, \"reply\": \"command.mode\"}\n";
+    assert_eq!(
+        crate::play::fired(&project, failure),
+        [
+            "MISSION.start",
+            "CATASTROPHIC.engine_failure",
+            "CATASTROPHIC.glide_command_failed",
+            "CATASTROPHIC.glide_again_command_ok"
+        ]
+    );
+    let (trace, _) = crate::play::trace(&project, failure);
+    assert!(
+        trace
+            .iter()
+            .any(|l| l.contains("deactivated") && l.contains("SAFETY")),
+        "{trace:#?}"
+    );
+}
+
+#[test]
+fn a_reaction_leads_only_into_its_own_procedure() {
+    let mission = r#"[steps]
+a = { until = "landed" }
+
+[reactions.safety]
+battery_low = { then = "glid" }
+
+[procedures.catastrophic]
+glide = { until = "landed", phase = "airborne" }
+"#;
+    assert_eq!(
+        load(&folder(PROJECT, mission)).err().unwrap_or_default(),
+        [
+            "steps.toml:7:13: procedure of catastrophic with no reaction to start it: add [reactions.catastrophic]",
+            "steps.toml:8:37: a procedure's step has no phase: phases are the mission's steps', a reaction reads them (`phases`)",
+            "steps.toml:5:24: a safety reaction ends with `abort`, `stay` (the default), `land` or a step of [procedures.safety]",
+        ]
     );
 }
