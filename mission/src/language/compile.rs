@@ -700,3 +700,55 @@ pub fn compile(m: &Mission) -> Vec<NetFile> {
     out.push(steps.write(m, &path(&m.net), true));
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{Net, Transition};
+
+    fn waiting(name: &str, from: &str, on: &str, otherwise: bool) -> Transition {
+        Transition {
+            name: name.to_owned(),
+            says: String::new(),
+            origin: 0..0,
+            from: vec![from.to_owned()],
+            to: vec![from.to_owned()],
+            on: Some(on.to_owned()),
+            when: None,
+            actions: Vec::new(),
+            otherwise,
+            priority: None,
+        }
+    }
+
+    #[test]
+    fn names_stay_unique_and_siblings_are_ranked_in_the_order_said() {
+        let mut net = Net::new("N");
+        for t in [
+            waiting("a", "p", "e", false),
+            waiting("a", "p", "e", false),
+            waiting("b", "q", "e", false),
+            waiting("c", "p", "f", false),
+            waiting("d", "p", "f", true),
+        ] {
+            net.add(t);
+        }
+        net.rank();
+        let ranks: Vec<(&str, Option<usize>)> = net
+            .transitions
+            .iter()
+            .map(|t| (t.name.as_str(), t.priority))
+            .collect();
+        // `b` shares no place with the others on `e`; `c`'s only sibling
+        // is the fallback `d`: neither needs a rank.
+        assert_eq!(
+            ranks,
+            [
+                ("a", Some(3)),
+                ("a_2", Some(2)),
+                ("b", None),
+                ("c", None),
+                ("d", None)
+            ]
+        );
+    }
+}

@@ -340,3 +340,21 @@ pub fn load(sources: &dyn Sources, catalog: Option<&Catalog>) -> Result<nets::Pr
         Some(compiled) => load(&compiled.sources(sources)).map_err(|e| compiled.relocate(e)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::comment_out;
+
+    #[test]
+    fn commenting_out_keeps_every_line_and_its_number() {
+        let text = "name = \"p\"\nmission = \"\"\"\nsteps.toml\"\"\"\n[events]\n";
+        let start = text.find("\"\"\"").unwrap_or(0);
+        let end = text.rfind("\"\"\"").map_or(0, |e| e + 3);
+        let out = comment_out(text, start..end);
+        assert_eq!(
+            out,
+            "name = \"p\"\n# (compiled) mission = \"\"\"\n# (compiled) steps.toml\"\"\"\n[events]\n"
+        );
+        assert_eq!(out.lines().count(), text.lines().count());
+    }
+}
