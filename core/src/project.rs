@@ -228,3 +228,49 @@ pub fn gateway_setting(dir: &Path, key: &str) -> Result<Option<String>, miette::
         )),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn example(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../examples")
+            .join(name)
+    }
+
+    #[test]
+    fn a_mission_project_loads_as_its_compiled_nets_by_every_path() {
+        let dir = example("uav-survey-mission");
+        let names = |p: &Project| p.nets.iter().map(|n| n.name.clone()).collect::<Vec<_>>();
+        let loaded = load(&dir).map_err(|e| for_people(&e));
+        let loaded = loaded.as_deref().map(names);
+        assert_eq!(
+            loaded,
+            Ok(vec![
+                "CATASTROPHIC".to_owned(),
+                "SAFETY".to_owned(),
+                "COMMUNICATION".to_owned(),
+                "MISSION".to_owned()
+            ])
+        );
+        // The folder itself serves the compiled project, as `nets` reads it.
+        let by_folder = nets::load(&Folder(dir.clone())).map(|p| names(&p));
+        assert_eq!(by_folder.ok(), loaded.ok());
+        assert!(matches!(compiled(&dir), Ok(Some(_))));
+        assert!(matches!(compiled(&example("uav-survey")), Ok(None)));
+    }
+
+    #[test]
+    fn what_is_read_is_the_crews_files_not_the_generated_ones() {
+        let dir = example("uav-survey-mission");
+        let Ok(profile) = elaboration::Profile::builtin("ardupilot") else {
+            panic!("the built-in profile compiles");
+        };
+        let read = load_read(&dir, &catalog(&profile)).map(|(_, files)| files);
+        let paths: Vec<String> = read
+            .map(|files| files.into_iter().map(|(path, _)| path).collect())
+            .unwrap_or_default();
+        assert_eq!(paths, ["project.toml", "steps.toml"]);
+    }
+}
