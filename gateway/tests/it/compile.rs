@@ -122,3 +122,26 @@ fn edit_refuses_a_mission_project_whose_nets_it_would_lose() {
         "{err}"
     );
 }
+
+#[test]
+fn check_says_a_mission_problem_at_its_line_with_exit_2() {
+    let scratch = Scratch::new("check-mission");
+    let project = scratch.path().join("p");
+    std::fs::create_dir(&project).expect("a folder");
+    std::fs::copy(
+        root().join(EXAMPLE).join("project.toml"),
+        project.join("project.toml"),
+    )
+    .expect("copied");
+    let steps = std::fs::read_to_string(root().join(EXAMPLE).join("steps.toml")).expect("steps");
+    let steps = steps.replace("until = \"landed\"", "until = \"landd\"");
+    std::fs::write(project.join("steps.toml"), steps).expect("written");
+    let (code, out, err) = petrel(&["check", &project.to_string_lossy()]);
+    assert_eq!(code, 2, "{out}");
+    assert!(
+        err.contains("steps.toml:10:38: unknown event `landd`")
+            && err.contains("did you mean `landed`?"),
+        "{err}"
+    );
+    assert!(err.contains("1 problem in the project"), "{err}");
+}
