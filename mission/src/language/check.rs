@@ -12,7 +12,7 @@ use nets::Category;
 use toml::Spanned;
 
 use super::model::{
-    End, Limit, Mission, Procedure, Reaction, Rule, Said, Step, Target, CATEGORIES,
+    End, Level, Limit, Mission, Procedure, Reaction, Rule, Said, Step, Target, CATEGORIES,
 };
 use super::steps::{sequence, Sequence};
 use super::syntax::{self, Actions, RawStep, Text};
@@ -69,6 +69,65 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
         raw: raw_steps,
     } = sequence(&mut c, &raw.steps, known, true);
     c.phases(&mut steps, &raw_steps, first, known);
+
+    // Levels: sequences in nets of their own, run by the mission's steps.
+    let mut tables: Vec<_> = raw.levels.iter().collect();
+    tables.sort_by_key(|(k, _)| k.span().start);
+    let mut levels = Vec::new();
+    for (key, table) in tables {
+        c.name(key, "level");
+        let clash = key.get_ref() == &net || CATEGORIES.iter().any(|(_, _, n)| n == key.get_ref());
+        if clash {
+            c.at(
+                key.span(),
+                format!(
+                    "level `{}` takes the name of a net the mission compiles into: give it another",
+                    key.get_ref()
+                ),
+            );
+        }
+        let seq = sequence(&mut c, table, known, false);
+        levels.push(Level {
+            name: key.get_ref().clone(),
+            span: key.span(),
+            first: seq.first.unwrap_or(0),
+            steps: seq.steps,
+        });
+    }
+    for (i, (_, step)) in raw_steps.iter().enumerate() {
+        let Some(run) = &step.get_ref().run else {
+            continue;
+        };
+        match levels.iter().position(|l| &l.name == run.get_ref()) {
+            Some(l) => steps[i].run = Some(l),
+            None => {
+                let meant =
+                    nets::suggest::nearest(run.get_ref(), levels.iter().map(|l| l.name.as_str()));
+                c.at(
+                    run.span(),
+                    format!(
+                        "unknown level `{}`: declare it as [levels.{}]{}",
+                        run.get_ref(),
+                        run.get_ref(),
+                        meant
+                            .map(|m| format!("; did you mean `{m}`?"))
+                            .unwrap_or_default()
+                    ),
+                );
+            }
+        }
+    }
+    for (l, level) in levels.iter().enumerate() {
+        if !steps.iter().any(|s| s.run == Some(l)) {
+            c.at(
+                level.span.clone(),
+                format!(
+                    "level `{}` is run by no step: give a step `run = \"{}\"`",
+                    level.name, level.name
+                ),
+            );
+        }
+    }
 
     // Rules.
     let mut raw_rules: Vec<_> = raw.rules.iter().collect();
@@ -288,6 +347,7 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
         steps,
         first: first.unwrap_or(0),
         rules,
+        levels,
         procedures: procedures
             .into_iter()
             .map(|(category, seq)| Procedure {
@@ -551,6 +611,9 @@ impl Checker {
     /// from the reactions leading into it.
     fn reachable(&mut self, m: &Mission) {
         self.reached(&m.steps, &[m.first], &m.rules);
+        for l in &m.levels {
+            self.reached(&l.steps, &[l.first], &[]);
+        }
         for p in &m.procedures {
             let starts: Vec<usize> = m
                 .reactions

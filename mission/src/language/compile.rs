@@ -253,6 +253,12 @@ impl Steps<'_> {
             return lead;
         }
         let mut actions = s.actions.clone();
+        if let Some(level) = s.run.and_then(|l| self.m.levels.get(l)) {
+            actions.push(Said {
+                text: format!("activate {}", level.name),
+                span: s.span.clone(),
+            });
+        }
         if let Some(limit) = &s.limit {
             actions.push(Said {
                 text: format!(
@@ -303,10 +309,23 @@ impl Steps<'_> {
 
     /// Actions leaving step `i` other than by its limit.
     fn leave(&self, i: usize) -> Vec<Said> {
-        match &self.steps[i].limit {
-            Some(limit) => vec![Said {
+        let mut out = self.stop_level(i);
+        if let Some(limit) = &self.steps[i].limit {
+            out.push(Said {
                 text: format!("cancel {}", self.limit_timer(i)),
                 span: limit.said.span.clone(),
+            });
+        }
+        out
+    }
+
+    /// Leaving step `i` stops the level it runs.
+    fn stop_level(&self, i: usize) -> Vec<Said> {
+        let s = &self.steps[i];
+        match s.run.and_then(|l| self.m.levels.get(l)) {
+            Some(level) => vec![Said {
+                text: format!("deactivate {}", level.name),
+                span: s.span.clone(),
             }],
             None => Vec::new(),
         }
@@ -350,16 +369,16 @@ impl Steps<'_> {
         });
     }
 
-    fn build(mut self) -> Net {
-        let m = self.m;
+    /// The whole net: `start`, then the steps from `first`, and `rules`.
+    fn build(mut self, first: usize, rules: &[super::model::Rule], what: &str) -> Net {
         let start = self.net.place("start");
         self.net.initial.push(start.clone());
-        let lead = self.enter(m.first, 0);
-        let first = &self.steps[m.first];
+        let lead = self.enter(first, 0);
+        let first = &self.steps[first];
         self.transition(
             None,
             "start".into(),
-            format!("the mission starts with step {}", first.name),
+            format!("{what} starts with step {}", first.name),
             first.span.clone(),
             vec![start],
             None,
@@ -369,7 +388,7 @@ impl Steps<'_> {
         );
 
         self.sequence();
-        for r in &m.rules {
+        for r in rules {
             self.rule(r);
         }
         for end in ["done", "aborted", "landing"] {
@@ -436,7 +455,7 @@ impl Steps<'_> {
                         vec![place.clone()],
                         Some(self.limit_timer(i)),
                         None,
-                        Vec::new(),
+                        self.stop_level(i),
                         lead,
                     );
                 }
@@ -696,8 +715,22 @@ pub fn compile(m: &Mission) -> Vec<NetFile> {
         ],
         net: Net::new(&m.net),
     }
-    .build();
+    .build(m.first, &m.rules, "the mission");
     out.push(steps.write(m, &path(&m.net), true));
+    for level in &m.levels {
+        let net = Steps {
+            m,
+            steps: &level.steps,
+            ends: [
+                ("done", Vec::new()),
+                ("aborted", m.abort.clone()),
+                ("landing", m.land.clone()),
+            ],
+            net: Net::new(&level.name),
+        }
+        .build(level.first, &[], &format!("level {}", level.name));
+        out.push(net.write(m, &path(&level.name), false));
+    }
     out
 }
 

@@ -69,6 +69,19 @@ pub struct Step {
     pub next: Target,
     /// Its phase (a global place), a branch's step its parallel step's.
     pub phase: Option<String>,
+    /// The level it runs, by index in [`Mission::levels`].
+    pub run: Option<usize>,
+}
+
+/// A sequence of steps in a net of its own, inactive until a step of the
+/// mission runs it (the paper's level 3): `done` ends it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Level {
+    /// Its net's name.
+    pub name: String,
+    pub span: Range<usize>,
+    pub steps: Vec<Step>,
+    pub first: usize,
 }
 
 /// An interrupt during some steps.
@@ -139,6 +152,7 @@ pub struct Mission {
     pub rules: Vec<Rule>,
     pub reactions: Vec<Reaction>,
     pub procedures: Vec<Procedure>,
+    pub levels: Vec<Level>,
     pub done: Vec<Said>,
     pub abort: Vec<Said>,
     pub land: Vec<Said>,

@@ -215,7 +215,7 @@ pub(super) fn sequence<'r>(
         }
         let phase = s.phase.as_ref().map(|p| {
             if !phased {
-                c.at(p.span(), "a procedure's step has no phase: phases are the mission's steps', a reaction reads them (`phases`)");
+                c.at(p.span(), "a step of a procedure or a level has no phase: phases are the mission's steps', a reaction reads them (`phases`)");
             } else if branch_of[i].is_some() {
                 c.at(p.span(), "a step of a branch is in its parallel step's phase: give the phase to the parallel step");
             } else {
@@ -223,7 +223,14 @@ pub(super) fn sequence<'r>(
             }
             p.get_ref().clone()
         });
+        if let (false, Some(r)) = (phased, &s.run) {
+            c.at(
+                r.span(),
+                "levels do not nest: only a step of the mission runs a level",
+            );
+        }
         steps.push(Step {
+            run: None,
             phase,
             name: key.get_ref().clone(),
             span: key.span(),

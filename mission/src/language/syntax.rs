@@ -32,6 +32,10 @@ pub struct RawMission {
     /// `[procedures.CATEGORY]`: steps a reaction of the category leads into.
     #[serde(default)]
     pub procedures: BTreeMap<Text, BTreeMap<Text, Spanned<RawStep>>>,
+    /// `[levels.NAME]`: a sequence of steps in a net of its own, run by a
+    /// step of the mission (the paper's level 3).
+    #[serde(default)]
+    pub levels: BTreeMap<Text, BTreeMap<Text, Spanned<RawStep>>>,
 }
 
 /// `[steps] NAME = { … }`.
@@ -54,6 +58,9 @@ pub struct RawStep {
     /// The phase of the mission this step is in: a global place of
     /// project.toml, marked while the mission is in the step.
     pub phase: Option<Text>,
+    /// A level of its own (`[levels.NAME]`) the step runs: activated on
+    /// entering the step, deactivated on leaving it.
+    pub run: Option<Text>,
 }
 
 /// One more way out of a step.

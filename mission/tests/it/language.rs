@@ -624,8 +624,66 @@ glide = { until = "landed", phase = "airborne" }
         load(&folder(PROJECT, mission)).err().unwrap_or_default(),
         [
             "steps.toml:7:13: procedure of catastrophic with no reaction to start it: add [reactions.catastrophic]",
-            "steps.toml:8:37: a procedure's step has no phase: phases are the mission's steps', a reaction reads them (`phases`)",
+            "steps.toml:8:37: a step of a procedure or a level has no phase: phases are the mission's steps', a reaction reads them (`phases`)",
             "steps.toml:5:24: a safety reaction ends with `abort`, `stay` (the default), `land` or a step of [procedures.safety]",
+        ]
+    );
+}
+
+#[test]
+fn a_step_runs_a_level_of_its_own_while_it_lasts() {
+    let mission = r#"[steps]
+transit = { until = "mission_item_reached", when = "seq == 2" }
+operations = { run = "PAYLOADS", until = "mission_item_reached", when = "seq == 6" }
+home = { do = "command rtl", until = "landed" }
+
+# Level 3: the camera on for 20 s, off for 10 s, again, while operations lasts.
+[levels.PAYLOADS]
+camera_on = { do = "command payload_start {payload: camera}", limit = "20s", on_limit = "camera_off" }
+camera_off = { do = "command payload_stop {payload: camera}", limit = "10s", on_limit = "camera_on" }
+"#;
+    let project = load(&folder(PROJECT, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    let names: Vec<&str> = project.nets.iter().map(|n| n.name.as_str()).collect();
+    assert_eq!(names, ["MISSION", "PAYLOADS"]);
+    proved(&project);
+    let reached = |t: u32, seq: u32| {
+        format!(
+            "{{\"t\": {t}, \"event\": \"mission_item_reached\", \"params\": {{\"seq\": {seq}}}}}\n"
+        )
+    };
+    let script = format!("{}{}{}", reached(1, 2), reached(50, 6), "{\"t\": 100}\n");
+    assert_eq!(
+        crate::play::fired(&project, &script),
+        [
+            "MISSION.start",
+            "MISSION.transit_mission_item_reached",
+            "PAYLOADS.start",
+            "PAYLOADS.camera_on_limit",
+            "PAYLOADS.camera_off_limit",
+            "MISSION.operations_mission_item_reached",
+        ]
+    );
+    assert_eq!(
+        crate::play::commands(&project, &script),
+        ["payload_start", "payload_stop", "payload_start", "rtl"],
+        "the level stops with its step: no command after it"
+    );
+}
+
+#[test]
+fn a_level_is_declared_run_and_does_not_nest() {
+    let mission = r#"[steps]
+a = { run = "PAYLOAD", until = "landed" }
+
+[levels.PAYLOADS]
+x = { run = "PAYLOADS", until = "landed" }
+"#;
+    assert_eq!(
+        load(&folder(PROJECT, mission)).err().unwrap_or_default(),
+        [
+            "steps.toml:5:13: levels do not nest: only a step of the mission runs a level",
+            "steps.toml:2:13: unknown level `PAYLOAD`: declare it as [levels.PAYLOAD]; did you mean `PAYLOADS`?",
+            "steps.toml:4:9: level `PAYLOADS` is run by no step: give a step `run = \"PAYLOADS\"`",
         ]
     );
 }
