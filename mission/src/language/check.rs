@@ -15,7 +15,7 @@ use super::model::{
     End, Level, Limit, Mission, Procedure, Reaction, Rule, Said, Step, Target, CATEGORIES,
 };
 use super::steps::{sequence, Sequence};
-use super::syntax::{self, Actions, RawStep, Text};
+use super::syntax::{self, in_order, Actions, RawStep, Text};
 
 /// What the mission's project says about events, for checking the events
 /// a mission waits for.
@@ -71,8 +71,7 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
     c.phases(&mut steps, &raw_steps, first, known);
 
     // Levels: sequences in nets of their own, run by the mission's steps.
-    let mut tables: Vec<_> = raw.levels.iter().collect();
-    tables.sort_by_key(|(k, _)| k.span().start);
+    let tables = in_order(&raw.levels);
     let mut levels = Vec::new();
     for (key, table) in tables {
         c.name(key, "level");
@@ -130,8 +129,7 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
     }
 
     // Rules.
-    let mut raw_rules: Vec<_> = raw.rules.iter().collect();
-    raw_rules.sort_by_key(|(k, _)| k.span().start);
+    let raw_rules = in_order(&raw.rules);
     let mut rules = Vec::new();
     for (key, rule) in raw_rules {
         c.name(key, "rule");
@@ -207,14 +205,9 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
 
     // Procedures: steps of a category's net.
     let mut procedures: Vec<(Category, Sequence)> = Vec::new();
-    let mut tables: Vec<_> = raw.procedures.iter().collect();
-    tables.sort_by_key(|(k, _)| k.span().start);
+    let tables = in_order(&raw.procedures);
     for (section, table) in tables {
-        let Some(&(category, word, _)) = CATEGORIES
-            .iter()
-            .find(|(_, word, _)| *word == section.get_ref())
-        else {
-            c.at(section.span(), format!("unknown category `{}`: procedures are catastrophic, safety, mission or communication", section.get_ref()));
+        let Some((category, word)) = c.category(section, "procedures") else {
             continue;
         };
         if !raw.reactions.keys().any(|k| k.get_ref() == word) {
@@ -240,18 +233,12 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
 
     // Reactions, one net per category.
     let mut reactions = Vec::new();
-    let mut sections: Vec<_> = raw.reactions.iter().collect();
-    sections.sort_by_key(|(k, _)| k.span().start);
+    let sections = in_order(&raw.reactions);
     for (section, list) in sections {
-        let Some(&(category, _, _)) = CATEGORIES
-            .iter()
-            .find(|(_, word, _)| *word == section.get_ref())
-        else {
-            c.at(section.span(), format!("unknown category `{}`: reactions are catastrophic, safety, mission or communication", section.get_ref()));
+        let Some((category, _)) = c.category(section, "reactions") else {
             continue;
         };
-        let mut list: Vec<_> = list.iter().collect();
-        list.sort_by_key(|(k, _)| k.span().start);
+        let list = in_order(list);
         for (key, reaction) in list {
             c.name(key, "reaction");
             let r = reaction.get_ref();
@@ -537,6 +524,17 @@ impl Checker {
                 None
             }
         }
+    }
+
+    /// The category a `[reactions.WORD]` or `[procedures.WORD]` names.
+    fn category(&mut self, section: &Text, what: &str) -> Option<(Category, &'static str)> {
+        let found = CATEGORIES
+            .iter()
+            .find(|(_, word, _)| *word == section.get_ref());
+        if found.is_none() {
+            self.at(section.span(), format!("unknown category `{}`: {what} are catastrophic, safety, mission or communication", section.get_ref()));
+        }
+        found.map(|&(category, word, _)| (category, word))
     }
 
     /// A phase names a global place of the project.

@@ -8,7 +8,7 @@ use toml::Spanned;
 
 use super::check::{Checker, Known, Scope, RESERVED};
 use super::model::{Exit, Step, Target};
-use super::syntax::{RawStep, Text};
+use super::syntax::{in_order, RawStep, Text};
 
 /// A sequence checked, with what rules and phases read of it.
 pub(super) struct Sequence<'r> {
@@ -31,8 +31,7 @@ pub(super) fn sequence<'r>(
     phased: bool,
 ) -> Sequence<'r> {
     // Steps, in the order written.
-    let mut raw_steps: Vec<(&Text, &Spanned<RawStep>)> = table.iter().collect();
-    raw_steps.sort_by_key(|(k, _)| k.span().start);
+    let raw_steps: Vec<(&Text, &Spanned<RawStep>)> = in_order(table);
     let index: BTreeMap<&str, usize> = raw_steps
         .iter()
         .enumerate()

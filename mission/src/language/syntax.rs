@@ -140,6 +140,14 @@ impl<'de> Deserialize<'de> for Actions {
     }
 }
 
+/// The entries of a table in the order the file writes them (a TOML table
+/// deserialises in key order).
+pub fn in_order<T>(table: &BTreeMap<Text, T>) -> Vec<(&Text, &T)> {
+    let mut entries: Vec<(&Text, &T)> = table.iter().collect();
+    entries.sort_by_key(|(k, _)| k.span().start);
+    entries
+}
+
 /// Reads the mission file's text; a TOML or shape error at its span.
 pub fn parse(text: &str) -> Result<RawMission, (Range<usize>, String)> {
     toml::from_str(text).map_err(|e| {
@@ -159,8 +167,7 @@ mod tests {
         let text =
             "[steps]\na = { do = \"command rtl\" }\nb = { do = [\"command arm\", \"emit x\"] }\n";
         let raw = parse(text).expect("parses");
-        let mut steps: Vec<_> = raw.steps.iter().collect();
-        steps.sort_by_key(|(k, _)| k.span().start);
+        let steps = in_order(&raw.steps);
         let a = steps[0].1.get_ref().actions.as_ref().expect("a's do");
         let a = a.get_ref().spanned(a.span());
         assert_eq!(&text[a[0].span()], "\"command rtl\"");

@@ -687,3 +687,15 @@ x = { run = "PAYLOADS", until = "landed" }
         ]
     );
 }
+
+#[test]
+fn a_category_is_one_of_the_four() {
+    let mission = "[steps]\na = { until = \"landed\" }\n[reactions.safty]\nbattery_low = {}\n[procedures.comms]\nx = { until = \"landed\" }\n";
+    assert_eq!(
+        load(&folder(PROJECT, mission)).err().unwrap_or_default(),
+        [
+            "steps.toml:5:13: unknown category `comms`: procedures are catastrophic, safety, mission or communication",
+            "steps.toml:3:12: unknown category `safty`: reactions are catastrophic, safety, mission or communication",
+        ]
+    );
+}
