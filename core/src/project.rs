@@ -190,8 +190,12 @@ struct Recorded<'a> {
 impl Sources for Recorded<'_> {
     fn read(&self, path: &str) -> Result<String, String> {
         let text = self.folder.read(path)?;
+        // Once each: the mission's compiler reads project.toml (and the
+        // hand-written nets) before the nets loader does.
         if let Ok(mut read) = self.read.lock() {
-            read.push((path.to_owned(), text.clone()));
+            if !read.iter().any(|(p, _)| p == path) {
+                read.push((path.to_owned(), text.clone()));
+            }
         }
         Ok(text)
     }
@@ -272,5 +276,11 @@ mod tests {
             .map(|files| files.into_iter().map(|(path, _)| path).collect())
             .unwrap_or_default();
         assert_eq!(paths, ["project.toml", "steps.toml"]);
+        // A project of nets is read as before: project.toml, then each net, once.
+        let read = load_read(&example("uav-survey"), &catalog(&profile)).map(|(_, files)| files);
+        let paths: Vec<String> = read
+            .map(|files| files.into_iter().map(|(path, _)| path).collect())
+            .unwrap_or_default();
+        assert_eq!(paths, ["project.toml", "mission.toml", "events.toml"]);
     }
 }
