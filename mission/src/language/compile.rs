@@ -222,11 +222,16 @@ struct Steps<'a> {
 impl Steps<'_> {
     /// Step `i`'s place for attempt `k` (0: the first entry).
     fn attempt(&mut self, i: usize, k: u32) -> String {
+        let name = self.attempt_name(i, k);
+        self.net.place(&name)
+    }
+
+    fn attempt_name(&self, i: usize, k: u32) -> String {
         let name = &self.steps[i].name;
         if k == 0 {
-            self.net.place(name)
+            name.clone()
         } else {
-            self.net.place(&format!("{name}_retry{k}"))
+            format!("{name}_retry{k}")
         }
     }
 
@@ -280,7 +285,24 @@ impl Steps<'_> {
     fn lead(&mut self, i: usize, k: u32, target: Target) -> Lead {
         match target {
             Target::Step(j) => self.enter(j, 0),
-            Target::Retry if k < self.steps[i].retries => self.enter(i, k + 1),
+            Target::Retry if k < self.steps[i].retries => match &self.steps[i].retry_after {
+                // Wait, then enter again (the transition `…_again`).
+                Some(after) => Lead {
+                    to: vec![self
+                        .net
+                        .place(&format!("{}_wait", self.attempt_name(i, k + 1)))],
+                    actions: vec![Said {
+                        text: format!(
+                            "timer {}_retry after {}",
+                            self.steps[i].name,
+                            after.said.text.trim()
+                        ),
+                        span: after.said.span.clone(),
+                    }],
+                    phase: None,
+                },
+                None => self.enter(i, k + 1),
+            },
             Target::Retry => self.lead(i, k, self.steps[i].on_limit),
             Target::Join(p, b) => Lead {
                 to: vec![self
@@ -441,6 +463,21 @@ impl Steps<'_> {
                         Some(e.on.text.clone()),
                         e.when.clone(),
                         actions,
+                        lead,
+                    );
+                }
+                if let (Some(after), true) = (&s.retry_after, k > 0) {
+                    let lead = self.enter(i, k);
+                    let wait = self.net.place(&format!("{place}_wait"));
+                    self.transition(
+                        Some(i),
+                        format!("{place}_again"),
+                        format!("step {}: retry after {}", s.name, after.said.text),
+                        after.said.span.clone(),
+                        vec![wait],
+                        Some(format!("{}_retry", s.name)),
+                        None,
+                        Vec::new(),
                         lead,
                     );
                 }

@@ -59,6 +59,8 @@ pub struct Step {
     /// Times the step is entered again (`then = "retry"`, or its limit)
     /// before `on_limit`.
     pub retries: u32,
+    /// The wait before each retry, if any.
+    pub retry_after: Option<Limit>,
     /// Where the limit leads once no retry is left (default: abort).
     pub on_limit: Target,
     /// A parallel step: its branches, each a sequence of steps.

@@ -177,10 +177,10 @@ pub(super) fn sequence<'r>(
         }
         let limit = s.limit.as_ref().and_then(|l| c.duration(l));
         let on_limit = match &s.on_limit {
-            Some(t) if s.limit.is_none() => {
+            Some(t) if s.limit.is_none() && s.retries.is_none() => {
                 c.at(
                     t.span(),
-                    "`on_limit` says where the limit leads: this step has no `limit`",
+                    "`on_limit` says where the limit, or the last retry, leads: this step has neither `limit` nor `retries`",
                 );
                 Target::Abort
             }
@@ -228,7 +228,17 @@ pub(super) fn sequence<'r>(
                 "levels do not nest: only a step of the mission runs a level",
             );
         }
+        let retry_after = s.retry_after.as_ref().and_then(|d| {
+            if s.retries.is_none() {
+                c.at(
+                    d.span(),
+                    "`retry_after` without `retries`: say how many times the step is entered again",
+                );
+            }
+            c.duration(d)
+        });
         steps.push(Step {
+            retry_after,
             run: None,
             phase,
             name: key.get_ref().clone(),

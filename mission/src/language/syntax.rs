@@ -52,6 +52,8 @@ pub struct RawStep {
     pub exits: Vec<Spanned<RawExit>>,
     pub limit: Option<Text>,
     pub retries: Option<Spanned<i64>>,
+    /// How long to wait before each retry (default: none).
+    pub retry_after: Option<Text>,
     pub on_limit: Option<Text>,
     /// A parallel step: each branch a list of step names.
     pub branches: Option<Spanned<Vec<Vec<Text>>>>,

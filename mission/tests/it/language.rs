@@ -699,3 +699,34 @@ fn a_category_is_one_of_the_four() {
         ]
     );
 }
+
+#[test]
+fn a_refused_command_is_asked_again_after_a_wait() {
+    let mission = r#"[steps]
+arm = { do = "command arm", until = "command.ok", retries = 2, retry_after = "4s", on_limit = "abort", exits = [{ on = "command.failed", then = "retry" }] }
+fly = { until = "landed" }
+"#;
+    let project = load(&folder(PROJECT, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    assert_eq!(proved(&project), Vec::<Vec<String>>::new());
+    let refused =
+        |t: u32| format!("{{\"t\": {t}, \"reply\": \"command.arm\", \"failed\": \"denied\"}}\n");
+    let script = format!("{}{}{}{{\"t\": 20}}\n", refused(1), refused(6), refused(11));
+    assert_eq!(
+        crate::play::fired(&project, &script),
+        [
+            "MISSION.start",
+            "MISSION.arm_command_failed",
+            "MISSION.arm_retry1_again",
+            "MISSION.arm_retry1_command_failed",
+            "MISSION.arm_retry2_again",
+            "MISSION.arm_retry2_command_failed",
+        ]
+    );
+    let (trace, _) = crate::play::trace(&project, &script);
+    let sent: Vec<&String> = trace
+        .iter()
+        .filter(|l| l.contains("cmd") && l.contains("arm"))
+        .collect();
+    assert_eq!(sent.len(), 3, "{trace:#?}");
+    assert!(trace.iter().any(|l| l.contains("aborted")), "{trace:#?}");
+}
