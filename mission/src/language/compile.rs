@@ -454,13 +454,31 @@ impl Steps<'_> {
                         .as_ref()
                         .map(|w| format!(" when {}", w.text))
                         .unwrap_or_default();
+                    let (mut from, mut lead) = (vec![place.clone()], lead);
+                    let (name, says, origin) = match (&e.on, &e.phase) {
+                        (Some(on), _) => (
+                            format!("{place}_{}", on.text),
+                            format!("step {}: until {}{when}", s.name, on.text),
+                            on.span.clone(),
+                        ),
+                        (None, Some(p)) => (
+                            format!("{place}_{}", p.text),
+                            format!("step {}: in phase {}", s.name, p.text),
+                            p.span.clone(),
+                        ),
+                        (None, None) => (place.clone(), format!("step {}", s.name), s.span.clone()),
+                    };
+                    if let Some(p) = &e.phase {
+                        from.push(format!("@{}", p.text));
+                        lead.to.push(format!("@{}", p.text));
+                    }
                     self.transition(
                         Some(i),
-                        format!("{place}_{}", e.on.text),
-                        format!("step {}: until {}{when}", s.name, e.on.text),
-                        e.on.span.clone(),
-                        vec![place.clone()],
-                        Some(e.on.text.clone()),
+                        name,
+                        says,
+                        origin,
+                        from,
+                        e.on.as_ref().map(|on| on.text.clone()),
                         e.when.clone(),
                         actions,
                         lead,

@@ -33,8 +33,11 @@ pub enum Target {
 /// actions taken on the way.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Exit {
-    pub on: Said,
+    /// The event; `None`: immediate (an exit on a phase).
+    pub on: Option<Said>,
     pub when: Option<Said>,
+    /// Taken only in this phase (a procedure's or a level's step).
+    pub phase: Option<Said>,
     pub then: Target,
     pub actions: Vec<Said>,
 }

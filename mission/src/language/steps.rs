@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use toml::Spanned;
 
 use super::check::{Checker, Known, Scope, RESERVED};
-use super::model::{Exit, Step, Target};
+use super::model::{Exit, Said, Step, Target};
 use super::syntax::{in_order, RawStep, Text};
 
 /// A sequence checked, with what rules and phases read of it.
@@ -146,7 +146,8 @@ pub(super) fn sequence<'r>(
         if let Some(on) = &s.until {
             let then = s.then.as_ref().map_or(next[i], |t| c.target(t, &scope));
             exits.push(Exit {
-                on: c.event(on, known),
+                on: Some(c.event(on, known)),
+                phase: None,
                 when: c.guard(&s.when),
                 then,
                 actions: Vec::new(),
@@ -168,8 +169,28 @@ pub(super) fn sequence<'r>(
         for exit in &s.exits {
             let e = exit.get_ref();
             let then = e.then.as_ref().map_or(next[i], |t| c.target(t, &scope));
+            let phase = e.phase.as_ref().map(|p| {
+                if phased {
+                    c.at(p.span(), "a step of the mission knows its phase: an exit's `phase` is for a procedure's or a level's steps");
+                } else {
+                    c.global(p, known);
+                }
+                Said { text: p.get_ref().clone(), span: p.span() }
+            });
+            match (&e.on, &phase, &e.when) {
+                (None, None, _) => c.at(
+                    exit.span(),
+                    "an exit says its event (`on`), or the phase it is taken in (`phase`)",
+                ),
+                (None, Some(_), Some(w)) => c.at(
+                    w.span(),
+                    "an exit without an event is taken at once: it has no `when`",
+                ),
+                _ => {}
+            }
             exits.push(Exit {
-                on: c.event(&e.on, known),
+                phase,
+                on: e.on.as_ref().map(|on| c.event(on, known)),
                 when: c.guard(&e.when),
                 then,
                 actions: c.actions(&e.actions),

@@ -69,7 +69,11 @@ pub struct RawStep {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawExit {
-    pub on: Text,
+    /// The event; none: an immediate exit on `phase`.
+    pub on: Option<Text>,
+    /// Only in this phase of the mission (a global place): a procedure's
+    /// or a level's way to decide by the phase.
+    pub phase: Option<Text>,
     pub when: Option<Text>,
     pub then: Option<Text>,
     #[serde(rename = "do")]

@@ -730,3 +730,75 @@ fly = { until = "landed" }
     assert_eq!(sent.len(), 3, "{trace:#?}");
     assert!(trace.iter().any(|l| l.contains("aborted")), "{trace:#?}");
 }
+
+#[test]
+fn a_procedure_decides_by_the_phase_at_once() {
+    let mission = r#"[steps]
+climb = { do = "command takeoff {alt: 50}", until = "altitude_reached", phase = "on_ground" }
+cruise = { until = "landed", phase = "airborne" }
+rest = { until = "landed", phase = "down" }
+
+[reactions.safety]
+battery_low = { then = "deciding" }
+
+[procedures.safety]
+deciding = { exits = [{ phase = "airborne", then = "return_home" }, { phase = "on_ground", then = "done" }, { phase = "down", then = "done" }] }
+return_home = { do = "command rtl", until = "command.ok", then = "done", exits = [{ on = "command.failed", then = "done" }] }
+"#;
+    let project = load(&folder(PHASED, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    proved(&project);
+    let script = "{\"t\": 1, \"event\": \"battery_low\"}\n{\"t\": 2, \"event\": \"altitude_reached\", \"params\": {\"alt\": 50}}\n{\"t\": 3, \"event\": \"battery_low\"}\n";
+    assert_eq!(
+        crate::play::fired(&project, script),
+        [
+            "MISSION.start",
+            "SAFETY.battery_low",
+            "SAFETY.deciding_on_ground",
+            "MISSION.climb_altitude_reached",
+            "SAFETY.battery_low",
+            "SAFETY.deciding_airborne",
+        ]
+    );
+    assert_eq!(crate::play::commands(&project, script), ["takeoff", "rtl"]);
+    // Without the phase `down`, a low battery after landing would leave the
+    // procedure stuck in `deciding`: the verifier says so.
+    let stuck = mission.replace(r#", { phase = "down", then = "done" }"#, "");
+    let project = load(&folder(PHASED, &stuck)).unwrap_or_else(|p| panic!("{p:#?}"));
+    let report = check(&project, &Options::default());
+    assert!(!report.holds());
+    let (_, safety) = report
+        .nets
+        .iter()
+        .find(|(n, _)| n == "SAFETY")
+        .expect("SAFETY's report");
+    assert!(
+        safety
+            .deadlock_example
+            .as_ref()
+            .is_some_and(|steps| steps.last().is_some_and(|s| s.contains("battery_low"))),
+        "{:?}",
+        safety.deadlock_example
+    );
+}
+
+#[test]
+fn an_exit_says_its_event_or_its_phase() {
+    let mission = r#"[steps]
+a = { until = "landed", phase = "on_ground", exits = [{ phase = "airborne", then = "b" }, { then = "b" }] }
+b = { until = "landed", phase = "airborne" }
+
+[reactions.safety]
+battery_low = { then = "p" }
+
+[procedures.safety]
+p = { exits = [{ phase = "airborne", when = "x > 1" }] }
+"#;
+    assert_eq!(
+        load(&folder(PHASED, mission)).err().unwrap_or_default(),
+        [
+            "steps.toml:2:65: a step of the mission knows its phase: an exit's `phase` is for a procedure's or a level's steps",
+            "steps.toml:2:91: an exit says its event (`on`), or the phase it is taken in (`phase`)",
+            "steps.toml:9:45: an exit without an event is taken at once: it has no `when`",
+        ]
+    );
+}
