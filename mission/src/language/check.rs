@@ -67,7 +67,7 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
         branch_of,
         first,
         raw: raw_steps,
-    } = sequence(&mut c, &raw.steps, known, true);
+    } = sequence(&mut c, &raw.steps, known, true, None);
     c.phases(&mut steps, &raw_steps, first, known);
 
     // Levels: sequences in nets of their own, run by the mission's steps.
@@ -85,7 +85,7 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
                 ),
             );
         }
-        let seq = sequence(&mut c, table, known, false);
+        let seq = sequence(&mut c, table, known, false, Some(key));
         levels.push(Level {
             name: key.get_ref().clone(),
             span: key.span(),
@@ -216,7 +216,7 @@ pub fn check(name: &str, text: &str, known: &Known) -> Result<Mission, Vec<Probl
                 format!("procedure of {word} with no reaction to start it: add [reactions.{word}]"),
             );
         }
-        let seq = sequence(&mut c, table, known, false);
+        let seq = sequence(&mut c, table, known, false, Some(section));
         for (key, _) in &seq.raw {
             if ["watching", "reacted"].contains(&key.get_ref().as_str()) {
                 c.at(

@@ -23,12 +23,14 @@ pub(super) struct Sequence<'r> {
 }
 
 /// Checks the steps of `table`, in the order written; `phased`: the
-/// mission's steps, which may say their phase (a procedure's may not).
+/// mission's steps, which may say their phase (a procedure's may not);
+/// `section`: the level's or procedure's key, where an empty one is said.
 pub(super) fn sequence<'r>(
     c: &mut Checker,
     table: &'r BTreeMap<Text, Spanned<RawStep>>,
     known: &Known,
     phased: bool,
+    section: Option<&Text>,
 ) -> Sequence<'r> {
     // Steps, in the order written.
     let raw_steps: Vec<(&Text, &Spanned<RawStep>)> = in_order(table);
@@ -38,10 +40,14 @@ pub(super) fn sequence<'r>(
         .map(|(i, (k, _))| (k.get_ref().as_str(), i))
         .collect();
     if raw_steps.is_empty() {
-        c.at(
-            0..0,
-            "a mission has at least one step: `[steps]` is empty or missing",
-        );
+        let (at, what) = match section {
+            Some(key) => (key.span(), format!("`{}` has no step", key.get_ref())),
+            None => (
+                0..0,
+                "the mission has no step: `[steps]` is empty or missing".to_owned(),
+            ),
+        };
+        c.at(at, format!("{what}: a sequence has at least one step"));
     }
     for (key, _) in &raw_steps {
         c.name(key, "step");

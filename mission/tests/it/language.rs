@@ -802,3 +802,16 @@ p = { exits = [{ phase = "airborne", when = "x > 1" }] }
         ]
     );
 }
+
+#[test]
+fn an_empty_mission_level_or_procedure_is_said_where_it_is() {
+    let mission = "[steps]\n[levels.L]\n";
+    assert_eq!(
+        load(&folder(PROJECT, mission)).err().unwrap_or_default(),
+        [
+            "steps.toml:1:1: the mission has no step: `[steps]` is empty or missing: a sequence has at least one step",
+            "steps.toml:2:9: `L` has no step: a sequence has at least one step",
+            "steps.toml:2:9: level `L` is run by no step: give a step `run = \"L\"`",
+        ]
+    );
+}
