@@ -206,6 +206,8 @@ struct Lead {
     actions: Vec<Said>,
     /// The phase of the step it leads into, if it is a step with one.
     phase: Option<String>,
+    /// The level the step it leads into runs, if any.
+    run: Option<usize>,
 }
 
 /// A net of steps under construction: the mission's steps net, or a
@@ -247,6 +249,7 @@ impl Steps<'_> {
                 to: Vec::new(),
                 actions: Vec::new(),
                 phase: s.phase.clone(),
+                run: None,
             };
             for branch in &s.branches {
                 if let Some(&first) = branch.first() {
@@ -278,6 +281,7 @@ impl Steps<'_> {
             to: vec![self.attempt(i, k)],
             actions,
             phase: s.phase.clone(),
+            run: s.run,
         }
     }
 
@@ -300,6 +304,7 @@ impl Steps<'_> {
                         span: after.said.span.clone(),
                     }],
                     phase: None,
+                    run: None,
                 },
                 None => self.enter(i, k + 1),
             },
@@ -310,21 +315,25 @@ impl Steps<'_> {
                     .place(&format!("{}_join{}", self.steps[p].name, b + 1))],
                 actions: Vec::new(),
                 phase: None,
+                run: None,
             },
             Target::Done => Lead {
                 to: vec![self.net.place(self.ends[0].0)],
                 actions: self.ends[0].1.clone(),
                 phase: None,
+                run: None,
             },
             Target::Abort => Lead {
                 to: vec![self.net.place(self.ends[1].0)],
                 actions: self.ends[1].1.clone(),
                 phase: None,
+                run: None,
             },
             Target::Land => Lead {
                 to: vec![self.net.place(self.ends[2].0)],
                 actions: self.ends[2].1.clone(),
                 phase: None,
+                run: None,
             },
         }
     }
@@ -369,6 +378,17 @@ impl Steps<'_> {
         lead: Lead,
     ) {
         actions.extend(lead.actions);
+        // From a step running a level into another running it (or the same
+        // step again): the level goes on, neither stopped nor started.
+        if let (Some(l), Some(level)) = (lead.run, lead.run.and_then(|l| self.m.levels.get(l))) {
+            if src.is_some_and(|i| self.steps[i].run == Some(l)) {
+                let (stop, start) = (
+                    format!("deactivate {}", level.name),
+                    format!("activate {}", level.name),
+                );
+                actions.retain(|a| a.text != stop && a.text != start);
+            }
+        }
         let mut to = lead.to;
         let old = src.and_then(|i| self.steps[i].phase.as_ref());
         if let (Some(old), Some(new)) = (old, &lead.phase) {
@@ -541,6 +561,7 @@ impl Steps<'_> {
                         to: vec![self.net.place(&format!("{place}__{}", r.name))],
                         actions: Vec::new(),
                         phase: None,
+                        run: None,
                     },
                 };
                 let says = format!("rule {} during {}", r.name, s.name);
@@ -552,6 +573,7 @@ impl Steps<'_> {
                             span: lasting.said.span.clone(),
                         }],
                         phase: None,
+                        run: None,
                     };
                     self.transition(
                         Some(i),
@@ -696,6 +718,7 @@ fn reactions(m: &Mission, category: nets::Category, name: &str) -> Option<Net> {
                 to: vec![watching.clone()],
                 actions: Vec::new(),
                 phase: None,
+                run: None,
             },
             End::Abort => net.lead(0, 0, Target::Abort),
             End::Land => net.lead(0, 0, Target::Land),

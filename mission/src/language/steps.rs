@@ -254,6 +254,11 @@ pub(super) fn sequence<'r>(
                 r.span(),
                 "levels do not nest: only a step of the mission runs a level",
             );
+        } else if let (Some(_), Some(r)) = (&s.branches, &s.run) {
+            c.at(
+                r.span(),
+                "a parallel step runs no level: give `run` to the steps of its branches",
+            );
         }
         let retry_after = s.retry_after.as_ref().and_then(|d| {
             if s.retries.is_none() {

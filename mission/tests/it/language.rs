@@ -815,3 +815,31 @@ fn an_empty_mission_level_or_procedure_is_said_where_it_is() {
         ]
     );
 }
+
+#[test]
+fn a_level_goes_on_between_steps_that_run_it() {
+    let mission = r#"[steps]
+operations = { run = "PAYLOADS", until = "mission_item_reached", then = "asking" }
+asking = { run = "PAYLOADS", do = "call DEC.replan {failed: none}", until = "DEC.replan.done", when = "waypoints > 0", then = "operations", exits = [{ on = "DEC.replan.done", then = "home" }, { on = "DEC.replan.failed", then = "home" }] }
+home = { do = "command rtl", until = "landed" }
+
+[levels.PAYLOADS]
+camera_on = { do = "command payload_start {payload: camera}", limit = "20s", on_limit = "camera_off" }
+camera_off = { do = "command payload_stop {payload: camera}", until = "landed" }
+"#;
+    let project = load(&folder(PROJECT, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    proved(&project);
+    let script = "{\"t\": 5, \"event\": \"mission_item_reached\", \"params\": {\"seq\": 1}}\n{\"t\": 6, \"reply\": \"DEC.replan\", \"params\": {\"waypoints\": 2}}\n{\"t\": 30}\n{\"t\": 31, \"event\": \"mission_item_reached\", \"params\": {\"seq\": 2}}\n{\"t\": 32, \"reply\": \"DEC.replan\", \"params\": {\"waypoints\": 0}}\n";
+    // The camera starts once and stops at 20 s, though the mission went
+    // from operations to asking and back; home stops the level.
+    assert_eq!(
+        crate::play::commands(&project, script),
+        ["payload_start", "payload_stop", "rtl"]
+    );
+    let (trace, _) = crate::play::trace(&project, script);
+    let activations = trace
+        .iter()
+        .filter(|l| l.contains("activated") && l.contains("PAYLOADS") && !l.contains("deactivated"))
+        .count();
+    assert_eq!(activations, 1, "{trace:#?}");
+}
