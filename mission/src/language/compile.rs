@@ -508,7 +508,7 @@ impl Steps<'_> {
                     let lead = self.enter(i, k);
                     let wait = self.net.place(&format!("{place}_wait"));
                     self.transition(
-                        Some(i),
+                        None, // from the wait: the level, if any, starts again
                         format!("{place}_again"),
                         format!("step {}: retry after {}", s.name, after.said.text),
                         after.said.span.clone(),
@@ -616,7 +616,7 @@ impl Steps<'_> {
                     let suspended = format!("{place}__{}", r.name);
                     let lead = self.enter(i, k);
                     self.transition(
-                        Some(i),
+                        None, // from the suspension: the level, if any, starts again
                         format!("{suspended}_resume"),
                         format!("{says}: resume on {}", resume.text),
                         resume.span.clone(),

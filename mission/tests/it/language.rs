@@ -843,3 +843,24 @@ camera_off = { do = "command payload_stop {payload: camera}", until = "landed" }
         .count();
     assert_eq!(activations, 1, "{trace:#?}");
 }
+
+#[test]
+fn a_level_stopped_by_a_suspension_or_a_wait_starts_again() {
+    let mission = r#"[steps]
+work = { run = "PAYLOADS", until = "landed", limit = "60s", retries = 1, retry_after = "5s", on_limit = "done" }
+
+[rules]
+lost = { on = "link_lost", resume_on = "link_restored" }
+
+[levels.PAYLOADS]
+camera_on = { do = "command payload_start {payload: camera}", until = "mission_item_reached" }
+"#;
+    let project = load(&folder(PROJECT, mission)).unwrap_or_else(|p| panic!("{p:#?}"));
+    proved(&project);
+    // Suspended and resumed: started again. Its limit, then 5 s: again.
+    let script = "{\"t\": 1, \"event\": \"link_lost\"}\n{\"t\": 2, \"event\": \"link_restored\"}\n{\"t\": 70}\n";
+    assert_eq!(
+        crate::play::commands(&project, script),
+        ["payload_start", "payload_start", "payload_start"]
+    );
+}
