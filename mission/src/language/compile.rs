@@ -210,6 +210,18 @@ struct Lead {
     run: Option<usize>,
 }
 
+impl Lead {
+    /// Into a place that is no step's.
+    fn to_place(place: String, actions: Vec<Said>) -> Lead {
+        Lead {
+            to: vec![place],
+            actions,
+            phase: None,
+            run: None,
+        }
+    }
+}
+
 /// A net of steps under construction: the mission's steps net, or a
 /// category's net with its procedure.
 struct Steps<'a> {
@@ -309,33 +321,21 @@ impl Steps<'_> {
                 None => self.enter(i, k + 1),
             },
             Target::Retry => self.lead(i, k, self.steps[i].on_limit),
-            Target::Join(p, b) => Lead {
-                to: vec![self
-                    .net
-                    .place(&format!("{}_join{}", self.steps[p].name, b + 1))],
-                actions: Vec::new(),
-                phase: None,
-                run: None,
-            },
-            Target::Done => Lead {
-                to: vec![self.net.place(self.ends[0].0)],
-                actions: self.ends[0].1.clone(),
-                phase: None,
-                run: None,
-            },
-            Target::Abort => Lead {
-                to: vec![self.net.place(self.ends[1].0)],
-                actions: self.ends[1].1.clone(),
-                phase: None,
-                run: None,
-            },
-            Target::Land => Lead {
-                to: vec![self.net.place(self.ends[2].0)],
-                actions: self.ends[2].1.clone(),
-                phase: None,
-                run: None,
-            },
+            Target::Join(p, b) => {
+                let join = format!("{}_join{}", self.steps[p].name, b + 1);
+                Lead::to_place(self.net.place(&join), Vec::new())
+            }
+            Target::Done => self.end(0),
+            Target::Abort => self.end(1),
+            Target::Land => self.end(2),
         }
+    }
+
+    /// Into `done`, `abort` or `land` (0, 1, 2 in `ends`).
+    fn end(&mut self, e: usize) -> Lead {
+        let (place, actions) = &self.ends[e];
+        let actions = actions.clone();
+        Lead::to_place(self.net.place(place), actions)
     }
 
     /// Actions leaving step `i` other than by its limit.
