@@ -1,4 +1,7 @@
-//! Reading a project folder from disk for the pure loader in `nets`.
+//! Reading a project folder from disk for the pure loader in `nets`; a
+//! project that names a mission (`mission = "steps.toml"`) is compiled
+//! into nets first (`petrel_mission`), so that every verb takes it as it
+//! takes nets.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -6,14 +9,51 @@ use std::sync::Arc;
 use nets::source::Sources;
 use nets::Project;
 
-/// A project folder on disk.
+/// A project folder on disk, as the nets loader reads it: a mission it
+/// names is served compiled (project.toml listing its nets, and the
+/// generated net files). A mission that does not compile makes
+/// project.toml unreadable, with its problems; [`load`] and its siblings
+/// report them one by one instead.
 pub struct Folder(pub PathBuf);
 
 impl Sources for Folder {
     fn read(&self, path: &str) -> Result<String, String> {
+        let disk = Disk(&self.0);
+        match petrel_mission::compile_project(&disk, None) {
+            Ok(None) => disk.read(path),
+            Ok(Some(compiled)) => compiled.sources(&disk).read(path),
+            Err(e) if path == nets::load::PROJECT_FILE => {
+                Err(format!("its mission does not compile: {e}"))
+            }
+            Err(_) => disk.read(path),
+        }
+    }
+}
+
+/// The folder's files as they are on disk.
+struct Disk<'a>(&'a Path);
+
+impl Sources for Disk<'_> {
+    fn read(&self, path: &str) -> Result<String, String> {
         let full = self.0.join(path);
         std::fs::read_to_string(&full).map_err(|e| format!("{}: {e}", full.display()))
     }
+}
+
+/// The mission the project in `dir` names, compiled into nets (`None`: a
+/// project of hand-written nets only); its problems, if any, as for
+/// [`load`]. What `petrel compile` writes out.
+pub fn compiled(dir: &Path) -> Result<Option<petrel_mission::Compiled>, miette::Report> {
+    if !dir.join(nets::load::PROJECT_FILE).is_file() {
+        return Err(not_a_project(dir));
+    }
+    petrel_mission::compile_project(&Disk(dir), None).map_err(|e| {
+        Unloadable {
+            dir: dir.to_path_buf(),
+            problems: e.problems,
+        }
+        .into()
+    })
 }
 
 /// Events the gateway raises itself, beside elaboration's: a program lost
@@ -43,7 +83,7 @@ pub fn load(dir: &Path) -> Result<Arc<Project>, miette::Report> {
     if !dir.join(nets::load::PROJECT_FILE).is_file() {
         return Err(not_a_project(dir));
     }
-    nets::load(&Folder(dir.to_path_buf()))
+    petrel_mission::load(&Disk(dir), None)
         .map(Arc::new)
         .map_err(|e| {
             Unloadable {
@@ -86,10 +126,10 @@ pub fn load_read(
         return Err(not_a_project(dir));
     }
     let sources = Recorded {
-        folder: Folder(dir.to_path_buf()),
+        folder: Disk(dir),
         read: std::sync::Mutex::new(Vec::new()),
     };
-    let project = nets::load_with(&sources, catalog).map_err(|e| Unloadable {
+    let project = petrel_mission::load(&sources, Some(catalog)).map_err(|e| Unloadable {
         dir: dir.to_path_buf(),
         problems: e.problems,
     })?;
@@ -140,17 +180,22 @@ pub fn for_people(failure: &miette::Report) -> String {
     text
 }
 
-/// A folder that remembers what was read from it.
-struct Recorded {
-    folder: Folder,
+/// A folder that remembers what was read from it (a mission project's own
+/// files: project.toml as written, the mission, the hand-written nets).
+struct Recorded<'a> {
+    folder: Disk<'a>,
     read: std::sync::Mutex<Files>,
 }
 
-impl Sources for Recorded {
+impl Sources for Recorded<'_> {
     fn read(&self, path: &str) -> Result<String, String> {
         let text = self.folder.read(path)?;
+        // Once each: the mission's compiler reads project.toml (and the
+        // hand-written nets) before the nets loader does.
         if let Ok(mut read) = self.read.lock() {
-            read.push((path.to_owned(), text.clone()));
+            if !read.iter().any(|(p, _)| p == path) {
+                read.push((path.to_owned(), text.clone()));
+            }
         }
         Ok(text)
     }
@@ -185,5 +230,57 @@ pub fn gateway_setting(dir: &Path, key: &str) -> Result<Option<String>, miette::
             "{}: [gateway] {key} must be a string",
             dir.join(nets::load::PROJECT_FILE).display()
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn example(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../examples")
+            .join(name)
+    }
+
+    #[test]
+    fn a_mission_project_loads_as_its_compiled_nets_by_every_path() {
+        let dir = example("uav-survey-mission");
+        let names = |p: &Project| p.nets.iter().map(|n| n.name.clone()).collect::<Vec<_>>();
+        let loaded = load(&dir).map_err(|e| for_people(&e));
+        let loaded = loaded.as_deref().map(names);
+        assert_eq!(
+            loaded,
+            Ok(vec![
+                "CATASTROPHIC".to_owned(),
+                "SAFETY".to_owned(),
+                "COMMUNICATION".to_owned(),
+                "MISSION".to_owned()
+            ])
+        );
+        // The folder itself serves the compiled project, as `nets` reads it.
+        let by_folder = nets::load(&Folder(dir.clone())).map(|p| names(&p));
+        assert_eq!(by_folder.ok(), loaded.ok());
+        assert!(matches!(compiled(&dir), Ok(Some(_))));
+        assert!(matches!(compiled(&example("uav-survey")), Ok(None)));
+    }
+
+    #[test]
+    fn what_is_read_is_the_crews_files_not_the_generated_ones() {
+        let dir = example("uav-survey-mission");
+        let Ok(profile) = elaboration::Profile::builtin("ardupilot") else {
+            panic!("the built-in profile compiles");
+        };
+        let read = load_read(&dir, &catalog(&profile)).map(|(_, files)| files);
+        let paths: Vec<String> = read
+            .map(|files| files.into_iter().map(|(path, _)| path).collect())
+            .unwrap_or_default();
+        assert_eq!(paths, ["project.toml", "steps.toml"]);
+        // A project of nets is read as before: project.toml, then each net, once.
+        let read = load_read(&example("uav-survey"), &catalog(&profile)).map(|(_, files)| files);
+        let paths: Vec<String> = read
+            .map(|files| files.into_iter().map(|(path, _)| path).collect())
+            .unwrap_or_default();
+        assert_eq!(paths, ["project.toml", "mission.toml", "events.toml"]);
     }
 }

@@ -44,6 +44,8 @@ enum Verb {
     Draw(cli::draw::Args),
     /// Write ready-to-fill skeletons of the software programs the nets call.
     Stubs(cli::stubs::Args),
+    /// Write a mission project out as hand-written nets, into a new folder.
+    Compile(cli::compile::Args),
     /// Write each net of a project as PNML.
     Export(cli::export::Args),
     /// Replay recorded telemetry through elaboration and the player.
@@ -99,6 +101,7 @@ fn main() -> ExitCode {
         Verb::Check(args) => cli::check::run(args),
         Verb::Draw(args) => cli::draw::run(args),
         Verb::Stubs(args) => cli::stubs::run(args),
+        Verb::Compile(args) => cli::compile::run(args),
         Verb::Export(args) => cli::export::run(args),
         Verb::Replay(args) => cli::replay::run(args),
         Verb::View(args) => cli::view::run(args),

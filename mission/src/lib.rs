@@ -5,10 +5,14 @@
 //! text format of Mission Planner, MAVProxy and ArduPilot's tools
 //! ([`wpl`]), the formats as `../shared/plans/FORMATS.md` sets them out
 //! from QGroundControl's, MAVSDK's, pymavlink's and mavros's own readers.
-//! It is the first part of issue 35 ("Missions as plans, not 2,000
-//! lines"): the mission language and its compiler into nets come next, and
-//! live here too, beside `nets` rather than in it, because they need
-//! MAVLink's command numbers and names, which `nets` never knows.
+//! It also owns the mission language of issue 35 ("Missions as plans, not
+//! 2,000 lines", [`language`]): steps, rules and reactions in a TOML file
+//! beside project.toml, checked ([`check()`]), compiled into ordinary net
+//! text ([`compile()`]) and served to `nets::load` as a project of nets
+//! ([`load()`], [`compile_project`]), with the nets loader's problems in
+//! generated text moved back onto the mission line. It lives beside `nets`
+//! rather than in it: nothing in the player or the verifier knows a
+//! mission.
 //!
 //! A plan is read whole or refused: a file that is not the format, a wrong
 //! version, a bad line or item is a [`PlanError`] that says where
@@ -21,15 +25,20 @@
 //! unknown command, a waypoint without altitude), each with what to do.
 //!
 //! It never does I/O (the caller reads the file and passes its name and
-//! text), never panics on any input, and knows nothing of nets or links.
+//! text, or a `nets::source::Sources`), never panics on any input, and
+//! knows nothing of links.
 
 pub mod error;
+pub mod language;
 pub mod plan;
 pub mod qgc;
 pub mod review;
 pub mod wpl;
 
 pub use error::{At, PlanError};
+pub use language::check::{check, Known};
+pub use language::compile::{compile, NetFile};
+pub use language::sources::{compile_project, load, Compiled, CompiledSources, MISSION_KEY};
 pub use plan::{
     command_name, Autopilot, Circle, Fence, Format, Item, Origin, Plan, Polygon, Position,
     Unsupported, VehicleType,

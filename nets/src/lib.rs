@@ -46,7 +46,7 @@ pub mod outside;
 pub mod player;
 pub mod script;
 pub mod source;
-mod suggest;
+pub mod suggest;
 pub mod svg;
 pub mod time;
 pub mod value;

@@ -200,7 +200,9 @@ struct Loader {
     problems: Vec<Problem>,
 }
 
-fn is_name(s: &str) -> bool {
+/// A name of a net, place, transition, timer, program or function:
+/// letters, digits and `_`, starting with a letter or `_`.
+pub fn is_name(s: &str) -> bool {
     let mut chars = s.chars();
     chars
         .next()
@@ -209,7 +211,7 @@ fn is_name(s: &str) -> bool {
 }
 
 /// Event names may also hold dots (`DEC.replan.done`) and dashes.
-fn is_event_name(s: &str) -> bool {
+pub fn is_event_name(s: &str) -> bool {
     !s.is_empty()
         && s.split('.').all(|part| {
             let mut chars = part.chars();

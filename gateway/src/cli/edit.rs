@@ -2,7 +2,8 @@
 //! other half; docs/monitor.md, "Editing"). Serves until stopped.
 //!
 //! Exit status: 0 when stopped, 2 for bad input (no project, a
-//! project.toml that is not TOML, an address that cannot be served).
+//! project.toml that is not TOML, a mission project: its nets are
+//! compiled, an address that cannot be served).
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -34,6 +35,18 @@ pub fn run(args: Args) -> VerbResult {
             SocketAddr::from(([127, 0, 0, 1], port))
         }
     };
+    // The editor writes net files back: a mission's nets are generated at
+    // every load, so an edit to them would be lost. The crew edits the
+    // mission, or compiles it out into nets of their own first.
+    if let Some(compiled) = petrel_core::project::compiled(&args.project)? {
+        return Err(miette::miette!(
+            "{}'s nets are compiled from its mission {} at every load, and an edit to them would be lost: edit {} itself, or write the nets out with `petrel compile {} --out DIR` and edit DIR",
+            args.project.display(),
+            compiled.mission.name,
+            compiled.mission.name,
+            args.project.display()
+        ));
+    }
     let session = Session::open(&args.project).map_err(|e| miette::miette!("{e}"))?;
     let server = Server::serve(address, router(session))
         .map_err(|e| miette::miette!("cannot serve the page on {address}: {e}"))?;

@@ -4,6 +4,7 @@ use std::process::ExitCode;
 
 pub mod check;
 pub mod check_project;
+pub mod compile;
 #[cfg(feature = "demo")]
 pub mod demo;
 pub mod draw;

@@ -7,11 +7,12 @@ use std::process::Command;
 
 use scratch::Scratch;
 
-fn root() -> PathBuf {
+pub(crate) fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-fn petrel(args: &[&str]) -> (i32, String, String) {
+/// Runs the binary from the repository's root: exit status, stdout, stderr.
+pub(crate) fn petrel(args: &[&str]) -> (i32, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_petrel"))
         .args(args)
         .current_dir(root())

@@ -29,6 +29,7 @@ mod simulated;
 
 mod check;
 mod cli;
+mod compile;
 mod events;
 mod flight_test_example;
 mod mirror;

@@ -6,4 +6,6 @@
 // `Skipped` and the closing `SKIPPED:` line, shared by every crate's tests.
 use petrel_test_support::skip;
 
+mod language;
+mod play;
 mod shared_plans;
