@@ -74,7 +74,8 @@ impl Version {
     /// anywhere), for a replica or a replayed recording.
     pub fn from_files(number: u32, files: Files) -> Result<Version, String> {
         let sources: std::collections::BTreeMap<String, String> = files.iter().cloned().collect();
-        let project = nets::load(&sources).map_err(|e| {
+        // A mission project's version compiles its mission first.
+        let project = petrel_mission::load(&sources, None).map_err(|e| {
             e.problems
                 .iter()
                 .map(|p| p.to_string())

@@ -261,3 +261,25 @@ fn the_reports_read_for_people() {
         "version 3 took over at step 40, the marking, timers and pending calls kept"
     );
 }
+
+#[test]
+fn a_mission_projects_version_loads_from_its_files_as_recorded() {
+    // What the run records of a mission project: the crew's files, the
+    // mission among them; replay and the replica compile it again.
+    let dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/uav-survey-mission");
+    let profile = crate::profile::Layers::builtin("ardupilot")
+        .load()
+        .expect("the built-in profile");
+    let (project, files) = crate::project::load_read(&dir, &crate::project::catalog(&profile))
+        .expect("the example loads");
+    assert!(
+        files.iter().any(|(p, _)| p == "project.toml") && files.len() >= 2,
+        "{:?}",
+        files.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+    let version = Version::from_files(1, files).expect("its files load");
+    let names = |p: &Project| p.nets.iter().map(|n| n.name.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&version.project), names(&project));
+    assert_eq!(version.project.place_count, project.place_count);
+}

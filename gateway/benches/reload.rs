@@ -62,7 +62,7 @@ fn reload(
     let start = Instant::now();
     let files = gateway::upload::unpack(packed).expect("it unpacks");
     let sources: std::collections::BTreeMap<String, String> = files.iter().cloned().collect();
-    let new = Arc::new(nets::load_with(&sources, catalog).expect("it loads"));
+    let new = Arc::new(petrel_mission::load(&sources, Some(catalog)).expect("it loads"));
     let inputs = Inputs {
         files: &files,
         layers,

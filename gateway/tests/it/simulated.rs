@@ -443,7 +443,7 @@ pub fn fly_with(
             match gateway::upload::unpack(&bytes).and_then(|files| {
                 let sources: std::collections::BTreeMap<String, String> =
                     files.iter().cloned().collect();
-                nets::load_with(&sources, &petrel_core::project::catalog(&profile))
+                petrel_mission::load(&sources, Some(&petrel_core::project::catalog(&profile)))
                     .map(|p| (std::sync::Arc::new(p), files))
                     .map_err(|e| format!("{e:?}"))
             }) {

@@ -139,7 +139,8 @@ fn load_version(
     catalog: &nets::load::Catalog,
 ) -> Result<std::sync::Arc<Version>, miette::Report> {
     let sources: std::collections::BTreeMap<String, String> = files.iter().cloned().collect();
-    let project = nets::load_with(&sources, catalog).map_err(|e| {
+    // A mission project's version compiles its mission as the run did.
+    let project = petrel_mission::load(&sources, Some(catalog)).map_err(|e| {
         miette::Report::new(petrel_core::project::Unloadable {
             dir: format!("{file}: version {number}").into(),
             problems: e.problems,

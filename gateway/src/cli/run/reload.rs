@@ -154,7 +154,8 @@ fn load_files(
     check: bool,
 ) -> Result<(Arc<Project>, Files), String> {
     let sources: std::collections::BTreeMap<String, String> = files.iter().cloned().collect();
-    let project = nets::load_with(&sources, catalog).map_err(|e| {
+    // A mission project's version compiles its mission first.
+    let project = petrel_mission::load(&sources, Some(catalog)).map_err(|e| {
         e.problems
             .iter()
             .map(|p| format!("{}", miette::Report::new(p.clone())))
