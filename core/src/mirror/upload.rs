@@ -182,7 +182,10 @@ impl Sender {
             self.tokens = (self.tokens + add).min(self.config.bytes_per_s.max(PIECE as u64 * 2));
             self.refilled = now;
         }
-        if !self.heard
+        // The offer again while the vehicle says nothing of it: before it
+        // is heard, and once it holds the version whole while its verdict
+        // (or a part of it) is missing: it says its verdict again.
+        if (!self.heard || self.delivered)
             && !self.offer_due
             && self.offered_at.is_some_and(|t| {
                 now.saturating_sub(t.max(self.heard_at)) >= self.config.retry_after
@@ -277,7 +280,8 @@ impl Sender {
         }
     }
 
-    /// Time passes at `now`: the upload is given up after a silence.
+    /// Time passes at `now`: the upload is given up after a silence (the
+    /// vehicle keeps saying it holds the version while it proves it).
     pub fn tick(&mut self, now: Micros) {
         if !self.done && now.saturating_sub(self.heard_at) >= self.config.give_up_after {
             self.done = true;

@@ -398,6 +398,7 @@ fn a_version_sent_up_from_the_ground_takes_over_and_the_mirror_follows() {
                 at_s: 5.0,
                 dir: version_one(&scratch),
                 bytes_per_s: 600,
+                proof_s: 1.0,
             },
             // Then, once the hole sent the vehicle home, one without the
             // place COMMUNICATION is in.
@@ -405,6 +406,7 @@ fn a_version_sent_up_from_the_ground_takes_over_and_the_mirror_follows() {
                 at_s: 50.0,
                 dir: without_returning(&scratch),
                 bytes_per_s: 600,
+                proof_s: 1.0,
             },
         ],
         ..Setup::default()

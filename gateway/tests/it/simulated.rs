@@ -190,6 +190,8 @@ pub struct Push {
     pub at_s: f64,
     pub dir: std::path::PathBuf,
     pub bytes_per_s: u64,
+    /// Each proof answered this long after it was asked for.
+    pub proof_s: f64,
 }
 
 /// The operator key of the flights that push a version.
@@ -468,7 +470,11 @@ pub fn fly_with(
         while let Some(proof) = core.poll_proof() {
             // A version's proof answered after its offer's delay (a pushed
             // version's: a second).
-            let delay = version.as_ref().map_or(1.0, |o| o.proof_s);
+            let delay = version
+                .as_ref()
+                .map(|o| o.proof_s)
+                .or(push.first().map(|p| p.proof_s))
+                .unwrap_or(1.0);
             let due = t + (delay * 1e6) as Micros;
             proofs.push((due, proof));
         }

@@ -67,6 +67,8 @@ pub fn at_once() -> usize {
 /// (its slot is given back on unwinding; poison is ignored).
 pub struct Turn {
     slot: usize,
+    /// Slots held from `slot` on (every one: [`sitl_turn_alone`]).
+    held: usize,
 }
 
 impl Turn {
@@ -81,7 +83,9 @@ impl Turn {
 impl Drop for Turn {
     fn drop(&mut self) {
         let mut slots = SLOTS.lock().unwrap_or_else(|e| e.into_inner());
-        slots[self.slot] = false;
+        for taken in slots.iter_mut().skip(self.slot).take(self.held) {
+            *taken = false;
+        }
         FREED.notify_all();
     }
 }
@@ -93,7 +97,28 @@ pub fn sitl_turn() -> Turn {
     loop {
         if let Some(slot) = slots[..limit].iter().position(|taken| !taken) {
             slots[slot] = true;
-            return Turn { slot };
+            return Turn { slot, held: 1 };
+        }
+        slots = FREED.wait(slots).unwrap_or_else(|e| e.into_inner());
+    }
+}
+
+/// A turn that has the machine to itself: every slot, once all are free
+/// (a flight whose gateway proves a new version of its nets takes a whole
+/// core for tens of seconds in a debug build; another flight beside it
+/// would fall behind).
+pub fn sitl_turn_alone() -> Turn {
+    let limit = at_once();
+    let mut slots = SLOTS.lock().unwrap_or_else(|e| e.into_inner());
+    loop {
+        if slots[..limit].iter().all(|taken| !taken) {
+            for taken in &mut slots[..limit] {
+                *taken = true;
+            }
+            return Turn {
+                slot: 0,
+                held: limit,
+            };
         }
         slots = FREED.wait(slots).unwrap_or_else(|e| e.into_inner());
     }

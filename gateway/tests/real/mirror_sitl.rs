@@ -916,16 +916,11 @@ fn fly_checked_pushing(
     let tap = Tap::start(sitl.port(0), loss);
     let mirror_args: Vec<&str> = match &pushing {
         None => Vec::new(),
-        Some(p) => vec![
-            "--operator-key",
-            &p.key,
-            "--push",
-            &p.version,
-            "--push-rate",
-            "10000",
-        ],
+        Some(p) => vec!["--operator-key", &p.key, "--push-rate", "10000"],
     };
-    let mut mirror = mirror_on_serial0(&sitl, &tap, max_wall, None, &mirror_args);
+    let (mut mirror, mut typed) =
+        mirror_on_serial0_with_stdin(&sitl, &tap, max_wall, None, &mirror_args);
+    let mut pushed = false;
     let programs = format!("tcp:127.0.0.1:{}", free_port());
     // With a version pushed, the gateway's link goes through a relay that
     // can cut it.
@@ -969,6 +964,15 @@ fn fly_checked_pushing(
         }
         if down_at.is_none() && truth.down() {
             down_at = Some(truth.t);
+        }
+        // The version typed to the mirror once the vehicle flies its
+        // mission (`push DIR` on its stdin).
+        if let (Some(p), Some(stdin), false) = (&pushing, typed.as_mut(), pushed) {
+            if truth.reached.iter().any(|(_, s)| *s >= 1) {
+                pushed = true;
+                let _ = writeln!(stdin, "push {}", p.version);
+                eprintln!("{name}: the version pushed at {:.1} s", truth.t);
+            }
         }
         if let Some(r) = &relay {
             if !holed && run.printed("\"input\":\"version\"") {
@@ -1203,6 +1207,18 @@ fn mirror_on_serial0(
     record: Option<&std::path::Path>,
     extra: &[&str],
 ) -> Running {
+    mirror_on_serial0_with_stdin(sitl, tap, max_wall, record, extra).0
+}
+
+/// [`mirror_on_serial0`], its stdin kept for lines typed to it (`push
+/// DIR`).
+fn mirror_on_serial0_with_stdin(
+    sitl: &Sitl,
+    tap: &Tap,
+    max_wall: Duration,
+    record: Option<&std::path::Path>,
+    extra: &[&str],
+) -> (Running, Option<std::process::ChildStdin>) {
     let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_petrel"));
     command
         .arg("mirror")
@@ -1217,13 +1233,15 @@ fn mirror_on_serial0(
         Some(path) => command.arg("--record").arg(path),
         None => command.arg("--no-record"),
     };
-    let mirror = command
+    let mut mirror = command
         .args(extra)
         .arg("--json")
+        .stdin(std::process::Stdio::piped())
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("petrel mirror runs");
+    let stdin = mirror.stdin.take();
     let mut mirror = Running::new(mirror);
     let serial1 = format!("SERIAL1 on TCP port {}", sitl.port(1));
     let waiting = Instant::now();
@@ -1235,11 +1253,12 @@ fn mirror_on_serial0(
         );
         std::thread::sleep(Duration::from_millis(50));
     }
-    mirror
+    (mirror, stdin)
 }
 
-/// Issue 38 on real ArduPlane, sent from the ground: `petrel mirror
-/// --push` sends COMMUNICATION's version 1 (a link hole ends in a return)
+/// Issue 38 on real ArduPlane, sent from the ground: `push DIR` typed to
+/// `petrel mirror` once the vehicle flies its mission sends
+/// COMMUNICATION's version 1 (a link hole ends in a return)
 /// up through ArduPilot's own routing, signed with the operator key both
 /// hold; the vehicle proves it from the state it is in and takes it over,
 /// says so down, and the replica follows it and stays exact; the 10 s hole
@@ -1251,7 +1270,10 @@ fn a_version_pushed_from_the_mirror_takes_over_and_a_later_link_hole_returns() {
     else {
         return;
     };
-    let turn = crate::sitl_turn();
+    // The machine to itself: a debug build proves the version for tens
+    // of simulated seconds on a whole core, which another flight beside
+    // would miss.
+    let turn = crate::sitl_turn_alone();
     let keys = Scratch::new("mirror-push-key");
     let key = keys.join("operator.key");
     std::fs::write(&key, "ef".repeat(32)).expect("write");

@@ -448,6 +448,8 @@ pub struct Plan {
     /// The project folder `petrel run` supervises (default: the example
     /// itself); a copy for flights that change it ([`Act::Reload`]).
     pub project: Option<std::path::PathBuf>,
+    /// Fly with the machine to itself ([`crate::sitl_turn_alone`]).
+    pub alone: bool,
 }
 
 impl Plan {
@@ -459,6 +461,7 @@ impl Plan {
             max_sim_s: 600.0,
             checked: false,
             project: None,
+            alone: false,
         }
     }
 }
@@ -474,10 +477,15 @@ pub fn fly(plan: Plan, done: impl Fn(&Truth) -> bool) -> Option<RealFlown> {
         max_sim_s,
         checked,
         project,
+        alone,
     } = plan;
     let project = project.unwrap_or_else(flight::project);
     let located = ardupilot::require(Firmware::Plane, name)?;
-    let turn = crate::sitl_turn();
+    let turn = if alone {
+        crate::sitl_turn_alone()
+    } else {
+        crate::sitl_turn()
+    };
     let scratch = Scratch::new(&format!("real-{name}"));
     let dir = scratch.to_path_buf();
     let mut sitl = Sitl::start(

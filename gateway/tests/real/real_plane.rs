@@ -607,6 +607,7 @@ fn a_new_version_in_flight_returns_after_a_link_hole_and_a_bad_one_is_refused() 
     let version_2 = version_1.replace("\"returning\"", "\"homeward\"");
     let plan = Plan {
         project: Some(project.clone()),
+        alone: true,
         steps: vec![
             (
                 "version 1",
