@@ -545,9 +545,30 @@ fn a_version_pushed_from_the_ground_takes_over_and_the_mirror_follows() {
         "{}",
         m.run_err
     );
+    // The replica followed: it agreed with the vehicle after the swap (by
+    // the swap's record, or by a snapshot of version 1), no divergence.
+    let swapped_at: u64 = m
+        .run_err
+        .lines()
+        .find_map(|l| {
+            l.split("took over at step ")
+                .nth(1)?
+                .split(|c: char| !c.is_ascii_digit())
+                .next()?
+                .parse()
+                .ok()
+        })
+        .unwrap_or_else(|| panic!("no swap said: {}", m.run_err));
     assert!(
-        !m.mirror_lines("version").is_empty(),
-        "the replica followed the swap: {}",
+        m.mirror_lines("agreed")
+            .iter()
+            .any(|l| l["step"].as_u64().is_some_and(|s| s > swapped_at)),
+        "no agreement after step {swapped_at}: {}",
+        m.mirror_err
+    );
+    assert!(
+        m.mirror_lines("mirror_diverged").is_empty(),
+        "{}",
         m.mirror_err
     );
     // The run's timeline says the swap, as `VERSION 1 takes over`.
