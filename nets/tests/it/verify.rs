@@ -279,10 +279,27 @@ proptest! {
                     &net,
                     &Options { threads: if threads == 1 { 1 } else { 3 }, keep_arcs: true, ..options },
                 );
+                prop_assert_eq!((dead, unsafe_), (y.deadlock_example(), y.unsafe_example()));
+                // The loops: the same components, each with a shortest way
+                // in and a shortest cycle (of the same lengths: two shortest
+                // cycles may differ when they tie, as on 2 and 3 threads in
+                // proptest case cc 464c77ae…), each cycle a real one.
+                let (lx, ly) = (x.loops(3), y.loops(3));
                 prop_assert_eq!(
-                    (dead, unsafe_, x.loops(3)),
-                    (y.deadlock_example(), y.unsafe_example(), y.loops(3))
+                    (lx.cyclic_components, lx.largest, lx.listed.len()),
+                    (ly.cyclic_components, ly.largest, ly.listed.len())
                 );
+                for (a, b) in lx.listed.iter().zip(&ly.listed) {
+                    prop_assert_eq!(
+                        (a.states, a.prefix.len(), a.cycle.len()),
+                        (b.states, b.prefix.len(), b.cycle.len())
+                    );
+                    for l in [a, b] {
+                        let at = replay(&net, &l.prefix);
+                        let around: Vec<usize> = l.prefix.iter().chain(&l.cycle).copied().collect();
+                        prop_assert_eq!(replay(&net, &around), at);
+                    }
+                }
             }
         }
     }
